@@ -77,3 +77,50 @@ pub struct Aabb {
     pub min: Vec3,
     pub max: Vec3,
 }
+
+/// The light's shadow-map frame: a square perspective frustum from `Light::position`
+/// towards `Light::target`. Light screen space is uv in [0,1]^2 with uv = ndc * 0.5 + 0.5
+/// (no flip: rendering and sampling use the same mapping). Linear depth is the distance
+/// along the light's view axis (-z in view space); along one texel's ray the ratio of two
+/// linear depths equals the ratio of their distances to the light (smoothies' b/r).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LightView {
+    pub position: Vec3,
+    pub view: Mat4,
+    pub proj: Mat4,
+    pub view_proj: Mat4,
+    pub near: f32,
+    pub far: f32,
+    pub fov_deg: f32,
+}
+
+impl LightView {
+    pub fn new(light: &Light, near: f32, far: f32) -> Self {
+        let dir = (light.target - light.position).normalize_or(Vec3::NEG_Z);
+        // Any up that is not parallel to the view direction.
+        let up = if dir.y.abs() > 0.99 { Vec3::Z } else { Vec3::Y };
+        let view = Mat4::look_at_rh(light.position, light.position + dir, up);
+        let proj = Mat4::perspective_rh(light.fov_deg.to_radians(), 1.0, near, far);
+        Self {
+            position: light.position,
+            view,
+            proj,
+            view_proj: proj * view,
+            near,
+            far,
+            fov_deg: light.fov_deg,
+        }
+    }
+
+    /// Light-screen uv (in [0,1]^2 inside the frustum) and linear depth of a world point.
+    pub fn project(&self, p: Vec3) -> (glam::Vec2, f32) {
+        let c = self.view_proj * p.extend(1.0);
+        let ndc = c.truncate().truncate() / c.w;
+        (ndc * 0.5 + glam::Vec2::splat(0.5), c.w)
+    }
+
+    /// Linear depth of a world point (distance along the light's view axis).
+    pub fn linear_depth(&self, p: Vec3) -> f32 {
+        -(self.view * p.extend(1.0)).z
+    }
+}

@@ -1,1 +1,189 @@
-fn main() {}
+//! The `softshadow` command line (DESIGN.md "CLI contract").
+
+use anyhow::{bail, Context as _, Result};
+use clap::{Args, Parser, Subcommand};
+use softshadow::render::{Renderer, Settings};
+use softshadow::scene::Scene;
+use softshadow::vk::{Context, ContextOptions};
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+#[derive(Parser)]
+#[command(name = "softshadow", version, about = "Fake soft shadows in Vulkan, timed per pass against their error")]
+struct Cli {
+    /// Vulkan device: a substring of its name (default: a real GPU, else lavapipe).
+    #[arg(long, global = true, env = "SOFTSHADOW_DEVICE")]
+    device: Option<String>,
+    /// Turn on the Khronos validation layers (any message is printed to stderr).
+    #[arg(long, global = true)]
+    validation: bool,
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Render one scene with one technique to a PNG (and AOVs, and per-pass timings).
+    Render(RenderArgs),
+    /// Write the scene's triangles in world space as OBJ, and lights and camera as JSON.
+    Export(ExportArgs),
+}
+
+#[derive(Args)]
+struct RenderArgs {
+    /// Built-in scene name or a .toml / .obj file.
+    #[arg(long, default_value = "cylinder")]
+    scene: String,
+    #[arg(long, default_value = "smoothies")]
+    technique: String,
+    #[arg(long, default_value_t = 1024)]
+    width: u32,
+    #[arg(long, default_value_t = 1024)]
+    height: u32,
+    /// Side of the light-space buffers (shadow map, smoothie buffer, ...).
+    #[arg(long, default_value_t = 1024)]
+    shadow_res: u32,
+    /// Light radius R (default: the scene's).
+    #[arg(long, allow_negative_numbers = true)]
+    light_radius: Option<f32>,
+    /// Smoothie width t as a fraction of the shadow map (default: calibrated from R).
+    #[arg(long, allow_negative_numbers = true)]
+    smoothie_t: Option<f32>,
+    #[arg(long, default_value = "softshadow.png")]
+    out: PathBuf,
+    /// Write visibility.exr, position.exr and normal.exr into this folder.
+    #[arg(long)]
+    aov: Option<PathBuf>,
+    /// Print per-pass GPU times (median of 5 frames after 2 warm-up frames).
+    #[arg(long)]
+    timings: bool,
+    /// Which SPIR-V to run: glslang's (optimised by spirv-opt) or the hand-tuned one.
+    #[arg(long, default_value = "glslang", value_parser = ["glslang", "tuned"])]
+    spirv: String,
+}
+
+#[derive(Args)]
+struct ExportArgs {
+    #[arg(long, default_value = "cylinder")]
+    scene: String,
+    /// OBJ file to write; the JSON goes beside it.
+    #[arg(long)]
+    obj: PathBuf,
+    /// Image size recorded with the camera.
+    #[arg(long, default_value_t = 1024)]
+    width: u32,
+    #[arg(long, default_value_t = 1024)]
+    height: u32,
+}
+
+fn main() -> ExitCode {
+    let cli = match Cli::try_parse() {
+        Ok(c) => c,
+        Err(e) => {
+            // clap prints help/version itself and formats its own errors.
+            let _ = e.print();
+            return if e.use_stderr() { ExitCode::from(2) } else { ExitCode::SUCCESS };
+        }
+    };
+    match run(cli) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+fn open_device(cli: &Cli) -> Result<Context> {
+    let mut opts = ContextOptions::from_env();
+    if cli.device.is_some() {
+        opts.device = cli.device.clone();
+    }
+    opts.validation |= cli.validation;
+    let ctx = Context::new(&opts)?;
+    println!("{}", ctx.describe());
+    Ok(ctx)
+}
+
+fn run(cli: Cli) -> Result<()> {
+    match &cli.command {
+        Command::Render(a) => render(&cli, a),
+        Command::Export(a) => {
+            if a.width == 0 || a.height == 0 {
+                bail!("--width and --height must be at least 1");
+            }
+            let scene = Scene::load(&a.scene)?;
+            softshadow::scene::export::export_obj(&scene, &a.obj, a.width, a.height)?;
+            println!(
+                "wrote {} ({} triangles) and its .json",
+                a.obj.display(),
+                scene.triangle_count()
+            );
+            Ok(())
+        }
+    }
+}
+
+fn render(cli: &Cli, a: &RenderArgs) -> Result<()> {
+    // Everything that can be checked without a device is checked first.
+    softshadow::technique::find(&a.technique)?;
+    let scene = Scene::load(&a.scene)?;
+    check_writable(&a.out)?;
+    let ctx = open_device(cli)?;
+    if a.spirv == "tuned" {
+        eprintln!("note: no hand-tuned SPIR-V for '{}' yet: using glslang's", a.technique);
+    }
+    let settings = Settings {
+        width: a.width,
+        height: a.height,
+        shadow_res: a.shadow_res,
+        light_radius: a.light_radius,
+        smoothie_t: a.smoothie_t,
+        ..Settings::default()
+    };
+    let mut r = Renderer::new(&ctx, scene, &a.technique, settings)?;
+    let frames = if a.timings { 7 } else { 1 };
+    let mut all = Vec::new();
+    for _ in 0..frames {
+        all.push(r.render()?);
+    }
+    let images = r.read_back()?;
+    softshadow::output::write_png(&a.out, &images)?;
+    println!("wrote {}", a.out.display());
+    if let Some(dir) = &a.aov {
+        softshadow::output::write_aovs(dir, &images)?;
+        println!("wrote {}/{{visibility,position,normal}}.exr", dir.display());
+    }
+    if a.timings {
+        // Median per pass over the frames after two warm-up frames.
+        let timed = &all[2..];
+        let mut report = timed[timed.len() / 2].clone();
+        for p in &mut report.passes {
+            let mut v: Vec<f64> = timed.iter().filter_map(|f| f.pass_ms(&p.name)).collect();
+            v.sort_by(f64::total_cmp);
+            p.gpu_ms = v.get(v.len() / 2).copied().or(p.gpu_ms);
+        }
+        print!("{}", report.report());
+    }
+    let msgs = ctx.validation_messages();
+    if !msgs.is_empty() {
+        bail!("{} validation message(s), the first: {}", msgs.len(), msgs[0]);
+    }
+    Ok(())
+}
+
+/// Fails early, before any rendering, when the output cannot be created.
+fn check_writable(path: &std::path::Path) -> Result<()> {
+    let dir = match path.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d,
+        _ => std::path::Path::new("."),
+    };
+    if !dir.is_dir() {
+        bail!("cannot write {}: folder {} does not exist", path.display(), dir.display());
+    }
+    let md = std::fs::metadata(dir).with_context(|| format!("checking {}", dir.display()))?;
+    if md.permissions().readonly() {
+        bail!("cannot write {}: folder {} is read-only", path.display(), dir.display());
+    }
+    Ok(())
+}

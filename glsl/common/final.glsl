@@ -1,0 +1,32 @@
+// The final pass from the camera, shared by every technique: the technique's fragment
+// shader defines `float visibility(vec3 p, vec3 n)` and includes this file. Writes the
+// shaded colour and the AOVs (visibility, world position, world normal).
+#include "common/frame.glsl"
+
+layout(location = 0) in vec3 v_world;
+layout(location = 1) in vec3 v_normal;
+layout(location = 0) out vec4 o_color;
+layout(location = 1) out float o_visibility;
+layout(location = 2) out vec4 o_position;
+layout(location = 3) out vec4 o_normal;
+
+float visibility(vec3 p, vec3 n);
+
+void main() {
+    vec3 n = normalize(v_normal);
+    // Two-sided surfaces (planes, fences): use the side the camera sees.
+    if (dot(n, frame.cam_pos.xyz - v_world) < 0.0) n = -n;
+    float vis = draw.albedo_receives.w > 0.5 ? visibility(v_world, n) : 1.0;
+    vec3 to_light = frame.light_pos_radius.xyz - v_world;
+    vec3 l = normalize(to_light);
+    float ndl = max(dot(n, l), 0.0);
+    // Spot cone: dark outside the shadow frustum, as a spotlight's would be.
+    vec4 c = frame.light_view_proj * vec4(v_world, 1.0);
+    vec2 ndc = c.xy / max(c.w, 1e-30);
+    float spot = c.w > 0.0 ? 1.0 - smoothstep(0.85, 1.0, max(abs(ndc.x), abs(ndc.y))) : 0.0;
+    vec3 color = draw.albedo_receives.rgb * (0.12 + 0.88 * ndl * vis * spot);
+    o_color = vec4(pow(clamp(color, 0.0, 1.0), vec3(1.0 / 2.2)), 1.0);
+    o_visibility = vis;
+    o_position = vec4(v_world, 1.0);
+    o_normal = vec4(n, 0.0);
+}

@@ -1,0 +1,23 @@
+// Per-frame constants shared by every pass (set 0, binding 0) and the per-draw push
+// constants. Mirrors `FrameUniforms` / `DrawPush` in src/render/mod.rs (std140).
+#ifndef FRAME_GLSL
+#define FRAME_GLSL
+
+layout(set = 0, binding = 0, std140) uniform Frame {
+    mat4 cam_view_proj;
+    mat4 light_view;
+    mat4 light_view_proj;
+    vec4 light_pos_radius;   // xyz: light centre (world), w: light radius R
+    vec4 cam_pos;            // xyz: camera position
+    vec4 light_params;       // near, far, shadow-map resolution, 1 / resolution
+    vec4 light_frustum;      // tan(fov/2), world texel size per unit depth, normal offset (texels), relative depth bias
+    vec4 technique;          // technique-specific (smoothies: x = width t in light uv)
+    vec4 technique2;         // technique-specific
+} frame;
+
+layout(push_constant, std430) uniform Draw {
+    mat4 model;
+    vec4 albedo_receives;    // rgb: albedo, w: 1 if the object receives shadows
+} draw;
+
+#endif

@@ -1,0 +1,43 @@
+// Shared light-space lookups of the final passes: where a surface point falls in the
+// shadow map, and the bilinear weights of the 2x2 texel footprint that textureGather returns.
+#ifndef SHADOW_GLSL
+#define SHADOW_GLSL
+#include "common/frame.glsl"
+
+struct LightSample {
+    vec2 uv;        // light-screen uv in [0,1]^2
+    float depth;    // linear light depth of the (offset) point
+    bool inside;    // inside the light frustum
+};
+
+// Normal offset: moves the lookup point along the normal by a fixed number of shadow-map
+// texels at its depth, so a lit surface never compares against its own texel (acne)
+// without the large constant bias that detaches contact shadows.
+LightSample light_sample(vec3 p, vec3 n) {
+    float d0 = -(frame.light_view * vec4(p, 1.0)).z;
+    vec3 l = normalize(frame.light_pos_radius.xyz - p);
+    // Grazing light needs more offset; clamp so the offset never leaves the texel scale.
+    float slope = clamp(sqrt(max(1.0 - dot(n, l) * dot(n, l), 0.0)), 0.2, 1.0);
+    vec3 po = p + n * (d0 * frame.light_frustum.y * frame.light_frustum.z * slope);
+    vec4 c = frame.light_view_proj * vec4(po, 1.0);
+    LightSample s;
+    s.depth = c.w;
+    s.uv = (c.xy / max(c.w, 1e-30)) * 0.5 + 0.5;
+    s.inside = c.w > frame.light_params.x && all(greaterThanEqual(s.uv, vec2(0.0))) && all(lessThanEqual(s.uv, vec2(1.0)));
+    return s;
+}
+
+// textureGather returns (i0,j1), (i1,j1), (i1,j0), (i0,j0) of the footprint around uv.
+float bilinear(vec4 g, vec2 uv) {
+    vec2 f = fract(uv * frame.light_params.z - 0.5);
+    vec4 w = vec4((1.0 - f.x) * f.y, f.x * f.y, f.x * (1.0 - f.y), (1.0 - f.x) * (1.0 - f.y));
+    return dot(g, w);
+}
+
+// 1 where the point is in front of (or on) the stored depth, else 0. The relative bias
+// absorbs float rounding of the linear depths, which grows with depth.
+vec4 lit_test(vec4 stored, float depth) {
+    return step(depth, stored * (1.0 + frame.light_frustum.w));
+}
+
+#endif

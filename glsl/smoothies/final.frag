@@ -1,0 +1,26 @@
+#version 450
+#extension GL_GOOGLE_include_directive : require
+// smoothies final pass (Chan & Durand Sec. 3 step 5): at each of the 4 nearest texels,
+// behind the blocker -> 0, else behind the smoothie -> its alpha, else 1; bilinear weights;
+// then the sinusoidal falloff from a 1-D lookup texture.
+#include "common/shadow.glsl"
+
+layout(set = 0, binding = 1) uniform sampler2D shadow_map;       // R32F blocker depth
+layout(set = 0, binding = 2) uniform sampler2D smoothie_depth;   // R32F smoothie depth (MIN)
+layout(set = 0, binding = 3) uniform sampler2D smoothie_alpha;   // R16F remapped alpha (MIN)
+layout(set = 0, binding = 4) uniform sampler1D falloff;          // R32F 0.5 - 0.5 cos(pi x)
+
+float visibility(vec3 p, vec3 n) {
+    LightSample s = light_sample(p, n);
+    if (!s.inside) return 1.0;
+    vec4 lit = lit_test(textureGather(shadow_map, s.uv, 0), s.depth);
+    vec4 in_front = lit_test(textureGather(smoothie_depth, s.uv, 0), s.depth);
+    vec4 alpha = textureGather(smoothie_alpha, s.uv, 0);
+    vec4 v = lit * mix(alpha, vec4(1.0), in_front);
+    float linear_v = bilinear(v, s.uv);
+    // Texel centres of the LUT: x in [0,1] maps to [0.5, N - 0.5] / N.
+    float size = float(textureSize(falloff, 0));
+    return texture(falloff, (linear_v * (size - 1.0) + 0.5) / size).r;
+}
+
+#include "common/final.glsl"

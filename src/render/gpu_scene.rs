@@ -1,0 +1,118 @@
+//! The scene on the GPU: one vertex buffer (position, normal) and one index buffer per
+//! object, drawn with the object's model matrix and albedo as push constants.
+
+use crate::scene::{Object, Role, Scene};
+use crate::vk::{Attribute, Buffer, BufferUsageFlags, Context, Format, Pipeline, Recorder};
+use anyhow::Result;
+use bytemuck::{Pod, Zeroable};
+use glam::Mat4;
+
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+pub struct SceneVertex {
+    pub position: [f32; 3],
+    pub normal: [f32; 3],
+}
+
+/// Vertex layout of `SceneVertex` (locations 0 and 1).
+pub const SCENE_VERTEX_STRIDE: u32 = std::mem::size_of::<SceneVertex>() as u32;
+pub const SCENE_ATTRIBUTES: &[Attribute] = &[
+    (0, Format::R32G32B32_SFLOAT, 0),
+    (1, Format::R32G32B32_SFLOAT, 12),
+];
+
+/// Push constants of one draw; mirrors `Draw` in glsl/common/frame.glsl.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+pub struct DrawPush {
+    pub model: [f32; 16],
+    pub albedo_receives: [f32; 4],
+}
+
+pub const DRAW_PUSH_BYTES: u32 = std::mem::size_of::<DrawPush>() as u32;
+
+pub struct GpuObject {
+    pub vertices: Buffer,
+    pub indices: Buffer,
+    pub index_count: u32,
+    pub model: Mat4,
+    pub role: Role,
+    pub albedo: glam::Vec3,
+}
+
+impl GpuObject {
+    fn push(&self) -> DrawPush {
+        DrawPush {
+            model: self.model.to_cols_array(),
+            albedo_receives: [
+                self.albedo.x,
+                self.albedo.y,
+                self.albedo.z,
+                if self.role.receives() { 1.0 } else { 0.0 },
+            ],
+        }
+    }
+}
+
+pub struct GpuScene {
+    pub objects: Vec<GpuObject>,
+}
+
+impl GpuScene {
+    pub fn new(ctx: &Context, scene: &Scene) -> Result<Self> {
+        let objects = scene
+            .objects
+            .iter()
+            .map(|o| upload(ctx, o))
+            .collect::<Result<Vec<_>>>()?;
+        Ok(Self { objects })
+    }
+
+    /// Updates the model matrices (object motion) without re-uploading meshes.
+    pub fn set_transforms(&mut self, scene: &Scene) {
+        for (g, o) in self.objects.iter_mut().zip(&scene.objects) {
+            g.model = o.transform;
+        }
+    }
+
+    /// Draws every object for which `filter` holds with pipeline `p` (already bound).
+    pub fn draw(&self, rec: &mut Recorder<'_>, p: &Pipeline, filter: impl Fn(&GpuObject) -> bool) {
+        for o in self.objects.iter().filter(|o| filter(o)) {
+            rec.push_constants(p, bytemuck::bytes_of(&o.push()));
+            rec.bind_vertex_buffer(&o.vertices);
+            rec.bind_index_buffer(&o.indices);
+            rec.draw_indexed(o.index_count);
+        }
+    }
+}
+
+fn upload(ctx: &Context, o: &Object) -> Result<GpuObject> {
+    let m = &o.mesh;
+    let vertices: Vec<SceneVertex> = m
+        .positions
+        .iter()
+        .zip(&m.normals)
+        .map(|(p, n)| SceneVertex {
+            position: p.to_array(),
+            normal: n.to_array(),
+        })
+        .collect();
+    Ok(GpuObject {
+        vertices: Buffer::with_data(
+            ctx,
+            bytemuck::cast_slice(&vertices),
+            BufferUsageFlags::VERTEX_BUFFER | BufferUsageFlags::STORAGE_BUFFER,
+            &format!("{} vertices", o.name),
+        )?,
+        indices: Buffer::with_data(
+            ctx,
+            bytemuck::cast_slice(&m.indices),
+            BufferUsageFlags::INDEX_BUFFER | BufferUsageFlags::STORAGE_BUFFER,
+            &format!("{} indices", o.name),
+        )?,
+        index_count: m.indices.len() as u32,
+        model: o.transform,
+        role: o.role,
+        albedo: o.albedo,
+    })
+}

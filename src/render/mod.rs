@@ -1,0 +1,297 @@
+//! One frame of one technique: frame constants, the camera targets, and the readback of
+//! the image and AOVs. `Renderer` is what `render`, `bench` and the tests drive.
+
+pub mod gpu_scene;
+pub mod passes;
+
+use crate::scene::{LightView, Scene};
+use crate::technique::{self, FrameInput, Technique, TechniqueInit};
+use crate::vk::{read_image, Buffer, BufferUsageFlags, Context, FrameRunner, FrameTimings};
+use anyhow::{bail, Context as _, Result};
+use bytemuck::{Pod, Zeroable};
+use glam::{Mat4, Vec3};
+pub use gpu_scene::GpuScene;
+pub use passes::CameraTargets;
+
+/// Largest number of timed passes in one frame.
+const MAX_PASSES: u32 = 32;
+
+/// What a frame is rendered with. Technique-specific knobs live here too so that one
+/// struct travels through `render`, `bench`, `stress` and the tests.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Settings {
+    pub width: u32,
+    pub height: u32,
+    /// Side of the square light-space buffers (shadow map, smoothie buffer, ...).
+    pub shadow_res: u32,
+    /// Light radius R; `None` keeps the scene's.
+    pub light_radius: Option<f32>,
+    /// Smoothie width t in light-uv units; `None` derives it from R (see `smoothie_width`).
+    pub smoothie_t: Option<f32>,
+    /// Normal offset of shadow lookups, in shadow-map texels.
+    pub normal_offset_texels: f32,
+    /// Relative depth bias of the comparisons (fraction of the depth).
+    pub depth_bias: f32,
+}
+
+impl Default for Settings {
+    fn default() -> Self {
+        Self {
+            width: 1024,
+            height: 1024,
+            shadow_res: 1024,
+            light_radius: None,
+            smoothie_t: None,
+            normal_offset_texels: 1.5,
+            depth_bias: 2e-4,
+        }
+    }
+}
+
+impl Settings {
+    /// Checks ranges against the device; one clear line per problem.
+    pub fn validate(&self, ctx: &Context) -> Result<()> {
+        let max = ctx.limits.max_image_dimension2_d;
+        for (name, v) in [
+            ("width", self.width),
+            ("height", self.height),
+            ("shadow-res", self.shadow_res),
+        ] {
+            if v == 0 || v > max {
+                bail!("--{name} {v} is out of range: allowed 1..={max} on this device");
+            }
+        }
+        if let Some(r) = self.light_radius {
+            if !r.is_finite() || r < 0.0 {
+                bail!("--light-radius {r} is out of range: allowed a finite value >= 0");
+            }
+        }
+        if let Some(t) = self.smoothie_t {
+            if !t.is_finite() || !(0.0..=1.0).contains(&t) {
+                bail!("--smoothie-t {t} is out of range: allowed 0..=1 (fraction of the shadow map)");
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Frame constants; mirrors `Frame` in glsl/common/frame.glsl (std140: only mat4 and vec4).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+pub struct FrameUniforms {
+    pub cam_view_proj: [f32; 16],
+    pub light_view: [f32; 16],
+    pub light_view_proj: [f32; 16],
+    pub light_pos_radius: [f32; 4],
+    pub cam_pos: [f32; 4],
+    pub light_params: [f32; 4],
+    pub light_frustum: [f32; 4],
+    pub technique: [f32; 4],
+    pub technique2: [f32; 4],
+}
+
+/// The camera's view-projection for a `width` x `height` image, y flipped so that row 0 of
+/// the image is the top (Vulkan's framebuffer y points down).
+pub fn camera_view_proj(scene: &Scene, width: u32, height: u32) -> Mat4 {
+    let cam = &scene.camera;
+    let view = Mat4::look_at_rh(cam.position, cam.target, cam.up);
+    let b = scene.bounds();
+    let radius = (b.max - b.min).length() * 0.5;
+    let dist = (cam.position - (b.min + b.max) * 0.5).length();
+    let far = (dist + radius) * 1.05;
+    let near = (dist - radius).max(far * 1e-4);
+    let mut proj = Mat4::perspective_rh(
+        cam.fov_deg.to_radians(),
+        width as f32 / height as f32,
+        near,
+        far,
+    );
+    proj.y_axis.y = -proj.y_axis.y;
+    proj * view
+}
+
+/// The light frustum with near/far fitted to the bounds of everything in the scene, for
+/// depth precision: near is the closest bounds corner (never closer than far * 1e-4, also
+/// when the light sits inside the bounds), far the farthest.
+pub fn fit_light(scene: &Scene) -> LightView {
+    let probe = LightView::new(&scene.light, 1.0, 2.0);
+    let b = scene.bounds();
+    let mut lo = f32::MAX;
+    let mut hi = f32::MIN;
+    for i in 0..8 {
+        let c = Vec3::new(
+            if i & 1 == 0 { b.min.x } else { b.max.x },
+            if i & 2 == 0 { b.min.y } else { b.max.y },
+            if i & 4 == 0 { b.min.z } else { b.max.z },
+        );
+        let d = probe.linear_depth(c);
+        lo = lo.min(d);
+        hi = hi.max(d);
+    }
+    let far = (hi * 1.01).max(1e-6);
+    let near = (lo * 0.99).max(far * 1e-4);
+    LightView::new(&scene.light, near, far)
+}
+
+fn frame_uniforms(f: &FrameInput<'_>, technique: [[f32; 4]; 2]) -> FrameUniforms {
+    let s = f.settings;
+    let l = f.light;
+    let tan_half = (l.fov_deg.to_radians() * 0.5).tan();
+    FrameUniforms {
+        cam_view_proj: camera_view_proj(f.scene, s.width, s.height).to_cols_array(),
+        light_view: l.view.to_cols_array(),
+        light_view_proj: l.view_proj.to_cols_array(),
+        light_pos_radius: l.position.extend(f.light_radius).to_array(),
+        cam_pos: f.scene.camera.position.extend(1.0).to_array(),
+        light_params: [l.near, l.far, s.shadow_res as f32, 1.0 / s.shadow_res as f32],
+        light_frustum: [
+            tan_half,
+            2.0 * tan_half / s.shadow_res as f32,
+            s.normal_offset_texels,
+            s.depth_bias,
+        ],
+        technique: technique[0],
+        technique2: technique[1],
+    }
+}
+
+/// The image and AOVs of a frame, read back to the host, row 0 at the top.
+pub struct FrameImages {
+    pub width: u32,
+    pub height: u32,
+    pub color: Vec<[u8; 4]>,
+    pub visibility: Vec<f32>,
+    pub position: Vec<[f32; 4]>,
+    pub normal: Vec<[f32; 3]>,
+}
+
+pub struct Renderer<'c> {
+    ctx: &'c Context,
+    pub scene: Scene,
+    pub settings: Settings,
+    gpu: GpuScene,
+    ubo: Buffer,
+    targets: CameraTargets,
+    runner: FrameRunner,
+    technique: Box<dyn Technique>,
+    pub light: LightView,
+}
+
+impl<'c> Renderer<'c> {
+    pub fn new(ctx: &'c Context, scene: Scene, technique_name: &str, settings: Settings) -> Result<Self> {
+        settings.validate(ctx)?;
+        scene.validate()?;
+        let info = technique::find(technique_name)?;
+        let gpu = GpuScene::new(ctx, &scene).context("uploading the scene")?;
+        let ubo = Buffer::new(
+            ctx,
+            std::mem::size_of::<FrameUniforms>() as u64,
+            BufferUsageFlags::UNIFORM_BUFFER,
+            crate::vk::MemoryLocation::CpuToGpu,
+            "frame uniforms",
+        )?;
+        let targets = CameraTargets::new(ctx, settings.width, settings.height)?;
+        let runner = FrameRunner::new(ctx, MAX_PASSES)?;
+        let technique = (info.create)(&TechniqueInit {
+            ctx,
+            scene: &scene,
+            gpu: &gpu,
+            ubo: &ubo,
+            settings: &settings,
+        })
+        .with_context(|| format!("creating technique {}", info.name))?;
+        let light = fit_light(&scene);
+        Ok(Self {
+            ctx,
+            scene,
+            settings,
+            gpu,
+            ubo,
+            targets,
+            runner,
+            technique,
+            light,
+        })
+    }
+
+    pub fn technique_name(&self) -> &'static str {
+        self.technique.name()
+    }
+
+    /// The light radius in effect.
+    pub fn light_radius(&self) -> f32 {
+        self.settings.light_radius.unwrap_or(self.scene.light.radius)
+    }
+
+    /// Renders one frame and returns its per-pass timings.
+    pub fn render(&mut self) -> Result<FrameTimings> {
+        self.light = fit_light(&self.scene);
+        self.gpu.set_transforms(&self.scene);
+        let input = FrameInput {
+            scene: &self.scene,
+            gpu: &self.gpu,
+            light: &self.light,
+            settings: &self.settings,
+            targets: &self.targets,
+            light_radius: self.settings.light_radius.unwrap_or(self.scene.light.radius),
+        };
+        let u = frame_uniforms(&input, self.technique.uniforms(&input));
+        self.ubo.write(0, bytemuck::bytes_of(&u))?;
+        let ctx = self.ctx;
+        let technique = &mut self.technique;
+        self.runner.run(|rec| technique.record(ctx, rec, &input))
+    }
+
+    /// Reads the image and AOVs of the last frame back to the host.
+    pub fn read_back(&mut self) -> Result<FrameImages> {
+        let t = &self.targets;
+        let color = read_image::<[u8; 4]>(self.ctx, &mut self.runner, &t.color)?;
+        let visibility = read_image::<f32>(self.ctx, &mut self.runner, &t.visibility)?;
+        let position = read_image::<[f32; 4]>(self.ctx, &mut self.runner, &t.position)?;
+        let normal16 = read_image::<[u16; 4]>(self.ctx, &mut self.runner, &t.normal)?;
+        let normal = normal16
+            .iter()
+            .map(|n| [half_to_f32(n[0]), half_to_f32(n[1]), half_to_f32(n[2])])
+            .collect();
+        Ok(FrameImages {
+            width: t.width,
+            height: t.height,
+            color,
+            visibility,
+            position,
+            normal,
+        })
+    }
+
+    /// Reads any technique buffer by name (tests and `--aov` debugging).
+    pub fn read_technique_buffer(&mut self, name: &str) -> Result<Vec<f32>> {
+        let Some(img) = self.technique.debug_image(name) else {
+            bail!("technique {} has no buffer named '{name}'", self.technique.name());
+        };
+        match img.format {
+            crate::vk::Format::R16_SFLOAT => Ok(read_image::<u16>(self.ctx, &mut self.runner, img)?
+                .into_iter()
+                .map(half_to_f32)
+                .collect()),
+            _ => read_image::<f32>(self.ctx, &mut self.runner, img),
+        }
+    }
+}
+
+/// IEEE binary16 to f32 (the normal AOV and R16F buffers).
+pub fn half_to_f32(h: u16) -> f32 {
+    let sign = if h & 0x8000 != 0 { -1.0 } else { 1.0 };
+    let exp = ((h >> 10) & 0x1f) as i32;
+    let frac = (h & 0x3ff) as f32;
+    match exp {
+        0 => sign * frac * 2f32.powi(-24),
+        31 => {
+            if frac == 0.0 {
+                sign * f32::INFINITY
+            } else {
+                f32::NAN
+            }
+        }
+        _ => sign * (1.0 + frac / 1024.0) * 2f32.powi(exp - 15),
+    }
+}

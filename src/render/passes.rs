@@ -1,0 +1,228 @@
+//! Building blocks several techniques share: the linear-depth shadow map pass, the camera
+//! targets, the final camera pass, and the sinusoidal falloff lookup texture.
+
+use super::gpu_scene::{GpuScene, DRAW_PUSH_BYTES, SCENE_ATTRIBUTES, SCENE_VERTEX_STRIDE};
+use crate::shaders;
+use crate::vk::{
+    Blend, Buffer, BufferUsageFlags, CompareOp, Context, CullModeFlags, DepthState,
+    DescriptorSet, Format, FrameRunner, GraphicsPipelineDesc, Image, ImageLayout,
+    ImageUsageFlags, Pipeline, PrimitiveTopology, Recorder, Resource,
+};
+use anyhow::Result;
+
+/// Clear value of linear-depth targets: "nothing here", farther than any far plane, finite
+/// so that ratios like b / r stay finite.
+pub const FAR_DEPTH: f32 = 1.0e30;
+
+/// Linear light-space depth of the casters in R32F, with a D32 attachment whose LESS test
+/// keeps the nearest caster (cheaper than MIN blending: early depth rejection).
+///
+/// Attachments: `depth` R32_SFLOAT, clear FAR_DEPTH, no blend; `zbuffer` D32_SFLOAT, clear
+/// 1.0, LESS. Reads: the casters' vertices, the frame UBO. Writes: `depth`.
+pub struct ShadowMap {
+    pub depth: Image,
+    zbuffer: Image,
+    pipeline: Pipeline,
+    set: DescriptorSet,
+    pub resolution: u32,
+}
+
+impl ShadowMap {
+    pub fn new(ctx: &Context, ubo: &Buffer, resolution: u32, name: &str) -> Result<Self> {
+        let depth = Image::new_2d(
+            ctx,
+            resolution,
+            resolution,
+            Format::R32_SFLOAT,
+            ImageUsageFlags::COLOR_ATTACHMENT | ImageUsageFlags::SAMPLED | ImageUsageFlags::TRANSFER_SRC,
+            &format!("{name} shadow map"),
+        )?;
+        let zbuffer = Image::new_2d(
+            ctx,
+            resolution,
+            resolution,
+            Format::D32_SFLOAT,
+            ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT,
+            &format!("{name} shadow z-buffer"),
+        )?;
+        let set = DescriptorSet::new(ctx, &[Resource::Uniform(ubo)], name)?;
+        let pipeline = Pipeline::graphics(
+            ctx,
+            &GraphicsPipelineDesc {
+                name,
+                vertex: shaders::COMMON_SHADOW_DEPTH_VERT,
+                fragment: Some(shaders::COMMON_SHADOW_DEPTH_FRAG),
+                vertex_stride: SCENE_VERTEX_STRIDE,
+                attributes: SCENE_ATTRIBUTES,
+                topology: PrimitiveTopology::TRIANGLE_LIST,
+                // Open meshes and planes cast from both sides.
+                cull: CullModeFlags::NONE,
+                colors: &[(Format::R32_SFLOAT, Blend::None)],
+                depth: Some(DepthState {
+                    format: Format::D32_SFLOAT,
+                    test: true,
+                    write: true,
+                    compare: CompareOp::LESS,
+                }),
+                push_constant_bytes: DRAW_PUSH_BYTES,
+                sets: &[&set],
+            },
+        )?;
+        Ok(Self {
+            depth,
+            zbuffer,
+            pipeline,
+            set,
+            resolution,
+        })
+    }
+
+    /// Draws the casters from the light and leaves `depth` readable by shaders.
+    pub fn record(&self, rec: &mut Recorder<'_>, scene: &GpuScene) {
+        rec.begin_rendering(
+            &[(&self.depth, Some([FAR_DEPTH; 4]))],
+            Some((&self.zbuffer, Some(1.0))),
+        );
+        rec.bind_pipeline(&self.pipeline);
+        rec.bind_sets(&self.pipeline, &[&self.set]);
+        scene.draw(rec, &self.pipeline, |o| o.role.casts());
+        rec.end_rendering();
+        rec.transition(&self.depth, ImageLayout::SHADER_READ_ONLY_OPTIMAL);
+    }
+}
+
+/// What the final camera pass writes, at the camera's resolution.
+pub struct CameraTargets {
+    /// RGBA8 UNORM, gamma-encoded shaded colour (the PNG).
+    pub color: Image,
+    /// R32F light visibility in [0,1]; background 1.
+    pub visibility: Image,
+    /// RGBA32F world position, A = 1 on surfaces, 0 on background.
+    pub position: Image,
+    /// RGBA16F world normal (facing the camera).
+    pub normal: Image,
+    pub depth: Image,
+    pub width: u32,
+    pub height: u32,
+}
+
+impl CameraTargets {
+    pub fn new(ctx: &Context, width: u32, height: u32) -> Result<Self> {
+        let usage = ImageUsageFlags::COLOR_ATTACHMENT | ImageUsageFlags::TRANSFER_SRC;
+        Ok(Self {
+            color: Image::new_2d(ctx, width, height, Format::R8G8B8A8_UNORM, usage, "camera colour")?,
+            visibility: Image::new_2d(ctx, width, height, Format::R32_SFLOAT, usage, "camera visibility")?,
+            position: Image::new_2d(ctx, width, height, Format::R32G32B32A32_SFLOAT, usage, "camera position")?,
+            normal: Image::new_2d(ctx, width, height, Format::R16G16B16A16_SFLOAT, usage, "camera normal")?,
+            depth: Image::new_2d(
+                ctx,
+                width,
+                height,
+                Format::D32_SFLOAT,
+                ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT,
+                "camera depth",
+            )?,
+            width,
+            height,
+        })
+    }
+
+    pub const FORMATS: [(Format, Blend); 4] = [
+        (Format::R8G8B8A8_UNORM, Blend::None),
+        (Format::R32_SFLOAT, Blend::None),
+        (Format::R32G32B32A32_SFLOAT, Blend::None),
+        (Format::R16G16B16A16_SFLOAT, Blend::None),
+    ];
+}
+
+/// The final pass from the camera: the scene's surfaces with a technique's fragment shader
+/// (which defines `visibility()` and includes glsl/common/final.glsl).
+///
+/// Attachments: colour RGBA8 (clear dark grey), visibility R32F (clear 1), position RGBA32F
+/// (clear 0), normal RGBA16F (clear 0), depth D32 (clear 1, LESS); no blending.
+pub struct FinalPass {
+    pipeline: Pipeline,
+}
+
+impl FinalPass {
+    pub fn new(ctx: &Context, name: &str, fragment: &[u8], set: &DescriptorSet) -> Result<Self> {
+        let pipeline = Pipeline::graphics(
+            ctx,
+            &GraphicsPipelineDesc {
+                name,
+                vertex: shaders::COMMON_SCENE_VERT,
+                fragment: Some(fragment),
+                vertex_stride: SCENE_VERTEX_STRIDE,
+                attributes: SCENE_ATTRIBUTES,
+                topology: PrimitiveTopology::TRIANGLE_LIST,
+                cull: CullModeFlags::NONE,
+                colors: &CameraTargets::FORMATS,
+                depth: Some(DepthState {
+                    format: Format::D32_SFLOAT,
+                    test: true,
+                    write: true,
+                    compare: CompareOp::LESS,
+                }),
+                push_constant_bytes: DRAW_PUSH_BYTES,
+                sets: &[set],
+            },
+        )?;
+        Ok(Self { pipeline })
+    }
+
+    pub fn record(
+        &self,
+        rec: &mut Recorder<'_>,
+        targets: &CameraTargets,
+        scene: &GpuScene,
+        set: &DescriptorSet,
+    ) {
+        rec.begin_rendering(
+            &[
+                (&targets.color, Some([0.05, 0.05, 0.06, 1.0])),
+                (&targets.visibility, Some([1.0; 4])),
+                (&targets.position, Some([0.0; 4])),
+                (&targets.normal, Some([0.0; 4])),
+            ],
+            Some((&targets.depth, Some(1.0))),
+        );
+        rec.bind_pipeline(&self.pipeline);
+        rec.bind_sets(&self.pipeline, &[set]);
+        scene.draw(rec, &self.pipeline, |_| true);
+        rec.end_rendering();
+    }
+}
+
+/// Number of texels of the falloff lookup texture.
+pub const FALLOFF_TEXELS: u32 = 256;
+
+/// The sinusoidal falloff 0.5 - 0.5 cos(pi x) (Haines; Chan & Durand Sec. 3.1) as a 1-D
+/// R32F texture: an S-curve like the visible fraction of a disc light crossing a straight
+/// edge, flat at both ends so penumbrae blend into umbra and light without a crease.
+pub fn falloff_lut(ctx: &Context) -> Result<Image> {
+    let mut runner = FrameRunner::new(ctx, 1)?;
+    let texels: Vec<f32> = (0..FALLOFF_TEXELS)
+        .map(|i| {
+            let x = i as f32 / (FALLOFF_TEXELS - 1) as f32;
+            0.5 - 0.5 * (std::f32::consts::PI * x).cos()
+        })
+        .collect();
+    let staging = Buffer::with_data(
+        ctx,
+        bytemuck::cast_slice(&texels),
+        BufferUsageFlags::TRANSFER_SRC,
+        "falloff staging",
+    )?;
+    let image = Image::new_1d(
+        ctx,
+        FALLOFF_TEXELS,
+        Format::R32_SFLOAT,
+        ImageUsageFlags::SAMPLED | ImageUsageFlags::TRANSFER_DST,
+        "falloff lut",
+    )?;
+    runner.run(|rec| {
+        rec.copy_buffer_to_image(&staging, &image);
+        Ok(())
+    })?;
+    Ok(image)
+}

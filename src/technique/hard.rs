@@ -1,0 +1,85 @@
+//! # hard — shadow map with a 2x2 filtered comparison
+//!
+//! The baseline of the smoothie paper's Fig. 7 (Williams 1978 with the 2x2 bilinear
+//! "percentage closer" filter that shadow hardware gives for free). Every other technique's
+//! cost is reported as a ratio to this one.
+//!
+//! ## Passes, in order
+//! 1. `hard/shadow_map` — casters from the light (`render::passes::ShadowMap`).
+//!    Attachments: R32_SFLOAT linear depth (clear 1e30, no blend) + D32_SFLOAT (clear 1.0,
+//!    LESS). Vertex: `glsl/common/shadow_depth.vert` (writes clip w = linear depth);
+//!    fragment: `glsl/common/shadow_depth.frag`.
+//! 2. `hard/final` — every object from the camera (`render::passes::FinalPass`).
+//!    Fragment `glsl/hard/final.frag` reads the shadow map with `textureGather` at the
+//!    normal-offset point's light uv, compares each of the 4 texels with the point's linear
+//!    depth (relative bias `frame.light_frustum.w`), and weights the 4 results bilinearly.
+//!    Writes colour RGBA8, visibility R32F, position RGBA32F, normal RGBA16F.
+//!
+//! ## Known artefacts
+//! Aliasing (staircase edges one shadow-map texel wide, softened over one texel by the 2x2
+//! filter); no penumbra at any light radius.
+
+use super::{FrameInput, Technique, TechniqueInfo, TechniqueInit};
+use crate::render::passes::{FinalPass, ShadowMap};
+use crate::shaders;
+use crate::vk::{Context, DescriptorSet, Filter, Image, Recorder, Resource, Sampler};
+use anyhow::Result;
+
+pub const INFO: TechniqueInfo = TechniqueInfo {
+    name: "hard",
+    summary: "shadow map, one comparison per texel, 2x2 bilinear filter",
+    create: Hard::create,
+};
+
+pub struct Hard {
+    shadow: ShadowMap,
+    final_pass: FinalPass,
+    final_set: DescriptorSet,
+    _sampler: Sampler,
+}
+
+impl Hard {
+    fn create(init: &TechniqueInit<'_>) -> Result<Box<dyn Technique>> {
+        let ctx = init.ctx;
+        let shadow = ShadowMap::new(ctx, init.ubo, init.settings.shadow_res, "hard/shadow_map")?;
+        // Nearest: textureGather ignores filtering, and no path may blend depths.
+        let sampler = Sampler::new(ctx, Filter::Nearest)?;
+        let final_set = DescriptorSet::new(
+            ctx,
+            &[
+                Resource::Uniform(init.ubo),
+                Resource::Sampled(&shadow.depth, &sampler),
+            ],
+            "hard/final",
+        )?;
+        let final_pass = FinalPass::new(ctx, "hard/final", shaders::HARD_FINAL_FRAG, &final_set)?;
+        Ok(Box::new(Self {
+            shadow,
+            final_pass,
+            final_set,
+            _sampler: sampler,
+        }))
+    }
+}
+
+impl Technique for Hard {
+    fn name(&self) -> &'static str {
+        INFO.name
+    }
+
+    fn record(&mut self, _ctx: &Context, rec: &mut Recorder<'_>, frame: &FrameInput<'_>) -> Result<()> {
+        rec.pass("hard/shadow_map", |rec| {
+            self.shadow.record(rec, frame.gpu);
+            Ok(())
+        })?;
+        rec.pass("hard/final", |rec| {
+            self.final_pass
+                .record(rec, frame.targets, frame.gpu, &self.final_set);
+            Ok(())
+        })
+    }
+
+    fn debug_image(&self, name: &str) -> Option<&Image> {
+        (name == "shadow_map").then_some(&self.shadow.depth)
+    }
+}

@@ -1,0 +1,72 @@
+//! One module per technique behind one small trait, and the one registry table that
+//! `render`, `bench`, `stress` and the tests loop over.
+
+pub mod hard;
+pub mod smoothies;
+
+use crate::render::{CameraTargets, GpuScene, Settings};
+use crate::scene::{LightView, Scene};
+use crate::vk::{Buffer, Context, Image, Recorder};
+use anyhow::{bail, Result};
+
+/// What a technique is created from. Its GPU objects live as long as the technique.
+pub struct TechniqueInit<'a> {
+    pub ctx: &'a Context,
+    pub scene: &'a Scene,
+    pub gpu: &'a GpuScene,
+    /// The frame constants (glsl/common/frame.glsl), binding 0 of every set.
+    pub ubo: &'a Buffer,
+    pub settings: &'a Settings,
+}
+
+/// What one frame is rendered from.
+pub struct FrameInput<'a> {
+    pub scene: &'a Scene,
+    pub gpu: &'a GpuScene,
+    pub light: &'a LightView,
+    pub settings: &'a Settings,
+    pub targets: &'a CameraTargets,
+    /// Light radius R in effect (settings override or the scene's).
+    pub light_radius: f32,
+}
+
+pub trait Technique {
+    fn name(&self) -> &'static str;
+
+    /// The technique's two vec4s of frame constants (`frame.technique`, `frame.technique2`).
+    fn uniforms(&self, _frame: &FrameInput<'_>) -> [[f32; 4]; 2] {
+        [[0.0; 4]; 2]
+    }
+
+    /// CPU work of the frame (timed with `rec.cpu`) and every pass (each in `rec.pass`,
+    /// named `technique/pass`), ending with the final camera pass into `frame.targets`.
+    fn record(&mut self, ctx: &Context, rec: &mut Recorder<'_>, frame: &FrameInput<'_>) -> Result<()>;
+
+    /// A light-space buffer by name, for tests and debugging (`shadow_map`, ...).
+    fn debug_image(&self, _name: &str) -> Option<&Image> {
+        None
+    }
+}
+
+pub struct TechniqueInfo {
+    pub name: &'static str,
+    pub summary: &'static str,
+    pub create: fn(&TechniqueInit<'_>) -> Result<Box<dyn Technique>>,
+}
+
+/// Every technique, in the order reports list them.
+pub const TECHNIQUES: &[TechniqueInfo] = &[hard::INFO, smoothies::INFO];
+
+pub fn names() -> Vec<&'static str> {
+    TECHNIQUES.iter().map(|t| t.name).collect()
+}
+
+pub fn find(name: &str) -> Result<&'static TechniqueInfo> {
+    match TECHNIQUES.iter().find(|t| t.name == name) {
+        Some(t) => Ok(t),
+        None => bail!(
+            "unknown technique '{name}': valid techniques are {}",
+            names().join(", ")
+        ),
+    }
+}

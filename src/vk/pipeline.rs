@@ -1,0 +1,431 @@
+//! Shader modules, descriptor sets and pipelines. Each pipeline is made from one plain
+//! description struct (no shared template mutated between pipelines); dynamic rendering
+//! (Vulkan 1.3), so no render-pass or framebuffer objects.
+
+use super::context::{Context, Shared};
+use super::memory::{Buffer, Image, Sampler};
+use anyhow::{Context as _, Result};
+use ash::vk;
+use std::sync::Arc;
+
+fn shader_module(ctx: &Context, spirv: &[u8], name: &str) -> Result<vk::ShaderModule> {
+    let words = ash::util::read_spv(&mut std::io::Cursor::new(spirv))
+        .with_context(|| format!("reading SPIR-V of {name}"))?;
+    let info = vk::ShaderModuleCreateInfo::default().code(&words);
+    // SAFETY: `words` is SPIR-V produced and validated by build.rs.
+    unsafe { ctx.device().create_shader_module(&info, None) }
+        .with_context(|| format!("creating shader module {name}"))
+}
+
+/// What a descriptor binding holds; every binding is visible to all graphics and compute stages.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum BindingKind {
+    UniformBuffer,
+    StorageBuffer,
+    SampledImage,
+    StorageImage,
+}
+
+impl BindingKind {
+    fn vk(self) -> vk::DescriptorType {
+        match self {
+            BindingKind::UniformBuffer => vk::DescriptorType::UNIFORM_BUFFER,
+            BindingKind::StorageBuffer => vk::DescriptorType::STORAGE_BUFFER,
+            BindingKind::SampledImage => vk::DescriptorType::COMBINED_IMAGE_SAMPLER,
+            BindingKind::StorageImage => vk::DescriptorType::STORAGE_IMAGE,
+        }
+    }
+}
+
+/// One resource for a binding, in binding order.
+pub enum Resource<'a> {
+    Uniform(&'a Buffer),
+    Storage(&'a Buffer),
+    /// Sampled in SHADER_READ_ONLY_OPTIMAL.
+    Sampled(&'a Image, &'a Sampler),
+    /// Used in GENERAL.
+    StorageImage(&'a Image),
+}
+
+impl Resource<'_> {
+    fn kind(&self) -> BindingKind {
+        match self {
+            Resource::Uniform(_) => BindingKind::UniformBuffer,
+            Resource::Storage(_) => BindingKind::StorageBuffer,
+            Resource::Sampled(..) => BindingKind::SampledImage,
+            Resource::StorageImage(_) => BindingKind::StorageImage,
+        }
+    }
+}
+
+/// A descriptor-set layout with one set allocated from its own pool, written once: the
+/// resources a pass reads never change between frames (only their contents do).
+pub struct DescriptorSet {
+    shared: Arc<Shared>,
+    pub(crate) layout: vk::DescriptorSetLayout,
+    pool: vk::DescriptorPool,
+    pub(crate) set: vk::DescriptorSet,
+}
+
+impl DescriptorSet {
+    /// Bindings 0..n take `resources` in order.
+    pub fn new(ctx: &Context, resources: &[Resource<'_>], name: &str) -> Result<Self> {
+        let device = ctx.device();
+        let stages = vk::ShaderStageFlags::ALL_GRAPHICS | vk::ShaderStageFlags::COMPUTE;
+        let bindings: Vec<_> = resources
+            .iter()
+            .enumerate()
+            .map(|(i, r)| {
+                vk::DescriptorSetLayoutBinding::default()
+                    .binding(i as u32)
+                    .descriptor_type(r.kind().vk())
+                    .descriptor_count(1)
+                    .stage_flags(stages)
+            })
+            .collect();
+        let info = vk::DescriptorSetLayoutCreateInfo::default().bindings(&bindings);
+        // SAFETY: valid create info; destroyed in Drop.
+        let layout = unsafe { device.create_descriptor_set_layout(&info, None) }
+            .with_context(|| format!("creating descriptor set layout for {name}"))?;
+        let sizes: Vec<_> = bindings
+            .iter()
+            .map(|b| {
+                vk::DescriptorPoolSize::default()
+                    .ty(b.descriptor_type)
+                    .descriptor_count(1)
+            })
+            .collect();
+        let pool_info = vk::DescriptorPoolCreateInfo::default()
+            .max_sets(1)
+            .pool_sizes(&sizes);
+        // SAFETY: valid create info.
+        let pool = match unsafe { device.create_descriptor_pool(&pool_info, None) } {
+            Ok(p) => p,
+            Err(e) => {
+                // SAFETY: unused layout.
+                unsafe { device.destroy_descriptor_set_layout(layout, None) };
+                return Err(e).with_context(|| format!("creating descriptor pool for {name}"));
+            }
+        };
+        let mut this = Self {
+            shared: ctx.shared.clone(),
+            layout,
+            pool,
+            set: vk::DescriptorSet::null(),
+        };
+        let layouts = [layout];
+        let alloc = vk::DescriptorSetAllocateInfo::default()
+            .descriptor_pool(pool)
+            .set_layouts(&layouts);
+        // SAFETY: the pool has room for exactly this set.
+        this.set = unsafe { device.allocate_descriptor_sets(&alloc) }
+            .with_context(|| format!("allocating descriptor set for {name}"))?[0];
+
+        let buffer_infos: Vec<_> = resources
+            .iter()
+            .map(|r| match r {
+                Resource::Uniform(b) | Resource::Storage(b) => vk::DescriptorBufferInfo::default()
+                    .buffer(b.raw)
+                    .offset(0)
+                    .range(vk::WHOLE_SIZE),
+                _ => vk::DescriptorBufferInfo::default(),
+            })
+            .collect();
+        let image_infos: Vec<_> = resources
+            .iter()
+            .map(|r| match r {
+                Resource::Sampled(img, s) => vk::DescriptorImageInfo::default()
+                    .image_view(img.view)
+                    .sampler(s.raw)
+                    .image_layout(vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL),
+                Resource::StorageImage(img) => vk::DescriptorImageInfo::default()
+                    .image_view(img.view)
+                    .image_layout(vk::ImageLayout::GENERAL),
+                _ => vk::DescriptorImageInfo::default(),
+            })
+            .collect();
+        let writes: Vec<_> = resources
+            .iter()
+            .enumerate()
+            .map(|(i, r)| {
+                let w = vk::WriteDescriptorSet::default()
+                    .dst_set(this.set)
+                    .dst_binding(i as u32)
+                    .descriptor_type(r.kind().vk());
+                match r {
+                    Resource::Uniform(_) | Resource::Storage(_) => {
+                        w.buffer_info(std::slice::from_ref(&buffer_infos[i]))
+                    }
+                    _ => w.image_info(std::slice::from_ref(&image_infos[i])),
+                }
+            })
+            .collect();
+        // SAFETY: every write references live resources and matches the layout.
+        unsafe { device.update_descriptor_sets(&writes, &[]) };
+        Ok(this)
+    }
+}
+
+impl Drop for DescriptorSet {
+    fn drop(&mut self) {
+        // SAFETY: no pending command buffer uses the set; the pool frees it.
+        unsafe {
+            self.shared.device.destroy_descriptor_pool(self.pool, None);
+            self.shared
+                .device
+                .destroy_descriptor_set_layout(self.layout, None);
+        }
+    }
+}
+
+/// Blending of one colour attachment.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Blend {
+    /// Overwrite.
+    None,
+    /// dst = min(src, dst): darkest wins (smoothie alpha and depth, shadow-map depth).
+    Min,
+    /// dst = max(src, dst).
+    Max,
+    /// dst = src + dst: accumulation (soft shadow maps).
+    Add,
+}
+
+/// One vertex attribute: location, format, byte offset.
+pub type Attribute = (u32, vk::Format, u32);
+
+/// Everything one graphics pipeline needs, written out in full at each pipeline.
+pub struct GraphicsPipelineDesc<'a> {
+    pub name: &'a str,
+    pub vertex: &'a [u8],
+    pub fragment: Option<&'a [u8]>,
+    /// Bytes per vertex of binding 0 (0 = no vertex input).
+    pub vertex_stride: u32,
+    pub attributes: &'a [Attribute],
+    pub topology: vk::PrimitiveTopology,
+    pub cull: vk::CullModeFlags,
+    /// Colour attachments in order, each with its blend.
+    pub colors: &'a [(vk::Format, Blend)],
+    pub depth: Option<DepthState>,
+    pub push_constant_bytes: u32,
+    pub sets: &'a [&'a DescriptorSet],
+}
+
+#[derive(Clone, Copy, Debug)]
+pub struct DepthState {
+    pub format: vk::Format,
+    pub test: bool,
+    pub write: bool,
+    pub compare: vk::CompareOp,
+}
+
+pub struct Pipeline {
+    shared: Arc<Shared>,
+    pub(crate) raw: vk::Pipeline,
+    pub(crate) layout: vk::PipelineLayout,
+    pub(crate) bind_point: vk::PipelineBindPoint,
+    pub name: String,
+}
+
+fn pipeline_layout(
+    ctx: &Context,
+    sets: &[&DescriptorSet],
+    push_bytes: u32,
+    name: &str,
+) -> Result<vk::PipelineLayout> {
+    let set_layouts: Vec<_> = sets.iter().map(|s| s.layout).collect();
+    let ranges = [vk::PushConstantRange::default()
+        .stage_flags(vk::ShaderStageFlags::ALL_GRAPHICS | vk::ShaderStageFlags::COMPUTE)
+        .offset(0)
+        .size(push_bytes)];
+    let mut info = vk::PipelineLayoutCreateInfo::default().set_layouts(&set_layouts);
+    if push_bytes > 0 {
+        info = info.push_constant_ranges(&ranges);
+    }
+    // SAFETY: valid create info referencing live set layouts.
+    unsafe { ctx.device().create_pipeline_layout(&info, None) }
+        .with_context(|| format!("creating pipeline layout for {name}"))
+}
+
+impl Pipeline {
+    pub fn graphics(ctx: &Context, d: &GraphicsPipelineDesc<'_>) -> Result<Self> {
+        let device = ctx.device();
+        let layout = pipeline_layout(ctx, d.sets, d.push_constant_bytes, d.name)?;
+        let vs = shader_module(ctx, d.vertex, &format!("{} (vertex)", d.name))?;
+        let fs = match d.fragment {
+            Some(f) => Some(shader_module(ctx, f, &format!("{} (fragment)", d.name))?),
+            None => None,
+        };
+        let mut stages = vec![vk::PipelineShaderStageCreateInfo::default()
+            .stage(vk::ShaderStageFlags::VERTEX)
+            .module(vs)
+            .name(c"main")];
+        if let Some(fs) = fs {
+            stages.push(
+                vk::PipelineShaderStageCreateInfo::default()
+                    .stage(vk::ShaderStageFlags::FRAGMENT)
+                    .module(fs)
+                    .name(c"main"),
+            );
+        }
+        let binding = [vk::VertexInputBindingDescription::default()
+            .binding(0)
+            .stride(d.vertex_stride)
+            .input_rate(vk::VertexInputRate::VERTEX)];
+        let attributes: Vec<_> = d
+            .attributes
+            .iter()
+            .map(|&(location, format, offset)| {
+                vk::VertexInputAttributeDescription::default()
+                    .location(location)
+                    .binding(0)
+                    .format(format)
+                    .offset(offset)
+            })
+            .collect();
+        let mut vertex_input = vk::PipelineVertexInputStateCreateInfo::default();
+        if d.vertex_stride > 0 {
+            vertex_input = vertex_input
+                .vertex_binding_descriptions(&binding)
+                .vertex_attribute_descriptions(&attributes);
+        }
+        let assembly = vk::PipelineInputAssemblyStateCreateInfo::default().topology(d.topology);
+        let viewport = vk::PipelineViewportStateCreateInfo::default()
+            .viewport_count(1)
+            .scissor_count(1);
+        let raster = vk::PipelineRasterizationStateCreateInfo::default()
+            .polygon_mode(vk::PolygonMode::FILL)
+            .cull_mode(d.cull)
+            .front_face(vk::FrontFace::COUNTER_CLOCKWISE)
+            .line_width(1.0);
+        let multisample = vk::PipelineMultisampleStateCreateInfo::default()
+            .rasterization_samples(vk::SampleCountFlags::TYPE_1);
+        let blend_attachments: Vec<_> = d
+            .colors
+            .iter()
+            .map(|&(_, blend)| {
+                let a = vk::PipelineColorBlendAttachmentState::default()
+                    .color_write_mask(vk::ColorComponentFlags::RGBA);
+                let op = match blend {
+                    Blend::None => return a,
+                    Blend::Min => vk::BlendOp::MIN,
+                    Blend::Max => vk::BlendOp::MAX,
+                    Blend::Add => vk::BlendOp::ADD,
+                };
+                // MIN/MAX ignore the factors; ADD accumulates src + dst.
+                a.blend_enable(true)
+                    .color_blend_op(op)
+                    .alpha_blend_op(op)
+                    .src_color_blend_factor(vk::BlendFactor::ONE)
+                    .dst_color_blend_factor(vk::BlendFactor::ONE)
+                    .src_alpha_blend_factor(vk::BlendFactor::ONE)
+                    .dst_alpha_blend_factor(vk::BlendFactor::ONE)
+            })
+            .collect();
+        let blend = vk::PipelineColorBlendStateCreateInfo::default().attachments(&blend_attachments);
+        let depth = match d.depth {
+            Some(ds) => vk::PipelineDepthStencilStateCreateInfo::default()
+                .depth_test_enable(ds.test)
+                .depth_write_enable(ds.write)
+                .depth_compare_op(ds.compare),
+            None => vk::PipelineDepthStencilStateCreateInfo::default(),
+        };
+        let dynamic_states = [vk::DynamicState::VIEWPORT, vk::DynamicState::SCISSOR];
+        let dynamic = vk::PipelineDynamicStateCreateInfo::default().dynamic_states(&dynamic_states);
+        let color_formats: Vec<_> = d.colors.iter().map(|c| c.0).collect();
+        let mut rendering = vk::PipelineRenderingCreateInfo::default()
+            .color_attachment_formats(&color_formats)
+            .depth_attachment_format(
+                d.depth.map(|ds| ds.format).unwrap_or(vk::Format::UNDEFINED),
+            );
+        let info = vk::GraphicsPipelineCreateInfo::default()
+            .stages(&stages)
+            .vertex_input_state(&vertex_input)
+            .input_assembly_state(&assembly)
+            .viewport_state(&viewport)
+            .rasterization_state(&raster)
+            .multisample_state(&multisample)
+            .color_blend_state(&blend)
+            .depth_stencil_state(&depth)
+            .dynamic_state(&dynamic)
+            .layout(layout)
+            .push_next(&mut rendering);
+        // SAFETY: every state struct above lives until the call returns.
+        let result = unsafe {
+            device.create_graphics_pipelines(vk::PipelineCache::null(), &[info], None)
+        };
+        // SAFETY: modules are no longer needed once the pipeline exists (or failed).
+        unsafe {
+            device.destroy_shader_module(vs, None);
+            if let Some(fs) = fs {
+                device.destroy_shader_module(fs, None);
+            }
+        }
+        let raw = match result {
+            Ok(p) => p[0],
+            Err((_, e)) => {
+                // SAFETY: unused layout.
+                unsafe { device.destroy_pipeline_layout(layout, None) };
+                return Err(e).with_context(|| format!("creating pipeline {}", d.name));
+            }
+        };
+        Ok(Self {
+            shared: ctx.shared.clone(),
+            raw,
+            layout,
+            bind_point: vk::PipelineBindPoint::GRAPHICS,
+            name: d.name.to_string(),
+        })
+    }
+
+    pub fn compute(
+        ctx: &Context,
+        name: &str,
+        spirv: &[u8],
+        sets: &[&DescriptorSet],
+        push_constant_bytes: u32,
+    ) -> Result<Self> {
+        let device = ctx.device();
+        let layout = pipeline_layout(ctx, sets, push_constant_bytes, name)?;
+        let module = shader_module(ctx, spirv, name)?;
+        let stage = vk::PipelineShaderStageCreateInfo::default()
+            .stage(vk::ShaderStageFlags::COMPUTE)
+            .module(module)
+            .name(c"main");
+        let info = vk::ComputePipelineCreateInfo::default()
+            .stage(stage)
+            .layout(layout);
+        // SAFETY: valid create info.
+        let result =
+            unsafe { device.create_compute_pipelines(vk::PipelineCache::null(), &[info], None) };
+        // SAFETY: the module is not needed after creation.
+        unsafe { device.destroy_shader_module(module, None) };
+        let raw = match result {
+            Ok(p) => p[0],
+            Err((_, e)) => {
+                // SAFETY: unused layout.
+                unsafe { device.destroy_pipeline_layout(layout, None) };
+                return Err(e).with_context(|| format!("creating compute pipeline {name}"));
+            }
+        };
+        Ok(Self {
+            shared: ctx.shared.clone(),
+            raw,
+            layout,
+            bind_point: vk::PipelineBindPoint::COMPUTE,
+            name: name.to_string(),
+        })
+    }
+}
+
+impl Drop for Pipeline {
+    fn drop(&mut self) {
+        // SAFETY: no pending command buffer uses the pipeline.
+        unsafe {
+            self.shared.device.destroy_pipeline(self.raw, None);
+            self.shared
+                .device
+                .destroy_pipeline_layout(self.layout, None);
+        }
+    }
+}

@@ -307,7 +307,7 @@ fn asteroids(name: &str, nx: u32, nz: u32, segments: u32, rings: u32, amp: f32, 
 /// At least 50k triangles with about 10k silhouette edges from the light, like the
 /// smoothie paper's motorbike: silhouette extraction and smoothie rasterisation dominate.
 fn dense() -> Scene {
-    asteroids("dense", 6, 6, 48, 24, 0.12, 6)
+    asteroids("dense", 6, 6, 48, 24, 0.22, 6)
 }
 
 /// About a million triangles, built procedurally in well under a second.
@@ -350,4 +350,33 @@ pub(crate) fn framed_obj(path: &Path) -> Result<Scene> {
     }
     let o = Object::new(name.clone(), Arc::new(mesh), Mat4::IDENTITY, Role::Both, Vec3::splat(0.8));
     Ok(framed(&name, vec![o]))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The ground is big enough for each built-in's shadow, and the light's cone holds
+    /// the casters and that shadow.
+    #[test]
+    fn shadows_land_on_the_ground_inside_the_light_cone() {
+        for &name in BUILTIN_SCENES {
+            let s = builtin(name).unwrap().unwrap();
+            let ground = s.objects.iter().find(|o| o.name == "ground").unwrap().world_bounds();
+            let casters = s.caster_bounds().unwrap();
+            let region = shadow_region(s.light.position, &casters, ground.max.y);
+            assert!(
+                region.min.x >= ground.min.x
+                    && region.min.z >= ground.min.z
+                    && region.max.x <= ground.max.x
+                    && region.max.z <= ground.max.z,
+                "{name}: shadow region {region:?} off the ground {ground:?}"
+            );
+            let axis = (s.light.target - s.light.position).normalize();
+            for c in region.corners() {
+                let a = axis.angle_between(c - s.light.position).to_degrees();
+                assert!(a < s.light.fov_deg * 0.5, "{name}: {c} outside the light cone");
+            }
+        }
+    }
 }

@@ -24,7 +24,8 @@ fn silhouette_edges(scene: &Scene) -> usize {
             .collect();
         let mut edges: HashMap<(u32, u32), (u32, u32)> = HashMap::new();
         for t in m.indices.chunks_exact(3) {
-            let [a, b, c] = [0, 1, 2].map(|k| o.transform.transform_point3(m.positions[t[k] as usize]));
+            let [a, b, c] =
+                [0, 1, 2].map(|k| o.transform.transform_point3(m.positions[t[k] as usize]));
             let lit = (b - a).cross(c - a).dot(l - a) > 0.0;
             for k in 0..3 {
                 let (u, v) = (weld[t[k] as usize], weld[t[(k + 1) % 3] as usize]);
@@ -36,7 +37,10 @@ fn silhouette_edges(scene: &Scene) -> usize {
                 }
             }
         }
-        count += edges.values().filter(|&&(a, b)| (a > 0 && b > 0) || (a + b == 1 && a == 1)).count();
+        count += edges
+            .values()
+            .filter(|&&(a, b)| (a > 0 && b > 0) || (a + b == 1 && a == 1))
+            .count();
     }
     count
 }
@@ -55,9 +59,16 @@ fn every_builtin_loads_and_validates() {
         let b = s.bounds();
         assert!(b.min.cmple(casters.min).all() && b.max.cmpge(casters.max).all());
         // The light looks down onto the casters and the camera sees them.
-        assert!(s.light.position.y > casters.max.y, "{name}: light below casters");
+        assert!(
+            s.light.position.y > casters.max.y,
+            "{name}: light below casters"
+        );
         assert!(s.light.radius > 0.0);
-        let sil = if tris < 200_000 { silhouette_edges(&s) } else { 0 };
+        let sil = if tris < 200_000 {
+            silhouette_edges(&s)
+        } else {
+            0
+        };
         let l = s.light;
         let c = s.camera;
         println!(
@@ -68,7 +79,10 @@ fn every_builtin_loads_and_validates() {
             "primitives" => assert!((9_000..=11_000).contains(&tris), "{tris}"),
             "dense" => {
                 assert!(tris >= 50_000, "{tris}");
-                assert!((7_000..=14_000).contains(&sil), "dense silhouette edges {sil}");
+                assert!(
+                    (7_000..=14_000).contains(&sil),
+                    "dense silhouette edges {sil}"
+                );
             }
             "dense-1m" => assert!((900_000..=1_100_000).contains(&tris), "{tris}"),
             "bunny" => assert_eq!(tris, 3674 + 128),
@@ -104,7 +118,10 @@ fn tmp_dir(tag: &str) -> PathBuf {
 #[test]
 fn unknown_names_and_missing_files() {
     let e = format!("{:#}", Scene::load("no-such-scene").unwrap_err());
-    assert!(e.contains("unknown scene 'no-such-scene'") && e.contains("cylinder, boxes"), "{e}");
+    assert!(
+        e.contains("unknown scene 'no-such-scene'") && e.contains("cylinder, boxes"),
+        "{e}"
+    );
     let e = format!("{:#}", Scene::load("/nonexistent/dir/a.toml").unwrap_err());
     assert!(e.contains("/nonexistent/dir/a.toml"), "{e}");
     let e = format!("{:#}", Scene::load("/nonexistent/dir/a.obj").unwrap_err());
@@ -117,13 +134,23 @@ fn bad_files_give_one_line_errors() {
     let nan = d.join("nan.obj");
     std::fs::write(&nan, "v 0 0 0\nv 1 0 0\nv 0 NaN 1\nf 1 2 3\n").unwrap();
     let e = format!("{:#}", Scene::load(nan.to_str().unwrap()).unwrap_err());
-    assert!(e.contains("nan.obj") && e.contains("vertex 3") && e.contains("non-finite"), "{e}");
+    assert!(
+        e.contains("nan.obj") && e.contains("vertex 3") && e.contains("non-finite"),
+        "{e}"
+    );
     assert!(!e.contains('\n'), "{e}");
 
     let key = d.join("key.toml");
-    std::fs::write(&key, "[[object]]\nprimitive = \"box\"\n\n[light]\nposition = [0, 5, 0]\nradus = 0.2\n").unwrap();
+    std::fs::write(
+        &key,
+        "[[object]]\nprimitive = \"box\"\n\n[light]\nposition = [0, 5, 0]\nradus = 0.2\n",
+    )
+    .unwrap();
     let e = format!("{:#}", Scene::load(key.to_str().unwrap()).unwrap_err());
-    assert!(e.contains("radus") && e.contains("key.toml") && !e.contains('\n'), "{e}");
+    assert!(
+        e.contains("radus") && e.contains("key.toml") && !e.contains('\n'),
+        "{e}"
+    );
     std::fs::remove_dir_all(&d).ok();
 }
 
@@ -131,7 +158,11 @@ fn bad_files_give_one_line_errors() {
 fn bare_obj_is_framed_on_a_ground_plane() {
     let d = tmp_dir("obj");
     let p = d.join("tet.obj");
-    std::fs::write(&p, "v 0 1 0\nv 1 3 0\nv 0 3 1\nv -1 3 -1\nf 1 2 3\nf 1 3 4\nf 1 4 2\nf 2 4 3\n").unwrap();
+    std::fs::write(
+        &p,
+        "v 0 1 0\nv 1 3 0\nv 0 3 1\nv -1 3 -1\nf 1 2 3\nf 1 3 4\nf 1 4 2\nf 2 4 3\n",
+    )
+    .unwrap();
     let s = Scene::load(p.to_str().unwrap()).unwrap();
     assert_eq!(s.objects.len(), 2);
     let ground = s.objects.iter().find(|o| o.name == "ground").unwrap();
@@ -164,7 +195,8 @@ fn export_matches_the_scene() {
         assert!((lo - b.min).length() < 1e-3 && (hi - b.max).length() < 1e-3);
 
         let j: serde_json::Value =
-            serde_json::from_str(&std::fs::read_to_string(d.join(format!("{name}.json"))).unwrap()).unwrap();
+            serde_json::from_str(&std::fs::read_to_string(d.join(format!("{name}.json"))).unwrap())
+                .unwrap();
         let l = &j["lights"][0];
         for k in ["position", "target"] {
             assert_eq!(l[k].as_array().unwrap().len(), 3);

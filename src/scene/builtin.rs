@@ -51,11 +51,15 @@ struct Builder {
 
 impl Builder {
     fn new(name: &str) -> Self {
-        Self { name: name.into(), objects: Vec::new() }
+        Self {
+            name: name.into(),
+            objects: Vec::new(),
+        }
     }
 
     fn add(&mut self, name: &str, mesh: Arc<Mesh>, transform: Mat4, role: Role, albedo: Vec3) {
-        self.objects.push(Object::new(name, mesh, transform, role, albedo));
+        self.objects
+            .push(Object::new(name, mesh, transform, role, albedo));
     }
 
     fn ground(&mut self, size: f32, segments: u32) {
@@ -68,7 +72,12 @@ impl Builder {
     /// looking at the region from direction `cam_dir`.
     fn finish(self, light_pos: Vec3, radius_frac: f32, cam_dir: Vec3) -> Scene {
         let (light, camera) = rig(&self.objects, light_pos, 0.0, radius_frac, cam_dir);
-        Scene { name: self.name, objects: self.objects, light, camera }
+        Scene {
+            name: self.name,
+            objects: self.objects,
+            light,
+            camera,
+        }
     }
 }
 
@@ -88,7 +97,9 @@ pub(crate) fn rig(
         .filter(|o| o.role.casts())
         .fold(Aabb::EMPTY, |b, o| b.union(o.world_bounds()));
     let casters = if casters.is_empty() {
-        objects.iter().fold(Aabb::EMPTY, |b, o| b.union(o.world_bounds()))
+        objects
+            .iter()
+            .fold(Aabb::EMPTY, |b, o| b.union(o.world_bounds()))
     } else {
         casters
     };
@@ -127,7 +138,12 @@ pub(crate) fn fit_light(position: Vec3, region: &Aabb, radius: f32) -> Light {
         .map(|&c| axis.angle_between((c - position).normalize_or(axis)))
         .fold(0.0f32, f32::max);
     let fov_deg = (half.to_degrees() * 2.0 * 1.1 + 2.0).clamp(10.0, 150.0);
-    Light { position, target, fov_deg, radius }
+    Light {
+        position,
+        target,
+        fov_deg,
+        radius,
+    }
 }
 
 /// A camera looking at `region`'s centre from direction `dir`, far enough that the
@@ -154,7 +170,13 @@ fn cylinder() -> Scene {
     let mut b = Builder::new("cylinder");
     b.ground(16.0, 8);
     let cyl = Arc::new(prim::cylinder(0.5, 2.0, 64));
-    b.add("cylinder", cyl, at(Vec3::new(0.0, 1.0, 0.0)), Role::Both, Vec3::new(0.75, 0.35, 0.25));
+    b.add(
+        "cylinder",
+        cyl,
+        at(Vec3::new(0.0, 1.0, 0.0)),
+        Role::Both,
+        Vec3::new(0.75, 0.35, 0.25),
+    );
     b.finish(Vec3::new(-6.0, 5.0, 1.0), 0.05, Vec3::new(0.35, 0.6, 1.0))
 }
 
@@ -165,8 +187,20 @@ fn boxes() -> Scene {
     b.ground(12.0, 8);
     let lower = Arc::new(prim::cuboid(Vec3::new(2.0, 0.4, 2.0)));
     let upper = Arc::new(prim::cuboid(Vec3::new(1.0, 0.4, 1.0)));
-    b.add("box2", lower, at(Vec3::new(0.0, 1.0, 0.0)), Role::Both, Vec3::new(0.3, 0.5, 0.8));
-    b.add("box1", upper, at(Vec3::new(0.6, 2.5, 0.3)), Role::Both, Vec3::new(0.8, 0.6, 0.3));
+    b.add(
+        "box2",
+        lower,
+        at(Vec3::new(0.0, 1.0, 0.0)),
+        Role::Both,
+        Vec3::new(0.3, 0.5, 0.8),
+    );
+    b.add(
+        "box1",
+        upper,
+        at(Vec3::new(0.6, 2.5, 0.3)),
+        Role::Both,
+        Vec3::new(0.8, 0.6, 0.3),
+    );
     b.finish(Vec3::new(-2.0, 8.0, 1.0), 0.04, Vec3::new(0.5, 0.7, 1.0))
 }
 
@@ -176,8 +210,20 @@ fn overlap() -> Scene {
     let mut b = Builder::new("overlap");
     b.ground(12.0, 8);
     let plate = Arc::new(prim::cuboid(Vec3::new(1.5, 0.1, 1.5)));
-    b.add("low", plate.clone(), at(Vec3::new(-0.6, 1.0, 0.0)), Role::Both, Vec3::new(0.3, 0.7, 0.4));
-    b.add("high", plate, at(Vec3::new(0.9, 3.0, 0.2)), Role::Both, Vec3::new(0.7, 0.3, 0.6));
+    b.add(
+        "low",
+        plate.clone(),
+        at(Vec3::new(-0.6, 1.0, 0.0)),
+        Role::Both,
+        Vec3::new(0.3, 0.7, 0.4),
+    );
+    b.add(
+        "high",
+        plate,
+        at(Vec3::new(0.9, 3.0, 0.2)),
+        Role::Both,
+        Vec3::new(0.7, 0.3, 0.6),
+    );
     b.finish(Vec3::new(0.0, 8.0, 0.5), 0.05, Vec3::new(0.2, 0.9, 1.0))
 }
 
@@ -195,7 +241,13 @@ fn fence() -> Scene {
     for y in [0.35, 0.8, 1.25] {
         fence.append(&rail, at(Vec3::new(0.0, y, 0.08)));
     }
-    b.add("fence", Arc::new(fence), Mat4::IDENTITY, Role::Both, Vec3::new(0.6, 0.45, 0.3));
+    b.add(
+        "fence",
+        Arc::new(fence),
+        Mat4::IDENTITY,
+        Role::Both,
+        Vec3::new(0.6, 0.45, 0.3),
+    );
     b.finish(Vec3::new(1.5, 6.0, -4.0), 0.03, Vec3::new(0.3, 0.7, 1.0))
 }
 
@@ -210,7 +262,13 @@ fn bunny() -> Result<Scene> {
         Quat::IDENTITY,
         Vec3::new(-c.x * s, -b.min.y * s, -c.z * s),
     );
-    let bunny = Object::new("bunny", Arc::new(mesh), transform, Role::Both, Vec3::new(0.85, 0.8, 0.7));
+    let bunny = Object::new(
+        "bunny",
+        Arc::new(mesh),
+        transform,
+        Role::Both,
+        Vec3::new(0.85, 0.8, 0.7),
+    );
     Ok(framed("bunny", vec![bunny]))
 }
 
@@ -226,11 +284,22 @@ fn primitives() -> Scene {
     let blue = Vec3::new(0.3, 0.45, 0.8);
     let green = Vec3::new(0.35, 0.7, 0.35);
     let gold = Vec3::new(0.85, 0.7, 0.3);
-    for (i, p) in [(-2.0, 0.6, -2.0), (2.0, 1.5, -1.5), (-1.0, 2.2, 1.5), (1.5, 0.6, 2.0)]
-        .into_iter()
-        .enumerate()
+    for (i, p) in [
+        (-2.0, 0.6, -2.0),
+        (2.0, 1.5, -1.5),
+        (-1.0, 2.2, 1.5),
+        (1.5, 0.6, 2.0),
+    ]
+    .into_iter()
+    .enumerate()
     {
-        b.add(&format!("sphere{i}"), sphere.clone(), at(p.into()), Role::Both, red);
+        b.add(
+            &format!("sphere{i}"),
+            sphere.clone(),
+            at(p.into()),
+            Role::Both,
+            red,
+        );
     }
     // Tori stand up, tilt and float so their holes throw ring-shaped shadows.
     for (i, (p, rx, rz)) in [
@@ -242,13 +311,30 @@ fn primitives() -> Scene {
     .enumerate()
     {
         let r = Mat4::from_rotation_z(rz.to_radians()) * Mat4::from_rotation_x(rx.to_radians());
-        b.add(&format!("torus{i}"), torus.clone(), at(p) * r, Role::Both, blue);
+        b.add(
+            &format!("torus{i}"),
+            torus.clone(),
+            at(p) * r,
+            Role::Both,
+            blue,
+        );
     }
-    for (i, p) in [(-3.0, 0.6, -0.5), (0.5, 0.6, -2.8), (3.0, 1.8, 2.5), (-0.5, 0.6, 3.0)]
-        .into_iter()
-        .enumerate()
+    for (i, p) in [
+        (-3.0, 0.6, -0.5),
+        (0.5, 0.6, -2.8),
+        (3.0, 1.8, 2.5),
+        (-0.5, 0.6, 3.0),
+    ]
+    .into_iter()
+    .enumerate()
     {
-        b.add(&format!("cylinder{i}"), cyl.clone(), at(p.into()), Role::Both, green);
+        b.add(
+            &format!("cylinder{i}"),
+            cyl.clone(),
+            at(p.into()),
+            Role::Both,
+            green,
+        );
     }
     for (i, (p, yaw)) in [
         (Vec3::new(1.0, 0.35, -0.8), 20.0f32),
@@ -273,7 +359,15 @@ fn primitives() -> Scene {
 /// A floating cluster of bumpy spheres ("asteroids") over a plane: `nx` x `nz` of them,
 /// each `segments` x `rings`, from `variants` distinct noise seeds (shared meshes keep the
 /// memory down; random rotations and sizes hide the repetition).
-fn asteroids(name: &str, nx: u32, nz: u32, segments: u32, rings: u32, amp: f32, variants: u64) -> Scene {
+fn asteroids(
+    name: &str,
+    nx: u32,
+    nz: u32,
+    segments: u32,
+    rings: u32,
+    amp: f32,
+    variants: u64,
+) -> Scene {
     let mut b = Builder::new(name);
     let spacing = 1.0;
     let span = spacing * nx.max(nz) as f32;
@@ -290,7 +384,11 @@ fn asteroids(name: &str, nx: u32, nz: u32, segments: u32, rings: u32, amp: f32, 
             let s = rng.range(0.75, 1.05);
             let rot = Quat::from_axis_angle(rng.unit_vec(), rng.range(0.0, std::f32::consts::TAU));
             let k = ((i + j * nx) as u64 % variants) as usize;
-            let albedo = Vec3::new(rng.range(0.4, 0.9), rng.range(0.4, 0.9), rng.range(0.4, 0.9));
+            let albedo = Vec3::new(
+                rng.range(0.4, 0.9),
+                rng.range(0.4, 0.9),
+                rng.range(0.4, 0.9),
+            );
             b.add(
                 &format!("rock{}", i + j * nx),
                 meshes[k].clone(),
@@ -319,7 +417,9 @@ fn dense_1m() -> Scene {
 /// under a default light above and to the side, with a camera that sees them and their
 /// shadows. Used for the bunny and for any bare OBJ.
 fn framed(name: &str, casters: Vec<Object>) -> Scene {
-    let bounds = casters.iter().fold(Aabb::EMPTY, |b, o| b.union(o.world_bounds()));
+    let bounds = casters
+        .iter()
+        .fold(Aabb::EMPTY, |b, o| b.union(o.world_bounds()));
     let size = bounds.extent().max_element().max(1e-3);
     let c = bounds.center();
     let ground_y = bounds.min.y;
@@ -333,8 +433,19 @@ fn framed(name: &str, casters: Vec<Object>) -> Scene {
         GROUND,
     ));
     let light_pos = Vec3::new(c.x, ground_y, c.z) + Vec3::new(-1.2, 2.5, 0.8) * size;
-    let (light, camera) = rig(&objects, light_pos, ground_y, 0.04, Vec3::new(0.4, 0.6, 1.0));
-    Scene { name: name.into(), objects, light, camera }
+    let (light, camera) = rig(
+        &objects,
+        light_pos,
+        ground_y,
+        0.04,
+        Vec3::new(0.4, 0.6, 1.0),
+    );
+    Scene {
+        name: name.into(),
+        objects,
+        light,
+        camera,
+    }
 }
 
 /// A bare OBJ file as a scene: the mesh as-is (no rescale, so exported coordinates match
@@ -348,7 +459,13 @@ pub(crate) fn framed_obj(path: &Path) -> Result<Scene> {
     if mesh.triangle_count() == 0 {
         bail!("{}: no triangles", path.display());
     }
-    let o = Object::new(name.clone(), Arc::new(mesh), Mat4::IDENTITY, Role::Both, Vec3::splat(0.8));
+    let o = Object::new(
+        name.clone(),
+        Arc::new(mesh),
+        Mat4::IDENTITY,
+        Role::Both,
+        Vec3::splat(0.8),
+    );
     Ok(framed(&name, vec![o]))
 }
 
@@ -362,7 +479,12 @@ mod tests {
     fn shadows_land_on_the_ground_inside_the_light_cone() {
         for &name in BUILTIN_SCENES {
             let s = builtin(name).unwrap().unwrap();
-            let ground = s.objects.iter().find(|o| o.name == "ground").unwrap().world_bounds();
+            let ground = s
+                .objects
+                .iter()
+                .find(|o| o.name == "ground")
+                .unwrap()
+                .world_bounds();
             let casters = s.caster_bounds().unwrap();
             let region = shadow_region(s.light.position, &casters, ground.max.y);
             assert!(
@@ -375,7 +497,10 @@ mod tests {
             let axis = (s.light.target - s.light.position).normalize();
             for c in region.corners() {
                 let a = axis.angle_between(c - s.light.position).to_degrees();
-                assert!(a < s.light.fov_deg * 0.5, "{name}: {c} outside the light cone");
+                assert!(
+                    a < s.light.fov_deg * 0.5,
+                    "{name}: {c} outside the light cone"
+                );
             }
         }
     }

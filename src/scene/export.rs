@@ -91,8 +91,17 @@ fn temp_name(path: &Path) -> PathBuf {
 
 fn write_obj(scene: &Scene, path: &Path) -> Result<()> {
     let mut w = BufWriter::new(File::create(path)?);
-    writeln!(w, "# softshadow export of scene '{}': world space, Y up", scene.name)?;
-    writeln!(w, "# {} triangles, {} objects", scene.triangle_count(), scene.objects.len())?;
+    writeln!(
+        w,
+        "# softshadow export of scene '{}': world space, Y up",
+        scene.name
+    )?;
+    writeln!(
+        w,
+        "# {} triangles, {} objects",
+        scene.triangle_count(),
+        scene.objects.len()
+    )?;
     let mut base = 1usize;
     for o in &scene.objects {
         // OBJ object names end at whitespace.

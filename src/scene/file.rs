@@ -178,17 +178,27 @@ fn build(spec: SceneFile, file: &str, stem: &str, dir: &Path) -> Result<Scene> {
             * Mat4::from_rotation_x(r.x.to_radians());
         let transform = Mat4::from_translation(t) * rot * Mat4::from_scale(s);
         let role = o.role.unwrap_or(Role::Both);
-        let name = o.name.clone().unwrap_or_else(|| format!("{default_name}{}", k + 1));
+        let name = o
+            .name
+            .clone()
+            .unwrap_or_else(|| format!("{default_name}{}", k + 1));
         objects.push(Object::new(name, mesh, transform, role, albedo));
     }
 
     // Defaults come from the same fitting as the built-in scenes, so a file may give as
     // little as a light position.
-    let bounds = objects.iter().fold(super::Aabb::EMPTY, |b, o| b.union(o.world_bounds()));
+    let bounds = objects
+        .iter()
+        .fold(super::Aabb::EMPTY, |b, o| b.union(o.world_bounds()));
     let ground_y = if bounds.is_empty() { 0.0 } else { bounds.min.y };
     let size = bounds.extent().max_element().max(1e-3);
     let default_light = bounds.center() + Vec3::new(-1.2, 2.5, 0.8) * size;
-    let ls = spec.light.unwrap_or(LightSpec { position: None, target: None, fov_deg: None, radius: None });
+    let ls = spec.light.unwrap_or(LightSpec {
+        position: None,
+        target: None,
+        fov_deg: None,
+        radius: None,
+    });
     let lpos = match ls.position {
         Some(p) => vec3(file, "light position", p)?,
         None => default_light,
@@ -213,7 +223,12 @@ fn build(spec: SceneFile, file: &str, stem: &str, dir: &Path) -> Result<Scene> {
             None => auto_light.radius,
         },
     };
-    let cs = spec.camera.unwrap_or(CameraSpec { position: None, target: None, up: None, fov_deg: None });
+    let cs = spec.camera.unwrap_or(CameraSpec {
+        position: None,
+        target: None,
+        up: None,
+        fov_deg: None,
+    });
     let camera = Camera {
         position: match cs.position {
             Some(p) => vec3(file, "camera position", p)?,
@@ -232,8 +247,15 @@ fn build(spec: SceneFile, file: &str, stem: &str, dir: &Path) -> Result<Scene> {
             None => auto_cam.fov_deg,
         },
     };
-    let scene = Scene { name: spec.name.unwrap_or_else(|| stem.into()), objects, light, camera };
-    scene.validate().with_context(|| format!("{file}: invalid scene"))?;
+    let scene = Scene {
+        name: spec.name.unwrap_or_else(|| stem.into()),
+        objects,
+        light,
+        camera,
+    };
+    scene
+        .validate()
+        .with_context(|| format!("{file}: invalid scene"))?;
     Ok(scene)
 }
 
@@ -276,7 +298,10 @@ fn build_primitive(o: &ObjectSpec, kind: &str, label: &str) -> Result<Mesh> {
         ("minor_segments", o.minor_segments.is_some()),
     ];
     if let Some((p, _)) = set.iter().find(|(p, s)| *s && !allowed.contains(p)) {
-        bail!("{label}: parameter '{p}' does not apply to a {kind} (it takes {})", allowed.join(", "));
+        bail!(
+            "{label}: parameter '{p}' does not apply to a {kind} (it takes {})",
+            allowed.join(", ")
+        );
     }
     let positive = |what: &str, v: Option<f32>, default: f32| -> Result<f32> {
         let v = v.unwrap_or(default);
@@ -360,23 +385,50 @@ mod tests {
 
     #[test]
     fn errors_name_the_problem() {
-        let e = format!("{:#}", parse("[[object]]\nprimitive = \"box\"\ncolour = [1, 0, 0]\n").unwrap_err());
-        assert!(e.contains("colour") && e.contains("t.toml") && !e.contains('\n'), "{e}");
-        let e = format!("{:#}", parse("[[object]]\nprimitive = \"box\"\nradius = 1\n").unwrap_err());
+        let e = format!(
+            "{:#}",
+            parse("[[object]]\nprimitive = \"box\"\ncolour = [1, 0, 0]\n").unwrap_err()
+        );
+        assert!(
+            e.contains("colour") && e.contains("t.toml") && !e.contains('\n'),
+            "{e}"
+        );
+        let e = format!(
+            "{:#}",
+            parse("[[object]]\nprimitive = \"box\"\nradius = 1\n").unwrap_err()
+        );
         assert!(e.contains("'radius'") && e.contains("box"), "{e}");
-        let e = format!("{:#}", parse("[[object]]\nprimitive = \"cone\"\n").unwrap_err());
+        let e = format!(
+            "{:#}",
+            parse("[[object]]\nprimitive = \"cone\"\n").unwrap_err()
+        );
         assert!(e.contains("cone"), "{e}");
-        let e = format!("{:#}", parse("[[object]]\nprimitive = \"box\"\nscale = 0\n").unwrap_err());
+        let e = format!(
+            "{:#}",
+            parse("[[object]]\nprimitive = \"box\"\nscale = 0\n").unwrap_err()
+        );
         assert!(e.contains("scale"), "{e}");
         let e = format!("{:#}", parse("[[object]]\nprimitive = \"box\"\nrole=\"both\"\n[[object]]\nprimitive=\"plane\"\nrole=\"receiver\"\n[light]\nfov_deg = 180\n").unwrap_err());
         assert!(e.contains("fov_deg"), "{e}");
-        let e = format!("{:#}", parse("[[object]]\nprimitive = \"box\"\n[light]\nradius = -1\n").unwrap_err());
+        let e = format!(
+            "{:#}",
+            parse("[[object]]\nprimitive = \"box\"\n[light]\nradius = -1\n").unwrap_err()
+        );
         assert!(e.contains("radius"), "{e}");
-        let e = format!("{:#}", parse("[[object]]\nprimitive = \"box\"\ntranslate = [0, nan, 0]\n").unwrap_err());
+        let e = format!(
+            "{:#}",
+            parse("[[object]]\nprimitive = \"box\"\ntranslate = [0, nan, 0]\n").unwrap_err()
+        );
         assert!(e.contains("translate") && e.contains("finite"), "{e}");
-        let e = format!("{:#}", parse("[[object]]\nmesh = \"missing.obj\"\n").unwrap_err());
+        let e = format!(
+            "{:#}",
+            parse("[[object]]\nmesh = \"missing.obj\"\n").unwrap_err()
+        );
         assert!(e.contains("missing.obj"), "{e}");
-        let e = format!("{:#}", parse("[[object]]\nprimitive = \"box\"\nrole = \"receiver\"\n").unwrap_err());
+        let e = format!(
+            "{:#}",
+            parse("[[object]]\nprimitive = \"box\"\nrole = \"receiver\"\n").unwrap_err()
+        );
         assert!(e.contains("casts"), "{e}");
     }
 }

@@ -147,9 +147,11 @@ impl Mesh {
         let mut acc = vec![Vec3::ZERO; self.positions.len()];
         for t in self.indices.chunks_exact(3) {
             let [a, b, c] = [t[0] as usize, t[1] as usize, t[2] as usize];
-            let (Some(&pa), Some(&pb), Some(&pc)) =
-                (self.positions.get(a), self.positions.get(b), self.positions.get(c))
-            else {
+            let (Some(&pa), Some(&pb), Some(&pc)) = (
+                self.positions.get(a),
+                self.positions.get(b),
+                self.positions.get(c),
+            ) else {
                 continue;
             };
             let n = (pb - pa).cross(pc - pa);
@@ -162,7 +164,11 @@ impl Mesh {
 
     /// Object-space bounds of the referenced vertices (empty for an empty mesh).
     pub fn bounds(&self) -> Aabb {
-        Aabb::from_points(self.indices.iter().filter_map(|&i| self.positions.get(i as usize).copied()))
+        Aabb::from_points(
+            self.indices
+                .iter()
+                .filter_map(|&i| self.positions.get(i as usize).copied()),
+        )
     }
 
     /// Appends `other` transformed by `transform` (normals by its inverse transpose), so
@@ -170,10 +176,18 @@ impl Mesh {
     pub fn append(&mut self, other: &Mesh, transform: Mat4) {
         let base = self.positions.len() as u32;
         let nm = normal_matrix(transform);
-        self.positions
-            .extend(other.positions.iter().map(|&p| transform.transform_point3(p)));
-        self.normals
-            .extend(other.normals.iter().map(|&n| (nm * n).normalize_or(Vec3::Y)));
+        self.positions.extend(
+            other
+                .positions
+                .iter()
+                .map(|&p| transform.transform_point3(p)),
+        );
+        self.normals.extend(
+            other
+                .normals
+                .iter()
+                .map(|&n| (nm * n).normalize_or(Vec3::Y)),
+        );
         self.indices.extend(other.indices.iter().map(|&i| i + base));
     }
 
@@ -183,8 +197,11 @@ impl Mesh {
         if self.indices.is_empty() {
             bail!("{what}: mesh has no triangles");
         }
-        if self.indices.len() % 3 != 0 {
-            bail!("{what}: index count {} is not a multiple of 3", self.indices.len());
+        if !self.indices.len().is_multiple_of(3) {
+            bail!(
+                "{what}: index count {} is not a multiple of 3",
+                self.indices.len()
+            );
         }
         if self.normals.len() != self.positions.len() {
             bail!(
@@ -206,7 +223,10 @@ impl Mesh {
             );
         }
         if let Some(i) = self.positions.iter().position(|p| !p.is_finite()) {
-            bail!("{what}: vertex {i} has a non-finite coordinate ({})", self.positions[i]);
+            bail!(
+                "{what}: vertex {i} has a non-finite coordinate ({})",
+                self.positions[i]
+            );
         }
         if let Some(i) = self.normals.iter().position(|n| !n.is_finite()) {
             bail!("{what}: normal {i} is not finite ({})", self.normals[i]);
@@ -221,8 +241,20 @@ pub fn normal_matrix(m: Mat4) -> Mat3 {
 }
 
 impl Object {
-    pub fn new(name: impl Into<String>, mesh: Arc<Mesh>, transform: Mat4, role: Role, albedo: Vec3) -> Self {
-        Self { name: name.into(), mesh, transform, role, albedo }
+    pub fn new(
+        name: impl Into<String>,
+        mesh: Arc<Mesh>,
+        transform: Mat4,
+        role: Role,
+        albedo: Vec3,
+    ) -> Self {
+        Self {
+            name: name.into(),
+            mesh,
+            transform,
+            role,
+            albedo,
+        }
     }
 
     /// World-space bounds: the exact bounds of the transformed vertices (tighter than
@@ -241,7 +273,11 @@ impl Object {
     pub fn world_triangles(&self) -> impl Iterator<Item = [Vec3; 3]> + '_ {
         let m = &self.mesh;
         m.indices.chunks_exact(3).filter_map(move |t| {
-            let p = |k: usize| m.positions.get(t[k] as usize).map(|&p| self.transform.transform_point3(p));
+            let p = |k: usize| {
+                m.positions
+                    .get(t[k] as usize)
+                    .map(|&p| self.transform.transform_point3(p))
+            };
             Some([p(0)?, p(1)?, p(2)?])
         })
     }
@@ -249,7 +285,10 @@ impl Object {
 
 impl Aabb {
     /// The empty box (min = +inf, max = -inf): the identity of `union`.
-    pub const EMPTY: Aabb = Aabb { min: Vec3::INFINITY, max: Vec3::NEG_INFINITY };
+    pub const EMPTY: Aabb = Aabb {
+        min: Vec3::INFINITY,
+        max: Vec3::NEG_INFINITY,
+    };
 
     pub fn new(min: Vec3, max: Vec3) -> Self {
         Self { min, max }
@@ -264,11 +303,17 @@ impl Aabb {
     }
 
     pub fn including(self, p: Vec3) -> Self {
-        Self { min: self.min.min(p), max: self.max.max(p) }
+        Self {
+            min: self.min.min(p),
+            max: self.max.max(p),
+        }
     }
 
     pub fn union(self, other: Aabb) -> Self {
-        Self { min: self.min.min(other.min), max: self.max.max(other.max) }
+        Self {
+            min: self.min.min(other.min),
+            max: self.max.max(other.max),
+        }
     }
 
     pub fn center(&self) -> Vec3 {
@@ -324,9 +369,9 @@ impl Scene {
             match ext.as_deref() {
                 Some("toml") => file::load_toml(path)?,
                 Some("obj") => builtin::framed_obj(path)?,
-                _ if path.is_file() => bail!(
-                    "{spec}: not a scene file (expected a .toml scene or a .obj mesh)"
-                ),
+                _ if path.is_file() => {
+                    bail!("{spec}: not a scene file (expected a .toml scene or a .obj mesh)")
+                }
                 _ => bail!(
                     "unknown scene '{spec}': not a built-in ({}) nor a .toml/.obj file",
                     BUILTIN_SCENES.join(", ")
@@ -400,7 +445,10 @@ impl Scene {
         let l = &self.light;
         check_view(name, "light", l.position, l.target, l.fov_deg)?;
         if !l.radius.is_finite() || l.radius < 0.0 {
-            bail!("scene '{name}': light radius {} must be finite and >= 0", l.radius);
+            bail!(
+                "scene '{name}': light radius {} must be finite and >= 0",
+                l.radius
+            );
         }
         let c = &self.camera;
         check_view(name, "camera", c.position, c.target, c.fov_deg)?;

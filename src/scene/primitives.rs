@@ -60,7 +60,9 @@ fn push_oriented(mesh: &mut Mesh, [a, b, c]: [u32; 3]) {
 /// A flat rectangle with corners `origin`, `origin + du`, `origin + dv`, `origin + du + dv`,
 /// facing `normal`, split into `segments` x `segments` quads.
 fn quad(mesh: &mut Mesh, origin: Vec3, du: Vec3, dv: Vec3, normal: Vec3, segments: u32) {
-    grid(mesh, segments, segments, |u, v| (origin + du * u + dv * v, normal));
+    grid(mesh, segments, segments, |u, v| {
+        (origin + du * u + dv * v, normal)
+    });
 }
 
 /// A ground plane in y = 0, `size.x` along X and `size.y` along Z, facing +Y.
@@ -133,7 +135,12 @@ pub fn sphere(radius: f32, segments: u32, rings: u32) -> Mesh {
 
 /// A torus around the Y axis in the XZ plane: tube of `minor_radius` swept along a circle
 /// of `major_radius`; `2 * major_segments * minor_segments` triangles.
-pub fn torus(major_radius: f32, minor_radius: f32, major_segments: u32, minor_segments: u32) -> Mesh {
+pub fn torus(
+    major_radius: f32,
+    minor_radius: f32,
+    major_segments: u32,
+    minor_segments: u32,
+) -> Mesh {
     let mut m = Mesh::default();
     grid(
         &mut m,
@@ -164,7 +171,11 @@ pub fn bumpy_sphere(radius: f32, segments: u32, rings: u32, amplitude: f32, seed
             .map(|k| {
                 let dir = rng.unit_vec();
                 let freq = 3.0 + 2.0 * k as f32;
-                (dir * freq, rng.next_f32() * TAU, 1.0 / (1.0 + 0.35 * k as f32))
+                (
+                    dir * freq,
+                    rng.next_f32() * TAU,
+                    1.0 / (1.0 + 0.35 * k as f32),
+                )
             })
             .collect()
     };
@@ -180,7 +191,10 @@ pub fn bumpy_sphere(radius: f32, segments: u32, rings: u32, amplitude: f32, seed
         } else {
             Vec3::new(b.sin() * a.cos(), -b.cos(), b.sin() * a.sin())
         };
-        let noise: f32 = waves.iter().map(|(k, ph, w)| w * (k.dot(n) + ph).sin()).sum();
+        let noise: f32 = waves
+            .iter()
+            .map(|(k, ph, w)| w * (k.dot(n) + ph).sin())
+            .sum();
         (n * radius * (1.0 + amplitude * noise / total * 1.5), n)
     });
     if amplitude != 0.0 {
@@ -264,10 +278,14 @@ mod tests {
         let b = cuboid(Vec3::new(1.0, 2.0, 3.0));
         check(&b, true);
         assert_eq!(b.triangle_count(), 12);
-        let v: f32 = b.indices.chunks_exact(3).map(|t| {
-            let [a, b2, c] = [0, 1, 2].map(|k| b.positions[t[k] as usize]);
-            a.dot(b2.cross(c)) / 6.0
-        }).sum();
+        let v: f32 = b
+            .indices
+            .chunks_exact(3)
+            .map(|t| {
+                let [a, b2, c] = [0, 1, 2].map(|k| b.positions[t[k] as usize]);
+                a.dot(b2.cross(c)) / 6.0
+            })
+            .sum();
         assert!((v - 6.0).abs() < 1e-4);
         let c = cylinder(1.0, 2.0, 16);
         check(&c, true);

@@ -2,9 +2,19 @@
 //! spotlight with a radius, one camera. Built-in scenes by name, TOML scene files, bare
 //! OBJ files framed on a ground plane. `export` writes the scene back out for outside tools.
 
-use anyhow::Result;
-use glam::{Mat4, Vec3};
+use anyhow::{bail, Result};
+use glam::{Mat3, Mat4, Vec3};
+use std::path::Path;
 use std::sync::Arc;
+
+pub mod builtin;
+pub mod export;
+pub mod file;
+pub mod obj;
+pub mod primitives;
+
+pub use builtin::BUILTIN_SCENES;
+pub use export::export_obj;
 
 /// A triangle list. `normals` has one entry per position (computed where the source had none).
 /// Positions may be split (flat shading): silhouette code welds them by value.
@@ -123,4 +133,344 @@ impl LightView {
     pub fn linear_depth(&self, p: Vec3) -> f32 {
         -(self.view * p.extend(1.0)).z
     }
+}
+
+impl Mesh {
+    pub fn triangle_count(&self) -> usize {
+        self.indices.len() / 3
+    }
+
+    /// Recomputes per-vertex normals as the area-weighted sum of the adjacent triangles'
+    /// normals (the cross product's length is twice the area, so no explicit weights).
+    /// A vertex with no usable triangle gets +Y rather than NaN.
+    pub fn compute_normals(&mut self) {
+        let mut acc = vec![Vec3::ZERO; self.positions.len()];
+        for t in self.indices.chunks_exact(3) {
+            let [a, b, c] = [t[0] as usize, t[1] as usize, t[2] as usize];
+            let (Some(&pa), Some(&pb), Some(&pc)) = (
+                self.positions.get(a),
+                self.positions.get(b),
+                self.positions.get(c),
+            ) else {
+                continue;
+            };
+            let n = (pb - pa).cross(pc - pa);
+            acc[a] += n;
+            acc[b] += n;
+            acc[c] += n;
+        }
+        self.normals = acc.into_iter().map(|n| n.normalize_or(Vec3::Y)).collect();
+    }
+
+    /// Object-space bounds of the referenced vertices (empty for an empty mesh).
+    pub fn bounds(&self) -> Aabb {
+        Aabb::from_points(
+            self.indices
+                .iter()
+                .filter_map(|&i| self.positions.get(i as usize).copied()),
+        )
+    }
+
+    /// Appends `other` transformed by `transform` (normals by its inverse transpose), so
+    /// many parts can be merged into one object and one draw.
+    pub fn append(&mut self, other: &Mesh, transform: Mat4) {
+        let base = self.positions.len() as u32;
+        let nm = normal_matrix(transform);
+        self.positions.extend(
+            other
+                .positions
+                .iter()
+                .map(|&p| transform.transform_point3(p)),
+        );
+        self.normals.extend(
+            other
+                .normals
+                .iter()
+                .map(|&n| (nm * n).normalize_or(Vec3::Y)),
+        );
+        self.indices.extend(other.indices.iter().map(|&i| i + base));
+    }
+
+    /// Checks what renderers rely on: whole triangles, indices in range, one normal per
+    /// position, finite numbers. `what` names the mesh in the error.
+    pub fn validate(&self, what: &str) -> Result<()> {
+        if self.indices.is_empty() {
+            bail!("{what}: mesh has no triangles");
+        }
+        if !self.indices.len().is_multiple_of(3) {
+            bail!(
+                "{what}: index count {} is not a multiple of 3",
+                self.indices.len()
+            );
+        }
+        if self.normals.len() != self.positions.len() {
+            bail!(
+                "{what}: {} normals for {} positions",
+                self.normals.len(),
+                self.positions.len()
+            );
+        }
+        if let Some((k, &i)) = self
+            .indices
+            .iter()
+            .enumerate()
+            .find(|(_, &i)| i as usize >= self.positions.len())
+        {
+            bail!(
+                "{what}: triangle {} uses vertex {i}, but there are only {} vertices",
+                k / 3,
+                self.positions.len()
+            );
+        }
+        if let Some(i) = self.positions.iter().position(|p| !p.is_finite()) {
+            bail!(
+                "{what}: vertex {i} has a non-finite coordinate ({})",
+                self.positions[i]
+            );
+        }
+        if let Some(i) = self.normals.iter().position(|n| !n.is_finite()) {
+            bail!("{what}: normal {i} is not finite ({})", self.normals[i]);
+        }
+        Ok(())
+    }
+}
+
+/// The matrix that carries normals through `m` (inverse transpose of its linear part).
+pub fn normal_matrix(m: Mat4) -> Mat3 {
+    Mat3::from_mat4(m).inverse().transpose()
+}
+
+impl Object {
+    pub fn new(
+        name: impl Into<String>,
+        mesh: Arc<Mesh>,
+        transform: Mat4,
+        role: Role,
+        albedo: Vec3,
+    ) -> Self {
+        Self {
+            name: name.into(),
+            mesh,
+            transform,
+            role,
+            albedo,
+        }
+    }
+
+    /// World-space bounds: the exact bounds of the transformed vertices (tighter than
+    /// transforming the object-space box).
+    pub fn world_bounds(&self) -> Aabb {
+        let m = &self.mesh;
+        Aabb::from_points(
+            m.indices
+                .iter()
+                .filter_map(|&i| m.positions.get(i as usize))
+                .map(|&p| self.transform.transform_point3(p)),
+        )
+    }
+
+    /// The object's triangles in world space.
+    pub fn world_triangles(&self) -> impl Iterator<Item = [Vec3; 3]> + '_ {
+        let m = &self.mesh;
+        m.indices.chunks_exact(3).filter_map(move |t| {
+            let p = |k: usize| {
+                m.positions
+                    .get(t[k] as usize)
+                    .map(|&p| self.transform.transform_point3(p))
+            };
+            Some([p(0)?, p(1)?, p(2)?])
+        })
+    }
+}
+
+impl Aabb {
+    /// The empty box (min = +inf, max = -inf): the identity of `union`.
+    pub const EMPTY: Aabb = Aabb {
+        min: Vec3::INFINITY,
+        max: Vec3::NEG_INFINITY,
+    };
+
+    pub fn new(min: Vec3, max: Vec3) -> Self {
+        Self { min, max }
+    }
+
+    pub fn from_points(points: impl IntoIterator<Item = Vec3>) -> Self {
+        points.into_iter().fold(Self::EMPTY, |b, p| b.including(p))
+    }
+
+    pub fn is_empty(&self) -> bool {
+        !(self.min.cmple(self.max).all())
+    }
+
+    pub fn including(self, p: Vec3) -> Self {
+        Self {
+            min: self.min.min(p),
+            max: self.max.max(p),
+        }
+    }
+
+    pub fn union(self, other: Aabb) -> Self {
+        Self {
+            min: self.min.min(other.min),
+            max: self.max.max(other.max),
+        }
+    }
+
+    pub fn center(&self) -> Vec3 {
+        (self.min + self.max) * 0.5
+    }
+
+    /// Size along each axis (max - min).
+    pub fn extent(&self) -> Vec3 {
+        self.max - self.min
+    }
+
+    /// Half the diagonal: the radius of a sphere around `center` that holds the box.
+    pub fn radius(&self) -> f32 {
+        self.extent().length() * 0.5
+    }
+
+    pub fn corners(&self) -> [Vec3; 8] {
+        let (a, b) = (self.min, self.max);
+        [
+            Vec3::new(a.x, a.y, a.z),
+            Vec3::new(b.x, a.y, a.z),
+            Vec3::new(a.x, b.y, a.z),
+            Vec3::new(b.x, b.y, a.z),
+            Vec3::new(a.x, a.y, b.z),
+            Vec3::new(b.x, a.y, b.z),
+            Vec3::new(a.x, b.y, b.z),
+            Vec3::new(b.x, b.y, b.z),
+        ]
+    }
+
+    /// Bounds of this box after `m` (the box of its transformed corners).
+    pub fn transform(&self, m: &Mat4) -> Aabb {
+        if self.is_empty() {
+            return *self;
+        }
+        Aabb::from_points(self.corners().map(|c| m.transform_point3(c)))
+    }
+}
+
+impl Scene {
+    /// Loads a scene by spec: a built-in name (see [`BUILTIN_SCENES`]), else a `.toml`
+    /// scene file, else a `.obj` file framed on a ground plane under a default light and
+    /// camera. The result is validated.
+    pub fn load(spec: &str) -> Result<Scene> {
+        let scene = if let Some(s) = builtin::builtin(spec)? {
+            s
+        } else {
+            let path = Path::new(spec);
+            let ext = path
+                .extension()
+                .and_then(|e| e.to_str())
+                .map(|e| e.to_ascii_lowercase());
+            match ext.as_deref() {
+                Some("toml") => file::load_toml(path)?,
+                Some("obj") => builtin::framed_obj(path)?,
+                _ if path.is_file() => {
+                    bail!("{spec}: not a scene file (expected a .toml scene or a .obj mesh)")
+                }
+                _ => bail!(
+                    "unknown scene '{spec}': not a built-in ({}) nor a .toml/.obj file",
+                    BUILTIN_SCENES.join(", ")
+                ),
+            }
+        };
+        scene.validate()?;
+        Ok(scene)
+    }
+
+    /// World bounds of every object.
+    pub fn bounds(&self) -> Aabb {
+        self.objects
+            .iter()
+            .fold(Aabb::EMPTY, |b, o| b.union(o.world_bounds()))
+    }
+
+    /// World bounds of the objects that cast shadows, `None` when none does.
+    pub fn caster_bounds(&self) -> Option<Aabb> {
+        let b = self
+            .objects
+            .iter()
+            .filter(|o| o.role.casts())
+            .fold(Aabb::EMPTY, |b, o| b.union(o.world_bounds()));
+        (!b.is_empty()).then_some(b)
+    }
+
+    pub fn triangle_count(&self) -> usize {
+        self.objects.iter().map(|o| o.mesh.triangle_count()).sum()
+    }
+
+    /// Every triangle in world space, optionally only those of casters (for ray casting
+    /// the reference and for outside tools).
+    pub fn world_triangles(&self, casters_only: bool) -> Vec<[Vec3; 3]> {
+        let mut out = Vec::with_capacity(self.triangle_count());
+        for o in &self.objects {
+            if !casters_only || o.role.casts() {
+                out.extend(o.world_triangles());
+            }
+        }
+        out
+    }
+
+    /// Checks everything a renderer assumes: finite numbers everywhere, at least one
+    /// caster and one receiver, a light radius >= 0, fields of view in (0, 180), a light
+    /// and camera that look somewhere.
+    pub fn validate(&self) -> Result<()> {
+        let name = &self.name;
+        if self.objects.is_empty() {
+            bail!("scene '{name}': no objects");
+        }
+        for o in &self.objects {
+            let what = format!("scene '{name}', object '{}'", o.name);
+            o.mesh.validate(&what)?;
+            if !o.transform.is_finite() {
+                bail!("{what}: transform is not finite");
+            }
+            if o.transform.determinant().abs() <= f32::MIN_POSITIVE {
+                bail!("{what}: transform is singular (a scale of 0?)");
+            }
+            if !o.albedo.is_finite() || o.albedo.min_element() < 0.0 {
+                bail!("{what}: albedo {} must be finite and >= 0", o.albedo);
+            }
+        }
+        if !self.objects.iter().any(|o| o.role.casts()) {
+            bail!("scene '{name}': no object casts shadows (role caster or both)");
+        }
+        if !self.objects.iter().any(|o| o.role.receives()) {
+            bail!("scene '{name}': no object receives shadows (role receiver or both)");
+        }
+        let l = &self.light;
+        check_view(name, "light", l.position, l.target, l.fov_deg)?;
+        if !l.radius.is_finite() || l.radius < 0.0 {
+            bail!(
+                "scene '{name}': light radius {} must be finite and >= 0",
+                l.radius
+            );
+        }
+        let c = &self.camera;
+        check_view(name, "camera", c.position, c.target, c.fov_deg)?;
+        if !c.up.is_finite() || c.up.cross(c.target - c.position).length_squared() <= 1e-12 {
+            bail!(
+                "scene '{name}': camera up {} must be finite and not parallel to the view direction",
+                c.up
+            );
+        }
+        Ok(())
+    }
+}
+
+fn check_view(scene: &str, what: &str, position: Vec3, target: Vec3, fov_deg: f32) -> Result<()> {
+    if !position.is_finite() || !target.is_finite() {
+        bail!("scene '{scene}': {what} position {position} and target {target} must be finite");
+    }
+    if (target - position).length_squared() <= 1e-12 {
+        bail!("scene '{scene}': {what} target equals its position {position}");
+    }
+    if !(fov_deg > 0.0 && fov_deg < 180.0) {
+        bail!("scene '{scene}': {what} fov_deg {fov_deg} must be in (0, 180)");
+    }
+    Ok(())
 }

@@ -1,0 +1,180 @@
+//! `softshadow export`: the scene as outside tools see it. `FILE.obj` holds every triangle
+//! in world space (after transforms and tessellation), one `o NAME` group per object, with
+//! world normals; `FILE.json` beside it holds the lights and the camera (DESIGN.md).
+//!
+//! Both files are written to temporary names in the same folder and renamed at the end,
+//! so a failure never leaves a half-written pair that a checker could mistake for output.
+
+use super::{normal_matrix, Scene};
+use anyhow::{Context, Result};
+use serde::Serialize;
+use std::fs::File;
+use std::io::{BufWriter, Write};
+use std::path::{Path, PathBuf};
+
+#[derive(Serialize)]
+struct LightJson {
+    position: [f32; 3],
+    target: [f32; 3],
+    fov_deg: f32,
+    radius: f32,
+}
+
+#[derive(Serialize)]
+struct CameraJson {
+    position: [f32; 3],
+    target: [f32; 3],
+    up: [f32; 3],
+    /// Vertical field of view.
+    fov_deg: f32,
+    width: u32,
+    height: u32,
+}
+
+#[derive(Serialize)]
+struct ObjectJson {
+    name: String,
+    role: super::Role,
+    albedo: [f32; 3],
+    triangles: usize,
+}
+
+#[derive(Serialize)]
+struct SceneJson {
+    scene: String,
+    obj: String,
+    up_axis: &'static str,
+    triangles: usize,
+    lights: Vec<LightJson>,
+    camera: CameraJson,
+    objects: Vec<ObjectJson>,
+}
+
+/// `FILE.json` beside `FILE.obj`.
+pub fn json_path(obj_path: &Path) -> PathBuf {
+    obj_path.with_extension("json")
+}
+
+/// Writes `obj_path` and its `.json` sidecar (see the module docs). `width` and `height`
+/// are the camera's image size, recorded so an outside tool can rebuild its rays.
+pub fn export_obj(scene: &Scene, obj_path: &Path, width: u32, height: u32) -> Result<()> {
+    let json_final = json_path(obj_path);
+    let obj_tmp = temp_name(obj_path);
+    let json_tmp = temp_name(&json_final);
+    let result = (|| -> Result<()> {
+        write_obj(scene, &obj_tmp)
+            .with_context(|| format!("{}: cannot write", obj_path.display()))?;
+        write_json(scene, obj_path, &json_tmp, width, height)
+            .with_context(|| format!("{}: cannot write", json_final.display()))?;
+        std::fs::rename(&obj_tmp, obj_path)
+            .with_context(|| format!("{}: cannot write", obj_path.display()))?;
+        std::fs::rename(&json_tmp, &json_final)
+            .with_context(|| format!("{}: cannot write", json_final.display()))?;
+        Ok(())
+    })();
+    if result.is_err() {
+        // Best effort: the temp files are ours and useless after a failure.
+        let _ = std::fs::remove_file(&obj_tmp);
+        let _ = std::fs::remove_file(&json_tmp);
+    }
+    result
+}
+
+/// A hidden sibling name, in the same folder so the final rename is atomic.
+fn temp_name(path: &Path) -> PathBuf {
+    let file = path
+        .file_name()
+        .map(|f| f.to_string_lossy().into_owned())
+        .unwrap_or_else(|| "export".into());
+    path.with_file_name(format!(".{file}.tmp{}", std::process::id()))
+}
+
+fn write_obj(scene: &Scene, path: &Path) -> Result<()> {
+    let mut w = BufWriter::new(File::create(path)?);
+    writeln!(
+        w,
+        "# softshadow export of scene '{}': world space, Y up",
+        scene.name
+    )?;
+    writeln!(
+        w,
+        "# {} triangles, {} objects",
+        scene.triangle_count(),
+        scene.objects.len()
+    )?;
+    let mut base = 1usize;
+    for o in &scene.objects {
+        // OBJ object names end at whitespace.
+        let name: String = o
+            .name
+            .chars()
+            .map(|c| if c.is_whitespace() { '_' } else { c })
+            .collect();
+        writeln!(w, "o {name}")?;
+        let m = &o.mesh;
+        let nm = normal_matrix(o.transform);
+        for p in &m.positions {
+            let p = o.transform.transform_point3(*p);
+            writeln!(w, "v {} {} {}", p.x, p.y, p.z)?;
+        }
+        for n in &m.normals {
+            let n = (nm * *n).normalize_or(glam::Vec3::Y);
+            writeln!(w, "vn {} {} {}", n.x, n.y, n.z)?;
+        }
+        // A mirroring transform flips the winding; swap two corners to keep faces outward.
+        let flip = o.transform.determinant() < 0.0;
+        for t in m.indices.chunks_exact(3) {
+            let [a, b, c] = [t[0], t[1], t[2]].map(|i| i as usize + base);
+            let (b, c) = if flip { (c, b) } else { (b, c) };
+            writeln!(w, "f {a}//{a} {b}//{b} {c}//{c}")?;
+        }
+        base += m.positions.len();
+    }
+    let file = w.into_inner().map_err(|e| e.into_error())?;
+    file.sync_all()?;
+    Ok(())
+}
+
+fn write_json(scene: &Scene, obj_path: &Path, path: &Path, width: u32, height: u32) -> Result<()> {
+    let l = &scene.light;
+    let c = &scene.camera;
+    let doc = SceneJson {
+        scene: scene.name.clone(),
+        obj: obj_path
+            .file_name()
+            .map(|f| f.to_string_lossy().into_owned())
+            .unwrap_or_default(),
+        up_axis: "y",
+        triangles: scene.triangle_count(),
+        lights: vec![LightJson {
+            position: l.position.to_array(),
+            target: l.target.to_array(),
+            fov_deg: l.fov_deg,
+            radius: l.radius,
+        }],
+        camera: CameraJson {
+            position: c.position.to_array(),
+            target: c.target.to_array(),
+            up: c.up.to_array(),
+            fov_deg: c.fov_deg,
+            width,
+            height,
+        },
+        objects: scene
+            .objects
+            .iter()
+            .map(|o| ObjectJson {
+                name: o.name.clone(),
+                role: o.role,
+                albedo: o.albedo.to_array(),
+                triangles: o.mesh.triangle_count(),
+            })
+            .collect(),
+    };
+    let mut w = BufWriter::new(File::create(path)?);
+    serde_json::to_writer_pretty(&mut w, &doc)?;
+    writeln!(w)?;
+    let file = w.into_inner().map_err(|e| e.into_error())?;
+    file.sync_all()?;
+    Ok(())
+}

@@ -1,0 +1,434 @@
+//! TOML scene files (format documented in docs/SCENES.md): `[[object]]` tables with a
+//! mesh path or a primitive and a transform, an optional `[light]` and `[camera]` whose
+//! missing fields are fitted to the casters as for the built-in scenes.
+//!
+//! Unknown keys are errors that name the key (serde `deny_unknown_fields`); numbers are
+//! checked (finite, fov in (0, 180), radius >= 0, scale != 0) before anything is built.
+
+use super::{builtin, obj, primitives as prim, Camera, Light, Mesh, Object, Role, Scene};
+use anyhow::{bail, Context, Result};
+use glam::{Mat4, Vec2, Vec3};
+use serde::Deserialize;
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SceneFile {
+    /// Defaults to the file stem.
+    pub name: Option<String>,
+    #[serde(default, rename = "object")]
+    pub objects: Vec<ObjectSpec>,
+    pub light: Option<LightSpec>,
+    pub camera: Option<CameraSpec>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ObjectSpec {
+    pub name: Option<String>,
+    /// OBJ path, relative to the scene file.
+    pub mesh: Option<String>,
+    /// "plane" | "box" | "cylinder" | "sphere" | "torus".
+    pub primitive: Option<String>,
+    // Primitive parameters; each primitive takes only its own (checked in `build_mesh`).
+    pub size: Option<Size>,
+    pub radius: Option<f32>,
+    pub height: Option<f32>,
+    pub segments: Option<u32>,
+    pub rings: Option<u32>,
+    pub major_radius: Option<f32>,
+    pub minor_radius: Option<f32>,
+    pub minor_segments: Option<u32>,
+    pub translate: Option<[f32; 3]>,
+    /// Degrees about the world X axis, then Y, then Z.
+    pub rotate_deg: Option<[f32; 3]>,
+    pub scale: Option<Size>,
+    pub role: Option<Role>,
+    pub albedo: Option<[f32; 3]>,
+}
+
+/// A scalar (uniform) or per-axis size / scale.
+#[derive(Debug, Clone, Copy, Deserialize)]
+#[serde(untagged)]
+pub enum Size {
+    Uniform(f32),
+    Vec2([f32; 2]),
+    Vec3([f32; 3]),
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct LightSpec {
+    pub position: Option<[f32; 3]>,
+    pub target: Option<[f32; 3]>,
+    pub fov_deg: Option<f32>,
+    pub radius: Option<f32>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CameraSpec {
+    pub position: Option<[f32; 3]>,
+    pub target: Option<[f32; 3]>,
+    pub up: Option<[f32; 3]>,
+    pub fov_deg: Option<f32>,
+}
+
+/// Loads and builds a scene file; OBJ meshes are resolved against the file's folder.
+pub fn load_toml(path: &Path) -> Result<Scene> {
+    let name = path.display().to_string();
+    let text =
+        std::fs::read_to_string(path).with_context(|| format!("{name}: cannot read the file"))?;
+    let stem = path
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_else(|| "scene".into());
+    let dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
+    parse_toml(&text, &name, &stem, &dir)
+}
+
+/// Parses scene TOML text. `file` labels errors, `stem` is the default scene name and
+/// `dir` the folder that relative mesh paths start from.
+pub fn parse_toml(text: &str, file: &str, stem: &str, dir: &Path) -> Result<Scene> {
+    let spec: SceneFile = toml::from_str(text).map_err(|e| {
+        // toml's own Display spans several lines with a source excerpt; keep one line.
+        let at = e
+            .span()
+            .map(|s| {
+                let line = text[..s.start.min(text.len())].matches('\n').count() + 1;
+                format!(" line {line}:")
+            })
+            .unwrap_or_default();
+        anyhow::anyhow!("{file}:{at} {}", e.message().trim().replace('\n', " "))
+    })?;
+    build(spec, file, stem, dir)
+}
+
+fn finite(file: &str, what: &str, v: &[f32]) -> Result<()> {
+    if v.iter().any(|x| !x.is_finite()) {
+        bail!("{file}: {what} {v:?} must be finite");
+    }
+    Ok(())
+}
+
+fn vec3(file: &str, what: &str, v: [f32; 3]) -> Result<Vec3> {
+    finite(file, what, &v)?;
+    Ok(Vec3::from(v))
+}
+
+fn fov(file: &str, what: &str, f: f32) -> Result<f32> {
+    if !(f > 0.0 && f < 180.0) {
+        bail!("{file}: {what} {f} must be in (0, 180)");
+    }
+    Ok(f)
+}
+
+fn build(spec: SceneFile, file: &str, stem: &str, dir: &Path) -> Result<Scene> {
+    if spec.objects.is_empty() {
+        bail!("{file}: no [[object]] tables");
+    }
+    // One mesh per distinct OBJ path, shared by every object that names it.
+    let mut loaded: HashMap<PathBuf, Arc<Mesh>> = HashMap::new();
+    let mut objects = Vec::with_capacity(spec.objects.len());
+    for (k, o) in spec.objects.iter().enumerate() {
+        let label = match &o.name {
+            Some(n) => format!("{file}: object {} ('{n}')", k + 1),
+            None => format!("{file}: object {}", k + 1),
+        };
+        let (mesh, default_name) = match (&o.mesh, &o.primitive) {
+            (Some(_), Some(_)) => bail!("{label}: give either 'mesh' or 'primitive', not both"),
+            (None, None) => bail!("{label}: needs 'mesh = \"file.obj\"' or 'primitive = \"box\"'"),
+            (Some(m), None) => {
+                if let Some(p) = first_param(o) {
+                    bail!("{label}: parameter '{p}' applies to primitives, not to a mesh");
+                }
+                let p = dir.join(m);
+                let mesh = match loaded.get(&p) {
+                    Some(mesh) => mesh.clone(),
+                    None => {
+                        let mesh = Arc::new(obj::load_obj(&p)?);
+                        loaded.insert(p.clone(), mesh.clone());
+                        mesh
+                    }
+                };
+                let n = p.file_stem().map(|s| s.to_string_lossy().into_owned());
+                (mesh, n.unwrap_or_else(|| "mesh".into()))
+            }
+            (None, Some(p)) => (Arc::new(build_primitive(o, p, &label)?), p.clone()),
+        };
+        let t = vec3(&label, "translate", o.translate.unwrap_or([0.0; 3]))?;
+        let r = vec3(&label, "rotate_deg", o.rotate_deg.unwrap_or([0.0; 3]))?;
+        let s = match o.scale.unwrap_or(Size::Uniform(1.0)) {
+            Size::Uniform(s) => Vec3::splat(s),
+            Size::Vec3(v) => Vec3::from(v),
+            Size::Vec2(_) => bail!("{label}: scale must be a number or [x, y, z]"),
+        };
+        finite(&label, "scale", &s.to_array())?;
+        if s.cmpeq(Vec3::ZERO).any() {
+            bail!("{label}: scale {s} has a zero component");
+        }
+        let albedo = vec3(&label, "albedo", o.albedo.unwrap_or([0.8; 3]))?;
+        if albedo.min_element() < 0.0 {
+            bail!("{label}: albedo {albedo} must be >= 0");
+        }
+        let rot = Mat4::from_rotation_z(r.z.to_radians())
+            * Mat4::from_rotation_y(r.y.to_radians())
+            * Mat4::from_rotation_x(r.x.to_radians());
+        let transform = Mat4::from_translation(t) * rot * Mat4::from_scale(s);
+        let role = o.role.unwrap_or(Role::Both);
+        let name = o
+            .name
+            .clone()
+            .unwrap_or_else(|| format!("{default_name}{}", k + 1));
+        objects.push(Object::new(name, mesh, transform, role, albedo));
+    }
+
+    // Defaults come from the same fitting as the built-in scenes, so a file may give as
+    // little as a light position.
+    let bounds = objects
+        .iter()
+        .fold(super::Aabb::EMPTY, |b, o| b.union(o.world_bounds()));
+    let ground_y = if bounds.is_empty() { 0.0 } else { bounds.min.y };
+    let size = bounds.extent().max_element().max(1e-3);
+    let default_light = bounds.center() + Vec3::new(-1.2, 2.5, 0.8) * size;
+    let ls = spec.light.unwrap_or(LightSpec {
+        position: None,
+        target: None,
+        fov_deg: None,
+        radius: None,
+    });
+    let lpos = match ls.position {
+        Some(p) => vec3(file, "light position", p)?,
+        None => default_light,
+    };
+    let (auto_light, auto_cam) =
+        builtin::rig(&objects, lpos, ground_y, 0.04, Vec3::new(0.4, 0.6, 1.0));
+    let light = Light {
+        position: lpos,
+        target: match ls.target {
+            Some(t) => vec3(file, "light target", t)?,
+            None => auto_light.target,
+        },
+        fov_deg: match ls.fov_deg {
+            Some(f) => fov(file, "light fov_deg", f)?,
+            None => auto_light.fov_deg,
+        },
+        radius: match ls.radius {
+            Some(r) if !r.is_finite() || r < 0.0 => {
+                bail!("{file}: light radius {r} must be finite and >= 0")
+            }
+            Some(r) => r,
+            None => auto_light.radius,
+        },
+    };
+    let cs = spec.camera.unwrap_or(CameraSpec {
+        position: None,
+        target: None,
+        up: None,
+        fov_deg: None,
+    });
+    let camera = Camera {
+        position: match cs.position {
+            Some(p) => vec3(file, "camera position", p)?,
+            None => auto_cam.position,
+        },
+        target: match cs.target {
+            Some(t) => vec3(file, "camera target", t)?,
+            None => auto_cam.target,
+        },
+        up: match cs.up {
+            Some(u) => vec3(file, "camera up", u)?,
+            None => Vec3::Y,
+        },
+        fov_deg: match cs.fov_deg {
+            Some(f) => fov(file, "camera fov_deg", f)?,
+            None => auto_cam.fov_deg,
+        },
+    };
+    let scene = Scene {
+        name: spec.name.unwrap_or_else(|| stem.into()),
+        objects,
+        light,
+        camera,
+    };
+    scene
+        .validate()
+        .with_context(|| format!("{file}: invalid scene"))?;
+    Ok(scene)
+}
+
+/// The first primitive parameter set on `o`, for "does not apply" errors.
+fn first_param(o: &ObjectSpec) -> Option<&'static str> {
+    [
+        ("size", o.size.is_some()),
+        ("radius", o.radius.is_some()),
+        ("height", o.height.is_some()),
+        ("segments", o.segments.is_some()),
+        ("rings", o.rings.is_some()),
+        ("major_radius", o.major_radius.is_some()),
+        ("minor_radius", o.minor_radius.is_some()),
+        ("minor_segments", o.minor_segments.is_some()),
+    ]
+    .into_iter()
+    .find(|(_, set)| *set)
+    .map(|(n, _)| n)
+}
+
+fn build_primitive(o: &ObjectSpec, kind: &str, label: &str) -> Result<Mesh> {
+    let allowed: &[&str] = match kind {
+        "plane" => &["size", "segments"],
+        "box" => &["size"],
+        "cylinder" => &["radius", "height", "segments"],
+        "sphere" => &["radius", "segments", "rings"],
+        "torus" => &["major_radius", "minor_radius", "segments", "minor_segments"],
+        _ => bail!(
+            "{label}: unknown primitive '{kind}' (expected plane, box, cylinder, sphere or torus)"
+        ),
+    };
+    let set = [
+        ("size", o.size.is_some()),
+        ("radius", o.radius.is_some()),
+        ("height", o.height.is_some()),
+        ("segments", o.segments.is_some()),
+        ("rings", o.rings.is_some()),
+        ("major_radius", o.major_radius.is_some()),
+        ("minor_radius", o.minor_radius.is_some()),
+        ("minor_segments", o.minor_segments.is_some()),
+    ];
+    if let Some((p, _)) = set.iter().find(|(p, s)| *s && !allowed.contains(p)) {
+        bail!(
+            "{label}: parameter '{p}' does not apply to a {kind} (it takes {})",
+            allowed.join(", ")
+        );
+    }
+    let positive = |what: &str, v: Option<f32>, default: f32| -> Result<f32> {
+        let v = v.unwrap_or(default);
+        if !v.is_finite() || v <= 0.0 {
+            bail!("{label}: {what} {v} must be finite and > 0");
+        }
+        Ok(v)
+    };
+    // Cap tessellation so a typo cannot ask for billions of triangles.
+    let count = |what: &str, v: Option<u32>, default: u32, min: u32| -> Result<u32> {
+        let v = v.unwrap_or(default);
+        if !(min..=4096).contains(&v) {
+            bail!("{label}: {what} {v} must be in {min}..=4096");
+        }
+        Ok(v)
+    };
+    let size3 = |default: Vec3| -> Result<Vec3> {
+        let s = match o.size {
+            None => default,
+            Some(Size::Uniform(s)) => Vec3::splat(s),
+            Some(Size::Vec3(v)) => Vec3::from(v),
+            Some(Size::Vec2(_)) => bail!("{label}: box size must be a number or [x, y, z]"),
+        };
+        if !s.is_finite() || s.min_element() <= 0.0 {
+            bail!("{label}: size {s} must be finite and > 0");
+        }
+        Ok(s)
+    };
+    Ok(match kind {
+        "plane" => {
+            let s = match o.size {
+                None => Vec2::splat(10.0),
+                Some(Size::Uniform(s)) => Vec2::splat(s),
+                Some(Size::Vec2(v)) => Vec2::from(v),
+                Some(Size::Vec3(_)) => bail!("{label}: plane size must be a number or [x, z]"),
+            };
+            if !s.is_finite() || s.min_element() <= 0.0 {
+                bail!("{label}: size {s} must be finite and > 0");
+            }
+            prim::plane(s, count("segments", o.segments, 8, 1)?)
+        }
+        "box" => prim::cuboid(size3(Vec3::ONE)?),
+        "cylinder" => prim::cylinder(
+            positive("radius", o.radius, 0.5)?,
+            positive("height", o.height, 1.0)?,
+            count("segments", o.segments, 32, 3)?,
+        ),
+        "sphere" => prim::sphere(
+            positive("radius", o.radius, 0.5)?,
+            count("segments", o.segments, 32, 3)?,
+            count("rings", o.rings, 16, 2)?,
+        ),
+        _ => prim::torus(
+            positive("major_radius", o.major_radius, 1.0)?,
+            positive("minor_radius", o.minor_radius, 0.25)?,
+            count("segments", o.segments, 48, 3)?,
+            count("minor_segments", o.minor_segments, 16, 3)?,
+        ),
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn parse(text: &str) -> Result<Scene> {
+        parse_toml(text, "t.toml", "t", Path::new("."))
+    }
+
+    #[test]
+    fn minimal_file_gets_a_fitted_light_and_camera() {
+        let s = parse(
+            "[[object]]\nprimitive = \"plane\"\nrole = \"receiver\"\n\
+             [[object]]\nprimitive = \"sphere\"\nradius = 1\ntranslate = [0, 2, 0]\n",
+        )
+        .unwrap();
+        assert_eq!(s.objects.len(), 2);
+        assert_eq!(s.name, "t");
+        assert!(s.light.radius > 0.0);
+    }
+
+    #[test]
+    fn errors_name_the_problem() {
+        let e = format!(
+            "{:#}",
+            parse("[[object]]\nprimitive = \"box\"\ncolour = [1, 0, 0]\n").unwrap_err()
+        );
+        assert!(
+            e.contains("colour") && e.contains("t.toml") && !e.contains('\n'),
+            "{e}"
+        );
+        let e = format!(
+            "{:#}",
+            parse("[[object]]\nprimitive = \"box\"\nradius = 1\n").unwrap_err()
+        );
+        assert!(e.contains("'radius'") && e.contains("box"), "{e}");
+        let e = format!(
+            "{:#}",
+            parse("[[object]]\nprimitive = \"cone\"\n").unwrap_err()
+        );
+        assert!(e.contains("cone"), "{e}");
+        let e = format!(
+            "{:#}",
+            parse("[[object]]\nprimitive = \"box\"\nscale = 0\n").unwrap_err()
+        );
+        assert!(e.contains("scale"), "{e}");
+        let e = format!("{:#}", parse("[[object]]\nprimitive = \"box\"\nrole=\"both\"\n[[object]]\nprimitive=\"plane\"\nrole=\"receiver\"\n[light]\nfov_deg = 180\n").unwrap_err());
+        assert!(e.contains("fov_deg"), "{e}");
+        let e = format!(
+            "{:#}",
+            parse("[[object]]\nprimitive = \"box\"\n[light]\nradius = -1\n").unwrap_err()
+        );
+        assert!(e.contains("radius"), "{e}");
+        let e = format!(
+            "{:#}",
+            parse("[[object]]\nprimitive = \"box\"\ntranslate = [0, nan, 0]\n").unwrap_err()
+        );
+        assert!(e.contains("translate") && e.contains("finite"), "{e}");
+        let e = format!(
+            "{:#}",
+            parse("[[object]]\nmesh = \"missing.obj\"\n").unwrap_err()
+        );
+        assert!(e.contains("missing.obj"), "{e}");
+        let e = format!(
+            "{:#}",
+            parse("[[object]]\nprimitive = \"box\"\nrole = \"receiver\"\n").unwrap_err()
+        );
+        assert!(e.contains("casts"), "{e}");
+    }
+}

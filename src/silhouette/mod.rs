@@ -119,7 +119,7 @@ impl Adjacency {
     /// Fails on an index count that is not a multiple of 3, an out-of-range index, a
     /// non-finite position, or more than `u32::MAX` elements.
     pub fn build(mesh: &Mesh) -> Result<Adjacency> {
-        if mesh.indices.len() % 3 != 0 {
+        if !mesh.indices.len().is_multiple_of(3) {
             bail!("index count {} is not a multiple of 3", mesh.indices.len());
         }
         if mesh.positions.len() >= u32::MAX as usize || mesh.indices.len() / 3 >= u32::MAX as usize
@@ -276,8 +276,8 @@ fn face_normal(positions: &[Vec3], t: &[u32; 3]) -> (Vec3, bool) {
         .max(e1.length_squared())
         .max(e2.length_squared());
     let len = cr.length();
-    // The comparison also rejects NaN/Inf (from overflowing coordinates): never a NaN normal.
-    if !(len > DEGENERATE_SIN * lmax2) || !len.is_finite() {
+    // NaN/Inf (from overflowing coordinates) count as degenerate: never a NaN normal.
+    if !len.is_finite() || !lmax2.is_finite() || len <= DEGENERATE_SIN * lmax2 {
         return (Vec3::ZERO, true);
     }
     (cr / len, false)

@@ -38,8 +38,10 @@
 //!   t, with spokes at every d_i and at n_t (gaps split into <= 30 degree segments). That fan
 //!   contains each of the paper's triangles (its chord lies inside the sector between its
 //!   spokes), so it covers the paper's area plus the gaps between edges. Wedges pointing into
-//!   the blocker are not skipped: a smoothie over its own blocker has b ~ r, which the alpha
-//!   correction treats as fully lit/umbra anyway, and min blending hides the overdraw.
+//!   the blocker are not skipped: there the receiver is the blocker itself, b ~ r, and the
+//!   alpha correction alpha / (1 - b/r) saturates to 1 (no extra shadow); min blending makes
+//!   the overdraw harmless.
+//!
 //! Corner vertices have `kind = 1`, `anchor = s` (vertex uv), `dir = [0, 0]`:
 //! alpha = |uv - s| / t.
 //!
@@ -192,7 +194,8 @@ fn build_edge(adj: &Adjacency, pr: &Projector, e: &SilhouetteEdge, t: f32) -> Op
     let (s1, z1) = pr.project(pb)?;
     let along = s1 - s0;
     let len = along.length();
-    if !(len > 1e-9) {
+    // Also catches NaN.
+    if len.is_nan() || len <= 1e-9 {
         return None;
     }
     // Left perpendicular of a -> b; flipped below when the blocker is on the right.

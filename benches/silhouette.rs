@@ -1,6 +1,6 @@
 //! Silhouette benchmarks: adjacency build once per mesh, then per light `extract` (parallel
 //! and serial) and `build_smoothies`, on procedural meshes built here (a UV sphere of ~10k
-//! and ~50k triangles, a torus of ~50k) so the bench does not depend on the scene module's
+//! and ~50k triangles, a torus of ~50k; a ~1M-triangle sphere for the adjacency build) so the bench does not depend on the scene module's
 //! primitives. Sample sizes are small so the whole bench finishes in well under a minute.
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion};
@@ -104,6 +104,17 @@ fn bench(c: &mut Criterion) {
                 let sil = extract(black_box(&adj), model, light.position);
                 build_smoothies(&adj, &sil, model, &light, 0.05)
             })
+        });
+    }
+    // The design's dense-1m scene: only the once-per-mesh adjacency build and one extract.
+    let big = sphere(707, 708);
+    eprintln!("sphere_1m: {} triangles", big.indices.len() / 3);
+    g.bench_function(BenchmarkId::new("adjacency_build", "sphere_1m"), |b| {
+        b.iter(|| Adjacency::build(black_box(&big)))
+    });
+    if let Ok(adj) = Adjacency::build(&big) {
+        g.bench_function(BenchmarkId::new("extract", "sphere_1m"), |b| {
+            b.iter(|| extract(black_box(&adj), model, light.position))
         });
     }
     g.finish();

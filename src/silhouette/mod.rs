@@ -379,8 +379,10 @@ fn light_in_object(model: Mat4, light_pos_world: Vec3) -> (Vec3, bool) {
 /// `light_pos_world`, sorted by edge index. Parallel over faces, then over edges.
 pub fn extract(adj: &Adjacency, model: Mat4, light_pos_world: Vec3) -> Vec<SilhouetteEdge> {
     let (l, mirror) = light_in_object(model, light_pos_world);
+    // Chunks of >= 4096 items: below that the per-task cost exceeds the work.
     let facings: Vec<u8> = (0..adj.num_faces())
         .into_par_iter()
+        .with_min_len(4096)
         .map(|f| facing(adj, f, l))
         .collect();
     // Rayon's collect into a Vec keeps the source order, so the output stays sorted.

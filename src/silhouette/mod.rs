@@ -9,8 +9,8 @@
 //! saying whether the face's winding runs `v[0] -> v[1]` (`v[0] < v[1]`) or the reverse.
 //! Faces whose welded corners repeat, or whose area is zero relative to their size, are
 //! flagged degenerate: they get a zero normal, take part in no facing test, and an edge that
-//! only degenerate faces use is never a silhouette. Edges are numbered in order of first use
-//! while scanning the triangles, so the numbering is deterministic.
+//! only degenerate faces use is never a silhouette. Edges are numbered in (lower, higher)
+//! welded-vertex order, so the numbering is deterministic; each edge's faces are in face order.
 //!
 //! # Extraction ([`extract`])
 //! The light is moved into object space once; face `f` faces the light iff
@@ -46,8 +46,18 @@ struct FxHasher(u64);
 
 impl Hasher for FxHasher {
     fn write(&mut self, bytes: &[u8]) {
-        for &b in bytes {
-            self.write_u64(u64::from(b));
+        // Whole 8-byte words at a time: `[u32; 3]` keys arrive here as 12 raw bytes.
+        let mut words = bytes.chunks_exact(8);
+        for w in &mut words {
+            let mut b = [0u8; 8];
+            b.copy_from_slice(w);
+            self.write_u64(u64::from_le_bytes(b));
+        }
+        let tail = words.remainder();
+        if !tail.is_empty() {
+            let mut b = [0u8; 8];
+            b[..tail.len()].copy_from_slice(tail);
+            self.write_u64(u64::from_le_bytes(b));
         }
     }
     fn write_u32(&mut self, v: u32) {
@@ -103,7 +113,7 @@ pub struct Adjacency {
     pub face_normals: Vec<Vec3>,
     /// Per face: zero area or repeated welded corner. Ignored by facing tests.
     pub degenerate: Vec<bool>,
-    /// Unique undirected edges, numbered in order of first use.
+    /// Unique undirected edges, sorted by (v[0], v[1]).
     pub edges: Vec<Edge>,
     /// CSR offsets into `edge_face_list`, `edges.len() + 1` entries.
     edge_face_start: Vec<u32>,
@@ -122,8 +132,8 @@ impl Adjacency {
         if !mesh.indices.len().is_multiple_of(3) {
             bail!("index count {} is not a multiple of 3", mesh.indices.len());
         }
-        if mesh.positions.len() >= u32::MAX as usize || mesh.indices.len() / 3 >= u32::MAX as usize
-        {
+        // Corner numbers (3 * face + k) must fit in 32 bits.
+        if mesh.positions.len() >= u32::MAX as usize || mesh.indices.len() >= u32::MAX as usize {
             bail!("mesh too large for u32 indices");
         }
         if let Some(i) = mesh.positions.iter().position(|p| !p.is_finite()) {
@@ -165,62 +175,68 @@ impl Adjacency {
             .map(|t| face_normal(&positions, t))
             .unzip();
 
-        // Edges: one hash lookup per face corner; the per-corner edge ids are remembered so
-        // the CSR face lists can be filled afterwards in face order (deterministic).
-        let mut edge_map: FxMap<u64, u32> = FxMap::default();
-        edge_map.reserve(triangles.len() * 3 / 2 + 16);
-        let mut edges: Vec<Edge> = Vec::with_capacity(triangles.len() * 3 / 2 + 16);
-        let mut counts: Vec<u32> = Vec::with_capacity(edges.capacity());
-        // u32::MAX marks a collapsed corner edge (both ends welded together): not an edge.
-        let mut corner_edge = vec![u32::MAX; triangles.len() * 3];
-        for (f, t) in triangles.iter().enumerate() {
+        // Edges by a counting sort on the smaller welded vertex: bucket `lo` holds
+        // `hi << 32 | corner` for every corner whose edge is (lo, hi). Sorting the (small)
+        // buckets groups each edge's corners in face order. This streams through memory
+        // instead of paying a random hash probe per corner, which made a HashMap version
+        // about 3x slower at 1M faces; edges come out ordered by (lo, hi), deterministically.
+        let nv = positions.len();
+        let corner_edge = |t: &[u32; 3], k: usize| {
+            let (p, q) = (t[k], t[(k + 1) % 3]);
+            // A corner whose ends welded together is no edge.
+            (p != q).then(|| if p < q { (p, q) } else { (q, p) })
+        };
+        let mut start = vec![0u32; nv + 1];
+        for t in &triangles {
             for k in 0..3 {
-                let (p, q) = (t[k], t[(k + 1) % 3]);
-                if p == q {
-                    continue;
+                if let Some((lo, _)) = corner_edge(t, k) {
+                    start[lo as usize + 1] += 1;
                 }
-                let (lo, hi) = if p < q { (p, q) } else { (q, p) };
-                let key = (u64::from(lo) << 32) | u64::from(hi);
-                let id = *edge_map.entry(key).or_insert_with(|| {
-                    edges.push(Edge { v: [lo, hi] });
-                    counts.push(0);
-                    (edges.len() - 1) as u32
-                });
-                counts[id as usize] += 1;
-                corner_edge[3 * f + k] = id;
             }
         }
-        drop(edge_map);
-
-        let mut edge_face_start = Vec::with_capacity(edges.len() + 1);
-        let mut acc = 0u32;
-        edge_face_start.push(0);
-        for c in &counts {
-            acc += c;
-            edge_face_start.push(acc);
+        for v in 0..nv {
+            start[v + 1] += start[v];
         }
-        let mut fill: Vec<u32> = edge_face_start[..edges.len()].to_vec();
-        let mut edge_face_list = vec![
-            EdgeFace {
-                face: 0,
-                forward: false
-            };
-            acc as usize
-        ];
-        for (f, t) in triangles.iter().enumerate() {
-            for k in 0..3 {
-                let id = corner_edge[3 * f + k];
-                if id == u32::MAX {
-                    continue;
+        let mut entries = vec![0u64; start[nv] as usize];
+        {
+            let mut fill: Vec<u32> = start[..nv].to_vec();
+            for (f, t) in triangles.iter().enumerate() {
+                for k in 0..3 {
+                    if let Some((lo, hi)) = corner_edge(t, k) {
+                        let slot = &mut fill[lo as usize];
+                        entries[*slot as usize] = (u64::from(hi) << 32) | (3 * f + k) as u64;
+                        *slot += 1;
+                    }
                 }
-                let slot = &mut fill[id as usize];
-                edge_face_list[*slot as usize] = EdgeFace {
+            }
+        }
+        sort_buckets(&mut entries, &start);
+
+        let mut edges: Vec<Edge> = Vec::with_capacity(entries.len() / 2 + 1);
+        let mut edge_face_start: Vec<u32> = Vec::with_capacity(entries.len() / 2 + 2);
+        let mut edge_face_list: Vec<EdgeFace> = Vec::with_capacity(entries.len());
+        for lo in 0..nv {
+            let bucket = &entries[start[lo] as usize..start[lo + 1] as usize];
+            let mut prev_hi = None;
+            for &entry in bucket {
+                let hi = (entry >> 32) as u32;
+                if prev_hi != Some(hi) {
+                    edges.push(Edge {
+                        v: [lo as u32, hi],
+                    });
+                    edge_face_start.push(edge_face_list.len() as u32);
+                    prev_hi = Some(hi);
+                }
+                let c = (entry & 0xffff_ffff) as usize;
+                let (f, k) = (c / 3, c % 3);
+                let t = triangles[f];
+                edge_face_list.push(EdgeFace {
                     face: f as u32,
                     forward: t[k] < t[(k + 1) % 3],
-                };
-                *slot += 1;
+                });
             }
         }
+        edge_face_start.push(edge_face_list.len() as u32);
 
         Ok(Adjacency {
             positions,
@@ -253,6 +269,28 @@ impl Adjacency {
     pub fn num_faces(&self) -> usize {
         self.triangles.len()
     }
+}
+
+/// Sorts each bucket `entries[start[v]..start[v + 1]]`, in parallel over vertex ranges.
+fn sort_buckets(entries: &mut [u64], start: &[u32]) {
+    let nv = start.len() - 1;
+    let step = nv.div_ceil(64).max(1024);
+    let mut jobs = Vec::new();
+    let mut rest = entries;
+    let mut v0 = 0;
+    while v0 < nv {
+        let v1 = (v0 + step).min(nv);
+        let (head, tail) = rest.split_at_mut((start[v1] - start[v0]) as usize);
+        jobs.push((v0, v1, head));
+        rest = tail;
+        v0 = v1;
+    }
+    jobs.into_par_iter().for_each(|(v0, v1, chunk)| {
+        let base = start[v0];
+        for v in v0..v1 {
+            chunk[(start[v] - base) as usize..(start[v + 1] - base) as usize].sort_unstable();
+        }
+    });
 }
 
 fn kind_of(valid_faces: usize) -> Option<EdgeKind> {

@@ -1,2 +1,797 @@
 //! CPU silhouettes: an edge -> triangle adjacency built once per mesh, and per light a
 //! brute-force, parallel pass over the edges.
+//!
+//! # Adjacency ([`Adjacency::build`])
+//! Positions are welded by exact value (`-0.0` and `0.0` are the same point) because meshes
+//! may be split for flat shading; without welding every edge of a flat-shaded mesh would look
+//! like an open boundary. Triangles are re-indexed into the welded vertices, and every
+//! undirected welded edge gets the list of faces that use it, each with a `forward` flag
+//! saying whether the face's winding runs `v[0] -> v[1]` (`v[0] < v[1]`) or the reverse.
+//! Faces whose welded corners repeat, or whose area is zero relative to their size, are
+//! flagged degenerate: they get a zero normal, take part in no facing test, and an edge that
+//! only degenerate faces use is never a silhouette. Edges are numbered in (lower, higher)
+//! welded-vertex order, so the numbering is deterministic; each edge's faces are in face order.
+//!
+//! # Extraction ([`extract`])
+//! The light is moved into object space once; face `f` faces the light iff
+//! `dot(n_f, L - p_f) > 0` (`p_f` = its first welded corner). With only non-degenerate faces
+//! counted, an edge is a silhouette when
+//! - it has 2 faces (manifold) and exactly one of them faces the light;
+//! - it has 1 face (boundary): always, the rim of an open mesh outlines its shadow;
+//! - it has 3 or more faces (non-manifold): its faces disagree in facing.
+//!
+//! # Orientation convention of [`SilhouetteEdge`]
+//! `front_face` is a light-facing face of the edge (the lowest-numbered one), or, for a
+//! boundary edge whose only face looks away from the light, that face. `a -> b` runs along
+//! `front_face`'s winding when it faces the light and against it otherwise. Seen from the
+//! light, in light-screen uv (x right, y up, see `LightView`), `front_face` therefore lies to
+//! the LEFT of `a -> b` and the outside of the silhouette is to the RIGHT. Model matrices with
+//! a negative determinant (mirrors) are accounted for by swapping `a` and `b`.
+
+use crate::scene::Mesh;
+use anyhow::{bail, Result};
+use glam::{Mat4, Vec3};
+use rayon::prelude::*;
+use std::collections::HashMap;
+use std::hash::{BuildHasherDefault, Hasher};
+
+pub mod smoothie;
+
+pub use smoothie::{build_smoothies, SmoothieGeometry, SmoothieVertex};
+
+/// Multiplicative (Fx-style) hasher: the keys are small integers built from our own data, so
+/// HashDoS resistance is irrelevant, and SipHash would dominate the build time of big meshes.
+#[derive(Default, Clone, Copy)]
+struct FxHasher(u64);
+
+impl Hasher for FxHasher {
+    fn write(&mut self, bytes: &[u8]) {
+        // Whole 8-byte words at a time: `[u32; 3]` keys arrive here as 12 raw bytes.
+        let mut words = bytes.chunks_exact(8);
+        for w in &mut words {
+            let mut b = [0u8; 8];
+            b.copy_from_slice(w);
+            self.write_u64(u64::from_le_bytes(b));
+        }
+        let tail = words.remainder();
+        if !tail.is_empty() {
+            let mut b = [0u8; 8];
+            b[..tail.len()].copy_from_slice(tail);
+            self.write_u64(u64::from_le_bytes(b));
+        }
+    }
+    fn write_u32(&mut self, v: u32) {
+        self.write_u64(u64::from(v));
+    }
+    fn write_u64(&mut self, v: u64) {
+        self.0 = (self.0.rotate_left(5) ^ v).wrapping_mul(0x51_7c_c1_b7_27_22_0a_95);
+    }
+    fn finish(&self) -> u64 {
+        // Fold the high bits down: hashbrown takes its bucket from the low bits and its tag
+        // from the top 7 bits, and the multiply leaves the low bits weakly mixed.
+        self.0 ^ (self.0 >> 29)
+    }
+}
+
+type FxMap<K, V> = HashMap<K, V, BuildHasherDefault<FxHasher>>;
+
+/// One face as seen from one undirected edge.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct EdgeFace {
+    /// Face (triangle) index, as in `Mesh::indices[3 * face..]`.
+    pub face: u32,
+    /// True when the face's winding traverses the edge `v[0] -> v[1]`.
+    pub forward: bool,
+}
+
+/// An undirected welded edge, `v[0] < v[1]`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Edge {
+    pub v: [u32; 2],
+}
+
+/// What an edge is, counting only its non-degenerate faces.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum EdgeKind {
+    /// Exactly two faces.
+    Manifold,
+    /// One face: the rim of an open surface.
+    Boundary,
+    /// Three or more faces.
+    NonManifold,
+}
+
+/// Edge -> face adjacency of one mesh, in object space. Built once per mesh.
+#[derive(Clone, Debug, Default)]
+pub struct Adjacency {
+    /// Welded object-space positions.
+    pub positions: Vec<Vec3>,
+    /// Per face (same order as the mesh's triangles): welded corner indices.
+    pub triangles: Vec<[u32; 3]>,
+    /// Per face: unit object-space normal by the right-hand rule over the winding; zero when
+    /// degenerate.
+    pub face_normals: Vec<Vec3>,
+    /// Per face: zero area or repeated welded corner. Ignored by facing tests.
+    pub degenerate: Vec<bool>,
+    /// Unique undirected edges, sorted by (v[0], v[1]).
+    pub edges: Vec<Edge>,
+    /// CSR offsets into `edge_face_list`, `edges.len() + 1` entries.
+    edge_face_start: Vec<u32>,
+    edge_face_list: Vec<EdgeFace>,
+}
+
+/// A face is degenerate when |e0 x e1| <= this * max|e|^2, i.e. its smallest angle is below
+/// ~1e-6 rad: such faces' normals are noise, and a facing test on them would be random.
+const DEGENERATE_SIN: f32 = 1e-6;
+
+impl Adjacency {
+    /// Welds positions, re-indexes faces, computes face normals and the edge -> faces lists.
+    /// Fails on an index count that is not a multiple of 3, an out-of-range index, a
+    /// non-finite position, or more than `u32::MAX` elements.
+    pub fn build(mesh: &Mesh) -> Result<Adjacency> {
+        if !mesh.indices.len().is_multiple_of(3) {
+            bail!("index count {} is not a multiple of 3", mesh.indices.len());
+        }
+        // Corner numbers (3 * face + k) must fit in 32 bits.
+        if mesh.positions.len() >= u32::MAX as usize || mesh.indices.len() >= u32::MAX as usize {
+            bail!("mesh too large for u32 indices");
+        }
+        if let Some(i) = mesh.positions.iter().position(|p| !p.is_finite()) {
+            bail!("position {i} is not finite: {:?}", mesh.positions[i]);
+        }
+
+        // Weld by exact bit pattern; `+ 0.0` turns -0.0 into +0.0 so both weld together.
+        let mut weld: FxMap<[u32; 3], u32> = FxMap::default();
+        weld.reserve(mesh.positions.len());
+        let mut positions = Vec::new();
+        let mut remap = Vec::with_capacity(mesh.positions.len());
+        for p in &mesh.positions {
+            let q = *p + Vec3::ZERO;
+            let key = [q.x.to_bits(), q.y.to_bits(), q.z.to_bits()];
+            let id = *weld.entry(key).or_insert_with(|| {
+                positions.push(q);
+                (positions.len() - 1) as u32
+            });
+            remap.push(id);
+        }
+        drop(weld);
+
+        let n_pos = mesh.positions.len();
+        let mut triangles = Vec::with_capacity(mesh.indices.len() / 3);
+        for (f, tri) in mesh.indices.chunks_exact(3).enumerate() {
+            let mut w = [0u32; 3];
+            for k in 0..3 {
+                let i = tri[k] as usize;
+                if i >= n_pos {
+                    bail!("face {f}: index {i} out of range ({n_pos} positions)");
+                }
+                w[k] = remap[i];
+            }
+            triangles.push(w);
+        }
+
+        let (face_normals, degenerate): (Vec<Vec3>, Vec<bool>) = triangles
+            .par_iter()
+            .map(|t| face_normal(&positions, t))
+            .unzip();
+
+        // Edges by a counting sort on the smaller welded vertex: bucket `lo` holds
+        // `hi << 32 | corner` for every corner whose edge is (lo, hi). Sorting the (small)
+        // buckets groups each edge's corners in face order. This streams through memory
+        // instead of paying a random hash probe per corner, which made a HashMap version
+        // about 3x slower at 1M faces; edges come out ordered by (lo, hi), deterministically.
+        let nv = positions.len();
+        let corner_edge = |t: &[u32; 3], k: usize| {
+            let (p, q) = (t[k], t[(k + 1) % 3]);
+            // A corner whose ends welded together is no edge.
+            (p != q).then(|| if p < q { (p, q) } else { (q, p) })
+        };
+        let mut start = vec![0u32; nv + 1];
+        for t in &triangles {
+            for k in 0..3 {
+                if let Some((lo, _)) = corner_edge(t, k) {
+                    start[lo as usize + 1] += 1;
+                }
+            }
+        }
+        for v in 0..nv {
+            start[v + 1] += start[v];
+        }
+        let mut entries = vec![0u64; start[nv] as usize];
+        {
+            let mut fill: Vec<u32> = start[..nv].to_vec();
+            for (f, t) in triangles.iter().enumerate() {
+                for k in 0..3 {
+                    if let Some((lo, hi)) = corner_edge(t, k) {
+                        let slot = &mut fill[lo as usize];
+                        entries[*slot as usize] = (u64::from(hi) << 32) | (3 * f + k) as u64;
+                        *slot += 1;
+                    }
+                }
+            }
+        }
+        sort_buckets(&mut entries, &start);
+
+        let mut edges: Vec<Edge> = Vec::with_capacity(entries.len() / 2 + 1);
+        let mut edge_face_start: Vec<u32> = Vec::with_capacity(entries.len() / 2 + 2);
+        let mut edge_face_list: Vec<EdgeFace> = Vec::with_capacity(entries.len());
+        for lo in 0..nv {
+            let bucket = &entries[start[lo] as usize..start[lo + 1] as usize];
+            let mut prev_hi = None;
+            for &entry in bucket {
+                let hi = (entry >> 32) as u32;
+                if prev_hi != Some(hi) {
+                    edges.push(Edge {
+                        v: [lo as u32, hi],
+                    });
+                    edge_face_start.push(edge_face_list.len() as u32);
+                    prev_hi = Some(hi);
+                }
+                let c = (entry & 0xffff_ffff) as usize;
+                let (f, k) = (c / 3, c % 3);
+                let t = triangles[f];
+                edge_face_list.push(EdgeFace {
+                    face: f as u32,
+                    forward: t[k] < t[(k + 1) % 3],
+                });
+            }
+        }
+        edge_face_start.push(edge_face_list.len() as u32);
+
+        Ok(Adjacency {
+            positions,
+            triangles,
+            face_normals,
+            degenerate,
+            edges,
+            edge_face_start,
+            edge_face_list,
+        })
+    }
+
+    /// All faces (degenerate ones included) using edge `e`, in face order.
+    pub fn edge_faces(&self, e: usize) -> &[EdgeFace] {
+        let s = self.edge_face_start[e] as usize;
+        let t = self.edge_face_start[e + 1] as usize;
+        &self.edge_face_list[s..t]
+    }
+
+    /// Kind of edge `e` counting only non-degenerate faces; `None` when it has none.
+    pub fn edge_kind(&self, e: usize) -> Option<EdgeKind> {
+        let n = self
+            .edge_faces(e)
+            .iter()
+            .filter(|ef| !self.degenerate[ef.face as usize])
+            .count();
+        kind_of(n)
+    }
+
+    pub fn num_faces(&self) -> usize {
+        self.triangles.len()
+    }
+}
+
+/// Sorts each bucket `entries[start[v]..start[v + 1]]`, in parallel over vertex ranges.
+fn sort_buckets(entries: &mut [u64], start: &[u32]) {
+    let nv = start.len() - 1;
+    let step = nv.div_ceil(64).max(1024);
+    let mut jobs = Vec::new();
+    let mut rest = entries;
+    let mut v0 = 0;
+    while v0 < nv {
+        let v1 = (v0 + step).min(nv);
+        let (head, tail) = rest.split_at_mut((start[v1] - start[v0]) as usize);
+        jobs.push((v0, v1, head));
+        rest = tail;
+        v0 = v1;
+    }
+    jobs.into_par_iter().for_each(|(v0, v1, chunk)| {
+        let base = start[v0];
+        for v in v0..v1 {
+            chunk[(start[v] - base) as usize..(start[v + 1] - base) as usize].sort_unstable();
+        }
+    });
+}
+
+fn kind_of(valid_faces: usize) -> Option<EdgeKind> {
+    match valid_faces {
+        0 => None,
+        1 => Some(EdgeKind::Boundary),
+        2 => Some(EdgeKind::Manifold),
+        _ => Some(EdgeKind::NonManifold),
+    }
+}
+
+fn face_normal(positions: &[Vec3], t: &[u32; 3]) -> (Vec3, bool) {
+    if t[0] == t[1] || t[1] == t[2] || t[2] == t[0] {
+        return (Vec3::ZERO, true);
+    }
+    let [a, b, c] = t.map(|i| positions[i as usize]);
+    let (e0, e1, e2) = (b - a, c - a, c - b);
+    let cr = e0.cross(e1);
+    let lmax2 = e0
+        .length_squared()
+        .max(e1.length_squared())
+        .max(e2.length_squared());
+    let len = cr.length();
+    // NaN/Inf (from overflowing coordinates) count as degenerate: never a NaN normal.
+    if !len.is_finite() || !lmax2.is_finite() || len <= DEGENERATE_SIN * lmax2 {
+        return (Vec3::ZERO, true);
+    }
+    (cr / len, false)
+}
+
+/// A silhouette edge, oriented so that, seen from the light, `front_face` lies to the left of
+/// `a -> b` in light-screen uv (x right, y up) and the outside is to the right.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct SilhouetteEdge {
+    /// Index into `Adjacency::edges`.
+    pub edge: u32,
+    /// Welded vertex indices (into `Adjacency::positions`).
+    pub a: u32,
+    pub b: u32,
+    pub kind: EdgeKind,
+    /// The light-facing face (lowest index), or a boundary edge's only face if it faces away.
+    pub front_face: u32,
+}
+
+/// Per face: 0 faces away, 1 faces the light, 2 degenerate.
+const BACK: u8 = 0;
+const FRONT: u8 = 1;
+const DEGEN: u8 = 2;
+
+fn facing(adj: &Adjacency, f: usize, light_obj: Vec3) -> u8 {
+    if adj.degenerate[f] {
+        return DEGEN;
+    }
+    let p = adj.positions[adj.triangles[f][0] as usize];
+    if adj.face_normals[f].dot(light_obj - p) > 0.0 {
+        FRONT
+    } else {
+        BACK
+    }
+}
+
+fn classify(adj: &Adjacency, e: usize, facings: &[u8], mirror: bool) -> Option<SilhouetteEdge> {
+    let faces = adj.edge_faces(e);
+    let mut valid = 0usize;
+    let mut n_front = 0usize;
+    let mut first_front: Option<EdgeFace> = None;
+    let mut first_valid: Option<EdgeFace> = None;
+    for ef in faces {
+        match facings[ef.face as usize] {
+            FRONT => {
+                valid += 1;
+                n_front += 1;
+                first_front.get_or_insert(*ef);
+                first_valid.get_or_insert(*ef);
+            }
+            BACK => {
+                valid += 1;
+                first_valid.get_or_insert(*ef);
+            }
+            _ => {}
+        }
+    }
+    let kind = kind_of(valid)?;
+    let is_sil = match kind {
+        EdgeKind::Boundary => true,
+        EdgeKind::Manifold | EdgeKind::NonManifold => n_front > 0 && n_front < valid,
+    };
+    if !is_sil {
+        return None;
+    }
+    // Along the front face's winding; a back-facing boundary face is traversed backwards so
+    // that it, too, lies to the left as seen from the light.
+    let (ef, along) = match first_front {
+        Some(ef) => (ef, ef.forward),
+        None => {
+            let ef = first_valid?;
+            (ef, !ef.forward)
+        }
+    };
+    let [lo, hi] = adj.edges[e].v;
+    let (mut a, mut b) = if along { (lo, hi) } else { (hi, lo) };
+    if mirror {
+        std::mem::swap(&mut a, &mut b);
+    }
+    Some(SilhouetteEdge {
+        edge: e as u32,
+        a,
+        b,
+        kind,
+        front_face: ef.face,
+    })
+}
+
+fn light_in_object(model: Mat4, light_pos_world: Vec3) -> (Vec3, bool) {
+    // A singular model has no object-space light; such an object is flat and casts no
+    // meaningful silhouette, so any finite light position will do.
+    let inv = model.inverse();
+    let l = inv.transform_point3(light_pos_world);
+    let l = if l.is_finite() { l } else { Vec3::ZERO };
+    (l, model.determinant() < 0.0)
+}
+
+/// Silhouette edges of `adj` under `model` (object -> world) for a point light at
+/// `light_pos_world`, sorted by edge index. Parallel over faces, then over edges.
+pub fn extract(adj: &Adjacency, model: Mat4, light_pos_world: Vec3) -> Vec<SilhouetteEdge> {
+    let (l, mirror) = light_in_object(model, light_pos_world);
+    // Chunks of >= 4096 items: below that the per-task cost exceeds the work.
+    let facings: Vec<u8> = (0..adj.num_faces())
+        .into_par_iter()
+        .with_min_len(4096)
+        .map(|f| facing(adj, f, l))
+        .collect();
+    // Rayon's collect into a Vec keeps the source order, so the output stays sorted.
+    (0..adj.edges.len())
+        .into_par_iter()
+        .with_min_len(4096)
+        .filter_map(|e| classify(adj, e, &facings, mirror))
+        .collect()
+}
+
+/// Same result as [`extract`] on one thread (for benchmarks and as a reference).
+pub fn extract_serial(adj: &Adjacency, model: Mat4, light_pos_world: Vec3) -> Vec<SilhouetteEdge> {
+    let (l, mirror) = light_in_object(model, light_pos_world);
+    let facings: Vec<u8> = (0..adj.num_faces()).map(|f| facing(adj, f, l)).collect();
+    (0..adj.edges.len())
+        .filter_map(|e| classify(adj, e, &facings, mirror))
+        .collect()
+}
+
+/// Test meshes shared by this module's and `smoothie`'s tests.
+#[cfg(test)]
+pub(crate) mod test_meshes {
+    use crate::scene::Mesh;
+    use glam::Vec3;
+
+    /// Unit cube [-0.5, 0.5]^3, flat shaded: 24 split positions, outward CCW winding.
+    pub fn cube() -> Mesh {
+        let mut m = Mesh::default();
+        let axes = [Vec3::X, Vec3::Y, Vec3::Z];
+        for (i, &n) in axes.iter().enumerate() {
+            for s in [1.0f32, -1.0] {
+                let n = n * s;
+                let u = axes[(i + 1) % 3] * s;
+                let v = n.cross(u);
+                let base = m.positions.len() as u32;
+                for (a, b) in [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)] {
+                    m.positions.push((n + u * a + v * b) * 0.5);
+                    m.normals.push(n);
+                }
+                m.indices
+                    .extend_from_slice(&[base, base + 1, base + 2, base, base + 2, base + 3]);
+            }
+        }
+        m
+    }
+
+    /// A bumpy UV sphere (radius 1 +- `bump`) with `rings` latitude bands and `segs`
+    /// longitude segments, shared (welded) vertices, single pole vertices, outward winding.
+    pub fn sphere(rings: u32, segs: u32, bump: f32) -> Mesh {
+        let mut m = Mesh::default();
+        let r = |th: f32, ph: f32| 1.0 + bump * (5.0 * th).sin() * (7.0 * ph).sin();
+        m.positions.push(Vec3::Y * r(0.0, 0.0));
+        for i in 1..rings {
+            let th = std::f32::consts::PI * i as f32 / rings as f32;
+            for j in 0..segs {
+                let ph = std::f32::consts::TAU * j as f32 / segs as f32;
+                let d = Vec3::new(th.sin() * ph.cos(), th.cos(), -th.sin() * ph.sin());
+                m.positions.push(d * r(th, ph));
+            }
+        }
+        m.positions.push(-Vec3::Y);
+        m.normals = m.positions.iter().map(|p| p.normalize()).collect();
+        let ring = |i: u32, j: u32| 1 + (i - 1) * segs + j % segs;
+        let last = m.positions.len() as u32 - 1;
+        for j in 0..segs {
+            m.indices
+                .extend_from_slice(&[0, ring(1, j), ring(1, j + 1)]);
+            m.indices
+                .extend_from_slice(&[last, ring(rings - 1, j + 1), ring(rings - 1, j)]);
+        }
+        for i in 1..rings - 1 {
+            for j in 0..segs {
+                let (a, b, c, d) = (
+                    ring(i, j),
+                    ring(i, j + 1),
+                    ring(i + 1, j),
+                    ring(i + 1, j + 1),
+                );
+                m.indices.extend_from_slice(&[a, c, d, a, d, b]);
+            }
+        }
+        m
+    }
+
+    /// Two tetrahedra touching only at the origin, mirrored about x = 0. Lit from straight
+    /// above, each shows only its horizontal top face, so the origin has 4 silhouette edges.
+    pub fn bowtie() -> Mesh {
+        let mut m = Mesh::default();
+        for s in [1.0f32, -1.0] {
+            let p = [
+                Vec3::ZERO,
+                Vec3::new(2.0 * s, -1.0, 0.0),
+                Vec3::new(2.0 * s, 1.0, 0.0),
+                Vec3::new(1.5 * s, 0.0, -1.0),
+            ];
+            let base = m.positions.len() as u32;
+            let centre = (p[0] + p[1] + p[2] + p[3]) / 4.0;
+            for q in p {
+                m.positions.push(q);
+                m.normals.push(Vec3::Z);
+            }
+            for t in [[0u32, 1, 2], [0, 1, 3], [0, 2, 3], [1, 2, 3]] {
+                let [a, b, c] = t.map(|i| p[i as usize]);
+                let n = (b - a).cross(c - a);
+                let t = if n.dot(a - centre) > 0.0 {
+                    t
+                } else {
+                    [t[0], t[2], t[1]]
+                };
+                m.indices.extend(t.map(|i| base + i));
+            }
+        }
+        m
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::test_meshes::{bowtie, cube};
+    use super::*;
+    use std::collections::{BTreeSet, HashMap};
+
+    #[test]
+    fn cube_welds_and_is_closed() {
+        let adj = Adjacency::build(&cube()).unwrap();
+        assert_eq!(adj.positions.len(), 8);
+        assert_eq!(adj.triangles.len(), 12);
+        // 12 cube edges + 6 face diagonals.
+        assert_eq!(adj.edges.len(), 18);
+        for e in 0..adj.edges.len() {
+            assert_eq!(adj.edge_kind(e), Some(EdgeKind::Manifold));
+            let f = adj.edge_faces(e);
+            // Consistent winding: the two faces traverse the edge in opposite directions.
+            assert_ne!(f[0].forward, f[1].forward);
+        }
+        assert!(adj.degenerate.iter().all(|d| !d));
+    }
+
+    #[test]
+    fn cube_corner_light_gives_hexagon() {
+        let adj = Adjacency::build(&cube()).unwrap();
+        let light = Vec3::new(3.0, 2.5, 2.2);
+        let sil = extract(&adj, Mat4::IDENTITY, light);
+        assert_eq!(sil.len(), 6);
+        // Expected: cube edges between a +axis face (visible) and a -axis face of another axis.
+        let mut expected = BTreeSet::new();
+        for e in &adj.edges {
+            let (p, q) = (
+                adj.positions[e.v[0] as usize],
+                adj.positions[e.v[1] as usize],
+            );
+            let m = (p + q) * 0.5;
+            // Cube edges have exactly two coordinates at +-0.5 at their midpoint.
+            let ax: Vec<usize> = (0..3).filter(|&i| m[i].abs() == 0.5).collect();
+            if ax.len() == 2 && (m[ax[0]] > 0.0) != (m[ax[1]] > 0.0) {
+                expected.insert(e.v);
+            }
+        }
+        assert_eq!(expected.len(), 6);
+        let got: BTreeSet<[u32; 2]> = sil.iter().map(|s| adj.edges[s.edge as usize].v).collect();
+        assert_eq!(got, expected);
+        // Loop: every silhouette vertex has degree 2; edges sorted by index.
+        let mut deg: HashMap<u32, usize> = HashMap::new();
+        for s in &sil {
+            *deg.entry(s.a).or_default() += 1;
+            *deg.entry(s.b).or_default() += 1;
+            assert_eq!(s.kind, EdgeKind::Manifold);
+        }
+        assert!(deg.values().all(|&d| d == 2));
+        assert!(sil.windows(2).all(|w| w[0].edge < w[1].edge));
+        // Consistent orientation: each vertex is the `a` of one edge and the `b` of another.
+        let a_set: BTreeSet<u32> = sil.iter().map(|s| s.a).collect();
+        let b_set: BTreeSet<u32> = sil.iter().map(|s| s.b).collect();
+        assert_eq!(a_set, b_set);
+        // front_face faces the light and traverses a -> b.
+        for s in &sil {
+            let f = s.front_face as usize;
+            let p = adj.positions[adj.triangles[f][0] as usize];
+            assert!(adj.face_normals[f].dot(light - p) > 0.0);
+            let t = adj.triangles[f];
+            assert!((0..3).any(|k| t[k] == s.a && t[(k + 1) % 3] == s.b));
+        }
+    }
+
+    #[test]
+    fn transformed_cube_matches_object_space_light() {
+        let adj = Adjacency::build(&cube()).unwrap();
+        let model = Mat4::from_scale_rotation_translation(
+            Vec3::new(2.0, 0.5, 1.5),
+            glam::Quat::from_rotation_y(0.7),
+            Vec3::new(5.0, -1.0, 2.0),
+        );
+        let light_obj = Vec3::new(3.0, 2.5, 2.2);
+        let a = extract(&adj, model, model.transform_point3(light_obj));
+        let b = extract(&adj, Mat4::IDENTITY, light_obj);
+        assert_eq!(a, b);
+        // A mirror keeps the edge set but swaps a and b, keeping the screen-space convention.
+        let mirror = Mat4::from_scale(Vec3::new(-1.0, 1.0, 1.0));
+        let c = extract(&adj, mirror, mirror.transform_point3(light_obj));
+        assert_eq!(c.len(), b.len());
+        for (x, y) in c.iter().zip(&b) {
+            assert_eq!((x.edge, x.a, x.b), (y.edge, y.b, y.a));
+        }
+    }
+
+    #[test]
+    fn open_quad_boundary_edges_are_silhouettes() {
+        let mesh = Mesh {
+            positions: vec![
+                Vec3::new(0.0, 0.0, 0.0),
+                Vec3::new(1.0, 0.0, 0.0),
+                Vec3::new(1.0, 1.0, 0.0),
+                Vec3::new(0.0, 1.0, 0.0),
+            ],
+            normals: vec![Vec3::Z; 4],
+            indices: vec![0, 1, 2, 0, 2, 3],
+        };
+        let adj = Adjacency::build(&mesh).unwrap();
+        assert_eq!(adj.edges.len(), 5);
+        for light in [Vec3::new(0.3, 0.4, 5.0), Vec3::new(0.3, 0.4, -5.0)] {
+            let sil = extract(&adj, Mat4::IDENTITY, light);
+            assert_eq!(sil.len(), 4, "light {light}");
+            assert!(sil.iter().all(|s| s.kind == EdgeKind::Boundary));
+            // Orientation: around the rim consistently.
+            let a: BTreeSet<u32> = sil.iter().map(|s| s.a).collect();
+            let b: BTreeSet<u32> = sil.iter().map(|s| s.b).collect();
+            assert_eq!(a, b);
+            // From above (+z, CCW face facing the light) a->b follows the winding; from below
+            // it runs against it, so the face is on the left as seen from the light each time.
+            let s0 = sil
+                .iter()
+                .find(|s| adj.edges[s.edge as usize].v == [0, 1])
+                .unwrap();
+            if light.z > 0.0 {
+                assert_eq!((s0.a, s0.b), (0, 1));
+            } else {
+                assert_eq!((s0.a, s0.b), (1, 0));
+            }
+        }
+    }
+
+    #[test]
+    fn non_manifold_fin() {
+        // Three triangles sharing the edge (0,0,0)-(0,0,1): fins towards +x, +y and -x.
+        let mesh = Mesh {
+            positions: vec![
+                Vec3::new(0.0, 0.0, 0.0),
+                Vec3::new(0.0, 0.0, 1.0),
+                Vec3::new(1.0, 0.0, 0.5),
+                Vec3::new(0.0, 1.0, 0.5),
+                Vec3::new(-1.0, 0.0, 0.5),
+            ],
+            normals: vec![Vec3::Z; 5],
+            indices: vec![0, 1, 2, 0, 1, 3, 0, 1, 4],
+        };
+        let adj = Adjacency::build(&mesh).unwrap();
+        let shared = adj.edges.iter().position(|e| e.v == [0, 1]).unwrap();
+        assert_eq!(adj.edge_kind(shared), Some(EdgeKind::NonManifold));
+        assert_eq!(adj.edge_faces(shared).len(), 3);
+        // The +x fin's normal is +y, the -x fin's -y, the +y fin's +-x: a light on the +y side
+        // splits them.
+        let light = Vec3::new(0.5, 3.0, 0.5);
+        let facing: Vec<bool> = (0..3)
+            .map(|f| {
+                adj.face_normals[f].dot(light - adj.positions[adj.triangles[f][0] as usize]) > 0.0
+            })
+            .collect();
+        let sil = extract(&adj, Mat4::IDENTITY, light);
+        let on = sil.iter().find(|s| s.edge as usize == shared);
+        let disagree = facing.iter().any(|&x| x) && facing.iter().any(|&x| !x);
+        assert!(
+            disagree,
+            "test set-up: the fins must disagree, got {facing:?}"
+        );
+        let s = on.expect("non-manifold edge with disagreeing faces is a silhouette");
+        assert_eq!(s.kind, EdgeKind::NonManifold);
+        assert!(facing[s.front_face as usize]);
+        // All outer fin edges are boundary silhouettes.
+        assert_eq!(
+            sil.iter().filter(|s| s.kind == EdgeKind::Boundary).count(),
+            6
+        );
+        // Three fins whose normals all agree (+y): never a silhouette, whatever the light.
+        let mesh2 = Mesh {
+            indices: vec![0, 1, 2, 1, 0, 4, 0, 1, 2],
+            ..mesh.clone()
+        };
+        let adj2 = Adjacency::build(&mesh2).unwrap();
+        let shared2 = adj2.edges.iter().position(|e| e.v == [0, 1]).unwrap();
+        assert_eq!(adj2.edge_kind(shared2), Some(EdgeKind::NonManifold));
+        let n0 = adj2.face_normals[0];
+        let n1 = adj2.face_normals[1];
+        assert!(n0.dot(n1) > 0.99);
+        for light in [Vec3::new(0.2, -4.0, 0.5), Vec3::new(0.2, 4.0, 0.5)] {
+            let sil2 = extract(&adj2, Mat4::IDENTITY, light);
+            assert!(sil2.iter().all(|s| s.edge as usize != shared2));
+        }
+    }
+
+    #[test]
+    fn bowtie_vertex_has_four_silhouette_edges() {
+        let adj = Adjacency::build(&bowtie()).unwrap();
+        // The two tetrahedra share only the origin.
+        assert_eq!(adj.positions.len(), 7);
+        assert_eq!(adj.edges.len(), 12);
+        let origin = adj.positions.iter().position(|p| *p == Vec3::ZERO).unwrap() as u32;
+        let sil = extract(&adj, Mat4::IDENTITY, Vec3::new(0.0, 0.0, 10.0));
+        assert_eq!(sil.len(), 6);
+        let deg = sil
+            .iter()
+            .filter(|s| s.a == origin || s.b == origin)
+            .count();
+        assert_eq!(deg, 4);
+        let outs = sil.iter().filter(|s| s.a == origin).count();
+        assert_eq!(outs, 2);
+    }
+
+    #[test]
+    fn degenerate_and_duplicate_vertices() {
+        let mut mesh = cube();
+        let n = mesh.positions.len() as u32;
+        // A duplicate of an existing corner (also with -0.0 style variants of 0), a sliver
+        // with three collinear points and a triangle with a repeated corner.
+        mesh.positions.push(Vec3::new(0.5, 0.5, 0.5));
+        mesh.positions.push(Vec3::new(0.0, 0.0, -0.0));
+        mesh.positions.push(Vec3::new(0.0, 0.0, 0.0));
+        mesh.positions.push(Vec3::new(1.0, 0.0, 0.0));
+        mesh.positions.push(Vec3::new(2.0, 0.0, 0.0));
+        mesh.normals.resize(mesh.positions.len(), Vec3::Z);
+        mesh.indices.extend_from_slice(&[n + 1, n + 3, n + 4]); // collinear sliver
+        mesh.indices.extend_from_slice(&[n, n, 0]); // repeated corner
+        mesh.indices.extend_from_slice(&[n + 1, n + 2, n + 3]); // -0.0 welds with 0.0
+        let adj = Adjacency::build(&mesh).unwrap();
+        assert_eq!(adj.positions.len(), 8 + 3);
+        let nf = adj.num_faces();
+        assert!(adj.degenerate[nf - 3] && adj.degenerate[nf - 2] && adj.degenerate[nf - 1]);
+        assert!(adj.face_normals.iter().all(|n| n.is_finite()));
+        assert_eq!(adj.degenerate.iter().filter(|d| **d).count(), 3);
+        let light = Vec3::new(3.0, 2.5, 2.2);
+        let sil = extract(&adj, Mat4::IDENTITY, light);
+        // Degenerate faces change nothing: the same hexagon as the clean cube.
+        assert_eq!(sil.len(), 6);
+        // The edge between the cube corner and itself was dropped; edges only used by
+        // degenerate faces exist but have no kind.
+        assert!(adj.edges.iter().all(|e| e.v[0] != e.v[1]));
+        assert!((0..adj.edges.len()).any(|e| adj.edge_kind(e).is_none()));
+        assert!(Adjacency::build(&Mesh {
+            indices: vec![0, 1],
+            ..Mesh::default()
+        })
+        .is_err());
+        assert!(Adjacency::build(&Mesh {
+            positions: vec![Vec3::ZERO; 3],
+            indices: vec![0, 1, 3],
+            ..Mesh::default()
+        })
+        .is_err());
+    }
+
+    #[test]
+    fn parallel_equals_serial() {
+        // A bumpy, finely tessellated sphere: many silhouette edges, many rayon splits.
+        let mesh = super::test_meshes::sphere(120, 240, 0.15);
+        let adj = Adjacency::build(&mesh).unwrap();
+        for light in [Vec3::new(3.0, 2.0, 1.0), Vec3::new(-0.2, 0.1, 0.3)] {
+            let model = Mat4::from_rotation_x(0.3);
+            let a = extract(&adj, model, light);
+            let b = extract_serial(&adj, model, light);
+            assert!(!a.is_empty());
+            assert_eq!(a, b);
+            assert_eq!(a, extract(&adj, model, light));
+        }
+    }
+}

@@ -1,0 +1,124 @@
+//! Silhouette benchmarks: adjacency build once per mesh, then per light `extract` (parallel
+//! and serial) and `build_smoothies`, on procedural meshes built here (a UV sphere of ~10k
+//! and ~50k triangles, a torus of ~50k; a ~1M-triangle sphere for the adjacency build) so the bench does not depend on the scene module's
+//! primitives. Sample sizes are small so the whole bench finishes in well under a minute.
+
+use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion};
+use glam::{Mat4, Vec3};
+use softshadow::scene::{Light, LightView, Mesh};
+use softshadow::silhouette::{build_smoothies, extract, extract_serial, Adjacency};
+use std::f32::consts::{PI, TAU};
+use std::hint::black_box;
+use std::time::Duration;
+
+/// Mesh from a (rows + 1) x cols grid of points, wrapped in u; `wrap_v` also wraps rows.
+fn grid(rows: u32, cols: u32, wrap_v: bool, f: impl Fn(f32, f32) -> Vec3) -> Mesh {
+    let vrows = if wrap_v { rows } else { rows + 1 };
+    let mut m = Mesh::default();
+    for i in 0..vrows {
+        for j in 0..cols {
+            let p = f(i as f32 / rows as f32, j as f32 / cols as f32);
+            m.positions.push(p);
+            m.normals.push(p.normalize_or_zero());
+        }
+    }
+    let id = |i: u32, j: u32| (i % vrows) * cols + j % cols;
+    for i in 0..rows {
+        for j in 0..cols {
+            let (a, b, c, d) = (id(i, j), id(i, j + 1), id(i + 1, j), id(i + 1, j + 1));
+            m.indices.extend_from_slice(&[a, c, d, a, d, b]);
+        }
+    }
+    m
+}
+
+/// UV sphere of about `2 * rings * segs` triangles (the poles are degenerate slivers,
+/// which the adjacency flags and skips, as real meshes' poles often are).
+fn sphere(rings: u32, segs: u32) -> Mesh {
+    grid(rings, segs, false, |v, u| {
+        let (th, ph) = (v * PI, u * TAU);
+        Vec3::new(th.sin() * ph.cos(), th.cos(), -th.sin() * ph.sin())
+    })
+}
+
+fn torus(rings: u32, segs: u32) -> Mesh {
+    grid(rings, segs, true, |v, u| {
+        let (a, b) = (v * TAU, u * TAU);
+        let r = 1.0 + 0.35 * a.cos();
+        Vec3::new(r * b.cos(), 0.35 * a.sin(), -r * b.sin())
+    })
+}
+
+fn meshes() -> Vec<(&'static str, Mesh)> {
+    vec![
+        ("sphere_10k", sphere(70, 72)),
+        ("sphere_50k", sphere(158, 160)),
+        ("torus_50k", torus(125, 200)),
+    ]
+}
+
+fn bench(c: &mut Criterion) {
+    let light = LightView::new(
+        &Light {
+            position: Vec3::new(3.0, 8.0, 2.0),
+            target: Vec3::ZERO,
+            fov_deg: 60.0,
+            radius: 0.3,
+        },
+        0.1,
+        50.0,
+    );
+    let model = Mat4::from_rotation_y(0.4);
+    let mut g = c.benchmark_group("silhouette");
+    g.sample_size(10)
+        .warm_up_time(Duration::from_millis(300))
+        .measurement_time(Duration::from_secs(1));
+    for (name, mesh) in meshes() {
+        let tris = mesh.indices.len() / 3;
+        let Ok(adj) = Adjacency::build(&mesh) else {
+            eprintln!("{name}: adjacency build failed");
+            continue;
+        };
+        let sil = extract(&adj, model, light.position);
+        let geo = build_smoothies(&adj, &sil, model, &light, 0.05);
+        eprintln!(
+            "{name}: {tris} triangles, {} edges, {} silhouette edges, {} smoothie triangles",
+            adj.edges.len(),
+            sil.len(),
+            geo.vertices.len() / 3
+        );
+        g.bench_function(BenchmarkId::new("adjacency_build", name), |b| {
+            b.iter(|| Adjacency::build(black_box(&mesh)))
+        });
+        g.bench_function(BenchmarkId::new("extract", name), |b| {
+            b.iter(|| extract(black_box(&adj), model, light.position))
+        });
+        g.bench_function(BenchmarkId::new("extract_serial", name), |b| {
+            b.iter(|| extract_serial(black_box(&adj), model, light.position))
+        });
+        g.bench_function(BenchmarkId::new("build_smoothies", name), |b| {
+            b.iter(|| build_smoothies(black_box(&adj), black_box(&sil), model, &light, 0.05))
+        });
+        g.bench_function(BenchmarkId::new("extract+smoothies", name), |b| {
+            b.iter(|| {
+                let sil = extract(black_box(&adj), model, light.position);
+                build_smoothies(&adj, &sil, model, &light, 0.05)
+            })
+        });
+    }
+    // The design's dense-1m scene: only the once-per-mesh adjacency build and one extract.
+    let big = sphere(707, 708);
+    eprintln!("sphere_1m: {} triangles", big.indices.len() / 3);
+    g.bench_function(BenchmarkId::new("adjacency_build", "sphere_1m"), |b| {
+        b.iter(|| Adjacency::build(black_box(&big)))
+    });
+    if let Ok(adj) = Adjacency::build(&big) {
+        g.bench_function(BenchmarkId::new("extract", "sphere_1m"), |b| {
+            b.iter(|| extract(black_box(&adj), model, light.position))
+        });
+    }
+    g.finish();
+}
+
+criterion_group!(benches, bench);
+criterion_main!(benches);

@@ -1,0 +1,632 @@
+//! CPU smoothie geometry (Chan & Durand 2003, Sec. 3 step 3 and Sec. 3.1; Volokh, Sec. 3.1):
+//! screen-space quads outside each silhouette edge and fans around silhouette vertices,
+//! emitted as one triangle list of [`SmoothieVertex`] for the smoothie passes.
+//!
+//! # Spaces and units
+//! Everything is built in light-screen uv (`LightView::project`: uv = ndc * 0.5 + 0.5, x
+//! right, y up, [0,1]^2 inside the frustum). The smoothie width `t` is in those uv units,
+//! i.e. a fraction of the shadow map's width (the paper's "normalized screen space"; it
+//! suggests 0.02 to 0.2). Each vertex carries `1 / linear depth` of the silhouette vertex it
+//! belongs to (extruded vertices keep their silhouette vertex's depth, so a smoothie lies at
+//! its blocker's depth); the shader must interpolate it without perspective correction
+//! (`noperspective`) and invert it per fragment.
+//!
+//! # Smoothie edges
+//! Silhouette edge a -> b projects to s0, s1. `d` is the unit perpendicular of s1 - s0 that
+//! points away from the blocker. Following Volokh, the adjacent (non-degenerate) faces'
+//! world normals are projected into screen space at the edge midpoint (uv(m + eps n) - uv(m),
+//! eps = 1e-3 of the midpoint's linear depth, so the probe scales with the scene) and summed;
+//! `d` is flipped when it disagrees with that sum. When the sum is (nearly) perpendicular to
+//! the edge, and always for boundary edges, the side is decided instead by the faces' third
+//! vertices: the outside is the side where the adjacent faces are not (for an open rim the
+//! shadow grows away from the surface; at a fold both faces lie on the blocker's side).
+//! The quad is s0, s1, s1 + t d, s0 + t d as two triangles (s0, s1, s1 + t d) and
+//! (s0, s1 + t d, s0 + t d); all four vertices have `kind = 0`, `anchor = s0`, `dir = d`, so
+//! alpha = dot(uv - s0, d) / t is 0 on the silhouette and 1 on the outer side.
+//!
+//! # Smoothie corners
+//! Per silhouette vertex, with its incident (kept) silhouette edges' outward directions:
+//! - two edges, d1 and d2: a fan centred on the vertex over the shorter arc from d1 to d2,
+//!   in segments of at most 30 degrees whose outer vertices sit at radius t / cos(segment/2),
+//!   so the fan covers the disc sector of radius t. Nearly opposite d1, d2 (a hairpin, arc
+//!   about 180 degrees): the half turn on the side the vertex's projected normal points to.
+//!   Nearly equal (< 1 degree): no corner, the two quads already meet.
+//! - one edge (chain end, e.g. the next edge was behind the light) or three and more (the
+//!   paper's special case): n = sum of the adjacent faces' normals (faces of the incident
+//!   silhouette edges), projected into screen space and scaled to length t. The paper draws
+//!   triangles (s, s + t d_i, s + n_t); we instead emit a fan over the whole disc of radius
+//!   t, with spokes at every d_i and at n_t (gaps split into <= 30 degree segments). That fan
+//!   contains each of the paper's triangles (its chord lies inside the sector between its
+//!   spokes), so it covers the paper's area plus the gaps between edges. Wedges pointing into
+//!   the blocker are not skipped: there the receiver is the blocker itself, b ~ r, and the
+//!   alpha correction alpha / (1 - b/r) saturates to 1 (no extra shadow); min blending makes
+//!   the overdraw harmless.
+//!
+//! Corner vertices have `kind = 1`, `anchor = s` (vertex uv), `dir = [0, 0]`:
+//! alpha = |uv - s| / t.
+//!
+//! # Output layout
+//! `vertices` is a plain triangle list: first `6 * edges` vertices for the edge quads (in
+//! silhouette order), then the corners ordered by welded vertex index. Windings are mixed:
+//! draw with culling off.
+//!
+//! # Robustness
+//! An edge with a vertex at linear depth <= near (behind or too close to the light) or with
+//! a non-finite projection is dropped and counted in `skipped_edges`; so is an edge whose
+//! ends project to the same uv (Volokh: "A and B at the same position"). No vertex is ever
+//! NaN or infinite.
+
+use super::{Adjacency, EdgeKind, SilhouetteEdge};
+use crate::scene::LightView;
+use glam::{Mat3, Mat4, Vec2, Vec3};
+use rayon::prelude::*;
+
+/// One smoothie vertex; the GPU vertex layout (32 bytes, tightly packed f32s).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct SmoothieVertex {
+    /// Light-screen uv of this vertex (LightView::project).
+    pub uv: [f32; 2],
+    /// 1 / linear depth of the silhouette vertex this smoothie vertex belongs to: a smoothie lies at its
+    /// blocker's depth; interpolated linearly in screen space, then inverted in the fragment shader.
+    pub inv_depth: f32,
+    /// 0 = edge: alpha = dot(uv - anchor, dir) / t.  1 = corner: alpha = |uv - anchor| / t.
+    pub kind: f32,
+    /// Light-screen uv of the silhouette point alpha is measured from (edge: its first vertex; corner: the silhouette vertex).
+    pub anchor: [f32; 2],
+    /// Edge: unit outward extrusion direction in uv space. Corner: [0, 0].
+    pub dir: [f32; 2],
+}
+
+/// Smoothies of one object for one light.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct SmoothieGeometry {
+    /// Triangle list: `6 * edges` edge-quad vertices, then the corner fans.
+    pub vertices: Vec<SmoothieVertex>,
+    /// Smoothie edges (quads) emitted.
+    pub edges: usize,
+    /// Silhouette vertices that got corner geometry (two-edge corners and special vertices).
+    pub corners: usize,
+    /// Silhouette vertices with one or with three or more incident silhouette edges, built
+    /// with the paper's special case.
+    pub special_vertices: usize,
+    /// Triangles in the corner fans: `vertices.len() / 3 == 2 * edges + corner_triangles`.
+    pub corner_triangles: usize,
+    /// Silhouette edges dropped: behind or too close to the light, or zero length on screen.
+    pub skipped_edges: usize,
+}
+
+/// Largest angle of one fan segment: 30 degrees keeps the overshoot t / cos(15 deg) within
+/// 3.5 % of t while costing at most 12 triangles for a full disc.
+const MAX_SEGMENT: f32 = std::f32::consts::PI / 6.0;
+/// Below this angle between d1 and d2 (1 degree) the two quads meet and need no corner.
+const MIN_CORNER_ANGLE: f32 = 1.0 * std::f32::consts::PI / 180.0;
+/// Relative size of the normal probe (of the point's linear depth).
+const PROBE: f32 = 1e-3;
+
+/// Projects object-space geometry of one object for one light.
+struct Projector<'a> {
+    model: Mat4,
+    normal_matrix: Mat3,
+    light: &'a LightView,
+}
+
+impl Projector<'_> {
+    fn world(&self, p_obj: Vec3) -> Vec3 {
+        self.model.transform_point3(p_obj)
+    }
+
+    /// uv and linear depth, or None when the point is at or behind the near plane or the
+    /// result is not finite (so callers never see NaN/Inf).
+    fn project(&self, p_world: Vec3) -> Option<(Vec2, f32)> {
+        let (uv, depth) = self.light.project(p_world);
+        (depth > self.light.near && uv.is_finite() && depth.is_finite()).then_some((uv, depth))
+    }
+
+    /// Screen-space direction (not normalized, per unit world length) of object-space normal
+    /// `n_obj` at world point `p`; zero when it cannot be measured.
+    fn project_normal(&self, p: Vec3, depth: f32, uv: Vec2, n_obj: Vec3) -> Vec2 {
+        let n = (self.normal_matrix * n_obj).normalize_or_zero();
+        if n == Vec3::ZERO {
+            return Vec2::ZERO;
+        }
+        let eps = PROBE * depth;
+        let (uv2, d2) = self.light.project(p + n * eps);
+        let v = (uv2 - uv) / eps;
+        if d2 > 0.0 && v.is_finite() {
+            v
+        } else {
+            Vec2::ZERO
+        }
+    }
+}
+
+/// Kept silhouette edge: screen data needed by the quads and the corners.
+struct EdgeOut {
+    a: u32,
+    b: u32,
+    d: Vec2,
+    verts: [SmoothieVertex; 6],
+}
+
+fn vertex(uv: Vec2, inv_depth: f32, kind: f32, anchor: Vec2, dir: Vec2) -> SmoothieVertex {
+    SmoothieVertex {
+        uv: uv.to_array(),
+        inv_depth,
+        kind,
+        anchor: anchor.to_array(),
+        dir: dir.to_array(),
+    }
+}
+
+/// Which side of the line s0 -> s1 the valid faces' third vertices lie on: the sum of
+/// signed areas' signs (>0: left).
+fn third_vertex_side(
+    adj: &Adjacency,
+    pr: &Projector,
+    e: &SilhouetteEdge,
+    s0: Vec2,
+    s1: Vec2,
+) -> f32 {
+    let mut side = 0.0;
+    for ef in adj.edge_faces(e.edge as usize) {
+        if adj.degenerate[ef.face as usize] {
+            continue;
+        }
+        let t = adj.triangles[ef.face as usize];
+        let Some(&c) = t.iter().find(|&&v| v != e.a && v != e.b) else {
+            continue;
+        };
+        if let Some((sc, _)) = pr.project(pr.world(adj.positions[c as usize])) {
+            let cr = (s1 - s0).perp_dot(sc - s0);
+            if cr.abs() > 1e-12 {
+                side += cr.signum();
+            }
+        }
+    }
+    side
+}
+
+fn build_edge(adj: &Adjacency, pr: &Projector, e: &SilhouetteEdge, t: f32) -> Option<EdgeOut> {
+    let pa = pr.world(adj.positions[e.a as usize]);
+    let pb = pr.world(adj.positions[e.b as usize]);
+    let (s0, z0) = pr.project(pa)?;
+    let (s1, z1) = pr.project(pb)?;
+    let along = s1 - s0;
+    let len = along.length();
+    // Also catches NaN.
+    if len.is_nan() || len <= 1e-9 {
+        return None;
+    }
+    // Left perpendicular of a -> b; flipped below when the blocker is on the right.
+    let mut d = along.perp() / len;
+    let mut decided = false;
+    if e.kind != EdgeKind::Boundary {
+        let m = (pa + pb) * 0.5;
+        if let Some((sm, zm)) = pr.project(m) {
+            let mut avg = Vec2::ZERO;
+            for ef in adj.edge_faces(e.edge as usize) {
+                if !adj.degenerate[ef.face as usize] {
+                    avg += pr.project_normal(m, zm, sm, adj.face_normals[ef.face as usize]);
+                }
+            }
+            let dot = d.dot(avg);
+            // Only trust the normals when they clearly pick a side (> ~0.5 degree).
+            if dot.abs() > 1e-2 * avg.length() {
+                if dot < 0.0 {
+                    d = -d;
+                }
+                decided = true;
+            }
+        }
+    }
+    if !decided {
+        let side = third_vertex_side(adj, pr, e, s0, s1);
+        if side > 0.0 {
+            d = -d;
+        } else if side == 0.0 {
+            // No usable evidence: the orientation convention puts the outside on the right.
+            d = -d;
+            if e.kind == EdgeKind::Boundary {
+                let fi = e.front_face as usize;
+                let m = (pa + pb) * 0.5;
+                if let Some((sm, zm)) = pr.project(m) {
+                    let n = pr.project_normal(m, zm, sm, adj.face_normals[fi]);
+                    if d.dot(n) < 0.0 {
+                        d = -d;
+                    }
+                }
+            }
+        }
+    }
+    let (i0, i1) = (1.0 / z0, 1.0 / z1);
+    let (o0, o1) = (s0 + t * d, s1 + t * d);
+    let v = |uv: Vec2, inv: f32| vertex(uv, inv, 0.0, s0, d);
+    Some(EdgeOut {
+        a: e.a,
+        b: e.b,
+        d,
+        verts: [
+            v(s0, i0),
+            v(s1, i1),
+            v(o1, i1),
+            v(s0, i0),
+            v(o1, i1),
+            v(o0, i0),
+        ],
+    })
+}
+
+/// Fan from the vertex at `s` over directions `from` .. `from + sweep` (radians, signed).
+fn fan(out: &mut Vec<SmoothieVertex>, s: Vec2, inv: f32, t: f32, from: f32, sweep: f32) -> usize {
+    let k = ((sweep.abs() / MAX_SEGMENT).ceil() as usize).max(1);
+    let phi = sweep / k as f32;
+    let r = t / (phi * 0.5).cos();
+    let at = |i: usize| s + r * Vec2::from_angle(from + phi * i as f32);
+    let cv = |uv: Vec2| vertex(uv, inv, 1.0, s, Vec2::ZERO);
+    for i in 0..k {
+        out.push(cv(s));
+        out.push(cv(at(i)));
+        out.push(cv(at(i + 1)));
+    }
+    k
+}
+
+struct CornerOut {
+    verts: Vec<SmoothieVertex>,
+    special: bool,
+}
+
+/// Projected vertex normal: sum of the faces adjacent to the vertex's silhouette edges.
+fn vertex_normal_screen(
+    adj: &Adjacency,
+    pr: &Projector,
+    edges: &[&SilhouetteEdge],
+    p: Vec3,
+    s: Vec2,
+    z: f32,
+) -> Vec2 {
+    let mut n = Vec3::ZERO;
+    for e in edges {
+        for ef in adj.edge_faces(e.edge as usize) {
+            n += adj.face_normals[ef.face as usize];
+        }
+    }
+    pr.project_normal(p, z, s, n.normalize_or_zero())
+}
+
+fn build_corner(
+    adj: &Adjacency,
+    pr: &Projector,
+    vtx: u32,
+    inc: &[(&SilhouetteEdge, Vec2)],
+    t: f32,
+) -> Option<CornerOut> {
+    let p = pr.world(adj.positions[vtx as usize]);
+    let (s, z) = pr.project(p)?;
+    let inv = 1.0 / z;
+    let edges: Vec<&SilhouetteEdge> = inc.iter().map(|(e, _)| *e).collect();
+    let mut verts = Vec::new();
+    if let [(_, d1), (_, d2)] = inc {
+        let cos = d1.dot(*d2).clamp(-1.0, 1.0);
+        let angle = cos.acos();
+        if angle < MIN_CORNER_ANGLE {
+            return None;
+        }
+        let a1 = d1.to_angle();
+        let mut sweep = d1.angle_to(*d2);
+        if angle > std::f32::consts::PI - MIN_CORNER_ANGLE {
+            // Hairpin: sweep through the side the projected vertex normal points to.
+            let n = vertex_normal_screen(adj, pr, &edges, p, s, z);
+            let ccw = n.dot(d1.perp()) >= 0.0;
+            sweep = if ccw {
+                std::f32::consts::PI
+            } else {
+                -std::f32::consts::PI
+            };
+        }
+        fan(&mut verts, s, inv, t, a1, sweep);
+        return Some(CornerOut {
+            verts,
+            special: false,
+        });
+    }
+    // Special case: spokes at every d_i and at the projected vertex normal; full disc.
+    let mut angles: Vec<f32> = inc.iter().map(|(_, d)| d.to_angle()).collect();
+    let n = vertex_normal_screen(adj, pr, &edges, p, s, z);
+    if n.length() > 1e-9 {
+        angles.push(n.to_angle());
+    }
+    angles.sort_by(f32::total_cmp);
+    angles.dedup_by(|x, y| (*x - *y).abs() < 1e-6);
+    for (i, &a) in angles.iter().enumerate() {
+        let next = if i + 1 < angles.len() {
+            angles[i + 1]
+        } else {
+            angles[0] + std::f32::consts::TAU
+        };
+        let gap = next - a;
+        if gap > 1e-6 {
+            fan(&mut verts, s, inv, t, a, gap);
+        }
+    }
+    Some(CornerOut {
+        verts,
+        special: true,
+    })
+}
+
+/// Smoothie edges and corners of one object (`model`: object -> world) for `light`, from
+/// its silhouette `sil` (as returned by `extract`); `t` is the smoothie width in uv units.
+/// Parallel over edges and over corners; the output order is deterministic.
+pub fn build_smoothies(
+    adj: &Adjacency,
+    sil: &[SilhouetteEdge],
+    model: Mat4,
+    light: &LightView,
+    t: f32,
+) -> SmoothieGeometry {
+    let normal_matrix = Mat3::from_mat4(model).inverse().transpose();
+    let normal_matrix = if normal_matrix.is_finite() {
+        normal_matrix
+    } else {
+        // Singular model: normals cannot be transformed; the third-vertex test takes over.
+        Mat3::ZERO
+    };
+    let pr = Projector {
+        model,
+        normal_matrix,
+        light,
+    };
+    let built: Vec<Option<EdgeOut>> = sil
+        .par_iter()
+        .with_min_len(256)
+        .map(|e| build_edge(adj, &pr, e, t))
+        .collect();
+
+    let mut geo = SmoothieGeometry::default();
+    // (vertex, index into `sil`, outward d) for the corner pass, grouped by sorting.
+    let mut incid: Vec<(u32, usize, Vec2)> = Vec::new();
+    for (i, b) in built.iter().enumerate() {
+        match b {
+            Some(eo) => {
+                geo.vertices.extend_from_slice(&eo.verts);
+                geo.edges += 1;
+                incid.push((eo.a, i, eo.d));
+                incid.push((eo.b, i, eo.d));
+            }
+            None => geo.skipped_edges += 1,
+        }
+    }
+    incid.sort_by_key(|&(v, i, _)| (v, i));
+    let groups: Vec<&[(u32, usize, Vec2)]> = incid.chunk_by(|x, y| x.0 == y.0).collect();
+    let corners: Vec<Option<CornerOut>> = groups
+        .par_iter()
+        .with_min_len(64)
+        .map(|g| {
+            let inc: Vec<(&SilhouetteEdge, Vec2)> =
+                g.iter().map(|&(_, i, d)| (&sil[i], d)).collect();
+            build_corner(adj, &pr, g[0].0, &inc, t)
+        })
+        .collect();
+    for c in corners.into_iter().flatten() {
+        geo.corners += 1;
+        geo.special_vertices += usize::from(c.special);
+        geo.corner_triangles += c.verts.len() / 3;
+        geo.vertices.extend_from_slice(&c.verts);
+    }
+    geo
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::test_meshes::{bowtie, cube, sphere};
+    use super::super::{extract, extract_serial};
+    use super::*;
+    use crate::scene::Light;
+
+    fn light_at(position: Vec3, target: Vec3) -> LightView {
+        LightView::new(
+            &Light {
+                position,
+                target,
+                fov_deg: 60.0,
+                radius: 0.2,
+            },
+            0.1,
+            50.0,
+        )
+    }
+
+    fn all_finite(g: &SmoothieGeometry) -> bool {
+        g.vertices.iter().all(|v| {
+            v.uv.iter()
+                .chain(&v.anchor)
+                .chain(&v.dir)
+                .chain([&v.inv_depth, &v.kind])
+                .all(|x| x.is_finite())
+        })
+    }
+
+    fn check_counts(g: &SmoothieGeometry) {
+        assert_eq!(g.vertices.len() % 3, 0);
+        assert_eq!(g.vertices.len() / 3, 2 * g.edges + g.corner_triangles);
+        assert!(g.vertices[..6 * g.edges].iter().all(|v| v.kind == 0.0));
+        assert!(g.vertices[6 * g.edges..]
+            .iter()
+            .all(|v| v.kind == 1.0 && v.dir == [0.0, 0.0]));
+    }
+
+    #[test]
+    fn vertex_is_32_bytes() {
+        assert_eq!(std::mem::size_of::<SmoothieVertex>(), 32);
+    }
+
+    #[test]
+    fn cube_smoothies() {
+        let adj = Adjacency::build(&cube()).unwrap();
+        let model = Mat4::from_translation(Vec3::new(0.0, 1.0, 0.0));
+        let centre = Vec3::new(0.0, 1.0, 0.0);
+        let lv = light_at(Vec3::new(3.0, 4.5, 2.2), centre);
+        let sil = extract(&adj, model, lv.position);
+        assert_eq!(sil.len(), 6);
+        let t = 0.05;
+        let g = build_smoothies(&adj, &sil, model, &lv, t);
+        assert!(all_finite(&g));
+        assert_eq!(g.edges, 6);
+        assert_eq!(g.skipped_edges, 0);
+        check_counts(&g);
+        // Convex loop: a corner at each of the 6 silhouette vertices, none special.
+        assert_eq!(g.corners, 6);
+        assert_eq!(g.special_vertices, 0);
+        let (c, _) = lv.project(centre);
+        for (q, e) in g.vertices[..6 * g.edges].chunks_exact(6).zip(&sil) {
+            let d = Vec2::from(q[0].dir);
+            assert!((d.length() - 1.0).abs() < 1e-5);
+            let (s0, s1) = (Vec2::from(q[0].uv), Vec2::from(q[1].uv));
+            // Width t: the outer vertices are t away from the silhouette line along d.
+            assert!((Vec2::from(q[2].uv) - s1 - t * d).length() < 1e-6);
+            assert!((Vec2::from(q[5].uv) - s0 - t * d).length() < 1e-6);
+            assert!(d.dot(s1 - s0).abs() < 1e-5);
+            // Away from the projected centre.
+            assert!(d.dot((s0 + s1) * 0.5 - c) > 0.0);
+            // Matches the extract convention: the outside is right of a -> b.
+            assert!(d.perp_dot(s1 - s0) > 0.0, "edge {e:?}");
+            // Depth attributes and anchors.
+            let za = lv.linear_depth(model.transform_point3(adj.positions[e.a as usize]));
+            assert!((q[0].inv_depth - 1.0 / za).abs() < 1e-5);
+            assert_eq!(q[5].inv_depth, q[0].inv_depth);
+            assert_eq!(q[2].inv_depth, q[1].inv_depth);
+            assert!(q.iter().all(|v| v.anchor == q[0].uv));
+        }
+        // Corner fans: every vertex within t / cos(15 deg) of its anchor, outer ones beyond t.
+        for v in &g.vertices[6 * g.edges..] {
+            let r = (Vec2::from(v.uv) - Vec2::from(v.anchor)).length();
+            assert!(r <= t / (15f32.to_radians()).cos() + 1e-6);
+        }
+    }
+
+    #[test]
+    fn bowtie_special_vertex() {
+        let adj = Adjacency::build(&bowtie()).unwrap();
+        let lv = light_at(Vec3::new(0.0, 0.0, 10.0), Vec3::ZERO);
+        let sil = extract(&adj, Mat4::IDENTITY, lv.position);
+        let g = build_smoothies(&adj, &sil, Mat4::IDENTITY, &lv, 0.03);
+        assert!(g.special_vertices >= 1);
+        assert!(all_finite(&g));
+        check_counts(&g);
+        assert_eq!(g.edges, 6);
+        // The origin's fan covers the full disc: 12 segments at least.
+        let (o, _) = lv.project(Vec3::ZERO);
+        let at_origin = g.vertices[6 * g.edges..]
+            .iter()
+            .filter(|v| Vec2::from(v.anchor) == o)
+            .count();
+        assert!(at_origin >= 3 * 12);
+    }
+
+    #[test]
+    fn open_quad_extrudes_outward() {
+        let mesh = crate::scene::Mesh {
+            positions: vec![
+                Vec3::new(-1.0, 0.0, -1.0),
+                Vec3::new(1.0, 0.0, -1.0),
+                Vec3::new(1.0, 0.0, 1.0),
+                Vec3::new(-1.0, 0.0, 1.0),
+            ],
+            normals: vec![Vec3::Y; 4],
+            indices: vec![0, 2, 1, 0, 3, 2],
+        };
+        let adj = Adjacency::build(&mesh).unwrap();
+        // From above and from below (and off to the side), the rim grows outward.
+        for pos in [
+            Vec3::new(0.3, 5.0, 0.2),
+            Vec3::new(0.3, -5.0, 0.2),
+            Vec3::new(4.0, 3.0, 0.0),
+        ] {
+            let lv = light_at(pos, Vec3::ZERO);
+            let sil = extract(&adj, Mat4::IDENTITY, pos);
+            let g = build_smoothies(&adj, &sil, Mat4::IDENTITY, &lv, 0.04);
+            assert_eq!(g.edges, 4);
+            assert_eq!(g.corners, 4);
+            check_counts(&g);
+            let (c, _) = lv.project(Vec3::ZERO);
+            for q in g.vertices[..24].chunks_exact(6) {
+                let mid = (Vec2::from(q[0].uv) + Vec2::from(q[1].uv)) * 0.5;
+                assert!(Vec2::from(q[0].dir).dot(mid - c) > 0.0, "light {pos}");
+            }
+        }
+    }
+
+    #[test]
+    fn behind_light_is_skipped_without_nan() {
+        // A long bar reaching behind the light: its far end is behind the near plane.
+        let mut mesh = cube();
+        for p in &mut mesh.positions {
+            p.z *= 20.0;
+        }
+        let adj = Adjacency::build(&mesh).unwrap();
+        let lv = light_at(Vec3::new(0.0, 2.0, 0.0), Vec3::new(0.0, 0.0, -5.0));
+        let sil = extract(&adj, Mat4::IDENTITY, lv.position);
+        let g = build_smoothies(&adj, &sil, Mat4::IDENTITY, &lv, 0.05);
+        assert!(g.skipped_edges > 0);
+        assert_eq!(g.edges + g.skipped_edges, sil.len());
+        assert!(all_finite(&g));
+        check_counts(&g);
+        // A zero-length screen edge: an open quad in a plane through the light, one rim
+        // edge pointing straight at it.
+        let quad = crate::scene::Mesh {
+            positions: vec![
+                Vec3::new(0.0, 0.0, 0.0),
+                Vec3::new(0.0, 0.0, 1.0),
+                Vec3::new(0.0, 1.0, 1.0),
+                Vec3::new(0.0, 1.0, 0.0),
+            ],
+            normals: vec![Vec3::X; 4],
+            indices: vec![0, 1, 2, 0, 2, 3],
+        };
+        let adj2 = Adjacency::build(&quad).unwrap();
+        let lv2 = light_at(Vec3::new(0.0, 0.0, 30.0), Vec3::new(0.0, 0.0, 0.0));
+        let sil2 = extract(&adj2, Mat4::IDENTITY, lv2.position);
+        assert_eq!(sil2.len(), 4);
+        let g2 = build_smoothies(&adj2, &sil2, Mat4::IDENTITY, &lv2, 0.05);
+        assert!(g2.skipped_edges >= 1);
+        assert!(all_finite(&g2));
+        check_counts(&g2);
+    }
+
+    #[test]
+    fn sphere_deterministic_and_parallel_matches_serial() {
+        let adj = Adjacency::build(&sphere(60, 120, 0.1)).unwrap();
+        let model = Mat4::from_translation(Vec3::new(0.0, 2.0, 0.0));
+        let lv = light_at(Vec3::new(2.0, 7.0, 1.0), Vec3::new(0.0, 2.0, 0.0));
+        let sil = extract(&adj, model, lv.position);
+        let sil_s = extract_serial(&adj, model, lv.position);
+        assert_eq!(sil, sil_s);
+        let g = build_smoothies(&adj, &sil, model, &lv, 0.05);
+        let g2 = build_smoothies(&adj, &sil_s, model, &lv, 0.05);
+        assert_eq!(g, g2);
+        let g3 = rayon::ThreadPoolBuilder::new()
+            .num_threads(1)
+            .build()
+            .unwrap()
+            .install(|| build_smoothies(&adj, &sil, model, &lv, 0.05));
+        assert_eq!(g, g3);
+        assert!(all_finite(&g));
+        check_counts(&g);
+        assert!(g.edges > 50);
+        assert_eq!(g.skipped_edges, 0);
+        // On a smooth sphere (a single convex loop) the extrusion points away from the
+        // projected centre.
+        let adj = Adjacency::build(&sphere(60, 120, 0.0)).unwrap();
+        let sil = extract(&adj, model, lv.position);
+        let g = build_smoothies(&adj, &sil, model, &lv, 0.05);
+        assert_eq!(g.special_vertices, 0);
+        let (c, _) = lv.project(Vec3::new(0.0, 2.0, 0.0));
+        let outward = g.vertices[..6 * g.edges]
+            .chunks_exact(6)
+            .filter(|q| Vec2::from(q[0].dir).dot(Vec2::from(q[0].uv) - c) > 0.0)
+            .count();
+        assert_eq!(outward, g.edges);
+    }
+}

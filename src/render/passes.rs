@@ -53,7 +53,8 @@ impl ShadowMap {
                 vertex: shaders::COMMON_SHADOW_DEPTH_VERT,
                 fragment: Some(shaders::COMMON_SHADOW_DEPTH_FRAG),
                 vertex_stride: SCENE_VERTEX_STRIDE,
-                attributes: SCENE_ATTRIBUTES,
+                // Depth only needs the position; an unread normal is a validation warning.
+                attributes: &SCENE_ATTRIBUTES[..1],
                 topology: PrimitiveTopology::TRIANGLE_LIST,
                 // Open meshes and planes cast from both sides.
                 cull: CullModeFlags::NONE,

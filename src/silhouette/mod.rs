@@ -221,9 +221,7 @@ impl Adjacency {
             for &entry in bucket {
                 let hi = (entry >> 32) as u32;
                 if prev_hi != Some(hi) {
-                    edges.push(Edge {
-                        v: [lo as u32, hi],
-                    });
+                    edges.push(Edge { v: [lo as u32, hi] });
                     edge_face_start.push(edge_face_list.len() as u32);
                     prev_hi = Some(hi);
                 }

@@ -184,7 +184,7 @@ impl Adjacency {
         let corner_edge = |t: &[u32; 3], k: usize| {
             let (p, q) = (t[k], t[(k + 1) % 3]);
             // A corner whose ends welded together is no edge.
-            (p != q).then(|| if p < q { (p, q) } else { (q, p) })
+            (p != q).then_some((p.min(q), p.max(q)))
         };
         let mut start = vec![0u32; nv + 1];
         for t in &triangles {

@@ -184,7 +184,7 @@ impl Adjacency {
         let corner_edge = |t: &[u32; 3], k: usize| {
             let (p, q) = (t[k], t[(k + 1) % 3]);
             // A corner whose ends welded together is no edge.
-            (p != q).then(|| if p < q { (p, q) } else { (q, p) })
+            (p != q).then_some((p.min(q), p.max(q)))
         };
         let mut start = vec![0u32; nv + 1];
         for t in &triangles {
@@ -221,9 +221,7 @@ impl Adjacency {
             for &entry in bucket {
                 let hi = (entry >> 32) as u32;
                 if prev_hi != Some(hi) {
-                    edges.push(Edge {
-                        v: [lo as u32, hi],
-                    });
+                    edges.push(Edge { v: [lo as u32, hi] });
                     edge_face_start.push(edge_face_list.len() as u32);
                     prev_hi = Some(hi);
                 }

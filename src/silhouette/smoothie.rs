@@ -29,7 +29,9 @@
 //! - two edges, d1 and d2: a fan centred on the vertex over the shorter arc from d1 to d2,
 //!   in segments of at most 30 degrees whose outer vertices sit at radius t / cos(segment/2),
 //!   so the fan covers the disc sector of radius t. Nearly opposite d1, d2 (a hairpin, arc
-//!   about 180 degrees): the half turn on the side the vertex's projected normal points to.
+//!   about 180 degrees): the half turn away from the two edges (which leave the vertex in
+//!   nearly the same direction); the projected vertex normal decides only if that is
+//!   ambiguous, because a light-facing face's projected normal need not point outward.
 //!   Nearly equal (< 1 degree): no corner, the two quads already meet.
 //! - one edge (chain end, e.g. the next edge was behind the light) or three and more (the
 //!   paper's special case): n = sum of the adjacent faces' normals (faces of the incident
@@ -316,9 +318,21 @@ fn build_corner(
         let a1 = d1.to_angle();
         let mut sweep = d1.angle_to(*d2);
         if angle > std::f32::consts::PI - MIN_CORNER_ANGLE {
-            // Hairpin: sweep through the side the projected vertex normal points to.
-            let n = vertex_normal_screen(adj, pr, &edges, p, s, z);
-            let ccw = n.dot(d1.perp()) >= 0.0;
+            // Hairpin: both edges leave the vertex in almost the same screen direction, so
+            // the outside is the opposite way. The projected vertex normal (Volokh) only
+            // decides when that is ambiguous: for faces facing the light it points radially
+            // from the light's axis, not necessarily away from the blocker.
+            let mut away = Vec2::ZERO;
+            for (e, _) in inc {
+                let other = if e.a == vtx { e.b } else { e.a };
+                if let Some((so, _)) = pr.project(pr.world(adj.positions[other as usize])) {
+                    away -= (so - s).normalize_or_zero();
+                }
+            }
+            if away.length() < 1e-3 {
+                away = vertex_normal_screen(adj, pr, &edges, p, s, z);
+            }
+            let ccw = away.dot(d1.perp()) >= 0.0;
             sweep = if ccw {
                 std::f32::consts::PI
             } else {
@@ -593,6 +607,42 @@ mod tests {
         assert!(g2.skipped_edges >= 1);
         assert!(all_finite(&g2));
         check_counts(&g2);
+    }
+
+    #[test]
+    fn hairpin_tip_corner_points_away_from_the_blade() {
+        // A thin horizontal blade (tip angle ~0.1 degree) lit from above, with the light's
+        // axis beyond the tip so the face normal projects towards the base.
+        let mesh = crate::scene::Mesh {
+            positions: vec![
+                Vec3::new(0.0, 0.0, 0.0),
+                Vec3::new(-2.0, 0.0, -0.002),
+                Vec3::new(-2.0, 0.0, 0.002),
+            ],
+            normals: vec![Vec3::Y; 3],
+            indices: vec![0, 1, 2],
+        };
+        let adj = Adjacency::build(&mesh).unwrap();
+        let lv = light_at(Vec3::new(1.5, 4.0, 0.3), Vec3::new(1.5, 0.0, 0.0));
+        let sil = extract(&adj, Mat4::IDENTITY, lv.position);
+        assert_eq!(sil.len(), 3);
+        let t = 0.05;
+        let g = build_smoothies(&adj, &sil, Mat4::IDENTITY, &lv, t);
+        assert!(all_finite(&g));
+        check_counts(&g);
+        let (tip, _) = lv.project(Vec3::ZERO);
+        let (base, _) = lv.project(Vec3::new(-2.0, 0.0, 0.0));
+        let axis = (tip - base).normalize();
+        let fan: Vec<Vec2> = g.vertices[6 * g.edges..]
+            .iter()
+            .filter(|v| Vec2::from(v.anchor) == tip)
+            .map(|v| Vec2::from(v.uv) - tip)
+            .collect();
+        assert!(fan.len() >= 3 * 6, "a half-disc fan");
+        // The fan's tip (beyond the blade) reaches t along the blade's axis...
+        assert!(fan.iter().any(|p| p.dot(axis) > 0.99 * t));
+        // ...and never reaches back over the blade.
+        assert!(fan.iter().all(|p| p.dot(axis) > -1e-4));
     }
 
     #[test]

@@ -49,6 +49,15 @@ struct RenderArgs {
     /// Smoothie width t as a fraction of the shadow map (default: calibrated from R).
     #[arg(long, allow_negative_numbers = true)]
     smoothie_t: Option<f32>,
+    /// PCF kernel: boxN (N odd) or poissonN.
+    #[arg(long, default_value = "box3")]
+    pcf_kernel: softshadow::render::PcfKernel,
+    /// Occluder map side of the soft shadow maps (ssm, ssm2).
+    #[arg(long, default_value_t = 256)]
+    occluder_res: u32,
+    /// Soft shadow map accumulation format: r32f or r16f.
+    #[arg(long, default_value = "r32f")]
+    accum_format: softshadow::render::AccumFormat,
     #[arg(long, default_value = "softshadow.png")]
     out: PathBuf,
     /// Write visibility.exr, position.exr and normal.exr into this folder.
@@ -139,6 +148,9 @@ fn render(cli: &Cli, a: &RenderArgs) -> Result<()> {
         shadow_res: a.shadow_res,
         light_radius: a.light_radius,
         smoothie_t: a.smoothie_t,
+        pcf_kernel: a.pcf_kernel,
+        occluder_res: a.occluder_res,
+        accum_format: a.accum_format,
         ..Settings::default()
     };
     let mut r = Renderer::new(&ctx, scene, &a.technique, settings)?;

@@ -32,6 +32,70 @@ pub struct Settings {
     pub normal_offset_texels: f32,
     /// Relative depth bias of the comparisons (fraction of the depth).
     pub depth_bias: f32,
+    /// PCF filter kernel (`pcf`; `pcss` uses the Poisson disc for its blocker search and filter).
+    pub pcf_kernel: PcfKernel,
+    /// Occluder (and receiver) depth map side of the soft shadow maps (`ssm`, `ssm2`).
+    pub occluder_res: u32,
+    /// Accumulation format of the soft shadow map (Atty et al. Appendix A: R16F breaks above ~256^2).
+    pub accum_format: AccumFormat,
+}
+
+/// A PCF filter kernel.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PcfKernel {
+    /// N x N texels, box weights (N odd, 1..=15).
+    Box(u32),
+    /// N samples of a fixed Poisson disc (N in 1..=64).
+    Poisson(u32),
+}
+
+impl std::str::FromStr for PcfKernel {
+    type Err = anyhow::Error;
+    /// `box3`, `box5`, ..., `poisson16`, `poisson32`.
+    fn from_str(s: &str) -> Result<Self> {
+        let parse = |digits: &str| digits.parse::<u32>().ok();
+        let k = if let Some(n) = s.strip_prefix("box").and_then(parse) {
+            PcfKernel::Box(n)
+        } else if let Some(n) = s.strip_prefix("poisson").and_then(parse) {
+            PcfKernel::Poisson(n)
+        } else {
+            bail!("--pcf-kernel '{s}' is not a kernel: allowed boxN (N odd, 1..=15) or poissonN (N in 1..=64)");
+        };
+        k.check()?;
+        Ok(k)
+    }
+}
+
+impl PcfKernel {
+    pub fn check(self) -> Result<()> {
+        match self {
+            PcfKernel::Box(n) if n == 0 || n % 2 == 0 || n > 15 => {
+                bail!("--pcf-kernel box{n} is out of range: N must be odd, 1..=15")
+            }
+            PcfKernel::Poisson(n) if n == 0 || n > 64 => {
+                bail!("--pcf-kernel poisson{n} is out of range: N must be in 1..=64")
+            }
+            _ => Ok(()),
+        }
+    }
+}
+
+/// Accumulation format of additive soft-shadow-map blending.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum AccumFormat {
+    R32F,
+    R16F,
+}
+
+impl std::str::FromStr for AccumFormat {
+    type Err = anyhow::Error;
+    fn from_str(s: &str) -> Result<Self> {
+        match s.to_ascii_lowercase().as_str() {
+            "r32f" => Ok(AccumFormat::R32F),
+            "r16f" => Ok(AccumFormat::R16F),
+            _ => bail!("--accum-format '{s}' is not a format: allowed r32f, r16f"),
+        }
+    }
 }
 
 impl Default for Settings {
@@ -44,6 +108,9 @@ impl Default for Settings {
             smoothie_t: None,
             normal_offset_texels: 1.5,
             depth_bias: 2e-4,
+            pcf_kernel: PcfKernel::Box(3),
+            occluder_res: 256,
+            accum_format: AccumFormat::R32F,
         }
     }
 }
@@ -60,6 +127,16 @@ impl Settings {
             if v == 0 || v > max {
                 bail!("--{name} {v} is out of range: allowed 1..={max} on this device");
             }
+        }
+        if self.occluder_res == 0 || self.occluder_res > max {
+            bail!("--occluder-res {} is out of range: allowed 1..={max} on this device", self.occluder_res);
+        }
+        self.pcf_kernel.check()?;
+        if !self.normal_offset_texels.is_finite() || !(0.0..=64.0).contains(&self.normal_offset_texels) {
+            bail!("normal offset {} is out of range: allowed 0..=64 texels", self.normal_offset_texels);
+        }
+        if !self.depth_bias.is_finite() || !(0.0..=0.1).contains(&self.depth_bias) {
+            bail!("depth bias {} is out of range: allowed 0..=0.1", self.depth_bias);
         }
         if let Some(r) = self.light_radius {
             if !r.is_finite() || r < 0.0 {

@@ -1,0 +1,87 @@
+//! Shared test harness: a lavapipe context with the Khronos validation layers on, and
+//! one-call rendering. Every test that renders goes through `Gpu`, whose `Drop` fails the
+//! test on any validation message.
+#![allow(dead_code)]
+
+use softshadow::render::{FrameImages, Renderer, Settings};
+use softshadow::scene::Scene;
+use softshadow::vk::{Context, ContextOptions, FrameTimings};
+
+pub struct Gpu {
+    pub ctx: Context,
+}
+
+impl Gpu {
+    /// lavapipe (or SOFTSHADOW_DEVICE), validation on. Never skipped: no device is a failure.
+    pub fn new() -> Self {
+        let device = std::env::var("SOFTSHADOW_DEVICE").ok().or(Some("llvmpipe".into()));
+        let ctx = Context::new(&ContextOptions { device, validation: true })
+            .unwrap_or_else(|e| panic!("no Vulkan device for the tests: {e:#}"));
+        Self { ctx }
+    }
+
+    /// Renders `frames` frames of `scene` with `technique`; returns the last frame's images
+    /// and every frame's timings.
+    pub fn render_frames(
+        &self,
+        scene: Scene,
+        technique: &str,
+        settings: Settings,
+        frames: usize,
+    ) -> (FrameImages, Vec<FrameTimings>) {
+        let mut r = Renderer::new(&self.ctx, scene, technique, settings)
+            .unwrap_or_else(|e| panic!("creating {technique}: {e:#}"));
+        let timings = (0..frames)
+            .map(|_| r.render().unwrap_or_else(|e| panic!("rendering {technique}: {e:#}")))
+            .collect();
+        let images = r.read_back().unwrap_or_else(|e| panic!("reading back: {e:#}"));
+        (images, timings)
+    }
+
+    pub fn render(&self, scene: &str, technique: &str, settings: Settings) -> FrameImages {
+        let scene = Scene::load(scene).unwrap_or_else(|e| panic!("{e:#}"));
+        self.render_frames(scene, technique, settings, 1).0
+    }
+
+    pub fn assert_clean(&self) {
+        let msgs = self.ctx.validation_messages();
+        assert!(msgs.is_empty(), "validation messages:\n{}", msgs.join("\n"));
+    }
+}
+
+impl Drop for Gpu {
+    fn drop(&mut self) {
+        if !std::thread::panicking() {
+            self.assert_clean();
+        }
+    }
+}
+
+/// Small, fast settings for tests.
+pub fn small(width: u32, shadow_res: u32) -> Settings {
+    Settings {
+        width,
+        height: width,
+        shadow_res,
+        ..Settings::default()
+    }
+}
+
+/// Pixels that hit a receiving surface (position alpha 1).
+pub fn covered(img: &FrameImages) -> Vec<usize> {
+    (0..img.visibility.len())
+        .filter(|&i| img.position[i][3] > 0.5)
+        .collect()
+}
+
+/// Pixel index nearest to a world point among covered pixels.
+pub fn pixel_at(img: &FrameImages, p: glam::Vec3) -> usize {
+    covered(img)
+        .into_iter()
+        .min_by(|&a, &b| {
+            let da = (glam::Vec4::from(img.position[a]).truncate() - p).length();
+            let db = (glam::Vec4::from(img.position[b]).truncate() - p).length();
+            da.total_cmp(&db)
+        })
+        .expect("no covered pixel")
+}

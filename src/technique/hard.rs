@@ -67,7 +67,12 @@ impl Technique for Hard {
         INFO.name
     }
 
-    fn record(&mut self, _ctx: &Context, rec: &mut Recorder<'_>, frame: &FrameInput<'_>) -> Result<()> {
+    fn record(
+        &mut self,
+        _ctx: &Context,
+        rec: &mut Recorder<'_>,
+        frame: &FrameInput<'_>,
+    ) -> Result<()> {
         rec.pass("hard/shadow_map", |rec| {
             self.shadow.record(rec, frame.gpu);
             Ok(())
@@ -81,5 +86,9 @@ impl Technique for Hard {
 
     fn debug_image(&self, name: &str) -> Option<&Image> {
         (name == "shadow_map").then_some(&self.shadow.depth)
+    }
+
+    fn debug_image_names(&self) -> &'static [&'static str] {
+        &["shadow_map"]
     }
 }

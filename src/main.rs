@@ -183,10 +183,14 @@ fn render(cli: &Cli, a: &RenderArgs) -> Result<()> {
     if let Some(dir) = &a.buffers {
         std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
         for name in r.technique_buffer_names() {
-            let data = r.read_technique_buffer(name)?;
-            let (w, h) = r.technique_buffer_size(name).unwrap_or((0, 0));
+            let b = r.read_technique_buffer(name)?;
             let path = dir.join(format!("{name}.exr"));
-            softshadow::output::write_exr(&path, w, h, &["Y"], vec![data])?;
+            let names: &[&str] = if b.channels.len() == 2 {
+                &["R", "G"]
+            } else {
+                &["Y"]
+            };
+            softshadow::output::write_exr(&path, b.width, b.height, names, b.channels)?;
             println!("wrote {}", path.display());
         }
     }

@@ -373,31 +373,50 @@ impl<'c> Renderer<'c> {
         self.technique.debug_image_names()
     }
 
-    /// Side length of a technique buffer.
-    pub fn technique_buffer_size(&self, name: &str) -> Option<(u32, u32)> {
-        self.technique
-            .debug_image(name)
-            .map(|i| (i.extent.width, i.extent.height))
-    }
-
-    /// Reads any technique buffer by name (tests and `--aov` debugging).
-    pub fn read_technique_buffer(&mut self, name: &str) -> Result<Vec<f32>> {
+    /// Reads a technique buffer by name (`technique_buffer_names`), one Vec per channel
+    /// (the shadow map has two: nearest caster, nearest surface).
+    pub fn read_technique_buffer(&mut self, name: &str) -> Result<TechniqueBuffer> {
         let Some(img) = self.technique.debug_image(name) else {
             bail!(
                 "technique {} has no buffer named '{name}'",
                 self.technique.name()
             );
         };
-        match img.format {
+        let (width, height) = (img.extent.width, img.extent.height);
+        let channels = match img.format {
             crate::vk::Format::R16_SFLOAT => {
-                Ok(read_image::<u16>(self.ctx, &mut self.runner, img)?
+                vec![read_image::<u16>(self.ctx, &mut self.runner, img)?
                     .into_iter()
                     .map(half_to_f32)
-                    .collect())
+                    .collect()]
             }
-            _ => read_image::<f32>(self.ctx, &mut self.runner, img),
-        }
+            crate::vk::Format::R32G32_SFLOAT => {
+                let texels = read_image::<[f32; 2]>(self.ctx, &mut self.runner, img)?;
+                (0..2)
+                    .map(|c| texels.iter().map(|t| t[c]).collect())
+                    .collect()
+            }
+            crate::vk::Format::R32_SFLOAT => {
+                vec![read_image::<f32>(self.ctx, &mut self.runner, img)?]
+            }
+            f => bail!(
+                "buffer '{name}' has format {f:?}, which read_technique_buffer does not decode"
+            ),
+        };
+        Ok(TechniqueBuffer {
+            width,
+            height,
+            channels,
+        })
     }
+}
+
+/// A light-space buffer read back to the host.
+pub struct TechniqueBuffer {
+    pub width: u32,
+    pub height: u32,
+    /// One Vec per channel, row-major.
+    pub channels: Vec<Vec<f32>>,
 }
 
 /// IEEE binary16 to f32 (the normal AOV and R16F buffers).

@@ -16,14 +16,15 @@
 //!    (Fig. 6); vertices with more than two silhouette edges get the paper's special case
 //!    (averaged vertex normal, triangles to each adjacent edge). Uploaded to a host-visible
 //!    vertex buffer (32 bytes a vertex: uv, 1/depth, kind, anchor, dir).
-//! 1. `smoothies/shadow_map` — as `hard`: R32_SFLOAT linear depth (clear 1e30) with a
-//!    D32_SFLOAT LESS z-buffer (clear 1.0). Linear depth is needed for the ratio b/r.
+//! 1. `smoothies/shadow_map` — as `hard`: R32G32_SFLOAT, clear 1e30, blend MIN; r = nearest
+//!    caster's linear depth (the umbra test), g = nearest surface of any role (the receiver
+//!    depth r of Eq. 1). Linear depth, not the depth buffer's, because Eq. 1 needs b/r.
 //! 2. `smoothies/smoothie` — ONE pass, two colour attachments, no depth attachment:
 //!    location 0 = smoothie linear depth b, R32_SFLOAT, clear 1e30, blend MIN;
 //!    location 1 = remapped alpha, R16_SFLOAT, clear 1.0, blend MIN (the paper's "minimum
 //!    blending" of overlapping smoothies, Sec. 3.1; the min depth keeps the nearest smoothie).
-//!    `glsl/smoothies/smoothie.frag` reads the shadow map at its own texel for the receiver
-//!    depth r, discards when b/r > 1 (smoothie behind a blocker), computes the linear alpha
+//!    `glsl/smoothies/smoothie.frag` reads the shadow map's g at its own texel for the
+//!    receiver depth r, discards when b/r > 1 (smoothie behind a blocker), computes the linear alpha
 //!    (edge: distance from the edge along the outward normal / t; corner: radial / t) and
 //!    remaps it with Eq. 1, alpha' = clamp(alpha / (1 - b/r)), with alpha' = 1 when
 //!    1 - b/r < 1e-4 (Volokh 3.5: no NaN, no Inf, no speckles where b ~ r).

@@ -28,11 +28,45 @@ const vec2 POISSON[POISSON_MAX] = vec2[](
     vec2(0.3083, -0.0161), vec2(-0.7290, 0.5437), vec2(0.5479, -0.7240), vec2(-0.8504, -0.3399)
 );
 
+// Receiver plane (after Isidoro 2006, "receiver plane depth bias"): a wide kernel reads
+// texels of the receiver's own surface at other depths, and a surface sloping away from the
+// light would shadow itself. Each tap instead compares with the depth of the point's tangent
+// plane along the tap's light ray, only where that plane is closer than the point (a convex
+// or flat caster never self-shadows; a blocker in front of the plane still blocks).
+// Along the light ray through uv (view space direction ((2u-1)tan, (2v-1)tan, -1)) the
+// plane's depth is d0 / (1 + g . (uv - uv0)) with g = 2 tan (Nx, Ny) / (N . D(uv0)).
+struct ReceiverPlane {
+    vec2 g;
+    float depth;
+    float max_shift;  // a guard for planes edge-on to the light
+};
+
+ReceiverPlane receiver_plane(LightSample s, vec3 n, float radius_texels) {
+    float t = frame.light_frustum.x;
+    vec3 nv = mat3(frame.light_view) * n;
+    float den = dot(nv, vec3((2.0 * s.uv - 1.0) * t, -1.0));
+    ReceiverPlane rp;
+    rp.g = abs(den) > 1e-6 ? 2.0 * t * nv.xy / den : vec2(0.0);
+    rp.depth = s.depth;
+    // At most a slope of 8 over the kernel radius.
+    rp.max_shift = 8.0 * radius_texels * s.depth * frame.light_frustum.y;
+    return rp;
+}
+
+// Comparison depth of a tap offset by duv from the point.
+float plane_depth(ReceiverPlane rp, vec2 duv) {
+    float q = 1.0 + dot(rp.g, duv);
+    float shift = q > 1.0 ? rp.depth * (1.0 / q - 1.0) : 0.0;
+    return rp.depth + max(shift, -rp.max_shift);
+}
+
 // Box-filtered bilinear PCF: n x n (n odd) bilinear taps one texel apart around uv.
 // Summed, their weights per texel are 1 inside the (n+1) x (n+1) footprint and the
 // bilinear fractions (1 - f, f) on its first and last row/column, so the footprint is read
 // with ((n+1)/2)^2 gathers of 2x2 texels and weighted once. n = 1 is exactly `hard`.
-float pcf_box(sampler2D sm, vec2 uv, float depth, int n) {
+// Each gather compares with the receiver plane at its offset from the point's own 2x2
+// footprint (whole texels; the normal offset covers the half texel), so box1 is `hard`.
+float pcf_box(sampler2D sm, vec2 uv, ReceiverPlane rp, int n) {
     float res = frame.light_params.z;
     vec2 t = uv * res - 0.5;
     vec2 i0 = floor(t);
@@ -48,7 +82,8 @@ float pcf_box(sampler2D sm, vec2 uv, float depth, int n) {
             float wx1 = (a + 1 < n ? 1.0 - f.x : 0.0) + f.x;
             // The midpoint between texels k and k + 1 gathers exactly those two.
             vec2 k = i0 - float(h) + vec2(a, b);
-            vec4 lit = lit_test(textureGather(sm, (k + 1.0) / res, 0), depth);
+            float d = plane_depth(rp, (vec2(a, b) - float(h)) / res);
+            vec4 lit = lit_test(textureGather(sm, (k + 1.0) / res, 0), d);
             // Gather order: (k, l+1), (k+1, l+1), (k+1, l), (k, l).
             sum += dot(lit, vec4(wx0 * wy1, wx1 * wy1, wx1 * wy0, wx0 * wy0));
         }
@@ -58,12 +93,12 @@ float pcf_box(sampler2D sm, vec2 uv, float depth, int n) {
 
 // Poisson-disc PCF: the first n points of POISSON scaled to `radius` texels, each a 2x2
 // bilinear tap, equally weighted. radius = 0 is exactly `hard`.
-float pcf_poisson(sampler2D sm, vec2 uv, float depth, int n, float radius) {
+float pcf_poisson(sampler2D sm, vec2 uv, ReceiverPlane rp, int n, float radius) {
     vec2 scale = vec2(radius * frame.light_params.w);
     float sum = 0.0;
     for (int i = 0; i < n; ++i) {
         vec2 q = uv + POISSON[i] * scale;
-        sum += bilinear(lit_test(textureGather(sm, q, 0), depth), q);
+        sum += bilinear(lit_test(textureGather(sm, q, 0), plane_depth(rp, q - uv)), q);
     }
     return sum / float(n);
 }

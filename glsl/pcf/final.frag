@@ -11,8 +11,12 @@ float visibility(vec3 p, vec3 n) {
     LightSample s = light_sample(p, n);
     if (!s.inside) return 1.0;
     int count = int(frame.technique.y);
-    if (frame.technique.x < 0.5) return pcf_box(shadow_map, s.uv, s.depth, count);
-    return pcf_poisson(shadow_map, s.uv, s.depth, count, frame.technique.z);
+    if (frame.technique.x < 0.5) {
+        ReceiverPlane rp = receiver_plane(s, n, 0.5 * float(count + 1));
+        return pcf_box(shadow_map, s.uv, rp, count);
+    }
+    ReceiverPlane rp = receiver_plane(s, n, frame.technique.z + 1.0);
+    return pcf_poisson(shadow_map, s.uv, rp, count, frame.technique.z);
 }
 
 #include "common/final.glsl"

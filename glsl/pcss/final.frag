@@ -22,11 +22,14 @@ float visibility(vec3 p, vec3 n) {
     float search = min(frame.technique.x * max(d_r - near, 0.0) / d_r * res, max_texels);
     // Under half a texel every tap reads the same 2x2 footprint: one is enough (R = 0).
     int taps = search < 0.5 ? 1 : int(frame.technique2.x);
+    // The receiver's own surface inside the search disc is no blocker (filter.glsl).
+    ReceiverPlane rp = receiver_plane(s, n, search + 1.0);
     float depth_sum = 0.0;
     float blockers = 0.0;
     for (int i = 0; i < taps; ++i) {
-        vec4 g = textureGather(shadow_map, s.uv + POISSON[i] * (search / res), 0);
-        vec4 blocked = vec4(1.0) - lit_test(g, d_r);
+        vec2 duv = POISSON[i] * (search / res);
+        vec4 g = textureGather(shadow_map, s.uv + duv, 0);
+        vec4 blocked = vec4(1.0) - lit_test(g, plane_depth(rp, duv));
         depth_sum += dot(blocked, g);
         blockers += dot(blocked, vec4(1.0));
     }
@@ -40,7 +43,8 @@ float visibility(vec3 p, vec3 n) {
     // Step 3, PCF over a Poisson disc of that radius; each tap is a 2x2 bilinear footprint.
     // A point light (R = 0) leaves one 2x2 footprint: the `hard` result, one tap.
     int samples = radius < 0.01 ? 1 : int(frame.technique.w);
-    return pcf_poisson(shadow_map, s.uv, d_r, samples, radius);
+    rp.max_shift = 8.0 * (radius + 1.0) * d_r * frame.light_frustum.y;
+    return pcf_poisson(shadow_map, s.uv, rp, samples, radius);
 }
 
 #include "common/final.glsl"

@@ -9,7 +9,11 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 
 #[derive(Parser)]
-#[command(name = "softshadow", version, about = "Fake soft shadows in Vulkan, timed per pass against their error")]
+#[command(
+    name = "softshadow",
+    version,
+    about = "Fake soft shadows in Vulkan, timed per pass against their error"
+)]
 struct Cli {
     /// Vulkan device: a substring of its name (default: a real GPU, else lavapipe).
     #[arg(long, global = true, env = "SOFTSHADOW_DEVICE")]
@@ -91,7 +95,11 @@ fn main() -> ExitCode {
         Err(e) => {
             // clap prints help/version itself and formats its own errors.
             let _ = e.print();
-            return if e.use_stderr() { ExitCode::from(2) } else { ExitCode::SUCCESS };
+            return if e.use_stderr() {
+                ExitCode::from(2)
+            } else {
+                ExitCode::SUCCESS
+            };
         }
     };
     match run(cli) {
@@ -140,7 +148,10 @@ fn render(cli: &Cli, a: &RenderArgs) -> Result<()> {
     check_writable(&a.out)?;
     let ctx = open_device(cli)?;
     if a.spirv == "tuned" {
-        eprintln!("note: no hand-tuned SPIR-V for '{}' yet: using glslang's", a.technique);
+        eprintln!(
+            "note: no hand-tuned SPIR-V for '{}' yet: using glslang's",
+            a.technique
+        );
     }
     let settings = Settings {
         width: a.width,
@@ -179,7 +190,11 @@ fn render(cli: &Cli, a: &RenderArgs) -> Result<()> {
     }
     let msgs = ctx.validation_messages();
     if !msgs.is_empty() {
-        bail!("{} validation message(s), the first: {}", msgs.len(), msgs[0]);
+        bail!(
+            "{} validation message(s), the first: {}",
+            msgs.len(),
+            msgs[0]
+        );
     }
     Ok(())
 }
@@ -191,11 +206,19 @@ fn check_writable(path: &std::path::Path) -> Result<()> {
         _ => std::path::Path::new("."),
     };
     if !dir.is_dir() {
-        bail!("cannot write {}: folder {} does not exist", path.display(), dir.display());
+        bail!(
+            "cannot write {}: folder {} does not exist",
+            path.display(),
+            dir.display()
+        );
     }
     let md = std::fs::metadata(dir).with_context(|| format!("checking {}", dir.display()))?;
     if md.permissions().readonly() {
-        bail!("cannot write {}: folder {} is read-only", path.display(), dir.display());
+        bail!(
+            "cannot write {}: folder {} is read-only",
+            path.display(),
+            dir.display()
+        );
     }
     Ok(())
 }

@@ -88,7 +88,8 @@ float pcf_box(sampler2D sm, vec2 uv, ReceiverPlane rp, int n) {
             sum += dot(lit, vec4(wx0 * wy1, wx1 * wy1, wx1 * wy0, wx0 * wy0));
         }
     }
-    return sum / float(n * n);
+    // The weights sum to n^2 only up to rounding; visibility must stay in [0,1].
+    return clamp(sum / float(n * n), 0.0, 1.0);
 }
 
 // Poisson-disc PCF: the first n points of POISSON scaled to `radius` texels, each a 2x2
@@ -100,7 +101,7 @@ float pcf_poisson(sampler2D sm, vec2 uv, ReceiverPlane rp, int n, float radius) 
         vec2 q = uv + POISSON[i] * scale;
         sum += bilinear(lit_test(textureGather(sm, q, 0), plane_depth(rp, q - uv)), q);
     }
-    return sum / float(n);
+    return clamp(sum / float(n), 0.0, 1.0);
 }
 
 #endif

@@ -108,7 +108,12 @@ impl Technique for Pcf {
         [kernel_uniform(self.kernel), [0.0; 4]]
     }
 
-    fn record(&mut self, _ctx: &Context, rec: &mut Recorder<'_>, frame: &FrameInput<'_>) -> Result<()> {
+    fn record(
+        &mut self,
+        _ctx: &Context,
+        rec: &mut Recorder<'_>,
+        frame: &FrameInput<'_>,
+    ) -> Result<()> {
         rec.pass("pcf/shadow_map", |rec| {
             self.shadow.record(rec, frame.gpu);
             Ok(())

@@ -146,7 +146,12 @@ impl Technique for Pcss {
         ]
     }
 
-    fn record(&mut self, _ctx: &Context, rec: &mut Recorder<'_>, frame: &FrameInput<'_>) -> Result<()> {
+    fn record(
+        &mut self,
+        _ctx: &Context,
+        rec: &mut Recorder<'_>,
+        frame: &FrameInput<'_>,
+    ) -> Result<()> {
         rec.pass("pcss/shadow_map", |rec| {
             self.shadow.record(rec, frame.gpu);
             Ok(())

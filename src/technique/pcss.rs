@@ -19,6 +19,9 @@
 //!   `w_filter = w_penumbra / (2 d_receiver tan(fov/2)) = R (d_r - d_b) / (2 tan(fov/2) d_b d_r)`.
 //!   Both radii are clamped to `MAX_RADIUS_TEXELS`; each filter tap is a 2x2 bilinear
 //!   footprint, so the smallest kernel is `hard`'s and R = 0 gives `hard` exactly.
+//! * (5) Search and filter taps compare with the receiver's tangent plane along each tap's
+//!   light ray where it is closer than the point (`pcf` module header, Eq. 3, in
+//!   `glsl/pcf/filter.glsl`), so the receiver's own texels are neither blockers nor shadow.
 //!
 //! ## Passes, in order
 //! 1. `pcss/shadow_map` — casters from the light (`render::passes::ShadowMap`).
@@ -55,7 +58,18 @@
 //! light as the exact result's do (the penumbra is centred on the hard edge); thin blockers
 //! between sparse search samples are missed (the pixel is then lit); large kernels darken
 //! lit surfaces sloping away from the light (surface self-comparison, as `pcf`); penumbrae
-//! wider than MAX_RADIUS_TEXELS are clamped.
+//! wider than MAX_RADIUS_TEXELS are clamped; the disc without rotation bands wide penumbrae
+//! into visible rings (`cylinder`, far end of the shadow).
+//!
+//! ## Cost, against the 2x-`hard` goal (missed on lavapipe)
+//! lavapipe, 2 busy cores, 1024^2 image and map, `primitives`, one run: frame 1.6-1.9 s
+//! against `hard`'s 0.27-0.37 s (5-6x); poisson8 (8 + 8 samples) 1.08 s (3x), poisson32
+//! 2.55 s. The shadow-map pass is the same as `hard`'s (20-30 ms); the final pass
+//! dominates, and in it the blocker search: every lit pixel inside the light frustum pays
+//! SEARCH_SAMPLES gathers before it can exit, and on lavapipe one gather costs about as much
+//! as all of `hard`'s final pass. The fix that would meet the goal is a hierarchical search
+//! (a min/max depth mip chain of the shadow map: one fetch decides "no blocker" or "all
+//! blocked" for most pixels), which needs mip-level image views in `src/vk`.
 
 use super::{FrameInput, Technique, TechniqueInfo, TechniqueInit};
 use crate::render::passes::{FinalPass, ShadowMap};

@@ -2,6 +2,8 @@
 //! `render`, `bench`, `stress` and the tests loop over.
 
 pub mod hard;
+pub mod pcf;
+pub mod pcss;
 pub mod smoothies;
 
 use crate::render::{CameraTargets, GpuScene, Settings};
@@ -65,7 +67,7 @@ pub struct TechniqueInfo {
 }
 
 /// Every technique, in the order reports list them.
-pub const TECHNIQUES: &[TechniqueInfo] = &[hard::INFO, smoothies::INFO];
+pub const TECHNIQUES: &[TechniqueInfo] = &[hard::INFO, pcf::INFO, pcss::INFO, smoothies::INFO];
 
 pub fn names() -> Vec<&'static str> {
     TECHNIQUES.iter().map(|t| t.name).collect()

@@ -3,6 +3,7 @@
 
 pub mod hard;
 pub mod smoothies;
+pub mod ssm;
 
 use crate::render::{CameraTargets, GpuScene, Settings};
 use crate::scene::{LightView, Scene};
@@ -55,7 +56,7 @@ pub struct TechniqueInfo {
 }
 
 /// Every technique, in the order reports list them.
-pub const TECHNIQUES: &[TechniqueInfo] = &[hard::INFO, smoothies::INFO];
+pub const TECHNIQUES: &[TechniqueInfo] = &[hard::INFO, smoothies::INFO, ssm::INFO, ssm::INFO2];
 
 pub fn names() -> Vec<&'static str> {
     TECHNIQUES.iter().map(|t| t.name).collect()

@@ -1,0 +1,208 @@
+//! Soft shadow maps (Atty et al. 2006), `ssm` and `ssm2`: agreement with `hard` where every
+//! technique agrees, contact hardening, the inner penumbra that smoothies lack, the FP16
+//! breakdown of Appendix A (Eq. 4), the two-sided variant's accuracy, bad input.
+
+mod common;
+
+use common::{covered, pixel_at, small, Gpu};
+use glam::{Vec2, Vec3};
+use softshadow::render::{AccumFormat, FrameImages, Renderer, Settings};
+use softshadow::scene::Scene;
+
+fn scene(name: &str) -> Scene {
+    Scene::load(name).unwrap_or_else(|e| panic!("{e:#}"))
+}
+
+fn settings(width: u32, occluder_res: u32, radius: Option<f32>) -> Settings {
+    Settings {
+        occluder_res,
+        light_radius: radius,
+        ..small(width, occluder_res)
+    }
+}
+
+/// Ground pixels (y ~ 0) as (world xz, visibility).
+fn ground(img: &FrameImages) -> Vec<(Vec2, f32)> {
+    covered(img)
+        .into_iter()
+        .filter(|&i| img.position[i][1].abs() < 1e-3)
+        .map(|i| (Vec2::new(img.position[i][0], img.position[i][2]), img.visibility[i]))
+        .collect()
+}
+
+/// The cylinder scene's shadow frame on the ground: unit vector from the base away from
+/// the light (along the shadow), and across it.
+fn cylinder_shadow_axes(s: &Scene) -> (Vec2, Vec2) {
+    let l = s.light.position;
+    let along = Vec2::new(-l.x, -l.z).normalize();
+    (along, Vec2::new(-along.y, along.x))
+}
+
+#[test]
+fn lit_is_one_and_deep_umbra_is_zero_like_hard() {
+    let gpu = Gpu::new();
+    let s = scene("cylinder");
+    let (along, _) = cylinder_shadow_axes(&s);
+    // Just behind the base, away from the light: umbra for every light size here.
+    let umbra = Vec3::new(along.x * 0.8, 0.0, along.y * 0.8);
+    // Open ground on the light's side.
+    let lit = Vec3::new(-along.x * 2.0, 0.0, -along.y * 2.0);
+    for t in ["hard", "ssm", "ssm2"] {
+        for fmt in [AccumFormat::R32F, AccumFormat::R16F] {
+            let img = gpu.render(
+                "cylinder",
+                t,
+                Settings {
+                    accum_format: fmt,
+                    ..settings(128, 256, None)
+                },
+            );
+            let vu = img.visibility[pixel_at(&img, umbra)];
+            let vl = img.visibility[pixel_at(&img, lit)];
+            assert!(vu < 0.02, "{t} {fmt:?}: umbra visibility {vu}");
+            assert!(vl > 0.999, "{t} {fmt:?}: lit visibility {vl}");
+            assert!(
+                img.visibility.iter().all(|v| v.is_finite() && (0.0..=1.0).contains(v)),
+                "{t} {fmt:?}: visibility outside [0,1]"
+            );
+        }
+    }
+}
+
+#[test]
+fn zero_radius_matches_hard() {
+    let gpu = Gpu::new();
+    for t in ["ssm", "ssm2"] {
+        for name in ["cylinder", "boxes"] {
+            let set = settings(128, 256, Some(0.0));
+            let hard = gpu.render(name, "hard", set.clone());
+            let soft = gpu.render(name, t, set);
+            let px = covered(&hard);
+            let differ = px
+                .iter()
+                .filter(|&&i| (hard.visibility[i] - soft.visibility[i]).abs() > 0.5)
+                .count();
+            let frac = differ as f64 / px.len() as f64;
+            println!("{t} {name}: {differ} of {} pixels differ from hard", px.len());
+            // Away from shadow-map aliasing: only pixels on shadow edges may differ.
+            assert!(frac < 0.01, "{t} {name}: {frac} of pixels differ from hard at R = 0");
+        }
+    }
+}
+
+/// Penumbra width on one side of the cylinder's shadow: the across-range of ground pixels
+/// with 0.05 < v < 0.95 in a band at `dist` along the shadow.
+fn penumbra_width(img: &FrameImages, along: Vec2, across: Vec2, dist: f32) -> f32 {
+    let (mut lo, mut hi) = (f32::MAX, f32::MIN);
+    for (p, v) in ground(img) {
+        let a = p.dot(along);
+        let c = p.dot(across);
+        if (a - dist).abs() < 0.15 && c > 0.0 && v > 0.05 && v < 0.95 {
+            lo = lo.min(c);
+            hi = hi.max(c);
+        }
+    }
+    (hi - lo).max(0.0)
+}
+
+#[test]
+fn contact_hardening_narrow_near_contact_wide_far() {
+    let gpu = Gpu::new();
+    let s = scene("cylinder");
+    let (along, across) = cylinder_shadow_axes(&s);
+    for t in ["ssm", "ssm2"] {
+        let img = gpu.render("cylinder", t, settings(256, 256, Some(0.5)));
+        let near = penumbra_width(&img, along, across, 1.0);
+        let far = penumbra_width(&img, along, across, 3.0);
+        println!("{t}: penumbra width near {near}, far {far}");
+        assert!(near > 0.0, "{t}: no penumbra near the contact");
+        assert!(far > 1.8 * near, "{t}: penumbra near {near}, far {far}: no contact hardening");
+    }
+}
+
+/// Ground pixels in umbra (v < 0.01).
+fn umbra_count(img: &FrameImages) -> usize {
+    ground(img).iter().filter(|(_, v)| *v < 0.01).count()
+}
+
+#[test]
+fn inner_penumbra_umbra_shrinks_as_the_light_grows() {
+    let gpu = Gpu::new();
+    let count = |t: &str, r: f32| umbra_count(&gpu.render("cylinder", t, settings(192, 256, Some(r))));
+    let (s_small, s_big) = (count("ssm", 0.1), count("ssm", 0.6));
+    let (m_small, m_big) = (count("smoothies", 0.1), count("smoothies", 0.6));
+    println!("umbra pixels: ssm {s_small} -> {s_big}, smoothies {m_small} -> {m_big}");
+    assert!(s_small > 100, "ssm: no umbra at a small light ({s_small})");
+    assert!(
+        (s_big as f64) < 0.8 * s_small as f64,
+        "ssm: umbra {s_small} -> {s_big} pixels, no inner penumbra"
+    );
+    // Smoothies only grow the penumbra outward: their umbra stays the hard shadow.
+    assert!(
+        m_big as f64 > 0.95 * m_small as f64,
+        "smoothies: umbra {m_small} -> {m_big}"
+    );
+}
+
+/// Mean |a - b| over the texels where `reference` is shadowed at all.
+fn buffer_error(a: &[f32], reference: &[f32]) -> f64 {
+    let (sum, n) = a
+        .iter()
+        .zip(reference)
+        .filter(|(_, r)| **r > 1e-3)
+        .fold((0.0, 0usize), |(s, n), (x, r)| (s + (x - r).abs() as f64, n + 1));
+    sum / n.max(1) as f64
+}
+
+fn soft_shadow_map(gpu: &Gpu, name: &str, occluder_res: u32, fmt: AccumFormat, r: f32) -> Vec<f32> {
+    let set = Settings {
+        accum_format: fmt,
+        ..settings(64, occluder_res, Some(r))
+    };
+    let mut renderer = Renderer::new(&gpu.ctx, scene(name), "ssm", set)
+        .unwrap_or_else(|e| panic!("{e:#}"));
+    renderer.render().unwrap_or_else(|e| panic!("{e:#}"));
+    renderer
+        .read_technique_buffer("soft_shadow_pure")
+        .unwrap_or_else(|e| panic!("{e:#}"))
+}
+
+/// Appendix A, Eq. 4: with FP16 blending, micro-patches that hide less than 2^-10 of the
+/// light are lost once the sum nears 1; a larger occluder map makes the patches smaller,
+/// so R16F breaks at 512^2 where it agrees with R32F at 128^2. Error of R16F measured
+/// against R32F at the same occluder resolution (same micro-patches, exact sums).
+#[test]
+fn fp16_accumulation_breaks_at_512_not_at_128() {
+    let gpu = Gpu::new();
+    let r = 0.5;
+    let err = |res: u32| {
+        let full = soft_shadow_map(&gpu, "overlap", res, AccumFormat::R32F, r);
+        let half = soft_shadow_map(&gpu, "overlap", res, AccumFormat::R16F, r);
+        buffer_error(&half, &full)
+    };
+    let (e128, e512) = (err(128), err(512));
+    println!("R16F vs R32F mean error: 128^2 {e128:.5}, 512^2 {e512:.5}");
+    assert!(e128 < 0.01, "R16F already disagrees at 128^2: {e128}");
+    assert!(e512 > 0.03, "R16F does not break at 512^2: {e512}");
+    assert!(e512 > 4.0 * e128, "error 128^2 {e128}, 512^2 {e512}");
+}
+
+#[test]
+fn occluder_map_larger_than_the_device_allows_is_a_clear_error() {
+    let gpu = Gpu::new();
+    let max = gpu.ctx.limits.max_image_dimension2_d;
+    for bad in [0, max + 1] {
+        let set = Settings {
+            occluder_res: bad,
+            ..small(64, 64)
+        };
+        let err = match Renderer::new(&gpu.ctx, scene("cylinder"), "ssm", set) {
+            Ok(_) => panic!("occluder_res {bad} accepted"),
+            Err(e) => format!("{e:#}"),
+        };
+        assert!(
+            err.contains("--occluder-res") && err.contains(&format!("1..={max}")),
+            "unclear error: {err}"
+        );
+    }
+}

@@ -97,22 +97,23 @@ use crate::render::{AccumFormat, GpuScene};
 use crate::scene::Role;
 use crate::shaders;
 use crate::vk::{
-    AccessFlags2, Blend, Buffer, BufferUsageFlags, CompareOp, Context, CullModeFlags,
-    DepthState, DescriptorSet, Filter, Format, GraphicsPipelineDesc, Image, ImageLayout,
-    ImageUsageFlags, MemoryLocation, Pipeline, PipelineStageFlags2, PrimitiveTopology,
-    Recorder, Resource, Sampler,
+    AccessFlags2, Blend, Buffer, BufferUsageFlags, CompareOp, Context, CullModeFlags, DepthState,
+    DescriptorSet, Filter, Format, GraphicsPipelineDesc, Image, ImageLayout, ImageUsageFlags,
+    MemoryLocation, Pipeline, PipelineStageFlags2, PrimitiveTopology, Recorder, Resource, Sampler,
 };
 use anyhow::{bail, Context as _, Result};
 
 pub const INFO: TechniqueInfo = TechniqueInfo {
     name: "ssm",
-    summary: "Atty et al. 2006: soft shadow map, GPU micro-patch back-projection, additive blending",
+    summary:
+        "Atty et al. 2006: soft shadow map, GPU micro-patch back-projection, additive blending",
     create: create_one_sided,
 };
 
 pub const INFO2: TechniqueInfo = TechniqueInfo {
     name: "ssm2",
-    summary: "Atty et al. 2006 two-sided: front and back occluder maps, soft shadow maps merged with max",
+    summary:
+        "Atty et al. 2006 two-sided: front and back occluder maps, soft shadow maps merged with max",
     create: create_two_sided,
 };
 
@@ -193,9 +194,14 @@ impl Ssm {
             );
         }
         if !ctx.supports_blend(Format::R32_SFLOAT) {
-            bail!("{} cannot MIN-blend R32_SFLOAT attachments, which the receiver map needs", ctx.device_name);
+            bail!(
+                "{} cannot MIN-blend R32_SFLOAT attachments, which the receiver map needs",
+                ctx.device_name
+            );
         }
-        let usage = ImageUsageFlags::COLOR_ATTACHMENT | ImageUsageFlags::SAMPLED | ImageUsageFlags::TRANSFER_SRC;
+        let usage = ImageUsageFlags::COLOR_ATTACHMENT
+            | ImageUsageFlags::SAMPLED
+            | ImageUsageFlags::TRANSFER_SRC;
         let nearest = Sampler::new(ctx, Filter::Nearest).context("ssm sampler")?;
 
         let occluder = ShadowMap::new(ctx, init.ubo, res, &format!("{tname}/occluder_map"))
@@ -207,12 +213,27 @@ impl Ssm {
         };
 
         let receiver_layers = [
-            Image::new_2d(ctx, res, res, Format::R32_SFLOAT, usage, "ssm receiver map (front)")
-                .context("ssm receiver map")?,
-            Image::new_2d(ctx, res, res, Format::R32_SFLOAT, usage, "ssm receiver map (pure)")
-                .context("ssm receiver map")?,
+            Image::new_2d(
+                ctx,
+                res,
+                res,
+                Format::R32_SFLOAT,
+                usage,
+                "ssm receiver map (front)",
+            )
+            .context("ssm receiver map")?,
+            Image::new_2d(
+                ctx,
+                res,
+                res,
+                Format::R32_SFLOAT,
+                usage,
+                "ssm receiver map (pure)",
+            )
+            .context("ssm receiver map")?,
         ];
-        let receiver_set = DescriptorSet::new(ctx, &[Resource::Uniform(init.ubo)], "ssm/receiver_map")?;
+        let receiver_set =
+            DescriptorSet::new(ctx, &[Resource::Uniform(init.ubo)], "ssm/receiver_map")?;
         let receiver_pipeline = |fragment: &[u8], name: &str| {
             Pipeline::graphics(
                 ctx,
@@ -225,17 +246,24 @@ impl Ssm {
                     topology: PrimitiveTopology::TRIANGLE_LIST,
                     cull: CullModeFlags::NONE,
                     // MIN keeps the nearest depth without a z-buffer per layer.
-                    colors: &[(Format::R32_SFLOAT, Blend::Min), (Format::R32_SFLOAT, Blend::Min)],
+                    colors: &[
+                        (Format::R32_SFLOAT, Blend::Min),
+                        (Format::R32_SFLOAT, Blend::Min),
+                    ],
                     depth: None,
                     push_constant_bytes: crate::render::gpu_scene::DRAW_PUSH_BYTES,
                     sets: &[&receiver_set],
                 },
             )
         };
-        let receiver_both = receiver_pipeline(shaders::SSM_RECEIVER_BOTH_FRAG, "ssm/receiver_map (both)")
-            .context("ssm receiver pipeline")?;
-        let receiver_only = receiver_pipeline(shaders::SSM_RECEIVER_ONLY_FRAG, "ssm/receiver_map (receivers)")
-            .context("ssm receiver pipeline")?;
+        let receiver_both =
+            receiver_pipeline(shaders::SSM_RECEIVER_BOTH_FRAG, "ssm/receiver_map (both)")
+                .context("ssm receiver pipeline")?;
+        let receiver_only = receiver_pipeline(
+            shaders::SSM_RECEIVER_ONLY_FRAG,
+            "ssm/receiver_map (receivers)",
+        )
+        .context("ssm receiver pipeline")?;
 
         let bound = Buffer::new(
             ctx,
@@ -280,10 +308,19 @@ impl Ssm {
             )?;
             Ok(SoftShadow { layers, set, name })
         };
-        let front = soft(&occluder.depth, if two_sided { "ssm2/soft_shadow" } else { "ssm/soft_shadow" })
-            .context("ssm soft shadow map")?;
+        let front = soft(
+            &occluder.depth,
+            if two_sided {
+                "ssm2/soft_shadow"
+            } else {
+                "ssm/soft_shadow"
+            },
+        )
+        .context("ssm soft shadow map")?;
         let back_soft = match &back {
-            Some(b) => Some(soft(&b.depth, "ssm2/soft_shadow_back").context("ssm2 back soft shadow map")?),
+            Some(b) => {
+                Some(soft(&b.depth, "ssm2/soft_shadow_back").context("ssm2 back soft shadow map")?)
+            }
             None => None,
         };
         // Both SoftShadow sets are defined identically, so one pipeline serves both.
@@ -323,7 +360,8 @@ impl Ssm {
         } else {
             shaders::SSM_FINAL_FRAG
         };
-        let final_pass = FinalPass::new(ctx, final_name, fragment, &final_set).context("ssm final pass")?;
+        let final_pass =
+            FinalPass::new(ctx, final_name, fragment, &final_set).context("ssm final pass")?;
         Ok(Self {
             two_sided,
             res,
@@ -391,7 +429,10 @@ impl Ssm {
 
     fn record_soft(&self, rec: &mut Recorder<'_>, soft: &SoftShadow) {
         rec.begin_rendering(
-            &[(&soft.layers[0], Some([0.0; 4])), (&soft.layers[1], Some([0.0; 4]))],
+            &[
+                (&soft.layers[0], Some([0.0; 4])),
+                (&soft.layers[1], Some([0.0; 4])),
+            ],
             None,
         );
         rec.bind_pipeline(&self.soft_pipeline);
@@ -412,7 +453,9 @@ impl BackOccluderMap {
             res,
             res,
             Format::R32_SFLOAT,
-            ImageUsageFlags::COLOR_ATTACHMENT | ImageUsageFlags::SAMPLED | ImageUsageFlags::TRANSFER_SRC,
+            ImageUsageFlags::COLOR_ATTACHMENT
+                | ImageUsageFlags::SAMPLED
+                | ImageUsageFlags::TRANSFER_SRC,
             "ssm2 back occluder map",
         )?;
         let zbuffer = Image::new_2d(
@@ -480,12 +523,22 @@ impl Technique for Ssm {
     fn uniforms(&self, frame: &FrameInput<'_>) -> [[f32; 4]; 2] {
         let n = self.res as f32;
         [
-            [light_square_side(frame.light_radius), n, 1.0 / n, SELF_GUARD_TEXELS],
+            [
+                light_square_side(frame.light_radius),
+                n,
+                1.0 / n,
+                SELF_GUARD_TEXELS,
+            ],
             [0.0; 4],
         ]
     }
 
-    fn record(&mut self, _ctx: &Context, rec: &mut Recorder<'_>, frame: &FrameInput<'_>) -> Result<()> {
+    fn record(
+        &mut self,
+        _ctx: &Context,
+        rec: &mut Recorder<'_>,
+        frame: &FrameInput<'_>,
+    ) -> Result<()> {
         rec.pass(&self.pass_name("occluder_map"), |rec| {
             self.occluder.record(rec, frame.gpu);
             Ok(())

@@ -5,6 +5,7 @@ pub mod hard;
 pub mod pcf;
 pub mod pcss;
 pub mod smoothies;
+pub mod ssm;
 
 use crate::render::{CameraTargets, GpuScene, Settings};
 use crate::scene::{LightView, Scene};
@@ -67,7 +68,14 @@ pub struct TechniqueInfo {
 }
 
 /// Every technique, in the order reports list them.
-pub const TECHNIQUES: &[TechniqueInfo] = &[hard::INFO, pcf::INFO, pcss::INFO, smoothies::INFO];
+pub const TECHNIQUES: &[TechniqueInfo] = &[
+    hard::INFO,
+    pcf::INFO,
+    pcss::INFO,
+    smoothies::INFO,
+    ssm::INFO,
+    ssm::INFO2,
+];
 
 pub fn names() -> Vec<&'static str> {
     TECHNIQUES.iter().map(|t| t.name).collect()

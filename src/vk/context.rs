@@ -233,7 +233,9 @@ impl Context {
             .queue_priorities(&priorities)];
         let mut f13 = vk::PhysicalDeviceVulkan13Features::default()
             .dynamic_rendering(true)
-            .synchronization2(true);
+            .synchronization2(true)
+            // Required by Vulkan 1.3; spirv-opt emits LocalSizeId for compute shaders.
+            .maintenance4(true);
         let mut f12 = vk::PhysicalDeviceVulkan12Features::default().host_query_reset(true);
         let features = vk::PhysicalDeviceFeatures::default();
         let device_create = vk::DeviceCreateInfo::default()

@@ -84,15 +84,15 @@
 //! on the plane up to each method's one-texel edge aliasing (the texel grids differ).
 
 use super::{FrameInput, Technique, TechniqueInfo, TechniqueInit};
-use crate::render::passes::{falloff_lut, FinalPass, ShadowMap};
 use crate::render::gpu_scene::{GpuObject, DRAW_PUSH_BYTES, SCENE_ATTRIBUTES, SCENE_VERTEX_STRIDE};
+use crate::render::passes::{falloff_lut, FinalPass, ShadowMap};
 use crate::scene::{normal_matrix, Aabb, LightView, Mesh, Scene};
 use crate::shaders;
 use crate::silhouette::{self, Adjacency, SilhouetteEdge};
 use crate::vk::{
-    Blend, Buffer, BufferUsageFlags, CompareOp, Context, CullModeFlags, DepthState,
-    DescriptorSet, Filter, Format, GraphicsPipelineDesc, Image, ImageLayout, ImageUsageFlags,
-    MemoryLocation, Pipeline, PrimitiveTopology, Recorder, Resource, Sampler,
+    Blend, Buffer, BufferUsageFlags, CompareOp, Context, CullModeFlags, DepthState, DescriptorSet,
+    Filter, Format, GraphicsPipelineDesc, Image, ImageLayout, ImageUsageFlags, MemoryLocation,
+    Pipeline, PrimitiveTopology, Recorder, Resource, Sampler,
 };
 use anyhow::{anyhow, Context as _, Result};
 use bytemuck::{Pod, Zeroable};
@@ -163,7 +163,7 @@ fn plane_of(mesh: &Mesh) -> Option<(Vec3, Vec3, [Vec3; 4])> {
         .filter_map(|&i| mesh.positions.get(i as usize).copied())
         .collect();
     let size = Aabb::from_points(pts.iter().copied()).radius() * 2.0;
-    if !(size > 0.0) {
+    if !size.is_finite() || size <= 0.0 {
         return None;
     }
     // The largest triangle has the best-conditioned normal.
@@ -192,7 +192,16 @@ fn plane_of(mesh: &Mesh) -> Option<(Vec3, Vec3, [Vec3; 4])> {
         hi = hi.max(q);
     }
     let at = |s: f32, t: f32| origin + u * s + v * t;
-    Some((origin, n, [at(lo.x, lo.y), at(hi.x, lo.y), at(hi.x, hi.y), at(lo.x, hi.y)]))
+    Some((
+        origin,
+        n,
+        [
+            at(lo.x, lo.y),
+            at(hi.x, lo.y),
+            at(hi.x, hi.y),
+            at(lo.x, hi.y),
+        ],
+    ))
 }
 
 /// The largest planar receiver of `scene`, or the error this technique gives without one.
@@ -293,10 +302,16 @@ impl PlaneFrame {
             lo = lo.min(coord(p));
             hi = hi.max(coord(p));
         }
-        let diag = (corners[2] - corners[0]).length().max((corners[3] - corners[1]).length());
+        let diag = (corners[2] - corners[0])
+            .length()
+            .max((corners[3] - corners[1]).length());
         let res = res.max(1);
         // Square texels; one texel of margin each side so the border texels stay inside.
-        let side = (hi - lo).max_element().max(diag * 1e-6).max(f32::MIN_POSITIVE) * (1.0 + 2.0 / res as f32);
+        let side = (hi - lo)
+            .max_element()
+            .max(diag * 1e-6)
+            .max(f32::MIN_POSITIVE)
+            * (1.0 + 2.0 / res as f32);
         Self {
             origin,
             u,
@@ -336,7 +351,7 @@ impl PlaneFrame {
     pub fn vertex_disc(&self, x: Vec3, radius: f32) -> Option<(Vec2, f32)> {
         let big_h = self.light_height;
         let h = self.height(x);
-        if !(h < big_h * MAX_HEIGHT_FRACTION) {
+        if h.is_nan() || h >= big_h * MAX_HEIGHT_FRACTION {
             return None;
         }
         let p = self.light + (x - self.light) * (big_h / (big_h - h));
@@ -417,7 +432,7 @@ impl<'a> PlateauBuilder<'a> {
     pub fn cone(&mut self, c: Vec2, r: f32) {
         let texels = r / self.plane.texel();
         // Below a thousandth of a texel the cone covers no sample.
-        if !(texels > 1e-3) {
+        if texels.is_nan() || texels <= 1e-3 {
             return;
         }
         let segments = (2.0 * texels).ceil().clamp(8.0, 64.0) as u32;
@@ -439,7 +454,8 @@ impl<'a> PlateauBuilder<'a> {
         let texel = self.plane.texel();
         let d = c2 - c1;
         let len = d.length();
-        if !(len > texel * 1e-3) || !(r1.max(r2) > texel * 1e-3) {
+        if len.is_nan() || len <= texel * 1e-3 || r1.max(r2).is_nan() || r1.max(r2) <= texel * 1e-3
+        {
             return;
         }
         let e = d / len;
@@ -479,9 +495,10 @@ impl<'a> PlateauBuilder<'a> {
     ) {
         for e in sil {
             let disc = |i: u32| {
-                adj.positions
-                    .get(i as usize)
-                    .and_then(|&x| self.plane.vertex_disc(model.transform_point3(x), self.radius))
+                adj.positions.get(i as usize).and_then(|&x| {
+                    self.plane
+                        .vertex_disc(model.transform_point3(x), self.radius)
+                })
             };
             let (da, db) = (disc(e.a), disc(e.b));
             for (i, d) in [(e.a, da), (e.b, db)] {
@@ -528,7 +545,9 @@ impl Plateaus {
         let ctx = init.ctx;
         let res = init.settings.shadow_res;
         let receiver = find_planar_receiver(init.scene)?;
-        let usage = ImageUsageFlags::COLOR_ATTACHMENT | ImageUsageFlags::SAMPLED | ImageUsageFlags::TRANSFER_SRC;
+        let usage = ImageUsageFlags::COLOR_ATTACHMENT
+            | ImageUsageFlags::SAMPLED
+            | ImageUsageFlags::TRANSFER_SRC;
         let texture = Image::new_2d(ctx, res, res, Format::R32_SFLOAT, usage, "plateau texture")?;
         let zbuffer = Image::new_2d(
             ctx,
@@ -607,7 +626,12 @@ impl Plateaus {
             ],
             "plateaus/final",
         )?;
-        let final_pass = FinalPass::new(ctx, "plateaus/final", shaders::PLATEAUS_FINAL_FRAG, &final_set)?;
+        let final_pass = FinalPass::new(
+            ctx,
+            "plateaus/final",
+            shaders::PLATEAUS_FINAL_FRAG,
+            &final_set,
+        )?;
         let adjacency = init
             .scene
             .objects
@@ -615,7 +639,10 @@ impl Plateaus {
             .enumerate()
             .map(|(i, o)| {
                 (o.role.casts() && i != receiver.object)
-                    .then(|| Adjacency::build(&o.mesh).with_context(|| format!("edge adjacency of '{}'", o.name)))
+                    .then(|| {
+                        Adjacency::build(&o.mesh)
+                            .with_context(|| format!("edge adjacency of '{}'", o.name))
+                    })
                     .transpose()
             })
             .collect::<Result<Vec<_>>>()?;
@@ -651,7 +678,12 @@ impl Plateaus {
             .objects
             .get(self.receiver.object)
             .ok_or_else(|| anyhow!("plateaus: the scene lost its planar receiver"))?;
-        Ok(PlaneFrame::new(&self.receiver, obj.transform, frame.light, self.texture.extent.width))
+        Ok(PlaneFrame::new(
+            &self.receiver,
+            obj.transform,
+            frame.light,
+            self.texture.extent.width,
+        ))
     }
 
     /// Silhouettes, cones and sheets of every caster for this frame.
@@ -702,14 +734,22 @@ impl Technique for Plateaus {
         INFO.name
     }
 
-    fn record(&mut self, ctx: &Context, rec: &mut Recorder<'_>, frame: &FrameInput<'_>) -> Result<()> {
+    fn record(
+        &mut self,
+        ctx: &Context,
+        rec: &mut Recorder<'_>,
+        frame: &FrameInput<'_>,
+    ) -> Result<()> {
         let plane = self.plane(frame)?;
-        self.plane_ubo.write(0, bytemuck::bytes_of(&plane.uniforms()))?;
+        self.plane_ubo
+            .write(0, bytemuck::bytes_of(&plane.uniforms()))?;
         // A light in (or under) the plane's level casts nothing onto it that it could light.
         let lit_plane = plane.light_height > plane.texel() * 1e-3;
         let soft = lit_plane && frame.light_radius > 0.0;
         let vertices = if soft {
-            rec.cpu("plateaus/silhouettes", || self.build_geometry(frame, &plane))
+            rec.cpu("plateaus/silhouettes", || {
+                self.build_geometry(frame, &plane)
+            })
         } else {
             Vec::new()
         };
@@ -721,7 +761,10 @@ impl Technique for Plateaus {
             .get(self.receiver.object)
             .map(|o| o as *const GpuObject);
         rec.pass("plateaus/drop_shadow", |rec| {
-            rec.begin_rendering(&[(&self.texture, Some([1.0; 4]))], Some((&self.zbuffer, Some(1.0))));
+            rec.begin_rendering(
+                &[(&self.texture, Some([1.0; 4]))],
+                Some((&self.zbuffer, Some(1.0))),
+            );
             if lit_plane {
                 rec.bind_pipeline(&self.drop_pipeline);
                 rec.bind_sets(&self.drop_pipeline, &[&self.drop_set]);
@@ -816,7 +859,11 @@ mod tests {
         let pf = PlaneFrame::new(&ground_receiver(), Mat4::IDENTITY, &l, 256);
         assert!((pf.light_height - 6.0).abs() < 1e-5, "{}", pf.light_height);
         let m = pf.drop_shadow();
-        for x in [Vec3::new(0.3, 1.0, -0.2), Vec3::new(-1.0, 2.5, 1.0), Vec3::new(0.5, 0.0, 0.5)] {
+        for x in [
+            Vec3::new(0.3, 1.0, -0.2),
+            Vec3::new(-1.0, 2.5, 1.0),
+            Vec3::new(0.5, 0.0, 0.5),
+        ] {
             let c = m * x.extend(1.0);
             let got = Vec2::new(c.x, c.y) / c.w;
             assert!(c.z.abs() < 1e-6);
@@ -826,7 +873,12 @@ mod tests {
             // The projection lies on the line from the light through x, on the plane.
             let world = pf.origin + pf.u * p.x + pf.v * p.y;
             assert!(world.y.abs() < 1e-4);
-            assert!((world - l.position).normalize().dot((x - l.position).normalize()) > 0.99999);
+            assert!(
+                (world - l.position)
+                    .normalize()
+                    .dot((x - l.position).normalize())
+                    > 0.99999
+            );
         }
         let t = pf.to_texture() * Vec3::new(0.2, 0.7, -0.4).extend(1.0);
         assert!((t.z - 0.7).abs() < 1e-5);
@@ -836,10 +888,14 @@ mod tests {
     fn cone_radius_is_the_outer_penumbra_of_a_parallel_disc() {
         let l = light(Vec3::new(0.0, 5.0, 0.0), Vec3::ZERO);
         let pf = PlaneFrame::new(&ground_receiver(), Mat4::IDENTITY, &l, 256);
-        let (_, r) = pf.vertex_disc(Vec3::new(1.0, 2.0, 0.0), 0.5).expect("below the light");
+        let (_, r) = pf
+            .vertex_disc(Vec3::new(1.0, 2.0, 0.0), 0.5)
+            .expect("below the light");
         // Rays from the disc's rim through the point: R h / (H - h).
         assert!((r - 0.5 * 2.0 / 3.0).abs() < 1e-5, "{r}");
-        let (_, r0) = pf.vertex_disc(Vec3::new(1.0, 0.0, 0.0), 0.5).expect("on the plane");
+        let (_, r0) = pf
+            .vertex_disc(Vec3::new(1.0, 0.0, 0.0), 0.5)
+            .expect("on the plane");
         assert_eq!(r0, 0.0);
         assert!(pf.vertex_disc(Vec3::new(0.0, 5.5, 0.0), 0.5).is_none());
     }
@@ -859,7 +915,11 @@ mod tests {
         );
         let pf = PlaneFrame::new(&ground_receiver(), Mat4::IDENTITY, &l, 128);
         let half = 4.0 * (15.0f32).to_radians().tan();
-        assert!((pf.side - 2.0 * half * (1.0 + 2.0 / 128.0)).abs() < 1e-3, "{}", pf.side);
+        assert!(
+            (pf.side - 2.0 * half * (1.0 + 2.0 / 128.0)).abs() < 1e-3,
+            "{}",
+            pf.side
+        );
     }
 
     #[test]
@@ -869,13 +929,20 @@ mod tests {
         for model in [
             Mat4::from_translation(Vec3::new(0.0, 1.5, 0.0)),
             // Mirrored: the silhouette swaps a and b, sheets must still open outwards.
-            Mat4::from_translation(Vec3::new(0.5, 2.0, 0.0)) * Mat4::from_scale(Vec3::new(-1.0, 1.0, 1.0)),
+            Mat4::from_translation(Vec3::new(0.5, 2.0, 0.0))
+                * Mat4::from_scale(Vec3::new(-1.0, 1.0, 1.0)),
         ] {
             let adj = Adjacency::build(&cube()).expect("cube adjacency");
             let sil = silhouette::extract(&adj, model, l.position);
             assert!(sil.len() >= 4);
-            let disc = |i: u32| pf.vertex_disc(model.transform_point3(adj.positions[i as usize]), 0.5);
-            let centre = sil.iter().filter_map(|e| disc(e.a)).map(|d| d.0).sum::<Vec2>() / sil.len() as f32;
+            let disc =
+                |i: u32| pf.vertex_disc(model.transform_point3(adj.positions[i as usize]), 0.5);
+            let centre = sil
+                .iter()
+                .filter_map(|e| disc(e.a))
+                .map(|d| d.0)
+                .sum::<Vec2>()
+                / sil.len() as f32;
             for e in &sil {
                 let (Some((c1, r1)), Some((c2, r2))) = (disc(e.a), disc(e.b)) else {
                     panic!("cube below the light");
@@ -884,11 +951,16 @@ mod tests {
                 b.sheet(c1, r1, c2, r2);
                 assert_eq!(b.sheets, 1);
                 // Depth-1 vertices (the outer rim) lie farther from the shadow's centre.
-                let to_plane = |v: &PlateauVertex| (Vec2::new(v.clip[0], v.clip[1]) + Vec2::ONE) * 0.5 * pf.side + pf.min;
+                let to_plane = |v: &PlateauVertex| {
+                    (Vec2::new(v.clip[0], v.clip[1]) + Vec2::ONE) * 0.5 * pf.side + pf.min
+                };
                 let mid = (c1 + c2) * 0.5;
                 for v in b.vertices.iter().filter(|v| v.clip[2] == 1.0) {
                     let rim = to_plane(v);
-                    assert!((rim - mid).dot(mid - centre) > 0.0, "sheet of edge {e:?} opens inwards");
+                    assert!(
+                        (rim - mid).dot(mid - centre) > 0.0,
+                        "sheet of edge {e:?} opens inwards"
+                    );
                 }
             }
         }
@@ -937,6 +1009,9 @@ mod tests {
             },
         };
         let err = find_planar_receiver(&s).expect_err("no plane").to_string();
-        assert!(err.contains("planar receiver") && err.contains("balls"), "{err}");
+        assert!(
+            err.contains("planar receiver") && err.contains("balls"),
+            "{err}"
+        );
     }
 }

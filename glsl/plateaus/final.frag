@@ -15,11 +15,12 @@ float visibility(vec3 p, vec3 n) {
     if (!s.inside) return 1.0;
     vec4 q = plane.to_texture * vec4(p, 1.0);
     bool on_plane = abs(q.z) <= plane.params.x && abs(dot(n, plane.normal.xyz)) >= plane.params.y;
-    if (!on_plane) {
+    // The texture covers the chosen plane's footprint in the light; anything else (other
+    // receivers, a coplanar object beyond that footprint) gets the hard shadow map.
+    bool in_texture = all(greaterThanEqual(q.xy, vec2(0.0))) && all(lessThanEqual(q.xy, vec2(1.0)));
+    if (!on_plane || !in_texture) {
         return bilinear(lit_test(textureGather(shadow_map, s.uv, 0), s.depth), s.uv);
     }
-    // The texture covers the light's footprint on the plane; outside it nothing is shadowed.
-    if (any(lessThan(q.xy, vec2(0.0))) || any(greaterThan(q.xy, vec2(1.0)))) return 1.0;
     // Same side as the shadow map, so `bilinear` (which uses frame.light_params.z) applies.
     float f = clamp(bilinear(textureGather(plateau_tex, q.xy, 0), q.xy), 0.0, 1.0);
     float size = float(textureSize(falloff, 0));

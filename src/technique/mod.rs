@@ -4,6 +4,7 @@
 pub mod hard;
 pub mod pcf;
 pub mod pcss;
+pub mod plateaus;
 pub mod smoothies;
 pub mod ssm;
 
@@ -75,6 +76,7 @@ pub const TECHNIQUES: &[TechniqueInfo] = &[
     smoothies::INFO,
     ssm::INFO,
     ssm::INFO2,
+    plateaus::INFO,
 ];
 
 pub fn names() -> Vec<&'static str> {

@@ -24,10 +24,11 @@
 //!    z-buffer (clear 1.0, LESS) and two colour attachments:
 //!    location 0 = caster shadow map, R32_SFLOAT linear depth, clear 1e30 (`FAR_DEPTH`);
 //!    location 1 = receiver depth map (Z_P of Eq. 1: the foremost surface, casting or not),
-//!    R32_SFLOAT, clear 1e30, no blend.
+//!    R32_SFLOAT, clear 1e30.
 //!    Casters are drawn first (`glsl/penumbra_map/caster_depth.frag`, both locations = depth,
-//!    no blend); then receive-only objects (`receiver_depth.frag`: location 0 = 1e30 with MIN
-//!    blend, so they never cast; location 1 = depth). The z-buffer then holds the nearest of
+//!    no blend); then receive-only objects (`receiver_depth.frag`: location 0 = 1e30, location
+//!    1 = depth, both MIN-blended — one blend state for both attachments, as independentBlend
+//!    is optional — so they never cast, and on location 1 MIN is a no-op after the LESS test). The z-buffer then holds the nearest of
 //!    everything and location 0 the nearest caster, independent of draw order within a group.
 //!    The paper's shadow map holds every object; our scenes have receive-only grounds, which
 //!    need a depth for Eq. 1 but must not cast. Vertex: `glsl/common/shadow_depth.vert`.
@@ -154,7 +155,7 @@ impl PenumbraMap {
         let nearest = Sampler::new(ctx, Filter::Nearest).context("creating the nearest sampler")?;
 
         let depth_set = DescriptorSet::new(ctx, &[Resource::Uniform(init.ubo)], "penumbra-map/shadow_map")?;
-        let depth_pipeline = |name: &str, fragment: &[u8], caster_blend: Blend| {
+        let depth_pipeline = |name: &str, fragment: &[u8], blend: Blend| {
             Pipeline::graphics(
                 ctx,
                 &GraphicsPipelineDesc {
@@ -166,7 +167,8 @@ impl PenumbraMap {
                     topology: PrimitiveTopology::TRIANGLE_LIST,
                     // Open meshes and planes cast and receive from both sides.
                     cull: CullModeFlags::NONE,
-                    colors: &[(Format::R32_SFLOAT, caster_blend), (Format::R32_SFLOAT, Blend::None)],
+                    // One blend for both: independentBlend is an optional feature.
+                    colors: &[(Format::R32_SFLOAT, blend), (Format::R32_SFLOAT, blend)],
                     depth: Some(DepthState {
                         format: Format::D32_SFLOAT,
                         test: true,
@@ -183,7 +185,8 @@ impl PenumbraMap {
             shaders::PENUMBRA_MAP_CASTER_DEPTH_FRAG,
             Blend::None,
         )?;
-        // MIN with the shader's FAR_DEPTH: a receive-only object never changes the caster map.
+        // MIN with the shader's FAR_DEPTH: a receive-only object never changes the caster map;
+        // on the receiver map MIN changes nothing, the LESS test already passed only nearer ones.
         let receiver_pipeline = depth_pipeline(
             "penumbra-map/shadow_map (receivers)",
             shaders::PENUMBRA_MAP_RECEIVER_DEPTH_FRAG,

@@ -87,6 +87,7 @@ fn contact_hardening() {
     // Near the base the casting silhouette is ~0.6 above the ground, far along the shadow ~1.7.
     let near = penumbra_width(&img, 0.7, 1.1);
     let far = penumbra_width(&img, 3.0, 3.4);
+    eprintln!("penumbra width near {near:.3} far {far:.3}");
     assert!(far > 0.15, "far penumbra {far}");
     assert!(near < 0.6 * far, "near {near} far {far}");
 }
@@ -108,6 +109,7 @@ fn umbra_does_not_shrink_with_radius() {
     let (u_big, p_big) = count(0.8);
     // Outer penumbra only: the hard shadow stays fully dark whatever R (an inner penumbra
     // would eat into it), while the penumbra widens.
+    eprintln!("umbra {u_small} -> {u_big}, penumbra {p_small} -> {p_big}");
     assert!(u_big >= u_small, "umbra {u_small} -> {u_big}");
     assert!(p_big > p_small + p_small / 2, "penumbra {p_small} -> {p_big}");
     assert!(u_small > 100);

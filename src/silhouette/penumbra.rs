@@ -65,9 +65,11 @@ pub struct PenumbraVertex {
 /// Cones and sheets of one object for one light.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct PenumbraGeometry {
-    /// Triangle list: `3 * CONE_SEGMENTS * cones` cone vertices, then `6 * sheets`.
+    /// Triangle list: `3 * cone_triangles` cone vertices, then `6 * sheets`.
     pub vertices: Vec<PenumbraVertex>,
     pub cones: usize,
+    /// Triangles of all (partial) cones.
+    pub cone_triangles: usize,
     pub sheets: usize,
     /// Silhouette vertices with one, or three and more, silhouette edges (still one cone each).
     pub special_vertices: usize,
@@ -108,13 +110,24 @@ fn cone_data(p_world: Vec3, light: &LightView, lr: f32, z_far: f32) -> Option<Co
     })
 }
 
-fn emit_cone(out: &mut Vec<PenumbraVertex>, c: &ConeData, view_inv: Mat4, z_far: f32) {
-    let step = std::f32::consts::TAU / CONE_SEGMENTS as f32;
+/// Cone triangles around `c` over base angles `from .. from + sweep` (radians, signed; TAU
+/// for the whole cone), in segments of at most TAU / CONE_SEGMENTS. Returns the triangle count.
+fn emit_cone(
+    out: &mut Vec<PenumbraVertex>,
+    c: &ConeData,
+    view_inv: Mat4,
+    z_far: f32,
+    from: f32,
+    sweep: f32,
+) -> usize {
+    let max_step = std::f32::consts::TAU / CONE_SEGMENTS as f32;
+    let k = ((sweep.abs() / max_step).ceil() as usize).clamp(1, CONE_SEGMENTS);
+    let step = sweep / k as f32;
     // Circumscribed: the polygon's edges touch the round base circle.
     let r = c.radius / (step * 0.5).cos();
     let zv_h = [c.zv, 1.0];
     let base = |i: usize| {
-        let p = c.centre + r * Vec2::from_angle(step * i as f32);
+        let p = c.centre + r * Vec2::from_angle(from + step * i as f32);
         PenumbraVertex {
             position: view_inv.transform_point3(p.extend(-z_far)).to_array(),
             zv_h,
@@ -124,13 +137,20 @@ fn emit_cone(out: &mut Vec<PenumbraVertex>, c: &ConeData, view_inv: Mat4, z_far:
         position: c.world.to_array(),
         zv_h,
     };
-    for i in 0..CONE_SEGMENTS {
+    for i in 0..k {
         out.extend_from_slice(&[tip, base(i), base(i + 1)]);
     }
+    k
+}
+
+/// A sheet: its two triangles and its tangent normal n in the base plane.
+struct SheetOut {
+    verts: [PenumbraVertex; 6],
+    n: Vec2,
 }
 
 /// The sheet quad of edge a -> b as two triangles, or None (see the module doc).
-fn sheet(a: &ConeData, b: &ConeData, view_inv: Mat4, z_far: f32) -> Option<[PenumbraVertex; 6]> {
+fn sheet(a: &ConeData, b: &ConeData, view_inv: Mat4, z_far: f32) -> Option<SheetOut> {
     let along = b.centre - a.centre;
     let d = along.length();
     if d.is_nan() || d <= 1e-7 * z_far {
@@ -156,8 +176,28 @@ fn sheet(a: &ConeData, b: &ConeData, view_inv: Mat4, z_far: f32) -> Option<[Penu
         zv_h: [c.zv, 1.0],
     };
     let (ta, tb) = (base(a), base(b));
-    Some([tip(a), tip(b), tb, tip(a), tb, ta])
+    Some(SheetOut {
+        verts: [tip(a), tip(b), tb, tip(a), tb, ta],
+        n,
+    })
 }
+
+/// The part of a vertex's cone to draw: `(from, sweep)` in base-plane angles.
+fn cone_arc(normals: &[Vec2]) -> (f32, f32) {
+    let full = (0.0, std::f32::consts::TAU);
+    let [n1, n2] = normals else {
+        return full;
+    };
+    let sweep = n1.angle_to(*n2);
+    // Hairpin: which side is outside is ambiguous; draw the whole cone.
+    if !sweep.is_finite() || sweep.abs() > std::f32::consts::PI - HAIRPIN {
+        return full;
+    }
+    (n1.to_angle(), sweep)
+}
+
+/// Within this angle (1 degree) of a half turn, two sheet normals form a hairpin.
+const HAIRPIN: f32 = std::f32::consts::PI / 180.0;
 
 /// Cones and sheets of one object (`model`: object -> world) for `light` with disc radius
 /// `light_radius`, from its silhouette `sil` (as returned by `extract`); cone bases lie at
@@ -189,42 +229,51 @@ pub fn build_penumbra(
             cone_data(p, light, light_radius, z_far)
         })
         .collect();
-    let cone_of = |v: u32| {
-        groups
-            .binary_search_by_key(&v, |g| g.0)
-            .ok()
-            .and_then(|i| cones[i].as_ref())
-    };
-    let cone_verts: Vec<Vec<PenumbraVertex>> = cones
+    let index_of = |v: u32| groups.binary_search_by_key(&v, |g| g.0).ok();
+    let cone_of = |v: u32| index_of(v).and_then(|i| cones[i].as_ref());
+    let sheets: Vec<Option<SheetOut>> = sil
         .par_iter()
         .with_min_len(256)
-        .map(|c| {
-            let mut out = Vec::new();
-            if let Some(c) = c {
-                emit_cone(&mut out, c, view_inv, z_far);
+        .map(|e| sheet(cone_of(e.a)?, cone_of(e.b)?, view_inv, z_far))
+        .collect();
+    // Per vertex, the tangent normals of its sheets, in silhouette order.
+    let mut normals: Vec<Vec<Vec2>> = vec![Vec::new(); groups.len()];
+    for (e, s) in sil.iter().zip(&sheets) {
+        for v in [e.a, e.b] {
+            if let (Some(i), Some(s)) = (index_of(v), s) {
+                normals[i].push(s.n);
             }
-            out
+        }
+    }
+    let cone_verts: Vec<(Vec<PenumbraVertex>, usize)> = cones
+        .par_iter()
+        .zip(&normals)
+        .with_min_len(256)
+        .map(|(c, ns)| {
+            let mut out = Vec::new();
+            let mut tris = 0;
+            if let Some(c) = c {
+                let (from, sweep) = cone_arc(ns);
+                tris = emit_cone(&mut out, c, view_inv, z_far, from, sweep);
+            }
+            (out, tris)
         })
         .collect();
-    for (c, verts) in cones.iter().zip(&cone_verts) {
+    for (c, (verts, tris)) in cones.iter().zip(&cone_verts) {
         match c {
             Some(_) => {
                 geo.cones += 1;
+                geo.cone_triangles += tris;
                 geo.vertices.extend_from_slice(verts);
             }
             None => geo.skipped_vertices += 1,
         }
     }
-    let sheets: Vec<Option<[PenumbraVertex; 6]>> = sil
-        .par_iter()
-        .with_min_len(256)
-        .map(|e| sheet(cone_of(e.a)?, cone_of(e.b)?, view_inv, z_far))
-        .collect();
     for s in sheets {
         match s {
             Some(q) => {
                 geo.sheets += 1;
-                geo.vertices.extend_from_slice(&q);
+                geo.vertices.extend_from_slice(&q.verts);
             }
             None => geo.skipped_edges += 1,
         }
@@ -259,10 +308,7 @@ mod tests {
     }
 
     fn check_counts(g: &PenumbraGeometry) {
-        assert_eq!(
-            g.vertices.len(),
-            3 * CONE_SEGMENTS * g.cones + 6 * g.sheets
-        );
+        assert_eq!(g.vertices.len(), 3 * g.cone_triangles + 6 * g.sheets);
     }
 
     #[test]
@@ -284,25 +330,26 @@ mod tests {
         assert_eq!((g.cones, g.sheets, g.special_vertices), (6, 6, 0));
         let (c, _) = lv.project(Vec3::new(0.0, 1.0, 0.0));
         let to_view = |p: [f32; 3]| lv.view.transform_point3(Vec3::from(p));
-        // Cones: the tip at the vertex, the base at z_far at C_r / cos(pi / N) from the centre.
-        for cone in g.vertices[..3 * CONE_SEGMENTS * g.cones].chunks_exact(3 * CONE_SEGMENTS) {
-            let tip = to_view(cone[0].position);
+        // Cones: the tip at the vertex, the base at z_far between C_r and C_r / cos(pi / N)
+        // from the centre. A convex loop's corners only need the arcs between adjacent
+        // sheets: about one full turn over the whole loop, not 6.
+        assert!(g.cone_triangles < 2 * CONE_SEGMENTS, "{}", g.cone_triangles);
+        for tri in g.vertices[..3 * g.cone_triangles].chunks_exact(3) {
+            let tip = to_view(tri[0].position);
             let zv = -tip.z;
-            assert!((cone[0].zv_h[0] - zv).abs() < 1e-4 && cone[0].zv_h[1] == 1.0);
+            assert!((tri[0].zv_h[0] - zv).abs() < 1e-4 && tri[0].zv_h[1] == 1.0);
             let centre = tip.truncate() * (z_far / zv);
             let cr = (z_far - zv) * lr / zv;
-            for tri in cone.chunks_exact(3) {
-                for v in &tri[1..] {
-                    let p = to_view(v.position);
-                    assert!((p.z + z_far).abs() < 1e-3);
-                    let r = (p.truncate() - centre).length();
-                    let expect = cr / (std::f32::consts::PI / CONE_SEGMENTS as f32).cos();
-                    assert!((r - expect).abs() < 1e-3 * expect.max(1.0), "{r} vs {expect}");
-                }
+            for v in &tri[1..] {
+                let p = to_view(v.position);
+                assert!((p.z + z_far).abs() < 1e-3);
+                let r = (p.truncate() - centre).length();
+                let most = cr / (std::f32::consts::PI / CONE_SEGMENTS as f32).cos();
+                assert!(r > cr - 1e-3 && r < most + 1e-3, "{r} vs {cr}..{most}");
             }
         }
         // Sheets: planar, tangent to both base circles, on the outside (away from the centre).
-        for q in g.vertices[3 * CONE_SEGMENTS * g.cones..].chunks_exact(6) {
+        for q in g.vertices[3 * g.cone_triangles..].chunks_exact(6) {
             let [a, b, tb, _, _, ta] = [0, 1, 2, 3, 4, 5].map(|i| to_view(q[i].position));
             let n = (b - a).cross(tb - a).normalize();
             assert!(n.dot(ta - a).abs() < 1e-4 * (ta - a).length(), "planar");
@@ -336,7 +383,7 @@ mod tests {
         let (lr, z_far) = (0.5, 15.0);
         let g = build_penumbra(&adj, &sil, model, &lv, lr, z_far);
         assert!(g.sheets > 0);
-        for q in g.vertices[3 * CONE_SEGMENTS * g.cones..].chunks_exact(6) {
+        for q in g.vertices[3 * g.cone_triangles..].chunks_exact(6) {
             let w = [0.2f32, 0.3, 0.5];
             let tri = &q[..3];
             let p: Vec3 = tri
@@ -379,7 +426,7 @@ mod tests {
         assert_eq!(g.cones, 5);
         assert_eq!(g.special_vertices, 1);
         assert_eq!(g.sheets, 6);
-        let tips_at_origin = g.vertices[..3 * CONE_SEGMENTS * g.cones]
+        let tips_at_origin = g.vertices[..3 * g.cone_triangles]
             .chunks_exact(3)
             .filter(|t| Vec3::from(t[0].position).length() < 1e-6)
             .count();

@@ -39,10 +39,23 @@ fn lit_and_umbra_agree_with_hard() {
         assert_eq!(v_lit, 1.0, "{name}: lit point");
         assert!(v_umbra < 1e-3, "{name}: umbra point {v_umbra}");
     }
-    assert!(pm.visibility.iter().all(|v| v.is_finite() && (0.0..=1.0).contains(v)));
+    assert!(pm
+        .visibility
+        .iter()
+        .all(|v| v.is_finite() && (0.0..=1.0).contains(v)));
     // The soft technique has a penumbra that hard lacks.
-    let soft = |img: &FrameImages| img.visibility.iter().filter(|v| **v > 0.05 && **v < 0.95).count();
-    assert!(soft(&pm) > 2 * soft(&hard) + 50, "pm {} hard {}", soft(&pm), soft(&hard));
+    let soft = |img: &FrameImages| {
+        img.visibility
+            .iter()
+            .filter(|v| **v > 0.05 && **v < 0.95)
+            .count()
+    };
+    assert!(
+        soft(&pm) > 2 * soft(&hard) + 50,
+        "pm {} hard {}",
+        soft(&pm),
+        soft(&hard)
+    );
 }
 
 #[test]
@@ -111,7 +124,10 @@ fn umbra_does_not_shrink_with_radius() {
     // would eat into it), while the penumbra widens.
     eprintln!("umbra {u_small} -> {u_big}, penumbra {p_small} -> {p_big}");
     assert!(u_big >= u_small, "umbra {u_small} -> {u_big}");
-    assert!(p_big > p_small + p_small / 2, "penumbra {p_small} -> {p_big}");
+    assert!(
+        p_big > p_small + p_small / 2,
+        "penumbra {p_small} -> {p_big}"
+    );
     assert!(u_small > 100);
 }
 
@@ -132,7 +148,11 @@ fn bowtie() -> Mesh {
         for t in [[0u32, 1, 2], [0, 1, 3], [0, 2, 3], [1, 2, 3]] {
             let [a, b, c] = t.map(|i| p[i as usize]);
             let n = (b - a).cross(c - a);
-            let t = if n.dot(a - centre) > 0.0 { t } else { [t[0], t[2], t[1]] };
+            let t = if n.dot(a - centre) > 0.0 {
+                t
+            } else {
+                [t[0], t[2], t[1]]
+            };
             m.indices.extend(t.map(|i| base + i));
         }
     }
@@ -144,7 +164,8 @@ fn bowtie() -> Mesh {
 fn bowtie_special_vertex_renders() {
     let gpu = Gpu::new();
     // Top faces up (+y), 1.5 above the ground.
-    let model = Mat4::from_translation(Vec3::new(0.0, 1.5, 0.0)) * Mat4::from_rotation_x(-std::f32::consts::FRAC_PI_2);
+    let model = Mat4::from_translation(Vec3::new(0.0, 1.5, 0.0))
+        * Mat4::from_rotation_x(-std::f32::consts::FRAC_PI_2);
     let scene = Scene {
         name: "bowtie".into(),
         objects: vec![
@@ -155,7 +176,13 @@ fn bowtie_special_vertex_renders() {
                 Role::Receiver,
                 Vec3::splat(0.8),
             ),
-            Object::new("bowtie", Arc::new(bowtie()), model, Role::Both, Vec3::new(0.8, 0.4, 0.3)),
+            Object::new(
+                "bowtie",
+                Arc::new(bowtie()),
+                model,
+                Role::Both,
+                Vec3::new(0.8, 0.4, 0.3),
+            ),
         ],
         light: Light {
             position: Vec3::new(0.3, 8.0, 0.2),
@@ -171,10 +198,15 @@ fn bowtie_special_vertex_renders() {
         },
     };
     let (img, _) = gpu.render_frames(scene, PM, small(160, 256), 2);
-    assert!(img.visibility.iter().all(|v| v.is_finite() && (0.0..=1.0).contains(v)));
+    assert!(img
+        .visibility
+        .iter()
+        .all(|v| v.is_finite() && (0.0..=1.0).contains(v)));
     // Under the touching point: umbra; a soft edge around the shadow.
     let ground: Vec<usize> = ground_pixels(&img).map(|(i, _)| i).collect();
     let under = pixel_at(&img, Vec3::new(0.8, 0.0, 0.0));
     assert!(img.visibility[under] < 0.01, "{}", img.visibility[under]);
-    assert!(ground.iter().any(|&i| img.visibility[i] > 0.1 && img.visibility[i] < 0.9));
+    assert!(ground
+        .iter()
+        .any(|&i| img.visibility[i] > 0.1 && img.visibility[i] < 0.9));
 }

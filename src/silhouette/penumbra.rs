@@ -402,7 +402,10 @@ mod tests {
             let kb = tri[2].zv_h[1];
             let t = (tb - kb * b) / (1.0 - kb);
             assert!(t.z.abs() < 1e-3, "T lies on the light disc plane");
-            assert!((t.truncate().length() - lr).abs() < 1e-3, "T is on the disc rim");
+            assert!(
+                (t.truncate().length() - lr).abs() < 1e-3,
+                "T is on the disc rim"
+            );
             // Intersect the line T -> P with the edge line a -> b (closest point).
             let pv = lv.view.transform_point3(p);
             let (d1, d2) = (pv - t, b - a);
@@ -410,7 +413,12 @@ mod tests {
             let (aa, bb, cc, dd, ee) = (d1.dot(d1), d1.dot(d2), d2.dot(d2), d1.dot(r), d2.dot(r));
             let s = (aa * ee - bb * dd) / (bb * bb - aa * cc);
             let e = a + s * d2;
-            assert!((num / den - (-e.z)).abs() < 1e-3 * (-e.z), "{} vs {}", num / den, -e.z);
+            assert!(
+                (num / den - (-e.z)).abs() < 1e-3 * (-e.z),
+                "{} vs {}",
+                num / den,
+                -e.z
+            );
         }
     }
 

@@ -46,10 +46,13 @@
 //!    blend on a colour target is the same selection, keeps the map sampleable as a plain
 //!    colour texture, and leaves no depth attachment to clear. R16F steps 2^-11 near 1.
 //! 3. `penumbra-map/final` — from the camera (`FinalPass`), `glsl/penumbra_map/final.frag`:
-//!    textureGather of the caster shadow map and of the penumbra map at the normal-offset
-//!    point; per texel visibility = lit test x intensity (0 in the hard shadow, else the
-//!    penumbra intensity), bilinear weights (the 2x2 filter of `hard`). Writes the standard
-//!    camera targets.
+//!    textureGather of the caster shadow map, the penumbra map and the receiver depth map at
+//!    the normal-offset point; per texel visibility = lit test x intensity (0 in the hard
+//!    shadow, else the penumbra intensity), bilinear weights (the 2x2 filter of `hard`). A
+//!    texel whose foremost surface lies more than 1 % beyond the point counts as intensity 1:
+//!    it holds the penumbra of a background surface (the ground just outside a caster's
+//!    silhouette), which the bilinear footprint would otherwise smear over grazing caster
+//!    faces only a texel or two wide. Writes the standard camera targets.
 //!
 //! ## Equations
 //! Sec. 3: C_r = (Z_far - Z_v) L_r / Z_v (cone radius). Eq. 1: I = 1 - (Z_P - Z_F) / (Z_P -
@@ -68,16 +71,16 @@
 //! from the light) hides the penumbra of whatever lies behind it.
 
 use super::{FrameInput, Technique, TechniqueInfo, TechniqueInit};
-use crate::render::passes::{FinalPass, FAR_DEPTH};
 use crate::render::gpu_scene::{DRAW_PUSH_BYTES, SCENE_ATTRIBUTES, SCENE_VERTEX_STRIDE};
+use crate::render::passes::{FinalPass, FAR_DEPTH};
 use crate::scene::LightView;
 use crate::shaders;
 use crate::silhouette::penumbra::{build_penumbra, PenumbraVertex};
 use crate::silhouette::{self, Adjacency};
 use crate::vk::{
-    Blend, Buffer, BufferUsageFlags, CompareOp, Context, CullModeFlags, DepthState,
-    DescriptorSet, Filter, Format, GraphicsPipelineDesc, Image, ImageLayout, ImageUsageFlags,
-    MemoryLocation, Pipeline, PrimitiveTopology, Recorder, Resource, Sampler,
+    Blend, Buffer, BufferUsageFlags, CompareOp, Context, CullModeFlags, DepthState, DescriptorSet,
+    Filter, Format, GraphicsPipelineDesc, Image, ImageLayout, ImageUsageFlags, MemoryLocation,
+    Pipeline, PrimitiveTopology, Recorder, Resource, Sampler,
 };
 use anyhow::{Context as _, Result};
 
@@ -137,10 +140,24 @@ impl PenumbraMap {
         let usage = ImageUsageFlags::COLOR_ATTACHMENT
             | ImageUsageFlags::SAMPLED
             | ImageUsageFlags::TRANSFER_SRC;
-        let caster_depth = Image::new_2d(ctx, res, res, Format::R32_SFLOAT, usage, "penumbra-map shadow map")
-            .context("creating the penumbra-map shadow map")?;
-        let receiver_depth = Image::new_2d(ctx, res, res, Format::R32_SFLOAT, usage, "penumbra-map receiver depth")
-            .context("creating the penumbra-map receiver depth map")?;
+        let caster_depth = Image::new_2d(
+            ctx,
+            res,
+            res,
+            Format::R32_SFLOAT,
+            usage,
+            "penumbra-map shadow map",
+        )
+        .context("creating the penumbra-map shadow map")?;
+        let receiver_depth = Image::new_2d(
+            ctx,
+            res,
+            res,
+            Format::R32_SFLOAT,
+            usage,
+            "penumbra-map receiver depth",
+        )
+        .context("creating the penumbra-map receiver depth map")?;
         let zbuffer = Image::new_2d(
             ctx,
             res,
@@ -154,7 +171,11 @@ impl PenumbraMap {
             .context("creating the penumbra map")?;
         let nearest = Sampler::new(ctx, Filter::Nearest).context("creating the nearest sampler")?;
 
-        let depth_set = DescriptorSet::new(ctx, &[Resource::Uniform(init.ubo)], "penumbra-map/shadow_map")?;
+        let depth_set = DescriptorSet::new(
+            ctx,
+            &[Resource::Uniform(init.ubo)],
+            "penumbra-map/shadow_map",
+        )?;
         let depth_pipeline = |name: &str, fragment: &[u8], blend: Blend| {
             Pipeline::graphics(
                 ctx,
@@ -225,10 +246,16 @@ impl PenumbraMap {
                 Resource::Uniform(init.ubo),
                 Resource::Sampled(&caster_depth, &nearest),
                 Resource::Sampled(&penumbra, &nearest),
+                Resource::Sampled(&receiver_depth, &nearest),
             ],
             "penumbra-map/final",
         )?;
-        let final_pass = FinalPass::new(ctx, "penumbra-map/final", shaders::PENUMBRA_MAP_FINAL_FRAG, &final_set)?;
+        let final_pass = FinalPass::new(
+            ctx,
+            "penumbra-map/final",
+            shaders::PENUMBRA_MAP_FINAL_FRAG,
+            &final_set,
+        )?;
         let adjacency = init
             .scene
             .objects
@@ -236,7 +263,10 @@ impl PenumbraMap {
             .map(|o| {
                 o.role
                     .casts()
-                    .then(|| Adjacency::build(&o.mesh).with_context(|| format!("edge adjacency of '{}'", o.name)))
+                    .then(|| {
+                        Adjacency::build(&o.mesh)
+                            .with_context(|| format!("edge adjacency of '{}'", o.name))
+                    })
                     .transpose()
             })
             .collect::<Result<Vec<_>>>()?;
@@ -266,7 +296,14 @@ impl PenumbraMap {
         for (obj, adj) in frame.scene.objects.iter().zip(&self.adjacency) {
             let Some(adj) = adj else { continue };
             let sil = silhouette::extract(adj, obj.transform, frame.light.position);
-            let geom = build_penumbra(adj, &sil, obj.transform, frame.light, frame.light_radius, z_far);
+            let geom = build_penumbra(
+                adj,
+                &sil,
+                obj.transform,
+                frame.light,
+                frame.light_radius,
+                z_far,
+            );
             out.extend_from_slice(&geom.vertices);
         }
         out
@@ -307,10 +344,18 @@ impl Technique for PenumbraMap {
 
     fn uniforms(&self, frame: &FrameInput<'_>) -> [[f32; 4]; 2] {
         // Informational (debug captures): Lr and Z_far; the shaders read neither.
-        [[frame.light_radius, cone_base_depth(frame.light), 0.0, 0.0], [0.0; 4]]
+        [
+            [frame.light_radius, cone_base_depth(frame.light), 0.0, 0.0],
+            [0.0; 4],
+        ]
     }
 
-    fn record(&mut self, ctx: &Context, rec: &mut Recorder<'_>, frame: &FrameInput<'_>) -> Result<()> {
+    fn record(
+        &mut self,
+        ctx: &Context,
+        rec: &mut Recorder<'_>,
+        frame: &FrameInput<'_>,
+    ) -> Result<()> {
         // R = 0 (a point light): every cone has radius 0, the result is `hard`.
         let vertices = if frame.light_radius > 0.0 {
             rec.cpu("penumbra-map/silhouettes", || self.build_geometry(frame))
@@ -330,10 +375,14 @@ impl Technique for PenumbraMap {
             // Every caster before any receive-only object (see the module header).
             rec.bind_pipeline(&self.caster_pipeline);
             rec.bind_sets(&self.caster_pipeline, &[&self.depth_set]);
-            frame.gpu.draw(rec, &self.caster_pipeline, |o| o.role.casts());
+            frame
+                .gpu
+                .draw(rec, &self.caster_pipeline, |o| o.role.casts());
             rec.bind_pipeline(&self.receiver_pipeline);
             rec.bind_sets(&self.receiver_pipeline, &[&self.depth_set]);
-            frame.gpu.draw(rec, &self.receiver_pipeline, |o| !o.role.casts());
+            frame
+                .gpu
+                .draw(rec, &self.receiver_pipeline, |o| !o.role.casts());
             rec.end_rendering();
             rec.transition(&self.caster_depth, ImageLayout::SHADER_READ_ONLY_OPTIMAL);
             rec.transition(&self.receiver_depth, ImageLayout::SHADER_READ_ONLY_OPTIMAL);

@@ -96,7 +96,7 @@ struct ConeData {
 fn cone_data(p_world: Vec3, light: &LightView, lr: f32, z_far: f32) -> Option<ConeData> {
     let pv = light.view.transform_point3(p_world);
     let zv = -pv.z;
-    if !(zv > light.near && zv < z_far) || !pv.is_finite() {
+    if !(zv > light.near && zv < z_far && pv.is_finite()) {
         return None;
     }
     let k = z_far / zv;

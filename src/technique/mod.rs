@@ -4,6 +4,7 @@
 pub mod hard;
 pub mod pcf;
 pub mod pcss;
+pub mod penumbra_map;
 pub mod plateaus;
 pub mod smoothies;
 pub mod ssm;
@@ -74,9 +75,10 @@ pub const TECHNIQUES: &[TechniqueInfo] = &[
     pcf::INFO,
     pcss::INFO,
     smoothies::INFO,
+    penumbra_map::INFO,
+    plateaus::INFO,
     ssm::INFO,
     ssm::INFO2,
-    plateaus::INFO,
 ];
 
 pub fn names() -> Vec<&'static str> {

@@ -2,6 +2,7 @@
 //! `render`, `bench`, `stress` and the tests loop over.
 
 pub mod hard;
+pub mod reference;
 pub mod smoothies;
 
 use crate::render::{CameraTargets, GpuScene, Settings};
@@ -55,7 +56,7 @@ pub struct TechniqueInfo {
 }
 
 /// Every technique, in the order reports list them.
-pub const TECHNIQUES: &[TechniqueInfo] = &[hard::INFO, smoothies::INFO];
+pub const TECHNIQUES: &[TechniqueInfo] = &[hard::INFO, smoothies::INFO, reference::INFO];
 
 pub fn names() -> Vec<&'static str> {
     TECHNIQUES.iter().map(|t| t.name).collect()

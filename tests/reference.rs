@@ -7,7 +7,9 @@ mod common;
 use common::{small, Gpu};
 use softshadow::eval::accumulate::heckbert_herf;
 use softshadow::eval::metrics::errors;
-use softshadow::eval::reference::{cache_key, cache_path, visibility_at, visibility_cached, ReferenceParams};
+use softshadow::eval::reference::{
+    cache_key, cache_path, visibility_at, visibility_cached, ReferenceParams,
+};
 use softshadow::render::{fit_light, FrameImages, Settings};
 use softshadow::scene::Scene;
 
@@ -75,7 +77,8 @@ fn cross_check(scene_name: &str) {
         shadow_res: 1024,
         ..small(96, 1024)
     };
-    let hh = heckbert_herf(&gpu.ctx, &scene, radius, &settings, 64).unwrap_or_else(|e| panic!("{e:#}"));
+    let hh =
+        heckbert_herf(&gpu.ctx, &scene, radius, &settings, 64).unwrap_or_else(|e| panic!("{e:#}"));
     let mask = facing_the_light(&scene, &hh, radius);
     let params = ReferenceParams::default();
     let v_ref = visibility_at(&scene, radius, &hh.position, &hh.normal, &params).unwrap();
@@ -83,22 +86,43 @@ fn cross_check(scene_name: &str) {
     // SOFTSHADOW_DUMP=DIR writes both estimates and their false-colour difference as PNGs.
     if let Ok(dir) = std::env::var("SOFTSHADOW_DUMP") {
         let w = hh.width;
-        let gray = |v: &[f32]| image::GrayImage::from_raw(w, w, v.iter().map(|x| (x * 255.0) as u8).collect()).unwrap();
-        gray(&hh.visibility).save(format!("{dir}/{scene_name}_hh.png")).unwrap();
-        gray(&v_ref).save(format!("{dir}/{scene_name}_ref.png")).unwrap();
+        let gray = |v: &[f32]| {
+            image::GrayImage::from_raw(w, w, v.iter().map(|x| (x * 255.0) as u8).collect()).unwrap()
+        };
+        gray(&hh.visibility)
+            .save(format!("{dir}/{scene_name}_hh.png"))
+            .unwrap();
+        gray(&v_ref)
+            .save(format!("{dir}/{scene_name}_ref.png"))
+            .unwrap();
         let ei = softshadow::eval::metrics::error_image(&hh.visibility, &v_ref, &mask, 0.2);
-        image::RgbaImage::from_raw(w, w, ei.into_iter().flatten().collect()).unwrap().save(format!("{dir}/{scene_name}_err.png")).unwrap();
+        image::RgbaImage::from_raw(w, w, ei.into_iter().flatten().collect())
+            .unwrap()
+            .save(format!("{dir}/{scene_name}_err.png"))
+            .unwrap();
     }
     println!("{scene_name}: H&H vs reference {e:?}");
-    assert!(e.shadow_pixels > 300, "too few shadow pixels to compare: {e:?}");
+    assert!(
+        e.shadow_pixels > 300,
+        "too few shadow pixels to compare: {e:?}"
+    );
     let penumbra = v_ref
         .iter()
         .zip(&mask)
         .filter(|(v, &m)| m && **v > 0.05 && **v < 0.95)
         .count();
-    assert!(penumbra > 100, "the scene should show a penumbra at 96x96: {penumbra} pixels");
-    assert!(e.mae_shadow < 0.02, "{scene_name}: H&H and reference disagree: {e:?}");
-    assert!(e.p99 < 0.12, "{scene_name}: H&H and reference disagree: {e:?}");
+    assert!(
+        penumbra > 100,
+        "the scene should show a penumbra at 96x96: {penumbra} pixels"
+    );
+    assert!(
+        e.mae_shadow < 0.02,
+        "{scene_name}: H&H and reference disagree: {e:?}"
+    );
+    assert!(
+        e.p99 < 0.12,
+        "{scene_name}: H&H and reference disagree: {e:?}"
+    );
 
     let wrong = visibility_at(&scene, radius * 2.0, &hh.position, &hh.normal, &params).unwrap();
     let w = errors(&hh.visibility, &wrong, &mask);
@@ -127,7 +151,14 @@ fn point_light_reference_equals_hard_shadow_away_from_edges() {
     for name in ["cylinder", "boxes"] {
         let scene = load(name);
         let hard = gpu.render(name, "hard", small(128, 2048));
-        let v_ref = visibility_at(&scene, 0.0, &hard.position, &hard.normal, &ReferenceParams::default()).unwrap();
+        let v_ref = visibility_at(
+            &scene,
+            0.0,
+            &hard.position,
+            &hard.normal,
+            &ReferenceParams::default(),
+        )
+        .unwrap();
         let mask = in_light_frustum(&scene, &hard);
         let (w, h) = (hard.width as i64, hard.height as i64);
         let flat = |x: i64, y: i64| {
@@ -151,14 +182,23 @@ fn point_light_reference_equals_hard_shadow_away_from_edges() {
                 }
                 let i = (y * w + x) as usize;
                 let v = hard.visibility[i];
-                if v == 1.0 { lit += 1 } else { umbra += 1 }
+                if v == 1.0 {
+                    lit += 1
+                } else {
+                    umbra += 1
+                }
                 if v_ref[i] != v {
                     wrong += 1;
                 }
             }
         }
-        println!("{name}: R = 0, {lit} lit and {umbra} umbra pixels away from edges, {wrong} differ");
-        assert!(lit > 1000 && umbra > 200, "{name}: too few pixels away from edges: {lit} lit, {umbra} umbra");
+        println!(
+            "{name}: R = 0, {lit} lit and {umbra} umbra pixels away from edges, {wrong} differ"
+        );
+        assert!(
+            lit > 1000 && umbra > 200,
+            "{name}: too few pixels away from edges: {lit} lit, {umbra} umbra"
+        );
         assert!(
             (wrong as f64) < 0.002 * (lit + umbra) as f64,
             "{name}: reference at R = 0 differs from hard shadows on {wrong} of {} pixels",
@@ -176,9 +216,22 @@ fn reference_technique_shows_the_reference() {
     let gpu = Gpu::new();
     let scene = load("cylinder");
     let (img, timings) = gpu.render_frames(scene.clone(), "reference", small(96, 512), 2);
-    assert!(timings[0].cpu.iter().any(|(n, _)| n == "reference/ray_cast"));
-    assert!(timings[1].passes.iter().any(|p| p.name == "reference/ray_cast" && p.skipped.is_some()));
-    let v_ref = visibility_at(&scene, scene.light.radius, &img.position, &img.normal, &ReferenceParams::default()).unwrap();
+    assert!(timings[0]
+        .cpu
+        .iter()
+        .any(|(n, _)| n == "reference/ray_cast"));
+    assert!(timings[1]
+        .passes
+        .iter()
+        .any(|p| p.name == "reference/ray_cast" && p.skipped.is_some()));
+    let v_ref = visibility_at(
+        &scene,
+        scene.light.radius,
+        &img.position,
+        &img.normal,
+        &ReferenceParams::default(),
+    )
+    .unwrap();
     let covered: Vec<usize> = common::covered(&img);
     assert!(covered.len() > 96 * 96 / 2);
     for &i in &covered {
@@ -194,10 +247,20 @@ fn reference_technique_shows_the_reference() {
 #[test]
 fn cached_reference_is_reused() {
     let scene = load("boxes");
-    let params = ReferenceParams { samples: 256, seed: 99 };
+    let params = ReferenceParams {
+        samples: 256,
+        seed: 99,
+    };
     // Synthetic pixels: a small grid on the ground under the boxes.
     let positions: Vec<[f32; 4]> = (0..400)
-        .map(|k| [(k % 20) as f32 * 0.2 - 2.0, 0.0, (k / 20) as f32 * 0.2 - 2.0, 1.0])
+        .map(|k| {
+            [
+                (k % 20) as f32 * 0.2 - 2.0,
+                0.0,
+                (k / 20) as f32 * 0.2 - 2.0,
+                1.0,
+            ]
+        })
         .collect();
     let normals = vec![[0.0, 1.0, 0.0]; positions.len()];
     let path = cache_path(cache_key(&scene, 0.3, &positions, &normals, &params));
@@ -206,17 +269,29 @@ fn cached_reference_is_reused() {
     assert!(path.is_file(), "{} not written", path.display());
     let b = visibility_at(&scene, 0.3, &positions, &normals, &params).unwrap();
     assert_eq!(a, b);
-    assert!(a.iter().any(|&v| v < 0.5), "the grid should reach the boxes' shadow");
+    assert!(
+        a.iter().any(|&v| v < 0.5),
+        "the grid should reach the boxes' shadow"
+    );
     // Overwrite the first value with a marker: a reuse returns it.
     let mut bytes = std::fs::read(&path).unwrap();
     bytes[16..20].copy_from_slice(&0.125f32.to_le_bytes());
     std::fs::write(&path, &bytes).unwrap();
     let c = visibility_cached(&scene, 0.3, &positions, &normals, &params).unwrap();
-    assert_eq!(c[0], 0.125, "the second call recomputed instead of reading the cache");
+    assert_eq!(
+        c[0], 0.125,
+        "the second call recomputed instead of reading the cache"
+    );
     assert_eq!(&c[1..], &a[1..]);
     // Another sample count is another key.
-    let other = ReferenceParams { samples: 324, seed: 99 };
-    assert_ne!(cache_key(&scene, 0.3, &positions, &normals, &other), cache_key(&scene, 0.3, &positions, &normals, &params));
+    let other = ReferenceParams {
+        samples: 324,
+        seed: 99,
+    };
+    assert_ne!(
+        cache_key(&scene, 0.3, &positions, &normals, &other),
+        cache_key(&scene, 0.3, &positions, &normals, &params)
+    );
     std::fs::remove_file(&path).unwrap();
 }
 
@@ -224,14 +299,30 @@ fn cached_reference_is_reused() {
 #[test]
 fn zero_samples_is_a_one_line_error() {
     let scene = load("cylinder");
-    let e = visibility_at(&scene, 0.1, &[[0.0, 0.0, 0.0, 1.0]], &[[0.0, 1.0, 0.0]], &ReferenceParams { samples: 0, seed: 1 })
-        .unwrap_err();
+    let e = visibility_at(
+        &scene,
+        0.1,
+        &[[0.0, 0.0, 0.0, 1.0]],
+        &[[0.0, 1.0, 0.0]],
+        &ReferenceParams {
+            samples: 0,
+            seed: 1,
+        },
+    )
+    .unwrap_err();
     let e = format!("{e:#}");
     println!("{e}");
     assert!(e.contains("sample count 0") && !e.contains('\n'), "{e}");
 
     let out = std::process::Command::new(env!("CARGO_BIN_EXE_softshadow"))
-        .args(["render", "--technique", "reference", "--reference-samples", "0", "--out"])
+        .args([
+            "render",
+            "--technique",
+            "reference",
+            "--reference-samples",
+            "0",
+            "--out",
+        ])
         .arg(std::env::temp_dir().join("ss-ref-zero.png"))
         .output()
         .unwrap();

@@ -96,7 +96,7 @@ impl ReferenceParams {
     fn grid(&self) -> (u32, u32) {
         let n = self.samples.max(1);
         let mut rows = (n as f64).sqrt() as u32;
-        while rows > 1 && n % rows != 0 {
+        while rows > 1 && !n.is_multiple_of(rows) {
             rows -= 1;
         }
         let rows = rows.max(1);
@@ -409,8 +409,8 @@ fn read_cache(path: &Path, len: usize) -> Option<Vec<f32>> {
 fn write_cache(path: &Path, v: &[f32]) -> Result<()> {
     let tmp = path.with_extension(format!("partial{}", std::process::id()));
     let result = (|| {
-        let mut f = std::fs::File::create(&tmp)
-            .with_context(|| format!("creating {}", tmp.display()))?;
+        let mut f =
+            std::fs::File::create(&tmp).with_context(|| format!("creating {}", tmp.display()))?;
         let mut bytes = Vec::with_capacity(16 + v.len() * 4);
         bytes.extend_from_slice(CACHE_MAGIC);
         bytes.extend_from_slice(&(v.len() as u64).to_le_bytes());
@@ -448,7 +448,10 @@ mod tests {
         let mut inside = 0;
         for i in 0..m {
             for j in 0..m {
-                let d = concentric_disc(Vec2::new((i as f32 + 0.5) / m as f32, (j as f32 + 0.5) / m as f32));
+                let d = concentric_disc(Vec2::new(
+                    (i as f32 + 0.5) / m as f32,
+                    (j as f32 + 0.5) / m as f32,
+                ));
                 assert!(d.length() <= 1.0 + 1e-6);
                 if d.length() < 0.5 {
                     inside += 1;
@@ -461,7 +464,15 @@ mod tests {
 
     #[test]
     fn zero_samples_is_one_clear_line() {
-        let e = format!("{:#}", ReferenceParams { samples: 0, seed: 1 }.validate().unwrap_err());
+        let e = format!(
+            "{:#}",
+            ReferenceParams {
+                samples: 0,
+                seed: 1
+            }
+            .validate()
+            .unwrap_err()
+        );
         assert!(e.contains("sample count 0") && !e.contains('\n'), "{e}");
     }
 

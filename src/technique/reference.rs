@@ -60,6 +60,9 @@ struct FrameKey {
     size: (u32, u32),
 }
 
+/// Per camera pixel: world position (A = 1 on surfaces) and normal, as the AOVs hold them.
+type CameraPoints = (Vec<[f32; 4]>, Vec<[f32; 3]>);
+
 pub struct Reference {
     visibility: Image,
     staging: Buffer,
@@ -101,7 +104,8 @@ impl Reference {
         )
         .context("creating the reference staging buffer")?;
         // Nearest: texelFetch ignores the filter; no path may blend two pixels' values.
-        let sampler = Sampler::new(ctx, Filter::Nearest).context("creating the reference sampler")?;
+        let sampler =
+            Sampler::new(ctx, Filter::Nearest).context("creating the reference sampler")?;
         let final_set = DescriptorSet::new(
             ctx,
             &[
@@ -111,8 +115,13 @@ impl Reference {
             "reference/final",
         )
         .context("creating the reference descriptor set")?;
-        let final_pass = FinalPass::new(ctx, "reference/final", shaders::REFERENCE_FINAL_FRAG, &final_set)
-            .context("creating the reference final pass")?;
+        let final_pass = FinalPass::new(
+            ctx,
+            "reference/final",
+            shaders::REFERENCE_FINAL_FRAG,
+            &final_set,
+        )
+        .context("creating the reference final pass")?;
         let mut this = Self {
             visibility,
             staging,
@@ -141,7 +150,7 @@ impl Reference {
     }
 
     /// Draws the camera view with the final pass and reads its positions and normals back.
-    fn camera_points(&mut self, ctx: &Context, frame: &FrameInput<'_>) -> Result<(Vec<[f32; 4]>, Vec<[f32; 3]>)> {
+    fn camera_points(&mut self, ctx: &Context, frame: &FrameInput<'_>) -> Result<CameraPoints> {
         let (pass, set) = (&self.final_pass, &self.final_set);
         self.runner
             .run(|rec| {
@@ -163,7 +172,12 @@ impl Technique for Reference {
         INFO.name
     }
 
-    fn record(&mut self, ctx: &Context, rec: &mut Recorder<'_>, frame: &FrameInput<'_>) -> Result<()> {
+    fn record(
+        &mut self,
+        ctx: &Context,
+        rec: &mut Recorder<'_>,
+        frame: &FrameInput<'_>,
+    ) -> Result<()> {
         let key = FrameKey {
             camera: frame.scene.camera,
             light: frame.scene.light,
@@ -175,10 +189,17 @@ impl Technique for Reference {
             rec.skip("reference/ray_cast", "camera, light and objects unchanged");
         } else {
             self.last = None;
-            let (positions, normals) = rec.cpu("reference/positions", || self.camera_points(ctx, frame))?;
+            let (positions, normals) =
+                rec.cpu("reference/positions", || self.camera_points(ctx, frame))?;
             let params = self.params;
             let vis = rec.cpu("reference/ray_cast", || {
-                visibility_cached(frame.scene, frame.light_radius, &positions, &normals, &params)
+                visibility_cached(
+                    frame.scene,
+                    frame.light_radius,
+                    &positions,
+                    &normals,
+                    &params,
+                )
             })?;
             rec.cpu("reference/upload", || self.upload(&vis))?;
             self.last = Some(key);

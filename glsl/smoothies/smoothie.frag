@@ -10,6 +10,7 @@ layout(location = 0) noperspective in float v_inv_depth;
 layout(location = 1) flat in float v_kind;
 layout(location = 2) flat in vec2 v_anchor;
 layout(location = 3) flat in vec2 v_dir;
+layout(location = 4) noperspective in float v_width;
 
 layout(location = 0) out float o_depth;
 layout(location = 1) out float o_alpha;
@@ -20,7 +21,7 @@ layout(location = 1) out float o_alpha;
 const float REMAP_EPS = 1e-4;
 
 void main() {
-    float t = frame.technique.x;
+    float t = v_width;
     vec2 uv = gl_FragCoord.xy * frame.light_params.w;
     float b = 1.0 / v_inv_depth;
     float r = texelFetch(shadow_map, ivec2(gl_FragCoord.xy), 0).g;

@@ -9,12 +9,15 @@ layout(location = 1) in float in_inv_depth;
 layout(location = 2) in float in_kind;
 layout(location = 3) in vec2 in_anchor;
 layout(location = 4) in vec2 in_dir;
+layout(location = 5) in float in_width;
 
 // 1/depth is linear in screen space for a planar smoothie, depth itself is not.
 layout(location = 0) noperspective out float v_inv_depth;
 layout(location = 1) flat out float v_kind;
 layout(location = 2) flat out vec2 v_anchor;
 layout(location = 3) flat out vec2 v_dir;
+// Per-vertex width t (calibrated from each silhouette vertex's depth), linear along an edge.
+layout(location = 4) noperspective out float v_width;
 
 void main() {
     gl_Position = vec4(in_uv * 2.0 - 1.0, 0.0, 1.0);
@@ -22,4 +25,5 @@ void main() {
     v_kind = in_kind;
     v_anchor = in_anchor;
     v_dir = in_dir;
+    v_width = in_width;
 }

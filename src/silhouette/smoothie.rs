@@ -63,7 +63,7 @@ use crate::scene::LightView;
 use glam::{Mat3, Mat4, Vec2, Vec3};
 use rayon::prelude::*;
 
-/// One smoothie vertex; the GPU vertex layout (32 bytes, tightly packed f32s).
+/// One smoothie vertex; the GPU vertex layout (36 bytes, tightly packed f32s).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct SmoothieVertex {
@@ -78,6 +78,34 @@ pub struct SmoothieVertex {
     pub anchor: [f32; 2],
     /// Edge: unit outward extrusion direction in uv space. Corner: [0, 0].
     pub dir: [f32; 2],
+    /// Smoothie width t (uv units) at this vertex: alpha divides by it. Constant for a fixed
+    /// t; with `Width::Calibrated` it follows the silhouette vertex's depth, so an edge whose
+    /// ends lie at different depths is a trapezoid with t interpolated along it.
+    pub width: f32,
+}
+
+/// How wide smoothies are, in light-uv units.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Width {
+    /// The paper's screen-space knob t, the same for every silhouette vertex.
+    Fixed(f32),
+    /// t at a silhouette vertex of linear depth b: R / (2 b tan(fov/2)), the width whose
+    /// remapped alpha (Eq. 1) spans the outer penumbra R (r - b) / b of a disc light of
+    /// radius R on every receiver depth r (see src/technique/smoothies.rs).
+    Calibrated { radius: f32, tan_half_fov: f32 },
+}
+
+impl Width {
+    /// t at linear depth `depth`, clamped to [0, 1] (a smoothie wider than the map is useless).
+    pub fn at(self, depth: f32) -> f32 {
+        match self {
+            Width::Fixed(t) => t,
+            Width::Calibrated {
+                radius,
+                tan_half_fov,
+            } => (radius / (2.0 * depth.max(1e-30) * tan_half_fov)).clamp(0.0, 1.0),
+        }
+    }
 }
 
 /// Smoothies of one object for one light.
@@ -153,13 +181,21 @@ struct EdgeOut {
     verts: [SmoothieVertex; 6],
 }
 
-fn vertex(uv: Vec2, inv_depth: f32, kind: f32, anchor: Vec2, dir: Vec2) -> SmoothieVertex {
+fn vertex(
+    uv: Vec2,
+    inv_depth: f32,
+    kind: f32,
+    anchor: Vec2,
+    dir: Vec2,
+    width: f32,
+) -> SmoothieVertex {
     SmoothieVertex {
         uv: uv.to_array(),
         inv_depth,
         kind,
         anchor: anchor.to_array(),
         dir: dir.to_array(),
+        width,
     }
 }
 
@@ -191,7 +227,12 @@ fn third_vertex_side(
     side
 }
 
-fn build_edge(adj: &Adjacency, pr: &Projector, e: &SilhouetteEdge, t: f32) -> Option<EdgeOut> {
+fn build_edge(
+    adj: &Adjacency,
+    pr: &Projector,
+    e: &SilhouetteEdge,
+    width: Width,
+) -> Option<EdgeOut> {
     let pa = pr.world(adj.positions[e.a as usize]);
     let pb = pr.world(adj.positions[e.b as usize]);
     let (s0, z0) = pr.project(pa)?;
@@ -244,19 +285,20 @@ fn build_edge(adj: &Adjacency, pr: &Projector, e: &SilhouetteEdge, t: f32) -> Op
         }
     }
     let (i0, i1) = (1.0 / z0, 1.0 / z1);
-    let (o0, o1) = (s0 + t * d, s1 + t * d);
-    let v = |uv: Vec2, inv: f32| vertex(uv, inv, 0.0, s0, d);
+    let (t0, t1) = (width.at(z0), width.at(z1));
+    let (o0, o1) = (s0 + t0 * d, s1 + t1 * d);
+    let v = |uv: Vec2, inv: f32, t: f32| vertex(uv, inv, 0.0, s0, d, t);
     Some(EdgeOut {
         a: e.a,
         b: e.b,
         d,
         verts: [
-            v(s0, i0),
-            v(s1, i1),
-            v(o1, i1),
-            v(s0, i0),
-            v(o1, i1),
-            v(o0, i0),
+            v(s0, i0, t0),
+            v(s1, i1, t1),
+            v(o1, i1, t1),
+            v(s0, i0, t0),
+            v(o1, i1, t1),
+            v(o0, i0, t0),
         ],
     })
 }
@@ -276,7 +318,7 @@ fn fan(out: &mut Vec<SmoothieVertex>, s: Vec2, inv: f32, t: f32, from: f32, swee
     let phi = sweep / k as f32;
     let r = t / (phi * 0.5).cos();
     let at = |i: usize| s + r * Vec2::from_angle(from + phi * i as f32);
-    let cv = |uv: Vec2| vertex(uv, inv, 1.0, s, Vec2::ZERO);
+    let cv = |uv: Vec2| vertex(uv, inv, 1.0, s, Vec2::ZERO, t);
     for i in 0..k {
         out.push(cv(s));
         out.push(cv(at(i)));
@@ -313,11 +355,12 @@ fn build_corner(
     pr: &Projector,
     vtx: u32,
     inc: &[(&SilhouetteEdge, Vec2)],
-    t: f32,
+    width: Width,
 ) -> Option<CornerOut> {
     let p = pr.world(adj.positions[vtx as usize]);
     let (s, z) = pr.project(p)?;
     let inv = 1.0 / z;
+    let t = width.at(z);
     let edges: Vec<&SilhouetteEdge> = inc.iter().map(|(e, _)| *e).collect();
     let mut verts = Vec::new();
     if let [(_, d1), (_, d2)] = inc {
@@ -391,6 +434,17 @@ pub fn build_smoothies(
     light: &LightView,
     t: f32,
 ) -> SmoothieGeometry {
+    build_smoothies_width(adj, sil, model, light, Width::Fixed(t))
+}
+
+/// `build_smoothies` with a width per silhouette vertex (`Width::Calibrated`) or fixed.
+pub fn build_smoothies_width(
+    adj: &Adjacency,
+    sil: &[SilhouetteEdge],
+    model: Mat4,
+    light: &LightView,
+    width: Width,
+) -> SmoothieGeometry {
     let normal_matrix = Mat3::from_mat4(model).inverse().transpose();
     let normal_matrix = if normal_matrix.is_finite() {
         normal_matrix
@@ -406,7 +460,7 @@ pub fn build_smoothies(
     let built: Vec<Option<EdgeOut>> = sil
         .par_iter()
         .with_min_len(256)
-        .map(|e| build_edge(adj, &pr, e, t))
+        .map(|e| build_edge(adj, &pr, e, width))
         .collect();
 
     let mut geo = SmoothieGeometry::default();
@@ -431,7 +485,7 @@ pub fn build_smoothies(
         .map(|g| {
             let inc: Vec<(&SilhouetteEdge, Vec2)> =
                 g.iter().map(|&(_, i, d)| (&sil[i], d)).collect();
-            build_corner(adj, &pr, g[0].0, &inc, t)
+            build_corner(adj, &pr, g[0].0, &inc, width)
         })
         .collect();
     for c in corners.into_iter().flatten() {
@@ -483,8 +537,42 @@ mod tests {
     }
 
     #[test]
-    fn vertex_is_32_bytes() {
-        assert_eq!(std::mem::size_of::<SmoothieVertex>(), 32);
+    fn vertex_is_36_bytes() {
+        assert_eq!(std::mem::size_of::<SmoothieVertex>(), 36);
+    }
+
+    #[test]
+    fn calibrated_width_follows_depth() {
+        let adj = Adjacency::build(&cube()).unwrap();
+        let lv = light_at(Vec3::new(3.0, 5.0, 2.0), Vec3::ZERO);
+        let sil = extract(&adj, Mat4::IDENTITY, lv.position);
+        let width = Width::Calibrated {
+            radius: 0.2,
+            tan_half_fov: (lv.fov_deg.to_radians() * 0.5).tan(),
+        };
+        let g = build_smoothies_width(&adj, &sil, Mat4::IDENTITY, &lv, width);
+        assert!(g.edges > 0);
+        for v in &g.vertices {
+            // Each vertex carries the width of its own silhouette vertex's depth.
+            let expect = width.at(1.0 / v.inv_depth);
+            assert!(
+                (v.width - expect).abs() < 1e-6 * expect.max(1.0),
+                "{} vs {expect}",
+                v.width
+            );
+        }
+        // Nearer silhouette vertices get wider smoothies (the penumbra R (r - b) / b grows as b shrinks).
+        let near = g
+            .vertices
+            .iter()
+            .max_by(|a, b| a.inv_depth.total_cmp(&b.inv_depth))
+            .unwrap();
+        let far = g
+            .vertices
+            .iter()
+            .min_by(|a, b| a.inv_depth.total_cmp(&b.inv_depth))
+            .unwrap();
+        assert!(near.width > far.width);
     }
 
     #[test]

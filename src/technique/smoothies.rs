@@ -35,11 +35,14 @@
 //!
 //! ## The width t
 //! t is in light-uv units (a fraction of the shadow map's side). `--smoothie-t` fixes it
-//! (the paper's knob); by default it is calibrated from the light radius R: a smoothie at
-//! blocker depth b shadows a receiver at depth r over t (1 - b/r) uv after the remap, while a
-//! disc light of radius R has an outer penumbra of R (r - b) / b in world units, i.e.
-//! (1 - b/r) R / (2 b tan(fov/2)) uv. Equal for every r when t = R / (2 b tan(fov/2)); b is
-//! taken at the casters' bounds centre. R = 0 gives t = 0 and the exact hard result.
+//! (the paper's knob, the same everywhere); by default it is calibrated from the light
+//! radius R per silhouette vertex: a smoothie at blocker depth b shadows a receiver at depth
+//! r over t (1 - b/r) uv after the remap, while a disc light of radius R has an outer
+//! penumbra of R (r - b) / b in world units, i.e. (1 - b/r) R / (2 b tan(fov/2)) uv at the
+//! receiver. The two agree for every r when t = R / (2 b tan(fov/2)) with b the silhouette
+//! vertex's own depth (`silhouette::smoothie::Width::Calibrated`): each vertex carries its t
+//! and the fragment shader divides by the interpolated one. R = 0 gives t = 0 and exactly
+//! the hard result.
 //!
 //! ## Known artefacts
 //! Penumbrae only grow outward (no inner penumbra: umbrae are too large for big lights);
@@ -51,7 +54,7 @@ use super::{FrameInput, Technique, TechniqueInfo, TechniqueInit};
 use crate::render::passes::{falloff_lut, FinalPass, ShadowMap, FAR_DEPTH};
 use crate::scene::{LightView, Scene};
 use crate::shaders;
-use crate::silhouette::smoothie::{build_smoothies, SmoothieVertex};
+use crate::silhouette::smoothie::{build_smoothies_width, SmoothieVertex, Width};
 use crate::silhouette::{self, Adjacency};
 use crate::vk::{
     Blend, Buffer, BufferUsageFlags, Context, CullModeFlags, DescriptorSet, Filter, Format,
@@ -75,10 +78,23 @@ const SMOOTHIE_ATTRIBUTES: &[crate::vk::Attribute] = &[
     (2, Format::R32_SFLOAT, 12),
     (3, Format::R32G32_SFLOAT, 16),
     (4, Format::R32G32_SFLOAT, 24),
+    (5, Format::R32_SFLOAT, 32),
 ];
 
-/// The smoothie width t in light-uv units: the fixed knob when given, else calibrated from
-/// the light radius (see the module header).
+/// The smoothie widths: the fixed knob when given, else calibrated per silhouette vertex
+/// from the light radius and the vertex's depth (see the module header).
+pub fn smoothie_widths(fixed: Option<f32>, light: &LightView, radius: f32) -> Width {
+    match fixed {
+        Some(t) => Width::Fixed(t),
+        None => Width::Calibrated {
+            radius,
+            tan_half_fov: (light.fov_deg.to_radians() * 0.5).tan(),
+        },
+    }
+}
+
+/// A representative smoothie width t in light-uv units, for reports: the fixed knob when
+/// given, else the calibrated width at the depth of the casters' bounds centre.
 pub fn smoothie_width(fixed: Option<f32>, scene: &Scene, light: &LightView, radius: f32) -> f32 {
     if let Some(t) = fixed {
         return t;
@@ -209,12 +225,12 @@ impl Smoothies {
     }
 
     /// Silhouettes and smoothie geometry of every caster for this light.
-    fn build_geometry(&self, frame: &FrameInput<'_>, t: f32) -> Vec<SmoothieVertex> {
+    fn build_geometry(&self, frame: &FrameInput<'_>, width: Width) -> Vec<SmoothieVertex> {
         let mut out = Vec::new();
         for (obj, adj) in frame.scene.objects.iter().zip(&self.adjacency) {
             let Some(adj) = adj else { continue };
             let sil = silhouette::extract(adj, obj.transform, frame.light.position);
-            let geom = build_smoothies(adj, &sil, obj.transform, frame.light, t);
+            let geom = build_smoothies_width(adj, &sil, obj.transform, frame.light, width);
             out.extend_from_slice(&geom.vertices);
         }
         out
@@ -251,6 +267,7 @@ impl Technique for Smoothies {
     }
 
     fn uniforms(&self, frame: &FrameInput<'_>) -> [[f32; 4]; 2] {
+        // x: the representative width; the final pass only tests it for 0 (R = 0 is `hard`).
         let t = smoothie_width(
             frame.settings.smoothie_t,
             frame.scene,
@@ -272,9 +289,12 @@ impl Technique for Smoothies {
             frame.light,
             frame.light_radius,
         );
+        let width = smoothie_widths(frame.settings.smoothie_t, frame.light, frame.light_radius);
         // t = 0 (a point light): no smoothie can shadow anything, the result is `hard`.
         let vertices = if t > 0.0 {
-            rec.cpu("smoothies/silhouettes", || self.build_geometry(frame, t))
+            rec.cpu("smoothies/silhouettes", || {
+                self.build_geometry(frame, width)
+            })
         } else {
             Vec::new()
         };

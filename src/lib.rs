@@ -7,6 +7,7 @@
 //! `render` drives one frame; `technique` holds one module per technique behind one trait
 //! and the registry table; `output` writes PNGs and EXR AOVs.
 
+pub mod eval;
 pub mod output;
 pub mod render;
 pub mod scene;

@@ -48,7 +48,12 @@ pub const DEFAULT_SIZE: u32 = 512;
 /// The full sweep (`--full`).
 pub const FULL_RESOLUTIONS: &[u32] = &[256, 512, 1024, 2048];
 pub const FULL_SIZE: u32 = 1024;
-pub const FULL_RADII: &[Radius] = &[Radius::Abs(0.0), Radius::Times(0.5), Radius::Scene, Radius::Times(2.0)];
+pub const FULL_RADII: &[Radius] = &[
+    Radius::Abs(0.0),
+    Radius::Times(0.5),
+    Radius::Scene,
+    Radius::Times(2.0),
+];
 pub const FULL_FRAMES: u32 = 20;
 /// The paper's fixed smoothie width (Chan & Durand use t = 0.02 to 0.2).
 pub const DEFAULT_SMOOTHIE_T: f32 = 0.02;
@@ -89,7 +94,11 @@ impl std::str::FromStr for Radius {
             Ok(v) if f32::is_finite(v) && v >= 0.0 => v,
             _ => bail!("--radii '{s}' is not a radius: allowed 'scene', a multiple of it like '0.5x', or a world-unit value >= 0"),
         };
-        Ok(if times { Radius::Times(v) } else { Radius::Abs(v) })
+        Ok(if times {
+            Radius::Times(v)
+        } else {
+            Radius::Abs(v)
+        })
     }
 }
 
@@ -270,7 +279,10 @@ pub fn variants(techniques: &[String], smoothie_t: &[f32]) -> Result<(Vec<Varian
         }
     }
     if names.is_empty() {
-        bail!("--techniques is empty: name at least one of {}", technique::names().join(", "));
+        bail!(
+            "--techniques is empty: name at least one of {}",
+            technique::names().join(", ")
+        );
     }
     let added = !names.contains(&BASELINE);
     names.retain(|n| *n != BASELINE);
@@ -440,7 +452,10 @@ struct Staging {
 impl Staging {
     fn new(out: &Path) -> Result<Self> {
         if out.exists() && !out.is_dir() {
-            bail!("cannot write to {}: it exists and is not a folder", out.display());
+            bail!(
+                "cannot write to {}: it exists and is not a folder",
+                out.display()
+            );
         }
         let created_out = !out.exists();
         std::fs::create_dir_all(out)
@@ -452,8 +467,9 @@ impl Staging {
             created_out,
             committed: false,
         };
-        std::fs::create_dir_all(staging.dir.join("images"))
-            .map_err(|e| anyhow::anyhow!("cannot write into output folder {}: {e}", out.display()))?;
+        std::fs::create_dir_all(staging.dir.join("images")).map_err(|e| {
+            anyhow::anyhow!("cannot write into output folder {}: {e}", out.display())
+        })?;
         Ok(staging)
     }
 
@@ -467,10 +483,12 @@ impl Staging {
             .with_context(|| format!("creating {}/images", self.out.display()))?;
         for f in files {
             let (from, to) = (self.dir.join(f), self.out.join(f));
-            std::fs::rename(&from, &to).with_context(|| format!("moving {f} into {}", self.out.display()))?;
+            std::fs::rename(&from, &to)
+                .with_context(|| format!("moving {f} into {}", self.out.display()))?;
         }
         self.committed = true;
-        std::fs::remove_dir_all(&self.dir).with_context(|| format!("removing {}", self.dir.display()))?;
+        std::fs::remove_dir_all(&self.dir)
+            .with_context(|| format!("removing {}", self.dir.display()))?;
         Ok(())
     }
 }
@@ -504,7 +522,11 @@ impl Stat {
         }
         v.sort_by(f64::total_cmp);
         let n = v.len();
-        let median = if n % 2 == 1 { v[n / 2] } else { 0.5 * (v[n / 2 - 1] + v[n / 2]) };
+        let median = if n % 2 == 1 {
+            v[n / 2]
+        } else {
+            0.5 * (v[n / 2 - 1] + v[n / 2])
+        };
         Some(Stat {
             median,
             min: v[0],
@@ -620,8 +642,10 @@ pub fn run(ctx: &Context, plan: Plan) -> Result<Outcome> {
         ProgressBar::hidden()
     };
     bar.set_style(
-        ProgressStyle::with_template("{spinner} [{elapsed_precise}] {bar:30} {pos}/{len} {wide_msg}")
-            .unwrap_or_else(|_| ProgressStyle::default_bar()),
+        ProgressStyle::with_template(
+            "{spinner} [{elapsed_precise}] {bar:30} {pos}/{len} {wide_msg}",
+        )
+        .unwrap_or_else(|_| ProgressStyle::default_bar()),
     );
     bar.enable_steady_tick(Duration::from_millis(200));
     // On a terminal the bar shows progress; elsewhere (CI logs) one line per sweep point.
@@ -655,19 +679,23 @@ pub fn run(ctx: &Context, plan: Plan) -> Result<Outcome> {
             let mut scene = r.scene.clone();
             case.motion.apply(base, f, &mut scene);
             r.scene = scene;
-            let t = r.render().with_context(|| format!("bench {what}, frame {f}"))?;
+            let t = r
+                .render()
+                .with_context(|| format!("bench {what}, frame {f}"))?;
             if f >= cfg.warmup {
                 timed.push(t);
             }
         }
         if case.motion != Motion::Static {
             r.scene = base.clone();
-            r.render().with_context(|| format!("bench {what}, frame at rest"))?;
+            r.render()
+                .with_context(|| format!("bench {what}, frame at rest"))?;
         }
-        let images = r.read_back().with_context(|| format!("bench {what}: reading back"))?;
-        let smoothie_t = (variant.technique == "smoothies").then(|| {
-            smoothie_width(settings.smoothie_t, &r.scene, &r.light, radius)
-        });
+        let images = r
+            .read_back()
+            .with_context(|| format!("bench {what}: reading back"))?;
+        let smoothie_t = (variant.technique == "smoothies")
+            .then(|| smoothie_width(settings.smoothie_t, &r.scene, &r.light, radius));
         drop(r);
 
         let key = (case.scene, case.radius);
@@ -676,8 +704,14 @@ pub fn run(ctx: &Context, plan: Plan) -> Result<Outcome> {
                 "{}: reference visibility, {}x{}, R {radius:.4}, {} samples",
                 base.name, cfg.width, cfg.height, cfg.samples
             ));
-            let v = reference::visibility_cached(base, radius, &images.position, &images.normal, &params)
-                .with_context(|| format!("reference visibility of {} at R {radius}", base.name))?;
+            let v = reference::visibility_cached(
+                base,
+                radius,
+                &images.position,
+                &images.normal,
+                &params,
+            )
+            .with_context(|| format!("reference visibility of {} at R {radius}", base.name))?;
             if v.len() != images.visibility.len() {
                 bail!(
                     "reference visibility of {} has {} pixels, the image {}",
@@ -757,7 +791,11 @@ pub fn run(ctx: &Context, plan: Plan) -> Result<Outcome> {
 
     let msgs = ctx.validation_messages();
     if !msgs.is_empty() {
-        bail!("{} validation message(s), the first: {}", msgs.len(), msgs[0]);
+        bail!(
+            "{} validation message(s), the first: {}",
+            msgs.len(),
+            msgs[0]
+        );
     }
 
     let mut notes = Vec::new();
@@ -804,12 +842,21 @@ pub fn run(ctx: &Context, plan: Plan) -> Result<Outcome> {
     report::write_json(&st.path("results.json"), &results)?;
     plot::time_vs_error(&st.path("time_vs_error.png"), &results)?;
     report::write_markdown(&st.path("report.md"), &results)?;
-    for f in ["results.csv", "results.json", "time_vs_error.png", "report.md"] {
+    for f in [
+        "results.csv",
+        "results.json",
+        "time_vs_error.png",
+        "report.md",
+    ] {
         files.push(f.into());
     }
     let out = cfg.out.clone();
     plan.staging.commit(&files)?;
-    Ok(Outcome { out, records, files })
+    Ok(Outcome {
+        out,
+        records,
+        files,
+    })
 }
 
 /// The timing figures of a sweep point.
@@ -870,9 +917,17 @@ pub fn summarise(timed: &[FrameTimings]) -> Timing {
         .filter_map(|&name| {
             let ms: Vec<f64> = timed
                 .iter()
-                .map(|t| t.cpu.iter().filter(|c| c.0 == name).fold(0.0, |a, c| a + c.1))
+                .map(|t| {
+                    t.cpu
+                        .iter()
+                        .filter(|c| c.0 == name)
+                        .fold(0.0, |a, c| a + c.1)
+                })
                 .collect();
-            Stat::of(&ms).map(|ms| CpuStat { name: name.into(), ms })
+            Stat::of(&ms).map(|ms| CpuStat {
+                name: name.into(),
+                ms,
+            })
         })
         .collect();
     Timing {
@@ -922,7 +977,8 @@ fn write_gray(path: &Path, width: u32, height: u32, v: &[f32]) -> Result<()> {
         .iter()
         .map(|x| (x.clamp(0.0, 1.0) * 255.0).round() as u8)
         .collect();
-    let img = image::GrayImage::from_raw(width, height, bytes).context("image size does not match its pixels")?;
+    let img = image::GrayImage::from_raw(width, height, bytes)
+        .context("image size does not match its pixels")?;
     img.save_with_format(path, image::ImageFormat::Png)
         .with_context(|| format!("writing {}", path.display()))
 }

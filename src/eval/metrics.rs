@@ -33,7 +33,11 @@ pub fn errors(v: &[f32], v_ref: &[f32], covered: &[bool]) -> Errors {
         .copied()
         .unwrap_or(0.0);
     Errors {
-        mae_shadow: if shadow.is_empty() { 0.0 } else { shadow.iter().sum::<f64>() / shadow.len() as f64 },
+        mae_shadow: if shadow.is_empty() {
+            0.0
+        } else {
+            shadow.iter().sum::<f64>() / shadow.len() as f64
+        },
         rmse: if n == 0 { 0.0 } else { (all / n as f64).sqrt() },
         p99,
         max,
@@ -49,7 +53,12 @@ pub fn error_image(v: &[f32], v_ref: &[f32], covered: &[bool], scale: f32) -> Ve
                 return [0, 0, 0, 255];
             }
             let e = ((v[i] - v_ref[i]).abs() / scale).clamp(0.0, 1.0);
-            [(255.0 * e) as u8, (255.0 * (1.0 - (2.0 * e - 1.0).abs())) as u8, (255.0 * (1.0 - e)) as u8, 255]
+            [
+                (255.0 * e) as u8,
+                (255.0 * (1.0 - (2.0 * e - 1.0).abs())) as u8,
+                (255.0 * (1.0 - e)) as u8,
+                255,
+            ]
         })
         .collect()
 }

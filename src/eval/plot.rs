@@ -10,7 +10,10 @@ use plotters::style::{register_font, FontStyle};
 use std::path::Path;
 use std::sync::Once;
 
-const FONT: &[u8] = include_bytes!(concat!(env!("CARGO_MANIFEST_DIR"), "/assets/fonts/DejaVuSans.ttf"));
+const FONT: &[u8] = include_bytes!(concat!(
+    env!("CARGO_MANIFEST_DIR"),
+    "/assets/fonts/DejaVuSans.ttf"
+));
 const PANEL: (u32, u32) = (640, 480);
 const HEADER: u32 = 56;
 const COLUMNS: usize = 3;
@@ -96,7 +99,11 @@ pub fn time_vs_error(path: &Path, res: &Results<'_>) -> Result<()> {
             )
             .map_err(plot_err)?;
         header
-            .draw_text(&res.device_line, &("sans-serif", 14).into_font().color(&BLACK), (10, 32))
+            .draw_text(
+                &res.device_line,
+                &("sans-serif", 14).into_font().color(&BLACK),
+                (10, 32),
+            )
             .map_err(plot_err)?;
         let panels = body.split_evenly((rows, cols));
         for (scene, area) in scenes.iter().zip(panels.iter()) {
@@ -125,7 +132,11 @@ pub fn time_vs_error(path: &Path, res: &Results<'_>) -> Result<()> {
                 .draw()
                 .map_err(plot_err)?;
             // Name the radius beside the buffer side when a scene was swept over several.
-            let radii = pts.iter().filter(|p| p.0.radius_spec != pts[0].0.radius_spec).count() > 0;
+            let radii = pts
+                .iter()
+                .filter(|p| p.0.radius_spec != pts[0].0.radius_spec)
+                .count()
+                > 0;
             let xy: Vec<(f64, f64)> = pts.iter().map(|p| (p.1, p.2)).collect();
             let front: Vec<(f64, f64)> = pareto_front(&xy).into_iter().map(|i| xy[i]).collect();
             // The front as a staircase (what is reachable for a time budget), its points ringed.
@@ -144,9 +155,15 @@ pub fn time_vs_error(path: &Path, res: &Results<'_>) -> Result<()> {
                 .draw_series(LineSeries::new(stairs, grey.stroke_width(2)))
                 .map_err(plot_err)?
                 .label("Pareto front")
-                .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], grey.stroke_width(2)));
+                .legend(move |(x, y)| {
+                    PathElement::new(vec![(x, y), (x + 16, y)], grey.stroke_width(2))
+                });
             chart
-                .draw_series(front.iter().map(|&p| Circle::new(p, 9, grey.stroke_width(2))))
+                .draw_series(
+                    front
+                        .iter()
+                        .map(|&p| Circle::new(p, 9, grey.stroke_width(2))),
+                )
                 .map_err(plot_err)?;
             for (k, label) in labels.iter().enumerate() {
                 let colour = COLOURS[k % COLOURS.len()];
@@ -155,7 +172,10 @@ pub fn time_vs_error(path: &Path, res: &Results<'_>) -> Result<()> {
                     continue;
                 }
                 chart
-                    .draw_series(mine.iter().map(|p| Circle::new((p.1, p.2), 5, colour.filled())))
+                    .draw_series(
+                        mine.iter()
+                            .map(|p| Circle::new((p.1, p.2), 5, colour.filled())),
+                    )
                     .map_err(plot_err)?
                     .label(*label)
                     .legend(move |(x, y)| Circle::new((x + 8, y), 5, colour.filled()));

@@ -50,13 +50,18 @@ fn pass_list(r: &Record) -> String {
             Some(s) => format!("{}={:.4}", p.name, s.median),
             None => format!("{}=skipped", p.name),
         })
-        .chain(r.cpu.iter().map(|c| format!("cpu:{}={:.4}", c.name, c.ms.median)))
+        .chain(
+            r.cpu
+                .iter()
+                .map(|c| format!("cpu:{}={:.4}", c.name, c.ms.median)),
+        )
         .collect::<Vec<_>>()
         .join(";")
 }
 
 pub fn write_csv(path: &Path, res: &Results<'_>) -> Result<()> {
-    let mut w = csv::Writer::from_path(path).with_context(|| format!("writing {}", path.display()))?;
+    let mut w =
+        csv::Writer::from_path(path).with_context(|| format!("writing {}", path.display()))?;
     for r in res.results {
         let passes = pass_list(r);
         w.serialize(CsvRow {
@@ -91,7 +96,8 @@ pub fn write_csv(path: &Path, res: &Results<'_>) -> Result<()> {
         })
         .with_context(|| format!("writing {}", path.display()))?;
     }
-    w.flush().with_context(|| format!("writing {}", path.display()))
+    w.flush()
+        .with_context(|| format!("writing {}", path.display()))
 }
 
 pub fn write_json(path: &Path, res: &Results<'_>) -> Result<()> {
@@ -188,9 +194,16 @@ pub fn markdown(res: &Results<'_>) -> String {
             s,
             "| technique | buffer | R |{motion_h} smoothie t | frame ms (min–max) | × {BASELINE} | CPU ms | mae_shadow | rmse | p99 | max |"
         );
-        let _ = writeln!(s, "|:---|---:|---:|{motion_a}:---|---:|---:|---:|---:|---:|---:|---:|");
+        let _ = writeln!(
+            s,
+            "|:---|---:|---:|{motion_a}:---|---:|---:|---:|---:|---:|---:|---:|"
+        );
         for r in &rows {
-            let motion = if moving { format!(" {} |", r.motion.name()) } else { String::new() };
+            let motion = if moving {
+                format!(" {} |", r.motion.name())
+            } else {
+                String::new()
+            };
             let _ = writeln!(
                 s,
                 "| {} | {} | {} |{motion} {} | {} ({}–{}) | {} | {} | {:.4} | {:.4} | {:.4} | {:.3} |",
@@ -213,7 +226,11 @@ pub fn markdown(res: &Results<'_>) -> String {
         let _ = writeln!(s, "| technique | buffer | R |{motion_h} passes |");
         let _ = writeln!(s, "|:---|---:|---:|{motion_a}:---|");
         for r in &rows {
-            let motion = if moving { format!(" {} |", r.motion.name()) } else { String::new() };
+            let motion = if moving {
+                format!(" {} |", r.motion.name())
+            } else {
+                String::new()
+            };
             let mut cells: Vec<String> = r
                 .passes
                 .iter()
@@ -223,7 +240,11 @@ pub fn markdown(res: &Results<'_>) -> String {
                     (None, None) => format!("{} n/a", short(&p.name)),
                 })
                 .collect();
-            cells.extend(r.cpu.iter().map(|c| format!("cpu {} {}", short(&c.name), ms(c.ms.median))));
+            cells.extend(
+                r.cpu
+                    .iter()
+                    .map(|c| format!("cpu {} {}", short(&c.name), ms(c.ms.median))),
+            );
             let _ = writeln!(
                 s,
                 "| {} | {} | {} |{motion} {} |",
@@ -235,7 +256,11 @@ pub fn markdown(res: &Results<'_>) -> String {
         }
         // Images of one point per technique: the largest buffer, the first radius, at rest.
         if let Some(first) = rows.first() {
-            let res_max = rows.iter().map(|r| r.shadow_res).max().unwrap_or(first.shadow_res);
+            let res_max = rows
+                .iter()
+                .map(|r| r.shadow_res)
+                .max()
+                .unwrap_or(first.shadow_res);
             let shown: Vec<&&Record> = rows
                 .iter()
                 .filter(|r| {

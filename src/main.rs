@@ -10,11 +10,7 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 
 #[derive(Parser)]
-#[command(
-    name = "softshadow",
-    version,
-    about = "Fake soft shadows in Vulkan, timed per pass against their error"
-)]
+#[command(name = "softshadow", version, about = "Fake soft shadows in Vulkan, timed per pass against their error")]
 struct Cli {
     /// Vulkan device: a substring of its name (default: a real GPU, else lavapipe).
     #[arg(long, global = true, env = "SOFTSHADOW_DEVICE")]
@@ -114,14 +110,14 @@ struct BenchArgs {
     warmup: u32,
     /// What moves while the frames are timed: static, camera, light, object (comma-separated).
     #[arg(long, value_delimiter = ',')]
-    motion: Option<Vec<String>>,
+    motion: Option<Vec<bench::Motion>>,
     /// Light-space buffer sides [default: 512,1024; --full: 256,512,1024,2048].
     #[arg(long, value_delimiter = ',')]
     resolutions: Option<Vec<u32>>,
     /// Light radii: 'scene', a multiple like '0.5x', or world units [default: scene;
     /// --full: 0,0.5x,scene,2x].
-    #[arg(long, value_delimiter = ',', allow_negative_numbers = true)]
-    radii: Option<Vec<String>>,
+    #[arg(long, value_delimiter = ',')]
+    radii: Option<Vec<bench::Radius>>,
     /// Image width [default: 512; --full: 1024].
     #[arg(long)]
     width: Option<u32>,
@@ -135,12 +131,7 @@ struct BenchArgs {
     #[arg(long, default_value_t = bench::DEFAULT_SEED)]
     seed: u64,
     /// Fixed smoothie widths reported beside the calibrated `smoothies` row.
-    #[arg(
-        long,
-        value_delimiter = ',',
-        default_value = "0.02",
-        allow_negative_numbers = true
-    )]
+    #[arg(long, value_delimiter = ',', default_value = "0.02", allow_negative_numbers = true)]
     smoothie_t: Vec<f32>,
     /// The full sweep (flags given beside it still win).
     #[arg(long)]
@@ -153,11 +144,7 @@ fn main() -> ExitCode {
         Err(e) => {
             // clap prints help/version itself and formats its own errors.
             let _ = e.print();
-            return if e.use_stderr() {
-                ExitCode::from(2)
-            } else {
-                ExitCode::SUCCESS
-            };
+            return if e.use_stderr() { ExitCode::from(2) } else { ExitCode::SUCCESS };
         }
     };
     match run(cli) {
@@ -207,10 +194,7 @@ fn render(cli: &Cli, a: &RenderArgs) -> Result<()> {
     check_writable(&a.out)?;
     let ctx = open_device(cli)?;
     if a.spirv == "tuned" {
-        eprintln!(
-            "note: no hand-tuned SPIR-V for '{}' yet: using glslang's",
-            a.technique
-        );
+        eprintln!("note: no hand-tuned SPIR-V for '{}' yet: using glslang's", a.technique);
     }
     let settings = Settings {
         width: a.width,
@@ -249,11 +233,7 @@ fn render(cli: &Cli, a: &RenderArgs) -> Result<()> {
     }
     let msgs = ctx.validation_messages();
     if !msgs.is_empty() {
-        bail!(
-            "{} validation message(s), the first: {}",
-            msgs.len(),
-            msgs[0]
-        );
+        bail!("{} validation message(s), the first: {}", msgs.len(), msgs[0]);
     }
     Ok(())
 }
@@ -264,26 +244,11 @@ fn run_bench(cli: &Cli, a: &BenchArgs) -> Result<()> {
     } else {
         bench::BenchConfig::default()
     };
-    // Parsed here rather than by clap so that a bad value is one line like every other error.
-    let radii = match &a.radii {
-        Some(v) => v
-            .iter()
-            .map(|r| r.parse())
-            .collect::<Result<Vec<bench::Radius>>>()?,
-        None => preset.radii,
-    };
-    let motions = match &a.motion {
-        Some(v) => v
-            .iter()
-            .map(|m| m.parse())
-            .collect::<Result<Vec<bench::Motion>>>()?,
-        None => preset.motions,
-    };
     let config = bench::BenchConfig {
         scenes: a.scenes.clone().unwrap_or(preset.scenes),
         techniques: a.techniques.clone().unwrap_or(preset.techniques),
         resolutions: a.resolutions.clone().unwrap_or(preset.resolutions),
-        radii,
+        radii: a.radii.clone().unwrap_or(preset.radii),
         smoothie_t: a.smoothie_t.clone(),
         width: a.width.unwrap_or(preset.width),
         height: a.height.unwrap_or(preset.height),
@@ -291,7 +256,7 @@ fn run_bench(cli: &Cli, a: &BenchArgs) -> Result<()> {
         warmup: a.warmup,
         samples: a.samples,
         seed: a.seed,
-        motions,
+        motions: a.motion.clone().unwrap_or(preset.motions),
         out: a.out.clone(),
         progress: true,
         command: std::env::args().collect::<Vec<_>>().join(" "),
@@ -324,19 +289,11 @@ fn check_writable(path: &std::path::Path) -> Result<()> {
         _ => std::path::Path::new("."),
     };
     if !dir.is_dir() {
-        bail!(
-            "cannot write {}: folder {} does not exist",
-            path.display(),
-            dir.display()
-        );
+        bail!("cannot write {}: folder {} does not exist", path.display(), dir.display());
     }
     let md = std::fs::metadata(dir).with_context(|| format!("checking {}", dir.display()))?;
     if md.permissions().readonly() {
-        bail!(
-            "cannot write {}: folder {} is read-only",
-            path.display(),
-            dir.display()
-        );
+        bail!("cannot write {}: folder {} is read-only", path.display(), dir.display());
     }
     Ok(())
 }

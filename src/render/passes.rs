@@ -4,9 +4,9 @@
 use super::gpu_scene::{GpuScene, DRAW_PUSH_BYTES, SCENE_ATTRIBUTES, SCENE_VERTEX_STRIDE};
 use crate::shaders;
 use crate::vk::{
-    Blend, Buffer, BufferUsageFlags, CompareOp, Context, CullModeFlags, DepthState, DescriptorSet,
-    Format, FrameRunner, GraphicsPipelineDesc, Image, ImageLayout, ImageUsageFlags, Pipeline,
-    PrimitiveTopology, Recorder, Resource,
+    Blend, Buffer, BufferUsageFlags, CompareOp, Context, CullModeFlags, DepthState,
+    DescriptorSet, Format, FrameRunner, GraphicsPipelineDesc, Image, ImageLayout,
+    ImageUsageFlags, Pipeline, PrimitiveTopology, Recorder, Resource,
 };
 use anyhow::Result;
 
@@ -34,9 +34,7 @@ impl ShadowMap {
             resolution,
             resolution,
             Format::R32_SFLOAT,
-            ImageUsageFlags::COLOR_ATTACHMENT
-                | ImageUsageFlags::SAMPLED
-                | ImageUsageFlags::TRANSFER_SRC,
+            ImageUsageFlags::COLOR_ATTACHMENT | ImageUsageFlags::SAMPLED | ImageUsageFlags::TRANSFER_SRC,
             &format!("{name} shadow map"),
         )?;
         let zbuffer = Image::new_2d(
@@ -113,38 +111,10 @@ impl CameraTargets {
     pub fn new(ctx: &Context, width: u32, height: u32) -> Result<Self> {
         let usage = ImageUsageFlags::COLOR_ATTACHMENT | ImageUsageFlags::TRANSFER_SRC;
         Ok(Self {
-            color: Image::new_2d(
-                ctx,
-                width,
-                height,
-                Format::R8G8B8A8_UNORM,
-                usage,
-                "camera colour",
-            )?,
-            visibility: Image::new_2d(
-                ctx,
-                width,
-                height,
-                Format::R32_SFLOAT,
-                usage,
-                "camera visibility",
-            )?,
-            position: Image::new_2d(
-                ctx,
-                width,
-                height,
-                Format::R32G32B32A32_SFLOAT,
-                usage,
-                "camera position",
-            )?,
-            normal: Image::new_2d(
-                ctx,
-                width,
-                height,
-                Format::R16G16B16A16_SFLOAT,
-                usage,
-                "camera normal",
-            )?,
+            color: Image::new_2d(ctx, width, height, Format::R8G8B8A8_UNORM, usage, "camera colour")?,
+            visibility: Image::new_2d(ctx, width, height, Format::R32_SFLOAT, usage, "camera visibility")?,
+            position: Image::new_2d(ctx, width, height, Format::R32G32B32A32_SFLOAT, usage, "camera position")?,
+            normal: Image::new_2d(ctx, width, height, Format::R16G16B16A16_SFLOAT, usage, "camera normal")?,
             depth: Image::new_2d(
                 ctx,
                 width,

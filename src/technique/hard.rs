@@ -67,12 +67,7 @@ impl Technique for Hard {
         INFO.name
     }
 
-    fn record(
-        &mut self,
-        _ctx: &Context,
-        rec: &mut Recorder<'_>,
-        frame: &FrameInput<'_>,
-    ) -> Result<()> {
+    fn record(&mut self, _ctx: &Context, rec: &mut Recorder<'_>, frame: &FrameInput<'_>) -> Result<()> {
         rec.pass("hard/shadow_map", |rec| {
             self.shadow.record(rec, frame.gpu);
             Ok(())

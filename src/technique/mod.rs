@@ -40,12 +40,7 @@ pub trait Technique {
 
     /// CPU work of the frame (timed with `rec.cpu`) and every pass (each in `rec.pass`,
     /// named `technique/pass`), ending with the final camera pass into `frame.targets`.
-    fn record(
-        &mut self,
-        ctx: &Context,
-        rec: &mut Recorder<'_>,
-        frame: &FrameInput<'_>,
-    ) -> Result<()>;
+    fn record(&mut self, ctx: &Context, rec: &mut Recorder<'_>, frame: &FrameInput<'_>) -> Result<()>;
 
     /// A light-space buffer by name, for tests and debugging (`shadow_map`, ...).
     fn debug_image(&self, _name: &str) -> Option<&Image> {

@@ -114,20 +114,13 @@ impl Smoothies {
         let res = init.settings.shadow_res;
         for f in [Format::R32_SFLOAT, Format::R16_SFLOAT] {
             if !ctx.supports_blend(f) {
-                anyhow::bail!(
-                    "{} cannot MIN-blend {f:?} attachments, which smoothies need",
-                    ctx.device_name
-                );
+                anyhow::bail!("{} cannot MIN-blend {f:?} attachments, which smoothies need", ctx.device_name);
             }
         }
         let shadow = ShadowMap::new(ctx, init.ubo, res, "smoothies/shadow_map")?;
-        let usage = ImageUsageFlags::COLOR_ATTACHMENT
-            | ImageUsageFlags::SAMPLED
-            | ImageUsageFlags::TRANSFER_SRC;
-        let smoothie_depth =
-            Image::new_2d(ctx, res, res, Format::R32_SFLOAT, usage, "smoothie depth")?;
-        let smoothie_alpha =
-            Image::new_2d(ctx, res, res, Format::R16_SFLOAT, usage, "smoothie alpha")?;
+        let usage = ImageUsageFlags::COLOR_ATTACHMENT | ImageUsageFlags::SAMPLED | ImageUsageFlags::TRANSFER_SRC;
+        let smoothie_depth = Image::new_2d(ctx, res, res, Format::R32_SFLOAT, usage, "smoothie depth")?;
+        let smoothie_alpha = Image::new_2d(ctx, res, res, Format::R16_SFLOAT, usage, "smoothie alpha")?;
         let nearest = Sampler::new(ctx, Filter::Nearest)?;
         let linear = Sampler::new(ctx, Filter::Linear)?;
         let falloff = falloff_lut(ctx)?;
@@ -151,10 +144,7 @@ impl Smoothies {
                 topology: PrimitiveTopology::TRIANGLE_LIST,
                 // Smoothie quads and fans are built in 2-D with either winding.
                 cull: CullModeFlags::NONE,
-                colors: &[
-                    (Format::R32_SFLOAT, Blend::Min),
-                    (Format::R16_SFLOAT, Blend::Min),
-                ],
+                colors: &[(Format::R32_SFLOAT, Blend::Min), (Format::R16_SFLOAT, Blend::Min)],
                 depth: None,
                 push_constant_bytes: 0,
                 sets: &[&smoothie_set],
@@ -171,12 +161,7 @@ impl Smoothies {
             ],
             "smoothies/final",
         )?;
-        let final_pass = FinalPass::new(
-            ctx,
-            "smoothies/final",
-            shaders::SMOOTHIES_FINAL_FRAG,
-            &final_set,
-        )?;
+        let final_pass = FinalPass::new(ctx, "smoothies/final", shaders::SMOOTHIES_FINAL_FRAG, &final_set)?;
         let adjacency = init
             .scene
             .objects
@@ -184,10 +169,7 @@ impl Smoothies {
             .map(|o| {
                 o.role
                     .casts()
-                    .then(|| {
-                        Adjacency::build(&o.mesh)
-                            .with_context(|| format!("edge adjacency of '{}'", o.name))
-                    })
+                    .then(|| Adjacency::build(&o.mesh).with_context(|| format!("edge adjacency of '{}'", o.name)))
                     .transpose()
             })
             .collect::<Result<Vec<_>>>()?;
@@ -252,27 +234,12 @@ impl Technique for Smoothies {
     }
 
     fn uniforms(&self, frame: &FrameInput<'_>) -> [[f32; 4]; 2] {
-        let t = smoothie_width(
-            frame.settings.smoothie_t,
-            frame.scene,
-            frame.light,
-            frame.light_radius,
-        );
+        let t = smoothie_width(frame.settings.smoothie_t, frame.scene, frame.light, frame.light_radius);
         [[t, 0.0, 0.0, 0.0], [0.0; 4]]
     }
 
-    fn record(
-        &mut self,
-        ctx: &Context,
-        rec: &mut Recorder<'_>,
-        frame: &FrameInput<'_>,
-    ) -> Result<()> {
-        let t = smoothie_width(
-            frame.settings.smoothie_t,
-            frame.scene,
-            frame.light,
-            frame.light_radius,
-        );
+    fn record(&mut self, ctx: &Context, rec: &mut Recorder<'_>, frame: &FrameInput<'_>) -> Result<()> {
+        let t = smoothie_width(frame.settings.smoothie_t, frame.scene, frame.light, frame.light_radius);
         self.ctx_t = t;
         // t = 0 (a point light): no smoothie can shadow anything, the result is `hard`.
         let vertices = if t > 0.0 {

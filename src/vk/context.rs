@@ -24,9 +24,7 @@ impl ContextOptions {
     /// `SOFTSHADOW_VALIDATION=1` turns validation on.
     pub fn from_env() -> Self {
         Self {
-            device: std::env::var("SOFTSHADOW_DEVICE")
-                .ok()
-                .filter(|s| !s.is_empty()),
+            device: std::env::var("SOFTSHADOW_DEVICE").ok().filter(|s| !s.is_empty()),
             validation: std::env::var("SOFTSHADOW_VALIDATION").is_ok_and(|v| v != "0"),
         }
     }
@@ -348,8 +346,8 @@ fn pick_physical_device(
     filter: Option<&str>,
 ) -> Result<(vk::PhysicalDevice, u32)> {
     // SAFETY: enumeration on a valid instance.
-    let devices =
-        unsafe { instance.enumerate_physical_devices() }.context("enumerating Vulkan devices")?;
+    let devices = unsafe { instance.enumerate_physical_devices() }
+        .context("enumerating Vulkan devices")?;
     if devices.is_empty() {
         bail!("no Vulkan device found: install the Debian package mesa-vulkan-drivers (lavapipe, a CPU Vulkan driver)");
     }

@@ -54,8 +54,7 @@ impl Buffer {
             Err(e) => {
                 // SAFETY: not bound, not in use.
                 unsafe { device.destroy_buffer(raw, None) };
-                return Err(e)
-                    .with_context(|| format!("allocating buffer '{name}' ({size} bytes)"));
+                return Err(e).with_context(|| format!("allocating buffer '{name}' ({size} bytes)"));
             }
         };
         // SAFETY: memory and offset come from the allocator for these requirements.
@@ -78,13 +77,7 @@ impl Buffer {
         usage: vk::BufferUsageFlags,
         name: &str,
     ) -> Result<Self> {
-        let mut b = Self::new(
-            ctx,
-            data.len() as u64,
-            usage,
-            MemoryLocation::CpuToGpu,
-            name,
-        )?;
+        let mut b = Self::new(ctx, data.len() as u64, usage, MemoryLocation::CpuToGpu, name)?;
         b.write(0, data)?;
         Ok(b)
     }
@@ -100,11 +93,7 @@ impl Buffer {
         let start = offset as usize;
         let end = start + data.len();
         if end > slice.len() {
-            bail!(
-                "write of {} bytes at {offset} overflows a {}-byte buffer",
-                data.len(),
-                slice.len()
-            );
+            bail!("write of {} bytes at {offset} overflows a {}-byte buffer", data.len(), slice.len());
         }
         slice[start..end].copy_from_slice(data);
         Ok(())
@@ -156,15 +145,7 @@ impl Image {
         usage: vk::ImageUsageFlags,
         name: &str,
     ) -> Result<Self> {
-        Self::create(
-            ctx,
-            vk::ImageType::TYPE_2D,
-            width,
-            height,
-            format,
-            usage,
-            name,
-        )
+        Self::create(ctx, vk::ImageType::TYPE_2D, width, height, format, usage, name)
     }
 
     pub fn new_1d(
@@ -188,9 +169,7 @@ impl Image {
     ) -> Result<Self> {
         let max = ctx.limits.max_image_dimension2_d;
         if width == 0 || height == 0 || width > max || height > max {
-            bail!(
-                "image '{name}' is {width}x{height}: each side must be in 1..={max} on this device"
-            );
+            bail!("image '{name}' is {width}x{height}: each side must be in 1..={max} on this device");
         }
         let device = ctx.device();
         let depth = matches!(
@@ -345,8 +324,7 @@ impl Sampler {
             .address_mode_w(vk::SamplerAddressMode::CLAMP_TO_EDGE)
             .max_lod(0.0);
         // SAFETY: valid create info; destroyed in Drop.
-        let raw =
-            unsafe { ctx.device().create_sampler(&info, None) }.context("creating sampler")?;
+        let raw = unsafe { ctx.device().create_sampler(&info, None) }.context("creating sampler")?;
         Ok(Self {
             shared: ctx.shared.clone(),
             raw,

@@ -110,14 +110,14 @@ struct BenchArgs {
     warmup: u32,
     /// What moves while the frames are timed: static, camera, light, object (comma-separated).
     #[arg(long, value_delimiter = ',')]
-    motion: Option<Vec<bench::Motion>>,
+    motion: Option<Vec<String>>,
     /// Light-space buffer sides [default: 512,1024; --full: 256,512,1024,2048].
     #[arg(long, value_delimiter = ',')]
     resolutions: Option<Vec<u32>>,
     /// Light radii: 'scene', a multiple like '0.5x', or world units [default: scene;
     /// --full: 0,0.5x,scene,2x].
-    #[arg(long, value_delimiter = ',')]
-    radii: Option<Vec<bench::Radius>>,
+    #[arg(long, value_delimiter = ',', allow_negative_numbers = true)]
+    radii: Option<Vec<String>>,
     /// Image width [default: 512; --full: 1024].
     #[arg(long)]
     width: Option<u32>,
@@ -244,11 +244,20 @@ fn run_bench(cli: &Cli, a: &BenchArgs) -> Result<()> {
     } else {
         bench::BenchConfig::default()
     };
+    // Parsed here rather than by clap so that a bad value is one line like every other error.
+    let radii = match &a.radii {
+        Some(v) => v.iter().map(|r| r.parse()).collect::<Result<Vec<bench::Radius>>>()?,
+        None => preset.radii,
+    };
+    let motions = match &a.motion {
+        Some(v) => v.iter().map(|m| m.parse()).collect::<Result<Vec<bench::Motion>>>()?,
+        None => preset.motions,
+    };
     let config = bench::BenchConfig {
         scenes: a.scenes.clone().unwrap_or(preset.scenes),
         techniques: a.techniques.clone().unwrap_or(preset.techniques),
         resolutions: a.resolutions.clone().unwrap_or(preset.resolutions),
-        radii: a.radii.clone().unwrap_or(preset.radii),
+        radii,
         smoothie_t: a.smoothie_t.clone(),
         width: a.width.unwrap_or(preset.width),
         height: a.height.unwrap_or(preset.height),
@@ -256,7 +265,7 @@ fn run_bench(cli: &Cli, a: &BenchArgs) -> Result<()> {
         warmup: a.warmup,
         samples: a.samples,
         seed: a.seed,
-        motions: a.motion.clone().unwrap_or(preset.motions),
+        motions,
         out: a.out.clone(),
         progress: true,
         command: std::env::args().collect::<Vec<_>>().join(" "),

@@ -394,6 +394,67 @@ fn radius_and_motion_flags_parse() {
         assert!(bad.parse::<Radius>().is_err(), "{bad}");
     }
     assert_eq!("Light".parse::<Motion>().unwrap(), Motion::Light);
+    // Each motion moves what it names, and only that; frame 0 is the scene at rest.
+    let base = softshadow::scene::Scene::load("boxes").unwrap();
+    let at = |m: Motion, f: u32| m.apply(&base, f);
+    assert_eq!(at(Motion::Static, 5).light, base.light);
+    assert_eq!(at(Motion::Light, 0).light, base.light);
+    assert_ne!(at(Motion::Light, 3).light.position, base.light.position);
+    assert_eq!(at(Motion::Light, 3).camera, base.camera);
+    assert_ne!(at(Motion::Camera, 3).camera.position, base.camera.position);
+    let caster = base.objects.iter().position(|o| o.role.casts()).unwrap();
+    assert_ne!(at(Motion::Object, 3).objects[caster].transform, base.objects[caster].transform);
+    assert_eq!(at(Motion::Object, 3).light, base.light);
     assert!("wobble".parse::<Motion>().is_err());
     assert_eq!(bench::slug("smoothies t=0.02"), "smoothies-t-0.02");
+}
+
+mod common;
+
+/// Through the library: a moving sweep times frames while moving, and measures its error
+/// on the scene put back at rest, so its errors equal the static sweep's.
+#[test]
+fn moving_sweeps_are_timed_moving_and_measured_at_rest() {
+    let gpu = common::Gpu::new();
+    let out = scratch("motion");
+    let config = bench::BenchConfig {
+        scenes: vec!["boxes".into()],
+        techniques: vec!["hard".into(), "smoothies".into()],
+        resolutions: vec![128],
+        radii: vec![Radius::Scene],
+        smoothie_t: vec![],
+        width: 64,
+        height: 64,
+        frames: 3,
+        warmup: 1,
+        samples: 4,
+        motions: vec![Motion::Static, Motion::Light, Motion::Object, Motion::Camera],
+        out: out.clone(),
+        progress: false,
+        ..bench::BenchConfig::default()
+    };
+    let plan = bench::prepare(config).expect("valid sweep");
+    assert_eq!(plan.len(), 8);
+    let outcome = bench::run(&gpu.ctx, plan).expect("sweep runs");
+    let rec = |t: &str, m: Motion| {
+        outcome
+            .records
+            .iter()
+            .find(|r| r.technique == t && r.motion == m)
+            .unwrap_or_else(|| panic!("no record {t} {m:?}"))
+    };
+    for t in ["hard", "smoothies"] {
+        let still = rec(t, Motion::Static);
+        for m in [Motion::Light, Motion::Object, Motion::Camera] {
+            let moving = rec(t, m);
+            assert_eq!(moving.errors, still.errors, "{t} {m:?}: errors not measured at rest");
+            assert!(moving.ratio_to_hard.is_some());
+        }
+    }
+    // Smoothies redo their silhouettes every frame, moving or not: a CPU timing each frame.
+    let s = rec("smoothies", Motion::Light);
+    assert_eq!(s.cpu.len(), 1);
+    assert!(s.cpu_ms.median > 0.0);
+    assert!(outcome.files.iter().all(|f| out.join(f).is_file()));
+    let _ = std::fs::remove_dir_all(&out);
 }

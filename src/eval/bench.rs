@@ -155,9 +155,9 @@ impl Motion {
         }
     }
 
-    /// `base` as it stands at frame `frame` of this motion.
-    fn apply(self, base: &Scene, frame: u32, scene: &mut Scene) {
-        *scene = base.clone();
+    /// `base` as it stands at frame `frame` of this motion (frame 0 is `base`).
+    pub fn apply(self, base: &Scene, frame: u32) -> Scene {
+        let mut scene = base.clone();
         let f = frame as f32;
         match self {
             Motion::Static => {}
@@ -184,6 +184,7 @@ impl Motion {
                 }
             }
         }
+        scene
     }
 }
 
@@ -676,9 +677,7 @@ pub fn run(ctx: &Context, plan: Plan) -> Result<Outcome> {
             .with_context(|| format!("bench {what}"))?;
         let mut timed = Vec::new();
         for f in 0..cfg.warmup + cfg.frames {
-            let mut scene = r.scene.clone();
-            case.motion.apply(base, f, &mut scene);
-            r.scene = scene;
+            r.scene = case.motion.apply(base, f);
             let t = r
                 .render()
                 .with_context(|| format!("bench {what}, frame {f}"))?;

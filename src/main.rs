@@ -10,7 +10,11 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 
 #[derive(Parser)]
-#[command(name = "softshadow", version, about = "Fake soft shadows in Vulkan, timed per pass against their error")]
+#[command(
+    name = "softshadow",
+    version,
+    about = "Fake soft shadows in Vulkan, timed per pass against their error"
+)]
 struct Cli {
     /// Vulkan device: a substring of its name (default: a real GPU, else lavapipe).
     #[arg(long, global = true, env = "SOFTSHADOW_DEVICE")]
@@ -68,6 +72,9 @@ struct RenderArgs {
     /// Write visibility.exr, position.exr and normal.exr into this folder.
     #[arg(long)]
     aov: Option<PathBuf>,
+    /// Write the technique's light-space buffers (shadow map, smoothie depth/alpha, ...) as EXRs here.
+    #[arg(long)]
+    buffers: Option<PathBuf>,
     /// Print per-pass GPU times (median of 5 frames after 2 warm-up frames).
     #[arg(long)]
     timings: bool,
@@ -144,7 +151,11 @@ fn main() -> ExitCode {
         Err(e) => {
             // clap prints help/version itself and formats its own errors.
             let _ = e.print();
-            return if e.use_stderr() { ExitCode::from(2) } else { ExitCode::SUCCESS };
+            return if e.use_stderr() {
+                ExitCode::from(2)
+            } else {
+                ExitCode::SUCCESS
+            };
         }
     };
     match run(cli) {
@@ -194,7 +205,10 @@ fn render(cli: &Cli, a: &RenderArgs) -> Result<()> {
     check_writable(&a.out)?;
     let ctx = open_device(cli)?;
     if a.spirv == "tuned" {
-        eprintln!("note: no hand-tuned SPIR-V for '{}' yet: using glslang's", a.technique);
+        eprintln!(
+            "note: no hand-tuned SPIR-V for '{}' yet: using glslang's",
+            a.technique
+        );
     }
     let settings = Settings {
         width: a.width,
@@ -220,6 +234,20 @@ fn render(cli: &Cli, a: &RenderArgs) -> Result<()> {
         softshadow::output::write_aovs(dir, &images)?;
         println!("wrote {}/{{visibility,position,normal}}.exr", dir.display());
     }
+    if let Some(dir) = &a.buffers {
+        std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+        for name in r.technique_buffer_names() {
+            let b = r.read_technique_buffer(name)?;
+            let path = dir.join(format!("{name}.exr"));
+            let names: &[&str] = if b.channels.len() == 2 {
+                &["R", "G"]
+            } else {
+                &["Y"]
+            };
+            softshadow::output::write_exr(&path, b.width, b.height, names, b.channels)?;
+            println!("wrote {}", path.display());
+        }
+    }
     if a.timings {
         // Median per pass over the frames after two warm-up frames.
         let timed = &all[2..];
@@ -233,7 +261,11 @@ fn render(cli: &Cli, a: &RenderArgs) -> Result<()> {
     }
     let msgs = ctx.validation_messages();
     if !msgs.is_empty() {
-        bail!("{} validation message(s), the first: {}", msgs.len(), msgs[0]);
+        bail!(
+            "{} validation message(s), the first: {}",
+            msgs.len(),
+            msgs[0]
+        );
     }
     Ok(())
 }
@@ -298,11 +330,19 @@ fn check_writable(path: &std::path::Path) -> Result<()> {
         _ => std::path::Path::new("."),
     };
     if !dir.is_dir() {
-        bail!("cannot write {}: folder {} does not exist", path.display(), dir.display());
+        bail!(
+            "cannot write {}: folder {} does not exist",
+            path.display(),
+            dir.display()
+        );
     }
     let md = std::fs::metadata(dir).with_context(|| format!("checking {}", dir.display()))?;
     if md.permissions().readonly() {
-        bail!("cannot write {}: folder {} is read-only", path.display(), dir.display());
+        bail!(
+            "cannot write {}: folder {} is read-only",
+            path.display(),
+            dir.display()
+        );
     }
     Ok(())
 }

@@ -3,11 +3,16 @@
 
 use crate::render::FrameImages;
 use anyhow::{Context as _, Result};
-use exr::prelude::{AnyChannel, AnyChannels, Encoding, FlatSamples, Image, Layer, LayerAttributes, WritableImage};
+use exr::prelude::{
+    AnyChannel, AnyChannels, Encoding, FlatSamples, Image, Layer, LayerAttributes, WritableImage,
+};
 use std::path::Path;
 
 fn temp_path(path: &Path) -> std::path::PathBuf {
-    let mut name = path.file_name().map(|n| n.to_os_string()).unwrap_or_default();
+    let mut name = path
+        .file_name()
+        .map(|n| n.to_os_string())
+        .unwrap_or_default();
     name.push(".partial");
     path.with_file_name(name)
 }
@@ -16,7 +21,9 @@ fn temp_path(path: &Path) -> std::path::PathBuf {
 fn atomic_write(path: &Path, write: impl FnOnce(&Path) -> Result<()>) -> Result<()> {
     let tmp = temp_path(path);
     match write(&tmp) {
-        Ok(()) => std::fs::rename(&tmp, path).with_context(|| format!("renaming into {}", path.display())),
+        Ok(()) => {
+            std::fs::rename(&tmp, path).with_context(|| format!("renaming into {}", path.display()))
+        }
         Err(e) => {
             let _ = std::fs::remove_file(&tmp);
             Err(e)
@@ -36,7 +43,13 @@ pub fn write_png(path: &Path, frame: &FrameImages) -> Result<()> {
 }
 
 /// An EXR of 32-bit float channels named `names`, `channels[c][pixel]`.
-pub fn write_exr(path: &Path, width: u32, height: u32, names: &[&str], channels: Vec<Vec<f32>>) -> Result<()> {
+pub fn write_exr(
+    path: &Path,
+    width: u32,
+    height: u32,
+    names: &[&str],
+    channels: Vec<Vec<f32>>,
+) -> Result<()> {
     let list: Vec<AnyChannel<FlatSamples>> = names
         .iter()
         .zip(channels)
@@ -59,12 +72,23 @@ pub fn write_exr(path: &Path, width: u32, height: u32, names: &[&str], channels:
 
 /// `DIR/visibility.exr` (one channel `Y`), `DIR/position.exr` (RGBA), `DIR/normal.exr` (RGB).
 pub fn write_aovs(dir: &Path, frame: &FrameImages) -> Result<()> {
-    std::fs::create_dir_all(dir).with_context(|| format!("creating AOV folder {}", dir.display()))?;
+    std::fs::create_dir_all(dir)
+        .with_context(|| format!("creating AOV folder {}", dir.display()))?;
     let (w, h) = (frame.width, frame.height);
-    write_exr(&dir.join("visibility.exr"), w, h, &["Y"], vec![frame.visibility.clone()])?;
-    let pos: Vec<Vec<f32>> = (0..4).map(|c| frame.position.iter().map(|p| p[c]).collect()).collect();
+    write_exr(
+        &dir.join("visibility.exr"),
+        w,
+        h,
+        &["Y"],
+        vec![frame.visibility.clone()],
+    )?;
+    let pos: Vec<Vec<f32>> = (0..4)
+        .map(|c| frame.position.iter().map(|p| p[c]).collect())
+        .collect();
     write_exr(&dir.join("position.exr"), w, h, &["R", "G", "B", "A"], pos)?;
-    let nrm: Vec<Vec<f32>> = (0..3).map(|c| frame.normal.iter().map(|p| p[c]).collect()).collect();
+    let nrm: Vec<Vec<f32>> = (0..3)
+        .map(|c| frame.normal.iter().map(|p| p[c]).collect())
+        .collect();
     write_exr(&dir.join("normal.exr"), w, h, &["R", "G", "B"], nrm)?;
     Ok(())
 }

@@ -4,7 +4,7 @@
 // and its remapped alpha (R16F), both MIN-blended (clears: far, 1.0).
 #include "common/frame.glsl"
 
-layout(set = 0, binding = 1) uniform sampler2D shadow_map;   // R32F linear depth of the receivers/blockers
+layout(set = 0, binding = 1) uniform sampler2D shadow_map;   // RG32F: r nearest caster, g nearest surface (the receiver)
 
 layout(location = 0) noperspective in float v_inv_depth;
 layout(location = 1) flat in float v_kind;
@@ -23,9 +23,9 @@ void main() {
     float t = frame.technique.x;
     vec2 uv = gl_FragCoord.xy * frame.light_params.w;
     float b = 1.0 / v_inv_depth;
-    float r = texelFetch(shadow_map, ivec2(gl_FragCoord.xy), 0).r;
+    float r = texelFetch(shadow_map, ivec2(gl_FragCoord.xy), 0).g;
     float f = b / r;
-    // Smoothie behind a blocker: it cannot shadow anything the blocker does not (paper: discard).
+    // Smoothie behind the surface seen at this texel: it shadows nothing there (paper: discard).
     if (f > 1.0) discard;
     vec2 q = uv - v_anchor;
     // Edges: distance from the silhouette edge along the outward normal; corners: radial.

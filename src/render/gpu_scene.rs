@@ -27,6 +27,8 @@ pub const SCENE_ATTRIBUTES: &[Attribute] = &[
 pub struct DrawPush {
     pub model: [f32; 16],
     pub albedo_receives: [f32; 4],
+    /// x: 1 if the object casts shadows.
+    pub flags: [f32; 4],
 }
 
 pub const DRAW_PUSH_BYTES: u32 = std::mem::size_of::<DrawPush>() as u32;
@@ -50,6 +52,7 @@ impl GpuObject {
                 self.albedo.z,
                 if self.role.receives() { 1.0 } else { 0.0 },
             ],
+            flags: [if self.role.casts() { 1.0 } else { 0.0 }, 0.0, 0.0, 0.0],
         }
     }
 }

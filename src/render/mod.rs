@@ -129,14 +129,25 @@ impl Settings {
             }
         }
         if self.occluder_res == 0 || self.occluder_res > max {
-            bail!("--occluder-res {} is out of range: allowed 1..={max} on this device", self.occluder_res);
+            bail!(
+                "--occluder-res {} is out of range: allowed 1..={max} on this device",
+                self.occluder_res
+            );
         }
         self.pcf_kernel.check()?;
-        if !self.normal_offset_texels.is_finite() || !(0.0..=64.0).contains(&self.normal_offset_texels) {
-            bail!("normal offset {} is out of range: allowed 0..=64 texels", self.normal_offset_texels);
+        if !self.normal_offset_texels.is_finite()
+            || !(0.0..=64.0).contains(&self.normal_offset_texels)
+        {
+            bail!(
+                "normal offset {} is out of range: allowed 0..=64 texels",
+                self.normal_offset_texels
+            );
         }
         if !self.depth_bias.is_finite() || !(0.0..=0.1).contains(&self.depth_bias) {
-            bail!("depth bias {} is out of range: allowed 0..=0.1", self.depth_bias);
+            bail!(
+                "depth bias {} is out of range: allowed 0..=0.1",
+                self.depth_bias
+            );
         }
         if let Some(r) = self.light_radius {
             if !r.is_finite() || r < 0.0 {
@@ -145,7 +156,9 @@ impl Settings {
         }
         if let Some(t) = self.smoothie_t {
             if !t.is_finite() || !(0.0..=1.0).contains(&t) {
-                bail!("--smoothie-t {t} is out of range: allowed 0..=1 (fraction of the shadow map)");
+                bail!(
+                    "--smoothie-t {t} is out of range: allowed 0..=1 (fraction of the shadow map)"
+                );
             }
         }
         Ok(())
@@ -220,7 +233,12 @@ fn frame_uniforms(f: &FrameInput<'_>, technique: [[f32; 4]; 2]) -> FrameUniforms
         light_view_proj: l.view_proj.to_cols_array(),
         light_pos_radius: l.position.extend(f.light_radius).to_array(),
         cam_pos: f.scene.camera.position.extend(1.0).to_array(),
-        light_params: [l.near, l.far, s.shadow_res as f32, 1.0 / s.shadow_res as f32],
+        light_params: [
+            l.near,
+            l.far,
+            s.shadow_res as f32,
+            1.0 / s.shadow_res as f32,
+        ],
         light_frustum: [
             tan_half,
             2.0 * tan_half / s.shadow_res as f32,
@@ -255,7 +273,12 @@ pub struct Renderer<'c> {
 }
 
 impl<'c> Renderer<'c> {
-    pub fn new(ctx: &'c Context, scene: Scene, technique_name: &str, settings: Settings) -> Result<Self> {
+    pub fn new(
+        ctx: &'c Context,
+        scene: Scene,
+        technique_name: &str,
+        settings: Settings,
+    ) -> Result<Self> {
         settings.validate(ctx)?;
         scene.validate()?;
         let info = technique::find(technique_name)?;
@@ -297,7 +320,9 @@ impl<'c> Renderer<'c> {
 
     /// The light radius in effect.
     pub fn light_radius(&self) -> f32 {
-        self.settings.light_radius.unwrap_or(self.scene.light.radius)
+        self.settings
+            .light_radius
+            .unwrap_or(self.scene.light.radius)
     }
 
     /// Renders one frame and returns its per-pass timings.
@@ -310,7 +335,10 @@ impl<'c> Renderer<'c> {
             light: &self.light,
             settings: &self.settings,
             targets: &self.targets,
-            light_radius: self.settings.light_radius.unwrap_or(self.scene.light.radius),
+            light_radius: self
+                .settings
+                .light_radius
+                .unwrap_or(self.scene.light.radius),
         };
         let u = frame_uniforms(&input, self.technique.uniforms(&input));
         self.ubo.write(0, bytemuck::bytes_of(&u))?;
@@ -340,19 +368,55 @@ impl<'c> Renderer<'c> {
         })
     }
 
-    /// Reads any technique buffer by name (tests and `--aov` debugging).
-    pub fn read_technique_buffer(&mut self, name: &str) -> Result<Vec<f32>> {
-        let Some(img) = self.technique.debug_image(name) else {
-            bail!("technique {} has no buffer named '{name}'", self.technique.name());
-        };
-        match img.format {
-            crate::vk::Format::R16_SFLOAT => Ok(read_image::<u16>(self.ctx, &mut self.runner, img)?
-                .into_iter()
-                .map(half_to_f32)
-                .collect()),
-            _ => read_image::<f32>(self.ctx, &mut self.runner, img),
-        }
+    /// Names of the technique's light-space buffers (`read_technique_buffer`).
+    pub fn technique_buffer_names(&self) -> &'static [&'static str] {
+        self.technique.debug_image_names()
     }
+
+    /// Reads a technique buffer by name (`technique_buffer_names`), one Vec per channel
+    /// (the shadow map has two: nearest caster, nearest surface).
+    pub fn read_technique_buffer(&mut self, name: &str) -> Result<TechniqueBuffer> {
+        let Some(img) = self.technique.debug_image(name) else {
+            bail!(
+                "technique {} has no buffer named '{name}'",
+                self.technique.name()
+            );
+        };
+        let (width, height) = (img.extent.width, img.extent.height);
+        let channels = match img.format {
+            crate::vk::Format::R16_SFLOAT => {
+                vec![read_image::<u16>(self.ctx, &mut self.runner, img)?
+                    .into_iter()
+                    .map(half_to_f32)
+                    .collect()]
+            }
+            crate::vk::Format::R32G32_SFLOAT => {
+                let texels = read_image::<[f32; 2]>(self.ctx, &mut self.runner, img)?;
+                (0..2)
+                    .map(|c| texels.iter().map(|t| t[c]).collect())
+                    .collect()
+            }
+            crate::vk::Format::R32_SFLOAT => {
+                vec![read_image::<f32>(self.ctx, &mut self.runner, img)?]
+            }
+            f => bail!(
+                "buffer '{name}' has format {f:?}, which read_technique_buffer does not decode"
+            ),
+        };
+        Ok(TechniqueBuffer {
+            width,
+            height,
+            channels,
+        })
+    }
+}
+
+/// A light-space buffer read back to the host.
+pub struct TechniqueBuffer {
+    pub width: u32,
+    pub height: u32,
+    /// One Vec per channel, row-major.
+    pub channels: Vec<Vec<f32>>,
 }
 
 /// IEEE binary16 to f32 (the normal AOV and R16F buffers).

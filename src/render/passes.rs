@@ -4,9 +4,9 @@
 use super::gpu_scene::{GpuScene, DRAW_PUSH_BYTES, SCENE_ATTRIBUTES, SCENE_VERTEX_STRIDE};
 use crate::shaders;
 use crate::vk::{
-    Blend, Buffer, BufferUsageFlags, CompareOp, Context, CullModeFlags, DepthState,
-    DescriptorSet, Format, FrameRunner, GraphicsPipelineDesc, Image, ImageLayout,
-    ImageUsageFlags, Pipeline, PrimitiveTopology, Recorder, Resource,
+    Blend, Buffer, BufferUsageFlags, CompareOp, Context, CullModeFlags, DepthState, DescriptorSet,
+    Format, FrameRunner, GraphicsPipelineDesc, Image, ImageLayout, ImageUsageFlags, Pipeline,
+    PrimitiveTopology, Recorder, Resource,
 };
 use anyhow::Result;
 
@@ -14,14 +14,16 @@ use anyhow::Result;
 /// so that ratios like b / r stay finite.
 pub const FAR_DEPTH: f32 = 1.0e30;
 
-/// Linear light-space depth of the casters in R32F, with a D32 attachment whose LESS test
-/// keeps the nearest caster (cheaper than MIN blending: early depth rejection).
+/// Linear light-space depths from the light, every object drawn, MIN-blended (Volokh 3.2).
 ///
-/// Attachments: `depth` R32_SFLOAT, clear FAR_DEPTH, no blend; `zbuffer` D32_SFLOAT, clear
-/// 1.0, LESS. Reads: the casters' vertices, the frame UBO. Writes: `depth`.
+/// Attachment: `depth` R32G32_SFLOAT, clear (FAR_DEPTH, FAR_DEPTH), blend MIN, no depth
+/// attachment. r = nearest caster (what shadow comparisons test, read as component 0 by
+/// `textureGather`), g = nearest surface of any role (the receiver depth behind smoothies
+/// and penumbra-map geometry: a receiver-only ground plane must be there, or the
+/// smoothie remap alpha / (1 - b/r) sees no receiver and never hardens at contacts).
+/// Reads: every object's positions, the frame UBO, the draw's cast flag.
 pub struct ShadowMap {
     pub depth: Image,
-    zbuffer: Image,
     pipeline: Pipeline,
     set: DescriptorSet,
     pub resolution: u32,
@@ -33,18 +35,18 @@ impl ShadowMap {
             ctx,
             resolution,
             resolution,
-            Format::R32_SFLOAT,
-            ImageUsageFlags::COLOR_ATTACHMENT | ImageUsageFlags::SAMPLED | ImageUsageFlags::TRANSFER_SRC,
+            Format::R32G32_SFLOAT,
+            ImageUsageFlags::COLOR_ATTACHMENT
+                | ImageUsageFlags::SAMPLED
+                | ImageUsageFlags::TRANSFER_SRC,
             &format!("{name} shadow map"),
         )?;
-        let zbuffer = Image::new_2d(
-            ctx,
-            resolution,
-            resolution,
-            Format::D32_SFLOAT,
-            ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT,
-            &format!("{name} shadow z-buffer"),
-        )?;
+        if !ctx.supports_blend(Format::R32G32_SFLOAT) {
+            anyhow::bail!(
+                "{} cannot MIN-blend R32G32_SFLOAT attachments, which the shadow map needs",
+                ctx.device_name
+            );
+        }
         let set = DescriptorSet::new(ctx, &[Resource::Uniform(ubo)], name)?;
         let pipeline = Pipeline::graphics(
             ctx,
@@ -58,35 +60,26 @@ impl ShadowMap {
                 topology: PrimitiveTopology::TRIANGLE_LIST,
                 // Open meshes and planes cast from both sides.
                 cull: CullModeFlags::NONE,
-                colors: &[(Format::R32_SFLOAT, Blend::None)],
-                depth: Some(DepthState {
-                    format: Format::D32_SFLOAT,
-                    test: true,
-                    write: true,
-                    compare: CompareOp::LESS,
-                }),
+                colors: &[(Format::R32G32_SFLOAT, Blend::Min)],
+                depth: None,
                 push_constant_bytes: DRAW_PUSH_BYTES,
                 sets: &[&set],
             },
         )?;
         Ok(Self {
             depth,
-            zbuffer,
             pipeline,
             set,
             resolution,
         })
     }
 
-    /// Draws the casters from the light and leaves `depth` readable by shaders.
+    /// Draws every object from the light and leaves `depth` readable by shaders.
     pub fn record(&self, rec: &mut Recorder<'_>, scene: &GpuScene) {
-        rec.begin_rendering(
-            &[(&self.depth, Some([FAR_DEPTH; 4]))],
-            Some((&self.zbuffer, Some(1.0))),
-        );
+        rec.begin_rendering(&[(&self.depth, Some([FAR_DEPTH; 4]))], None);
         rec.bind_pipeline(&self.pipeline);
         rec.bind_sets(&self.pipeline, &[&self.set]);
-        scene.draw(rec, &self.pipeline, |o| o.role.casts());
+        scene.draw(rec, &self.pipeline, |_| true);
         rec.end_rendering();
         rec.transition(&self.depth, ImageLayout::SHADER_READ_ONLY_OPTIMAL);
     }
@@ -111,10 +104,38 @@ impl CameraTargets {
     pub fn new(ctx: &Context, width: u32, height: u32) -> Result<Self> {
         let usage = ImageUsageFlags::COLOR_ATTACHMENT | ImageUsageFlags::TRANSFER_SRC;
         Ok(Self {
-            color: Image::new_2d(ctx, width, height, Format::R8G8B8A8_UNORM, usage, "camera colour")?,
-            visibility: Image::new_2d(ctx, width, height, Format::R32_SFLOAT, usage, "camera visibility")?,
-            position: Image::new_2d(ctx, width, height, Format::R32G32B32A32_SFLOAT, usage, "camera position")?,
-            normal: Image::new_2d(ctx, width, height, Format::R16G16B16A16_SFLOAT, usage, "camera normal")?,
+            color: Image::new_2d(
+                ctx,
+                width,
+                height,
+                Format::R8G8B8A8_UNORM,
+                usage,
+                "camera colour",
+            )?,
+            visibility: Image::new_2d(
+                ctx,
+                width,
+                height,
+                Format::R32_SFLOAT,
+                usage,
+                "camera visibility",
+            )?,
+            position: Image::new_2d(
+                ctx,
+                width,
+                height,
+                Format::R32G32B32A32_SFLOAT,
+                usage,
+                "camera position",
+            )?,
+            normal: Image::new_2d(
+                ctx,
+                width,
+                height,
+                Format::R16G16B16A16_SFLOAT,
+                usage,
+                "camera normal",
+            )?,
             depth: Image::new_2d(
                 ctx,
                 width,

@@ -101,8 +101,10 @@ pub struct SmoothieGeometry {
 /// Largest angle of one fan segment: 30 degrees keeps the overshoot t / cos(15 deg) within
 /// 3.5 % of t while costing at most 12 triangles for a full disc.
 const MAX_SEGMENT: f32 = std::f32::consts::PI / 6.0;
-/// Below this angle between d1 and d2 (1 degree) the two quads meet and need no corner.
-const MIN_CORNER_ANGLE: f32 = 1.0 * std::f32::consts::PI / 180.0;
+/// Below this angle between d1 and d2 the two quads' outer sides coincide. Anything larger
+/// needs a corner: even a 1-degree wedge is almost a texel wide at the outer side of a
+/// 50-texel smoothie, and an uncovered texel reads as alpha 1 (a lit speckle in the penumbra).
+const MIN_CORNER_ANGLE: f32 = 1e-3 * std::f32::consts::PI / 180.0;
 /// Relative size of the normal probe (of the point's linear depth).
 const PROBE: f32 = 1e-3;
 
@@ -259,8 +261,17 @@ fn build_edge(adj: &Adjacency, pr: &Projector, e: &SilhouetteEdge, t: f32) -> Op
     })
 }
 
+/// Extra angle a fan reaches past each of its edges' directions. The fan's spokes and the
+/// edge quads' sides are collinear but share no vertices (T-junctions), so without overlap
+/// the rasteriser leaves single-texel cracks that show as lit speckles inside penumbrae.
+/// The overlap is harmless: inside an edge quad the radial alpha |p - s| / t is never below
+/// the quad's own alpha, and MIN blending keeps the quad's.
+const FAN_OVERLAP: f32 = 2.0 * std::f32::consts::PI / 180.0;
+
 /// Fan from the vertex at `s` over directions `from` .. `from + sweep` (radians, signed).
 fn fan(out: &mut Vec<SmoothieVertex>, s: Vec2, inv: f32, t: f32, from: f32, sweep: f32) -> usize {
+    let pad = FAN_OVERLAP.copysign(sweep);
+    let (from, sweep) = (from - pad, sweep + 2.0 * pad);
     let k = ((sweep.abs() / MAX_SEGMENT).ceil() as usize).max(1);
     let phi = sweep / k as f32;
     let r = t / (phi * 0.5).cos();
@@ -641,8 +652,9 @@ mod tests {
         assert!(fan.len() >= 3 * 6, "a half-disc fan");
         // The fan's tip (beyond the blade) reaches t along the blade's axis...
         assert!(fan.iter().any(|p| p.dot(axis) > 0.99 * t));
-        // ...and never reaches back over the blade.
-        assert!(fan.iter().all(|p| p.dot(axis) > -1e-4));
+        // ...and never reaches back over the blade beyond the crack-closing overlap.
+        let back = t / (MAX_SEGMENT * 0.5).cos() * FAN_OVERLAP.sin() + 1e-4;
+        assert!(fan.iter().all(|p| p.dot(axis) > -back));
     }
 
     #[test]

@@ -5,10 +5,11 @@
 //! cost is reported as a ratio to this one.
 //!
 //! ## Passes, in order
-//! 1. `hard/shadow_map` — casters from the light (`render::passes::ShadowMap`).
-//!    Attachments: R32_SFLOAT linear depth (clear 1e30, no blend) + D32_SFLOAT (clear 1.0,
-//!    LESS). Vertex: `glsl/common/shadow_depth.vert` (writes clip w = linear depth);
-//!    fragment: `glsl/common/shadow_depth.frag`.
+//! 1. `hard/shadow_map` — every object from the light (`render::passes::ShadowMap`).
+//!    Attachment: R32G32_SFLOAT (clear 1e30, blend MIN), no depth attachment: r = linear
+//!    depth of the nearest caster, g = of the nearest surface of any role. Vertex:
+//!    `glsl/common/shadow_depth.vert` (clip w = linear depth); fragment:
+//!    `glsl/common/shadow_depth.frag`.
 //! 2. `hard/final` — every object from the camera (`render::passes::FinalPass`).
 //!    Fragment `glsl/hard/final.frag` reads the shadow map with `textureGather` at the
 //!    normal-offset point's light uv, compares each of the 4 texels with the point's linear
@@ -67,7 +68,12 @@ impl Technique for Hard {
         INFO.name
     }
 
-    fn record(&mut self, _ctx: &Context, rec: &mut Recorder<'_>, frame: &FrameInput<'_>) -> Result<()> {
+    fn record(
+        &mut self,
+        _ctx: &Context,
+        rec: &mut Recorder<'_>,
+        frame: &FrameInput<'_>,
+    ) -> Result<()> {
         rec.pass("hard/shadow_map", |rec| {
             self.shadow.record(rec, frame.gpu);
             Ok(())
@@ -81,5 +87,9 @@ impl Technique for Hard {
 
     fn debug_image(&self, name: &str) -> Option<&Image> {
         (name == "shadow_map").then_some(&self.shadow.depth)
+    }
+
+    fn debug_image_names(&self) -> &'static [&'static str] {
+        &["shadow_map"]
     }
 }

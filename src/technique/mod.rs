@@ -2,7 +2,10 @@
 //! `render`, `bench`, `stress` and the tests loop over.
 
 pub mod hard;
+pub mod pcf;
+pub mod pcss;
 pub mod smoothies;
+pub mod ssm;
 
 use crate::render::{CameraTargets, GpuScene, Settings};
 use crate::scene::{LightView, Scene};
@@ -40,11 +43,21 @@ pub trait Technique {
 
     /// CPU work of the frame (timed with `rec.cpu`) and every pass (each in `rec.pass`,
     /// named `technique/pass`), ending with the final camera pass into `frame.targets`.
-    fn record(&mut self, ctx: &Context, rec: &mut Recorder<'_>, frame: &FrameInput<'_>) -> Result<()>;
+    fn record(
+        &mut self,
+        ctx: &Context,
+        rec: &mut Recorder<'_>,
+        frame: &FrameInput<'_>,
+    ) -> Result<()>;
 
     /// A light-space buffer by name, for tests and debugging (`shadow_map`, ...).
     fn debug_image(&self, _name: &str) -> Option<&Image> {
         None
+    }
+
+    /// The names `debug_image` answers to (`render --buffers DIR` writes each as EXR).
+    fn debug_image_names(&self) -> &'static [&'static str] {
+        &[]
     }
 }
 
@@ -55,7 +68,14 @@ pub struct TechniqueInfo {
 }
 
 /// Every technique, in the order reports list them.
-pub const TECHNIQUES: &[TechniqueInfo] = &[hard::INFO, smoothies::INFO];
+pub const TECHNIQUES: &[TechniqueInfo] = &[
+    hard::INFO,
+    pcf::INFO,
+    pcss::INFO,
+    smoothies::INFO,
+    ssm::INFO,
+    ssm::INFO2,
+];
 
 pub fn names() -> Vec<&'static str> {
     TECHNIQUES.iter().map(|t| t.name).collect()

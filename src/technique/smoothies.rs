@@ -16,14 +16,15 @@
 //!    (Fig. 6); vertices with more than two silhouette edges get the paper's special case
 //!    (averaged vertex normal, triangles to each adjacent edge). Uploaded to a host-visible
 //!    vertex buffer (32 bytes a vertex: uv, 1/depth, kind, anchor, dir).
-//! 1. `smoothies/shadow_map` — as `hard`: R32_SFLOAT linear depth (clear 1e30) with a
-//!    D32_SFLOAT LESS z-buffer (clear 1.0). Linear depth is needed for the ratio b/r.
+//! 1. `smoothies/shadow_map` — as `hard`: R32G32_SFLOAT, clear 1e30, blend MIN; r = nearest
+//!    caster's linear depth (the umbra test), g = nearest surface of any role (the receiver
+//!    depth r of Eq. 1). Linear depth, not the depth buffer's, because Eq. 1 needs b/r.
 //! 2. `smoothies/smoothie` — ONE pass, two colour attachments, no depth attachment:
 //!    location 0 = smoothie linear depth b, R32_SFLOAT, clear 1e30, blend MIN;
 //!    location 1 = remapped alpha, R16_SFLOAT, clear 1.0, blend MIN (the paper's "minimum
 //!    blending" of overlapping smoothies, Sec. 3.1; the min depth keeps the nearest smoothie).
-//!    `glsl/smoothies/smoothie.frag` reads the shadow map at its own texel for the receiver
-//!    depth r, discards when b/r > 1 (smoothie behind a blocker), computes the linear alpha
+//!    `glsl/smoothies/smoothie.frag` reads the shadow map's g at its own texel for the
+//!    receiver depth r, discards when b/r > 1 (smoothie behind a blocker), computes the linear alpha
 //!    (edge: distance from the edge along the outward normal / t; corner: radial / t) and
 //!    remaps it with Eq. 1, alpha' = clamp(alpha / (1 - b/r)), with alpha' = 1 when
 //!    1 - b/r < 1e-4 (Volokh 3.5: no NaN, no Inf, no speckles where b ~ r).
@@ -105,7 +106,6 @@ pub struct Smoothies {
     adjacency: Vec<Option<Adjacency>>,
     vertices: Option<Buffer>,
     vertex_count: u32,
-    ctx_t: f32,
 }
 
 impl Smoothies {
@@ -114,13 +114,20 @@ impl Smoothies {
         let res = init.settings.shadow_res;
         for f in [Format::R32_SFLOAT, Format::R16_SFLOAT] {
             if !ctx.supports_blend(f) {
-                anyhow::bail!("{} cannot MIN-blend {f:?} attachments, which smoothies need", ctx.device_name);
+                anyhow::bail!(
+                    "{} cannot MIN-blend {f:?} attachments, which smoothies need",
+                    ctx.device_name
+                );
             }
         }
         let shadow = ShadowMap::new(ctx, init.ubo, res, "smoothies/shadow_map")?;
-        let usage = ImageUsageFlags::COLOR_ATTACHMENT | ImageUsageFlags::SAMPLED | ImageUsageFlags::TRANSFER_SRC;
-        let smoothie_depth = Image::new_2d(ctx, res, res, Format::R32_SFLOAT, usage, "smoothie depth")?;
-        let smoothie_alpha = Image::new_2d(ctx, res, res, Format::R16_SFLOAT, usage, "smoothie alpha")?;
+        let usage = ImageUsageFlags::COLOR_ATTACHMENT
+            | ImageUsageFlags::SAMPLED
+            | ImageUsageFlags::TRANSFER_SRC;
+        let smoothie_depth =
+            Image::new_2d(ctx, res, res, Format::R32_SFLOAT, usage, "smoothie depth")?;
+        let smoothie_alpha =
+            Image::new_2d(ctx, res, res, Format::R16_SFLOAT, usage, "smoothie alpha")?;
         let nearest = Sampler::new(ctx, Filter::Nearest)?;
         let linear = Sampler::new(ctx, Filter::Linear)?;
         let falloff = falloff_lut(ctx)?;
@@ -144,7 +151,10 @@ impl Smoothies {
                 topology: PrimitiveTopology::TRIANGLE_LIST,
                 // Smoothie quads and fans are built in 2-D with either winding.
                 cull: CullModeFlags::NONE,
-                colors: &[(Format::R32_SFLOAT, Blend::Min), (Format::R16_SFLOAT, Blend::Min)],
+                colors: &[
+                    (Format::R32_SFLOAT, Blend::Min),
+                    (Format::R16_SFLOAT, Blend::Min),
+                ],
                 depth: None,
                 push_constant_bytes: 0,
                 sets: &[&smoothie_set],
@@ -161,7 +171,12 @@ impl Smoothies {
             ],
             "smoothies/final",
         )?;
-        let final_pass = FinalPass::new(ctx, "smoothies/final", shaders::SMOOTHIES_FINAL_FRAG, &final_set)?;
+        let final_pass = FinalPass::new(
+            ctx,
+            "smoothies/final",
+            shaders::SMOOTHIES_FINAL_FRAG,
+            &final_set,
+        )?;
         let adjacency = init
             .scene
             .objects
@@ -169,7 +184,10 @@ impl Smoothies {
             .map(|o| {
                 o.role
                     .casts()
-                    .then(|| Adjacency::build(&o.mesh).with_context(|| format!("edge adjacency of '{}'", o.name)))
+                    .then(|| {
+                        Adjacency::build(&o.mesh)
+                            .with_context(|| format!("edge adjacency of '{}'", o.name))
+                    })
                     .transpose()
             })
             .collect::<Result<Vec<_>>>()?;
@@ -187,7 +205,6 @@ impl Smoothies {
             adjacency,
             vertices: None,
             vertex_count: 0,
-            ctx_t: 0.0,
         }))
     }
 
@@ -234,13 +251,27 @@ impl Technique for Smoothies {
     }
 
     fn uniforms(&self, frame: &FrameInput<'_>) -> [[f32; 4]; 2] {
-        let t = smoothie_width(frame.settings.smoothie_t, frame.scene, frame.light, frame.light_radius);
+        let t = smoothie_width(
+            frame.settings.smoothie_t,
+            frame.scene,
+            frame.light,
+            frame.light_radius,
+        );
         [[t, 0.0, 0.0, 0.0], [0.0; 4]]
     }
 
-    fn record(&mut self, ctx: &Context, rec: &mut Recorder<'_>, frame: &FrameInput<'_>) -> Result<()> {
-        let t = smoothie_width(frame.settings.smoothie_t, frame.scene, frame.light, frame.light_radius);
-        self.ctx_t = t;
+    fn record(
+        &mut self,
+        ctx: &Context,
+        rec: &mut Recorder<'_>,
+        frame: &FrameInput<'_>,
+    ) -> Result<()> {
+        let t = smoothie_width(
+            frame.settings.smoothie_t,
+            frame.scene,
+            frame.light,
+            frame.light_radius,
+        );
         // t = 0 (a point light): no smoothie can shadow anything, the result is `hard`.
         let vertices = if t > 0.0 {
             rec.cpu("smoothies/silhouettes", || self.build_geometry(frame, t))
@@ -286,5 +317,9 @@ impl Technique for Smoothies {
             "smoothie_alpha" => Some(&self.smoothie_alpha),
             _ => None,
         }
+    }
+
+    fn debug_image_names(&self) -> &'static [&'static str] {
+        &["shadow_map", "smoothie_depth", "smoothie_alpha"]
     }
 }

@@ -53,9 +53,7 @@ impl FrameTimings {
             .max(10);
         for p in &self.passes {
             match (&p.gpu_ms, &p.skipped) {
-                (_, Some(reason)) => {
-                    s += &format!("pass {:<width$} skipped ({reason})\n", p.name)
-                }
+                (_, Some(reason)) => s += &format!("pass {:<width$} skipped ({reason})\n", p.name),
                 (Some(ms), None) => s += &format!("pass {:<width$} {ms:8.3} ms\n", p.name),
                 (None, None) => s += &format!("pass {:<width$}      n/a\n", p.name),
             }
@@ -63,7 +61,12 @@ impl FrameTimings {
         for (name, ms) in &self.cpu {
             s += &format!("cpu  {name:<width$} {ms:8.3} ms\n");
         }
-        s += &format!("frame {:<w$} {:8.3} ms\n", "gpu", self.gpu_total_ms(), w = width - 1);
+        s += &format!(
+            "frame {:<w$} {:8.3} ms\n",
+            "gpu",
+            self.gpu_total_ms(),
+            w = width - 1
+        );
         s
     }
 }
@@ -201,7 +204,8 @@ impl FrameRunner {
             .into_iter()
             .map(|p| PassTiming {
                 gpu_ms: p.queries.map(|(a, b)| {
-                    let ticks = (stamps[b as usize] & mask).wrapping_sub(stamps[a as usize] & mask) & mask;
+                    let ticks =
+                        (stamps[b as usize] & mask).wrapping_sub(stamps[a as usize] & mask) & mask;
                     ticks as f64 * self.period_ns * 1e-6
                 }),
                 name: p.name,
@@ -277,7 +281,10 @@ impl Recorder<'_> {
         F: FnOnce(&mut Self) -> Result<()>,
     {
         if self.next_query + 2 > self.max_queries {
-            bail!("more passes than the timestamp pool holds ({})", self.max_queries / 2);
+            bail!(
+                "more passes than the timestamp pool holds ({})",
+                self.max_queries / 2
+            );
         }
         let (a, b) = (self.next_query, self.next_query + 1);
         self.next_query += 2;
@@ -382,7 +389,11 @@ impl Recorder<'_> {
 
     /// Begins dynamic rendering into `colors` (and `depth`), each cleared or loaded, with a
     /// full-target viewport and scissor. Moves the targets to attachment layouts first.
-    pub fn begin_rendering(&mut self, colors: &[(&Image, Clear)], depth: Option<(&Image, Option<f32>)>) {
+    pub fn begin_rendering(
+        &mut self,
+        colors: &[(&Image, Clear)],
+        depth: Option<(&Image, Option<f32>)>,
+    ) {
         let extent = colors
             .first()
             .map(|c| c.0.extent)
@@ -402,9 +413,12 @@ impl Recorder<'_> {
                     .image_layout(vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL)
                     .store_op(vk::AttachmentStoreOp::STORE);
                 match clear {
-                    Some(c) => info.load_op(vk::AttachmentLoadOp::CLEAR).clear_value(vk::ClearValue {
-                        color: vk::ClearColorValue { float32: *c },
-                    }),
+                    Some(c) => {
+                        info.load_op(vk::AttachmentLoadOp::CLEAR)
+                            .clear_value(vk::ClearValue {
+                                color: vk::ClearColorValue { float32: *c },
+                            })
+                    }
                     None => info.load_op(vk::AttachmentLoadOp::LOAD),
                 }
             })
@@ -415,9 +429,14 @@ impl Recorder<'_> {
                 .image_layout(vk::ImageLayout::DEPTH_ATTACHMENT_OPTIMAL)
                 .store_op(vk::AttachmentStoreOp::STORE);
             match clear {
-                Some(d) => info.load_op(vk::AttachmentLoadOp::CLEAR).clear_value(vk::ClearValue {
-                    depth_stencil: vk::ClearDepthStencilValue { depth: d, stencil: 0 },
-                }),
+                Some(d) => info
+                    .load_op(vk::AttachmentLoadOp::CLEAR)
+                    .clear_value(vk::ClearValue {
+                        depth_stencil: vk::ClearDepthStencilValue {
+                            depth: d,
+                            stencil: 0,
+                        },
+                    }),
                 None => info.load_op(vk::AttachmentLoadOp::LOAD),
             }
         });
@@ -458,7 +477,10 @@ impl Recorder<'_> {
 
     pub fn bind_pipeline(&mut self, p: &Pipeline) {
         // SAFETY: recording; pipeline alive.
-        unsafe { self.device().cmd_bind_pipeline(self.cmd, p.bind_point, p.raw) };
+        unsafe {
+            self.device()
+                .cmd_bind_pipeline(self.cmd, p.bind_point, p.raw)
+        };
     }
 
     /// Binds `sets` at set indices 0.. for pipeline `p`.
@@ -486,7 +508,10 @@ impl Recorder<'_> {
 
     pub fn bind_vertex_buffer(&mut self, b: &Buffer) {
         // SAFETY: recording; buffer alive with VERTEX_BUFFER usage.
-        unsafe { self.device().cmd_bind_vertex_buffers(self.cmd, 0, &[b.raw], &[0]) };
+        unsafe {
+            self.device()
+                .cmd_bind_vertex_buffers(self.cmd, 0, &[b.raw], &[0])
+        };
     }
 
     pub fn bind_index_buffer(&mut self, b: &Buffer) {
@@ -504,7 +529,10 @@ impl Recorder<'_> {
 
     pub fn draw_indexed(&mut self, indices: u32) {
         // SAFETY: recording inside a rendering scope with bound pipeline and buffers.
-        unsafe { self.device().cmd_draw_indexed(self.cmd, indices, 1, 0, 0, 0) };
+        unsafe {
+            self.device()
+                .cmd_draw_indexed(self.cmd, indices, 1, 0, 0, 0)
+        };
     }
 
     /// One indirect draw whose `VkDrawIndirectCommand` sits at `offset` in `args`.
@@ -524,7 +552,10 @@ impl Recorder<'_> {
     /// Fills `b` with the 32-bit word `value`.
     pub fn fill_buffer(&mut self, b: &Buffer, value: u32) {
         // SAFETY: recording outside rendering; buffer has TRANSFER_DST usage.
-        unsafe { self.device().cmd_fill_buffer(self.cmd, b.raw, 0, vk::WHOLE_SIZE, value) };
+        unsafe {
+            self.device()
+                .cmd_fill_buffer(self.cmd, b.raw, 0, vk::WHOLE_SIZE, value)
+        };
     }
 
     /// Copies the whole image into `dst` (tightly packed rows).
@@ -595,7 +626,10 @@ impl Recorder<'_> {
     pub fn copy_buffer(&mut self, src: &Buffer, dst: &Buffer) {
         let region = [vk::BufferCopy::default().size(src.size.min(dst.size))];
         // SAFETY: recording outside rendering; sizes checked above.
-        unsafe { self.device().cmd_copy_buffer(self.cmd, src.raw, dst.raw, &region) };
+        unsafe {
+            self.device()
+                .cmd_copy_buffer(self.cmd, src.raw, dst.raw, &region)
+        };
     }
 }
 

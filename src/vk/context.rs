@@ -24,7 +24,9 @@ impl ContextOptions {
     /// `SOFTSHADOW_VALIDATION=1` turns validation on.
     pub fn from_env() -> Self {
         Self {
-            device: std::env::var("SOFTSHADOW_DEVICE").ok().filter(|s| !s.is_empty()),
+            device: std::env::var("SOFTSHADOW_DEVICE")
+                .ok()
+                .filter(|s| !s.is_empty()),
             validation: std::env::var("SOFTSHADOW_VALIDATION").is_ok_and(|v| v != "0"),
         }
     }
@@ -161,9 +163,10 @@ impl Context {
                 vk::DebugUtilsMessageSeverityFlagsEXT::WARNING
                     | vk::DebugUtilsMessageSeverityFlagsEXT::ERROR,
             )
+            // GENERAL is the loader's chatter (e.g. "Found no drivers!" before our own,
+            // clearer error); validation and performance messages are the layer's findings.
             .message_type(
-                vk::DebugUtilsMessageTypeFlagsEXT::GENERAL
-                    | vk::DebugUtilsMessageTypeFlagsEXT::VALIDATION
+                vk::DebugUtilsMessageTypeFlagsEXT::VALIDATION
                     | vk::DebugUtilsMessageTypeFlagsEXT::PERFORMANCE,
             )
             .pfn_user_callback(Some(debug_callback))
@@ -230,7 +233,9 @@ impl Context {
             .queue_priorities(&priorities)];
         let mut f13 = vk::PhysicalDeviceVulkan13Features::default()
             .dynamic_rendering(true)
-            .synchronization2(true);
+            .synchronization2(true)
+            // Required by Vulkan 1.3; spirv-opt emits LocalSizeId for compute shaders.
+            .maintenance4(true);
         let mut f12 = vk::PhysicalDeviceVulkan12Features::default().host_query_reset(true);
         let features = vk::PhysicalDeviceFeatures::default();
         let device_create = vk::DeviceCreateInfo::default()
@@ -346,8 +351,8 @@ fn pick_physical_device(
     filter: Option<&str>,
 ) -> Result<(vk::PhysicalDevice, u32)> {
     // SAFETY: enumeration on a valid instance.
-    let devices = unsafe { instance.enumerate_physical_devices() }
-        .context("enumerating Vulkan devices")?;
+    let devices =
+        unsafe { instance.enumerate_physical_devices() }.context("enumerating Vulkan devices")?;
     if devices.is_empty() {
         bail!("no Vulkan device found: install the Debian package mesa-vulkan-drivers (lavapipe, a CPU Vulkan driver)");
     }

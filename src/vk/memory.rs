@@ -54,7 +54,8 @@ impl Buffer {
             Err(e) => {
                 // SAFETY: not bound, not in use.
                 unsafe { device.destroy_buffer(raw, None) };
-                return Err(e).with_context(|| format!("allocating buffer '{name}' ({size} bytes)"));
+                return Err(e)
+                    .with_context(|| format!("allocating buffer '{name}' ({size} bytes)"));
             }
         };
         // SAFETY: memory and offset come from the allocator for these requirements.
@@ -77,7 +78,13 @@ impl Buffer {
         usage: vk::BufferUsageFlags,
         name: &str,
     ) -> Result<Self> {
-        let mut b = Self::new(ctx, data.len() as u64, usage, MemoryLocation::CpuToGpu, name)?;
+        let mut b = Self::new(
+            ctx,
+            data.len() as u64,
+            usage,
+            MemoryLocation::CpuToGpu,
+            name,
+        )?;
         b.write(0, data)?;
         Ok(b)
     }
@@ -93,7 +100,11 @@ impl Buffer {
         let start = offset as usize;
         let end = start + data.len();
         if end > slice.len() {
-            bail!("write of {} bytes at {offset} overflows a {}-byte buffer", data.len(), slice.len());
+            bail!(
+                "write of {} bytes at {offset} overflows a {}-byte buffer",
+                data.len(),
+                slice.len()
+            );
         }
         slice[start..end].copy_from_slice(data);
         Ok(())
@@ -145,7 +156,15 @@ impl Image {
         usage: vk::ImageUsageFlags,
         name: &str,
     ) -> Result<Self> {
-        Self::create(ctx, vk::ImageType::TYPE_2D, width, height, format, usage, name)
+        Self::create(
+            ctx,
+            vk::ImageType::TYPE_2D,
+            width,
+            height,
+            format,
+            usage,
+            name,
+        )
     }
 
     pub fn new_1d(
@@ -169,7 +188,9 @@ impl Image {
     ) -> Result<Self> {
         let max = ctx.limits.max_image_dimension2_d;
         if width == 0 || height == 0 || width > max || height > max {
-            bail!("image '{name}' is {width}x{height}: each side must be in 1..={max} on this device");
+            bail!(
+                "image '{name}' is {width}x{height}: each side must be in 1..={max} on this device"
+            );
         }
         let device = ctx.device();
         let depth = matches!(
@@ -265,6 +286,7 @@ impl Image {
             vk::Format::R8G8B8A8_UNORM | vk::Format::R32_SFLOAT | vk::Format::D32_SFLOAT => 4,
             vk::Format::R16_SFLOAT => 2,
             vk::Format::R16G16B16A16_SFLOAT | vk::Format::R32G32_SFLOAT => 8,
+            vk::Format::R16G16_SFLOAT => 4,
             vk::Format::R32G32B32A32_SFLOAT => 16,
             _ => 4,
         }
@@ -324,7 +346,8 @@ impl Sampler {
             .address_mode_w(vk::SamplerAddressMode::CLAMP_TO_EDGE)
             .max_lod(0.0);
         // SAFETY: valid create info; destroyed in Drop.
-        let raw = unsafe { ctx.device().create_sampler(&info, None) }.context("creating sampler")?;
+        let raw =
+            unsafe { ctx.device().create_sampler(&info, None) }.context("creating sampler")?;
         Ok(Self {
             shared: ctx.shared.clone(),
             raw,

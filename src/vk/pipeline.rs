@@ -322,7 +322,8 @@ impl Pipeline {
                     .dst_alpha_blend_factor(vk::BlendFactor::ONE)
             })
             .collect();
-        let blend = vk::PipelineColorBlendStateCreateInfo::default().attachments(&blend_attachments);
+        let blend =
+            vk::PipelineColorBlendStateCreateInfo::default().attachments(&blend_attachments);
         let depth = match d.depth {
             Some(ds) => vk::PipelineDepthStencilStateCreateInfo::default()
                 .depth_test_enable(ds.test)
@@ -335,9 +336,7 @@ impl Pipeline {
         let color_formats: Vec<_> = d.colors.iter().map(|c| c.0).collect();
         let mut rendering = vk::PipelineRenderingCreateInfo::default()
             .color_attachment_formats(&color_formats)
-            .depth_attachment_format(
-                d.depth.map(|ds| ds.format).unwrap_or(vk::Format::UNDEFINED),
-            );
+            .depth_attachment_format(d.depth.map(|ds| ds.format).unwrap_or(vk::Format::UNDEFINED));
         let info = vk::GraphicsPipelineCreateInfo::default()
             .stages(&stages)
             .vertex_input_state(&vertex_input)
@@ -351,9 +350,8 @@ impl Pipeline {
             .layout(layout)
             .push_next(&mut rendering);
         // SAFETY: every state struct above lives until the call returns.
-        let result = unsafe {
-            device.create_graphics_pipelines(vk::PipelineCache::null(), &[info], None)
-        };
+        let result =
+            unsafe { device.create_graphics_pipelines(vk::PipelineCache::null(), &[info], None) };
         // SAFETY: modules are no longer needed once the pipeline exists (or failed).
         unsafe {
             device.destroy_shader_module(vs, None);

@@ -14,9 +14,14 @@ pub struct Gpu {
 impl Gpu {
     /// lavapipe (or SOFTSHADOW_DEVICE), validation on. Never skipped: no device is a failure.
     pub fn new() -> Self {
-        let device = std::env::var("SOFTSHADOW_DEVICE").ok().or(Some("llvmpipe".into()));
-        let ctx = Context::new(&ContextOptions { device, validation: true })
-            .unwrap_or_else(|e| panic!("no Vulkan device for the tests: {e:#}"));
+        let device = std::env::var("SOFTSHADOW_DEVICE")
+            .ok()
+            .or(Some("llvmpipe".into()));
+        let ctx = Context::new(&ContextOptions {
+            device,
+            validation: true,
+        })
+        .unwrap_or_else(|e| panic!("no Vulkan device for the tests: {e:#}"));
         Self { ctx }
     }
 
@@ -32,9 +37,14 @@ impl Gpu {
         let mut r = Renderer::new(&self.ctx, scene, technique, settings)
             .unwrap_or_else(|e| panic!("creating {technique}: {e:#}"));
         let timings = (0..frames)
-            .map(|_| r.render().unwrap_or_else(|e| panic!("rendering {technique}: {e:#}")))
+            .map(|_| {
+                r.render()
+                    .unwrap_or_else(|e| panic!("rendering {technique}: {e:#}"))
+            })
             .collect();
-        let images = r.read_back().unwrap_or_else(|e| panic!("reading back: {e:#}"));
+        let images = r
+            .read_back()
+            .unwrap_or_else(|e| panic!("reading back: {e:#}"));
         (images, timings)
     }
 

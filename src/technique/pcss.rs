@@ -1,0 +1,183 @@
+//! # pcss — Fernando 2005, *Percentage-Closer Soft Shadows* (SIGGRAPH sketch)
+//!
+//! A hard shadow map filtered by PCF whose kernel size follows the blocker-to-receiver
+//! distance, so penumbrae are hard where a caster touches its receiver and widen away from
+//! it (contact hardening). The light is DESIGN.md's disc of radius R (the same R as the
+//! `reference`, `FrameInput::light_radius`) at the light frustum's apex, facing along it.
+//!
+//! ## Equations (light view space, linear depths d along the light axis)
+//! * (1) Fernando Eq. 1, penumbra estimate from similar triangles:
+//!   `w_penumbra = (d_receiver - d_blocker) * w_light / d_blocker`, with w_light = R, gives
+//!   the world-space half-width of the penumbra at the receiver: the radius of the disc of
+//!   shadow-map lookups that the light's disc subtends through the blocker plane.
+//! * (2) The light's radius in shadow-map uv at the near plane:
+//!   `light_uv = R / (2 near tan(fov/2))` (the map spans 2 d tan(fov/2) world units at depth d).
+//! * (3) Blocker-search radius (uv): the light's projection through the receiver point onto
+//!   the near plane, `w_search = light_uv * (d_receiver - near) / d_receiver`: the largest
+//!   filter radius any blocker (d_blocker >= near) could need.
+//! * (4) Filter radius in uv at the receiver depth:
+//!   `w_filter = w_penumbra / (2 d_receiver tan(fov/2)) = R (d_r - d_b) / (2 tan(fov/2) d_b d_r)`.
+//!   Both radii are clamped to `MAX_RADIUS_TEXELS`; each filter tap is a 2x2 bilinear
+//!   footprint, so the smallest kernel is `hard`'s and R = 0 gives `hard` exactly.
+//! * (5) Search and filter taps compare with the receiver's tangent plane along each tap's
+//!   light ray where it is closer than the point (`pcf` module header, Eq. 3, in
+//!   `glsl/pcf/filter.glsl`), so the receiver's own texels are neither blockers nor shadow.
+//!
+//! ## Passes, in order
+//! 1. `pcss/shadow_map` — casters from the light (`render::passes::ShadowMap`).
+//!    Attachments: R32_SFLOAT linear depth (clear 1e30, no blend) + D32_SFLOAT (clear 1.0,
+//!    LESS). Vertex `glsl/common/shadow_depth.vert`, fragment `glsl/common/shadow_depth.frag`.
+//!    Linear depths are what Eq. 1, 3 and 4 take.
+//! 2. `pcss/final` — every object from the camera (`render::passes::FinalPass`), fragment
+//!    `glsl/pcss/final.frag`. As in Fernando's original, all three steps run in this one
+//!    fragment shader (no separate blocker-search pass):
+//!    - Step 1, blocker search: `search_samples` points of the Poisson disc
+//!      (`glsl/pcf/filter.glsl`) scaled to the radius of Eq. 3, one `textureGather` (4
+//!      texels) each; average linear depth of the texels closer than the receiver (same
+//!      relative bias as `hard`). No blocker: visibility 1, the filter is skipped. Every
+//!      texel a blocker: visibility 0 (umbra; the filter disc lies inside the search disc).
+//!    - Step 2, penumbra estimate: Eq. 1, as uv with Eq. 4.
+//!    - Step 3, filtering: `filter_samples` points of the same Poisson disc scaled to that
+//!      radius, each a 2x2 bilinear PCF tap, equally weighted.
+//!
+//!    Inputs: `frame.technique` = (Eq. 2 light_uv, R / (2 tan(fov/2)), MAX_RADIUS_TEXELS,
+//!    filter samples), `frame.technique2.x` = search samples; near and the shadow-map size
+//!    from `frame.light_params`. Writes colour RGBA8, visibility R32F, position RGBA32F,
+//!    normal RGBA16F (no blending).
+//!
+//! ## Sample counts
+//! `--pcf-kernel poissonN` sets both the search and the filter to N samples. A box kernel
+//! (the default, meant for `pcf`) does not apply: then SEARCH_SAMPLES and FILTER_SAMPLES.
+//! No random rotation of the disc: the result is deterministic, and bands into at most N
+//! steps across wide penumbrae.
+//!
+//! ## Known artefacts
+//! The average blocker depth is one plane: where blockers at different depths overlap the
+//! estimate is between them (penumbra too narrow for the far one, too wide for the near
+//! one); the visibility is still a filtered hard shadow, so umbrae do not shrink with a large
+//! light as the exact result's do (the penumbra is centred on the hard edge); thin blockers
+//! between sparse search samples are missed (the pixel is then lit); large kernels darken
+//! lit surfaces sloping away from the light (surface self-comparison, as `pcf`); penumbrae
+//! wider than MAX_RADIUS_TEXELS are clamped; the disc without rotation bands wide penumbrae
+//! into visible rings (`cylinder`, far end of the shadow).
+//!
+//! ## Cost, against the 2x-`hard` goal (missed on lavapipe)
+//! lavapipe, 2 busy cores, 1024^2 image and map, `primitives`, one run: frame 1.6-1.9 s
+//! against `hard`'s 0.27-0.37 s (5-6x); poisson8 (8 + 8 samples) 1.08 s (3x), poisson32
+//! 2.55 s. The shadow-map pass is the same as `hard`'s (20-30 ms); the final pass
+//! dominates, and in it the blocker search: every lit pixel inside the light frustum pays
+//! SEARCH_SAMPLES gathers before it can exit, and on lavapipe one gather costs about as much
+//! as all of `hard`'s final pass. The fix that would meet the goal is a hierarchical search
+//! (a min/max depth mip chain of the shadow map: one fetch decides "no blocker" or "all
+//! blocked" for most pixels), which needs mip-level image views in `src/vk`.
+
+use super::{FrameInput, Technique, TechniqueInfo, TechniqueInit};
+use crate::render::passes::{FinalPass, ShadowMap};
+use crate::render::PcfKernel;
+use crate::shaders;
+use crate::vk::{Context, DescriptorSet, Filter, Image, Recorder, Resource, Sampler};
+use anyhow::{Context as _, Result};
+
+pub const INFO: TechniqueInfo = TechniqueInfo {
+    name: "pcss",
+    summary: "Fernando 2005: blocker search, penumbra estimate, variable-size Poisson PCF",
+    create: Pcss::create,
+};
+
+/// Blocker-search samples when the kernel setting is a box (one gather, 4 texels each).
+pub const SEARCH_SAMPLES: u32 = 16;
+/// Filter samples when the kernel setting is a box (one 2x2 bilinear tap each).
+pub const FILTER_SAMPLES: u32 = 32;
+/// Largest search and filter radius in shadow-map texels: bounds the cost and the sparsity
+/// of the disc (32 samples over a larger radius leave gaps wider than a texel of blocker).
+pub const MAX_RADIUS_TEXELS: f32 = 48.0;
+
+/// (search samples, filter samples) for a kernel setting.
+pub fn sample_counts(kernel: PcfKernel) -> (u32, u32) {
+    match kernel {
+        PcfKernel::Poisson(n) => (n, n),
+        PcfKernel::Box(_) => (SEARCH_SAMPLES, FILTER_SAMPLES),
+    }
+}
+
+pub struct Pcss {
+    shadow: ShadowMap,
+    final_pass: FinalPass,
+    final_set: DescriptorSet,
+    search_samples: u32,
+    filter_samples: u32,
+    _sampler: Sampler,
+}
+
+impl Pcss {
+    fn create(init: &TechniqueInit<'_>) -> Result<Box<dyn Technique>> {
+        let ctx = init.ctx;
+        // The counts index the shader's 64-point table: never run an unchecked kernel.
+        init.settings.pcf_kernel.check()?;
+        let (search_samples, filter_samples) = sample_counts(init.settings.pcf_kernel);
+        let shadow = ShadowMap::new(ctx, init.ubo, init.settings.shadow_res, "pcss/shadow_map")
+            .context("pcss shadow map")?;
+        // Nearest: gathers ignore filtering, and no path may blend depths.
+        let sampler = Sampler::new(ctx, Filter::Nearest).context("pcss sampler")?;
+        let final_set = DescriptorSet::new(
+            ctx,
+            &[
+                Resource::Uniform(init.ubo),
+                Resource::Sampled(&shadow.depth, &sampler),
+            ],
+            "pcss/final",
+        )
+        .context("pcss final descriptor set")?;
+        let final_pass = FinalPass::new(ctx, "pcss/final", shaders::PCSS_FINAL_FRAG, &final_set)
+            .context("pcss final pass")?;
+        Ok(Box::new(Self {
+            shadow,
+            final_pass,
+            final_set,
+            search_samples,
+            filter_samples,
+            _sampler: sampler,
+        }))
+    }
+}
+
+impl Technique for Pcss {
+    fn name(&self) -> &'static str {
+        INFO.name
+    }
+
+    fn uniforms(&self, frame: &FrameInput<'_>) -> [[f32; 4]; 2] {
+        let r = frame.light_radius.max(0.0);
+        let two_tan = 2.0 * (frame.light.fov_deg.to_radians() * 0.5).tan();
+        [
+            [
+                r / (two_tan * frame.light.near), // Eq. 2
+                r / two_tan,                      // Eq. 4 without its depths
+                MAX_RADIUS_TEXELS,
+                self.filter_samples as f32,
+            ],
+            [self.search_samples as f32, 0.0, 0.0, 0.0],
+        ]
+    }
+
+    fn record(
+        &mut self,
+        _ctx: &Context,
+        rec: &mut Recorder<'_>,
+        frame: &FrameInput<'_>,
+    ) -> Result<()> {
+        rec.pass("pcss/shadow_map", |rec| {
+            self.shadow.record(rec, frame.gpu);
+            Ok(())
+        })?;
+        rec.pass("pcss/final", |rec| {
+            self.final_pass
+                .record(rec, frame.targets, frame.gpu, &self.final_set);
+            Ok(())
+        })
+    }
+
+    fn debug_image(&self, name: &str) -> Option<&Image> {
+        (name == "shadow_map").then_some(&self.shadow.depth)
+    }
+}

@@ -1,0 +1,598 @@
+//! # ssm / ssm2 — Atty, Holzschuch, Lapierre, Hasenfratz, Hansen, Sillion 2006,
+//! *Soft Shadow Maps: Efficient Sampling of Light Source Visibility*
+//!
+//! Every texel of an occluder depth map becomes a micro-patch: a square parallel to the
+//! light at the texel's depth, covering the texel's image extent (Sec. 3.2). Each
+//! micro-patch's penumbra extent is drawn as a quad into the soft shadow map (SSM), whose
+//! fragment program back-projects the micro-patch onto the light from the receiver point
+//! of that texel and adds the occluded fraction of the light with additive blending
+//! (Sec. 3.3-3.4, 4.2). The SSM is then projected onto the receivers. `ssm2` (Sec. 3.5) also
+//! discretises the farthest (back) faces of the occluders into a second SSM and merges the
+//! two with max.
+//!
+//! ## The light
+//! The paper's light is a rectangle parallel to the occluder map's image plane; DESIGN.md's
+//! light is a disk of radius R. Here: the axis-aligned **square of the same area**, side
+//! L = R sqrt(pi), centred at the light position, in the light's view plane (axes = the
+//! occluder map's axes). R = 0 is a point light: each micro-patch hides the light
+//! entirely from the receivers behind its own texel, i.e. a hard shadow at occluder_res.
+//!
+//! ## Resolutions and parameters
+//! All light-space buffers of this technique are `Settings::occluder_res` square (occluder
+//! maps, receiver map, SSM, one SSM texel per receiver-map texel); `shadow_res` is unused.
+//! `Settings::accum_format` picks the SSM format: R32_SFLOAT (default) or R16_SFLOAT (the
+//! paper's FP16 blending, to reproduce Appendix A Eq. 4: a micro-patch hiding less than
+//! 2^-10 of the light is lost when added to an occlusion near 1, which happens more often
+//! as the occluder map grows).
+//!
+//! ## Occluders and receivers (the paper separates them; scenes here have role `both`)
+//! Occluders = objects that cast (`caster`, `both`). Receivers come in two layers, both
+//! in the receiver map:
+//! - layer 0, "front": the nearest receiving object (`receiver` or `both`) per texel —
+//!   what the light centre sees of the receivers (casters' own lit surfaces, the ground);
+//! - layer 1, "pure": the nearest receive-only object (`receiver`, the paper's receivers,
+//!   e.g. the ground), FAR where there is none.
+//!
+//! The SSM holds one accumulated occlusion per layer. A point in the final pass that is
+//! its texel's front receiver reads layer 0; a point behind it (the ground under a caster,
+//! a caster's far side) reads layer 1 — without it, ground under a `both` caster would get
+//! the caster's own (unshadowed) value. Self-occlusion follows the paper: a micro-patch
+//! at or less than a small guard in front of the receiver is discarded (see the guard
+//! below), so a caster does not shadow its own lit surface.
+//!
+//! ## Passes, in order (`ssm2` names its passes `ssm2/...`)
+//! 1. `ssm/occluder_map` — casters from the light, front (nearest) surfaces
+//!    (`render::passes::ShadowMap`): R32_SFLOAT linear depth, clear FAR_DEPTH (1e30), no
+//!    blend, + D32_SFLOAT clear 1.0, LESS. Shaders `glsl/common/shadow_depth.{vert,frag}`.
+//! 2. `ssm2/back_occluder_map` (ssm2 only) — the same, farthest surfaces: R32_SFLOAT clear
+//!    FAR_DEPTH, no blend, + D32_SFLOAT clear **0.0**, compare **GREATER**, no culling.
+//! 3. `ssm/receiver_map` — receiving objects from the light, two R32_SFLOAT attachments
+//!    (layer 0, layer 1), clear FAR_DEPTH, blend **MIN** (no z-buffer). Vertex
+//!    `common/shadow_depth.vert`; fragment `glsl/ssm/receiver_both.frag` (role both:
+//!    writes (depth, FAR)) or `glsl/ssm/receiver_only.frag` (role receiver: (depth, depth)).
+//! 4. `ssm/receiver_bound` — compute `glsl/ssm/receiver_bound.comp`: the farthest receiver
+//!    depth z_max over both layers (16x16 groups, shared max, one atomicMax per group into a
+//!    4-byte storage buffer, cleared with vkCmdFillBuffer 0 first). Used as the conservative
+//!    z_R of the penumbra extents (Sec. 3.3: the extent grows with z_R).
+//! 5. `ssm/soft_shadow` — one instanced draw, N^2 instances (one per occluder texel) of a
+//!    4-vertex triangle strip, no vertex buffer. `glsl/ssm/soft_shadow.vert` texelFetches
+//!    the occluder map and emits the penumbra extent (Sec. 3.3, Fig. 7-8) grown from the
+//!    texel square by h = L N / (4 tan(fov/2)) (1/z_O - 1/z_max) texels, or a degenerate quad
+//!    outside clip space for an empty texel or a patch behind z_max.
+//!    `glsl/ssm/soft_shadow.frag` reads both receiver layers at its texel and, per layer,
+//!    back-projects the patch onto the light: scale S = 2 tan(fov/2) / (N L) z_O z_R /
+//!    (z_R - z_O) light widths per texel, occluded fraction = product of the two interval
+//!    overlaps with [-1/2, 1/2] (Sec. 4.2). Two attachments of `accum_format` (layer 0,
+//!    layer 1), clear 0, blend **ADD**. The GPU generates the quads (the paper read the
+//!    occluder map back to the CPU, Sec. 4.1; its Sec. 4.3 suggests this GPU path).
+//! 6. `ssm2/soft_shadow_back` (ssm2 only) — pass 5 again with the back occluder map into
+//!    two more attachments.
+//! 7. `ssm/final` — camera pass (`FinalPass`), `glsl/ssm/final.frag` (`glsl/ssm2/final.frag`
+//!    defines TWO_SIDED; both include `glsl/ssm/final.glsl`): normal-offset point (in
+//!    occluder texels), 2x2 footprint of the receiver map and the SSMs; per texel layer 0 if
+//!    the point is within 3 texels of depth slope of the front receiver, layer 1 if behind,
+//!    no data if the front receiver is behind the point (weights renormalised); ssm2 takes
+//!    max(front SSM, back SSM) per layer; occlusion clamped to [0,1] per texel, bilinear
+//!    weights; visibility = 1 - occlusion.
+//!
+//! ## Frame constants
+//! `frame.technique` = (L, N = occluder_res, 1/N, self-occlusion guard in texels).
+//!
+//! ## Cost (lavapipe, 2 shared cores, `primitives`, 1024^2 image, occluder_res 256)
+//! Frame: hard 322-407 ms, ssm 432-440 ms (1.1-1.35x hard), ssm2 546-711 ms (1.3-2.2x hard,
+//! 1.25-1.65x ssm; the paper: 1.6-1.8x). The camera `final` pass dominates (~75%); the
+//! micro-patch pass `soft_shadow` is 72-77 ms (~17%); occluder, receiver and bound passes
+//! take a few ms each.
+//!
+//! ## Known artefacts
+//! - Only what the light centre sees of the occluders is discretised (Sec. 5.1.1): parts of
+//!   the occluders visible from the light's edge only are missing (ssm2 adds the back faces).
+//! - Back-projections of neighbouring micro-patches overlap or leave gaps (Sec. 5.1.2,
+//!   Eq. 1-3): too dark or too light penumbrae for large lights and depth discontinuities;
+//!   sums above 1 are clamped.
+//! - Occluder-map aliasing: staircase at R = 0 and small R at occluder_res (Sec. 5.2.4).
+//! - R16F: lost contributions (too light shadows, "holes") above ~256^2 (Appendix A, Eq. 4).
+//! - Surfaces between the two receiver layers (a caster's face hidden by another caster)
+//!   take the pure receiver's occlusion behind them; self-shadowing of a caster by its own
+//!   parts closer than the guard is missing (the paper has no self-shadowing at all).
+//! - Speckles near the terminator of curved casters (bunny): staircase steps of the
+//!   caster's own surface deeper than the guard count as occluders of itself.
+//! - Cost grows with the penumbra extents: N^2 patches times (2h+1)^2 texels each (Sec. 6).
+
+use super::{FrameInput, Technique, TechniqueInfo, TechniqueInit};
+use crate::render::passes::{FinalPass, ShadowMap, FAR_DEPTH};
+use crate::render::{AccumFormat, GpuScene};
+use crate::scene::Role;
+use crate::shaders;
+use crate::vk::{
+    AccessFlags2, Blend, Buffer, BufferUsageFlags, CompareOp, Context, CullModeFlags, DepthState,
+    DescriptorSet, Filter, Format, GraphicsPipelineDesc, Image, ImageLayout, ImageUsageFlags,
+    MemoryLocation, Pipeline, PipelineStageFlags2, PrimitiveTopology, Recorder, Resource, Sampler,
+};
+use anyhow::{bail, Context as _, Result};
+
+pub const INFO: TechniqueInfo = TechniqueInfo {
+    name: "ssm",
+    summary:
+        "Atty et al. 2006: soft shadow map, GPU micro-patch back-projection, additive blending",
+    create: create_one_sided,
+};
+
+pub const INFO2: TechniqueInfo = TechniqueInfo {
+    name: "ssm2",
+    summary:
+        "Atty et al. 2006 two-sided: front and back occluder maps, soft shadow maps merged with max",
+    create: create_two_sided,
+};
+
+/// Self-occlusion guard: a micro-patch less than this many texels of depth slope in front of
+/// the receiver is the receiver's own surface (its own texel, or the staircase of a surface
+/// sloped up to ~55 degrees to the light's image plane), not an occluder.
+const SELF_GUARD_TEXELS: f32 = 1.5;
+
+/// Compute workgroup side of `glsl/ssm/receiver_bound.comp`.
+const BOUND_GROUP: u32 = 16;
+
+fn create_one_sided(init: &TechniqueInit<'_>) -> Result<Box<dyn Technique>> {
+    Ok(Box::new(Ssm::create(init, false)?))
+}
+
+fn create_two_sided(init: &TechniqueInit<'_>) -> Result<Box<dyn Technique>> {
+    Ok(Box::new(Ssm::create(init, true)?))
+}
+
+/// The square light of the same area as the disk of radius `r`: side r sqrt(pi).
+pub fn light_square_side(r: f32) -> f32 {
+    r * std::f32::consts::PI.sqrt()
+}
+
+/// One occluder map's micro-patches into one pair of SSM layers.
+struct SoftShadow {
+    /// Layer 0 (nearest receiver) and layer 1 (pure receiver) accumulations.
+    layers: [Image; 2],
+    set: DescriptorSet,
+    name: &'static str,
+}
+
+/// The farthest-surface occluder map of ssm2 (as `ShadowMap`, GREATER instead of LESS).
+struct BackOccluderMap {
+    depth: Image,
+    zbuffer: Image,
+    pipeline: Pipeline,
+    set: DescriptorSet,
+}
+
+pub struct Ssm {
+    two_sided: bool,
+    res: u32,
+    occluder: ShadowMap,
+    back: Option<BackOccluderMap>,
+    receiver_layers: [Image; 2],
+    receiver_set: DescriptorSet,
+    receiver_both: Pipeline,
+    receiver_only: Pipeline,
+    bound: Buffer,
+    bound_set: DescriptorSet,
+    bound_pipeline: Pipeline,
+    soft_pipeline: Pipeline,
+    front: SoftShadow,
+    back_soft: Option<SoftShadow>,
+    final_pass: FinalPass,
+    final_set: DescriptorSet,
+    _nearest: Sampler,
+}
+
+fn accum_format(f: AccumFormat) -> Format {
+    match f {
+        AccumFormat::R32F => Format::R32_SFLOAT,
+        AccumFormat::R16F => Format::R16_SFLOAT,
+    }
+}
+
+impl Ssm {
+    fn create(init: &TechniqueInit<'_>, two_sided: bool) -> Result<Self> {
+        let ctx = init.ctx;
+        let res = init.settings.occluder_res;
+        let tname = if two_sided { "ssm2" } else { "ssm" };
+        let accum = accum_format(init.settings.accum_format);
+        if !ctx.supports_blend(accum) {
+            bail!(
+                "{} cannot ADD-blend {accum:?} attachments, which the soft shadow map needs (--accum-format)",
+                ctx.device_name
+            );
+        }
+        if !ctx.supports_blend(Format::R32_SFLOAT) {
+            bail!(
+                "{} cannot MIN-blend R32_SFLOAT attachments, which the receiver map needs",
+                ctx.device_name
+            );
+        }
+        let usage = ImageUsageFlags::COLOR_ATTACHMENT
+            | ImageUsageFlags::SAMPLED
+            | ImageUsageFlags::TRANSFER_SRC;
+        let nearest = Sampler::new(ctx, Filter::Nearest).context("ssm sampler")?;
+
+        let occluder = ShadowMap::new(ctx, init.ubo, res, &format!("{tname}/occluder_map"))
+            .context("ssm occluder map")?;
+        let back = if two_sided {
+            Some(BackOccluderMap::new(ctx, init.ubo, res).context("ssm2 back occluder map")?)
+        } else {
+            None
+        };
+
+        let receiver_layers = [
+            Image::new_2d(
+                ctx,
+                res,
+                res,
+                Format::R32_SFLOAT,
+                usage,
+                "ssm receiver map (front)",
+            )
+            .context("ssm receiver map")?,
+            Image::new_2d(
+                ctx,
+                res,
+                res,
+                Format::R32_SFLOAT,
+                usage,
+                "ssm receiver map (pure)",
+            )
+            .context("ssm receiver map")?,
+        ];
+        let receiver_set =
+            DescriptorSet::new(ctx, &[Resource::Uniform(init.ubo)], "ssm/receiver_map")?;
+        let receiver_pipeline = |fragment: &[u8], name: &str| {
+            Pipeline::graphics(
+                ctx,
+                &GraphicsPipelineDesc {
+                    name,
+                    vertex: shaders::COMMON_SHADOW_DEPTH_VERT,
+                    fragment: Some(fragment),
+                    vertex_stride: crate::render::gpu_scene::SCENE_VERTEX_STRIDE,
+                    attributes: &crate::render::gpu_scene::SCENE_ATTRIBUTES[..1],
+                    topology: PrimitiveTopology::TRIANGLE_LIST,
+                    cull: CullModeFlags::NONE,
+                    // MIN keeps the nearest depth without a z-buffer per layer.
+                    colors: &[
+                        (Format::R32_SFLOAT, Blend::Min),
+                        (Format::R32_SFLOAT, Blend::Min),
+                    ],
+                    depth: None,
+                    push_constant_bytes: crate::render::gpu_scene::DRAW_PUSH_BYTES,
+                    sets: &[&receiver_set],
+                },
+            )
+        };
+        let receiver_both =
+            receiver_pipeline(shaders::SSM_RECEIVER_BOTH_FRAG, "ssm/receiver_map (both)")
+                .context("ssm receiver pipeline")?;
+        let receiver_only = receiver_pipeline(
+            shaders::SSM_RECEIVER_ONLY_FRAG,
+            "ssm/receiver_map (receivers)",
+        )
+        .context("ssm receiver pipeline")?;
+
+        let bound = Buffer::new(
+            ctx,
+            4,
+            BufferUsageFlags::STORAGE_BUFFER | BufferUsageFlags::TRANSFER_DST,
+            MemoryLocation::GpuOnly,
+            "ssm receiver bound",
+        )?;
+        let bound_set = DescriptorSet::new(
+            ctx,
+            &[
+                Resource::Uniform(init.ubo),
+                Resource::Sampled(&receiver_layers[0], &nearest),
+                Resource::Sampled(&receiver_layers[1], &nearest),
+                Resource::Storage(&bound),
+            ],
+            "ssm/receiver_bound",
+        )?;
+        let bound_pipeline = Pipeline::compute(
+            ctx,
+            "ssm/receiver_bound",
+            shaders::SSM_RECEIVER_BOUND_COMP,
+            &[&bound_set],
+            0,
+        )?;
+
+        let soft = |occluder_map: &Image, name: &'static str| -> Result<SoftShadow> {
+            let layers = [
+                Image::new_2d(ctx, res, res, accum, usage, &format!("{name} (front)"))?,
+                Image::new_2d(ctx, res, res, accum, usage, &format!("{name} (pure)"))?,
+            ];
+            let set = DescriptorSet::new(
+                ctx,
+                &[
+                    Resource::Uniform(init.ubo),
+                    Resource::Sampled(occluder_map, &nearest),
+                    Resource::Sampled(&receiver_layers[0], &nearest),
+                    Resource::Sampled(&receiver_layers[1], &nearest),
+                    Resource::Storage(&bound),
+                ],
+                name,
+            )?;
+            Ok(SoftShadow { layers, set, name })
+        };
+        let front = soft(
+            &occluder.depth,
+            if two_sided {
+                "ssm2/soft_shadow"
+            } else {
+                "ssm/soft_shadow"
+            },
+        )
+        .context("ssm soft shadow map")?;
+        let back_soft = match &back {
+            Some(b) => {
+                Some(soft(&b.depth, "ssm2/soft_shadow_back").context("ssm2 back soft shadow map")?)
+            }
+            None => None,
+        };
+        // Both SoftShadow sets are defined identically, so one pipeline serves both.
+        let soft_pipeline = Pipeline::graphics(
+            ctx,
+            &GraphicsPipelineDesc {
+                name: front.name,
+                vertex: shaders::SSM_SOFT_SHADOW_VERT,
+                fragment: Some(shaders::SSM_SOFT_SHADOW_FRAG),
+                vertex_stride: 0,
+                attributes: &[],
+                topology: PrimitiveTopology::TRIANGLE_STRIP,
+                cull: CullModeFlags::NONE,
+                // ADD sums the micro-patches' occluded fractions (Sec. 4.1).
+                colors: &[(accum, Blend::Add), (accum, Blend::Add)],
+                depth: None,
+                push_constant_bytes: 0,
+                sets: &[&front.set],
+            },
+        )
+        .context("ssm soft shadow pipeline")?;
+
+        let mut final_resources = vec![
+            Resource::Uniform(init.ubo),
+            Resource::Sampled(&receiver_layers[0], &nearest),
+            Resource::Sampled(&front.layers[0], &nearest),
+            Resource::Sampled(&front.layers[1], &nearest),
+        ];
+        if let Some(b) = &back_soft {
+            final_resources.push(Resource::Sampled(&b.layers[0], &nearest));
+            final_resources.push(Resource::Sampled(&b.layers[1], &nearest));
+        }
+        let final_name = if two_sided { "ssm2/final" } else { "ssm/final" };
+        let final_set = DescriptorSet::new(ctx, &final_resources, final_name)?;
+        let fragment = if two_sided {
+            shaders::SSM2_FINAL_FRAG
+        } else {
+            shaders::SSM_FINAL_FRAG
+        };
+        let final_pass =
+            FinalPass::new(ctx, final_name, fragment, &final_set).context("ssm final pass")?;
+        Ok(Self {
+            two_sided,
+            res,
+            occluder,
+            back,
+            receiver_layers,
+            receiver_set,
+            receiver_both,
+            receiver_only,
+            bound,
+            bound_set,
+            bound_pipeline,
+            soft_pipeline,
+            front,
+            back_soft,
+            final_pass,
+            final_set,
+            _nearest: nearest,
+        })
+    }
+
+    fn pass_name(&self, pass: &str) -> String {
+        format!("{}/{pass}", if self.two_sided { "ssm2" } else { "ssm" })
+    }
+
+    fn record_receivers(&self, rec: &mut Recorder<'_>, gpu: &GpuScene) {
+        rec.begin_rendering(
+            &[
+                (&self.receiver_layers[0], Some([FAR_DEPTH; 4])),
+                (&self.receiver_layers[1], Some([FAR_DEPTH; 4])),
+            ],
+            None,
+        );
+        rec.bind_pipeline(&self.receiver_both);
+        rec.bind_sets(&self.receiver_both, &[&self.receiver_set]);
+        gpu.draw(rec, &self.receiver_both, |o| o.role == Role::Both);
+        rec.bind_pipeline(&self.receiver_only);
+        rec.bind_sets(&self.receiver_only, &[&self.receiver_set]);
+        gpu.draw(rec, &self.receiver_only, |o| o.role == Role::Receiver);
+        rec.end_rendering();
+        for l in &self.receiver_layers {
+            rec.transition(l, ImageLayout::SHADER_READ_ONLY_OPTIMAL);
+        }
+    }
+
+    fn record_bound(&self, rec: &mut Recorder<'_>) {
+        rec.fill_buffer(&self.bound, 0);
+        rec.memory_barrier(
+            PipelineStageFlags2::CLEAR,
+            AccessFlags2::TRANSFER_WRITE,
+            PipelineStageFlags2::COMPUTE_SHADER,
+            AccessFlags2::SHADER_STORAGE_READ | AccessFlags2::SHADER_STORAGE_WRITE,
+        );
+        rec.bind_pipeline(&self.bound_pipeline);
+        rec.bind_sets(&self.bound_pipeline, &[&self.bound_set]);
+        let groups = self.res.div_ceil(BOUND_GROUP);
+        rec.dispatch(groups, groups, 1);
+        rec.memory_barrier(
+            PipelineStageFlags2::COMPUTE_SHADER,
+            AccessFlags2::SHADER_STORAGE_WRITE,
+            PipelineStageFlags2::VERTEX_SHADER | PipelineStageFlags2::FRAGMENT_SHADER,
+            AccessFlags2::SHADER_STORAGE_READ,
+        );
+    }
+
+    fn record_soft(&self, rec: &mut Recorder<'_>, soft: &SoftShadow) {
+        rec.begin_rendering(
+            &[
+                (&soft.layers[0], Some([0.0; 4])),
+                (&soft.layers[1], Some([0.0; 4])),
+            ],
+            None,
+        );
+        rec.bind_pipeline(&self.soft_pipeline);
+        rec.bind_sets(&self.soft_pipeline, &[&soft.set]);
+        rec.draw(4, self.res * self.res);
+        rec.end_rendering();
+        for l in &soft.layers {
+            rec.transition(l, ImageLayout::SHADER_READ_ONLY_OPTIMAL);
+        }
+    }
+}
+
+impl BackOccluderMap {
+    fn new(ctx: &Context, ubo: &Buffer, res: u32) -> Result<Self> {
+        let name = "ssm2/back_occluder_map";
+        let depth = Image::new_2d(
+            ctx,
+            res,
+            res,
+            Format::R32_SFLOAT,
+            ImageUsageFlags::COLOR_ATTACHMENT
+                | ImageUsageFlags::SAMPLED
+                | ImageUsageFlags::TRANSFER_SRC,
+            "ssm2 back occluder map",
+        )?;
+        let zbuffer = Image::new_2d(
+            ctx,
+            res,
+            res,
+            Format::D32_SFLOAT,
+            ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT,
+            "ssm2 back occluder z-buffer",
+        )?;
+        let set = DescriptorSet::new(ctx, &[Resource::Uniform(ubo)], name)?;
+        let pipeline = Pipeline::graphics(
+            ctx,
+            &GraphicsPipelineDesc {
+                name,
+                vertex: shaders::COMMON_SHADOW_DEPTH_VERT,
+                fragment: Some(shaders::COMMON_SHADOW_DEPTH_FRAG),
+                vertex_stride: crate::render::gpu_scene::SCENE_VERTEX_STRIDE,
+                attributes: &crate::render::gpu_scene::SCENE_ATTRIBUTES[..1],
+                topology: PrimitiveTopology::TRIANGLE_LIST,
+                // The farthest surface of any winding: open meshes have no "back faces".
+                cull: CullModeFlags::NONE,
+                colors: &[(Format::R32_SFLOAT, Blend::None)],
+                // GREATER against a 0 clear keeps the farthest caster surface (Sec. 3.5).
+                depth: Some(DepthState {
+                    format: Format::D32_SFLOAT,
+                    test: true,
+                    write: true,
+                    compare: CompareOp::GREATER,
+                }),
+                push_constant_bytes: crate::render::gpu_scene::DRAW_PUSH_BYTES,
+                sets: &[&set],
+            },
+        )?;
+        Ok(Self {
+            depth,
+            zbuffer,
+            pipeline,
+            set,
+        })
+    }
+
+    fn record(&self, rec: &mut Recorder<'_>, scene: &GpuScene) {
+        rec.begin_rendering(
+            &[(&self.depth, Some([FAR_DEPTH; 4]))],
+            Some((&self.zbuffer, Some(0.0))),
+        );
+        rec.bind_pipeline(&self.pipeline);
+        rec.bind_sets(&self.pipeline, &[&self.set]);
+        scene.draw(rec, &self.pipeline, |o| o.role.casts());
+        rec.end_rendering();
+        rec.transition(&self.depth, ImageLayout::SHADER_READ_ONLY_OPTIMAL);
+    }
+}
+
+impl Technique for Ssm {
+    fn name(&self) -> &'static str {
+        if self.two_sided {
+            INFO2.name
+        } else {
+            INFO.name
+        }
+    }
+
+    fn uniforms(&self, frame: &FrameInput<'_>) -> [[f32; 4]; 2] {
+        let n = self.res as f32;
+        [
+            [
+                light_square_side(frame.light_radius),
+                n,
+                1.0 / n,
+                SELF_GUARD_TEXELS,
+            ],
+            [0.0; 4],
+        ]
+    }
+
+    fn record(
+        &mut self,
+        _ctx: &Context,
+        rec: &mut Recorder<'_>,
+        frame: &FrameInput<'_>,
+    ) -> Result<()> {
+        rec.pass(&self.pass_name("occluder_map"), |rec| {
+            self.occluder.record(rec, frame.gpu);
+            Ok(())
+        })?;
+        if let Some(back) = &self.back {
+            rec.pass("ssm2/back_occluder_map", |rec| {
+                back.record(rec, frame.gpu);
+                Ok(())
+            })?;
+        }
+        rec.pass(&self.pass_name("receiver_map"), |rec| {
+            self.record_receivers(rec, frame.gpu);
+            Ok(())
+        })?;
+        rec.pass(&self.pass_name("receiver_bound"), |rec| {
+            self.record_bound(rec);
+            Ok(())
+        })?;
+        rec.pass(self.front.name, |rec| {
+            self.record_soft(rec, &self.front);
+            Ok(())
+        })?;
+        if let Some(back) = &self.back_soft {
+            rec.pass(back.name, |rec| {
+                self.record_soft(rec, back);
+                Ok(())
+            })?;
+        }
+        rec.pass(&self.pass_name("final"), |rec| {
+            self.final_pass
+                .record(rec, frame.targets, frame.gpu, &self.final_set);
+            Ok(())
+        })
+    }
+
+    fn debug_image(&self, name: &str) -> Option<&Image> {
+        match name {
+            "occluder_map" | "shadow_map" => Some(&self.occluder.depth),
+            "back_occluder_map" => self.back.as_ref().map(|b| &b.depth),
+            "receiver_map" => Some(&self.receiver_layers[0]),
+            "receiver_map_pure" => Some(&self.receiver_layers[1]),
+            "soft_shadow" => Some(&self.front.layers[0]),
+            "soft_shadow_pure" => Some(&self.front.layers[1]),
+            "soft_shadow_back" => self.back_soft.as_ref().map(|b| &b.layers[0]),
+            "soft_shadow_back_pure" => self.back_soft.as_ref().map(|b| &b.layers[1]),
+            _ => None,
+        }
+    }
+}

@@ -1,0 +1,232 @@
+//! The command line as a user meets it: a render that writes its outputs, and bad input
+//! that gets one clear line, a non-zero exit, no panic, no validation message and no file.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn softshadow(args: &[&str], envs: &[(&str, &str)]) -> Output {
+    let mut cmd = Command::new(env!("CARGO_BIN_EXE_softshadow"));
+    cmd.args(args)
+        .arg("--validation")
+        .env_remove("SOFTSHADOW_DEVICE");
+    for (k, v) in envs {
+        cmd.env(k, v);
+    }
+    cmd.output().expect("running softshadow")
+}
+
+fn tmp(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("softshadow-cli-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    dir.join(name)
+}
+
+/// Runs a command that must fail: one `error:` line naming `expect`, exit != 0, no panic,
+/// no validation message, and `out` not written.
+fn assert_fails(args: &[&str], envs: &[(&str, &str)], expect: &str, out: &Path) {
+    let o = softshadow(args, envs);
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success(), "{args:?} succeeded");
+    assert!(!stderr.contains("panicked"), "{args:?} panicked:\n{stderr}");
+    assert!(
+        !stderr.contains("validation"),
+        "{args:?} hit validation:\n{stderr}"
+    );
+    let errors: Vec<&str> = stderr.lines().filter(|l| l.starts_with("error")).collect();
+    assert_eq!(
+        errors.len(),
+        1,
+        "{args:?}: expected one error line:\n{stderr}"
+    );
+    assert!(
+        errors[0].to_lowercase().contains(&expect.to_lowercase()),
+        "{args:?}: '{}' does not mention '{expect}'",
+        errors[0]
+    );
+    assert!(!out.exists(), "{args:?} left {} behind", out.display());
+}
+
+#[test]
+fn render_writes_png_aovs_and_timings() {
+    let out = tmp("ok.png");
+    let aov = tmp("aov");
+    let o = softshadow(
+        &[
+            "render",
+            "--scene",
+            "boxes",
+            "--width",
+            "96",
+            "--height",
+            "64",
+            "--shadow-res",
+            "256",
+            "--out",
+            out.to_str().unwrap(),
+            "--aov",
+            aov.to_str().unwrap(),
+            "--timings",
+        ],
+        &[("SOFTSHADOW_DEVICE", "llvmpipe")],
+    );
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(
+        stdout.starts_with("device: "),
+        "device line first: {stdout}"
+    );
+    for pass in [
+        "smoothies/shadow_map",
+        "smoothies/smoothie",
+        "smoothies/final",
+    ] {
+        let line = stdout
+            .lines()
+            .find(|l| l.starts_with(&format!("pass {pass} ")))
+            .unwrap_or_else(|| panic!("no timing line for {pass}:\n{stdout}"));
+        let ms: f64 = line.split_whitespace().nth(2).unwrap().parse().unwrap();
+        assert!(ms > 0.0, "{line}");
+    }
+    assert!(
+        stdout.lines().any(|l| l.starts_with("frame gpu")),
+        "{stdout}"
+    );
+    let png = image::open(&out).unwrap();
+    assert_eq!((png.width(), png.height()), (96, 64));
+    let vis = exr::prelude::read_first_flat_layer_from_file(aov.join("visibility.exr")).unwrap();
+    let layer = &vis.layer_data;
+    assert_eq!((layer.size.width(), layer.size.height()), (96, 64));
+    assert_eq!(layer.channel_data.list.len(), 1, "one channel");
+    let v: Vec<f32> = layer.channel_data.list[0]
+        .sample_data
+        .values_as_f32()
+        .collect();
+    assert!(v.iter().all(|p| (0.0..=1.0).contains(p)));
+    assert!(v.iter().any(|&p| p < 0.5), "some shadow");
+    let pos = image::open(aov.join("position.exr"))
+        .unwrap()
+        .into_rgba32f();
+    assert!(pos.pixels().any(|p| p[3] == 1.0) && pos.pixels().any(|p| p[3] == 0.0));
+    image::open(aov.join("normal.exr")).unwrap();
+}
+
+#[test]
+fn bad_input_gets_one_clear_line() {
+    let out = tmp("never.png");
+    let o = out.to_str().unwrap();
+    let bad_obj = tmp("bad.obj");
+    std::fs::write(&bad_obj, "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 9\n").unwrap();
+    let nan_obj = tmp("nan.obj");
+    std::fs::write(&nan_obj, "v 0 0 0\nv nan 0 0\nv 0 1 0\nf 1 2 3\n").unwrap();
+    let bad_toml = tmp("bad.toml");
+    std::fs::write(
+        &bad_toml,
+        "[light]\nposition = [0, 5, 0]\nradius = 0.1\nbrightness = 3\n",
+    )
+    .unwrap();
+    let lavapipe = [("SOFTSHADOW_DEVICE", "llvmpipe")];
+    let cases: Vec<(Vec<&str>, &[(&str, &str)], &str)> = vec![
+        (
+            vec!["render", "--scene", "/no/such/file.obj", "--out", o],
+            &lavapipe,
+            "file.obj",
+        ),
+        (
+            vec!["render", "--scene", bad_obj.to_str().unwrap(), "--out", o],
+            &lavapipe,
+            "bad.obj",
+        ),
+        (
+            vec!["render", "--scene", nan_obj.to_str().unwrap(), "--out", o],
+            &lavapipe,
+            "non-finite",
+        ),
+        (
+            vec!["render", "--scene", "nosuchscene", "--out", o],
+            &lavapipe,
+            "unknown scene",
+        ),
+        (
+            vec!["render", "--technique", "nosuch", "--out", o],
+            &lavapipe,
+            "unknown technique",
+        ),
+        (
+            vec!["render", "--scene", bad_toml.to_str().unwrap(), "--out", o],
+            &lavapipe,
+            "brightness",
+        ),
+        (
+            vec!["render", "--width", "0", "--out", o],
+            &lavapipe,
+            "--width 0",
+        ),
+        (
+            vec!["render", "--height", "100000", "--out", o],
+            &lavapipe,
+            "--height 100000",
+        ),
+        (
+            vec!["render", "--shadow-res", "0", "--out", o],
+            &lavapipe,
+            "--shadow-res",
+        ),
+        (
+            vec!["render", "--light-radius", "-1", "--out", o],
+            &lavapipe,
+            "--light-radius",
+        ),
+        (
+            vec!["render", "--light-radius", "NaN", "--out", o],
+            &lavapipe,
+            "--light-radius",
+        ),
+        (
+            vec!["render", "--out", "/no/such/dir/x.png"],
+            &lavapipe,
+            "does not exist",
+        ),
+        (
+            vec!["render", "--device", "NoSuchGpu", "--out", o],
+            &[],
+            "NoSuchGpu",
+        ),
+        // No driver at all: the loader finds no ICD.
+        (
+            vec!["render", "--out", o],
+            &[
+                ("VK_ICD_FILENAMES", "/nonexistent.json"),
+                ("VK_DRIVER_FILES", "/nonexistent.json"),
+            ],
+            "mesa-vulkan-drivers",
+        ),
+    ];
+    for (args, envs, expect) in cases {
+        assert_fails(&args, envs, expect, &out);
+    }
+}
+
+#[test]
+fn export_writes_obj_and_json() {
+    let obj = tmp("scene.obj");
+    let o = softshadow(
+        &[
+            "export",
+            "--scene",
+            "overlap",
+            "--obj",
+            obj.to_str().unwrap(),
+        ],
+        &[],
+    );
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let text = std::fs::read_to_string(&obj).unwrap();
+    let faces = text.lines().filter(|l| l.starts_with("f ")).count();
+    let scene = softshadow::scene::Scene::load("overlap").unwrap();
+    assert_eq!(faces, scene.triangle_count());
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(obj.with_extension("json")).unwrap())
+            .unwrap();
+    assert!(json["lights"][0]["radius"].as_f64().unwrap() > 0.0);
+    assert_eq!(json["camera"]["width"].as_u64(), Some(1024));
+}

@@ -1,0 +1,355 @@
+//! The core renderer on lavapipe with validation on: hard shadows and smoothies on the
+//! paper's scenes, checked by pixel values in lit / umbra / penumbra regions, widths that
+//! must grow, convergence to hard shadows, minimum blending, and per-pass timestamps.
+
+mod common;
+
+use common::{covered, pixel_at, small, Gpu};
+use glam::{Vec3, Vec4};
+use softshadow::render::{FrameImages, Settings};
+use softshadow::scene::{Role, Scene};
+
+/// The `cylinder` scene's geometry, from its objects and light.
+struct CylinderFrame {
+    axis: Vec3,
+    /// Horizontal direction the shadow runs (away from the light).
+    along: Vec3,
+    /// Horizontal, perpendicular to `along`.
+    across: Vec3,
+    radius: f32,
+}
+
+fn cylinder_frame(scene: &Scene) -> CylinderFrame {
+    let cyl = scene
+        .objects
+        .iter()
+        .find(|o| o.name == "cylinder")
+        .expect("cylinder object");
+    let b = cyl.world_bounds();
+    let axis = Vec3::new((b.min.x + b.max.x) * 0.5, 0.0, (b.min.z + b.max.z) * 0.5);
+    let l = scene.light.position;
+    let along = Vec3::new(axis.x - l.x, 0.0, axis.z - l.z).normalize();
+    CylinderFrame {
+        axis,
+        along,
+        across: Vec3::Y.cross(along).normalize(),
+        radius: (b.max.x - b.min.x) * 0.5,
+    }
+}
+
+fn pos(img: &FrameImages, i: usize) -> Vec3 {
+    Vec4::from(img.position[i]).truncate()
+}
+
+/// Visibility at the covered pixel nearest `p`, checking such a pixel really is near `p`.
+fn vis_at(img: &FrameImages, p: Vec3) -> f32 {
+    let i = pixel_at(img, p);
+    assert!(
+        (pos(img, i) - p).length() < 0.1,
+        "no pixel near {p} (nearest {})",
+        pos(img, i)
+    );
+    img.visibility[i]
+}
+
+/// Penumbra width (world units) on one side of the cylinder's shadow, in a strip across the
+/// shadow at distance `s` behind the axis: lateral extent of ground pixels with 0.02 < v < 0.98.
+fn penumbra_width(img: &FrameImages, f: &CylinderFrame, s: f32, side: f32) -> (f32, f32) {
+    let mut lo = f32::MAX;
+    let mut hi = f32::MIN;
+    let mut spacing = Vec::new();
+    for i in covered(img) {
+        let p = pos(img, i);
+        if p.y.abs() > 1e-3 || ((p - f.axis).dot(f.along) - s).abs() > 0.05 {
+            continue;
+        }
+        let u = (p - f.axis).dot(f.across) * side;
+        if u <= 0.0 {
+            continue;
+        }
+        let v = img.visibility[i];
+        if v > 0.02 && v < 0.98 {
+            lo = lo.min(u);
+            hi = hi.max(u);
+        }
+        if i + 1 < img.position.len() && img.position[i + 1][3] > 0.5 {
+            spacing.push((pos(img, i + 1) - p).length());
+        }
+    }
+    spacing.sort_by(f32::total_cmp);
+    let pixel = spacing.get(spacing.len() / 2).copied().unwrap_or(f32::NAN);
+    ((hi - lo).max(0.0), pixel)
+}
+
+#[test]
+fn lit_is_one_and_umbra_is_zero_for_hard_and_smoothies() {
+    let gpu = Gpu::new();
+    let scene = Scene::load("cylinder").unwrap();
+    let f = cylinder_frame(&scene);
+    for technique in ["hard", "smoothies"] {
+        let img = gpu.render("cylinder", technique, small(256, 1024));
+        // Lit: in front of the cylinder (towards the light) and well to its side.
+        for p in [
+            f.axis + f.across * 2.0,
+            f.axis + f.along * 1.0 + f.across * 1.6,
+            f.axis + f.along * 2.0 + f.across * 2.0,
+        ] {
+            let v = vis_at(&img, p);
+            assert!(v > 0.999, "{technique}: lit point {p} has visibility {v}");
+        }
+        // Umbra: on the shadow's centre line, close behind the cylinder and further out.
+        for s in [1.0, 2.0] {
+            let p = f.axis + f.along * (f.radius + s);
+            let v = vis_at(&img, p);
+            assert!(v < 0.001, "{technique}: umbra point {p} has visibility {v}");
+        }
+        for v in &img.visibility {
+            assert!(
+                v.is_finite() && (0.0..=1.0).contains(v),
+                "{technique}: visibility {v}"
+            );
+        }
+    }
+}
+
+#[test]
+fn smoothie_penumbra_grows_away_from_the_contact() {
+    let gpu = Gpu::new();
+    let scene = Scene::load("cylinder").unwrap();
+    let f = cylinder_frame(&scene);
+    let img = gpu.render("cylinder", "smoothies", small(320, 1024));
+    for side in [1.0, -1.0] {
+        let (near, pixel) = penumbra_width(&img, &f, f.radius * 0.6, side);
+        let (far, _) = penumbra_width(&img, &f, 3.2, side);
+        assert!(
+            far > 3.0 * near.max(pixel),
+            "side {side}: penumbra far from the contact ({far}) must be much wider than near it ({near}, pixel {pixel})"
+        );
+        assert!(
+            near <= 2.0 * pixel,
+            "side {side}: near the contact the penumbra is {near} wide, more than two pixels ({pixel} each)"
+        );
+    }
+    // The hard shadow has no such growth: its transition stays about one texel wide.
+    let hard = gpu.render("cylinder", "hard", small(320, 1024));
+    let (hard_far, pixel) = penumbra_width(&hard, &f, 3.2, 1.0);
+    assert!(
+        hard_far <= 3.0 * pixel,
+        "hard shadow edge is {hard_far} wide"
+    );
+}
+
+#[test]
+fn smoothies_converge_to_hard_as_t_shrinks() {
+    let gpu = Gpu::new();
+    let hard = gpu.render("cylinder", "hard", small(192, 512));
+    let cov = covered(&hard);
+    let mut last = f32::MAX;
+    for t in [0.04, 0.01, 0.002] {
+        let s = Settings {
+            smoothie_t: Some(t),
+            ..small(192, 512)
+        };
+        let img = gpu.render("cylinder", "smoothies", s);
+        let diff: f32 = cov
+            .iter()
+            .map(|&i| (img.visibility[i] - hard.visibility[i]).abs())
+            .sum::<f32>()
+            / cov.len() as f32;
+        assert!(
+            diff < last,
+            "t = {t}: mean |smoothies - hard| {diff} did not shrink (was {last})"
+        );
+        last = diff;
+    }
+    assert!(
+        last < 2e-3,
+        "t = 0.002 still differs from hard by {last} on average"
+    );
+}
+
+#[test]
+fn overlapping_penumbrae_use_minimum_blending() {
+    let gpu = Gpu::new();
+    let scene = Scene::load("overlap").unwrap();
+    let blockers: Vec<usize> = scene
+        .objects
+        .iter()
+        .enumerate()
+        .filter(|(_, o)| o.role.casts() && o.name != "ground")
+        .map(|(i, _)| i)
+        .collect();
+    assert_eq!(blockers.len(), 2, "overlap has two blockers");
+    // Fixed t: the calibrated width depends on the casters' bounds, which change below.
+    let settings = Settings {
+        smoothie_t: Some(0.03),
+        ..small(192, 512)
+    };
+    let render = |scene: Scene| gpu.render_frames(scene, "smoothies", settings.clone(), 1).0;
+    let both = render(scene.clone());
+    // The other blocker is moved under the ground: out of the light's and the camera's view.
+    let only = |keep: usize| {
+        let mut s = scene.clone();
+        for &b in &blockers {
+            if b != keep {
+                s.objects[b].transform = glam::Mat4::from_translation(Vec3::new(0.0, -50.0, 0.0))
+                    * s.objects[b].transform;
+            }
+        }
+        render(s)
+    };
+    let a = only(blockers[0]);
+    let b = only(blockers[1]);
+    let same_point = |i: usize| {
+        [&a, &b]
+            .iter()
+            .all(|o| o.position[i][3] > 0.5 && (pos(o, i) - pos(&both, i)).length() < 1e-4)
+    };
+    let mut overlap = 0;
+    let mut compared = 0;
+    for i in covered(&both).into_iter().filter(|&i| same_point(i)) {
+        compared += 1;
+        // Per texel the blend is an exact min; the 2x2 bilinear filter of mins can dip below
+        // the min of the two filtered images where the darker blocker switches, so the bound
+        // is the darker image's darkest value over the pixel's 3x3 neighbourhood. Additive or
+        // multiplicative compositing (0.25 where two half-shadows overlap) fails it.
+        let w = both.width as usize;
+        let darker = [
+            i.saturating_sub(w + 1),
+            i.saturating_sub(w),
+            i.saturating_sub(w - 1),
+            i - 1,
+            i,
+            i + 1,
+            i + w - 1,
+            i + w,
+            i + w + 1,
+        ]
+        .into_iter()
+        .filter(|&j| j < both.visibility.len())
+        .map(|j| a.visibility[j].min(b.visibility[j]))
+        .fold(f32::MAX, f32::min);
+        assert!(
+            both.visibility[i] >= darker - 0.01,
+            "pixel {i}: {} is darker than both single-blocker images ({darker})",
+            both.visibility[i]
+        );
+        if a.visibility[i] < 0.98 && b.visibility[i] < 0.98 && a.visibility[i] > 0.02 {
+            overlap += 1;
+        }
+    }
+    assert!(compared > 1000, "only {compared} pixels comparable");
+    assert!(
+        overlap > 20,
+        "the two penumbrae should overlap somewhere ({overlap} pixels)"
+    );
+}
+
+#[test]
+fn smoothie_pass_writes_depth_and_alpha() {
+    let gpu = Gpu::new();
+    let scene = Scene::load("cylinder").unwrap();
+    let mut r =
+        softshadow::render::Renderer::new(&gpu.ctx, scene, "smoothies", small(128, 256)).unwrap();
+    r.render().unwrap();
+    let depth = r
+        .read_technique_buffer("smoothie_depth")
+        .unwrap()
+        .channels
+        .remove(0);
+    let alpha = r
+        .read_technique_buffer("smoothie_alpha")
+        .unwrap()
+        .channels
+        .remove(0);
+    // Channel 1: the nearest surface of any role, the receiver the smoothie shadows.
+    let shadow = r
+        .read_technique_buffer("shadow_map")
+        .unwrap()
+        .channels
+        .remove(1);
+    let far = softshadow::render::passes::FAR_DEPTH;
+    let near_count = depth.iter().filter(|&&d| d < far * 0.5).count();
+    assert!(
+        near_count > 100,
+        "smoothie depth written at only {near_count} texels"
+    );
+    assert!(
+        depth.iter().any(|&d| d >= far * 0.5),
+        "smoothie depth covers everything"
+    );
+    let dark = alpha.iter().filter(|&&a| a < 0.5).count();
+    assert!(dark > 50, "smoothie alpha below 0.5 at only {dark} texels");
+    assert!(
+        alpha.iter().any(|&a| a >= 1.0),
+        "smoothie alpha is nowhere 1"
+    );
+    assert!(alpha
+        .iter()
+        .all(|a| a.is_finite() && (0.0..=1.0).contains(a)));
+    // A smoothie lies at its blocker's depth: never behind the receiver it shadows.
+    for (i, &d) in depth.iter().enumerate() {
+        if d < far * 0.5 {
+            assert!(
+                d <= shadow[i] * 1.0001,
+                "texel {i}: smoothie depth {d} behind receiver {}",
+                shadow[i]
+            );
+        }
+    }
+}
+
+#[test]
+fn every_pass_of_every_technique_has_a_positive_duration() {
+    let gpu = Gpu::new();
+    for info in softshadow::technique::TECHNIQUES {
+        if info.name == "reference" {
+            continue; // CPU ray casting; its GPU passes are covered by its own tests.
+        }
+        let scene = Scene::load("cylinder").unwrap();
+        let (_, timings) = gpu.render_frames(scene, info.name, small(96, 256), 2);
+        let last = timings.last().unwrap();
+        assert!(!last.passes.is_empty(), "{}: no passes", info.name);
+        for p in &last.passes {
+            match (p.gpu_ms, &p.skipped) {
+                (Some(ms), None) => {
+                    assert!(ms > 0.0, "{}: pass {} took {ms} ms", info.name, p.name)
+                }
+                (None, Some(_)) => {}
+                _ => panic!(
+                    "{}: pass {} has neither a time nor a skip reason",
+                    info.name, p.name
+                ),
+            }
+            assert!(
+                p.name.starts_with(info.name),
+                "pass {} is not named {}/...",
+                p.name,
+                info.name
+            );
+        }
+    }
+}
+
+#[test]
+fn zero_light_radius_gives_the_hard_result() {
+    let gpu = Gpu::new();
+    let s = Settings {
+        light_radius: Some(0.0),
+        ..small(128, 512)
+    };
+    let hard = gpu.render("boxes", "hard", s.clone());
+    let smooth = gpu.render("boxes", "smoothies", s);
+    // Away from the one-texel filtered edge (where the falloff curve reshapes the ramp).
+    for i in covered(&hard)
+        .into_iter()
+        .filter(|&i| hard.visibility[i] == 0.0 || hard.visibility[i] == 1.0)
+    {
+        assert!(
+            (hard.visibility[i] - smooth.visibility[i]).abs() < 1e-6,
+            "pixel {i}: hard {} vs smoothies {}",
+            hard.visibility[i],
+            smooth.visibility[i]
+        );
+    }
+}

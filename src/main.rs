@@ -58,6 +58,12 @@ struct RenderArgs {
     /// Smoothie width t as a fraction of the shadow map (default: calibrated from R).
     #[arg(long, allow_negative_numbers = true)]
     smoothie_t: Option<f32>,
+    /// Normal offset of shadow lookups, in shadow-map texels.
+    #[arg(long, default_value_t = 2.0)]
+    normal_offset: f32,
+    /// Relative depth bias of shadow comparisons (fraction of the depth).
+    #[arg(long, default_value_t = 5e-4)]
+    depth_bias: f32,
     /// PCF kernel: boxN (N odd) or poissonN.
     #[arg(long, default_value = "box3")]
     pcf_kernel: softshadow::render::PcfKernel,
@@ -67,6 +73,9 @@ struct RenderArgs {
     /// Soft shadow map accumulation format: r32f or r16f.
     #[arg(long, default_value = "r32f")]
     accum_format: softshadow::render::AccumFormat,
+    /// Shadow rays per pixel of the `reference` technique (at least 256).
+    #[arg(long, default_value_t = 256)]
+    reference_samples: u32,
     #[arg(long, default_value = "softshadow.png")]
     out: PathBuf,
     /// Write visibility.exr, position.exr and normal.exr into this folder.
@@ -201,6 +210,11 @@ fn run(cli: Cli) -> Result<()> {
 fn render(cli: &Cli, a: &RenderArgs) -> Result<()> {
     // Everything that can be checked without a device is checked first.
     softshadow::technique::find(&a.technique)?;
+    Settings {
+        reference_samples: a.reference_samples,
+        ..Settings::default()
+    }
+    .check_reference_samples()?;
     let scene = Scene::load(&a.scene)?;
     check_writable(&a.out)?;
     let ctx = open_device(cli)?;
@@ -217,8 +231,11 @@ fn render(cli: &Cli, a: &RenderArgs) -> Result<()> {
         light_radius: a.light_radius,
         smoothie_t: a.smoothie_t,
         pcf_kernel: a.pcf_kernel,
+        normal_offset_texels: a.normal_offset,
+        depth_bias: a.depth_bias,
         occluder_res: a.occluder_res,
         accum_format: a.accum_format,
+        reference_samples: a.reference_samples,
         ..Settings::default()
     };
     let mut r = Renderer::new(&ctx, scene, &a.technique, settings)?;

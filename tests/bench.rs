@@ -53,7 +53,7 @@ fn tiny_sweep_writes_every_output_and_each_parses() {
         "--warmup",
         "1",
         "--samples",
-        "16",
+        "256",
         "--out",
         out.to_str().unwrap(),
     ]);
@@ -185,6 +185,8 @@ fn tiny_sweep_writes_every_output_and_each_parses() {
             );
         }
     }
+    let scale = decode_png(&out.join("images/error_scale.png"));
+    assert!(scale.width() > scale.height());
     let leftovers: Vec<_> = std::fs::read_dir(&out)
         .unwrap()
         .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
@@ -234,7 +236,8 @@ fn bad_input_is_one_line_and_leaves_nothing() {
     };
     run(&["--techniques", "hard,nope"], "unknown technique 'nope'");
     run(&["--scenes", "cylinder,nowhere"], "unknown scene 'nowhere'");
-    run(&["--samples", "0"], "--samples 0");
+    run(&["--samples", "0"], "--samples 0 is out of range");
+    run(&["--samples", "255"], "--samples 255 is out of range");
     run(&["--frames", "0"], "--frames 0");
     run(&["--radii", "-1"], "--radii");
     run(&["--smoothie-t", "0"], "--smoothie-t 0");
@@ -256,11 +259,11 @@ fn bad_input_is_one_line_and_leaves_nothing() {
     std::fs::write(&file, b"not a folder").unwrap();
     let under = file.join("out");
     assert_clean_failure(
-        &["bench", "--out", under.to_str().unwrap(), "--samples", "4"],
+        &["bench", "--out", under.to_str().unwrap(), "--samples", "256"],
         &under,
         "cannot create output folder",
     );
-    let o = softshadow(&["bench", "--out", file.to_str().unwrap(), "--samples", "4"]);
+    let o = softshadow(&["bench", "--out", file.to_str().unwrap(), "--samples", "256"]);
     assert!(!o.status.success());
     assert!(
         text(&o.stderr).contains("is not a folder"),
@@ -427,7 +430,7 @@ fn moving_sweeps_are_timed_moving_and_measured_at_rest() {
         height: 64,
         frames: 3,
         warmup: 1,
-        samples: 4,
+        samples: 256,
         motions: vec![Motion::Static, Motion::Light, Motion::Object, Motion::Camera],
         out: out.clone(),
         progress: false,

@@ -184,6 +184,8 @@ fn soft_shadow_map(gpu: &Gpu, name: &str, occluder_res: u32, fmt: AccumFormat, r
     renderer
         .read_technique_buffer("soft_shadow_pure")
         .unwrap_or_else(|e| panic!("{e:#}"))
+        .channels
+        .remove(0)
 }
 
 /// Appendix A, Eq. 4: with FP16 blending, micro-patches that hide less than 2^-10 of the

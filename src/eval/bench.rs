@@ -60,10 +60,10 @@ pub const DEFAULT_SMOOTHIE_T: f32 = 0.02;
 pub const DEFAULT_FRAMES: u32 = 5;
 pub const DEFAULT_WARMUP: u32 = 2;
 /// DESIGN.md: the reference uses at least 256 samples per pixel.
-pub const DEFAULT_SAMPLES: u32 = 256;
-pub const DEFAULT_SEED: u64 = 1;
-/// |v - v_ref| shown at full colour in the error images.
-pub const ERROR_SCALE: f32 = 0.5;
+pub const DEFAULT_SAMPLES: u32 = reference::MIN_SAMPLES;
+pub const DEFAULT_SEED: u64 = reference::DEFAULT_SEED;
+/// |v - v_ref| shown at full colour (red) in the error images.
+pub const ERROR_SCALE: f32 = 0.25;
 /// The technique every ratio is taken against.
 pub const BASELINE: &str = "hard";
 
@@ -366,8 +366,14 @@ fn nonempty<T>(v: &[T], flag: &str) -> Result<()> {
 /// Checks everything that can be checked without a device and prepares the output folder.
 pub fn prepare(config: BenchConfig) -> Result<Plan> {
     let c = &config;
-    if c.samples == 0 {
-        bail!("--samples 0 is out of range: the reference needs at least 1 sample per pixel (256 or more for DESIGN.md's ground truth)");
+    if !(reference::MIN_SAMPLES..=reference::MAX_SAMPLES).contains(&c.samples) {
+        bail!(
+            "--samples {} is out of range: allowed {}..={} reference samples per pixel (DESIGN.md asks for at least {})",
+            c.samples,
+            reference::MIN_SAMPLES,
+            reference::MAX_SAMPLES,
+            reference::MIN_SAMPLES
+        );
     }
     if c.frames == 0 {
         bail!("--frames 0 is out of range: time at least 1 frame");
@@ -810,13 +816,6 @@ pub fn run(ctx: &Context, plan: Plan) -> Result<Outcome> {
     if plan.variants.iter().any(|v| v.technique == "smoothies") {
         notes.push("`smoothies` calibrates its width t from the light radius; `smoothies t=...` uses the paper's fixed screen-space width (fraction of the shadow map).".into());
     }
-    if cfg.samples < DEFAULT_SAMPLES {
-        notes.push(format!(
-            "The reference used {} samples per pixel, fewer than DESIGN.md's 256: errors below about {:.3} are noise.",
-            cfg.samples,
-            1.0 / (cfg.samples as f64).sqrt()
-        ));
-    }
     if plan.config.motions.iter().any(|m| *m != Motion::Static) {
         notes.push("Moving sweeps time the frames while moving; their errors are measured on the scene at rest.".into());
     }
@@ -841,11 +840,13 @@ pub fn run(ctx: &Context, plan: Plan) -> Result<Outcome> {
     report::write_json(&st.path("results.json"), &results)?;
     plot::time_vs_error(&st.path("time_vs_error.png"), &results)?;
     report::write_markdown(&st.path("report.md"), &results)?;
+    write_error_scale(&st.path(ERROR_SCALE_IMAGE))?;
     for f in [
         "results.csv",
         "results.json",
         "time_vs_error.png",
         "report.md",
+        ERROR_SCALE_IMAGE,
     ] {
         files.push(f.into());
     }
@@ -960,6 +961,18 @@ fn set_ratios(records: &mut [Record]) {
             .filter(|&&h| h > 0.0)
             .map(|h| r.frame_ms.median / h);
     }
+}
+
+/// The colour bar of the error images: |v - v_ref| from 0 (left) to `ERROR_SCALE` (right).
+pub const ERROR_SCALE_IMAGE: &str = "images/error_scale.png";
+
+fn write_error_scale(path: &Path) -> Result<()> {
+    let (w, h) = (256u32, 16u32);
+    let img = image::RgbaImage::from_fn(w, h, |x, _| {
+        image::Rgba(metrics::error_color(ERROR_SCALE * x as f32 / (w - 1) as f32, ERROR_SCALE))
+    });
+    img.save_with_format(path, image::ImageFormat::Png)
+        .with_context(|| format!("writing {}", path.display()))
 }
 
 fn write_rgba(path: &Path, frame: &FrameImages, pixels: &[[u8; 4]]) -> Result<()> {

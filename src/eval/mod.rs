@@ -1,6 +1,10 @@
-//! THROW-AWAY STUB of the `reference` branch's eval module (replaced when it lands):
-//! ground-truth visibility, error metrics, and the bench.
+//! Evaluation: the exact ground truth (`reference`: ray-cast visibility of the spherical
+//! light at the camera pixels' surface points), an independent GPU estimate of it
+//! (`accumulate`: Heckbert & Herf's average of hard shadows), and the error metrics of
+//! DESIGN.md (`metrics`); the `softshadow bench` sweep (`bench`) with its report (`report`),
+//! plot (`plot`) and SPIR-V cost table (`spirv`).
 
+pub mod accumulate;
 pub mod metrics;
 pub mod reference;
 

@@ -2,7 +2,7 @@
 //! (everything, per pass), and `report.md` (a table per scene, the images, the SPIR-V cost
 //! table; written to be pasted into BENCHMARKS.md). Every one names the device and driver.
 
-use super::bench::{Motion, Record, Results, BASELINE};
+use super::bench::{Motion, Record, Results, BASELINE, ERROR_SCALE_IMAGE};
 use super::spirv::{Counts, ShaderCost};
 use anyhow::{Context as _, Result};
 use serde::Serialize;
@@ -271,7 +271,7 @@ pub fn markdown(res: &Results<'_>) -> String {
                 .collect();
             let _ = writeln!(
                 s,
-                "\nImages at buffer {res_max}, R {}: the rendered image and |v − v_ref| (black: 0 or background, full colour: {}; every sweep point's pair is in `images/`). Reference visibility: ![reference]({})\n",
+                "\nImages at buffer {res_max}, R {}: the rendered image and |v − v_ref| ![colour scale]({ERROR_SCALE_IMAGE}) black 0, blue, cyan, green, yellow, red at {} and above; grey: background (every sweep point's pair is in `images/`). Reference visibility: ![reference]({})\n",
                 radius_cell(first),
                 res.error_image_scale,
                 first.reference_image

@@ -35,6 +35,7 @@ use rayon::prelude::*;
 use std::collections::HashMap;
 use std::hash::{BuildHasherDefault, Hasher};
 
+pub mod penumbra;
 pub mod smoothie;
 
 pub use smoothie::{build_smoothies, SmoothieGeometry, SmoothieVertex};

@@ -4,6 +4,9 @@
 pub mod hard;
 pub mod pcf;
 pub mod pcss;
+pub mod penumbra_map;
+pub mod plateaus;
+pub mod reference;
 pub mod smoothies;
 pub mod ssm;
 
@@ -73,8 +76,11 @@ pub const TECHNIQUES: &[TechniqueInfo] = &[
     pcf::INFO,
     pcss::INFO,
     smoothies::INFO,
+    penumbra_map::INFO,
+    plateaus::INFO,
     ssm::INFO,
     ssm::INFO2,
+    reference::INFO,
 ];
 
 pub fn names() -> Vec<&'static str> {

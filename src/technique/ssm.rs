@@ -42,8 +42,8 @@
 //!
 //! ## Passes, in order (`ssm2` names its passes `ssm2/...`)
 //! 1. `ssm/occluder_map` — casters from the light, front (nearest) surfaces
-//!    (`render::passes::ShadowMap`): R32_SFLOAT linear depth, clear FAR_DEPTH (1e30), no
-//!    blend, + D32_SFLOAT clear 1.0, LESS. Shaders `glsl/common/shadow_depth.{vert,frag}`.
+//!    (`render::passes::ShadowMap`): R32G32_SFLOAT, clear FAR_DEPTH (1e30), blend MIN; the
+//!    r channel (nearest caster) is the occluder map. Shaders `glsl/common/shadow_depth.*`.
 //! 2. `ssm2/back_occluder_map` (ssm2 only) — the same, farthest surfaces: R32_SFLOAT clear
 //!    FAR_DEPTH, no blend, + D32_SFLOAT clear **0.0**, compare **GREATER**, no culling.
 //! 3. `ssm/receiver_map` — receiving objects from the light, two R32_SFLOAT attachments

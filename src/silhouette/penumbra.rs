@@ -1,0 +1,462 @@
+//! CPU penumbra-map geometry (Wyman & Hansen 2003, Sec. 3, Fig. 4): a cone at every
+//! silhouette vertex and a sheet along every silhouette edge, in world space, emitted as one
+//! triangle list of [`PenumbraVertex`] that the penumbra pass draws from the light.
+//!
+//! # Spaces
+//! Built in the light's view space (light centre at the origin, looking down -z, x right and
+//! y up like light-screen uv), then moved to world space. The light is a disc of radius
+//! `Lr` centred on the origin in the plane z = 0 (perpendicular to the view axis, the
+//! paper's spherical light seen from the receivers). `Z` is linear light depth (-z).
+//!
+//! # Cones (paper, Sec. 3 third bullet)
+//! The lines from the light disc through silhouette vertex v (depth Zv) form a cone with its
+//! tip at v; at depth Z its cross-section is a disc of radius (Z - Zv) Lr / Zv centred on the
+//! light ray through v. At the base depth `z_far` that is the paper's C_r = (Z_far - Zv) Lr / Zv.
+//! Each cone is [`CONE_SEGMENTS`] triangles (tip, two base vertices). The base polygon is
+//! circumscribed (vertices at C_r / cos(pi / segments)) so the faceted cone contains the
+//! round one and leaves no lit notch next to a sheet; the price is up to 2 % too dark.
+//! Exactly one cone per distinct silhouette vertex, whatever its number of silhouette edges
+//! (1 at the end of an open chain, 3 or more at the paper's "pathological" vertices).
+//!
+//! # Sheets (paper, Sec. 3 fourth bullet)
+//! The sheet of edge a -> b is the plane through the edge that is tangent to the light disc on
+//! the side opposite the outside (Akenine-Moller & Assarsson's outer wedge plane). It touches
+//! both cones along a line, so at the base depth it meets the base discs along their common
+//! external tangent: with centres ca, cb, radii ra, rb, u = (cb - ca) / |cb - ca| and w the
+//! outward (right, see `SilhouetteEdge`) perpendicular of u, the tangent normal is
+//! n = alpha u + sqrt(1 - alpha^2) w with alpha = (ra - rb) / |cb - ca|, and the sheet is the
+//! quad (a, b, cb + rb n, ca + ra n) as triangles (a, b, tb) and (a, tb, ta). The paper
+//! offsets perpendicular to the edge, which makes the quad non-planar when ra != rb and
+//! needs subdivision; the exact tangent quad is planar by construction (all four corners
+//! and the disc's tangent point T = -Lr n lie in one plane), so it is never subdivided. When
+//! one base disc contains the other (|alpha| >= 1: the edge points almost at the light) the
+//! bigger cone covers the sheet's place and no sheet is emitted.
+//!
+//! # Zv per fragment (Eq. 1's Z_vi)
+//! Every vertex carries `zv_h = (Zv * k, k)` and the shader uses Zv = x / y after
+//! perspective-correct interpolation. Cone vertices have k = 1 (Zv constant). On a sheet the
+//! tips have k = 1 and the base corners k = z_far / Zv of their cone: a sheet point P lies on
+//! the line from T through the edge point e, and P = T + k (e - T) with k affine in P, so
+//! the ratio of the two interpolated (world-affine) attributes is exactly depth(e). The
+//! paper interpolates Zv linearly, which is exact only along the edge itself.
+//!
+//! # Robustness
+//! A vertex at linear depth <= near (behind or too close to the light) or >= z_far gets no
+//! cone and its edges no sheet (counted in `skipped_vertices` / `skipped_edges`); so does an
+//! edge whose base centres coincide. No emitted value is NaN or infinite. Windings are
+//! mixed: draw with culling off.
+
+use super::{Adjacency, SilhouetteEdge};
+use crate::scene::LightView;
+use glam::{Mat4, Vec2, Vec3};
+use rayon::prelude::*;
+
+/// One penumbra-geometry vertex; the GPU vertex layout (20 bytes, tightly packed f32s).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct PenumbraVertex {
+    /// World position.
+    pub position: [f32; 3],
+    /// (Zv * k, k): Zv of the silhouette point this vertex belongs to, homogeneous (see the
+    /// module doc); the shader interpolates both perspective-correctly and divides.
+    pub zv_h: [f32; 2],
+}
+
+/// Cones and sheets of one object for one light.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct PenumbraGeometry {
+    /// Triangle list: `3 * cone_triangles` cone vertices, then `6 * sheets`.
+    pub vertices: Vec<PenumbraVertex>,
+    pub cones: usize,
+    /// Triangles of all (partial) cones.
+    pub cone_triangles: usize,
+    pub sheets: usize,
+    /// Silhouette vertices with one, or three and more, silhouette edges (still one cone each).
+    pub special_vertices: usize,
+    /// Silhouette vertices at or behind the near plane, or beyond `z_far`: no cone.
+    pub skipped_vertices: usize,
+    /// Edges without a sheet: a skipped end, coincident base centres or one cone inside the other.
+    pub skipped_edges: usize,
+}
+
+/// Triangles per cone: 16 keeps the circumscribed polygon within 2 % of the round cone.
+pub const CONE_SEGMENTS: usize = 16;
+
+/// One silhouette vertex in light view space.
+#[derive(Clone, Copy)]
+struct ConeData {
+    world: Vec3,
+    /// Linear depth Zv.
+    zv: f32,
+    /// Base disc centre (xy at depth z_far) and radius.
+    centre: Vec2,
+    radius: f32,
+}
+
+fn cone_data(p_world: Vec3, light: &LightView, lr: f32, z_far: f32) -> Option<ConeData> {
+    let pv = light.view.transform_point3(p_world);
+    let zv = -pv.z;
+    if !(zv > light.near && zv < z_far && pv.is_finite()) {
+        return None;
+    }
+    let k = z_far / zv;
+    let centre = pv.truncate() * k;
+    let radius = (z_far - zv) * lr / zv;
+    (centre.is_finite() && radius.is_finite()).then_some(ConeData {
+        world: p_world,
+        zv,
+        centre,
+        radius,
+    })
+}
+
+/// Cone triangles around `c` over base angles `from .. from + sweep` (radians, signed; TAU
+/// for the whole cone), in segments of at most TAU / CONE_SEGMENTS. Returns the triangle count.
+fn emit_cone(
+    out: &mut Vec<PenumbraVertex>,
+    c: &ConeData,
+    view_inv: Mat4,
+    z_far: f32,
+    from: f32,
+    sweep: f32,
+) -> usize {
+    let max_step = std::f32::consts::TAU / CONE_SEGMENTS as f32;
+    let k = ((sweep.abs() / max_step).ceil() as usize).clamp(1, CONE_SEGMENTS);
+    let step = sweep / k as f32;
+    // Circumscribed: the polygon's edges touch the round base circle.
+    let r = c.radius / (step * 0.5).cos();
+    let zv_h = [c.zv, 1.0];
+    let base = |i: usize| {
+        let p = c.centre + r * Vec2::from_angle(from + step * i as f32);
+        PenumbraVertex {
+            position: view_inv.transform_point3(p.extend(-z_far)).to_array(),
+            zv_h,
+        }
+    };
+    let tip = PenumbraVertex {
+        position: c.world.to_array(),
+        zv_h,
+    };
+    for i in 0..k {
+        out.extend_from_slice(&[tip, base(i), base(i + 1)]);
+    }
+    k
+}
+
+/// A sheet: its two triangles and its tangent normal n in the base plane.
+struct SheetOut {
+    verts: [PenumbraVertex; 6],
+    n: Vec2,
+}
+
+/// The sheet quad of edge a -> b as two triangles, or None (see the module doc).
+fn sheet(a: &ConeData, b: &ConeData, view_inv: Mat4, z_far: f32) -> Option<SheetOut> {
+    let along = b.centre - a.centre;
+    let d = along.length();
+    if d.is_nan() || d <= 1e-7 * z_far {
+        return None;
+    }
+    let u = along / d;
+    // Right of a -> b in light uv: the outside of the silhouette (`SilhouetteEdge`).
+    let w = Vec2::new(u.y, -u.x);
+    let alpha = (a.radius - b.radius) / d;
+    if alpha.abs() >= 1.0 - 1e-6 {
+        return None;
+    }
+    let n = alpha * u + (1.0 - alpha * alpha).sqrt() * w;
+    let base = |c: &ConeData| PenumbraVertex {
+        position: view_inv
+            .transform_point3((c.centre + c.radius * n).extend(-z_far))
+            .to_array(),
+        // k = z_far / Zv: (Zv * k, k) = (z_far, k).
+        zv_h: [z_far, z_far / c.zv],
+    };
+    let tip = |c: &ConeData| PenumbraVertex {
+        position: c.world.to_array(),
+        zv_h: [c.zv, 1.0],
+    };
+    let (ta, tb) = (base(a), base(b));
+    Some(SheetOut {
+        verts: [tip(a), tip(b), tb, tip(a), tb, ta],
+        n,
+    })
+}
+
+/// The part of a vertex's cone to draw: `(from, sweep)` in base-plane angles.
+fn cone_arc(normals: &[Vec2]) -> (f32, f32) {
+    let full = (0.0, std::f32::consts::TAU);
+    let [n1, n2] = normals else {
+        return full;
+    };
+    let sweep = n1.angle_to(*n2);
+    // Hairpin: which side is outside is ambiguous; draw the whole cone.
+    if !sweep.is_finite() || sweep.abs() > std::f32::consts::PI - HAIRPIN {
+        return full;
+    }
+    (n1.to_angle(), sweep)
+}
+
+/// Within this angle (1 degree) of a half turn, two sheet normals form a hairpin.
+const HAIRPIN: f32 = std::f32::consts::PI / 180.0;
+
+/// Cones and sheets of one object (`model`: object -> world) for `light` with disc radius
+/// `light_radius`, from its silhouette `sil` (as returned by `extract`); cone bases lie at
+/// linear depth `z_far`, which must be beyond every receiver. Parallel over vertices and
+/// edges; the output order is deterministic.
+pub fn build_penumbra(
+    adj: &Adjacency,
+    sil: &[SilhouetteEdge],
+    model: Mat4,
+    light: &LightView,
+    light_radius: f32,
+    z_far: f32,
+) -> PenumbraGeometry {
+    let mut geo = PenumbraGeometry::default();
+    let view_inv = light.view.inverse();
+    // Distinct silhouette vertices with their number of silhouette edges.
+    let mut ends: Vec<u32> = sil.iter().flat_map(|e| [e.a, e.b]).collect();
+    ends.sort_unstable();
+    let groups: Vec<(u32, usize)> = ends
+        .chunk_by(|x, y| x == y)
+        .map(|g| (g[0], g.len()))
+        .collect();
+    geo.special_vertices = groups.iter().filter(|g| g.1 != 2).count();
+    let cones: Vec<Option<ConeData>> = groups
+        .par_iter()
+        .with_min_len(256)
+        .map(|&(v, _)| {
+            let p = model.transform_point3(adj.positions[v as usize]);
+            cone_data(p, light, light_radius, z_far)
+        })
+        .collect();
+    let index_of = |v: u32| groups.binary_search_by_key(&v, |g| g.0).ok();
+    let cone_of = |v: u32| index_of(v).and_then(|i| cones[i].as_ref());
+    let sheets: Vec<Option<SheetOut>> = sil
+        .par_iter()
+        .with_min_len(256)
+        .map(|e| sheet(cone_of(e.a)?, cone_of(e.b)?, view_inv, z_far))
+        .collect();
+    // Per vertex, the tangent normals of its sheets, in silhouette order.
+    let mut normals: Vec<Vec<Vec2>> = vec![Vec::new(); groups.len()];
+    for (e, s) in sil.iter().zip(&sheets) {
+        for v in [e.a, e.b] {
+            if let (Some(i), Some(s)) = (index_of(v), s) {
+                normals[i].push(s.n);
+            }
+        }
+    }
+    let cone_verts: Vec<(Vec<PenumbraVertex>, usize)> = cones
+        .par_iter()
+        .zip(&normals)
+        .with_min_len(256)
+        .map(|(c, ns)| {
+            let mut out = Vec::new();
+            let mut tris = 0;
+            if let Some(c) = c {
+                let (from, sweep) = cone_arc(ns);
+                tris = emit_cone(&mut out, c, view_inv, z_far, from, sweep);
+            }
+            (out, tris)
+        })
+        .collect();
+    for (c, (verts, tris)) in cones.iter().zip(&cone_verts) {
+        match c {
+            Some(_) => {
+                geo.cones += 1;
+                geo.cone_triangles += tris;
+                geo.vertices.extend_from_slice(verts);
+            }
+            None => geo.skipped_vertices += 1,
+        }
+    }
+    for s in sheets {
+        match s {
+            Some(q) => {
+                geo.sheets += 1;
+                geo.vertices.extend_from_slice(&q.verts);
+            }
+            None => geo.skipped_edges += 1,
+        }
+    }
+    geo
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::test_meshes::{bowtie, cube};
+    use super::super::{extract, Adjacency};
+    use super::*;
+    use crate::scene::Light;
+
+    fn light_at(position: Vec3, target: Vec3) -> LightView {
+        LightView::new(
+            &Light {
+                position,
+                target,
+                fov_deg: 60.0,
+                radius: 0.2,
+            },
+            0.1,
+            50.0,
+        )
+    }
+
+    fn all_finite(g: &PenumbraGeometry) -> bool {
+        g.vertices
+            .iter()
+            .all(|v| v.position.iter().chain(&v.zv_h).all(|x| x.is_finite()))
+    }
+
+    fn check_counts(g: &PenumbraGeometry) {
+        assert_eq!(g.vertices.len(), 3 * g.cone_triangles + 6 * g.sheets);
+    }
+
+    #[test]
+    fn vertex_is_20_bytes() {
+        assert_eq!(std::mem::size_of::<PenumbraVertex>(), 20);
+    }
+
+    #[test]
+    fn cube_cones_and_planar_tangent_sheets() {
+        let adj = Adjacency::build(&cube()).unwrap();
+        let model = Mat4::from_translation(Vec3::new(0.0, 1.0, 0.0));
+        let lv = light_at(Vec3::new(3.0, 4.5, 2.2), Vec3::new(0.0, 1.0, 0.0));
+        let sil = extract(&adj, model, lv.position);
+        assert_eq!(sil.len(), 6);
+        let (lr, z_far) = (0.3, 20.0);
+        let g = build_penumbra(&adj, &sil, model, &lv, lr, z_far);
+        assert!(all_finite(&g));
+        check_counts(&g);
+        assert_eq!((g.cones, g.sheets, g.special_vertices), (6, 6, 0));
+        let (c, _) = lv.project(Vec3::new(0.0, 1.0, 0.0));
+        let to_view = |p: [f32; 3]| lv.view.transform_point3(Vec3::from(p));
+        // Cones: the tip at the vertex, the base at z_far between C_r and C_r / cos(pi / N)
+        // from the centre. A convex loop's corners only need the arcs between adjacent
+        // sheets: about one full turn over the whole loop, not 6.
+        assert!(g.cone_triangles < 2 * CONE_SEGMENTS, "{}", g.cone_triangles);
+        for tri in g.vertices[..3 * g.cone_triangles].chunks_exact(3) {
+            let tip = to_view(tri[0].position);
+            let zv = -tip.z;
+            assert!((tri[0].zv_h[0] - zv).abs() < 1e-4 && tri[0].zv_h[1] == 1.0);
+            let centre = tip.truncate() * (z_far / zv);
+            let cr = (z_far - zv) * lr / zv;
+            for v in &tri[1..] {
+                let p = to_view(v.position);
+                assert!((p.z + z_far).abs() < 1e-3);
+                let r = (p.truncate() - centre).length();
+                let most = cr / (std::f32::consts::PI / CONE_SEGMENTS as f32).cos();
+                assert!(r > cr - 1e-3 && r < most + 1e-3, "{r} vs {cr}..{most}");
+            }
+        }
+        // Sheets: planar, tangent to both base circles, on the outside (away from the centre).
+        for q in g.vertices[3 * g.cone_triangles..].chunks_exact(6) {
+            let [a, b, tb, _, _, ta] = [0, 1, 2, 3, 4, 5].map(|i| to_view(q[i].position));
+            let n = (b - a).cross(tb - a).normalize();
+            assert!(n.dot(ta - a).abs() < 1e-4 * (ta - a).length(), "planar");
+            // ta = ca + ra n_base: the plane also holds the light disc's rim point T = -Lr n_base.
+            let nb = (ta.truncate() - a.truncate() * (z_far / -a.z)).normalize();
+            let t = (-lr * nb).extend(0.0);
+            assert!(n.dot(t - a).abs() < 1e-3, "tangent to the light disc");
+            // n_base points away from the cube's projected centre.
+            let (sa, _) = lv.project(view_to_world(&lv, a));
+            let (sb, _) = lv.project(view_to_world(&lv, b));
+            assert!(nb.dot((sa + sb) * 0.5 - c) > 0.0, "outside");
+            // zv_h: exact Zv at every corner.
+            assert!((q[5].zv_h[0] / q[5].zv_h[1] - (-a.z)).abs() < 1e-3);
+            assert!((q[2].zv_h[0] / q[2].zv_h[1] - (-b.z)).abs() < 1e-3);
+        }
+    }
+
+    fn view_to_world(lv: &LightView, p: Vec3) -> Vec3 {
+        lv.view.inverse().transform_point3(p)
+    }
+
+    #[test]
+    fn sheet_zv_interpolation_is_exact() {
+        // Any point of a sheet triangle, with world-barycentric weights (what perspective-
+        // correct interpolation gives), must get the depth of the edge point its ruling
+        // line from T passes through.
+        let adj = Adjacency::build(&cube()).unwrap();
+        let model = Mat4::from_rotation_y(0.4) * Mat4::from_translation(Vec3::new(0.0, 1.0, 0.0));
+        let lv = light_at(Vec3::new(2.0, 5.0, 3.0), Vec3::ZERO);
+        let sil = extract(&adj, model, lv.position);
+        let (lr, z_far) = (0.5, 15.0);
+        let g = build_penumbra(&adj, &sil, model, &lv, lr, z_far);
+        assert!(g.sheets > 0);
+        for q in g.vertices[3 * g.cone_triangles..].chunks_exact(6) {
+            let w = [0.2f32, 0.3, 0.5];
+            let tri = &q[..3];
+            let p: Vec3 = tri
+                .iter()
+                .zip(w)
+                .map(|(v, w)| Vec3::from(v.position) * w)
+                .sum();
+            let num: f32 = tri.iter().zip(w).map(|(v, w)| v.zv_h[0] * w).sum();
+            let den: f32 = tri.iter().zip(w).map(|(v, w)| v.zv_h[1] * w).sum();
+            let (a, b, tb) = (
+                lv.view.transform_point3(Vec3::from(tri[0].position)),
+                lv.view.transform_point3(Vec3::from(tri[1].position)),
+                lv.view.transform_point3(Vec3::from(tri[2].position)),
+            );
+            // T from tb = T + kb (b - T): T = (tb - kb b) / (1 - kb).
+            let kb = tri[2].zv_h[1];
+            let t = (tb - kb * b) / (1.0 - kb);
+            assert!(t.z.abs() < 1e-3, "T lies on the light disc plane");
+            assert!(
+                (t.truncate().length() - lr).abs() < 1e-3,
+                "T is on the disc rim"
+            );
+            // Intersect the line T -> P with the edge line a -> b (closest point).
+            let pv = lv.view.transform_point3(p);
+            let (d1, d2) = (pv - t, b - a);
+            let r = a - t;
+            let (aa, bb, cc, dd, ee) = (d1.dot(d1), d1.dot(d2), d2.dot(d2), d1.dot(r), d2.dot(r));
+            let s = (aa * ee - bb * dd) / (bb * bb - aa * cc);
+            let e = a + s * d2;
+            assert!(
+                (num / den - (-e.z)).abs() < 1e-3 * (-e.z),
+                "{} vs {}",
+                num / den,
+                -e.z
+            );
+        }
+    }
+
+    #[test]
+    fn bowtie_special_vertex_gets_one_cone() {
+        let adj = Adjacency::build(&bowtie()).unwrap();
+        let lv = light_at(Vec3::new(0.0, 0.0, 10.0), Vec3::ZERO);
+        let sil = extract(&adj, Mat4::IDENTITY, lv.position);
+        let g = build_penumbra(&adj, &sil, Mat4::IDENTITY, &lv, 0.3, 20.0);
+        assert!(all_finite(&g));
+        check_counts(&g);
+        // 6 silhouette edges over 5 distinct vertices (the origin has 4 edges).
+        assert_eq!(g.cones, 5);
+        assert_eq!(g.special_vertices, 1);
+        assert_eq!(g.sheets, 6);
+        let tips_at_origin = g.vertices[..3 * g.cone_triangles]
+            .chunks_exact(3)
+            .filter(|t| Vec3::from(t[0].position).length() < 1e-6)
+            .count();
+        assert_eq!(tips_at_origin, CONE_SEGMENTS);
+    }
+
+    #[test]
+    fn behind_light_and_zero_radius_are_finite() {
+        let mut mesh = cube();
+        for p in &mut mesh.positions {
+            p.z *= 20.0;
+        }
+        let adj = Adjacency::build(&mesh).unwrap();
+        let lv = light_at(Vec3::new(0.0, 2.0, 0.0), Vec3::new(0.0, 0.0, -5.0));
+        let sil = extract(&adj, Mat4::IDENTITY, lv.position);
+        for lr in [0.0, 0.2] {
+            let g = build_penumbra(&adj, &sil, Mat4::IDENTITY, &lv, lr, 40.0);
+            assert!(g.skipped_vertices > 0);
+            assert!(g.skipped_edges > 0);
+            assert_eq!(g.sheets + g.skipped_edges, sil.len());
+            assert!(all_finite(&g));
+            check_counts(&g);
+        }
+    }
+}

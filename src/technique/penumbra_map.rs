@@ -1,0 +1,418 @@
+//! # penumbra-map — Wyman & Hansen 2003, *Penumbra Maps: Approximate Soft Shadows in Real-Time*
+//!
+//! A shadow map for the umbra plus a "penumbra map": per shadow-map texel, the light
+//! intensity of the foremost surface seen from the light, rendered by drawing a cone at each
+//! silhouette vertex and a sheet along each silhouette edge (from the light's centre) and
+//! evaluating Eq. 1 per fragment. The final pass does two lookups. Outer penumbra only: the
+//! umbra is the hard shadow, the penumbra grows outward from it.
+//!
+//! ## Passes, in order
+//! 0. CPU `penumbra-map/silhouettes` — per caster: brute-force silhouette edges from the light
+//!    centre (`silhouette::extract` over the adjacency built once per mesh), then the cones and
+//!    sheets in world space (`silhouette::penumbra::build_penumbra`, see its doc for the
+//!    geometry): cone tip at vertex v (linear light depth Zv), base at depth Z_far with the
+//!    paper's radius C_r = (Z_far - Zv) Lr / Zv (Sec. 3, third bullet; Lr = the light radius R),
+//!    16 triangles each, one cone per distinct silhouette vertex however many silhouette edges
+//!    meet there (the paper's 3..8-edge vertices); one sheet per edge, the plane through the
+//!    edge tangent to the light disc on the inner side, i.e. the exact outer tangent of the
+//!    two cones (fourth bullet). That quad is planar, so the paper's subdivision of
+//!    "extremely non-planar" quads is never needed. Z_far = 0.995 x the light's far plane
+//!    (`render::fit_light` puts it 1 % beyond the farthest scene corner, so every receiver is
+//!    nearer; the margin keeps the bases inside the clip volume). Uploaded to a host-visible
+//!    vertex buffer (20 bytes a vertex: world position, (Zv k, k)). R = 0: no geometry.
+//! 1. `penumbra-map/shadow_map` — every object from the light, one rendering, D32_SFLOAT
+//!    z-buffer (clear 1.0, LESS) and two colour attachments:
+//!    location 0 = caster shadow map, R32_SFLOAT linear depth, clear 1e30 (`FAR_DEPTH`);
+//!    location 1 = receiver depth map (Z_P of Eq. 1: the foremost surface, casting or not),
+//!    R32_SFLOAT, clear 1e30.
+//!    Casters are drawn first (`glsl/penumbra_map/caster_depth.frag`, both locations = depth,
+//!    no blend); then receive-only objects (`receiver_depth.frag`: location 0 = 1e30, location
+//!    1 = depth, both MIN-blended — one blend state for both attachments, as independentBlend
+//!    is optional — so they never cast, and on location 1 MIN is a no-op after the LESS test). The z-buffer then holds the nearest of
+//!    everything and location 0 the nearest caster, independent of draw order within a group.
+//!    The paper's shadow map holds every object; our scenes have receive-only grounds, which
+//!    need a depth for Eq. 1 but must not cast. Vertex: `glsl/common/shadow_depth.vert`.
+//! 2. `penumbra-map/penumbra` — cones and sheets from the light, culling off, no depth
+//!    attachment; one colour attachment, the penumbra map: R16_SFLOAT intensity, clear 1.0
+//!    (the paper's "clear to white"), blend MIN. `glsl/penumbra_map/penumbra.vert` projects
+//!    with the light's view-projection and passes the linear depth Z_F and (Zv k, k)
+//!    perspective-correctly; `penumbra.frag` reads Z_P = receiver depth at its own texel
+//!    (texelFetch), discards when nothing is there, when Z_F > Z_P (pseudocode step 4: the
+//!    geometry is behind the surface) and when Z_P - Zv <= 1e-4 Z_P (the surface touches or is
+//!    in front of the silhouette vertex: no penumbra, and no NaN/Inf from the division), then
+//!    writes s = 3 I^2 - 2 I^3 with I = clamp((Z_F - Zv) / (Z_P - Zv), 0, 1) — Eq. 1 (the
+//!    issue's I = (ZF - Zv)/(ZP - Zv) is the same formula) with Parker et al.'s falloff.
+//!    Darkest wins: the paper writes I' as the fragment depth with a LESS test (Sec. 4); a MIN
+//!    blend on a colour target is the same selection, keeps the map sampleable as a plain
+//!    colour texture, and leaves no depth attachment to clear. R16F steps 2^-11 near 1.
+//! 3. `penumbra-map/final` — from the camera (`FinalPass`), `glsl/penumbra_map/final.frag`:
+//!    textureGather of the caster shadow map, the penumbra map and the receiver depth map at
+//!    the normal-offset point; per texel visibility = lit test x intensity (0 in the hard
+//!    shadow, else the penumbra intensity), bilinear weights (the 2x2 filter of `hard`). A
+//!    texel whose foremost surface lies more than 1 % beyond the point counts as intensity 1:
+//!    it holds the penumbra of a background surface (the ground just outside a caster's
+//!    silhouette), which the bilinear footprint would otherwise smear over grazing caster
+//!    faces only a texel or two wide. Writes the standard camera targets.
+//!
+//! ## Equations
+//! Sec. 3: C_r = (Z_far - Z_v) L_r / Z_v (cone radius). Eq. 1: I = 1 - (Z_P - Z_F) / (Z_P -
+//! Z_v) = (Z_F - Z_v) / (Z_P - Z_v), Z_F = cone/sheet fragment depth, Z_P = surface depth, Z_v =
+//! silhouette vertex depth. Sec. 3 falloff: s = 3 I^2 - 2 I^3. Sheets: Z_v exact per fragment
+//! as the ratio of two perspective-correct attributes (the paper interpolates it linearly).
+//!
+//! ## Known artefacts
+//! No inner penumbra: the umbra is the hard shadow at every light radius, so shadows are too
+//! dark and too large for big lights or far casters (Sec. 4.1). Overlapping penumbrae take
+//! the darkest, not the sum or product (Sec. 4, Fig. 6), with creases at silhouette
+//! concavities. Full cones also cover the caster's own lit surface next to its silhouette
+//! and can darken it where that surface recedes behind the silhouette vertex (self-shadowing
+//! the paper accepts). Silhouettes are taken from the light's centre only, so they pop under
+//! light motion. One surface per texel: a receive-only object in front of a caster (seen
+//! from the light) hides the penumbra of whatever lies behind it.
+
+use super::{FrameInput, Technique, TechniqueInfo, TechniqueInit};
+use crate::render::gpu_scene::{DRAW_PUSH_BYTES, SCENE_ATTRIBUTES, SCENE_VERTEX_STRIDE};
+use crate::render::passes::{FinalPass, FAR_DEPTH};
+use crate::scene::LightView;
+use crate::shaders;
+use crate::silhouette::penumbra::{build_penumbra, PenumbraVertex};
+use crate::silhouette::{self, Adjacency};
+use crate::vk::{
+    Blend, Buffer, BufferUsageFlags, CompareOp, Context, CullModeFlags, DepthState, DescriptorSet,
+    Filter, Format, GraphicsPipelineDesc, Image, ImageLayout, ImageUsageFlags, MemoryLocation,
+    Pipeline, PrimitiveTopology, Recorder, Resource, Sampler,
+};
+use anyhow::{Context as _, Result};
+
+pub const INFO: TechniqueInfo = TechniqueInfo {
+    name: "penumbra-map",
+    summary: "Wyman & Hansen 2003: shadow map + penumbra map of silhouette cones and sheets",
+    create: PenumbraMap::create,
+};
+
+const PENUMBRA_VERTEX_BYTES: u32 = std::mem::size_of::<PenumbraVertex>() as u32;
+
+/// Locations of `PenumbraVertex` fields in glsl/penumbra_map/penumbra.vert.
+const PENUMBRA_ATTRIBUTES: &[crate::vk::Attribute] = &[
+    (0, Format::R32G32B32_SFLOAT, 0),
+    (1, Format::R32G32_SFLOAT, 12),
+];
+
+/// Z_far as a fraction of the light's far plane (see the module header).
+const Z_FAR_OF_FAR: f32 = 0.995;
+
+/// Depth of the cone bases for `light`.
+pub fn cone_base_depth(light: &LightView) -> f32 {
+    light.far * Z_FAR_OF_FAR
+}
+
+pub struct PenumbraMap {
+    caster_depth: Image,
+    receiver_depth: Image,
+    zbuffer: Image,
+    penumbra: Image,
+    caster_pipeline: Pipeline,
+    receiver_pipeline: Pipeline,
+    depth_set: DescriptorSet,
+    penumbra_pipeline: Pipeline,
+    penumbra_set: DescriptorSet,
+    final_pass: FinalPass,
+    final_set: DescriptorSet,
+    _nearest: Sampler,
+    /// Edge adjacency per object (None for non-casters), built once.
+    adjacency: Vec<Option<Adjacency>>,
+    vertices: Option<Buffer>,
+    vertex_count: u32,
+}
+
+impl PenumbraMap {
+    fn create(init: &TechniqueInit<'_>) -> Result<Box<dyn Technique>> {
+        let ctx = init.ctx;
+        let res = init.settings.shadow_res;
+        for f in [Format::R32_SFLOAT, Format::R16_SFLOAT] {
+            if !ctx.supports_blend(f) {
+                anyhow::bail!(
+                    "{} cannot MIN-blend {f:?} attachments, which penumbra-map needs",
+                    ctx.device_name
+                );
+            }
+        }
+        let usage = ImageUsageFlags::COLOR_ATTACHMENT
+            | ImageUsageFlags::SAMPLED
+            | ImageUsageFlags::TRANSFER_SRC;
+        let caster_depth = Image::new_2d(
+            ctx,
+            res,
+            res,
+            Format::R32_SFLOAT,
+            usage,
+            "penumbra-map shadow map",
+        )
+        .context("creating the penumbra-map shadow map")?;
+        let receiver_depth = Image::new_2d(
+            ctx,
+            res,
+            res,
+            Format::R32_SFLOAT,
+            usage,
+            "penumbra-map receiver depth",
+        )
+        .context("creating the penumbra-map receiver depth map")?;
+        let zbuffer = Image::new_2d(
+            ctx,
+            res,
+            res,
+            Format::D32_SFLOAT,
+            ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT,
+            "penumbra-map z-buffer",
+        )
+        .context("creating the penumbra-map z-buffer")?;
+        let penumbra = Image::new_2d(ctx, res, res, Format::R16_SFLOAT, usage, "penumbra map")
+            .context("creating the penumbra map")?;
+        let nearest = Sampler::new(ctx, Filter::Nearest).context("creating the nearest sampler")?;
+
+        let depth_set = DescriptorSet::new(
+            ctx,
+            &[Resource::Uniform(init.ubo)],
+            "penumbra-map/shadow_map",
+        )?;
+        let depth_pipeline = |name: &str, fragment: &[u8], blend: Blend| {
+            Pipeline::graphics(
+                ctx,
+                &GraphicsPipelineDesc {
+                    name,
+                    vertex: shaders::COMMON_SHADOW_DEPTH_VERT,
+                    fragment: Some(fragment),
+                    vertex_stride: SCENE_VERTEX_STRIDE,
+                    attributes: &SCENE_ATTRIBUTES[..1],
+                    topology: PrimitiveTopology::TRIANGLE_LIST,
+                    // Open meshes and planes cast and receive from both sides.
+                    cull: CullModeFlags::NONE,
+                    // One blend for both: independentBlend is an optional feature.
+                    colors: &[(Format::R32_SFLOAT, blend), (Format::R32_SFLOAT, blend)],
+                    depth: Some(DepthState {
+                        format: Format::D32_SFLOAT,
+                        test: true,
+                        write: true,
+                        compare: CompareOp::LESS,
+                    }),
+                    push_constant_bytes: DRAW_PUSH_BYTES,
+                    sets: &[&depth_set],
+                },
+            )
+        };
+        let caster_pipeline = depth_pipeline(
+            "penumbra-map/shadow_map (casters)",
+            shaders::PENUMBRA_MAP_CASTER_DEPTH_FRAG,
+            Blend::None,
+        )?;
+        // MIN with the shader's FAR_DEPTH: a receive-only object never changes the caster map;
+        // on the receiver map MIN changes nothing, the LESS test already passed only nearer ones.
+        let receiver_pipeline = depth_pipeline(
+            "penumbra-map/shadow_map (receivers)",
+            shaders::PENUMBRA_MAP_RECEIVER_DEPTH_FRAG,
+            Blend::Min,
+        )?;
+
+        let penumbra_set = DescriptorSet::new(
+            ctx,
+            &[
+                Resource::Uniform(init.ubo),
+                Resource::Sampled(&receiver_depth, &nearest),
+            ],
+            "penumbra-map/penumbra",
+        )?;
+        let penumbra_pipeline = Pipeline::graphics(
+            ctx,
+            &GraphicsPipelineDesc {
+                name: "penumbra-map/penumbra",
+                vertex: shaders::PENUMBRA_MAP_PENUMBRA_VERT,
+                fragment: Some(shaders::PENUMBRA_MAP_PENUMBRA_FRAG),
+                vertex_stride: PENUMBRA_VERTEX_BYTES,
+                attributes: PENUMBRA_ATTRIBUTES,
+                topology: PrimitiveTopology::TRIANGLE_LIST,
+                // Cones are seen from inside, sheets from either side.
+                cull: CullModeFlags::NONE,
+                // Darkest wins (the paper's LESS test on intensity stored as depth).
+                colors: &[(Format::R16_SFLOAT, Blend::Min)],
+                depth: None,
+                push_constant_bytes: 0,
+                sets: &[&penumbra_set],
+            },
+        )?;
+        let final_set = DescriptorSet::new(
+            ctx,
+            &[
+                Resource::Uniform(init.ubo),
+                Resource::Sampled(&caster_depth, &nearest),
+                Resource::Sampled(&penumbra, &nearest),
+                Resource::Sampled(&receiver_depth, &nearest),
+            ],
+            "penumbra-map/final",
+        )?;
+        let final_pass = FinalPass::new(
+            ctx,
+            "penumbra-map/final",
+            shaders::PENUMBRA_MAP_FINAL_FRAG,
+            &final_set,
+        )?;
+        let adjacency = init
+            .scene
+            .objects
+            .iter()
+            .map(|o| {
+                o.role
+                    .casts()
+                    .then(|| {
+                        Adjacency::build(&o.mesh)
+                            .with_context(|| format!("edge adjacency of '{}'", o.name))
+                    })
+                    .transpose()
+            })
+            .collect::<Result<Vec<_>>>()?;
+        Ok(Box::new(Self {
+            caster_depth,
+            receiver_depth,
+            zbuffer,
+            penumbra,
+            caster_pipeline,
+            receiver_pipeline,
+            depth_set,
+            penumbra_pipeline,
+            penumbra_set,
+            final_pass,
+            final_set,
+            _nearest: nearest,
+            adjacency,
+            vertices: None,
+            vertex_count: 0,
+        }))
+    }
+
+    /// Silhouettes, cones and sheets of every caster for this light.
+    fn build_geometry(&self, frame: &FrameInput<'_>) -> Vec<PenumbraVertex> {
+        let z_far = cone_base_depth(frame.light);
+        let mut out = Vec::new();
+        for (obj, adj) in frame.scene.objects.iter().zip(&self.adjacency) {
+            let Some(adj) = adj else { continue };
+            let sil = silhouette::extract(adj, obj.transform, frame.light.position);
+            let geom = build_penumbra(
+                adj,
+                &sil,
+                obj.transform,
+                frame.light,
+                frame.light_radius,
+                z_far,
+            );
+            out.extend_from_slice(&geom.vertices);
+        }
+        out
+    }
+
+    fn upload(&mut self, ctx: &Context, vertices: &[PenumbraVertex]) -> Result<()> {
+        let bytes: &[u8] = bytemuck::cast_slice(vertices);
+        let fits = self
+            .vertices
+            .as_ref()
+            .is_some_and(|b| b.size >= bytes.len() as u64);
+        if !fits {
+            // Grow by half again so a light sweeping over a mesh does not reallocate every frame.
+            let size = (bytes.len() as u64 * 3 / 2).max(4096);
+            self.vertices = Some(
+                Buffer::new(
+                    ctx,
+                    size,
+                    BufferUsageFlags::VERTEX_BUFFER,
+                    MemoryLocation::CpuToGpu,
+                    "penumbra-map cones and sheets",
+                )
+                .context("creating the penumbra geometry buffer")?,
+            );
+        }
+        if let Some(b) = self.vertices.as_mut() {
+            b.write(0, bytes)?;
+        }
+        self.vertex_count = vertices.len() as u32;
+        Ok(())
+    }
+}
+
+impl Technique for PenumbraMap {
+    fn name(&self) -> &'static str {
+        INFO.name
+    }
+
+    fn uniforms(&self, frame: &FrameInput<'_>) -> [[f32; 4]; 2] {
+        // Informational (debug captures): Lr and Z_far; the shaders read neither.
+        [
+            [frame.light_radius, cone_base_depth(frame.light), 0.0, 0.0],
+            [0.0; 4],
+        ]
+    }
+
+    fn record(
+        &mut self,
+        ctx: &Context,
+        rec: &mut Recorder<'_>,
+        frame: &FrameInput<'_>,
+    ) -> Result<()> {
+        // R = 0 (a point light): every cone has radius 0, the result is `hard`.
+        let vertices = if frame.light_radius > 0.0 {
+            rec.cpu("penumbra-map/silhouettes", || self.build_geometry(frame))
+        } else {
+            Vec::new()
+        };
+        self.upload(ctx, &vertices)?;
+
+        rec.pass("penumbra-map/shadow_map", |rec| {
+            rec.begin_rendering(
+                &[
+                    (&self.caster_depth, Some([FAR_DEPTH; 4])),
+                    (&self.receiver_depth, Some([FAR_DEPTH; 4])),
+                ],
+                Some((&self.zbuffer, Some(1.0))),
+            );
+            // Every caster before any receive-only object (see the module header).
+            rec.bind_pipeline(&self.caster_pipeline);
+            rec.bind_sets(&self.caster_pipeline, &[&self.depth_set]);
+            frame
+                .gpu
+                .draw(rec, &self.caster_pipeline, |o| o.role.casts());
+            rec.bind_pipeline(&self.receiver_pipeline);
+            rec.bind_sets(&self.receiver_pipeline, &[&self.depth_set]);
+            frame
+                .gpu
+                .draw(rec, &self.receiver_pipeline, |o| !o.role.casts());
+            rec.end_rendering();
+            rec.transition(&self.caster_depth, ImageLayout::SHADER_READ_ONLY_OPTIMAL);
+            rec.transition(&self.receiver_depth, ImageLayout::SHADER_READ_ONLY_OPTIMAL);
+            Ok(())
+        })?;
+        rec.pass("penumbra-map/penumbra", |rec| {
+            rec.begin_rendering(&[(&self.penumbra, Some([1.0; 4]))], None);
+            if let (Some(vb), true) = (self.vertices.as_ref(), self.vertex_count > 0) {
+                rec.bind_pipeline(&self.penumbra_pipeline);
+                rec.bind_sets(&self.penumbra_pipeline, &[&self.penumbra_set]);
+                rec.bind_vertex_buffer(vb);
+                rec.draw(self.vertex_count, 1);
+            }
+            rec.end_rendering();
+            rec.transition(&self.penumbra, ImageLayout::SHADER_READ_ONLY_OPTIMAL);
+            Ok(())
+        })?;
+        rec.pass("penumbra-map/final", |rec| {
+            self.final_pass
+                .record(rec, frame.targets, frame.gpu, &self.final_set);
+            Ok(())
+        })
+    }
+
+    fn debug_image(&self, name: &str) -> Option<&Image> {
+        match name {
+            "shadow_map" => Some(&self.caster_depth),
+            "receiver_depth" => Some(&self.receiver_depth),
+            "penumbra_map" => Some(&self.penumbra),
+            _ => None,
+        }
+    }
+}

@@ -1,0 +1,1018 @@
+//! # plateaus — Haines 2001, *Soft Planar Shadows Using Plateaus*
+//!
+//! A soft shadow texture for ONE planar receiver, rendered from straight above the plane: the
+//! casters' hard drop shadow, then "plateau" geometry around it — a cone at every silhouette
+//! vertex and a sheet along the outer side of every silhouette edge — whose depth is its
+//! intensity, so the LESS depth test keeps the darkest primitive (Parker et al.'s "darkest
+//! wins"). The texture is projected onto the plane as a light map through the sine falloff.
+//!
+//! The paper numbers no equations; sections and figures are cited, and the relations this
+//! port derives are numbered (P1)-(P4) below.
+//!
+//! ## The planar receiver
+//! At creation, every receiving object whose triangles all lie in one plane within
+//! `PLANAR_TOLERANCE` x its bounds diagonal (object space; the normal is taken from its
+//! largest triangle) is a candidate; the one with the largest world area is THE plane. None:
+//! `create` fails with "plateaus needs a planar receiver: scene 'X' has none". Each frame the
+//! plane follows its object's transform; its normal n is flipped to the light's side.
+//!
+//! ## Geometry (per frame, world units)
+//! Plane frame (O, u, v, n), u x v = n, n towards the light; the light centre L sits at height
+//! H = n . (L - O). A point x at height h = n . (x - O) < H projects from L onto the plane at
+//!
+//! (P1)  P(x) = L + (x - L) H / (H - h) = (H x - h L) / (H - h),
+//!
+//! a projective map (Blinn 1988): a 4x4 matrix with w = H - h, used for the drop shadow.
+//! Moving the light point by d parallel to the plane moves P(x) by -d h / (H - h), so a disc
+//! light of radius R parallel to the plane spreads the shadow of x over a disc of radius
+//!
+//! (P2)  r(x) = R h / (H - h)
+//!
+//! around P(x): the outer penumbra half-width, the cone radius (Sec. 3: "proportional to the
+//! height above the ground"; this port takes the similar-triangles constant instead of the
+//! paper's fixed 0.1). The cone apex sits at P(x) at depth 0, its base circle at depth 1.
+//! Sheets join two cones (c1, r1), (c2, r2) of an edge at their outer tangent (Fig. 4): with
+//! e = (c2 - c1) / |c2 - c1| and p the right-hand perpendicular of e (the outside, see the
+//! orientation convention of `silhouette::SilhouetteEdge`, which the central projection keeps),
+//!
+//! (P3)  m = a e + sqrt(1 - a^2) p,  a = (r1 - r2) / |c2 - c1|,  tangent points ci + ri m;
+//!
+//! the sheet is the bilinear (Coons) patch S(s, t) = c(s) + t r(s) m, depth t, tessellated
+//! into an N x N grid with N = ceil(sqrt(|r1 - r2| / texel)) (the bilinear cross term then
+//! bends less than 1/4 texel inside a cell). No sheet when one disc holds the other
+//! (|a| >= 1): its cone covers the other. Cones are fans of clamp(2 r / texel, 8, 64) segments
+//! (chord sagitta under ~0.3 texel). Each silhouette vertex gets one cone per frame (the
+//! paper's mailbox, a frame stamp per welded vertex).
+//!
+//! Texture region: the plane object's bounding rectangle (in the plane) clipped to the light
+//! frustum (Sutherland-Hodgman against its four sides and near plane), its bounding square
+//! in plane coordinates plus one texel each side, at `Settings::shadow_res`^2 texels.
+//!
+//! ## Passes, in order
+//! 0. CPU `plateaus/silhouettes` (only when R > 0) — per caster (not the plane) silhouette
+//!    edges from the light centre (`silhouette::extract` over an `Adjacency` built once), then
+//!    cones and sheets in the texture's clip space (x, y, depth), 12 bytes a vertex, uploaded
+//!    to a host-visible vertex buffer.
+//! 1. `plateaus/drop_shadow` — casters (every caster but the plane) through the matrix of (P1)
+//!    then the top-down orthographic map, clip z = 0. Attachments: `plateaus` R32_SFLOAT
+//!    penumbra fraction, clear 1.0 (lit), no blend; D32_SFLOAT, clear 1.0, LESS, write.
+//!    `glsl/plateaus/drop_shadow.vert` reads the scene vertices, the model push constant and
+//!    the plane UBO; `drop_shadow.frag` writes 0 and discards the parts of casters below the
+//!    plane (height interpolated perspective-correctly).
+//! 2. `plateaus/plateaus` (skipped when R = 0) — the cones and sheets into the same two
+//!    attachments (loaded): `plateau.vert` passes the clip position through, `plateau.frag`
+//!    writes its own depth as colour (Sec. 3: "use the Z-buffer depth values directly as
+//!    grayscale"), so colour and depth test agree exactly. Only the OUTER penumbra is drawn:
+//!    inside the drop shadow, depth 0 always wins (Sec. 2).
+//! 3. `plateaus/shadow_map` — the shared `ShadowMap` (R32F linear depth, clear 1e30; D32 LESS),
+//!    for receivers other than the plane.
+//! 4. `plateaus/final` — `FinalPass` with `glsl/plateaus/final.frag`: a point ON the plane
+//!    (|height| <= `ON_PLANE_TOLERANCE` x the plane's diagonal and its normal within ~11 deg
+//!    of the plane's) takes the bilinear filter of the 4 nearest texels of the fraction f and
+//!    returns the sine falloff 0.5 - 0.5 cos(pi f) from the 256-texel 1-D LUT (Sec. 3, Fig. 5);
+//!    (P4) v = falloff(f). Every other point (other receivers, and on-plane points outside
+//!    the texture's square, e.g. a coplanar second ground tile) gets `hard`'s 2x2 filtered
+//!    shadow-map test. Points outside the light frustum get 1, as in `hard`.
+//!
+//! ## Known artefacts
+//! Umbrae are the full hard shadow at any light size: no inner penumbra, shadows too dark and
+//! too large for big lights (Sec. 4). Cones are circles, exact only for a disc light parallel
+//! to the plane: a low light should stretch them into ellipses (Sec. 3) and does not. Sharp
+//! creases where silhouette edges meet in a concavity (Sec. 4). Overlapping penumbrae take the
+//! darkest, not the product. Edges with a vertex above 0.99 H are dropped (their shadow runs to
+//! infinity). Only the chosen plane is soft: other receivers get hard shadows, and a second
+//! plane (a table top) gets them too. R = 0 gives the drop shadow alone, which matches `hard`
+//! on the plane up to each method's one-texel edge aliasing (the texel grids differ).
+
+use super::{FrameInput, Technique, TechniqueInfo, TechniqueInit};
+use crate::render::gpu_scene::{GpuObject, DRAW_PUSH_BYTES, SCENE_ATTRIBUTES, SCENE_VERTEX_STRIDE};
+use crate::render::passes::{falloff_lut, FinalPass, ShadowMap};
+use crate::scene::{normal_matrix, Aabb, LightView, Mesh, Scene};
+use crate::shaders;
+use crate::silhouette::{self, Adjacency, SilhouetteEdge};
+use crate::vk::{
+    Blend, Buffer, BufferUsageFlags, CompareOp, Context, CullModeFlags, DepthState, DescriptorSet,
+    Filter, Format, GraphicsPipelineDesc, Image, ImageLayout, ImageUsageFlags, MemoryLocation,
+    Pipeline, PrimitiveTopology, Recorder, Resource, Sampler,
+};
+use anyhow::{anyhow, Context as _, Result};
+use bytemuck::{Pod, Zeroable};
+use glam::{Mat4, Vec2, Vec3, Vec4};
+
+pub const INFO: TechniqueInfo = TechniqueInfo {
+    name: "plateaus",
+    summary: "Haines 2001: planar receiver, drop shadow + cones and sheets (darkest wins by depth), sine falloff",
+    create: Plateaus::create,
+};
+
+/// A receiver is planar when every vertex lies within this fraction of its bounds diagonal
+/// from the plane of its largest triangle (1e-4: exact planes pass, terrain with visible
+/// relief does not).
+pub const PLANAR_TOLERANCE: f32 = 1e-4;
+
+/// A camera point is "on the plane" within this fraction of the plane's diagonal: twice the
+/// detection tolerance, so every point of the detected object passes.
+pub const ON_PLANE_TOLERANCE: f32 = 2e-4;
+
+/// |cos| between a surface normal and the plane's above which an on-plane point reads the
+/// plateau texture (~11 degrees): the vertical faces of a box resting on the plane do not.
+const ON_PLANE_COS: f32 = 0.98;
+
+/// Silhouette vertices higher than this fraction of the light's height are not projected:
+/// (P1) and (P2) blow up as h -> H.
+const MAX_HEIGHT_FRACTION: f32 = 0.99;
+
+/// One plateau vertex: texture clip-space x, y and the depth (= penumbra fraction).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
+pub struct PlateauVertex {
+    pub clip: [f32; 3],
+}
+
+const PLATEAU_VERTEX_BYTES: u32 = std::mem::size_of::<PlateauVertex>() as u32;
+const PLATEAU_ATTRIBUTES: &[crate::vk::Attribute] = &[(0, Format::R32G32B32_SFLOAT, 0)];
+
+/// Mirrors `Plane` in glsl/plateaus/plane.glsl (std140: mat4 and vec4 only).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+struct PlaneUniforms {
+    drop_shadow: [f32; 16],
+    to_texture: [f32; 16],
+    params: [f32; 4],
+    normal: [f32; 4],
+}
+
+/// The receiver the texture is made for, in its object space.
+#[derive(Clone, Debug)]
+pub struct PlanarReceiver {
+    /// Index into `Scene::objects`.
+    pub object: usize,
+    origin: Vec3,
+    normal: Vec3,
+    /// The rectangle in the plane that holds every vertex.
+    corners: [Vec3; 4],
+    /// World area at creation (the "largest" criterion).
+    pub area: f32,
+}
+
+/// The plane of `mesh` (a point, unit normal, bounding rectangle in the plane) when all its
+/// used vertices lie within `PLANAR_TOLERANCE` of the diagonal from it.
+fn plane_of(mesh: &Mesh) -> Option<(Vec3, Vec3, [Vec3; 4])> {
+    let pts: Vec<Vec3> = mesh
+        .indices
+        .iter()
+        .filter_map(|&i| mesh.positions.get(i as usize).copied())
+        .collect();
+    let size = Aabb::from_points(pts.iter().copied()).radius() * 2.0;
+    if !size.is_finite() || size <= 0.0 {
+        return None;
+    }
+    // The largest triangle has the best-conditioned normal.
+    let mut best = (Vec3::ZERO, Vec3::ZERO, 0.0f32);
+    for t in pts.chunks_exact(3) {
+        let c = (t[1] - t[0]).cross(t[2] - t[0]);
+        if c.length() > best.2 {
+            best = (t[0], c, c.length());
+        }
+    }
+    // A line or a point has no plane.
+    if best.2 <= size * size * 1e-9 {
+        return None;
+    }
+    let (origin, n) = (best.0, best.1 / best.2);
+    let tol = PLANAR_TOLERANCE * size;
+    if pts.iter().any(|p| (*p - origin).dot(n).abs() > tol) {
+        return None;
+    }
+    let u = n.any_orthonormal_vector();
+    let v = n.cross(u);
+    let (mut lo, mut hi) = (Vec2::splat(f32::MAX), Vec2::splat(f32::MIN));
+    for p in &pts {
+        let q = Vec2::new((*p - origin).dot(u), (*p - origin).dot(v));
+        lo = lo.min(q);
+        hi = hi.max(q);
+    }
+    let at = |s: f32, t: f32| origin + u * s + v * t;
+    Some((
+        origin,
+        n,
+        [
+            at(lo.x, lo.y),
+            at(hi.x, lo.y),
+            at(hi.x, hi.y),
+            at(lo.x, hi.y),
+        ],
+    ))
+}
+
+/// The largest planar receiver of `scene`, or the error this technique gives without one.
+pub fn find_planar_receiver(scene: &Scene) -> Result<PlanarReceiver> {
+    let mut best: Option<PlanarReceiver> = None;
+    for (i, o) in scene.objects.iter().enumerate() {
+        if !o.role.receives() {
+            continue;
+        }
+        let Some((origin, normal, corners)) = plane_of(&o.mesh) else {
+            continue;
+        };
+        let area: f32 = o
+            .world_triangles()
+            .map(|[a, b, c]| (b - a).cross(c - a).length() * 0.5)
+            .sum();
+        if best.as_ref().is_none_or(|b| area > b.area) {
+            best = Some(PlanarReceiver {
+                object: i,
+                origin,
+                normal,
+                corners,
+                area,
+            });
+        }
+    }
+    best.ok_or_else(|| {
+        anyhow!(
+            "plateaus needs a planar receiver: scene '{}' has none (no receiving object has all its triangles in one plane)",
+            scene.name
+        )
+    })
+}
+
+/// The plane in world space for one frame, and the square of it the texture covers.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PlaneFrame {
+    pub origin: Vec3,
+    pub u: Vec3,
+    pub v: Vec3,
+    /// Unit normal, on the light's side.
+    pub n: Vec3,
+    pub light: Vec3,
+    /// H: the light centre's height above the plane.
+    pub light_height: f32,
+    /// Lower corner of the texture's square in plane coordinates (u, v).
+    pub min: Vec2,
+    /// Side of that square (world units).
+    pub side: f32,
+    pub res: u32,
+    /// On-plane height tolerance (world units).
+    pub tolerance: f32,
+}
+
+/// Sutherland-Hodgman: the part of the convex polygon `poly` where `plane . (x, 1) >= 0`.
+fn clip_polygon(poly: &[Vec3], plane: Vec4) -> Vec<Vec3> {
+    let mut out = Vec::with_capacity(poly.len() + 1);
+    for (i, &a) in poly.iter().enumerate() {
+        let b = poly[(i + 1) % poly.len()];
+        let (da, db) = (plane.dot(a.extend(1.0)), plane.dot(b.extend(1.0)));
+        if da >= 0.0 {
+            out.push(a);
+        }
+        if (da >= 0.0) != (db >= 0.0) {
+            out.push(a + (b - a) * (da / (da - db)));
+        }
+    }
+    out
+}
+
+impl PlaneFrame {
+    pub fn new(recv: &PlanarReceiver, model: Mat4, light: &LightView, res: u32) -> Self {
+        let origin = model.transform_point3(recv.origin);
+        let mut n = (normal_matrix(model) * recv.normal).normalize_or(Vec3::Y);
+        if n.dot(light.position - origin) < 0.0 {
+            n = -n;
+        }
+        let u = n.any_orthonormal_vector();
+        let v = n.cross(u);
+        let corners = recv.corners.map(|c| model.transform_point3(c));
+        // The light frustum's sides and near plane (Vulkan clip: -w <= x, y <= w, 0 <= z).
+        let m = light.view_proj;
+        let (r0, r1, r2, r3) = (m.row(0), m.row(1), m.row(2), m.row(3));
+        let mut poly = corners.to_vec();
+        for p in [r3 + r0, r3 - r0, r3 + r1, r3 - r1, r2] {
+            if poly.len() < 3 {
+                break;
+            }
+            poly = clip_polygon(&poly, p);
+        }
+        // Nothing of the plane in the light: any square will do, nothing there is shadowed.
+        if poly.len() < 3 {
+            poly = corners.to_vec();
+        }
+        let coord = |x: Vec3| Vec2::new((x - origin).dot(u), (x - origin).dot(v));
+        let (mut lo, mut hi) = (Vec2::splat(f32::MAX), Vec2::splat(f32::MIN));
+        for &p in &poly {
+            lo = lo.min(coord(p));
+            hi = hi.max(coord(p));
+        }
+        let diag = (corners[2] - corners[0])
+            .length()
+            .max((corners[3] - corners[1]).length());
+        let res = res.max(1);
+        // Square texels; one texel of margin each side so the border texels stay inside.
+        let side = (hi - lo)
+            .max_element()
+            .max(diag * 1e-6)
+            .max(f32::MIN_POSITIVE)
+            * (1.0 + 2.0 / res as f32);
+        Self {
+            origin,
+            u,
+            v,
+            n,
+            light: light.position,
+            light_height: n.dot(light.position - origin),
+            min: (lo + hi) * 0.5 - Vec2::splat(side * 0.5),
+            side,
+            res,
+            tolerance: ON_PLANE_TOLERANCE * diag,
+        }
+    }
+
+    /// World size of one texel.
+    pub fn texel(&self) -> f32 {
+        self.side / self.res as f32
+    }
+
+    /// Plane coordinates (u, v) of a world point.
+    pub fn coords(&self, x: Vec3) -> Vec2 {
+        Vec2::new((x - self.origin).dot(self.u), (x - self.origin).dot(self.v))
+    }
+
+    /// Height of a world point above the plane.
+    pub fn height(&self, x: Vec3) -> f32 {
+        (x - self.origin).dot(self.n)
+    }
+
+    /// Texture uv in [0,1]^2 of plane coordinates.
+    pub fn uv(&self, p: Vec2) -> Vec2 {
+        (p - self.min) / self.side
+    }
+
+    /// Where `x` lands on the plane seen from the light centre (P1), with its cone radius for
+    /// a light of radius `radius` (P2); `None` above `MAX_HEIGHT_FRACTION` of the light.
+    pub fn vertex_disc(&self, x: Vec3, radius: f32) -> Option<(Vec2, f32)> {
+        let big_h = self.light_height;
+        let h = self.height(x);
+        if h.is_nan() || h >= big_h * MAX_HEIGHT_FRACTION {
+            return None;
+        }
+        let p = self.light + (x - self.light) * (big_h / (big_h - h));
+        Some((self.coords(p), radius * h.max(0.0) / (big_h - h)))
+    }
+
+    /// World -> (u, v, height, 1), u and v the texture coordinates.
+    pub fn to_texture(&self) -> Mat4 {
+        let row = |axis: Vec3, offset: f32| axis.extend(offset - axis.dot(self.origin));
+        let s = 1.0 / self.side;
+        Mat4::from_cols(
+            row(self.u * s, -self.min.x * s),
+            row(self.v * s, -self.min.y * s),
+            row(self.n, 0.0),
+            Vec4::W,
+        )
+        .transpose()
+    }
+
+    /// World -> texture clip space through the central projection onto the plane (P1), z = 0.
+    pub fn drop_shadow(&self) -> Mat4 {
+        let (n, l, big_h) = (self.n, self.light, self.light_height);
+        let n_o = n.dot(self.origin);
+        // (x, 1) -> (H x - h(x) L, H - h(x)) with h(x) = n.x - n.O.
+        let col = |j: usize| {
+            let mut e = Vec3::ZERO;
+            e[j] = big_h;
+            (e - l * n[j]).extend(-n[j])
+        };
+        let blinn = Mat4::from_cols(col(0), col(1), col(2), (l * n_o).extend(big_h + n_o));
+        let to_clip = Mat4::from_cols(
+            Vec4::new(2.0, 0.0, 0.0, 0.0),
+            Vec4::new(0.0, 2.0, 0.0, 0.0),
+            Vec4::ZERO,
+            Vec4::new(-1.0, -1.0, 0.0, 1.0),
+        );
+        to_clip * self.to_texture() * blinn
+    }
+
+    fn uniforms(&self) -> PlaneUniforms {
+        PlaneUniforms {
+            drop_shadow: self.drop_shadow().to_cols_array(),
+            to_texture: self.to_texture().to_cols_array(),
+            params: [self.tolerance, ON_PLANE_COS, 0.0, 0.0],
+            normal: self.n.extend(0.0).to_array(),
+        }
+    }
+}
+
+/// Cones and sheets of one frame, in texture clip space.
+pub struct PlateauBuilder<'a> {
+    plane: &'a PlaneFrame,
+    radius: f32,
+    pub vertices: Vec<PlateauVertex>,
+    pub cones: usize,
+    pub sheets: usize,
+}
+
+impl<'a> PlateauBuilder<'a> {
+    pub fn new(plane: &'a PlaneFrame, radius: f32) -> Self {
+        Self {
+            plane,
+            radius,
+            vertices: Vec::new(),
+            cones: 0,
+            sheets: 0,
+        }
+    }
+
+    fn push(&mut self, p: Vec2, depth: f32) {
+        let c = self.plane.uv(p) * 2.0 - Vec2::ONE;
+        self.vertices.push(PlateauVertex {
+            clip: [c.x, c.y, depth],
+        });
+    }
+
+    /// A cone with its apex at `c` (depth 0) and base circle of radius `r` (depth 1).
+    pub fn cone(&mut self, c: Vec2, r: f32) {
+        let texels = r / self.plane.texel();
+        // Below a thousandth of a texel the cone covers no sample.
+        if texels.is_nan() || texels <= 1e-3 {
+            return;
+        }
+        let segments = (2.0 * texels).ceil().clamp(8.0, 64.0) as u32;
+        let at = |i: u32| {
+            let a = std::f32::consts::TAU * i as f32 / segments as f32;
+            c + Vec2::new(a.cos(), a.sin()) * r
+        };
+        for i in 0..segments {
+            self.push(c, 0.0);
+            self.push(at(i), 1.0);
+            self.push(at(i + 1), 1.0);
+        }
+        self.cones += 1;
+    }
+
+    /// The sheet on the outer (right-hand) side of the edge c1 -> c2 between the cones
+    /// (c1, r1) and (c2, r2), (P3).
+    pub fn sheet(&mut self, c1: Vec2, r1: f32, c2: Vec2, r2: f32) {
+        let texel = self.plane.texel();
+        let d = c2 - c1;
+        let len = d.length();
+        if len.is_nan() || len <= texel * 1e-3 || r1.max(r2).is_nan() || r1.max(r2) <= texel * 1e-3
+        {
+            return;
+        }
+        let e = d / len;
+        let p = Vec2::new(e.y, -e.x);
+        let a = (r1 - r2) / len;
+        // One disc holds the other: its cone already covers where the sheet would be.
+        if a.abs() >= 1.0 {
+            return;
+        }
+        let m = e * a + p * (1.0 - a * a).sqrt();
+        let n = ((r1 - r2).abs() / texel).sqrt().ceil().clamp(1.0, 16.0) as u32;
+        let at = |i: u32, j: u32| {
+            let s = i as f32 / n as f32;
+            let t = j as f32 / n as f32;
+            (c1 + d * s + m * (t * (r1 + (r2 - r1) * s)), t)
+        };
+        for i in 0..n {
+            for j in 0..n {
+                let q = [at(i, j), at(i + 1, j), at(i + 1, j + 1), at(i, j + 1)];
+                for k in [0, 1, 2, 0, 2, 3] {
+                    self.push(q[k].0, q[k].1);
+                }
+            }
+        }
+        self.sheets += 1;
+    }
+
+    /// Cones at the vertices and sheets along the edges of one object's silhouette. `mailbox`
+    /// (one entry per welded vertex) holds the stamp of the frame that last drew its cone.
+    pub fn silhouette(
+        &mut self,
+        adj: &Adjacency,
+        sil: &[SilhouetteEdge],
+        model: Mat4,
+        mailbox: &mut [u64],
+        stamp: u64,
+    ) {
+        for e in sil {
+            let disc = |i: u32| {
+                adj.positions.get(i as usize).and_then(|&x| {
+                    self.plane
+                        .vertex_disc(model.transform_point3(x), self.radius)
+                })
+            };
+            let (da, db) = (disc(e.a), disc(e.b));
+            for (i, d) in [(e.a, da), (e.b, db)] {
+                let (Some((c, r)), Some(slot)) = (d, mailbox.get_mut(i as usize)) else {
+                    continue;
+                };
+                if *slot != stamp {
+                    *slot = stamp;
+                    self.cone(c, r);
+                }
+            }
+            if let (Some((c1, r1)), Some((c2, r2))) = (da, db) {
+                self.sheet(c1, r1, c2, r2);
+            }
+        }
+    }
+}
+
+pub struct Plateaus {
+    receiver: PlanarReceiver,
+    texture: Image,
+    zbuffer: Image,
+    plane_ubo: Buffer,
+    drop_pipeline: Pipeline,
+    drop_set: DescriptorSet,
+    plateau_pipeline: Pipeline,
+    shadow: ShadowMap,
+    final_pass: FinalPass,
+    final_set: DescriptorSet,
+    _falloff: Image,
+    _nearest: Sampler,
+    _linear: Sampler,
+    /// Edge adjacency per object (None for non-casters and the plane), built once.
+    adjacency: Vec<Option<Adjacency>>,
+    /// Per object, per welded vertex: the stamp of the frame that drew its cone (Sec. 3).
+    mailbox: Vec<Vec<u64>>,
+    stamp: u64,
+    vertices: Option<Buffer>,
+    vertex_count: u32,
+}
+
+impl Plateaus {
+    fn create(init: &TechniqueInit<'_>) -> Result<Box<dyn Technique>> {
+        let ctx = init.ctx;
+        let res = init.settings.shadow_res;
+        let receiver = find_planar_receiver(init.scene)?;
+        let usage = ImageUsageFlags::COLOR_ATTACHMENT
+            | ImageUsageFlags::SAMPLED
+            | ImageUsageFlags::TRANSFER_SRC;
+        let texture = Image::new_2d(ctx, res, res, Format::R32_SFLOAT, usage, "plateau texture")?;
+        let zbuffer = Image::new_2d(
+            ctx,
+            res,
+            res,
+            Format::D32_SFLOAT,
+            ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT,
+            "plateau z-buffer",
+        )?;
+        let plane_ubo = Buffer::new(
+            ctx,
+            std::mem::size_of::<PlaneUniforms>() as u64,
+            BufferUsageFlags::UNIFORM_BUFFER,
+            MemoryLocation::CpuToGpu,
+            "plateau plane uniforms",
+        )?;
+        let depth_state = DepthState {
+            format: Format::D32_SFLOAT,
+            test: true,
+            write: true,
+            // Darkest wins: intensity is depth, the nearest is the darkest (Sec. 2).
+            compare: CompareOp::LESS,
+        };
+        let drop_set = DescriptorSet::new(
+            ctx,
+            &[Resource::Uniform(init.ubo), Resource::Uniform(&plane_ubo)],
+            "plateaus/drop_shadow",
+        )?;
+        let drop_pipeline = Pipeline::graphics(
+            ctx,
+            &GraphicsPipelineDesc {
+                name: "plateaus/drop_shadow",
+                vertex: shaders::PLATEAUS_DROP_SHADOW_VERT,
+                fragment: Some(shaders::PLATEAUS_DROP_SHADOW_FRAG),
+                vertex_stride: SCENE_VERTEX_STRIDE,
+                // Only the position; an unread normal is a validation warning.
+                attributes: &SCENE_ATTRIBUTES[..1],
+                topology: PrimitiveTopology::TRIANGLE_LIST,
+                // A projected triangle's winding depends on its facing; both sides shadow.
+                cull: CullModeFlags::NONE,
+                colors: &[(Format::R32_SFLOAT, Blend::None)],
+                depth: Some(depth_state),
+                push_constant_bytes: DRAW_PUSH_BYTES,
+                sets: &[&drop_set],
+            },
+        )?;
+        let plateau_pipeline = Pipeline::graphics(
+            ctx,
+            &GraphicsPipelineDesc {
+                name: "plateaus/plateaus",
+                vertex: shaders::PLATEAUS_PLATEAU_VERT,
+                fragment: Some(shaders::PLATEAUS_PLATEAU_FRAG),
+                vertex_stride: PLATEAU_VERTEX_BYTES,
+                attributes: PLATEAU_ATTRIBUTES,
+                topology: PrimitiveTopology::TRIANGLE_LIST,
+                // Cones and sheets are built in 2-D with either winding.
+                cull: CullModeFlags::NONE,
+                colors: &[(Format::R32_SFLOAT, Blend::None)],
+                depth: Some(depth_state),
+                push_constant_bytes: 0,
+                sets: &[],
+            },
+        )?;
+        let shadow = ShadowMap::new(ctx, init.ubo, res, "plateaus/shadow_map")?;
+        let nearest = Sampler::new(ctx, Filter::Nearest)?;
+        let linear = Sampler::new(ctx, Filter::Linear)?;
+        let falloff = falloff_lut(ctx)?;
+        let final_set = DescriptorSet::new(
+            ctx,
+            &[
+                Resource::Uniform(init.ubo),
+                Resource::Uniform(&plane_ubo),
+                Resource::Sampled(&texture, &nearest),
+                Resource::Sampled(&shadow.depth, &nearest),
+                Resource::Sampled(&falloff, &linear),
+            ],
+            "plateaus/final",
+        )?;
+        let final_pass = FinalPass::new(
+            ctx,
+            "plateaus/final",
+            shaders::PLATEAUS_FINAL_FRAG,
+            &final_set,
+        )?;
+        let adjacency = init
+            .scene
+            .objects
+            .iter()
+            .enumerate()
+            .map(|(i, o)| {
+                (o.role.casts() && i != receiver.object)
+                    .then(|| {
+                        Adjacency::build(&o.mesh)
+                            .with_context(|| format!("edge adjacency of '{}'", o.name))
+                    })
+                    .transpose()
+            })
+            .collect::<Result<Vec<_>>>()?;
+        let mailbox = adjacency
+            .iter()
+            .map(|a| vec![0; a.as_ref().map_or(0, |a| a.positions.len())])
+            .collect();
+        Ok(Box::new(Self {
+            receiver,
+            texture,
+            zbuffer,
+            plane_ubo,
+            drop_pipeline,
+            drop_set,
+            plateau_pipeline,
+            shadow,
+            final_pass,
+            final_set,
+            _falloff: falloff,
+            _nearest: nearest,
+            _linear: linear,
+            adjacency,
+            mailbox,
+            stamp: 0,
+            vertices: None,
+            vertex_count: 0,
+        }))
+    }
+
+    fn plane(&self, frame: &FrameInput<'_>) -> Result<PlaneFrame> {
+        let obj = frame
+            .scene
+            .objects
+            .get(self.receiver.object)
+            .ok_or_else(|| anyhow!("plateaus: the scene lost its planar receiver"))?;
+        Ok(PlaneFrame::new(
+            &self.receiver,
+            obj.transform,
+            frame.light,
+            self.texture.extent.width,
+        ))
+    }
+
+    /// Silhouettes, cones and sheets of every caster for this frame.
+    fn build_geometry(&mut self, frame: &FrameInput<'_>, plane: &PlaneFrame) -> Vec<PlateauVertex> {
+        self.stamp += 1;
+        let mut b = PlateauBuilder::new(plane, frame.light_radius);
+        for ((obj, adj), mailbox) in frame
+            .scene
+            .objects
+            .iter()
+            .zip(&self.adjacency)
+            .zip(self.mailbox.iter_mut())
+        {
+            let Some(adj) = adj else { continue };
+            let sil = silhouette::extract(adj, obj.transform, frame.light.position);
+            b.silhouette(adj, &sil, obj.transform, mailbox, self.stamp);
+        }
+        b.vertices
+    }
+
+    fn upload(&mut self, ctx: &Context, vertices: &[PlateauVertex]) -> Result<()> {
+        let bytes: &[u8] = bytemuck::cast_slice(vertices);
+        let fits = self
+            .vertices
+            .as_ref()
+            .is_some_and(|b| b.size >= bytes.len() as u64);
+        if !fits {
+            // Grow by half again so a moving light does not reallocate every frame.
+            let size = (bytes.len() as u64 * 3 / 2).max(4096);
+            self.vertices = Some(Buffer::new(
+                ctx,
+                size,
+                BufferUsageFlags::VERTEX_BUFFER,
+                MemoryLocation::CpuToGpu,
+                "plateau vertices",
+            )?);
+        }
+        if let Some(b) = self.vertices.as_mut() {
+            b.write(0, bytes)?;
+        }
+        self.vertex_count = vertices.len() as u32;
+        Ok(())
+    }
+}
+
+impl Technique for Plateaus {
+    fn name(&self) -> &'static str {
+        INFO.name
+    }
+
+    fn record(
+        &mut self,
+        ctx: &Context,
+        rec: &mut Recorder<'_>,
+        frame: &FrameInput<'_>,
+    ) -> Result<()> {
+        let plane = self.plane(frame)?;
+        self.plane_ubo
+            .write(0, bytemuck::bytes_of(&plane.uniforms()))?;
+        // A light in (or under) the plane's level casts nothing onto it that it could light.
+        let lit_plane = plane.light_height > plane.texel() * 1e-3;
+        let soft = lit_plane && frame.light_radius > 0.0;
+        let vertices = if soft {
+            rec.cpu("plateaus/silhouettes", || {
+                self.build_geometry(frame, &plane)
+            })
+        } else {
+            Vec::new()
+        };
+        self.upload(ctx, &vertices)?;
+
+        let plane_gpu: Option<*const GpuObject> = frame
+            .gpu
+            .objects
+            .get(self.receiver.object)
+            .map(|o| o as *const GpuObject);
+        rec.pass("plateaus/drop_shadow", |rec| {
+            rec.begin_rendering(
+                &[(&self.texture, Some([1.0; 4]))],
+                Some((&self.zbuffer, Some(1.0))),
+            );
+            if lit_plane {
+                rec.bind_pipeline(&self.drop_pipeline);
+                rec.bind_sets(&self.drop_pipeline, &[&self.drop_set]);
+                // The plane cannot shadow itself.
+                frame.gpu.draw(rec, &self.drop_pipeline, |o| {
+                    o.role.casts() && plane_gpu.is_none_or(|p| !std::ptr::eq(o, p))
+                });
+            }
+            rec.end_rendering();
+            Ok(())
+        })?;
+        match (&self.vertices, self.vertex_count > 0) {
+            (Some(vb), true) => rec.pass("plateaus/plateaus", |rec| {
+                // Load: the drop shadow's colour and depth stay in place under the plateaus.
+                rec.begin_rendering(&[(&self.texture, None)], Some((&self.zbuffer, None)));
+                rec.bind_pipeline(&self.plateau_pipeline);
+                rec.bind_vertex_buffer(vb);
+                rec.draw(self.vertex_count, 1);
+                rec.end_rendering();
+                Ok(())
+            })?,
+            _ if !lit_plane => rec.skip("plateaus/plateaus", "light not above the plane"),
+            _ if !soft => rec.skip("plateaus/plateaus", "point light (R = 0)"),
+            _ => rec.skip("plateaus/plateaus", "no silhouette edge"),
+        }
+        rec.transition(&self.texture, ImageLayout::SHADER_READ_ONLY_OPTIMAL);
+        rec.pass("plateaus/shadow_map", |rec| {
+            self.shadow.record(rec, frame.gpu);
+            Ok(())
+        })?;
+        rec.pass("plateaus/final", |rec| {
+            self.final_pass
+                .record(rec, frame.targets, frame.gpu, &self.final_set);
+            Ok(())
+        })
+    }
+
+    fn debug_image(&self, name: &str) -> Option<&Image> {
+        match name {
+            "plateaus" => Some(&self.texture),
+            "shadow_map" => Some(&self.shadow.depth),
+            _ => None,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::{primitives, Light, Object, Role};
+    use crate::silhouette::test_meshes::cube;
+    use std::sync::Arc;
+
+    fn light(position: Vec3, target: Vec3) -> LightView {
+        LightView::new(
+            &Light {
+                position,
+                target,
+                fov_deg: 90.0,
+                radius: 0.5,
+            },
+            0.1,
+            50.0,
+        )
+    }
+
+    fn ground_receiver() -> PlanarReceiver {
+        let mesh = primitives::plane(Vec2::splat(10.0), 4);
+        let (origin, normal, corners) = plane_of(&mesh).expect("the ground is planar");
+        PlanarReceiver {
+            object: 0,
+            origin,
+            normal,
+            corners,
+            area: 100.0,
+        }
+    }
+
+    #[test]
+    fn planar_detection() {
+        assert!(plane_of(&primitives::plane(Vec2::splat(4.0), 3)).is_some());
+        assert!(plane_of(&primitives::sphere(1.0, 16, 8)).is_none());
+        assert!(plane_of(&cube()).is_none());
+        let mut bumpy = primitives::plane(Vec2::splat(4.0), 3);
+        bumpy.positions[5].y += 0.01;
+        assert!(plane_of(&bumpy).is_none());
+    }
+
+    #[test]
+    fn drop_shadow_matrix_is_the_central_projection() {
+        let l = light(Vec3::new(1.0, 6.0, 0.5), Vec3::ZERO);
+        let pf = PlaneFrame::new(&ground_receiver(), Mat4::IDENTITY, &l, 256);
+        assert!((pf.light_height - 6.0).abs() < 1e-5, "{}", pf.light_height);
+        let m = pf.drop_shadow();
+        for x in [
+            Vec3::new(0.3, 1.0, -0.2),
+            Vec3::new(-1.0, 2.5, 1.0),
+            Vec3::new(0.5, 0.0, 0.5),
+        ] {
+            let c = m * x.extend(1.0);
+            let got = Vec2::new(c.x, c.y) / c.w;
+            assert!(c.z.abs() < 1e-6);
+            let (p, _) = pf.vertex_disc(x, 0.0).expect("below the light");
+            let want = pf.uv(p) * 2.0 - Vec2::ONE;
+            assert!((got - want).length() < 1e-4, "{got} vs {want}");
+            // The projection lies on the line from the light through x, on the plane.
+            let world = pf.origin + pf.u * p.x + pf.v * p.y;
+            assert!(world.y.abs() < 1e-4);
+            assert!(
+                (world - l.position)
+                    .normalize()
+                    .dot((x - l.position).normalize())
+                    > 0.99999
+            );
+        }
+        let t = pf.to_texture() * Vec3::new(0.2, 0.7, -0.4).extend(1.0);
+        assert!((t.z - 0.7).abs() < 1e-5);
+    }
+
+    #[test]
+    fn cone_radius_is_the_outer_penumbra_of_a_parallel_disc() {
+        let l = light(Vec3::new(0.0, 5.0, 0.0), Vec3::ZERO);
+        let pf = PlaneFrame::new(&ground_receiver(), Mat4::IDENTITY, &l, 256);
+        let (_, r) = pf
+            .vertex_disc(Vec3::new(1.0, 2.0, 0.0), 0.5)
+            .expect("below the light");
+        // Rays from the disc's rim through the point: R h / (H - h).
+        assert!((r - 0.5 * 2.0 / 3.0).abs() < 1e-5, "{r}");
+        let (_, r0) = pf
+            .vertex_disc(Vec3::new(1.0, 0.0, 0.0), 0.5)
+            .expect("on the plane");
+        assert_eq!(r0, 0.0);
+        assert!(pf.vertex_disc(Vec3::new(0.0, 5.5, 0.0), 0.5).is_none());
+    }
+
+    #[test]
+    fn region_is_the_frustum_footprint() {
+        // A narrow light straight down sees a small part of a large ground.
+        let l = LightView::new(
+            &Light {
+                position: Vec3::new(0.0, 4.0, 0.0),
+                target: Vec3::ZERO,
+                fov_deg: 30.0,
+                radius: 0.1,
+            },
+            0.1,
+            10.0,
+        );
+        let pf = PlaneFrame::new(&ground_receiver(), Mat4::IDENTITY, &l, 128);
+        let half = 4.0 * (15.0f32).to_radians().tan();
+        assert!(
+            (pf.side - 2.0 * half * (1.0 + 2.0 / 128.0)).abs() < 1e-3,
+            "{}",
+            pf.side
+        );
+    }
+
+    #[test]
+    fn sheets_open_away_from_the_drop_shadow() {
+        let l = light(Vec3::new(0.3, 6.0, -0.2), Vec3::ZERO);
+        let pf = PlaneFrame::new(&ground_receiver(), Mat4::IDENTITY, &l, 256);
+        for model in [
+            Mat4::from_translation(Vec3::new(0.0, 1.5, 0.0)),
+            // Mirrored: the silhouette swaps a and b, sheets must still open outwards.
+            Mat4::from_translation(Vec3::new(0.5, 2.0, 0.0))
+                * Mat4::from_scale(Vec3::new(-1.0, 1.0, 1.0)),
+        ] {
+            let adj = Adjacency::build(&cube()).expect("cube adjacency");
+            let sil = silhouette::extract(&adj, model, l.position);
+            assert!(sil.len() >= 4);
+            let disc =
+                |i: u32| pf.vertex_disc(model.transform_point3(adj.positions[i as usize]), 0.5);
+            let centre = sil
+                .iter()
+                .filter_map(|e| disc(e.a))
+                .map(|d| d.0)
+                .sum::<Vec2>()
+                / sil.len() as f32;
+            for e in &sil {
+                let (Some((c1, r1)), Some((c2, r2))) = (disc(e.a), disc(e.b)) else {
+                    panic!("cube below the light");
+                };
+                let mut b = PlateauBuilder::new(&pf, 0.5);
+                b.sheet(c1, r1, c2, r2);
+                assert_eq!(b.sheets, 1);
+                // Depth-1 vertices (the outer rim) lie farther from the shadow's centre.
+                let to_plane = |v: &PlateauVertex| {
+                    (Vec2::new(v.clip[0], v.clip[1]) + Vec2::ONE) * 0.5 * pf.side + pf.min
+                };
+                let mid = (c1 + c2) * 0.5;
+                for v in b.vertices.iter().filter(|v| v.clip[2] == 1.0) {
+                    let rim = to_plane(v);
+                    assert!(
+                        (rim - mid).dot(mid - centre) > 0.0,
+                        "sheet of edge {e:?} opens inwards"
+                    );
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn one_cone_per_vertex_per_frame() {
+        let l = light(Vec3::new(0.3, 6.0, -0.2), Vec3::ZERO);
+        let pf = PlaneFrame::new(&ground_receiver(), Mat4::IDENTITY, &l, 256);
+        let adj = Adjacency::build(&cube()).expect("cube adjacency");
+        let model = Mat4::from_translation(Vec3::new(0.0, 1.5, 0.0));
+        let sil = silhouette::extract(&adj, model, l.position);
+        let mut mailbox = vec![0u64; adj.positions.len()];
+        let mut b = PlateauBuilder::new(&pf, 0.5);
+        b.silhouette(&adj, &sil, model, &mut mailbox, 1);
+        // A closed silhouette loop has as many vertices as edges.
+        assert_eq!(b.cones, sil.len());
+        assert_eq!(b.sheets, sil.len());
+        let mut again = PlateauBuilder::new(&pf, 0.5);
+        again.silhouette(&adj, &sil, model, &mut mailbox, 1);
+        assert_eq!(again.cones, 0, "same frame stamp: cones already drawn");
+    }
+
+    #[test]
+    fn sphere_only_scene_has_no_planar_receiver() {
+        let s = Scene {
+            name: "balls".into(),
+            objects: vec![Object::new(
+                "ball",
+                Arc::new(primitives::sphere(1.0, 16, 8)),
+                Mat4::IDENTITY,
+                Role::Both,
+                Vec3::ONE,
+            )],
+            light: Light {
+                position: Vec3::new(0.0, 5.0, 0.0),
+                target: Vec3::ZERO,
+                fov_deg: 60.0,
+                radius: 0.2,
+            },
+            camera: crate::scene::Camera {
+                position: Vec3::new(0.0, 2.0, 6.0),
+                target: Vec3::ZERO,
+                up: Vec3::Y,
+                fov_deg: 45.0,
+            },
+        };
+        let err = find_planar_receiver(&s).expect_err("no plane").to_string();
+        assert!(
+            err.contains("planar receiver") && err.contains("balls"),
+            "{err}"
+        );
+    }
+}

@@ -3,7 +3,7 @@
 //! backend into memory and saved with `image`; text uses DejaVu Sans compiled in
 //! (assets/fonts, via plotters' `ab_glyph` feature), so no system font is needed.
 
-use super::bench::{Results, BASELINE};
+use super::bench::{Motion, Results, BASELINE};
 use anyhow::{anyhow, Context as _, Result};
 use plotters::prelude::*;
 use plotters::style::{register_font, FontStyle};
@@ -15,7 +15,7 @@ const FONT: &[u8] = include_bytes!(concat!(
     "/assets/fonts/DejaVuSans.ttf"
 ));
 const PANEL: (u32, u32) = (640, 480);
-const HEADER: u32 = 56;
+const HEADER: u32 = 84;
 const COLUMNS: usize = 3;
 
 const COLOURS: &[RGBColor] = &[
@@ -73,11 +73,14 @@ fn plot_err<E: std::error::Error + Send + Sync + 'static>(e: E) -> anyhow::Error
 /// Draws the plot for every scene of `res` into `path`.
 pub fn time_vs_error(path: &Path, res: &Results<'_>) -> Result<()> {
     fonts()?;
-    let mut scenes: Vec<&str> = Vec::new();
+    // One panel per scene, and per radius and motion when the sweep had several: a Pareto
+    // front only compares points that render the same thing.
+    let mut scenes: Vec<(&str, &str, Motion)> = Vec::new();
     let mut labels: Vec<&str> = Vec::new();
     for r in res.results {
-        if !scenes.contains(&r.scene.as_str()) {
-            scenes.push(&r.scene);
+        let key = (r.scene.as_str(), r.radius_spec.as_str(), r.motion);
+        if !scenes.contains(&key) {
+            scenes.push(key);
         }
         if !labels.contains(&r.technique.as_str()) {
             labels.push(&r.technique);
@@ -105,19 +108,52 @@ pub fn time_vs_error(path: &Path, res: &Results<'_>) -> Result<()> {
                 (10, 32),
             )
             .map_err(plot_err)?;
+        // One legend for every panel (colours are per technique everywhere), so none hides a point.
+        let mut x = 10;
+        let grey = RGBColor(110, 110, 110);
+        header
+            .draw(&PathElement::new(vec![(x, 66), (x + 18, 66)], grey.stroke_width(2)))
+            .map_err(plot_err)?;
+        header
+            .draw(&Circle::new((x + 9, 66), 8, grey.stroke_width(2)))
+            .map_err(plot_err)?;
+        let legend_font = ("sans-serif", 13).into_font().color(&BLACK);
+        header
+            .draw_text("Pareto front", &legend_font, (x + 24, 59))
+            .map_err(plot_err)?;
+        x += 130;
+        for (k, label) in labels.iter().enumerate() {
+            let colour = COLOURS[k % COLOURS.len()];
+            header
+                .draw(&Circle::new((x + 6, 66), 5, colour.filled()))
+                .map_err(plot_err)?;
+            header
+                .draw_text(label, &legend_font, (x + 16, 59))
+                .map_err(plot_err)?;
+            x += 30 + 8 * label.chars().count() as i32;
+        }
         let panels = body.split_evenly((rows, cols));
-        for (scene, area) in scenes.iter().zip(panels.iter()) {
+        let many_radii = scenes.iter().any(|k| k.1 != scenes[0].1);
+        let many_motions = scenes.iter().any(|k| k.2 != scenes[0].2);
+        for (&(scene, radius, motion), area) in scenes.iter().zip(panels.iter()) {
             let pts: Vec<_> = res
                 .results
                 .iter()
-                .filter(|r| r.scene == *scene)
+                .filter(|r| r.scene == scene && r.radius_spec == radius && r.motion == motion)
                 .filter_map(|r| r.ratio_to_hard.map(|x| (r, x, r.errors.mae_shadow)))
                 .filter(|(_, x, y)| x.is_finite() && y.is_finite())
                 .collect();
             let x_max = pts.iter().map(|p| p.1).fold(1.0f64, f64::max) * 1.15;
-            let y_max = pts.iter().map(|p| p.2).fold(0.0f64, f64::max).max(1e-3) * 1.4;
+            let y_max = pts.iter().map(|p| p.2).fold(0.0f64, f64::max).max(1e-3) * 1.15;
+            let mut caption = scene.to_string();
+            if many_radii {
+                caption += &format!(", R {radius}");
+            }
+            if many_motions {
+                caption += &format!(", {}", motion.name());
+            }
             let mut chart = ChartBuilder::on(area)
-                .caption(*scene, ("sans-serif", 18))
+                .caption(caption, ("sans-serif", 18))
                 .margin(12)
                 .x_label_area_size(36)
                 .y_label_area_size(56)
@@ -131,12 +167,6 @@ pub fn time_vs_error(path: &Path, res: &Results<'_>) -> Result<()> {
                 .axis_desc_style(("sans-serif", 14))
                 .draw()
                 .map_err(plot_err)?;
-            // Name the radius beside the buffer side when a scene was swept over several.
-            let radii = pts
-                .iter()
-                .filter(|p| p.0.radius_spec != pts[0].0.radius_spec)
-                .count()
-                > 0;
             let xy: Vec<(f64, f64)> = pts.iter().map(|p| (p.1, p.2)).collect();
             let front: Vec<(f64, f64)> = pareto_front(&xy).into_iter().map(|i| xy[i]).collect();
             // The front as a staircase (what is reachable for a time budget), its points ringed.
@@ -176,33 +206,19 @@ pub fn time_vs_error(path: &Path, res: &Results<'_>) -> Result<()> {
                         mine.iter()
                             .map(|p| Circle::new((p.1, p.2), 5, colour.filled())),
                     )
-                    .map_err(plot_err)?
-                    .label(*label)
-                    .legend(move |(x, y)| Circle::new((x + 8, y), 5, colour.filled()));
+                    .map_err(plot_err)?;
                 // The buffer resolution beside each point tells the sweep points apart.
                 chart
                     .draw_series(mine.iter().map(|p| {
                         EmptyElement::at((p.1, p.2))
                             + Text::new(
-                                if radii {
-                                    format!("{} R{}", p.0.shadow_res, p.0.radius_spec)
-                                } else {
-                                    format!("{}", p.0.shadow_res)
-                                },
+                                format!("{}", p.0.shadow_res),
                                 (8, -14),
                                 ("sans-serif", 11).into_font().color(&colour),
                             )
                     }))
                     .map_err(plot_err)?;
             }
-            chart
-                .configure_series_labels()
-                .position(SeriesLabelPosition::UpperRight)
-                .background_style(WHITE.mix(0.85))
-                .border_style(BLACK)
-                .label_font(("sans-serif", 12))
-                .draw()
-                .map_err(plot_err)?;
         }
         root.present().map_err(plot_err)?;
     }

@@ -168,7 +168,7 @@ pub fn markdown(res: &Results<'_>) -> String {
     );
     let _ = writeln!(
         s,
-        "- errors against the ray-cast reference ({} samples per pixel, seed {}): `mae_shadow` over the shadow-and-penumbra pixels, `rmse` over all covered pixels, `p99` of the shadow-and-penumbra pixels (DESIGN.md)",
+        "- errors against the ray-cast reference ({} samples per pixel, seed {:#x}): `mae_shadow` over the shadow-and-penumbra pixels, `rmse` over all covered pixels, `p99` of the shadow-and-penumbra pixels (DESIGN.md)",
         res.reference_samples, res.reference_seed
     );
     for n in &res.notes {

@@ -96,10 +96,7 @@ fn tiny_sweep_writes_every_output_and_each_parses() {
             let e: f64 = r[col(c)].parse().expect(c);
             assert!((0.0..=1.0).contains(&e), "{c} = {e}");
         }
-        assert_eq!(
-            &r[col("covered_pixels")].parse::<usize>().unwrap() > &0,
-            true
-        );
+        assert!(r[col("covered_pixels")].parse::<usize>().unwrap() > 0);
     }
     assert_eq!(
         &rows[0][col("ratio_to_hard")],
@@ -259,7 +256,13 @@ fn bad_input_is_one_line_and_leaves_nothing() {
     std::fs::write(&file, b"not a folder").unwrap();
     let under = file.join("out");
     assert_clean_failure(
-        &["bench", "--out", under.to_str().unwrap(), "--samples", "256"],
+        &[
+            "bench",
+            "--out",
+            under.to_str().unwrap(),
+            "--samples",
+            "256",
+        ],
         &under,
         "cannot create output folder",
     );
@@ -283,7 +286,7 @@ fn module(instrs: &[(u32, usize)]) -> Vec<u8> {
     let mut words = vec![0x0723_0203u32, 0x0001_0000, 0, 100, 0];
     for &(op, operands) in instrs {
         words.push(((operands as u32 + 1) << 16) | op);
-        words.extend(std::iter::repeat(1).take(operands));
+        words.extend(std::iter::repeat_n(1, operands));
     }
     words.iter().flat_map(|w| w.to_le_bytes()).collect()
 }
@@ -406,7 +409,10 @@ fn radius_and_motion_flags_parse() {
     assert_eq!(at(Motion::Light, 3).camera, base.camera);
     assert_ne!(at(Motion::Camera, 3).camera.position, base.camera.position);
     let caster = base.objects.iter().position(|o| o.role.casts()).unwrap();
-    assert_ne!(at(Motion::Object, 3).objects[caster].transform, base.objects[caster].transform);
+    assert_ne!(
+        at(Motion::Object, 3).objects[caster].transform,
+        base.objects[caster].transform
+    );
     assert_eq!(at(Motion::Object, 3).light, base.light);
     assert!("wobble".parse::<Motion>().is_err());
     assert_eq!(bench::slug("smoothies t=0.02"), "smoothies-t-0.02");
@@ -431,7 +437,12 @@ fn moving_sweeps_are_timed_moving_and_measured_at_rest() {
         frames: 3,
         warmup: 1,
         samples: 256,
-        motions: vec![Motion::Static, Motion::Light, Motion::Object, Motion::Camera],
+        motions: vec![
+            Motion::Static,
+            Motion::Light,
+            Motion::Object,
+            Motion::Camera,
+        ],
         out: out.clone(),
         progress: false,
         ..bench::BenchConfig::default()
@@ -450,7 +461,10 @@ fn moving_sweeps_are_timed_moving_and_measured_at_rest() {
         let still = rec(t, Motion::Static);
         for m in [Motion::Light, Motion::Object, Motion::Camera] {
             let moving = rec(t, m);
-            assert_eq!(moving.errors, still.errors, "{t} {m:?}: errors not measured at rest");
+            assert_eq!(
+                moving.errors, still.errors,
+                "{t} {m:?}: errors not measured at rest"
+            );
             assert!(moving.ratio_to_hard.is_some());
         }
     }

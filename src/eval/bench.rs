@@ -37,6 +37,7 @@ use anyhow::{bail, Context as _, Result};
 use glam::{Mat4, Vec3};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use serde::Serialize;
+use std::collections::hash_map::Entry;
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 use std::time::Duration;
@@ -351,6 +352,8 @@ impl Plan {
             shadow_res: c.shadow_res,
             light_radius: Some(self.config.radii[c.radius].resolve(scene)),
             smoothie_t: self.variants[c.variant].smoothie_t,
+            // Used only when `reference` itself is benched (--techniques reference).
+            reference_samples: self.config.samples,
             ..Settings::default()
         }
     }
@@ -704,7 +707,7 @@ pub fn run(ctx: &Context, plan: Plan) -> Result<Outcome> {
         drop(r);
 
         let key = (case.scene, case.radius);
-        if !refs.contains_key(&key) {
+        if let Entry::Vacant(slot) = refs.entry(key) {
             bar.set_message(format!(
                 "{}: reference visibility, {}x{}, R {radius:.4}, {} samples",
                 base.name, cfg.width, cfg.height, cfg.samples
@@ -732,7 +735,7 @@ pub fn run(ctx: &Context, plan: Plan) -> Result<Outcome> {
             );
             write_gray(&plan.staging.path(&name), cfg.width, cfg.height, &v)?;
             files.push(name.clone());
-            refs.insert(key, (v, name));
+            slot.insert((v, name));
         }
         let (v_ref, reference_image) = &refs[&key];
 
@@ -969,7 +972,10 @@ pub const ERROR_SCALE_IMAGE: &str = "images/error_scale.png";
 fn write_error_scale(path: &Path) -> Result<()> {
     let (w, h) = (256u32, 16u32);
     let img = image::RgbaImage::from_fn(w, h, |x, _| {
-        image::Rgba(metrics::error_color(ERROR_SCALE * x as f32 / (w - 1) as f32, ERROR_SCALE))
+        image::Rgba(metrics::error_color(
+            ERROR_SCALE * x as f32 / (w - 1) as f32,
+            ERROR_SCALE,
+        ))
     });
     img.save_with_format(path, image::ImageFormat::Png)
         .with_context(|| format!("writing {}", path.display()))

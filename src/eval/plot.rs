@@ -112,7 +112,10 @@ pub fn time_vs_error(path: &Path, res: &Results<'_>) -> Result<()> {
         let mut x = 10;
         let grey = RGBColor(110, 110, 110);
         header
-            .draw(&PathElement::new(vec![(x, 66), (x + 18, 66)], grey.stroke_width(2)))
+            .draw(&PathElement::new(
+                vec![(x, 66), (x + 18, 66)],
+                grey.stroke_width(2),
+            ))
             .map_err(plot_err)?;
         header
             .draw(&Circle::new((x + 9, 66), 8, grey.stroke_width(2)))

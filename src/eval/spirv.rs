@@ -49,7 +49,7 @@ pub struct Counts {
 
 /// Counts the instructions of a SPIR-V module given as bytes (either endianness).
 pub fn count(bytes: &[u8]) -> Result<Counts> {
-    if bytes.len() % 4 != 0 || bytes.len() < 20 {
+    if !bytes.len().is_multiple_of(4) || bytes.len() < 20 {
         bail!("not a SPIR-V module: {} bytes", bytes.len());
     }
     let le: Vec<u32> = bytes

@@ -236,6 +236,9 @@ fn render(cli: &Cli, a: &RenderArgs) -> Result<()> {
         occluder_res: a.occluder_res,
         accum_format: a.accum_format,
         reference_samples: a.reference_samples,
+        // Timed frames rebuild every pass so that each one is measured; frame-to-frame reuse
+        // shows in `bench --motion static,camera`.
+        cache_light_passes: !a.timings,
         ..Settings::default()
     };
     let mut r = Renderer::new(&ctx, scene, &a.technique, settings)?;

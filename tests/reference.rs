@@ -43,7 +43,11 @@ fn facing_the_light(scene: &Scene, img: &FrameImages, radius: f32) -> Vec<bool> 
             let to = l - glam::Vec3::new(p[0], p[1], p[2]);
             let d = to.length();
             let cos = glam::Vec3::from(*n).normalize_or_zero().dot(to / d);
-            inside && cos.abs() > radius / d + 0.1
+            // 0.2 past the disc's own grazing band: on a smooth-shaded curved caster the
+            // terminator is where the interpolated normal and the true facet disagree, and the
+            // shadow maps' 2-texel normal offset decides which side of it a pixel falls on: a
+            // self-shadowing artefact of every shadow map, not a disagreement on the integral.
+            inside && cos.abs() > radius / d + 0.2
         })
         .collect()
 }

@@ -149,6 +149,10 @@ struct BenchArgs {
     /// Fixed smoothie widths reported beside the calibrated `smoothies` row.
     #[arg(long, value_delimiter = ',', default_value = "0.02", allow_negative_numbers = true)]
     smoothie_t: Vec<f32>,
+    /// Reuse light-space passes while the light and objects stay put (default: every timed
+    /// frame runs every pass).
+    #[arg(long)]
+    reuse_light_passes: bool,
     /// The full sweep (flags given beside it still win).
     #[arg(long)]
     full: bool,
@@ -318,6 +322,7 @@ fn run_bench(cli: &Cli, a: &BenchArgs) -> Result<()> {
         samples: a.samples,
         seed: a.seed,
         motions,
+        reuse_light_passes: a.reuse_light_passes,
         out: a.out.clone(),
         progress: true,
         command: std::env::args().collect::<Vec<_>>().join(" "),

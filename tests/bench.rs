@@ -475,3 +475,59 @@ fn moving_sweeps_are_timed_moving_and_measured_at_rest() {
     assert!(outcome.files.iter().all(|f| out.join(f).is_file()));
     let _ = std::fs::remove_dir_all(&out);
 }
+
+/// By default every timed frame runs every pass; with reuse a static frame skips the
+/// light-space passes and says why.
+#[test]
+fn light_passes_are_rebuilt_unless_reuse_is_asked() {
+    let gpu = common::Gpu::new();
+    let run = |reuse: bool| {
+        let out = scratch(&format!("reuse-{reuse}"));
+        let config = bench::BenchConfig {
+            scenes: vec!["cylinder".into()],
+            techniques: vec!["smoothies".into()],
+            resolutions: vec![128],
+            smoothie_t: vec![],
+            width: 64,
+            height: 64,
+            frames: 2,
+            warmup: 1,
+            reuse_light_passes: reuse,
+            out: out.clone(),
+            progress: false,
+            ..bench::BenchConfig::default()
+        };
+        let outcome = bench::run(&gpu.ctx, bench::prepare(config).expect("valid")).expect("runs");
+        let _ = std::fs::remove_dir_all(&out);
+        outcome
+            .records
+            .into_iter()
+            .find(|r| r.technique == "smoothies")
+            .expect("smoothies row")
+    };
+    let full = run(false);
+    assert!(
+        full.passes
+            .iter()
+            .all(|p| p.gpu_ms.is_some() && p.skipped_frames == 0),
+        "{:?}",
+        full.passes
+    );
+    assert!(!full.cpu.is_empty(), "silhouettes not timed");
+    let reused = run(true);
+    let light: Vec<_> = reused
+        .passes
+        .iter()
+        .filter(|p| p.name != "smoothies/final")
+        .collect();
+    assert!(!light.is_empty());
+    for p in light {
+        assert_eq!(p.skipped_frames, 2, "{p:?}");
+        assert!(
+            p.skip_reason
+                .as_deref()
+                .is_some_and(|r| r.contains("unchanged")),
+            "{p:?}"
+        );
+    }
+}

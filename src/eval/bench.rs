@@ -15,6 +15,9 @@
 //! radius (`Settings::smoothie_t = None`) and `smoothies t=0.02` with the paper's fixed
 //! screen-space knob (one row per `--smoothie-t` value).
 //!
+//! Every timed frame runs every pass (`Settings::cache_light_passes` off) unless
+//! `reuse_light_passes` is set, which times what a static or camera-only frame really costs.
+//!
 //! Motions (`--motion`) only change what is timed: per frame the camera orbits 1 degree,
 //! the light circles (a tenth of its distance to its target, 10 degrees a frame), or the
 //! first caster turns 2 degrees about its vertical axis, so work that depends on the light
@@ -208,6 +211,10 @@ pub struct BenchConfig {
     pub samples: u32,
     pub seed: u64,
     pub motions: Vec<Motion>,
+    /// Let the renderer reuse the light-space passes while the light and objects stay put
+    /// (`Settings::cache_light_passes`). Off by default: every timed frame runs every pass,
+    /// so a frame time is the whole frame's cost, as `render --timings` measures it.
+    pub reuse_light_passes: bool,
     pub out: PathBuf,
     /// Show a progress bar on a terminal (plain lines otherwise).
     pub progress: bool,
@@ -230,6 +237,7 @@ impl Default for BenchConfig {
             samples: DEFAULT_SAMPLES,
             seed: DEFAULT_SEED,
             motions: vec![Motion::Static],
+            reuse_light_passes: false,
             out: PathBuf::from("bench-out"),
             progress: true,
             command: String::new(),
@@ -354,6 +362,7 @@ impl Plan {
             smoothie_t: self.variants[c.variant].smoothie_t,
             // Used only when `reference` itself is benched (--techniques reference).
             reference_samples: self.config.samples,
+            cache_light_passes: self.config.reuse_light_passes,
             ..Settings::default()
         }
     }
@@ -819,6 +828,11 @@ pub fn run(ctx: &Context, plan: Plan) -> Result<Outcome> {
     if plan.variants.iter().any(|v| v.technique == "smoothies") {
         notes.push("`smoothies` calibrates its width t from the light radius; `smoothies t=...` uses the paper's fixed screen-space width (fraction of the shadow map).".into());
     }
+    notes.push(if cfg.reuse_light_passes {
+        "Light-space passes were reused while the light and objects stayed put (--reuse-light-passes): a static or camera-only frame times only the final pass; skipped passes are listed as skipped.".into()
+    } else {
+        "Every timed frame ran every pass (no reuse of light-space passes): a frame time is the whole frame's cost.".into()
+    });
     if plan.config.motions.iter().any(|m| *m != Motion::Static) {
         notes.push("Moving sweeps time the frames while moving; their errors are measured on the scene at rest.".into());
     }

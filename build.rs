@@ -39,6 +39,8 @@ fn run() -> Result<(), String> {
     let spirv_val = find_tool("spirv-val");
 
     let mut consts = String::new();
+    // Every compiled module, listed for the bench's SPIR-V cost table (`shaders::ALL`).
+    let mut table = String::new();
     let mut failures = Vec::new();
     for file in &files {
         println!("cargo:rerun-if-changed={}", file.display());
@@ -94,6 +96,11 @@ fn run() -> Result<(), String> {
                 "pub const {ident}_RAW: &[u8] = include_bytes!(r\"{}\");",
                 raw.display()
             );
+            let _ = writeln!(
+                table,
+                "    Shader {{ path: r\"{}\", stage: \"{ext}\", spirv: {ident}, raw: Some({ident}_RAW), optimised: {optimised}, hand_tuned: false }},",
+                rel.display()
+            );
         } else if ext == "spvasm" {
             let Some(asm) = spirv_as.as_ref() else {
                 return Err(format!(
@@ -143,8 +150,17 @@ fn run() -> Result<(), String> {
                 "pub const {ident}: &[u8] = include_bytes!(r\"{}\");",
                 spv.display()
             );
+            // `smoothies/final.frag.spvasm`: the stage is the extension before `.spvasm`.
+            let stem = Path::new(rel.file_stem().unwrap_or_default());
+            let stage = stem.extension().and_then(|e| e.to_str()).unwrap_or("");
+            let _ = writeln!(
+                table,
+                "    Shader {{ path: r\"{}\", stage: \"{stage}\", spirv: {ident}, raw: None, optimised: false, hand_tuned: true }},",
+                rel.display()
+            );
         }
     }
+    let _ = writeln!(consts, "pub const ALL: &[Shader] = &[\n{table}];");
     if !failures.is_empty() {
         return Err(format!(
             "{} shader(s) failed to compile:\n{}",

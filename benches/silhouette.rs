@@ -2,11 +2,21 @@
 //! and serial) and `build_smoothies`, on procedural meshes built here (a UV sphere of ~10k
 //! and ~50k triangles, a torus of ~50k; a ~1M-triangle sphere for the adjacency build) so the bench does not depend on the scene module's
 //! primitives. Sample sizes are small so the whole bench finishes in well under a minute.
+//!
+//! The `scenes` group runs the same CPU work on every built-in scene (`Scene::load`), all
+//! casters of the scene for its light (fitted as the renderer fits it, smoothie width
+//! calibrated from the scene's radius): `extract` (rayon), `extract_serial`,
+//! `build_smoothies`, and `total` (extract + smoothies, what one frame of `smoothies`
+//! does per light) on all cores and on one core (a one-thread rayon pool). The goal for
+//! `dense` is `total_1core` <= 1 ms per light.
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion};
 use glam::{Mat4, Vec3};
-use softshadow::scene::{Light, LightView, Mesh};
+use softshadow::render::fit_light;
+use softshadow::scene::{Light, LightView, Mesh, Scene, BUILTIN_SCENES};
+use softshadow::silhouette::SilhouetteEdge;
 use softshadow::silhouette::{build_smoothies, extract, extract_serial, Adjacency};
+use softshadow::technique::smoothies::smoothie_width;
 use std::f32::consts::{PI, TAU};
 use std::hint::black_box;
 use std::time::Duration;
@@ -120,5 +130,94 @@ fn bench(c: &mut Criterion) {
     g.finish();
 }
 
-criterion_group!(benches, bench);
+/// One built-in scene's casters: (object to world, adjacency).
+struct Casters {
+    objects: Vec<(Mat4, Adjacency)>,
+    light: LightView,
+    t: f32,
+}
+
+impl Casters {
+    fn load(name: &str) -> Option<Self> {
+        let scene = Scene::load(name)
+            .map_err(|e| eprintln!("{name}: {e:#}"))
+            .ok()?;
+        let light = fit_light(&scene);
+        let t = smoothie_width(None, &scene, &light, scene.light.radius);
+        let objects = scene
+            .objects
+            .iter()
+            .filter(|o| o.role.casts())
+            .filter_map(|o| Adjacency::build(&o.mesh).ok().map(|a| (o.transform, a)))
+            .collect();
+        Some(Self { objects, light, t })
+    }
+
+    fn extract(&self, serial: bool) -> Vec<Vec<SilhouetteEdge>> {
+        self.objects
+            .iter()
+            .map(|(m, adj)| {
+                if serial {
+                    extract_serial(adj, *m, self.light.position)
+                } else {
+                    extract(adj, *m, self.light.position)
+                }
+            })
+            .collect()
+    }
+
+    fn smoothies(&self, sil: &[Vec<SilhouetteEdge>]) -> usize {
+        self.objects
+            .iter()
+            .zip(sil)
+            .map(|((m, adj), s)| {
+                build_smoothies(adj, s, *m, &self.light, self.t)
+                    .vertices
+                    .len()
+            })
+            .sum()
+    }
+}
+
+fn scenes(c: &mut Criterion) {
+    let one_core = rayon::ThreadPoolBuilder::new().num_threads(1).build().ok();
+    let mut g = c.benchmark_group("scenes");
+    g.sample_size(10)
+        .warm_up_time(Duration::from_millis(300))
+        .measurement_time(Duration::from_secs(1));
+    for &name in BUILTIN_SCENES {
+        let Some(cs) = Casters::load(name) else {
+            continue;
+        };
+        let sil = cs.extract(false);
+        let edges: usize = sil.iter().map(Vec::len).sum();
+        let tris: usize = cs.objects.iter().map(|(_, a)| a.num_faces()).sum();
+        eprintln!(
+            "{name}: {} casters, {tris} caster triangles, {edges} silhouette edges, t = {:.4}, {} smoothie vertices",
+            cs.objects.len(),
+            cs.t,
+            cs.smoothies(&sil)
+        );
+        g.bench_function(BenchmarkId::new("extract", name), |b| {
+            b.iter(|| cs.extract(false))
+        });
+        g.bench_function(BenchmarkId::new("extract_serial", name), |b| {
+            b.iter(|| cs.extract(true))
+        });
+        g.bench_function(BenchmarkId::new("build_smoothies", name), |b| {
+            b.iter(|| cs.smoothies(black_box(&sil)))
+        });
+        g.bench_function(BenchmarkId::new("total", name), |b| {
+            b.iter(|| cs.smoothies(&cs.extract(false)))
+        });
+        if let Some(pool) = &one_core {
+            g.bench_function(BenchmarkId::new("total_1core", name), |b| {
+                b.iter(|| pool.install(|| cs.smoothies(&cs.extract(true))))
+            });
+        }
+    }
+    g.finish();
+}
+
+criterion_group!(benches, bench, scenes);
 criterion_main!(benches);

@@ -2,6 +2,7 @@
 
 use anyhow::{bail, Context as _, Result};
 use clap::{Args, Parser, Subcommand};
+use softshadow::eval::bench;
 use softshadow::render::{Renderer, Settings};
 use softshadow::scene::Scene;
 use softshadow::vk::{Context, ContextOptions};
@@ -31,6 +32,10 @@ enum Command {
     Render(RenderArgs),
     /// Write the scene's triangles in world space as OBJ, and lights and camera as JSON.
     Export(ExportArgs),
+    /// Time every technique per pass and measure its error against the reference, over
+    /// scenes x buffer resolutions x light radii; writes results.csv, results.json,
+    /// report.md, time_vs_error.png and images/ into --out.
+    Bench(BenchArgs),
 }
 
 #[derive(Args)]
@@ -101,6 +106,58 @@ struct ExportArgs {
     height: u32,
 }
 
+/// Defaults are the modest sweep (a few minutes on lavapipe); `--full` the full one.
+#[derive(Args)]
+struct BenchArgs {
+    /// Scenes, comma-separated [default: cylinder,boxes,primitives; --full: every built-in].
+    #[arg(long, value_delimiter = ',')]
+    scenes: Option<Vec<String>>,
+    /// Techniques, comma-separated [default: all but reference]; hard is always added.
+    #[arg(long, value_delimiter = ',')]
+    techniques: Option<Vec<String>>,
+    /// Output folder (created; files in it are replaced only when the sweep succeeds).
+    #[arg(long, default_value = "bench-out")]
+    out: PathBuf,
+    /// Timed frames per sweep point [default: 5; --full: 20].
+    #[arg(long)]
+    frames: Option<u32>,
+    /// Untimed warm-up frames before them.
+    #[arg(long, default_value_t = bench::DEFAULT_WARMUP)]
+    warmup: u32,
+    /// What moves while the frames are timed: static, camera, light, object (comma-separated).
+    #[arg(long, value_delimiter = ',')]
+    motion: Option<Vec<String>>,
+    /// Light-space buffer sides [default: 512,1024; --full: 256,512,1024,2048].
+    #[arg(long, value_delimiter = ',')]
+    resolutions: Option<Vec<u32>>,
+    /// Light radii: 'scene', a multiple like '0.5x', or world units [default: scene;
+    /// --full: 0,0.5x,scene,2x].
+    #[arg(long, value_delimiter = ',', allow_negative_numbers = true)]
+    radii: Option<Vec<String>>,
+    /// Image width [default: 512; --full: 1024].
+    #[arg(long)]
+    width: Option<u32>,
+    /// Image height [default: 512; --full: 1024].
+    #[arg(long)]
+    height: Option<u32>,
+    /// Reference samples per pixel.
+    #[arg(long, default_value_t = bench::DEFAULT_SAMPLES)]
+    samples: u32,
+    /// Reference sampling seed.
+    #[arg(long, default_value_t = bench::DEFAULT_SEED)]
+    seed: u64,
+    /// Fixed smoothie widths reported beside the calibrated `smoothies` row.
+    #[arg(long, value_delimiter = ',', default_value = "0.02", allow_negative_numbers = true)]
+    smoothie_t: Vec<f32>,
+    /// Reuse light-space passes while the light and objects stay put (default: every timed
+    /// frame runs every pass).
+    #[arg(long)]
+    reuse_light_passes: bool,
+    /// The full sweep (flags given beside it still win).
+    #[arg(long)]
+    full: bool,
+}
+
 fn main() -> ExitCode {
     let cli = match Cli::try_parse() {
         Ok(c) => c,
@@ -137,6 +194,7 @@ fn open_device(cli: &Cli) -> Result<Context> {
 fn run(cli: Cli) -> Result<()> {
     match &cli.command {
         Command::Render(a) => render(&cli, a),
+        Command::Bench(a) => run_bench(&cli, a),
         Command::Export(a) => {
             if a.width == 0 || a.height == 0 {
                 bail!("--width and --height must be at least 1");
@@ -233,6 +291,60 @@ fn render(cli: &Cli, a: &RenderArgs) -> Result<()> {
             msgs[0]
         );
     }
+    Ok(())
+}
+
+fn run_bench(cli: &Cli, a: &BenchArgs) -> Result<()> {
+    let preset = if a.full {
+        bench::BenchConfig::full()
+    } else {
+        bench::BenchConfig::default()
+    };
+    // Parsed here rather than by clap so that a bad value is one line like every other error.
+    let radii = match &a.radii {
+        Some(v) => v.iter().map(|r| r.parse()).collect::<Result<Vec<bench::Radius>>>()?,
+        None => preset.radii,
+    };
+    let motions = match &a.motion {
+        Some(v) => v.iter().map(|m| m.parse()).collect::<Result<Vec<bench::Motion>>>()?,
+        None => preset.motions,
+    };
+    let config = bench::BenchConfig {
+        scenes: a.scenes.clone().unwrap_or(preset.scenes),
+        techniques: a.techniques.clone().unwrap_or(preset.techniques),
+        resolutions: a.resolutions.clone().unwrap_or(preset.resolutions),
+        radii,
+        smoothie_t: a.smoothie_t.clone(),
+        width: a.width.unwrap_or(preset.width),
+        height: a.height.unwrap_or(preset.height),
+        frames: a.frames.unwrap_or(preset.frames),
+        warmup: a.warmup,
+        samples: a.samples,
+        seed: a.seed,
+        motions,
+        reuse_light_passes: a.reuse_light_passes,
+        out: a.out.clone(),
+        progress: true,
+        command: std::env::args().collect::<Vec<_>>().join(" "),
+    };
+    // Names, numbers and the output folder are checked before the device is opened.
+    let plan = bench::prepare(config)?;
+    let ctx = open_device(cli)?;
+    if plan.hard_added {
+        println!("note: hard added to the sweep (every ratio is to hard)");
+    }
+    println!(
+        "bench: {} sweep points ({} scenes x {} rows x buffers x radii x motions)",
+        plan.len(),
+        plan.scenes.len(),
+        plan.variants.len()
+    );
+    let outcome = bench::run(&ctx, plan)?;
+    println!(
+        "wrote {} files into {}: report.md, results.csv, results.json, time_vs_error.png, images/",
+        outcome.files.len(),
+        outcome.out.display()
+    );
     Ok(())
 }
 

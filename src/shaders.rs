@@ -1,5 +1,22 @@
 //! SPIR-V of every shader under glsl/, compiled by build.rs: `glsl/smoothies/final.frag`
 //! is `SMOOTHIES_FINAL_FRAG` (spirv-opt -O applied when available) and
-//! `SMOOTHIES_FINAL_FRAG_RAW` (glslang's output as is).
+//! `SMOOTHIES_FINAL_FRAG_RAW` (glslang's output as is). `ALL` lists every module.
+
+/// One compiled shader file, as listed in [`ALL`].
+#[derive(Clone, Copy, Debug)]
+pub struct Shader {
+    /// Path under glsl/, e.g. `smoothies/final.frag` (or `....frag.spvasm`).
+    pub path: &'static str,
+    /// `vert`, `frag`, `comp`, ...
+    pub stage: &'static str,
+    /// The module the renderer runs (spirv-opt -O output when `optimised`).
+    pub spirv: &'static [u8],
+    /// glslang's output before spirv-opt; `None` for hand-written `.spvasm`.
+    pub raw: Option<&'static [u8]>,
+    /// Whether spirv-opt ran (it is optional at build time).
+    pub optimised: bool,
+    /// Assembled from a hand-tuned `.spvasm` file.
+    pub hand_tuned: bool,
+}
 
 include!(concat!(env!("OUT_DIR"), "/shaders.rs"));

@@ -1,0 +1,1016 @@
+//! `softshadow bench`: sweeps techniques x scenes x light-buffer resolutions x light radii
+//! (x motions), times every pass, and measures each technique's error against the
+//! ray-cast reference (DESIGN.md "Timing protocol" and "What visibility and error mean").
+//!
+//! Per sweep point: a fresh `Renderer`, `warmup` untimed frames, `frames` timed frames
+//! (per pass GPU ms and named CPU ms each frame; figures are median, min and max over the
+//! timed frames), one `read_back` for the image and the AOVs, the reference visibility at
+//! exactly those pixels (`reference::visibility_cached`, computed once per scene, image size
+//! and radius), and the errors over the covered pixels (position alpha > 0.5).
+//! Frame time is the sum of the passes that ran (`FrameTimings::gpu_total_ms`); the ratio to
+//! `hard` divides by hard's median on the same scene, image size, buffer resolution, radius
+//! and motion in the same run, which is why `hard` is always swept even when not listed.
+//!
+//! `smoothies` is reported twice: `smoothies` with its width t calibrated from the light
+//! radius (`Settings::smoothie_t = None`) and `smoothies t=0.02` with the paper's fixed
+//! screen-space knob (one row per `--smoothie-t` value).
+//!
+//! Every timed frame runs every pass (`Settings::cache_light_passes` off) unless
+//! `reuse_light_passes` is set, which times what a static or camera-only frame really costs.
+//!
+//! Motions (`--motion`) only change what is timed: per frame the camera orbits 1 degree,
+//! the light circles (a tenth of its distance to its target, 10 degrees a frame), or the
+//! first caster turns 2 degrees about its vertical axis, so work that depends on the light
+//! or the casters (silhouettes, smoothie geometry) is redone every frame. The error is
+//! always measured on the scene at rest: a last, untimed frame is rendered after the
+//! scene is put back.
+//!
+//! Everything is checked before the first frame (names, numbers, device limits, the output
+//! folder). Files are written into a hidden staging folder inside `--out` and renamed into
+//! place only when the whole sweep succeeded, so a failure never leaves half the output.
+
+use super::metrics::{self, Errors};
+use super::reference::{self, ReferenceParams};
+use super::{plot, report, spirv};
+use crate::render::{FrameImages, Renderer, Settings};
+use crate::scene::{Scene, BUILTIN_SCENES};
+use crate::technique::{self, smoothies::smoothie_width};
+use crate::vk::{Context, FrameTimings};
+use anyhow::{bail, Context as _, Result};
+use glam::{Mat4, Vec3};
+use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
+use serde::Serialize;
+use std::collections::hash_map::Entry;
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+use std::time::Duration;
+
+/// The default sweep: modest, so that it finishes in a few minutes on lavapipe.
+pub const DEFAULT_SCENES: &[&str] = &["cylinder", "boxes", "primitives"];
+pub const DEFAULT_RESOLUTIONS: &[u32] = &[512, 1024];
+pub const DEFAULT_SIZE: u32 = 512;
+/// The full sweep (`--full`).
+pub const FULL_RESOLUTIONS: &[u32] = &[256, 512, 1024, 2048];
+pub const FULL_SIZE: u32 = 1024;
+pub const FULL_RADII: &[Radius] = &[
+    Radius::Abs(0.0),
+    Radius::Times(0.5),
+    Radius::Scene,
+    Radius::Times(2.0),
+];
+pub const FULL_FRAMES: u32 = 20;
+/// The paper's fixed smoothie width (Chan & Durand use t = 0.02 to 0.2).
+pub const DEFAULT_SMOOTHIE_T: f32 = 0.02;
+pub const DEFAULT_FRAMES: u32 = 5;
+pub const DEFAULT_WARMUP: u32 = 2;
+/// DESIGN.md: the reference uses at least 256 samples per pixel.
+pub const DEFAULT_SAMPLES: u32 = reference::MIN_SAMPLES;
+pub const DEFAULT_SEED: u64 = reference::DEFAULT_SEED;
+/// |v - v_ref| shown at full colour (red) in the error images.
+pub const ERROR_SCALE: f32 = 0.25;
+/// The technique every ratio is taken against.
+pub const BASELINE: &str = "hard";
+
+/// The light radius of a sweep point.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Radius {
+    /// The scene's own radius.
+    Scene,
+    /// A multiple of the scene's radius (`0.5x`).
+    Times(f32),
+    /// An absolute radius in world units (`0.3`; `0` is a point light).
+    Abs(f32),
+}
+
+impl std::str::FromStr for Radius {
+    type Err = anyhow::Error;
+    /// `scene`, `0.5x` or `0.3`.
+    fn from_str(s: &str) -> Result<Self> {
+        let s = s.trim();
+        if s.eq_ignore_ascii_case("scene") {
+            return Ok(Radius::Scene);
+        }
+        let (num, times) = match s.strip_suffix(['x', 'X']) {
+            Some(n) => (n, true),
+            None => (s, false),
+        };
+        let v: f32 = match num.parse() {
+            Ok(v) if f32::is_finite(v) && v >= 0.0 => v,
+            _ => bail!("--radii '{s}' is not a radius: allowed 'scene', a multiple of it like '0.5x', or a world-unit value >= 0"),
+        };
+        Ok(if times {
+            Radius::Times(v)
+        } else {
+            Radius::Abs(v)
+        })
+    }
+}
+
+impl std::fmt::Display for Radius {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Radius::Scene => write!(f, "scene"),
+            Radius::Times(v) => write!(f, "{v}x"),
+            Radius::Abs(v) => write!(f, "{v}"),
+        }
+    }
+}
+
+impl Radius {
+    pub fn resolve(self, scene: &Scene) -> f32 {
+        match self {
+            Radius::Scene => scene.light.radius,
+            Radius::Times(k) => k * scene.light.radius,
+            Radius::Abs(r) => r,
+        }
+    }
+}
+
+/// What moves from frame to frame while the frames are timed.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Motion {
+    Static,
+    Camera,
+    Light,
+    Object,
+}
+
+impl std::str::FromStr for Motion {
+    type Err = anyhow::Error;
+    fn from_str(s: &str) -> Result<Self> {
+        match s.trim().to_ascii_lowercase().as_str() {
+            "static" => Ok(Motion::Static),
+            "camera" => Ok(Motion::Camera),
+            "light" => Ok(Motion::Light),
+            "object" => Ok(Motion::Object),
+            _ => bail!("--motion '{s}' is not a motion: allowed static, camera, light, object"),
+        }
+    }
+}
+
+impl Motion {
+    pub fn name(self) -> &'static str {
+        match self {
+            Motion::Static => "static",
+            Motion::Camera => "camera",
+            Motion::Light => "light",
+            Motion::Object => "object",
+        }
+    }
+
+    /// `base` as it stands at frame `frame` of this motion (frame 0 is `base`).
+    pub fn apply(self, base: &Scene, frame: u32) -> Scene {
+        let mut scene = base.clone();
+        let f = frame as f32;
+        match self {
+            Motion::Static => {}
+            Motion::Camera => {
+                let c = &mut scene.camera;
+                let rot = Mat4::from_rotation_y(f.to_radians());
+                c.position = c.target + rot.transform_vector3(c.position - c.target);
+            }
+            Motion::Light => {
+                // A small circle in the horizontal plane, so that a light straight above its
+                // target moves too.
+                let l = &mut scene.light;
+                let r = 0.1 * (l.position - l.target).length();
+                let a = (10.0 * f).to_radians();
+                l.position += Vec3::new(a.cos() - 1.0, 0.0, a.sin()) * r;
+            }
+            Motion::Object => {
+                if let Some(o) = scene.objects.iter_mut().find(|o| o.role.casts()) {
+                    let c = o.world_bounds().center();
+                    let spin = Mat4::from_translation(c)
+                        * Mat4::from_rotation_y((2.0 * f).to_radians())
+                        * Mat4::from_translation(-c);
+                    o.transform = spin * o.transform;
+                }
+            }
+        }
+        scene
+    }
+}
+
+/// Everything `softshadow bench` can be asked for.
+#[derive(Clone, Debug)]
+pub struct BenchConfig {
+    pub scenes: Vec<String>,
+    /// Technique names; `hard` is added when missing.
+    pub techniques: Vec<String>,
+    /// Light-space buffer sides (`Settings::shadow_res`).
+    pub resolutions: Vec<u32>,
+    pub radii: Vec<Radius>,
+    /// Fixed smoothie widths reported beside the calibrated one.
+    pub smoothie_t: Vec<f32>,
+    pub width: u32,
+    pub height: u32,
+    pub frames: u32,
+    pub warmup: u32,
+    /// Reference samples per pixel.
+    pub samples: u32,
+    pub seed: u64,
+    pub motions: Vec<Motion>,
+    /// Let the renderer reuse the light-space passes while the light and objects stay put
+    /// (`Settings::cache_light_passes`). Off by default: every timed frame runs every pass,
+    /// so a frame time is the whole frame's cost, as `render --timings` measures it.
+    pub reuse_light_passes: bool,
+    pub out: PathBuf,
+    /// Show a progress bar on a terminal (plain lines otherwise).
+    pub progress: bool,
+    /// The command line, recorded in the report.
+    pub command: String,
+}
+
+impl Default for BenchConfig {
+    fn default() -> Self {
+        Self {
+            scenes: DEFAULT_SCENES.iter().map(|s| s.to_string()).collect(),
+            techniques: default_techniques(),
+            resolutions: DEFAULT_RESOLUTIONS.to_vec(),
+            radii: vec![Radius::Scene],
+            smoothie_t: vec![DEFAULT_SMOOTHIE_T],
+            width: DEFAULT_SIZE,
+            height: DEFAULT_SIZE,
+            frames: DEFAULT_FRAMES,
+            warmup: DEFAULT_WARMUP,
+            samples: DEFAULT_SAMPLES,
+            seed: DEFAULT_SEED,
+            motions: vec![Motion::Static],
+            reuse_light_passes: false,
+            out: PathBuf::from("bench-out"),
+            progress: true,
+            command: String::new(),
+        }
+    }
+}
+
+impl BenchConfig {
+    /// The full sweep: every built-in scene, buffers 256 to 2048, four radii, 1024^2 images.
+    pub fn full() -> Self {
+        Self {
+            scenes: BUILTIN_SCENES.iter().map(|s| s.to_string()).collect(),
+            resolutions: FULL_RESOLUTIONS.to_vec(),
+            radii: FULL_RADII.to_vec(),
+            width: FULL_SIZE,
+            height: FULL_SIZE,
+            frames: FULL_FRAMES,
+            ..Self::default()
+        }
+    }
+}
+
+/// Every registered technique but the ray-cast `reference` (the ground truth itself).
+pub fn default_techniques() -> Vec<String> {
+    technique::names()
+        .into_iter()
+        .filter(|n| *n != "reference")
+        .map(String::from)
+        .collect()
+}
+
+/// A technique as the bench runs it: a registered technique plus the knobs that make a row.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Variant {
+    /// The row name: `smoothies`, `smoothies t=0.02`, `pcf`, ...
+    pub label: String,
+    pub technique: &'static str,
+    /// `Settings::smoothie_t` (None: calibrated from R).
+    pub smoothie_t: Option<f32>,
+}
+
+/// The rows for `techniques`, `hard` first (added when missing: the second value says so).
+pub fn variants(techniques: &[String], smoothie_t: &[f32]) -> Result<(Vec<Variant>, bool)> {
+    let mut names: Vec<&'static str> = Vec::new();
+    for t in techniques {
+        let info = technique::find(t.trim())?;
+        if !names.contains(&info.name) {
+            names.push(info.name);
+        }
+    }
+    if names.is_empty() {
+        bail!(
+            "--techniques is empty: name at least one of {}",
+            technique::names().join(", ")
+        );
+    }
+    let added = !names.contains(&BASELINE);
+    names.retain(|n| *n != BASELINE);
+    let base = technique::find(BASELINE)?;
+    let mut out = vec![Variant {
+        label: BASELINE.into(),
+        technique: base.name,
+        smoothie_t: None,
+    }];
+    for name in names {
+        out.push(Variant {
+            label: name.into(),
+            technique: name,
+            smoothie_t: None,
+        });
+        if name == "smoothies" {
+            for &t in smoothie_t {
+                out.push(Variant {
+                    label: format!("smoothies t={t}"),
+                    technique: name,
+                    smoothie_t: Some(t),
+                });
+            }
+        }
+    }
+    Ok((out, added))
+}
+
+/// One sweep point.
+#[derive(Clone, Copy, Debug)]
+struct Case {
+    scene: usize,
+    variant: usize,
+    shadow_res: u32,
+    radius: usize,
+    motion: Motion,
+}
+
+/// A checked sweep, ready to run: scenes loaded, rows expanded, output folder prepared.
+pub struct Plan {
+    pub config: BenchConfig,
+    pub scenes: Vec<Scene>,
+    pub variants: Vec<Variant>,
+    /// `hard` was not listed and was added for the ratios.
+    pub hard_added: bool,
+    cases: Vec<Case>,
+    staging: Staging,
+}
+
+impl Plan {
+    /// The number of sweep points.
+    pub fn len(&self) -> usize {
+        self.cases.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.cases.is_empty()
+    }
+
+    fn settings(&self, c: &Case) -> Settings {
+        let scene = &self.scenes[c.scene];
+        Settings {
+            width: self.config.width,
+            height: self.config.height,
+            shadow_res: c.shadow_res,
+            light_radius: Some(self.config.radii[c.radius].resolve(scene)),
+            smoothie_t: self.variants[c.variant].smoothie_t,
+            // Used only when `reference` itself is benched (--techniques reference).
+            reference_samples: self.config.samples,
+            cache_light_passes: self.config.reuse_light_passes,
+            ..Settings::default()
+        }
+    }
+}
+
+fn nonempty<T>(v: &[T], flag: &str) -> Result<()> {
+    if v.is_empty() {
+        bail!("{flag} is empty: give at least one value");
+    }
+    Ok(())
+}
+
+/// Checks everything that can be checked without a device and prepares the output folder.
+pub fn prepare(config: BenchConfig) -> Result<Plan> {
+    let c = &config;
+    if !(reference::MIN_SAMPLES..=reference::MAX_SAMPLES).contains(&c.samples) {
+        bail!(
+            "--samples {} is out of range: allowed {}..={} reference samples per pixel (DESIGN.md asks for at least {})",
+            c.samples,
+            reference::MIN_SAMPLES,
+            reference::MAX_SAMPLES,
+            reference::MIN_SAMPLES
+        );
+    }
+    if c.frames == 0 {
+        bail!("--frames 0 is out of range: time at least 1 frame");
+    }
+    if c.width == 0 || c.height == 0 {
+        bail!("--width and --height must be at least 1");
+    }
+    nonempty(&c.scenes, "--scenes")?;
+    nonempty(&c.resolutions, "--resolutions")?;
+    nonempty(&c.radii, "--radii")?;
+    nonempty(&c.motions, "--motion")?;
+    if let Some(r) = c.resolutions.iter().find(|&&r| r == 0) {
+        bail!("--resolutions {r} is out of range: a buffer side is at least 1");
+    }
+    for &t in &c.smoothie_t {
+        if !t.is_finite() || t <= 0.0 || t > 1.0 {
+            bail!("--smoothie-t {t} is out of range: allowed (0, 1] (fraction of the shadow map)");
+        }
+    }
+    for r in &c.radii {
+        if let Radius::Times(v) | Radius::Abs(v) = r {
+            if !v.is_finite() || *v < 0.0 {
+                bail!("--radii {r} is out of range: allowed a finite value >= 0");
+            }
+        }
+    }
+    let (variants, hard_added) = variants(&c.techniques, &c.smoothie_t)?;
+    let mut scenes = Vec::new();
+    for name in dedup(&c.scenes) {
+        scenes.push(Scene::load(name.trim())?);
+    }
+    let resolutions = dedup(&c.resolutions);
+    let motions = dedup(&c.motions);
+    let mut cases = Vec::new();
+    for scene in 0..scenes.len() {
+        for radius in 0..c.radii.len() {
+            for &motion in &motions {
+                for &shadow_res in &resolutions {
+                    for variant in 0..variants.len() {
+                        cases.push(Case {
+                            scene,
+                            variant,
+                            shadow_res,
+                            radius,
+                            motion,
+                        });
+                    }
+                }
+            }
+        }
+    }
+    let staging = Staging::new(&c.out)?;
+    Ok(Plan {
+        config,
+        scenes,
+        variants,
+        hard_added,
+        cases,
+        staging,
+    })
+}
+
+fn dedup<T: PartialEq + Clone>(v: &[T]) -> Vec<T> {
+    let mut out: Vec<T> = Vec::new();
+    for x in v {
+        if !out.contains(x) {
+            out.push(x.clone());
+        }
+    }
+    out
+}
+
+/// Output written into a hidden folder inside `out`, renamed into place by `commit`;
+/// dropped uncommitted it removes what it wrote (and `out` itself when it made it and it
+/// is empty).
+struct Staging {
+    out: PathBuf,
+    dir: PathBuf,
+    created_out: bool,
+    committed: bool,
+}
+
+impl Staging {
+    fn new(out: &Path) -> Result<Self> {
+        if out.exists() && !out.is_dir() {
+            bail!(
+                "cannot write to {}: it exists and is not a folder",
+                out.display()
+            );
+        }
+        let created_out = !out.exists();
+        std::fs::create_dir_all(out)
+            .map_err(|e| anyhow::anyhow!("cannot create output folder {}: {e}", out.display()))?;
+        let dir = out.join(format!(".bench-partial-{}", std::process::id()));
+        let staging = Self {
+            out: out.to_path_buf(),
+            dir,
+            created_out,
+            committed: false,
+        };
+        std::fs::create_dir_all(staging.dir.join("images")).map_err(|e| {
+            anyhow::anyhow!("cannot write into output folder {}: {e}", out.display())
+        })?;
+        Ok(staging)
+    }
+
+    fn path(&self, rel: &str) -> PathBuf {
+        self.dir.join(rel)
+    }
+
+    /// Moves `files` (relative paths) into `out`.
+    fn commit(mut self, files: &[String]) -> Result<()> {
+        std::fs::create_dir_all(self.out.join("images"))
+            .with_context(|| format!("creating {}/images", self.out.display()))?;
+        for f in files {
+            let (from, to) = (self.dir.join(f), self.out.join(f));
+            std::fs::rename(&from, &to)
+                .with_context(|| format!("moving {f} into {}", self.out.display()))?;
+        }
+        self.committed = true;
+        std::fs::remove_dir_all(&self.dir)
+            .with_context(|| format!("removing {}", self.dir.display()))?;
+        Ok(())
+    }
+}
+
+impl Drop for Staging {
+    fn drop(&mut self) {
+        if !self.committed {
+            let _ = std::fs::remove_dir_all(&self.dir);
+            if self.created_out {
+                // Only succeeds when empty: never removes anything but our own folder.
+                let _ = std::fs::remove_dir(&self.out);
+            }
+        }
+    }
+}
+
+/// Median, min and max over the timed frames.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct Stat {
+    pub median: f64,
+    pub min: f64,
+    pub max: f64,
+}
+
+impl Stat {
+    /// `None` for no values. The median of an even count is the mean of the middle two.
+    pub fn of(values: &[f64]) -> Option<Stat> {
+        let mut v: Vec<f64> = values.iter().copied().filter(|x| x.is_finite()).collect();
+        if v.is_empty() {
+            return None;
+        }
+        v.sort_by(f64::total_cmp);
+        let n = v.len();
+        let median = if n % 2 == 1 {
+            v[n / 2]
+        } else {
+            0.5 * (v[n / 2 - 1] + v[n / 2])
+        };
+        Some(Stat {
+            median,
+            min: v[0],
+            max: v[n - 1],
+        })
+    }
+}
+
+/// One pass over the timed frames.
+#[derive(Clone, Debug, Serialize)]
+pub struct PassStat {
+    pub name: String,
+    /// GPU ms over the frames that ran the pass.
+    pub gpu_ms: Option<Stat>,
+    /// Timed frames that skipped it, and the reason the last one gave.
+    pub skipped_frames: usize,
+    pub skip_reason: Option<String>,
+}
+
+/// One named CPU timing over the timed frames.
+#[derive(Clone, Debug, Serialize)]
+pub struct CpuStat {
+    pub name: String,
+    pub ms: Stat,
+}
+
+/// Everything measured at one sweep point.
+#[derive(Clone, Debug, Serialize)]
+pub struct Record {
+    pub scene: String,
+    /// The row name (`smoothies t=0.02`).
+    pub technique: String,
+    /// The registered technique (`smoothies`).
+    pub technique_name: String,
+    pub width: u32,
+    pub height: u32,
+    pub shadow_res: u32,
+    /// As asked (`scene`, `0.5x`, `0.3`) and in world units.
+    pub radius_spec: String,
+    pub light_radius: f32,
+    pub motion: Motion,
+    /// Smoothie width t in light-uv units actually used (fixed or calibrated); smoothies only.
+    pub smoothie_t: Option<f32>,
+    pub smoothie_t_fixed: bool,
+    pub frames: u32,
+    pub warmup: u32,
+    /// Sum of the passes per frame.
+    pub frame_ms: Stat,
+    /// frame_ms.median / hard's on the same scene, sizes, radius and motion.
+    pub ratio_to_hard: Option<f64>,
+    /// Sum of the named CPU timings per frame (silhouettes, smoothie geometry, ...).
+    pub cpu_ms: Stat,
+    pub passes: Vec<PassStat>,
+    pub cpu: Vec<CpuStat>,
+    pub errors: Errors,
+    /// Paths relative to the output folder.
+    pub image: String,
+    pub error_image: String,
+    pub reference_image: String,
+}
+
+/// What a finished sweep wrote.
+pub struct Outcome {
+    pub out: PathBuf,
+    pub records: Vec<Record>,
+    /// Paths relative to `out`.
+    pub files: Vec<String>,
+}
+
+/// The whole results document (`results.json`).
+#[derive(Serialize)]
+pub struct Results<'a> {
+    pub device: String,
+    pub driver: String,
+    pub device_line: String,
+    pub command: &'a str,
+    pub image_size: [u32; 2],
+    pub frames: u32,
+    pub warmup: u32,
+    pub reference_samples: u32,
+    pub reference_seed: u64,
+    pub error_image_scale: f32,
+    pub notes: Vec<String>,
+    pub results: &'a [Record],
+    pub spirv: &'a [spirv::ShaderCost],
+}
+
+/// File-name-safe form of a label: `smoothies t=0.02` -> `smoothies-t-0.02`.
+pub fn slug(s: &str) -> String {
+    let mut out = String::new();
+    for c in s.chars() {
+        if c.is_ascii_alphanumeric() || c == '.' || c == '_' {
+            out.push(c);
+        } else if !out.ends_with('-') {
+            out.push('-');
+        }
+    }
+    out.trim_matches('-').to_string()
+}
+
+/// Runs a prepared sweep on `ctx` and writes every output into `plan.config.out`.
+pub fn run(ctx: &Context, plan: Plan) -> Result<Outcome> {
+    // Device limits are the last thing checked before the first frame.
+    for c in &plan.cases {
+        plan.settings(c).validate(ctx)?;
+    }
+    let cfg = &plan.config;
+    let costs = spirv::cost_table(crate::shaders::ALL)?;
+
+    let bar = if cfg.progress {
+        ProgressBar::with_draw_target(Some(plan.cases.len() as u64), ProgressDrawTarget::stderr())
+    } else {
+        ProgressBar::hidden()
+    };
+    bar.set_style(
+        ProgressStyle::with_template(
+            "{spinner} [{elapsed_precise}] {bar:30} {pos}/{len} {wide_msg}",
+        )
+        .unwrap_or_else(|_| ProgressStyle::default_bar()),
+    );
+    bar.enable_steady_tick(Duration::from_millis(200));
+    // On a terminal the bar shows progress; elsewhere (CI logs) one line per sweep point.
+    let lines = cfg.progress && bar.is_hidden();
+
+    let mut records = Vec::new();
+    let mut files = Vec::new();
+    let mut refs: HashMap<(usize, usize), (Vec<f32>, String)> = HashMap::new();
+    let params = ReferenceParams {
+        samples: cfg.samples,
+        seed: cfg.seed,
+    };
+    for (i, case) in plan.cases.iter().enumerate() {
+        let base = &plan.scenes[case.scene];
+        let variant = &plan.variants[case.variant];
+        let settings = plan.settings(case);
+        let radius = settings.light_radius.unwrap_or(base.light.radius);
+        let what = format!(
+            "{} / {} / buffer {} / R {radius:.4} / {}",
+            base.name,
+            variant.label,
+            case.shadow_res,
+            case.motion.name()
+        );
+        bar.set_message(what.clone());
+
+        let mut r = Renderer::new(ctx, base.clone(), variant.technique, settings.clone())
+            .with_context(|| format!("bench {what}"))?;
+        let mut timed = Vec::new();
+        for f in 0..cfg.warmup + cfg.frames {
+            r.scene = case.motion.apply(base, f);
+            let t = r
+                .render()
+                .with_context(|| format!("bench {what}, frame {f}"))?;
+            if f >= cfg.warmup {
+                timed.push(t);
+            }
+        }
+        if case.motion != Motion::Static {
+            r.scene = base.clone();
+            r.render()
+                .with_context(|| format!("bench {what}, frame at rest"))?;
+        }
+        let images = r
+            .read_back()
+            .with_context(|| format!("bench {what}: reading back"))?;
+        let smoothie_t = (variant.technique == "smoothies")
+            .then(|| smoothie_width(settings.smoothie_t, &r.scene, &r.light, radius));
+        drop(r);
+
+        let key = (case.scene, case.radius);
+        if let Entry::Vacant(slot) = refs.entry(key) {
+            bar.set_message(format!(
+                "{}: reference visibility, {}x{}, R {radius:.4}, {} samples",
+                base.name, cfg.width, cfg.height, cfg.samples
+            ));
+            let v = reference::visibility_cached(
+                base,
+                radius,
+                &images.position,
+                &images.normal,
+                &params,
+            )
+            .with_context(|| format!("reference visibility of {} at R {radius}", base.name))?;
+            if v.len() != images.visibility.len() {
+                bail!(
+                    "reference visibility of {} has {} pixels, the image {}",
+                    base.name,
+                    v.len(),
+                    images.visibility.len()
+                );
+            }
+            let name = format!(
+                "images/{}_r{}_reference.png",
+                slug(&base.name),
+                slug(&cfg.radii[case.radius].to_string())
+            );
+            write_gray(&plan.staging.path(&name), cfg.width, cfg.height, &v)?;
+            files.push(name.clone());
+            slot.insert((v, name));
+        }
+        let (v_ref, reference_image) = &refs[&key];
+
+        let covered: Vec<bool> = images.position.iter().map(|p| p[3] > 0.5).collect();
+        let errors = metrics::errors(&images.visibility, v_ref, &covered);
+        let stem = format!(
+            "images/{}_{}_s{}_r{}_{}",
+            slug(&base.name),
+            slug(&variant.label),
+            case.shadow_res,
+            slug(&cfg.radii[case.radius].to_string()),
+            case.motion.name()
+        );
+        let image = format!("{stem}.png");
+        let error_image = format!("{stem}_error.png");
+        write_rgba(&plan.staging.path(&image), &images, &images.color)?;
+        let err = metrics::error_image(&images.visibility, v_ref, &covered, ERROR_SCALE);
+        write_rgba(&plan.staging.path(&error_image), &images, &err)?;
+        files.push(image.clone());
+        files.push(error_image.clone());
+
+        let timing = summarise(&timed);
+        let record = Record {
+            scene: base.name.clone(),
+            technique: variant.label.clone(),
+            technique_name: variant.technique.into(),
+            width: cfg.width,
+            height: cfg.height,
+            shadow_res: case.shadow_res,
+            radius_spec: cfg.radii[case.radius].to_string(),
+            light_radius: radius,
+            motion: case.motion,
+            smoothie_t,
+            smoothie_t_fixed: variant.smoothie_t.is_some(),
+            frames: cfg.frames,
+            warmup: cfg.warmup,
+            frame_ms: timing.frame_ms,
+            ratio_to_hard: None,
+            cpu_ms: timing.cpu_ms,
+            passes: timing.passes,
+            cpu: timing.cpu,
+            errors,
+            image,
+            error_image,
+            reference_image: reference_image.clone(),
+        };
+        if lines {
+            eprintln!(
+                "[{}/{}] {what}: {:.3} ms, mae_shadow {:.4}",
+                i + 1,
+                plan.cases.len(),
+                record.frame_ms.median,
+                record.errors.mae_shadow
+            );
+        }
+        records.push(record);
+        bar.inc(1);
+    }
+    bar.finish_and_clear();
+    set_ratios(&mut records);
+
+    let msgs = ctx.validation_messages();
+    if !msgs.is_empty() {
+        bail!(
+            "{} validation message(s), the first: {}",
+            msgs.len(),
+            msgs[0]
+        );
+    }
+
+    let mut notes = Vec::new();
+    if plan.hard_added {
+        notes.push(format!(
+            "`{BASELINE}` was not in --techniques and was added: every ratio is to its frame time on the same scene, sizes, radius and motion."
+        ));
+    } else {
+        notes.push(format!(
+            "Ratios are to `{BASELINE}`'s median frame time on the same scene, sizes, radius and motion in this run."
+        ));
+    }
+    if plan.variants.iter().any(|v| v.technique == "smoothies") {
+        notes.push("`smoothies` calibrates its width t from the light radius; `smoothies t=...` uses the paper's fixed screen-space width (fraction of the shadow map).".into());
+    }
+    notes.push(if cfg.reuse_light_passes {
+        "Light-space passes were reused while the light and objects stayed put (--reuse-light-passes): a static or camera-only frame times only the final pass; skipped passes are listed as skipped.".into()
+    } else {
+        "Every timed frame ran every pass (no reuse of light-space passes): a frame time is the whole frame's cost.".into()
+    });
+    if plan.config.motions.iter().any(|m| *m != Motion::Static) {
+        notes.push("Moving sweeps time the frames while moving; their errors are measured on the scene at rest.".into());
+    }
+
+    let results = Results {
+        device: ctx.device_name.clone(),
+        driver: format!("{} {}", ctx.driver_name, ctx.driver_info),
+        device_line: ctx.describe(),
+        command: &cfg.command,
+        image_size: [cfg.width, cfg.height],
+        frames: cfg.frames,
+        warmup: cfg.warmup,
+        reference_samples: cfg.samples,
+        reference_seed: cfg.seed,
+        error_image_scale: ERROR_SCALE,
+        notes,
+        results: &records,
+        spirv: &costs,
+    };
+    let st = &plan.staging;
+    report::write_csv(&st.path("results.csv"), &results)?;
+    report::write_json(&st.path("results.json"), &results)?;
+    plot::time_vs_error(&st.path("time_vs_error.png"), &results)?;
+    report::write_markdown(&st.path("report.md"), &results)?;
+    write_error_scale(&st.path(ERROR_SCALE_IMAGE))?;
+    for f in [
+        "results.csv",
+        "results.json",
+        "time_vs_error.png",
+        "report.md",
+        ERROR_SCALE_IMAGE,
+    ] {
+        files.push(f.into());
+    }
+    let out = cfg.out.clone();
+    plan.staging.commit(&files)?;
+    Ok(Outcome {
+        out,
+        records,
+        files,
+    })
+}
+
+/// The timing figures of a sweep point.
+pub struct Timing {
+    pub frame_ms: Stat,
+    pub cpu_ms: Stat,
+    pub passes: Vec<PassStat>,
+    pub cpu: Vec<CpuStat>,
+}
+
+/// Median, min and max per frame, per pass and per CPU timing over the timed frames.
+pub fn summarise(timed: &[FrameTimings]) -> Timing {
+    let zero = Stat {
+        median: 0.0,
+        min: 0.0,
+        max: 0.0,
+    };
+    let totals: Vec<f64> = timed.iter().map(|t| t.gpu_total_ms()).collect();
+    // fold from +0.0: an empty f64 sum is -0.0.
+    let cpu_totals: Vec<f64> = timed
+        .iter()
+        .map(|t| t.cpu.iter().fold(0.0, |a, c| a + c.1))
+        .collect();
+    // Pass and CPU names in first-seen order.
+    let mut pass_names: Vec<&str> = Vec::new();
+    let mut cpu_names: Vec<&str> = Vec::new();
+    for t in timed {
+        for p in &t.passes {
+            if !pass_names.contains(&p.name.as_str()) {
+                pass_names.push(&p.name);
+            }
+        }
+        for c in &t.cpu {
+            if !cpu_names.contains(&c.0.as_str()) {
+                cpu_names.push(&c.0);
+            }
+        }
+    }
+    let passes = pass_names
+        .iter()
+        .map(|&name| {
+            let runs: Vec<_> = timed
+                .iter()
+                .filter_map(|t| t.passes.iter().find(|p| p.name == name))
+                .collect();
+            let ms: Vec<f64> = runs.iter().filter_map(|p| p.gpu_ms).collect();
+            let skipped: Vec<_> = runs.iter().filter_map(|p| p.skipped.clone()).collect();
+            PassStat {
+                name: name.into(),
+                gpu_ms: Stat::of(&ms),
+                skipped_frames: skipped.len(),
+                skip_reason: skipped.last().cloned(),
+            }
+        })
+        .collect();
+    let cpu = cpu_names
+        .iter()
+        .filter_map(|&name| {
+            let ms: Vec<f64> = timed
+                .iter()
+                .map(|t| {
+                    t.cpu
+                        .iter()
+                        .filter(|c| c.0 == name)
+                        .fold(0.0, |a, c| a + c.1)
+                })
+                .collect();
+            Stat::of(&ms).map(|ms| CpuStat {
+                name: name.into(),
+                ms,
+            })
+        })
+        .collect();
+    Timing {
+        frame_ms: Stat::of(&totals).unwrap_or(zero),
+        cpu_ms: Stat::of(&cpu_totals).unwrap_or(zero),
+        passes,
+        cpu,
+    }
+}
+
+/// Sets `ratio_to_hard` of every record from `hard`'s record at the same point.
+fn set_ratios(records: &mut [Record]) {
+    let key = |r: &Record| {
+        (
+            r.scene.clone(),
+            r.width,
+            r.height,
+            r.shadow_res,
+            r.light_radius.to_bits(),
+            r.motion,
+        )
+    };
+    let hard: HashMap<_, f64> = records
+        .iter()
+        .filter(|r| r.technique == BASELINE)
+        .map(|r| (key(r), r.frame_ms.median))
+        .collect();
+    for r in records.iter_mut() {
+        r.ratio_to_hard = hard
+            .get(&key(r))
+            .filter(|&&h| h > 0.0)
+            .map(|h| r.frame_ms.median / h);
+    }
+}
+
+/// The colour bar of the error images: |v - v_ref| from 0 (left) to `ERROR_SCALE` (right).
+pub const ERROR_SCALE_IMAGE: &str = "images/error_scale.png";
+
+fn write_error_scale(path: &Path) -> Result<()> {
+    let (w, h) = (256u32, 16u32);
+    let img = image::RgbaImage::from_fn(w, h, |x, _| {
+        image::Rgba(metrics::error_color(
+            ERROR_SCALE * x as f32 / (w - 1) as f32,
+            ERROR_SCALE,
+        ))
+    });
+    img.save_with_format(path, image::ImageFormat::Png)
+        .with_context(|| format!("writing {}", path.display()))
+}
+
+fn write_rgba(path: &Path, frame: &FrameImages, pixels: &[[u8; 4]]) -> Result<()> {
+    let bytes: Vec<u8> = pixels.iter().flatten().copied().collect();
+    let img = image::RgbaImage::from_raw(frame.width, frame.height, bytes)
+        .context("image size does not match its pixels")?;
+    img.save_with_format(path, image::ImageFormat::Png)
+        .with_context(|| format!("writing {}", path.display()))
+}
+
+/// Visibility in [0,1] as an 8-bit grey PNG.
+fn write_gray(path: &Path, width: u32, height: u32, v: &[f32]) -> Result<()> {
+    let bytes: Vec<u8> = v
+        .iter()
+        .map(|x| (x.clamp(0.0, 1.0) * 255.0).round() as u8)
+        .collect();
+    let img = image::GrayImage::from_raw(width, height, bytes)
+        .context("image size does not match its pixels")?;
+    img.save_with_format(path, image::ImageFormat::Png)
+        .with_context(|| format!("writing {}", path.display()))
+}

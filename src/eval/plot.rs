@@ -1,0 +1,231 @@
+//! `time_vs_error.png`: per scene, frame time as a ratio to `hard` against `mae_shadow`,
+//! one colour per technique, the Pareto front drawn. Rendered with plotters' bitmap
+//! backend into memory and saved with `image`; text uses DejaVu Sans compiled in
+//! (assets/fonts, via plotters' `ab_glyph` feature), so no system font is needed.
+
+use super::bench::{Motion, Results, BASELINE};
+use anyhow::{anyhow, Context as _, Result};
+use plotters::prelude::*;
+use plotters::style::{register_font, FontStyle};
+use std::path::Path;
+use std::sync::Once;
+
+const FONT: &[u8] = include_bytes!(concat!(
+    env!("CARGO_MANIFEST_DIR"),
+    "/assets/fonts/DejaVuSans.ttf"
+));
+const PANEL: (u32, u32) = (640, 480);
+const HEADER: u32 = 84;
+const COLUMNS: usize = 3;
+
+const COLOURS: &[RGBColor] = &[
+    RGBColor(0, 0, 0),
+    RGBColor(31, 119, 180),
+    RGBColor(255, 127, 14),
+    RGBColor(44, 160, 44),
+    RGBColor(214, 39, 40),
+    RGBColor(148, 103, 189),
+    RGBColor(140, 86, 75),
+    RGBColor(227, 119, 194),
+    RGBColor(127, 127, 127),
+    RGBColor(188, 189, 34),
+    RGBColor(23, 190, 207),
+];
+
+fn fonts() -> Result<()> {
+    static ONCE: Once = Once::new();
+    let mut ok = true;
+    ONCE.call_once(|| ok = register_font("sans-serif", FontStyle::Normal, FONT).is_ok());
+    if ok {
+        Ok(())
+    } else {
+        Err(anyhow!("the compiled-in DejaVu Sans font did not load"))
+    }
+}
+
+/// Indices of the points no other point beats on both axes (smaller is better), in order
+/// of increasing x.
+pub fn pareto_front(points: &[(f64, f64)]) -> Vec<usize> {
+    let mut idx: Vec<usize> = (0..points.len())
+        .filter(|&i| points[i].0.is_finite() && points[i].1.is_finite())
+        .collect();
+    idx.sort_by(|&a, &b| {
+        points[a]
+            .0
+            .total_cmp(&points[b].0)
+            .then(points[a].1.total_cmp(&points[b].1))
+    });
+    let mut front = Vec::new();
+    let mut best = f64::INFINITY;
+    for i in idx {
+        if points[i].1 < best {
+            best = points[i].1;
+            front.push(i);
+        }
+    }
+    front
+}
+
+fn plot_err<E: std::error::Error + Send + Sync + 'static>(e: E) -> anyhow::Error {
+    anyhow!("drawing the time/error plot: {e}")
+}
+
+/// Draws the plot for every scene of `res` into `path`.
+pub fn time_vs_error(path: &Path, res: &Results<'_>) -> Result<()> {
+    fonts()?;
+    // One panel per scene, and per radius and motion when the sweep had several: a Pareto
+    // front only compares points that render the same thing.
+    let mut scenes: Vec<(&str, &str, Motion)> = Vec::new();
+    let mut labels: Vec<&str> = Vec::new();
+    for r in res.results {
+        let key = (r.scene.as_str(), r.radius_spec.as_str(), r.motion);
+        if !scenes.contains(&key) {
+            scenes.push(key);
+        }
+        if !labels.contains(&r.technique.as_str()) {
+            labels.push(&r.technique);
+        }
+    }
+    let cols = scenes.len().clamp(1, COLUMNS);
+    let rows = scenes.len().div_ceil(cols).max(1);
+    let (w, h) = (PANEL.0 * cols as u32, PANEL.1 * rows as u32 + HEADER);
+    let mut buf = vec![255u8; (w * h * 3) as usize];
+    {
+        let root = BitMapBackend::with_buffer(&mut buf, (w, h)).into_drawing_area();
+        root.fill(&WHITE).map_err(plot_err)?;
+        let (header, body) = root.split_vertically(HEADER);
+        header
+            .draw_text(
+                "Frame time (ratio to hard) against mae_shadow",
+                &("sans-serif", 20).into_font().color(&BLACK),
+                (10, 6),
+            )
+            .map_err(plot_err)?;
+        header
+            .draw_text(
+                &res.device_line,
+                &("sans-serif", 14).into_font().color(&BLACK),
+                (10, 32),
+            )
+            .map_err(plot_err)?;
+        // One legend for every panel (colours are per technique everywhere), so none hides a point.
+        let mut x = 10;
+        let grey = RGBColor(110, 110, 110);
+        header
+            .draw(&PathElement::new(
+                vec![(x, 66), (x + 18, 66)],
+                grey.stroke_width(2),
+            ))
+            .map_err(plot_err)?;
+        header
+            .draw(&Circle::new((x + 9, 66), 8, grey.stroke_width(2)))
+            .map_err(plot_err)?;
+        let legend_font = ("sans-serif", 13).into_font().color(&BLACK);
+        header
+            .draw_text("Pareto front", &legend_font, (x + 24, 59))
+            .map_err(plot_err)?;
+        x += 130;
+        for (k, label) in labels.iter().enumerate() {
+            let colour = COLOURS[k % COLOURS.len()];
+            header
+                .draw(&Circle::new((x + 6, 66), 5, colour.filled()))
+                .map_err(plot_err)?;
+            header
+                .draw_text(label, &legend_font, (x + 16, 59))
+                .map_err(plot_err)?;
+            x += 30 + 8 * label.chars().count() as i32;
+        }
+        let panels = body.split_evenly((rows, cols));
+        let many_radii = scenes.iter().any(|k| k.1 != scenes[0].1);
+        let many_motions = scenes.iter().any(|k| k.2 != scenes[0].2);
+        for (&(scene, radius, motion), area) in scenes.iter().zip(panels.iter()) {
+            let pts: Vec<_> = res
+                .results
+                .iter()
+                .filter(|r| r.scene == scene && r.radius_spec == radius && r.motion == motion)
+                .filter_map(|r| r.ratio_to_hard.map(|x| (r, x, r.errors.mae_shadow)))
+                .filter(|(_, x, y)| x.is_finite() && y.is_finite())
+                .collect();
+            let x_max = pts.iter().map(|p| p.1).fold(1.0f64, f64::max) * 1.15;
+            let y_max = pts.iter().map(|p| p.2).fold(0.0f64, f64::max).max(1e-3) * 1.15;
+            let mut caption = scene.to_string();
+            if many_radii {
+                caption += &format!(", R {radius}");
+            }
+            if many_motions {
+                caption += &format!(", {}", motion.name());
+            }
+            let mut chart = ChartBuilder::on(area)
+                .caption(caption, ("sans-serif", 18))
+                .margin(12)
+                .x_label_area_size(36)
+                .y_label_area_size(56)
+                .build_cartesian_2d(0.0..x_max, 0.0..y_max)
+                .map_err(plot_err)?;
+            chart
+                .configure_mesh()
+                .x_desc(format!("frame time / {BASELINE}"))
+                .y_desc("mae_shadow")
+                .label_style(("sans-serif", 12))
+                .axis_desc_style(("sans-serif", 14))
+                .draw()
+                .map_err(plot_err)?;
+            let xy: Vec<(f64, f64)> = pts.iter().map(|p| (p.1, p.2)).collect();
+            let front: Vec<(f64, f64)> = pareto_front(&xy).into_iter().map(|i| xy[i]).collect();
+            // The front as a staircase (what is reachable for a time budget), its points ringed.
+            let mut stairs = Vec::new();
+            for (k, p) in front.iter().enumerate() {
+                if k > 0 {
+                    stairs.push((p.0, front[k - 1].1));
+                }
+                stairs.push(*p);
+            }
+            if let Some(last) = front.last() {
+                stairs.push((x_max, last.1));
+            }
+            let grey = RGBColor(110, 110, 110);
+            chart
+                .draw_series(LineSeries::new(stairs, grey.stroke_width(2)))
+                .map_err(plot_err)?
+                .label("Pareto front")
+                .legend(move |(x, y)| {
+                    PathElement::new(vec![(x, y), (x + 16, y)], grey.stroke_width(2))
+                });
+            chart
+                .draw_series(
+                    front
+                        .iter()
+                        .map(|&p| Circle::new(p, 9, grey.stroke_width(2))),
+                )
+                .map_err(plot_err)?;
+            for (k, label) in labels.iter().enumerate() {
+                let colour = COLOURS[k % COLOURS.len()];
+                let mine: Vec<_> = pts.iter().filter(|p| p.0.technique == *label).collect();
+                if mine.is_empty() {
+                    continue;
+                }
+                chart
+                    .draw_series(
+                        mine.iter()
+                            .map(|p| Circle::new((p.1, p.2), 5, colour.filled())),
+                    )
+                    .map_err(plot_err)?;
+                // The buffer resolution beside each point tells the sweep points apart.
+                chart
+                    .draw_series(mine.iter().map(|p| {
+                        EmptyElement::at((p.1, p.2))
+                            + Text::new(
+                                format!("{}", p.0.shadow_res),
+                                (8, -14),
+                                ("sans-serif", 11).into_font().color(&colour),
+                            )
+                    }))
+                    .map_err(plot_err)?;
+            }
+        }
+        root.present().map_err(plot_err)?;
+    }
+    let img = image::RgbImage::from_raw(w, h, buf).context("plot buffer size")?;
+    img.save_with_format(path, image::ImageFormat::Png)
+        .with_context(|| format!("writing {}", path.display()))
+}

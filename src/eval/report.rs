@@ -1,0 +1,345 @@
+//! The bench's text outputs: `results.csv` (one flat row per sweep point), `results.json`
+//! (everything, per pass), and `report.md` (a table per scene, the images, the SPIR-V cost
+//! table; written to be pasted into BENCHMARKS.md). Every one names the device and driver.
+
+use super::bench::{Motion, Record, Results, BASELINE, ERROR_SCALE_IMAGE};
+use super::spirv::{Counts, ShaderCost};
+use anyhow::{Context as _, Result};
+use serde::Serialize;
+use std::fmt::Write as _;
+use std::path::Path;
+
+/// One line of results.csv.
+#[derive(Serialize)]
+struct CsvRow<'a> {
+    device: &'a str,
+    driver: &'a str,
+    scene: &'a str,
+    technique: &'a str,
+    technique_name: &'a str,
+    width: u32,
+    height: u32,
+    shadow_res: u32,
+    radius_spec: &'a str,
+    light_radius: f32,
+    motion: &'static str,
+    smoothie_t: Option<f32>,
+    smoothie_t_fixed: bool,
+    frames: u32,
+    frame_ms_median: f64,
+    frame_ms_min: f64,
+    frame_ms_max: f64,
+    ratio_to_hard: Option<f64>,
+    cpu_ms_median: f64,
+    mae_shadow: f64,
+    rmse: f64,
+    p99: f64,
+    max_error: f64,
+    shadow_pixels: usize,
+    covered_pixels: usize,
+    /// `pass=median_ms` joined by `;` (skipped passes: `pass=skipped`).
+    passes: String,
+    image: &'a str,
+    error_image: &'a str,
+}
+
+fn pass_list(r: &Record) -> String {
+    r.passes
+        .iter()
+        .map(|p| match &p.gpu_ms {
+            Some(s) => format!("{}={:.4}", p.name, s.median),
+            None => format!("{}=skipped", p.name),
+        })
+        .chain(
+            r.cpu
+                .iter()
+                .map(|c| format!("cpu:{}={:.4}", c.name, c.ms.median)),
+        )
+        .collect::<Vec<_>>()
+        .join(";")
+}
+
+pub fn write_csv(path: &Path, res: &Results<'_>) -> Result<()> {
+    let mut w =
+        csv::Writer::from_path(path).with_context(|| format!("writing {}", path.display()))?;
+    for r in res.results {
+        let passes = pass_list(r);
+        w.serialize(CsvRow {
+            device: &res.device,
+            driver: &res.driver,
+            scene: &r.scene,
+            technique: &r.technique,
+            technique_name: &r.technique_name,
+            width: r.width,
+            height: r.height,
+            shadow_res: r.shadow_res,
+            radius_spec: &r.radius_spec,
+            light_radius: r.light_radius,
+            motion: r.motion.name(),
+            smoothie_t: r.smoothie_t,
+            smoothie_t_fixed: r.smoothie_t_fixed,
+            frames: r.frames,
+            frame_ms_median: r.frame_ms.median,
+            frame_ms_min: r.frame_ms.min,
+            frame_ms_max: r.frame_ms.max,
+            ratio_to_hard: r.ratio_to_hard,
+            cpu_ms_median: r.cpu_ms.median,
+            mae_shadow: r.errors.mae_shadow,
+            rmse: r.errors.rmse,
+            p99: r.errors.p99,
+            max_error: r.errors.max,
+            shadow_pixels: r.errors.shadow_pixels,
+            covered_pixels: r.errors.covered_pixels,
+            passes,
+            image: &r.image,
+            error_image: &r.error_image,
+        })
+        .with_context(|| format!("writing {}", path.display()))?;
+    }
+    w.flush()
+        .with_context(|| format!("writing {}", path.display()))
+}
+
+pub fn write_json(path: &Path, res: &Results<'_>) -> Result<()> {
+    let text = serde_json::to_string_pretty(res).context("serialising results")?;
+    std::fs::write(path, text + "\n").with_context(|| format!("writing {}", path.display()))
+}
+
+/// `technique/pass` -> `pass`, the technique being the row.
+fn short(name: &str) -> &str {
+    name.rsplit_once('/').map_or(name, |(_, p)| p)
+}
+
+fn ms(v: f64) -> String {
+    if v >= 100.0 {
+        format!("{v:.1}")
+    } else if v >= 10.0 {
+        format!("{v:.2}")
+    } else {
+        format!("{v:.3}")
+    }
+}
+
+/// A world-unit length with 4 significant digits.
+fn length(v: f32) -> String {
+    if v == 0.0 || !v.is_finite() {
+        return format!("{v}");
+    }
+    let digits = (3 - v.abs().log10().floor() as i32).clamp(0, 8) as usize;
+    format!("{v:.digits$}")
+}
+
+fn radius_cell(r: &Record) -> String {
+    if r.radius_spec.parse::<f32>().is_ok() {
+        length(r.light_radius)
+    } else {
+        format!("{} ({})", length(r.light_radius), r.radius_spec)
+    }
+}
+
+fn t_cell(r: &Record) -> String {
+    match r.smoothie_t {
+        Some(t) if r.smoothie_t_fixed => format!("{t} fixed"),
+        Some(t) => format!("{t:.4} calibrated"),
+        None => String::new(),
+    }
+}
+
+fn counts_cells(c: Option<Counts>) -> String {
+    match c {
+        Some(c) => format!("{} | {} | {}", c.total, c.body, c.ops),
+        None => "– | – | –".into(),
+    }
+}
+
+/// Everything as Markdown.
+pub fn markdown(res: &Results<'_>) -> String {
+    let mut s = String::new();
+    let moving = res.results.iter().any(|r| r.motion != Motion::Static);
+    let _ = writeln!(s, "# softshadow bench\n");
+    let _ = writeln!(s, "- {}", res.device_line);
+    if !res.command.is_empty() {
+        let _ = writeln!(s, "- command: `{}`", res.command);
+    }
+    let _ = writeln!(
+        s,
+        "- image {}x{}; per sweep point {} warm-up frames, then {} timed frames; a figure is the median (min–max) over the timed frames; frame time is the sum of the GPU time of the passes",
+        res.image_size[0], res.image_size[1], res.warmup, res.frames
+    );
+    let _ = writeln!(
+        s,
+        "- errors against the ray-cast reference ({} samples per pixel, seed {:#x}): `mae_shadow` over the shadow-and-penumbra pixels, `rmse` over all covered pixels, `p99` of the shadow-and-penumbra pixels (DESIGN.md)",
+        res.reference_samples, res.reference_seed
+    );
+    for n in &res.notes {
+        let _ = writeln!(s, "- {n}");
+    }
+    let _ = writeln!(
+        s,
+        "- compare techniques only inside this run (ratios to `{BASELINE}`): absolute times differ between machines and runs\n"
+    );
+
+    let mut scenes: Vec<&str> = Vec::new();
+    for r in res.results {
+        if !scenes.contains(&r.scene.as_str()) {
+            scenes.push(&r.scene);
+        }
+    }
+    for scene in &scenes {
+        let rows: Vec<&Record> = res.results.iter().filter(|r| r.scene == *scene).collect();
+        let _ = writeln!(s, "## {scene}\n");
+        let motion_h = if moving { " motion |" } else { "" };
+        let motion_a = if moving { ":---|" } else { "" };
+        let _ = writeln!(
+            s,
+            "| technique | buffer | R |{motion_h} smoothie t | frame ms (min–max) | × {BASELINE} | CPU ms | mae_shadow | rmse | p99 | max |"
+        );
+        let _ = writeln!(
+            s,
+            "|:---|---:|---:|{motion_a}:---|---:|---:|---:|---:|---:|---:|---:|"
+        );
+        for r in &rows {
+            let motion = if moving {
+                format!(" {} |", r.motion.name())
+            } else {
+                String::new()
+            };
+            let _ = writeln!(
+                s,
+                "| {} | {} | {} |{motion} {} | {} ({}–{}) | {} | {} | {:.4} | {:.4} | {:.4} | {:.3} |",
+                r.technique,
+                r.shadow_res,
+                radius_cell(r),
+                t_cell(r),
+                ms(r.frame_ms.median),
+                ms(r.frame_ms.min),
+                ms(r.frame_ms.max),
+                r.ratio_to_hard.map_or("–".into(), |x| format!("{x:.2}")),
+                if r.cpu.is_empty() { "–".into() } else { ms(r.cpu_ms.median) },
+                r.errors.mae_shadow,
+                r.errors.rmse,
+                r.errors.p99,
+                r.errors.max,
+            );
+        }
+        let _ = writeln!(s, "\nPer pass, median GPU ms (CPU work marked `cpu`):\n");
+        let _ = writeln!(s, "| technique | buffer | R |{motion_h} passes |");
+        let _ = writeln!(s, "|:---|---:|---:|{motion_a}:---|");
+        for r in &rows {
+            let motion = if moving {
+                format!(" {} |", r.motion.name())
+            } else {
+                String::new()
+            };
+            let mut cells: Vec<String> = r
+                .passes
+                .iter()
+                .map(|p| match (&p.gpu_ms, &p.skip_reason) {
+                    (Some(st), _) => format!("{} {}", short(&p.name), ms(st.median)),
+                    (None, Some(why)) => format!("{} skipped ({why})", short(&p.name)),
+                    (None, None) => format!("{} n/a", short(&p.name)),
+                })
+                .collect();
+            cells.extend(
+                r.cpu
+                    .iter()
+                    .map(|c| format!("cpu {} {}", short(&c.name), ms(c.ms.median))),
+            );
+            let _ = writeln!(
+                s,
+                "| {} | {} | {} |{motion} {} |",
+                r.technique,
+                r.shadow_res,
+                radius_cell(r),
+                cells.join(" · ")
+            );
+        }
+        // Images of one point per technique: the largest buffer, the first radius, at rest.
+        if let Some(first) = rows.first() {
+            let res_max = rows
+                .iter()
+                .map(|r| r.shadow_res)
+                .max()
+                .unwrap_or(first.shadow_res);
+            let shown: Vec<&&Record> = rows
+                .iter()
+                .filter(|r| {
+                    r.shadow_res == res_max
+                        && r.radius_spec == first.radius_spec
+                        && r.motion == first.motion
+                })
+                .collect();
+            let _ = writeln!(
+                s,
+                "\nImages at buffer {res_max}, R {}: the rendered image and |v − v_ref| ![colour scale]({ERROR_SCALE_IMAGE}) black 0, blue, cyan, green, yellow, red at {} and above; grey: background (every sweep point's pair is in `images/`). Reference visibility: ![reference]({})\n",
+                radius_cell(first),
+                res.error_image_scale,
+                first.reference_image
+            );
+            let _ = writeln!(s, "| technique | image | abs(v − v_ref) |");
+            let _ = writeln!(s, "|:---|:---:|:---:|");
+            for r in shown {
+                let _ = writeln!(
+                    s,
+                    "| {} | ![{} image]({}) | ![{} error]({}) |",
+                    r.technique, r.technique, r.image, r.technique, r.error_image
+                );
+            }
+        }
+        let _ = writeln!(s);
+    }
+
+    let _ = writeln!(s, "## Time against error\n");
+    let _ = writeln!(
+        s,
+        "Per scene: x = frame time as a ratio to `{BASELINE}`, y = `mae_shadow`; the line is the Pareto front (no other point is both faster and more accurate).\n"
+    );
+    let _ = writeln!(s, "![time against error](time_vs_error.png)\n");
+
+    let _ = writeln!(s, "## SPIR-V instruction counts\n");
+    let _ = writeln!(
+        s,
+        "Per shader file: instructions in the whole module (total), from the first OpFunction on (body), and in the body less labels, branches, merges, function framing, variables, loads, stores and access chains (ops, the nearest to the paper's assembly counts). \"glslang\" is glslangValidator's output, \"shipped\" what the renderer runs (spirv-opt -O, or the hand-tuned `.spvasm`). The last column is the smoothie paper's Fig. 11 count for the same job.\n"
+    );
+    let _ = writeln!(
+        s,
+        "| shader | stage | glslang total | body | ops | shipped total | body | ops | shipped is | paper (Fig. 11) |"
+    );
+    let _ = writeln!(s, "|:---|:---|---:|---:|---:|---:|---:|---:|:---|:---|");
+    for c in res.spirv {
+        let _ = writeln!(
+            s,
+            "| {} | {} | {} | {} | {} | {} |",
+            c.shader,
+            c.stage,
+            counts_cells(c.glslang),
+            counts_cells(Some(c.shipped)),
+            shipped_is(c),
+            c.paper.unwrap_or("")
+        );
+    }
+    let _ = writeln!(s, "\n## Reproducing\n");
+    let _ = writeln!(
+        s,
+        "- default sweep (a few minutes on lavapipe): `softshadow bench --out DIR` = scenes cylinder, boxes, primitives; 512x512 image; buffers 512 and 1024; the scene's light radius; every technique but `reference`; 2 warm-up + 5 timed frames; 256 reference samples"
+    );
+    let _ = writeln!(
+        s,
+        "- full sweep: `softshadow bench --full --out DIR` = every built-in scene; 1024x1024 image; buffers 256, 512, 1024, 2048; radii 0, 0.5x, scene, 2x; 20 timed frames (any flag given overrides the preset's value)"
+    );
+    s
+}
+
+fn shipped_is(c: &ShaderCost) -> &'static str {
+    if c.hand_tuned {
+        "hand-tuned"
+    } else if c.optimised {
+        "spirv-opt -O"
+    } else {
+        "glslang (no spirv-opt)"
+    }
+}
+
+pub fn write_markdown(path: &Path, res: &Results<'_>) -> Result<()> {
+    std::fs::write(path, markdown(res)).with_context(|| format!("writing {}", path.display()))
+}

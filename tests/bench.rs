@@ -1,0 +1,533 @@
+//! `softshadow bench`: a tiny sweep end to end through the binary (every output exists and
+//! parses), bad input (one line, exit != 0, nothing written), and the pieces the report is
+//! built from (SPIR-V counting, Pareto front, medians, rows, flag parsing).
+
+use softshadow::eval::bench::{self, Motion, Radius, Stat};
+use softshadow::eval::plot::pareto_front;
+use softshadow::eval::spirv;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn scratch(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("softshadow-bench-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    dir
+}
+
+/// The binary on lavapipe (or SOFTSHADOW_DEVICE) with validation on.
+fn softshadow(args: &[&str]) -> Output {
+    let device = std::env::var("SOFTSHADOW_DEVICE").unwrap_or_else(|_| "llvmpipe".into());
+    Command::new(env!("CARGO_BIN_EXE_softshadow"))
+        .arg("--validation")
+        .args(args)
+        .env("SOFTSHADOW_DEVICE", device)
+        .output()
+        .expect("running softshadow")
+}
+
+fn text(b: &[u8]) -> String {
+    String::from_utf8_lossy(b).into_owned()
+}
+
+fn decode_png(path: &Path) -> image::DynamicImage {
+    image::open(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()))
+}
+
+#[test]
+fn tiny_sweep_writes_every_output_and_each_parses() {
+    let out = scratch("tiny");
+    let o = softshadow(&[
+        "bench",
+        "--scenes",
+        "cylinder",
+        "--techniques",
+        "smoothies",
+        "--resolutions",
+        "128",
+        "--width",
+        "64",
+        "--height",
+        "48",
+        "--frames",
+        "2",
+        "--warmup",
+        "1",
+        "--samples",
+        "256",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    let (stdout, stderr) = (text(&o.stdout), text(&o.stderr));
+    assert!(o.status.success(), "bench failed:\n{stdout}\n{stderr}");
+    assert!(
+        stdout.contains("note: hard added"),
+        "hard was not listed: the run must say it added it\n{stdout}"
+    );
+    let device_line = stdout
+        .lines()
+        .find(|l| l.starts_with("device: "))
+        .expect("device line")
+        .to_string();
+
+    // results.csv: one row per technique row (hard added, smoothies twice).
+    let mut csv = csv::Reader::from_path(out.join("results.csv")).expect("results.csv");
+    let headers = csv.headers().expect("csv headers").clone();
+    let col = |name: &str| {
+        headers
+            .iter()
+            .position(|h| h == name)
+            .unwrap_or_else(|| panic!("no column {name}"))
+    };
+    let rows: Vec<csv::StringRecord> = csv.records().map(|r| r.expect("csv row")).collect();
+    let techniques: Vec<&str> = rows.iter().map(|r| &r[col("technique")]).collect();
+    assert_eq!(techniques, ["hard", "smoothies", "smoothies t=0.02"]);
+    for r in &rows {
+        assert!(
+            device_line.contains(&r[col("device")]),
+            "csv device column {:?}",
+            &r[col("device")]
+        );
+        assert!(!r[col("driver")].is_empty());
+        let frame: f64 = r[col("frame_ms_median")].parse().expect("frame ms");
+        assert!(frame > 0.0 && frame.is_finite(), "frame ms {frame}");
+        let ratio: f64 = r[col("ratio_to_hard")].parse().expect("ratio");
+        assert!(ratio > 0.0 && ratio.is_finite());
+        for c in ["mae_shadow", "rmse", "p99"] {
+            let e: f64 = r[col(c)].parse().expect(c);
+            assert!((0.0..=1.0).contains(&e), "{c} = {e}");
+        }
+        assert!(r[col("covered_pixels")].parse::<usize>().unwrap() > 0);
+    }
+    assert_eq!(
+        &rows[0][col("ratio_to_hard")],
+        "1.0",
+        "hard's ratio to itself"
+    );
+    let t_fixed: f32 = rows[2][col("smoothie_t")].parse().expect("fixed t");
+    assert_eq!(t_fixed, 0.02);
+    let t_cal: f32 = rows[1][col("smoothie_t")].parse().expect("calibrated t");
+    assert!(t_cal > 0.0 && t_cal != 0.02, "calibrated t {t_cal}");
+
+    // results.json: the same rows with per-pass figures, the device, the SPIR-V table.
+    let json: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(out.join("results.json")).expect("results.json"),
+    )
+    .expect("results.json parses");
+    assert!(device_line.contains(json["device"].as_str().unwrap()));
+    let results = json["results"].as_array().expect("results array");
+    assert_eq!(results.len(), 3);
+    let smoothies = &results[1];
+    let passes: Vec<&str> = smoothies["passes"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|p| p["name"].as_str().unwrap())
+        .collect();
+    assert_eq!(
+        passes,
+        [
+            "smoothies/shadow_map",
+            "smoothies/smoothie",
+            "smoothies/final"
+        ]
+    );
+    for p in smoothies["passes"].as_array().unwrap() {
+        let st = &p["gpu_ms"];
+        let (lo, med, hi) = (
+            st["min"].as_f64().unwrap(),
+            st["median"].as_f64().unwrap(),
+            st["max"].as_f64().unwrap(),
+        );
+        assert!(lo <= med && med <= hi && lo >= 0.0, "{p}");
+    }
+    assert_eq!(smoothies["cpu"][0]["name"], "smoothies/silhouettes");
+    let spirv = json["spirv"].as_array().expect("spirv table");
+    let fin = spirv
+        .iter()
+        .find(|s| s["shader"] == "smoothies/final.frag")
+        .expect("smoothies/final.frag in the SPIR-V table");
+    assert!(fin["shipped"]["body"].as_u64().unwrap() > 0);
+    assert!(fin["shipped"]["total"].as_u64().unwrap() > fin["shipped"]["body"].as_u64().unwrap());
+    assert_eq!(fin["paper"], "10 (final pass)");
+
+    // report.md: device, a table per scene with every row, the SPIR-V table.
+    let md = std::fs::read_to_string(out.join("report.md")).expect("report.md");
+    assert!(
+        md.contains(&device_line),
+        "report.md does not name the device"
+    );
+    assert!(md.contains("## cylinder"));
+    for t in [
+        "| hard |",
+        "| smoothies |",
+        "| smoothies t=0.02 |",
+        "| smoothies/final.frag | frag |",
+    ] {
+        assert!(md.contains(t), "report.md lacks {t}");
+    }
+
+    // The plot and every image decode; images have the image size; nothing left staged.
+    let plot = decode_png(&out.join("time_vs_error.png")).to_rgb8();
+    assert!(plot.width() >= 600 && plot.height() >= 400);
+    let first = plot.get_pixel(0, 0);
+    assert!(plot.pixels().any(|p| p != first), "the plot is blank");
+    for r in results {
+        for key in ["image", "error_image", "reference_image"] {
+            let img = decode_png(&out.join(r[key].as_str().unwrap()));
+            assert_eq!(
+                (img.width(), img.height()),
+                (64, 48),
+                "{key} of {}",
+                r["technique"]
+            );
+        }
+    }
+    let scale = decode_png(&out.join("images/error_scale.png"));
+    assert!(scale.width() > scale.height());
+    let leftovers: Vec<_> = std::fs::read_dir(&out)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .filter(|n| n.starts_with('.'))
+        .collect();
+    assert!(leftovers.is_empty(), "staging left behind: {leftovers:?}");
+    let _ = std::fs::remove_dir_all(&out);
+}
+
+/// Fails with exit != 0 and a single line on stderr, and leaves no `out` behind.
+fn assert_clean_failure(args: &[&str], out: &Path, expect: &str) {
+    let o = softshadow(args);
+    let stderr = text(&o.stderr);
+    assert!(!o.status.success(), "{args:?} succeeded");
+    let lines: Vec<&str> = stderr.lines().filter(|l| !l.trim().is_empty()).collect();
+    assert_eq!(
+        lines.len(),
+        1,
+        "{args:?}: expected one line, got:\n{stderr}"
+    );
+    assert!(
+        lines[0].contains(expect),
+        "{args:?}: {:?} lacks {expect:?}",
+        lines[0]
+    );
+    assert!(!out.exists(), "{args:?} left {}", out.display());
+}
+
+#[test]
+fn bad_input_is_one_line_and_leaves_nothing() {
+    let out = scratch("bad");
+    let o = out.to_str().unwrap();
+    let tiny = ["--width", "32", "--height", "32"];
+    let with = |extra: &[&'static str]| -> Vec<String> {
+        let mut v: Vec<String> = ["bench", "--out", o]
+            .iter()
+            .map(|s| s.to_string())
+            .collect();
+        v.extend(tiny.iter().map(|s| s.to_string()));
+        v.extend(extra.iter().map(|s| s.to_string()));
+        v
+    };
+    let run = |extra: &[&'static str], expect: &str| {
+        let args = with(extra);
+        let args: Vec<&str> = args.iter().map(|s| s.as_str()).collect();
+        assert_clean_failure(&args, &out, expect);
+    };
+    run(&["--techniques", "hard,nope"], "unknown technique 'nope'");
+    run(&["--scenes", "cylinder,nowhere"], "unknown scene 'nowhere'");
+    run(&["--samples", "0"], "--samples 0 is out of range");
+    run(&["--samples", "255"], "--samples 255 is out of range");
+    run(&["--frames", "0"], "--frames 0");
+    run(&["--radii", "-1"], "--radii");
+    run(&["--smoothie-t", "0"], "--smoothie-t 0");
+    // Past every name check, the device limit stops it before the first frame.
+    run(
+        &[
+            "--scenes",
+            "cylinder",
+            "--techniques",
+            "hard",
+            "--resolutions",
+            "1000000",
+        ],
+        "--shadow-res 1000000",
+    );
+
+    // An output folder that cannot be created: under a regular file.
+    let file = scratch("bad-file");
+    std::fs::write(&file, b"not a folder").unwrap();
+    let under = file.join("out");
+    assert_clean_failure(
+        &[
+            "bench",
+            "--out",
+            under.to_str().unwrap(),
+            "--samples",
+            "256",
+        ],
+        &under,
+        "cannot create output folder",
+    );
+    let o = softshadow(&["bench", "--out", file.to_str().unwrap(), "--samples", "256"]);
+    assert!(!o.status.success());
+    assert!(
+        text(&o.stderr).contains("is not a folder"),
+        "{}",
+        text(&o.stderr)
+    );
+    assert_eq!(
+        std::fs::read(&file).unwrap(),
+        b"not a folder",
+        "the file was touched"
+    );
+    let _ = std::fs::remove_file(&file);
+}
+
+/// A module of the given instructions (opcode, operand words) after a 5-word header.
+fn module(instrs: &[(u32, usize)]) -> Vec<u8> {
+    let mut words = vec![0x0723_0203u32, 0x0001_0000, 0, 100, 0];
+    for &(op, operands) in instrs {
+        words.push(((operands as u32 + 1) << 16) | op);
+        words.extend(std::iter::repeat_n(1, operands));
+    }
+    words.iter().flat_map(|w| w.to_le_bytes()).collect()
+}
+
+#[test]
+fn spirv_counts_walk_the_words() {
+    // OpCapability, OpMemoryModel, OpTypeFloat | OpFunction, OpLabel, OpLoad, OpFAdd,
+    // OpFMul, OpStore, OpReturn, OpFunctionEnd.
+    let m = module(&[
+        (17, 1),
+        (14, 2),
+        (22, 2),
+        (54, 4),
+        (248, 1),
+        (61, 3),
+        (129, 4),
+        (133, 4),
+        (62, 2),
+        (253, 0),
+        (56, 0),
+    ]);
+    let c = spirv::count(&m).expect("valid module");
+    assert_eq!(
+        c,
+        spirv::Counts {
+            total: 11,
+            body: 8,
+            ops: 2
+        }
+    );
+    // Big-endian modules count the same.
+    let be: Vec<u8> = m.chunks(4).flat_map(|w| [w[3], w[2], w[1], w[0]]).collect();
+    assert_eq!(spirv::count(&be).unwrap(), c);
+    // A word count running past the end, a zero word count, a wrong magic: errors.
+    let mut bad = m.clone();
+    bad.truncate(bad.len() - 4);
+    bad.extend_from_slice(&((3u32 << 16) | 56).to_le_bytes());
+    assert!(spirv::count(&bad).is_err());
+    let zero: Vec<u8> = [0x0723_0203u32, 0x0001_0000, 0, 100, 0, 0]
+        .iter()
+        .flat_map(|w| w.to_le_bytes())
+        .collect();
+    assert!(spirv::count(&zero).is_err());
+    assert!(spirv::count(&[0u8; 24]).is_err());
+
+    // Every shipped shader is listed and counted; spirv-opt never grows a module's total.
+    let table = spirv::cost_table(softshadow::shaders::ALL).expect("every shader counts");
+    assert!(table
+        .iter()
+        .any(|s| s.shader == "smoothies/smoothie.frag" && s.paper.is_some()));
+    for s in &table {
+        assert!(
+            s.shipped.body > 0 && s.shipped.body <= s.shipped.total,
+            "{s:?}"
+        );
+        if let (Some(raw), true) = (s.glslang, s.optimised) {
+            assert!(s.shipped.total <= raw.total, "{s:?}");
+        }
+    }
+}
+
+#[test]
+fn pareto_front_keeps_the_points_nothing_beats() {
+    let pts = [
+        (1.0, 0.5),
+        (1.5, 0.2),
+        (1.2, 0.6),
+        (3.0, 0.1),
+        (2.0, 0.3),
+        (f64::NAN, 0.0),
+    ];
+    assert_eq!(pareto_front(&pts), vec![0, 1, 3]);
+    assert_eq!(pareto_front(&[]), Vec::<usize>::new());
+    // Ties on x keep the more accurate point only.
+    assert_eq!(pareto_front(&[(1.0, 0.5), (1.0, 0.4)]), vec![1]);
+}
+
+#[test]
+fn stat_is_median_min_max() {
+    let s = Stat::of(&[3.0, 1.0, 2.0, f64::NAN]).unwrap();
+    assert_eq!((s.median, s.min, s.max), (2.0, 1.0, 3.0));
+    assert_eq!(Stat::of(&[4.0, 1.0, 2.0, 3.0]).unwrap().median, 2.5);
+    assert!(Stat::of(&[]).is_none());
+}
+
+#[test]
+fn rows_put_hard_first_and_smoothies_twice() {
+    let names = |v: &[&str]| v.iter().map(|s| s.to_string()).collect::<Vec<_>>();
+    let (rows, added) = bench::variants(&names(&["smoothies"]), &[0.02, 0.2]).unwrap();
+    assert!(added);
+    let labels: Vec<&str> = rows.iter().map(|r| r.label.as_str()).collect();
+    assert_eq!(
+        labels,
+        ["hard", "smoothies", "smoothies t=0.02", "smoothies t=0.2"]
+    );
+    assert_eq!(rows[1].smoothie_t, None);
+    assert_eq!(rows[3].smoothie_t, Some(0.2));
+    let (rows, added) = bench::variants(&names(&["smoothies", "hard", "hard"]), &[]).unwrap();
+    assert!(!added);
+    assert_eq!(rows.len(), 2);
+    assert!(bench::variants(&names(&["nope"]), &[]).is_err());
+    assert!(!bench::default_techniques().iter().any(|t| t == "reference"));
+}
+
+#[test]
+fn radius_and_motion_flags_parse() {
+    assert_eq!("scene".parse::<Radius>().unwrap(), Radius::Scene);
+    assert_eq!("0.5x".parse::<Radius>().unwrap(), Radius::Times(0.5));
+    assert_eq!("0".parse::<Radius>().unwrap(), Radius::Abs(0.0));
+    for bad in ["-1", "x", "nan", "inf", ""] {
+        assert!(bad.parse::<Radius>().is_err(), "{bad}");
+    }
+    assert_eq!("Light".parse::<Motion>().unwrap(), Motion::Light);
+    // Each motion moves what it names, and only that; frame 0 is the scene at rest.
+    let base = softshadow::scene::Scene::load("boxes").unwrap();
+    let at = |m: Motion, f: u32| m.apply(&base, f);
+    assert_eq!(at(Motion::Static, 5).light, base.light);
+    assert_eq!(at(Motion::Light, 0).light, base.light);
+    assert_ne!(at(Motion::Light, 3).light.position, base.light.position);
+    assert_eq!(at(Motion::Light, 3).camera, base.camera);
+    assert_ne!(at(Motion::Camera, 3).camera.position, base.camera.position);
+    let caster = base.objects.iter().position(|o| o.role.casts()).unwrap();
+    assert_ne!(
+        at(Motion::Object, 3).objects[caster].transform,
+        base.objects[caster].transform
+    );
+    assert_eq!(at(Motion::Object, 3).light, base.light);
+    assert!("wobble".parse::<Motion>().is_err());
+    assert_eq!(bench::slug("smoothies t=0.02"), "smoothies-t-0.02");
+}
+
+mod common;
+
+/// Through the library: a moving sweep times frames while moving, and measures its error
+/// on the scene put back at rest, so its errors equal the static sweep's.
+#[test]
+fn moving_sweeps_are_timed_moving_and_measured_at_rest() {
+    let gpu = common::Gpu::new();
+    let out = scratch("motion");
+    let config = bench::BenchConfig {
+        scenes: vec!["boxes".into()],
+        techniques: vec!["hard".into(), "smoothies".into()],
+        resolutions: vec![128],
+        radii: vec![Radius::Scene],
+        smoothie_t: vec![],
+        width: 64,
+        height: 64,
+        frames: 3,
+        warmup: 1,
+        samples: 256,
+        motions: vec![
+            Motion::Static,
+            Motion::Light,
+            Motion::Object,
+            Motion::Camera,
+        ],
+        out: out.clone(),
+        progress: false,
+        ..bench::BenchConfig::default()
+    };
+    let plan = bench::prepare(config).expect("valid sweep");
+    assert_eq!(plan.len(), 8);
+    let outcome = bench::run(&gpu.ctx, plan).expect("sweep runs");
+    let rec = |t: &str, m: Motion| {
+        outcome
+            .records
+            .iter()
+            .find(|r| r.technique == t && r.motion == m)
+            .unwrap_or_else(|| panic!("no record {t} {m:?}"))
+    };
+    for t in ["hard", "smoothies"] {
+        let still = rec(t, Motion::Static);
+        for m in [Motion::Light, Motion::Object, Motion::Camera] {
+            let moving = rec(t, m);
+            assert_eq!(
+                moving.errors, still.errors,
+                "{t} {m:?}: errors not measured at rest"
+            );
+            assert!(moving.ratio_to_hard.is_some());
+        }
+    }
+    // Smoothies redo their silhouettes every frame, moving or not: a CPU timing each frame.
+    let s = rec("smoothies", Motion::Light);
+    assert_eq!(s.cpu.len(), 1);
+    assert!(s.cpu_ms.median > 0.0);
+    assert!(outcome.files.iter().all(|f| out.join(f).is_file()));
+    let _ = std::fs::remove_dir_all(&out);
+}
+
+/// By default every timed frame runs every pass; with reuse a static frame skips the
+/// light-space passes and says why.
+#[test]
+fn light_passes_are_rebuilt_unless_reuse_is_asked() {
+    let gpu = common::Gpu::new();
+    let run = |reuse: bool| {
+        let out = scratch(&format!("reuse-{reuse}"));
+        let config = bench::BenchConfig {
+            scenes: vec!["cylinder".into()],
+            techniques: vec!["smoothies".into()],
+            resolutions: vec![128],
+            smoothie_t: vec![],
+            width: 64,
+            height: 64,
+            frames: 2,
+            warmup: 1,
+            reuse_light_passes: reuse,
+            out: out.clone(),
+            progress: false,
+            ..bench::BenchConfig::default()
+        };
+        let outcome = bench::run(&gpu.ctx, bench::prepare(config).expect("valid")).expect("runs");
+        let _ = std::fs::remove_dir_all(&out);
+        outcome
+            .records
+            .into_iter()
+            .find(|r| r.technique == "smoothies")
+            .expect("smoothies row")
+    };
+    let full = run(false);
+    assert!(
+        full.passes
+            .iter()
+            .all(|p| p.gpu_ms.is_some() && p.skipped_frames == 0),
+        "{:?}",
+        full.passes
+    );
+    assert!(!full.cpu.is_empty(), "silhouettes not timed");
+    let reused = run(true);
+    let light: Vec<_> = reused
+        .passes
+        .iter()
+        .filter(|p| p.name != "smoothies/final")
+        .collect();
+    assert!(!light.is_empty());
+    for p in light {
+        assert_eq!(p.skipped_frames, 2, "{p:?}");
+        assert!(
+            p.skip_reason
+                .as_deref()
+                .is_some_and(|r| r.contains("unchanged")),
+            "{p:?}"
+        );
+    }
+}

@@ -62,6 +62,9 @@ struct RenderArgs {
     /// Soft shadow map accumulation format: r32f or r16f.
     #[arg(long, default_value = "r32f")]
     accum_format: softshadow::render::AccumFormat,
+    /// Shadow rays per pixel of the `reference` technique (at least 256).
+    #[arg(long, default_value_t = 256)]
+    reference_samples: u32,
     #[arg(long, default_value = "softshadow.png")]
     out: PathBuf,
     /// Write visibility.exr, position.exr and normal.exr into this folder.
@@ -147,6 +150,11 @@ fn run(cli: Cli) -> Result<()> {
 fn render(cli: &Cli, a: &RenderArgs) -> Result<()> {
     // Everything that can be checked without a device is checked first.
     softshadow::technique::find(&a.technique)?;
+    Settings {
+        reference_samples: a.reference_samples,
+        ..Settings::default()
+    }
+    .check_reference_samples()?;
     let scene = Scene::load(&a.scene)?;
     check_writable(&a.out)?;
     let ctx = open_device(cli)?;
@@ -165,6 +173,7 @@ fn render(cli: &Cli, a: &RenderArgs) -> Result<()> {
         pcf_kernel: a.pcf_kernel,
         occluder_res: a.occluder_res,
         accum_format: a.accum_format,
+        reference_samples: a.reference_samples,
         ..Settings::default()
     };
     let mut r = Renderer::new(&ctx, scene, &a.technique, settings)?;

@@ -38,6 +38,8 @@ pub struct Settings {
     pub occluder_res: u32,
     /// Accumulation format of the soft shadow map (Atty et al. Appendix A: R16F breaks above ~256^2).
     pub accum_format: AccumFormat,
+    /// Shadow rays per pixel of the `reference` technique (DESIGN.md: at least 256).
+    pub reference_samples: u32,
 }
 
 /// A PCF filter kernel.
@@ -111,11 +113,22 @@ impl Default for Settings {
             pcf_kernel: PcfKernel::Box(3),
             occluder_res: 256,
             accum_format: AccumFormat::R32F,
+            reference_samples: crate::eval::reference::MIN_SAMPLES,
         }
     }
 }
 
 impl Settings {
+    /// `--reference-samples` in range (checked before any device is opened, too).
+    pub fn check_reference_samples(&self) -> Result<()> {
+        use crate::eval::reference::{MAX_SAMPLES, MIN_SAMPLES};
+        let n = self.reference_samples;
+        if !(MIN_SAMPLES..=MAX_SAMPLES).contains(&n) {
+            bail!("--reference-samples {n} is out of range: allowed {MIN_SAMPLES}..={MAX_SAMPLES} rays per pixel (DESIGN.md asks for at least {MIN_SAMPLES})");
+        }
+        Ok(())
+    }
+
     /// Checks ranges against the device; one clear line per problem.
     pub fn validate(&self, ctx: &Context) -> Result<()> {
         let max = ctx.limits.max_image_dimension2_d;
@@ -135,6 +148,7 @@ impl Settings {
             );
         }
         self.pcf_kernel.check()?;
+        self.check_reference_samples()?;
         if !self.normal_offset_texels.is_finite()
             || !(0.0..=64.0).contains(&self.normal_offset_texels)
         {

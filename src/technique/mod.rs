@@ -6,6 +6,7 @@ pub mod pcf;
 pub mod pcss;
 pub mod penumbra_map;
 pub mod plateaus;
+pub mod reference;
 pub mod smoothies;
 pub mod ssm;
 
@@ -79,6 +80,7 @@ pub const TECHNIQUES: &[TechniqueInfo] = &[
     plateaus::INFO,
     ssm::INFO,
     ssm::INFO2,
+    reference::INFO,
 ];
 
 pub fn names() -> Vec<&'static str> {

@@ -1,0 +1,488 @@
+//! The exact ground truth of DESIGN.md: the fraction of the spherical light's disc — centre
+//! L, radius R, facing the shaded point p — that p sees unoccluded, by ray casting against
+//! the casters' exact world-space triangles at exactly the surface points of the camera
+//! pixels (the `position` AOV).
+//!
+//! ## Estimator
+//! The disc facing p lies in the plane through L perpendicular to L - p, spanned by an
+//! orthonormal pair (u, v) around w = (L - p) / |L - p|. Its area is sampled with N
+//! stratified samples: a rows x cols grid of equal strata of the unit square (rows the
+//! largest divisor of N not above sqrt N, so N = 256 is 16 x 16), one jittered point per
+//! stratum (jitter from a seeded hash of pixel index and sample index), carried onto the unit
+//! disc by Shirley & Chiu's concentric map, which preserves area, so every stratum is an equal
+//! area of the disc and the estimate is the unweighted mean. Each sample is one any-hit
+//! shadow ray p -> L + R (x u + y v) against the casters. R = 0 is a point light: one ray to
+//! L, visibility 0 or 1.
+//!
+//! ## Rays
+//! Through an obvhs compressed wide BVH (PLOC build, 8-wide SIMD node tests). Self-hit
+//! guard: the origin is moved along the pixel's normal (the AOV's, which faces the camera)
+//! by `EPS_REL` times the scene's bounding radius, and hits closer than that distance are
+//! ignored. Rasterised positions are off their triangle's plane by about 1e-6 of their
+//! magnitude, so 1e-4 of the scene size clears them while staying far below any contact
+//! gap a shadow-map technique could resolve. Points on a surface's side facing away from the
+//! light keep their geometric visibility: their rays hit their own object.
+//!
+//! ## Who receives
+//! The AOVs do not say which object a pixel shows, so when the scene has objects that do not
+//! receive (role `caster`), each covered pixel casts one ray from the camera to its point
+//! against every triangle; the closest hit's object decides, and a non-receiving object's
+//! pixels get 1, as every technique's final pass writes there. Background pixels (position
+//! alpha 0) get 1. Scenes where everything receives skip this step.
+//!
+//! ## Cache
+//! `visibility_cached` keys a file under `cache_dir()` by an FNV-1a 64 hash of every world
+//! triangle and role, the light, R, the camera position, every pixel's position and normal,
+//! the sample count and the seed, so a bench re-run reads it instead of ray casting again.
+
+use crate::scene::Scene;
+use anyhow::{bail, Context as _, Result};
+use glam::{Vec2, Vec3};
+use glam34::Vec3A;
+use obvhs::cwbvh::builder::build_cwbvh_from_tris;
+use obvhs::cwbvh::CwBvh;
+use obvhs::ray::{Ray, RayHit};
+use obvhs::triangle::Triangle;
+use obvhs::BvhBuildParams;
+use rayon::prelude::*;
+use std::hash::Hasher;
+use std::io::Write as _;
+use std::path::{Path, PathBuf};
+
+/// Fewest samples per pixel DESIGN.md allows for the reference.
+pub const MIN_SAMPLES: u32 = 256;
+/// Most samples per pixel (65536 = 256 x 256 strata).
+pub const MAX_SAMPLES: u32 = 65536;
+/// Default jitter seed.
+pub const DEFAULT_SEED: u64 = 0x5EED_50F7_5AD0;
+/// Ray origin offset along the normal, and shortest accepted hit distance, as a fraction
+/// of the scene's bounding radius.
+pub const EPS_REL: f32 = 1e-4;
+/// Bumped whenever the estimator changes, so stale cache files are never read.
+const CACHE_VERSION: &[u8] = b"softshadow-reference-v1";
+const CACHE_MAGIC: &[u8; 8] = b"SSREF001";
+
+/// How the reference samples the light.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct ReferenceParams {
+    /// Shadow rays per pixel (`MIN_SAMPLES..=MAX_SAMPLES`; R = 0 casts one).
+    pub samples: u32,
+    /// Seed of the per-sample jitter.
+    pub seed: u64,
+}
+
+impl Default for ReferenceParams {
+    fn default() -> Self {
+        Self {
+            samples: MIN_SAMPLES,
+            seed: DEFAULT_SEED,
+        }
+    }
+}
+
+impl ReferenceParams {
+    /// One clear line when the sample count is out of range.
+    pub fn validate(&self) -> Result<()> {
+        if !(MIN_SAMPLES..=MAX_SAMPLES).contains(&self.samples) {
+            bail!(
+                "reference sample count {} is out of range: allowed {MIN_SAMPLES}..={MAX_SAMPLES} per pixel (DESIGN.md asks for at least {MIN_SAMPLES})",
+                self.samples
+            );
+        }
+        Ok(())
+    }
+
+    /// The stratification grid: rows x cols = samples, rows the largest divisor <= sqrt.
+    fn grid(&self) -> (u32, u32) {
+        let n = self.samples.max(1);
+        let mut rows = (n as f64).sqrt() as u32;
+        while rows > 1 && !n.is_multiple_of(rows) {
+            rows -= 1;
+        }
+        let rows = rows.max(1);
+        (rows, n / rows)
+    }
+}
+
+/// Where cached references live: `$SOFTSHADOW_CACHE`, else `./target/softshadow-cache`
+/// (created when missing; a failure to create it shows when a file is written there).
+pub fn cache_dir() -> PathBuf {
+    let dir = std::env::var_os("SOFTSHADOW_CACHE")
+        .filter(|d| !d.is_empty())
+        .map(PathBuf::from)
+        .unwrap_or_else(|| PathBuf::from("target").join("softshadow-cache"));
+    let _ = std::fs::create_dir_all(&dir);
+    dir
+}
+
+/// Triangles in a BVH, stored in the BVH's leaf order, each with its caller's id.
+struct TriangleBvh {
+    bvh: CwBvh,
+    tris: Vec<Triangle>,
+    ids: Vec<u32>,
+}
+
+fn a3(v: Vec3) -> Vec3A {
+    Vec3A::new(v.x, v.y, v.z)
+}
+
+impl TriangleBvh {
+    /// `None` for an empty list.
+    fn new(tris: &[[Vec3; 3]], ids: &[u32]) -> Option<Self> {
+        if tris.is_empty() {
+            return None;
+        }
+        let prims: Vec<Triangle> = tris
+            .iter()
+            .map(|t| Triangle {
+                v0: a3(t[0]),
+                v1: a3(t[1]),
+                v2: a3(t[2]),
+            })
+            .collect();
+        let bvh = build_cwbvh_from_tris(
+            &prims,
+            BvhBuildParams::medium_build(),
+            &mut std::time::Duration::default(),
+        );
+        // Leaf order: the traversal hands out indices into primitive_indices, so a copy in
+        // that order saves one indirection per intersection.
+        let tris = bvh
+            .primitive_indices
+            .iter()
+            .map(|&i| prims[i as usize])
+            .collect();
+        let ids = bvh
+            .primitive_indices
+            .iter()
+            .map(|&i| ids[i as usize])
+            .collect();
+        Some(Self { bvh, tris, ids })
+    }
+
+    /// Whether anything lies on the segment origin + t dir, t in [tmin, tmax] (dir unit).
+    fn occluded(&self, origin: Vec3, dir: Vec3, tmin: f32, tmax: f32) -> bool {
+        let ray = Ray::new(a3(origin), a3(dir), tmin, tmax);
+        !self
+            .bvh
+            .ray_traverse_miss(ray, |r, i| self.tris[i].intersect(r))
+    }
+
+    /// The id of the closest triangle along origin + t dir, t in [tmin, tmax].
+    fn closest(&self, origin: Vec3, dir: Vec3, tmin: f32, tmax: f32) -> Option<u32> {
+        let ray = Ray::new(a3(origin), a3(dir), tmin, tmax);
+        let mut hit = RayHit::none();
+        self.bvh
+            .ray_traverse(ray, &mut hit, |r, i| self.tris[i].intersect(r))
+            .then(|| self.ids[hit.primitive_id as usize])
+    }
+}
+
+/// SplitMix64's finaliser: a bijective mix whose outputs for consecutive inputs are
+/// uncorrelated, enough for per-sample jitter.
+fn mix(mut z: u64) -> u64 {
+    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+    z ^ (z >> 31)
+}
+
+/// Two uniform numbers in [0, 1) for (seed, pixel, sample).
+fn jitter(seed: u64, pixel: u64, sample: u64) -> Vec2 {
+    let h = mix(seed ^ mix(pixel.wrapping_mul(0x9E37_79B9_7F4A_7C15) ^ mix(sample)));
+    let to01 = |bits: u64| (bits >> 40) as f32 * (1.0 / (1u64 << 24) as f32);
+    Vec2::new(to01(h), to01(h << 24))
+}
+
+/// Shirley & Chiu's concentric map: the square [0,1]^2 onto the unit disc, area-preserving,
+/// so equal strata of the square are equal areas of the disc.
+pub fn concentric_disc(u: Vec2) -> Vec2 {
+    let a = 2.0 * u.x - 1.0;
+    let b = 2.0 * u.y - 1.0;
+    if a == 0.0 && b == 0.0 {
+        return Vec2::ZERO;
+    }
+    let quarter = std::f32::consts::FRAC_PI_4;
+    let (r, phi) = if a.abs() > b.abs() {
+        (a, quarter * (b / a))
+    } else {
+        (b, 2.0 * quarter - quarter * (a / b))
+    };
+    Vec2::new(r * phi.cos(), r * phi.sin())
+}
+
+/// Which covered pixels show a receiving object (see the module header); all true when
+/// every object receives.
+pub fn receiving_pixels(scene: &Scene, positions: &[[f32; 4]]) -> Vec<bool> {
+    if scene.objects.iter().all(|o| o.role.receives()) {
+        return vec![true; positions.len()];
+    }
+    let mut tris = Vec::new();
+    let mut ids = Vec::new();
+    for (k, o) in scene.objects.iter().enumerate() {
+        for t in o.world_triangles() {
+            tris.push(t);
+            ids.push(k as u32);
+        }
+    }
+    let Some(bvh) = TriangleBvh::new(&tris, &ids) else {
+        return vec![true; positions.len()];
+    };
+    let cam = scene.camera.position;
+    positions
+        .par_iter()
+        .map(|p| {
+            if p[3] <= 0.5 {
+                return true;
+            }
+            let to = Vec3::new(p[0], p[1], p[2]) - cam;
+            let dist = to.length();
+            if dist <= 0.0 || !dist.is_finite() {
+                return true;
+            }
+            // A little past the point, so the surface the pixel shows is hit even with
+            // rasterisation round-off.
+            match bvh.closest(cam, to / dist, 0.0, dist * 1.001) {
+                Some(k) => scene.objects[k as usize].role.receives(),
+                None => true,
+            }
+        })
+        .collect()
+}
+
+/// Exact visibility of the DESIGN.md disc light (centre `scene.light.position`, radius
+/// `radius`, facing each point) at each covered pixel (`positions[i][3] > 0.5`). Background
+/// pixels and pixels of non-receiving objects get 1. Rays are cast against the casters'
+/// triangles only. `normals` are the AOV's (any length; zero falls back to the light
+/// direction). Parallel over pixels on rayon's pool.
+pub fn visibility_at(
+    scene: &Scene,
+    radius: f32,
+    positions: &[[f32; 4]],
+    normals: &[[f32; 3]],
+    params: &ReferenceParams,
+) -> Result<Vec<f32>> {
+    params.validate()?;
+    if !radius.is_finite() || radius < 0.0 {
+        bail!("reference light radius {radius} is out of range: allowed a finite value >= 0");
+    }
+    if positions.len() != normals.len() {
+        bail!(
+            "reference: {} positions but {} normals (one each per pixel)",
+            positions.len(),
+            normals.len()
+        );
+    }
+    let receives = receiving_pixels(scene, positions);
+    let casters = scene.world_triangles(true);
+    let ids: Vec<u32> = (0..casters.len() as u32).collect();
+    let Some(bvh) = TriangleBvh::new(&casters, &ids) else {
+        return Ok(vec![1.0; positions.len()]);
+    };
+    let eps = EPS_REL * scene.bounds().radius().max(1e-6);
+    let light = scene.light.position;
+    let (rows, cols) = params.grid();
+    let n = rows * cols;
+    let seed = params.seed;
+    let out = positions
+        .par_iter()
+        .zip(normals.par_iter())
+        .zip(receives.par_iter())
+        .enumerate()
+        .map(|(pixel, ((pos, nrm), &recv))| {
+            if pos[3] <= 0.5 || !recv {
+                return 1.0;
+            }
+            let p = Vec3::new(pos[0], pos[1], pos[2]);
+            let to_light = light - p;
+            let dist = to_light.length();
+            if !p.is_finite() || dist <= eps {
+                return 1.0;
+            }
+            let w = to_light / dist;
+            let nn = Vec3::from(*nrm).normalize_or(w);
+            let origin = p + nn * eps;
+            let ray_to = |target: Vec3| {
+                let d = target - origin;
+                let len = d.length();
+                len <= eps || !bvh.occluded(origin, d / len, eps, len)
+            };
+            if radius == 0.0 {
+                return if ray_to(light) { 1.0 } else { 0.0 };
+            }
+            let (u, v) = w.any_orthonormal_pair();
+            let mut lit = 0u32;
+            for k in 0..n {
+                let (i, j) = (k % cols, k / cols);
+                let jit = jitter(seed, pixel as u64, k as u64);
+                let cell = Vec2::new(
+                    (i as f32 + jit.x) / cols as f32,
+                    (j as f32 + jit.y) / rows as f32,
+                );
+                let d = concentric_disc(cell) * radius;
+                if ray_to(light + u * d.x + v * d.y) {
+                    lit += 1;
+                }
+            }
+            lit as f32 / n as f32
+        })
+        .collect();
+    Ok(out)
+}
+
+/// The cache key of a reference (see the module header).
+pub fn cache_key(
+    scene: &Scene,
+    radius: f32,
+    positions: &[[f32; 4]],
+    normals: &[[f32; 3]],
+    params: &ReferenceParams,
+) -> u64 {
+    let mut h = fnv::FnvHasher::default();
+    h.write(CACHE_VERSION);
+    for o in &scene.objects {
+        h.write(&[o.role.casts() as u8, o.role.receives() as u8]);
+        for t in o.world_triangles() {
+            for p in t {
+                h.write(bytemuck::bytes_of(&p.to_array()));
+            }
+        }
+        h.write(b"|");
+    }
+    h.write(bytemuck::bytes_of(&scene.light.position.to_array()));
+    h.write(bytemuck::bytes_of(&radius));
+    h.write(bytemuck::bytes_of(&scene.camera.position.to_array()));
+    h.write_u64(positions.len() as u64);
+    h.write(bytemuck::cast_slice(positions));
+    h.write(bytemuck::cast_slice(normals));
+    h.write_u32(params.samples);
+    h.write_u64(params.seed);
+    h.finish()
+}
+
+/// The cache file of a key.
+pub fn cache_path(key: u64) -> PathBuf {
+    cache_dir().join(format!("reference-{key:016x}.bin"))
+}
+
+/// `visibility_at`, read from `cache_dir()` when a file for the same inputs exists, else
+/// computed and written there (a failure to write is reported on stderr, not fatal).
+pub fn visibility_cached(
+    scene: &Scene,
+    radius: f32,
+    positions: &[[f32; 4]],
+    normals: &[[f32; 3]],
+    params: &ReferenceParams,
+) -> Result<Vec<f32>> {
+    params.validate()?;
+    let path = cache_path(cache_key(scene, radius, positions, normals, params));
+    if let Some(v) = read_cache(&path, positions.len()) {
+        return Ok(v);
+    }
+    let v = visibility_at(scene, radius, positions, normals, params)?;
+    if let Err(e) = write_cache(&path, &v) {
+        eprintln!("warning: reference not cached: {e:#}");
+    }
+    Ok(v)
+}
+
+/// The cached values, or `None` when missing, truncated or of another size.
+fn read_cache(path: &Path, len: usize) -> Option<Vec<f32>> {
+    let bytes = std::fs::read(path).ok()?;
+    let (head, body) = bytes.split_at_checked(16)?;
+    if &head[..8] != CACHE_MAGIC {
+        return None;
+    }
+    let n = u64::from_le_bytes(head[8..16].try_into().ok()?) as usize;
+    if n != len || body.len() != n * 4 {
+        return None;
+    }
+    let v: Vec<f32> = body
+        .chunks_exact(4)
+        .map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]]))
+        .collect();
+    v.iter()
+        .all(|x| x.is_finite() && (0.0..=1.0).contains(x))
+        .then_some(v)
+}
+
+/// Writes through a temporary name renamed into place, so a reader never sees half a file.
+fn write_cache(path: &Path, v: &[f32]) -> Result<()> {
+    let tmp = path.with_extension(format!("partial{}", std::process::id()));
+    let result = (|| {
+        let mut f =
+            std::fs::File::create(&tmp).with_context(|| format!("creating {}", tmp.display()))?;
+        let mut bytes = Vec::with_capacity(16 + v.len() * 4);
+        bytes.extend_from_slice(CACHE_MAGIC);
+        bytes.extend_from_slice(&(v.len() as u64).to_le_bytes());
+        for x in v {
+            bytes.extend_from_slice(&x.to_le_bytes());
+        }
+        f.write_all(&bytes)
+            .with_context(|| format!("writing {}", tmp.display()))?;
+        std::fs::rename(&tmp, path).with_context(|| format!("renaming into {}", path.display()))
+    })();
+    if result.is_err() {
+        let _ = std::fs::remove_file(&tmp);
+    }
+    result
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn grid_factors_the_sample_count() {
+        let g = |samples| ReferenceParams { samples, seed: 0 }.grid();
+        assert_eq!(g(256), (16, 16));
+        assert_eq!(g(1024), (32, 32));
+        assert_eq!(g(300), (15, 20));
+        assert_eq!(g(257), (1, 257));
+    }
+
+    #[test]
+    fn concentric_map_stays_in_the_disc_and_preserves_area() {
+        // Equal strata of the square land on equal areas: the fraction of a fine grid's
+        // points inside radius 0.5 is 0.25 (the area ratio).
+        let m = 200;
+        let mut inside = 0;
+        for i in 0..m {
+            for j in 0..m {
+                let d = concentric_disc(Vec2::new(
+                    (i as f32 + 0.5) / m as f32,
+                    (j as f32 + 0.5) / m as f32,
+                ));
+                assert!(d.length() <= 1.0 + 1e-6);
+                if d.length() < 0.5 {
+                    inside += 1;
+                }
+            }
+        }
+        let frac = inside as f64 / (m * m) as f64;
+        assert!((frac - 0.25).abs() < 0.01, "{frac}");
+    }
+
+    #[test]
+    fn zero_samples_is_one_clear_line() {
+        let e = format!(
+            "{:#}",
+            ReferenceParams {
+                samples: 0,
+                seed: 1
+            }
+            .validate()
+            .unwrap_err()
+        );
+        assert!(e.contains("sample count 0") && !e.contains('\n'), "{e}");
+    }
+
+    #[test]
+    fn jitter_is_deterministic_and_in_range() {
+        for k in 0..1000u64 {
+            let a = jitter(7, 3, k);
+            assert_eq!(a, jitter(7, 3, k));
+            assert!((0.0..1.0).contains(&a.x) && (0.0..1.0).contains(&a.y));
+        }
+        assert_ne!(jitter(7, 3, 0), jitter(8, 3, 0));
+    }
+}

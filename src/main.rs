@@ -31,6 +31,24 @@ enum Command {
     Render(RenderArgs),
     /// Write the scene's triangles in world space as OBJ, and lights and camera as JSON.
     Export(ExportArgs),
+    /// Run the named edge cases over every technique against the reference (stress.md/json).
+    Stress(StressArgs),
+}
+
+#[derive(Args)]
+struct StressArgs {
+    /// Folder for stress.md and stress.json.
+    #[arg(long, default_value = "stress-out")]
+    out: PathBuf,
+    /// Techniques to test, comma-separated (default: all but reference).
+    #[arg(long, value_delimiter = ',')]
+    techniques: Vec<String>,
+    /// Cases to run, comma-separated (default: all).
+    #[arg(long, value_delimiter = ',')]
+    cases: Vec<String>,
+    /// Small sizes and few frames (the CI variant, under 2 minutes on lavapipe).
+    #[arg(long)]
+    quick: bool,
 }
 
 #[derive(Args)]
@@ -131,6 +149,7 @@ fn open_device(cli: &Cli) -> Result<Context> {
 fn run(cli: Cli) -> Result<()> {
     match &cli.command {
         Command::Render(a) => render(&cli, a),
+        Command::Stress(a) => stress(&cli, a),
         Command::Export(a) => {
             if a.width == 0 || a.height == 0 {
                 bail!("--width and --height must be at least 1");
@@ -222,6 +241,35 @@ fn render(cli: &Cli, a: &RenderArgs) -> Result<()> {
             msgs[0]
         );
     }
+    Ok(())
+}
+
+fn stress(cli: &Cli, a: &StressArgs) -> Result<()> {
+    use softshadow::eval::stress;
+    let opts = stress::StressOptions {
+        quick: a.quick,
+        techniques: a.techniques.clone(),
+        cases: a.cases.clone(),
+    };
+    opts.check()?;
+    let ctx = open_device(cli)?;
+    let report = stress::run(&ctx, &opts, &mut |r| {
+        println!(
+            "{:<24} {:<13} {} ({:.1} s){}",
+            r.case,
+            r.technique,
+            if r.pass { "pass" } else { "FAIL" },
+            r.seconds,
+            if r.pass { String::new() } else { format!(": {}{}", r.error.as_deref().map(|e| format!("{e}; ")).unwrap_or_default(), r.note) }
+        )
+    })?;
+    report.write(&a.out)?;
+    println!("wrote {0}/stress.md and {0}/stress.json", a.out.display());
+    let failed = report.failed();
+    if !failed.is_empty() {
+        bail!("{} of {} stress rows failed (see {}/stress.md)", failed.len(), report.rows.len(), a.out.display());
+    }
+    println!("all {} rows passed in {:.0} s", report.rows.len(), report.seconds);
     Ok(())
 }
 

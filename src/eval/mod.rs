@@ -6,3 +6,4 @@
 pub mod accumulate;
 pub mod metrics;
 pub mod reference;
+pub mod stress;

@@ -250,6 +250,7 @@ fn stress(cli: &Cli, a: &StressArgs) -> Result<()> {
         quick: a.quick,
         techniques: a.techniques.clone(),
         cases: a.cases.clone(),
+        image_dir: Some(a.out.clone()),
     };
     opts.check()?;
     let ctx = open_device(cli)?;

@@ -91,6 +91,8 @@ pub struct StressOptions {
     pub techniques: Vec<String>,
     /// Empty: all cases.
     pub cases: Vec<String>,
+    /// Where a failing static row writes `CASE-TECHNIQUE.png` and `CASE-TECHNIQUE-error.png`.
+    pub image_dir: Option<std::path::PathBuf>,
 }
 
 impl StressOptions {
@@ -227,15 +229,17 @@ impl Report {
         let mut s = String::new();
         s.push_str("# softshadow stress report\n\n");
         s.push_str(&format!(
-            "Device: {}. Mode: {}. Image {0}x{0}... see below; shadow maps {}^2, reference {} rays/pixel. {} rows, {} failed, {:.0} s.\n\n",
+            "{}. Mode: {}. Image {}x{}, shadow maps {}^2, reference {} rays/pixel. {} rows, {} failed, {:.0} s.\n\n",
             self.device,
             if self.quick { "--quick" } else { "full" },
+            self.image,
+            self.image,
             self.shadow_res,
             self.reference_samples,
             self.rows.len(),
             self.failed().len(),
             self.seconds
-        ).replace("Image {0}x{0}... see below; ", &format!("image {0}x{0}, ", self.image)));
+        ));
         s.push_str("Cases:\n\n");
         for (name, what) in CASES {
             if self.rows.iter().any(|r| r.case == *name) {
@@ -815,7 +819,7 @@ pub fn run(ctx: &Context, opts: &StressOptions, progress: &mut dyn FnMut(&Row)) 
             if !why.is_empty() {
                 row.note = why.to_string();
             }
-            let result = run_one(ctx, &case, &technique, &settings, &sizes, &reference, &moving_ref, &mut row, limit);
+            let result = run_one(ctx, &case, &technique, &settings, &sizes, &reference, &moving_ref, &mut row, limit, opts.image_dir.as_deref());
             if let Err(e) = result {
                 row.error = Some(format!("{e:#}"));
                 row.pass = false;
@@ -858,6 +862,7 @@ fn run_one(
     moving_ref: &std::result::Result<(Vec<Vec<f32>>, Vec<bool>), String>,
     row: &mut Row,
     limit: f64,
+    image_dir: Option<&Path>,
 ) -> Result<()> {
     let light = case.scene.light;
     match case.kind {
@@ -870,6 +875,11 @@ fn run_one(
                     row.fail(format!("mae_shadow {:.3} > {limit}", e.mae_shadow));
                 }
                 row.errors = Some(e);
+                if !row.pass || row.nan + row.inf + row.out_of_range > 0 {
+                    if let Some(dir) = image_dir {
+                        write_images(dir, &row.case, technique, &img, r, cov)?;
+                    }
+                }
             }
             if let Kind::Scale(k) = case.kind {
                 let s = scaled(&case.scene, k);
@@ -954,6 +964,19 @@ fn run_one(
         }
     }
     Ok(())
+}
+
+/// The colour image and the false-colour error image (0 black .. 0.5 red) of a failing row.
+fn write_images(dir: &Path, case: &str, technique: &str, img: &FrameImages, r: &[f32], cov: &[bool]) -> Result<()> {
+    std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+    crate::output::write_png(&dir.join(format!("{case}-{technique}.png")), img)?;
+    let err = crate::eval::metrics::error_image(&img.visibility, r, cov, 0.5);
+    let bytes: Vec<u8> = err.iter().flatten().copied().collect();
+    let path = dir.join(format!("{case}-{technique}-error.png"));
+    image::RgbaImage::from_raw(img.width, img.height, bytes)
+        .context("error image size")?
+        .save(&path)
+        .with_context(|| format!("writing {}", path.display()))
 }
 
 /// Rust mirrors of the shaders' guards, so each can be unit-tested at its edge (the

@@ -261,16 +261,36 @@ fn stress(cli: &Cli, a: &StressArgs) -> Result<()> {
             r.technique,
             if r.pass { "pass" } else { "FAIL" },
             r.seconds,
-            if r.pass { String::new() } else { format!(": {}{}", r.error.as_deref().map(|e| format!("{e}; ")).unwrap_or_default(), r.note) }
+            if r.pass {
+                String::new()
+            } else {
+                format!(
+                    ": {}{}",
+                    r.error
+                        .as_deref()
+                        .map(|e| format!("{e}; "))
+                        .unwrap_or_default(),
+                    r.note
+                )
+            }
         )
     })?;
     report.write(&a.out)?;
     println!("wrote {0}/stress.md and {0}/stress.json", a.out.display());
     let failed = report.failed();
     if !failed.is_empty() {
-        bail!("{} of {} stress rows failed (see {}/stress.md)", failed.len(), report.rows.len(), a.out.display());
+        bail!(
+            "{} of {} stress rows failed (see {}/stress.md)",
+            failed.len(),
+            report.rows.len(),
+            a.out.display()
+        );
     }
-    println!("all {} rows passed in {:.0} s", report.rows.len(), report.seconds);
+    println!(
+        "all {} rows passed in {:.0} s",
+        report.rows.len(),
+        report.seconds
+    );
     Ok(())
 }
 

@@ -23,7 +23,15 @@ use softshadow::scene::Scene;
 use softshadow::technique::TECHNIQUES;
 use std::path::{Path, PathBuf};
 
-const SCENES: &[&str] = &["cylinder", "boxes", "overlap", "fence", "bunny", "primitives", "dense"];
+const SCENES: &[&str] = &[
+    "cylinder",
+    "boxes",
+    "overlap",
+    "fence",
+    "bunny",
+    "primitives",
+    "dense",
+];
 const SIZE: u32 = 128;
 /// See the module header.
 const MIN_SSIM: f64 = 0.999;
@@ -49,7 +57,9 @@ fn luma(img: &FrameImages) -> image::GrayImage {
 }
 
 fn golden_dir() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("tests").join("golden")
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests")
+        .join("golden")
 }
 
 fn ssim(a: &image::GrayImage, b: &image::GrayImage) -> image_compare::Similarity {
@@ -77,7 +87,11 @@ fn check(name: &str, img: &FrameImages, bless: bool) -> Result<f64, String> {
         }
     };
     if want.dimensions() != actual.dimensions() {
-        return Err(format!("{name}: golden is {:?}, render {:?}", want.dimensions(), actual.dimensions()));
+        return Err(format!(
+            "{name}: golden is {:?}, render {:?}",
+            want.dimensions(),
+            actual.dimensions()
+        ));
     }
     let sim = ssim(&want, &actual);
     if sim.score >= MIN_SSIM {
@@ -108,7 +122,10 @@ fn every_technique_on_every_scene_matches_its_golden() {
             let start = std::time::Instant::now();
             let (img, _) = gpu.render_frames(scene.clone(), t.name, settings(), 1);
             if t.name == "reference" {
-                println!("reference on {scene_name} at {SIZE}^2: {:.2} s", start.elapsed().as_secs_f64());
+                println!(
+                    "reference on {scene_name} at {SIZE}^2: {:.2} s",
+                    start.elapsed().as_secs_f64()
+                );
             }
             match check(&format!("{scene_name}-{}", t.name), &img, bless) {
                 Ok(s) if s < worst.0 => worst = (s, format!("{scene_name}-{}", t.name)),
@@ -118,7 +135,12 @@ fn every_technique_on_every_scene_matches_its_golden() {
         }
     }
     println!("lowest SSIM {:.5} ({})", worst.0, worst.1);
-    assert!(failures.is_empty(), "{} golden mismatch(es):\n{}", failures.len(), failures.join("\n"));
+    assert!(
+        failures.is_empty(),
+        "{} golden mismatch(es):\n{}",
+        failures.len(),
+        failures.join("\n")
+    );
 }
 
 /// The tolerance can fail: a 10 % larger light on `overlap` (smoothies) scores below it.
@@ -131,17 +153,41 @@ fn golden_tolerance_sees_a_small_change() {
     let (b, _) = gpu.render_frames(scene.clone(), "smoothies", settings(), 1);
     let same = ssim(&luma(&a), &luma(&b)).score;
     println!("SSIM run-to-run {same:.5}");
-    assert!(same >= MIN_SSIM, "run-to-run noise {same} above the tolerance");
+    assert!(
+        same >= MIN_SSIM,
+        "run-to-run noise {same} above the tolerance"
+    );
     for (what, s) in [
-        ("light radius +10 %", Settings { light_radius: Some(r * 1.1), ..settings() }),
-        ("light radius +25 %", Settings { light_radius: Some(r * 1.25), ..settings() }),
-        ("shadow map 256^2", Settings { shadow_res: 256, ..settings() }),
+        (
+            "light radius +10 %",
+            Settings {
+                light_radius: Some(r * 1.1),
+                ..settings()
+            },
+        ),
+        (
+            "light radius +25 %",
+            Settings {
+                light_radius: Some(r * 1.25),
+                ..settings()
+            },
+        ),
+        (
+            "shadow map 256^2",
+            Settings {
+                shadow_res: 256,
+                ..settings()
+            },
+        ),
     ] {
         let (c, _) = gpu.render_frames(scene.clone(), "smoothies", s, 1);
         let changed = ssim(&luma(&a), &luma(&c)).score;
         println!("SSIM {what}: {changed:.5}");
         if what.contains("+25") {
-            assert!(changed < MIN_SSIM, "{what} ({changed}) passes the tolerance");
+            assert!(
+                changed < MIN_SSIM,
+                "{what} ({changed}) passes the tolerance"
+            );
         }
     }
 }

@@ -290,7 +290,8 @@ impl Report {
     pub fn write(&self, dir: &Path) -> Result<()> {
         std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
         let md = dir.join("stress.md");
-        std::fs::write(&md, self.markdown()).with_context(|| format!("writing {}", md.display()))?;
+        std::fs::write(&md, self.markdown())
+            .with_context(|| format!("writing {}", md.display()))?;
         let json = dir.join("stress.json");
         let text = serde_json::to_string_pretty(self).context("serialising the stress report")?;
         std::fs::write(&json, text).with_context(|| format!("writing {}", json.display()))?;
@@ -373,16 +374,53 @@ fn allowance(case: &str, technique: &str) -> Option<(f64, &'static str)> {
         ("radius-huge", "hard" | "pcf" | "smoothies" | "penumbra-map" | "pcss" | "plateaus") => {
             Some((1.0, "method limit: outer-penumbra-only / clamped kernel with R > scene"))
         }
+        // A blocker far smaller than the light casts no umbra, only a faint wide dimming;
+        // smoothies and penumbra maps grow a full 0-to-1 penumbra outward from the hard
+        // shadow whatever the blocker's size. Method limit.
+        ("blocker-near-light", "smoothies") => {
+            Some((0.5, "method limit: a blocker smaller than the light gets a full-strength outer penumbra"))
+        }
+        // As above, plus ring-shaped (moire) banding over the whole cone region when the
+        // cones of a caster at the near plane span near/far ~ 1e-4. OPEN: not fixed here.
+        ("blocker-near-light" | "near-far-1e-4", "penumbra-map") => Some((
+            0.7,
+            "KNOWN, NOT FIXED: moire banding in the penumbra map from cones of a caster at the near plane",
+        )),
+        // A caster lying exactly in the receiver plane: plateaus shades the sheet as under
+        // its own umbra (the sheet is coplanar with its receiver, so its drop shadow starts at
+        // distance 0). OPEN: not fixed here.
+        ("caster-on-receiver", "plateaus") => Some((
+            0.75,
+            "KNOWN, NOT FIXED: a caster coplanar with the receiver is shaded as its own umbra",
+        )),
+        // Light 4 degrees above the ground: the smoothie of the box's far edge spans the
+        // (foreshortened) box top, which the reference sees lit. Method limit of
+        // smoothies' screen-space width at grazing angles.
+        ("grazing-light", "smoothies") => {
+            Some((0.6, "method limit: smoothie width at a grazing light darkens the lit top"))
+        }
         _ => None,
     }
 }
 
 fn add(objects: &mut Vec<Object>, name: &str, mesh: Mesh, transform: Mat4, role: Role) {
-    objects.push(Object::new(name, Arc::new(mesh), transform, role, Vec3::new(0.7, 0.5, 0.4)));
+    objects.push(Object::new(
+        name,
+        Arc::new(mesh),
+        transform,
+        role,
+        Vec3::new(0.7, 0.5, 0.4),
+    ));
 }
 
 fn ground(objects: &mut Vec<Object>, size: f32) {
-    add(objects, "ground", prim::plane(Vec2::splat(size), 8), Mat4::IDENTITY, Role::Receiver);
+    add(
+        objects,
+        "ground",
+        prim::plane(Vec2::splat(size), 8),
+        Mat4::IDENTITY,
+        Role::Receiver,
+    );
 }
 
 /// A mesh from positions and triangles, normals computed.
@@ -449,16 +487,34 @@ fn build(name: &str, sizes: &Sizes) -> Result<Case> {
                 let h = h_light * (1.0 - f);
                 let x = -2.25 + 1.5 * k as f32;
                 let t = 0.05;
-                add(&mut o, &format!("slab{k}"), slab(1.0, t), Mat4::from_translation(Vec3::new(x, h + t * 0.5, 0.0)), Role::Both);
+                add(
+                    &mut o,
+                    &format!("slab{k}"),
+                    slab(1.0, t),
+                    Mat4::from_translation(Vec3::new(x, h + t * 0.5, 0.0)),
+                    Role::Both,
+                );
             }
             rigged(name, o, Vec3::new(0.0, h_light, 0.0)).pipe(stat)
         }
         "caster-on-receiver" => {
             let mut o = Vec::new();
             ground(&mut o, 12.0);
-            add(&mut o, "box", prim::cuboid(Vec3::splat(1.0)), Mat4::from_translation(Vec3::new(-1.0, 0.5, 0.0)), Role::Both);
+            add(
+                &mut o,
+                "box",
+                prim::cuboid(Vec3::splat(1.0)),
+                Mat4::from_translation(Vec3::new(-1.0, 0.5, 0.0)),
+                Role::Both,
+            );
             // Exactly coplanar with the ground (y = 0): zero gap, z-fighting in every map.
-            add(&mut o, "sheet", prim::plane(Vec2::splat(1.5), 1), Mat4::from_translation(Vec3::new(1.2, 0.0, 0.5)), Role::Both);
+            add(
+                &mut o,
+                "sheet",
+                prim::plane(Vec2::splat(1.5), 1),
+                Mat4::from_translation(Vec3::new(1.2, 0.0, 0.5)),
+                Role::Both,
+            );
             rigged(name, o, Vec3::new(-3.0, 7.0, 2.0)).pipe(stat)
         }
         "blocker-near-light" => {
@@ -467,14 +523,26 @@ fn build(name: &str, sizes: &Sizes) -> Result<Case> {
             let d = l.target - l.position;
             let side = d.cross(Vec3::Y).normalize_or(Vec3::X);
             let p = l.position + d * 0.01 + side * d.length() * 0.002;
-            add(&mut s.objects, "plate", slab(d.length() * 0.001, d.length() * 1e-4), Mat4::from_translation(p), Role::Caster);
+            add(
+                &mut s.objects,
+                "plate",
+                slab(d.length() * 0.001, d.length() * 1e-4),
+                Mat4::from_translation(p),
+                Role::Caster,
+            );
             s.name = name.into();
             stat(s)
         }
         "light-in-caster-bounds" => {
             let mut o = Vec::new();
             ground(&mut o, 12.0);
-            add(&mut o, "box", prim::cuboid(Vec3::splat(1.0)), Mat4::from_translation(Vec3::new(0.8, 0.5, 0.3)), Role::Both);
+            add(
+                &mut o,
+                "box",
+                prim::cuboid(Vec3::splat(1.0)),
+                Mat4::from_translation(Vec3::new(0.8, 0.5, 0.3)),
+                Role::Both,
+            );
             let light_pos = Vec3::new(0.0, 6.0, 0.0);
             let (light, camera) = rig(&o, light_pos, 0.0, 0.05, Vec3::new(0.3, 0.8, 1.0));
             // An open tube (no caps) around the light, wider at the bottom: a lamp shade.
@@ -529,7 +597,13 @@ fn build(name: &str, sizes: &Sizes) -> Result<Case> {
             // patch next to the cylinder's shadow.
             let dist = far * 1e-4;
             let p = l.position + d * dist * 1.02 + side * dist * 0.05;
-            add(&mut s.objects, "speck", slab(dist * 0.01, dist * 0.002), Mat4::from_translation(p), Role::Caster);
+            add(
+                &mut s.objects,
+                "speck",
+                slab(dist * 0.01, dist * 0.002),
+                Mat4::from_translation(p),
+                Role::Caster,
+            );
             s.name = name.into();
             stat(s)
         }
@@ -538,7 +612,8 @@ fn build(name: &str, sizes: &Sizes) -> Result<Case> {
             let elev = 4f32.to_radians();
             let pos = Vec3::new(-elev.cos(), elev.sin(), 0.2) * 14.0;
             let mut s = rigged(name, s.objects, pos);
-            s.camera.position = s.camera.target + Vec3::new(0.3, 1.0, 0.6) * (s.camera.position - s.camera.target).length();
+            s.camera.position = s.camera.target
+                + Vec3::new(0.3, 1.0, 0.6) * (s.camera.position - s.camera.target).length();
             stat(s)
         }
         "degenerate-triangles" => {
@@ -556,10 +631,21 @@ fn build(name: &str, sizes: &Sizes) -> Result<Case> {
             }
             // Zero-area triangles: a repeated index, three collinear points, a point.
             let c = m.positions.len() as u32;
-            m.positions.extend([Vec3::new(-0.75, 0.15, -0.75), Vec3::new(0.0, 0.15, 0.0), Vec3::new(0.75, 0.15, 0.75)]);
-            m.indices.extend_from_slice(&[0, 0, 1, c, c + 1, c + 2, c + 1, c + 1, c + 1, 2, 3, 2]);
+            m.positions.extend([
+                Vec3::new(-0.75, 0.15, -0.75),
+                Vec3::new(0.0, 0.15, 0.0),
+                Vec3::new(0.75, 0.15, 0.75),
+            ]);
+            m.indices
+                .extend_from_slice(&[0, 0, 1, c, c + 1, c + 2, c + 1, c + 1, c + 1, 2, 3, 2]);
             m.compute_normals();
-            add(&mut o, "box", m, Mat4::from_translation(Vec3::new(0.0, 1.5, 0.0)), Role::Both);
+            add(
+                &mut o,
+                "box",
+                m,
+                Mat4::from_translation(Vec3::new(0.0, 1.5, 0.0)),
+                Role::Both,
+            );
             rigged(name, o, Vec3::new(-2.0, 8.0, 1.0)).pipe(stat)
         }
         "non-manifold-open" => {
@@ -584,17 +670,35 @@ fn build(name: &str, sizes: &Sizes) -> Result<Case> {
                 .collect();
             debug_assert_eq!(top.len(), 6);
             let b = m.positions.len() as u32;
-            m.positions.extend([Vec3::new(-0.75, -0.3, 0.75), Vec3::new(0.75, -0.3, 0.75), Vec3::new(0.0, 0.6, 1.5)]);
+            m.positions.extend([
+                Vec3::new(-0.75, -0.3, 0.75),
+                Vec3::new(0.75, -0.3, 0.75),
+                Vec3::new(0.0, 0.6, 1.5),
+            ]);
             m.indices.extend_from_slice(&[b, b + 1, b + 2]);
             // Weld the fin's edge onto the box's by index, so the edge is shared by three.
-            let find = |p: Vec3| m.positions.iter().position(|&q| (q - p).length() < 1e-6).map(|i| i as u32);
-            if let (Some(i0), Some(i1)) = (find(Vec3::new(-0.75, -0.3, 0.75)), find(Vec3::new(0.75, -0.3, 0.75))) {
+            let find = |p: Vec3| {
+                m.positions
+                    .iter()
+                    .position(|&q| (q - p).length() < 1e-6)
+                    .map(|i| i as u32)
+            };
+            if let (Some(i0), Some(i1)) = (
+                find(Vec3::new(-0.75, -0.3, 0.75)),
+                find(Vec3::new(0.75, -0.3, 0.75)),
+            ) {
                 let k = m.indices.len();
                 m.indices[k - 3] = i0;
                 m.indices[k - 2] = i1;
             }
             m.compute_normals();
-            add(&mut o, "open-box", m, Mat4::from_translation(Vec3::new(0.0, 1.2, 0.0)), Role::Both);
+            add(
+                &mut o,
+                "open-box",
+                m,
+                Mat4::from_translation(Vec3::new(0.0, 1.2, 0.0)),
+                Role::Both,
+            );
             rigged(name, o, Vec3::new(-2.0, 8.0, 1.5)).pipe(stat)
         }
         "eight-silhouette-edges" => {
@@ -606,21 +710,43 @@ fn build(name: &str, sizes: &Sizes) -> Result<Case> {
             let mut p = vec![Vec3::new(0.0, 0.5, 0.0)];
             let mut a = 0f32;
             for k in 0..8 {
-                p.push(Vec3::new(a.to_radians().cos(), -0.2, a.to_radians().sin()) * Vec3::new(1.2, 1.0, 1.2));
+                p.push(
+                    Vec3::new(a.to_radians().cos(), -0.2, a.to_radians().sin())
+                        * Vec3::new(1.2, 1.0, 1.2),
+                );
                 a += if k % 2 == 0 { 150.0 } else { -60.0 };
             }
             let mut idx = Vec::new();
             for k in 0..8u32 {
                 idx.extend_from_slice(&[0, 1 + k, 1 + (k + 1) % 8]);
             }
-            add(&mut o, "fan", mesh(p, idx), Mat4::from_translation(Vec3::new(0.0, 1.5, 0.0)), Role::Both);
+            add(
+                &mut o,
+                "fan",
+                mesh(p, idx),
+                Mat4::from_translation(Vec3::new(0.0, 1.5, 0.0)),
+                Role::Both,
+            );
             rigged(name, o, Vec3::new(-1.0, 8.0, 0.5)).pipe(stat)
         }
         "single-triangle" => {
             let mut o = Vec::new();
             ground(&mut o, 12.0);
-            let m = mesh(vec![Vec3::new(-1.0, 0.0, -0.6), Vec3::new(1.0, 0.0, -0.6), Vec3::new(0.0, 0.3, 1.0)], vec![0, 1, 2]);
-            add(&mut o, "triangle", m, Mat4::from_translation(Vec3::new(0.0, 1.5, 0.0)), Role::Both);
+            let m = mesh(
+                vec![
+                    Vec3::new(-1.0, 0.0, -0.6),
+                    Vec3::new(1.0, 0.0, -0.6),
+                    Vec3::new(0.0, 0.3, 1.0),
+                ],
+                vec![0, 1, 2],
+            );
+            add(
+                &mut o,
+                "triangle",
+                m,
+                Mat4::from_translation(Vec3::new(0.0, 1.5, 0.0)),
+                Role::Both,
+            );
             rigged(name, o, Vec3::new(-1.5, 8.0, 1.0)).pipe(stat)
         }
         "mesh-1m" => {
@@ -628,7 +754,13 @@ fn build(name: &str, sizes: &Sizes) -> Result<Case> {
             ground(&mut o, 12.0);
             let (seg, rings) = sizes.mesh_segments;
             let m = prim::bumpy_sphere(1.0, seg, rings, 0.08, 7);
-            add(&mut o, "bumpy", m, Mat4::from_translation(Vec3::new(0.0, 1.6, 0.0)), Role::Both);
+            add(
+                &mut o,
+                "bumpy",
+                m,
+                Mat4::from_translation(Vec3::new(0.0, 1.6, 0.0)),
+                Role::Both,
+            );
             rigged(name, o, Vec3::new(-3.0, 8.0, 1.0)).pipe(stat)
         }
         "moving-light" => Case {
@@ -639,7 +771,10 @@ fn build(name: &str, sizes: &Sizes) -> Result<Case> {
             kind: Kind::Fp16,
             ..stat(builtin_scene("overlap")?)
         },
-        _ => bail!("unknown stress case '{name}': valid cases are {}", case_names().join(", ")),
+        _ => bail!(
+            "unknown stress case '{name}': valid cases are {}",
+            case_names().join(", ")
+        ),
     })
 }
 
@@ -681,7 +816,11 @@ fn mean_abs_diff(a: &[f32], b: &[f32], cov: &[bool]) -> f64 {
     for ((&x, &y), &c) in a.iter().zip(b).zip(cov) {
         if c {
             n += 1;
-            sum += if x.is_finite() && y.is_finite() { (x as f64 - y as f64).abs() } else { 1.0 };
+            sum += if x.is_finite() && y.is_finite() {
+                (x as f64 - y as f64).abs()
+            } else {
+                1.0
+            };
         }
     }
     if n == 0 {
@@ -704,7 +843,11 @@ pub fn flicker(frames: &[Vec<f32>], reference: &[Vec<f32>], cov: &[bool]) -> f64
             }
             let dv = (frames[t][i] - frames[t - 1][i]).abs();
             let dr = (reference[t][i] - reference[t - 1][i]).abs();
-            let d = if dv.is_finite() { (dv - dr).max(0.0) } else { 1.0 };
+            let d = if dv.is_finite() {
+                (dv - dr).max(0.0)
+            } else {
+                1.0
+            };
             sum += d as f64;
             n += 1;
         }
@@ -769,7 +912,9 @@ pub fn run(ctx: &Context, opts: &StressOptions, progress: &mut dyn FnMut(&Row)) 
     let mut rows = Vec::new();
     for case_name in opts.cases() {
         let case = build(case_name, &sizes)?;
-        case.scene.validate().with_context(|| format!("stress case {case_name}"))?;
+        case.scene
+            .validate()
+            .with_context(|| format!("stress case {case_name}"))?;
         let settings = Settings {
             light_radius: case.radius,
             ..base.clone()
@@ -781,11 +926,16 @@ pub fn run(ctx: &Context, opts: &StressOptions, progress: &mut dyn FnMut(&Row)) 
         let mut reference: Option<(Vec<f32>, Vec<bool>)> = None;
         let mut ref_error = None;
         if needs_ref && !matches!(case.kind, Kind::Moving) {
-            match render_frames(ctx, &case.scene, "hard", &settings, 1, &|_| case.scene.light)
-                .and_then(|f| {
-                    let img = &f[0];
-                    Ok((reference_for(&case.scene, radius, img, samples)?, covered(img)))
-                }) {
+            match render_frames(ctx, &case.scene, "hard", &settings, 1, &|_| {
+                case.scene.light
+            })
+            .and_then(|f| {
+                let img = &f[0];
+                Ok((
+                    reference_for(&case.scene, radius, img, samples)?,
+                    covered(img),
+                ))
+            }) {
                 Ok(r) => reference = Some(r),
                 Err(e) => ref_error = Some(format!("{e:#}")),
             }
@@ -793,17 +943,19 @@ pub fn run(ctx: &Context, opts: &StressOptions, progress: &mut dyn FnMut(&Row)) 
         let moving_ref = if matches!(case.kind, Kind::Moving) {
             let frames = sizes.moving_frames;
             let light = case.scene.light;
-            render_frames(ctx, &case.scene, "hard", &settings, frames, &|i| moving_light(&light, i))
-                .and_then(|imgs| {
-                    let mut refs = Vec::new();
-                    for (i, img) in imgs.iter().enumerate() {
-                        let mut s = case.scene.clone();
-                        s.light = moving_light(&light, i);
-                        refs.push(reference_for(&s, radius, img, samples)?);
-                    }
-                    Ok((refs, covered(&imgs[0])))
-                })
-                .map_err(|e| format!("{e:#}"))
+            render_frames(ctx, &case.scene, "hard", &settings, frames, &|i| {
+                moving_light(&light, i)
+            })
+            .and_then(|imgs| {
+                let mut refs = Vec::new();
+                for (i, img) in imgs.iter().enumerate() {
+                    let mut s = case.scene.clone();
+                    s.light = moving_light(&light, i);
+                    refs.push(reference_for(&s, radius, img, samples)?);
+                }
+                Ok((refs, covered(&imgs[0])))
+            })
+            .map_err(|e| format!("{e:#}"))
         } else {
             Err(String::new())
         };
@@ -819,7 +971,18 @@ pub fn run(ctx: &Context, opts: &StressOptions, progress: &mut dyn FnMut(&Row)) 
             if !why.is_empty() {
                 row.note = why.to_string();
             }
-            let result = run_one(ctx, &case, &technique, &settings, &sizes, &reference, &moving_ref, &mut row, limit, opts.image_dir.as_deref());
+            let result = run_one(
+                ctx,
+                &case,
+                &technique,
+                &settings,
+                &sizes,
+                &reference,
+                &moving_ref,
+                &mut row,
+                limit,
+                opts.image_dir.as_deref(),
+            );
             if let Err(e) = result {
                 row.error = Some(format!("{e:#}"));
                 row.pass = false;
@@ -867,7 +1030,8 @@ fn run_one(
     let light = case.scene.light;
     match case.kind {
         Kind::Static | Kind::Scale(_) => {
-            let img = render_frames(ctx, &case.scene, technique, settings, 1, &|_| light)?.remove(0);
+            let img =
+                render_frames(ctx, &case.scene, technique, settings, 1, &|_| light)?.remove(0);
             row.count(&img.visibility);
             if let Some((r, cov)) = reference {
                 let e = errors(&img.visibility, r, cov);
@@ -887,16 +1051,21 @@ fn run_one(
                 row.count(&img_s.visibility);
                 let d = mean_abs_diff(&img_s.visibility, &img.visibility, &covered(&img));
                 row.metric = Some(d);
-                row.threshold.push_str(&format!(", mean |v(x{k:e}) - v(x1)| <= {SCALE_TOLERANCE}"));
+                row.threshold
+                    .push_str(&format!(", mean |v(x{k:e}) - v(x1)| <= {SCALE_TOLERANCE}"));
                 if d > SCALE_TOLERANCE {
                     row.fail(format!("visibility changed by {d:.4} under scaling"));
                 }
             }
         }
         Kind::Moving => {
-            let (refs, cov) = moving_ref.as_ref().map_err(|e| anyhow::anyhow!("reference: {e}"))?;
+            let (refs, cov) = moving_ref
+                .as_ref()
+                .map_err(|e| anyhow::anyhow!("reference: {e}"))?;
             let frames = refs.len();
-            let imgs = render_frames(ctx, &case.scene, technique, settings, frames, &|i| moving_light(&light, i))?;
+            let imgs = render_frames(ctx, &case.scene, technique, settings, frames, &|i| {
+                moving_light(&light, i)
+            })?;
             let vis: Vec<Vec<f32>> = imgs.iter().map(|i| i.visibility.clone()).collect();
             for v in &vis {
                 row.count(v);
@@ -908,7 +1077,11 @@ fn run_one(
             row.errors = Some(e);
             let f = flicker(&vis, refs, cov);
             row.flicker = Some(f);
-            let res = if technique.starts_with("ssm") { settings.occluder_res } else { settings.shadow_res };
+            let res = if technique.starts_with("ssm") {
+                settings.occluder_res
+            } else {
+                settings.shadow_res
+            };
             let snapped = render_frames(ctx, &case.scene, technique, settings, frames, &|i| {
                 snap_light(&light, moving_light(&light, i), res)
             })?;
@@ -918,13 +1091,20 @@ fn run_one(
             }
             let fs = flicker(&svis, refs, cov);
             row.flicker_snapped = Some(fs);
-            row.threshold.push_str(&format!(", flicker <= {FLICKER_LIMIT} ({frames} frames)"));
+            row.threshold
+                .push_str(&format!(", flicker <= {FLICKER_LIMIT} ({frames} frames)"));
             if f.min(fs) > FLICKER_LIMIT {
-                row.fail(format!("flicker {f:.4} (snapped {fs:.4}) > {FLICKER_LIMIT}"));
+                row.fail(format!(
+                    "flicker {f:.4} (snapped {fs:.4}) > {FLICKER_LIMIT}"
+                ));
             }
             row.note = format!(
                 "{}snapping {}",
-                if row.note.is_empty() { String::new() } else { format!("{}; ", row.note) },
+                if row.note.is_empty() {
+                    String::new()
+                } else {
+                    format!("{}; ", row.note)
+                },
                 if fs < f { "helps" } else { "does not help" }
             );
         }
@@ -967,7 +1147,14 @@ fn run_one(
 }
 
 /// The colour image and the false-colour error image (0 black .. 0.5 red) of a failing row.
-fn write_images(dir: &Path, case: &str, technique: &str, img: &FrameImages, r: &[f32], cov: &[bool]) -> Result<()> {
+fn write_images(
+    dir: &Path,
+    case: &str,
+    technique: &str,
+    img: &FrameImages,
+    r: &[f32],
+    cov: &[bool],
+) -> Result<()> {
     std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
     crate::output::write_png(&dir.join(format!("{case}-{technique}.png")), img)?;
     let err = crate::eval::metrics::error_image(&img.visibility, r, cov, 0.5);
@@ -1061,7 +1248,10 @@ mod tests {
             for b in [r, next_down(r), next_up(r), next_down(next_down(r))] {
                 for raw in [0.0f32, 1e-7, 0.01, 0.5, 1.0, 5.0] {
                     if let Some(a) = smoothie_alpha(raw, 0.02, b, r) {
-                        assert!(a.is_finite() && (0.0..=1.0).contains(&a), "b {b} r {r} raw {raw}: {a}");
+                        assert!(
+                            a.is_finite() && (0.0..=1.0).contains(&a),
+                            "b {b} r {r} raw {raw}: {a}"
+                        );
                     } else {
                         assert!(b > r, "only b > r is discarded");
                     }
@@ -1082,7 +1272,10 @@ mod tests {
                 for zf in [zv, zp, zp * 0.5, next_down(zp)] {
                     for h in [1.0f32, 1e-20, 0.0] {
                         if let Some(i) = penumbra_intensity(zp, zf, (zv * h, h)) {
-                            assert!(i.is_finite() && (0.0..=1.0).contains(&i), "zp {zp} zv {zv} zf {zf} h {h}: {i}");
+                            assert!(
+                                i.is_finite() && (0.0..=1.0).contains(&i),
+                                "zp {zp} zv {zv} zf {zf} h {h}: {i}"
+                            );
                         }
                     }
                 }
@@ -1100,12 +1293,20 @@ mod tests {
         // d_r > near always (light_sample's inside test); blockers > 0 before d_b is formed.
         for d_r in [1e-4f32, 1e-3, 1.0, 1e3] {
             for near in [d_r * 0.999, d_r * 1e-4] {
-                for (sum, n) in [(0.0f32, 0.0f32), (d_r * 0.5, 1.0), (next_down(d_r) * 4.0, 4.0), (d_r * 1e-4, 1.0)] {
+                for (sum, n) in [
+                    (0.0f32, 0.0f32),
+                    (d_r * 0.5, 1.0),
+                    (next_down(d_r) * 4.0, 4.0),
+                    (d_r * 1e-4, 1.0),
+                ] {
                     let (search, radius) = pcss_radii(0.1, 0.05, 32.0, near, 256.0, d_r, sum, n);
                     assert!(search.is_finite() && (0.0..=32.0).contains(&search));
                     if let Some(r) = radius {
                         assert!(r.is_finite() && r <= 32.0, "d_r {d_r} sum {sum} n {n}: {r}");
-                        assert!(r >= 0.0, "blocker behind the receiver would need a guard: {r}");
+                        assert!(
+                            r >= 0.0,
+                            "blocker behind the receiver would need a guard: {r}"
+                        );
                     } else {
                         assert_eq!(n, 0.0);
                     }
@@ -1130,7 +1331,10 @@ mod tests {
         assert_eq!(b.position, base.position);
         let far = snap_light(&base, moving_light(&base, 120), 256);
         let moved = (far.position - base.position).length();
-        assert!((moved / texel - (moved / texel).round()).abs() < 1e-3, "{moved} {texel}");
+        assert!(
+            (moved / texel - (moved / texel).round()).abs() < 1e-3,
+            "{moved} {texel}"
+        );
     }
 
     #[test]
@@ -1142,7 +1346,10 @@ mod tests {
         .check()
         .unwrap_err()
         .to_string();
-        assert!(e.contains("nope") && e.contains("near-contact") && e.contains("ssm-r16f"), "{e}");
+        assert!(
+            e.contains("nope") && e.contains("near-contact") && e.contains("ssm-r16f"),
+            "{e}"
+        );
         let e = StressOptions {
             techniques: vec!["reference".into()],
             ..Default::default()
@@ -1158,7 +1365,9 @@ mod tests {
         let sizes = Sizes::new(true);
         for name in case_names() {
             let c = build(name, &sizes).unwrap();
-            c.scene.validate().unwrap_or_else(|e| panic!("{name}: {e:#}"));
+            c.scene
+                .validate()
+                .unwrap_or_else(|e| panic!("{name}: {e:#}"));
         }
         // The fan really has eight silhouette edges at its centre seen from above.
         let c = build("eight-silhouette-edges", &sizes).unwrap();

@@ -876,7 +876,7 @@ pub fn snap_light(base: &Light, l: Light, shadow_res: u32) -> Light {
     let d = base.target - base.position;
     let dist = d.length();
     let texel = 2.0 * (base.fov_deg.to_radians() * 0.5).tan() * dist / shadow_res.max(1) as f32;
-    if !(texel > 0.0) || !texel.is_finite() {
+    if texel.is_nan() || texel <= 0.0 || !texel.is_finite() {
         return l;
     }
     let w = d / dist;
@@ -1200,6 +1200,8 @@ pub mod guards {
         }
         let zv = zv_h.0 / zv_h.1.max(1e-30);
         let denom = zp - zv;
+        // Written as the shader's `!(denom > eps)`: a NaN denominator is discarded too.
+        #[allow(clippy::neg_cmp_op_on_partial_ord)]
         if !(denom > PENUMBRA_CONTACT_EPS * zp) {
             return None;
         }
@@ -1210,6 +1212,7 @@ pub mod guards {
     /// glsl/pcss/final.frag: the blocker-search radius (Eq. 3) and the penumbra radius
     /// (Eq. 1) in texels, both clamped to `max_texels`. `d_b` is the mean blocker depth,
     /// only formed when at least one blocker was found (`blockers > 0`), so d_b > 0.
+    #[allow(clippy::too_many_arguments)]
     pub fn pcss_radii(
         uv_radius_near: f32,
         r_over_2tan: f32,

@@ -11,7 +11,10 @@ use std::time::Instant;
 
 fn main() -> anyhow::Result<()> {
     // cargo passes `--bench` (and any filter flags) to harness-less benches.
-    let args: Vec<String> = std::env::args().skip(1).filter(|a| !a.starts_with("--")).collect();
+    let args: Vec<String> = std::env::args()
+        .skip(1)
+        .filter(|a| !a.starts_with("--"))
+        .collect();
     let scene_name = args.first().map_or("bunny", |s| s.as_str());
     let size: u32 = args.get(1).map_or(Ok(512), |s| s.parse())?;
     let samples: u32 = args.get(2).map_or(Ok(256), |s| s.parse())?;
@@ -31,7 +34,13 @@ fn main() -> anyhow::Result<()> {
         seed: DEFAULT_SEED,
     };
     let t = Instant::now();
-    let v = visibility_at(&scene, scene.light.radius, &img.position, &img.normal, &params)?;
+    let v = visibility_at(
+        &scene,
+        scene.light.radius,
+        &img.position,
+        &img.normal,
+        &params,
+    )?;
     let s = t.elapsed().as_secs_f64();
     let penumbra = v.iter().filter(|&&x| x > 0.0 && x < 1.0).count();
     let rays = covered as f64 * samples as f64;

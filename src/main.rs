@@ -71,6 +71,12 @@ struct RenderArgs {
     /// Smoothie width t as a fraction of the shadow map (default: calibrated from R).
     #[arg(long, allow_negative_numbers = true)]
     smoothie_t: Option<f32>,
+    /// Normal offset of shadow lookups, in shadow-map texels.
+    #[arg(long, default_value_t = 2.0)]
+    normal_offset: f32,
+    /// Relative depth bias of shadow comparisons (fraction of the depth).
+    #[arg(long, default_value_t = 5e-4)]
+    depth_bias: f32,
     /// PCF kernel: boxN (N odd) or poissonN.
     #[arg(long, default_value = "box3")]
     pcf_kernel: softshadow::render::PcfKernel,
@@ -190,9 +196,14 @@ fn render(cli: &Cli, a: &RenderArgs) -> Result<()> {
         light_radius: a.light_radius,
         smoothie_t: a.smoothie_t,
         pcf_kernel: a.pcf_kernel,
+        normal_offset_texels: a.normal_offset,
+        depth_bias: a.depth_bias,
         occluder_res: a.occluder_res,
         accum_format: a.accum_format,
         reference_samples: a.reference_samples,
+        // Timed frames rebuild every pass so that each one is measured; frame-to-frame reuse
+        // shows in `bench --motion static,camera`.
+        cache_light_passes: !a.timings,
         ..Settings::default()
     };
     let mut r = Renderer::new(&ctx, scene, &a.technique, settings)?;

@@ -10,7 +10,7 @@ use softshadow::eval::metrics::errors;
 use softshadow::eval::reference::{
     cache_key, cache_path, visibility_at, visibility_cached, ReferenceParams,
 };
-use softshadow::render::{fit_light, FrameImages, Settings};
+use softshadow::render::{fit_light, FrameImages};
 use softshadow::scene::Scene;
 
 /// Covered pixels well inside the spotlight frustum: outside it the shadow map says "lit"
@@ -43,7 +43,11 @@ fn facing_the_light(scene: &Scene, img: &FrameImages, radius: f32) -> Vec<bool> 
             let to = l - glam::Vec3::new(p[0], p[1], p[2]);
             let d = to.length();
             let cos = glam::Vec3::from(*n).normalize_or_zero().dot(to / d);
-            inside && cos.abs() > radius / d + 0.1
+            // 0.2 past the disc's own grazing band: on a smooth-shaded curved caster the
+            // terminator is where the interpolated normal and the true facet disagree, and the
+            // shadow maps' 2-texel normal offset decides which side of it a pixel falls on: a
+            // self-shadowing artefact of every shadow map, not a disagreement on the integral.
+            inside && cos.abs() > radius / d + 0.2
         })
         .collect()
 }
@@ -73,10 +77,7 @@ fn cross_check(scene_name: &str) {
     let gpu = Gpu::new();
     let scene = load(scene_name);
     let radius = scene.light.radius;
-    let settings = Settings {
-        shadow_res: 1024,
-        ..small(96, 1024)
-    };
+    let settings = small(96, 1024);
     let hh =
         heckbert_herf(&gpu.ctx, &scene, radius, &settings, 64).unwrap_or_else(|e| panic!("{e:#}"));
     let mask = facing_the_light(&scene, &hh, radius);
@@ -293,6 +294,27 @@ fn cached_reference_is_reused() {
         cache_key(&scene, 0.3, &positions, &normals, &params)
     );
     std::fs::remove_file(&path).unwrap();
+}
+
+/// Pixels on an object that casts but does not receive get 1, as the final pass writes
+/// there; the same point on a receiving object keeps its shadow.
+#[test]
+fn non_receivers_get_full_visibility() {
+    let mut scene = load("boxes");
+    // The upper box's +x face looks away from the light (at x = -2) and towards the camera.
+    let p = [[1.1f32, 2.5, 0.3, 1.0], [1.1, 2.5, 0.3, 0.0]];
+    let n = [[1.0f32, 0.0, 0.0]; 2];
+    let params = ReferenceParams::default();
+    let both = visibility_at(&scene, 0.2, &p, &n, &params).unwrap();
+    assert_eq!(
+        both,
+        vec![0.0, 1.0],
+        "a back face in its own shadow; background 1"
+    );
+    let k = scene.objects.iter().position(|o| o.name == "box1").unwrap();
+    scene.objects[k].role = softshadow::scene::Role::Caster;
+    let caster = visibility_at(&scene, 0.2, &p, &n, &params).unwrap();
+    assert_eq!(caster, vec![1.0, 1.0]);
 }
 
 /// A sample count of 0 is one clear line, from the library and from the CLI (exit != 0).

@@ -16,6 +16,9 @@ float visibility(vec3 p, vec3 n) {
     vec4 lit = lit_test(textureGather(shadow_map, s.uv, 0), s.depth);
     // Deep umbra: no smoothie can change a 0 (the common case inside shadows).
     if (all(equal(lit, vec4(0.0)))) return 0.0;
+    // t = 0 (a point light, R = 0): exactly `hard`, falloff curve included (it is identity
+    // only at 0 and 1, and would reshape the one-texel filtered edge).
+    if (frame.technique.x <= 0.0) return bilinear(lit, s.uv);
     vec4 in_front = lit_test(textureGather(smoothie_depth, s.uv, 0), s.depth);
     // The alpha fetch is only needed where some texel lies behind a smoothie (penumbrae):
     // lit areas, the bulk of the image, skip it and the falloff lookup.

@@ -34,6 +34,12 @@ pub struct DrawPush {
 pub const DRAW_PUSH_BYTES: u32 = std::mem::size_of::<DrawPush>() as u32;
 
 pub struct GpuObject {
+    /// Object-space bounds, for culling.
+    pub local_bounds: crate::scene::Aabb,
+    /// Intersects the light frustum this frame (or culling is off).
+    pub in_light: bool,
+    /// Intersects the camera frustum this frame (or culling is off).
+    pub in_camera: bool,
     pub vertices: Buffer,
     pub indices: Buffer,
     pub index_count: u32,
@@ -78,8 +84,34 @@ impl GpuScene {
         }
     }
 
-    /// Draws every object for which `filter` holds with pipeline `p` (already bound).
+    /// Frustum culling: marks which objects intersect the light's and the camera's frustum
+    /// (everything, when `enabled` is false). Returns whether any caster is in the light's.
+    pub fn cull(&mut self, light_view_proj: Mat4, camera_view_proj: Mat4, enabled: bool) -> bool {
+        for o in &mut self.objects {
+            let world = o.local_bounds.transform(&o.model);
+            o.in_light = !enabled || intersects_frustum(&world, light_view_proj);
+            o.in_camera = !enabled || intersects_frustum(&world, camera_view_proj);
+        }
+        self.objects.iter().any(|o| o.in_light && o.role.casts())
+    }
+
+    /// Draws, from the light, every object in the light frustum for which `filter` holds,
+    /// with pipeline `p` (already bound).
     pub fn draw(&self, rec: &mut Recorder<'_>, p: &Pipeline, filter: impl Fn(&GpuObject) -> bool) {
+        self.draw_where(rec, p, |o| o.in_light && filter(o));
+    }
+
+    /// Draws, from the camera, every object in the camera frustum.
+    pub fn draw_camera(&self, rec: &mut Recorder<'_>, p: &Pipeline) {
+        self.draw_where(rec, p, |o| o.in_camera);
+    }
+
+    fn draw_where(
+        &self,
+        rec: &mut Recorder<'_>,
+        p: &Pipeline,
+        filter: impl Fn(&GpuObject) -> bool,
+    ) {
         for o in self.objects.iter().filter(|o| filter(o)) {
             rec.push_constants(p, bytemuck::bytes_of(&o.push()));
             rec.bind_vertex_buffer(&o.vertices);
@@ -87,6 +119,18 @@ impl GpuScene {
             rec.draw_indexed(o.index_count);
         }
     }
+}
+
+/// Conservative: false only when all 8 corners lie outside one clip plane.
+fn intersects_frustum(b: &crate::scene::Aabb, view_proj: Mat4) -> bool {
+    let corners = b.corners().map(|c| view_proj * c.extend(1.0));
+    let outside = |f: &dyn Fn(&glam::Vec4) -> bool| corners.iter().all(f);
+    !(outside(&|c| c.x < -c.w)
+        || outside(&|c| c.x > c.w)
+        || outside(&|c| c.y < -c.w)
+        || outside(&|c| c.y > c.w)
+        || outside(&|c| c.z < 0.0)
+        || outside(&|c| c.z > c.w))
 }
 
 fn upload(ctx: &Context, o: &Object) -> Result<GpuObject> {
@@ -101,6 +145,9 @@ fn upload(ctx: &Context, o: &Object) -> Result<GpuObject> {
         })
         .collect();
     Ok(GpuObject {
+        local_bounds: m.bounds(),
+        in_light: true,
+        in_camera: true,
         vertices: Buffer::with_data(
             ctx,
             bytemuck::cast_slice(&vertices),

@@ -28,7 +28,10 @@ pub struct Settings {
     pub light_radius: Option<f32>,
     /// Smoothie width t in light-uv units; `None` derives it from R (see `smoothie_width`).
     pub smoothie_t: Option<f32>,
-    /// Normal offset of shadow lookups, in shadow-map texels.
+    /// Normal offset of shadow lookups, in shadow-map texels. 2 texels (with the 5e-4
+    /// relative bias) is the smallest pair that leaves the box tops of `primitives`, lit
+    /// almost head-on near the frustum's edge, free of acne; larger offsets detach contact
+    /// shadows (Volokh Fig. 8: the smoothie then detaches too).
     pub normal_offset_texels: f32,
     /// Relative depth bias of the comparisons (fraction of the depth).
     pub depth_bias: f32,
@@ -36,6 +39,12 @@ pub struct Settings {
     pub pcf_kernel: PcfKernel,
     /// Occluder (and receiver) depth map side of the soft shadow maps (`ssm`, `ssm2`).
     pub occluder_res: u32,
+    /// Reuse the light-space passes while the light and every object stay put (a static or
+    /// camera-only frame runs only the final pass). Off: rebuild everything every frame.
+    pub cache_light_passes: bool,
+    /// Frustum culling: objects outside the light's frustum are not drawn from the light,
+    /// objects outside the camera's are not drawn from the camera.
+    pub culling: bool,
     /// Accumulation format of the soft shadow map (Atty et al. Appendix A: R16F breaks above ~256^2).
     pub accum_format: AccumFormat,
     /// Shadow rays per pixel of the `reference` technique (DESIGN.md: at least 256).
@@ -108,11 +117,13 @@ impl Default for Settings {
             shadow_res: 1024,
             light_radius: None,
             smoothie_t: None,
-            normal_offset_texels: 1.5,
-            depth_bias: 2e-4,
+            normal_offset_texels: 2.0,
+            depth_bias: 5e-4,
             pcf_kernel: PcfKernel::Box(3),
             occluder_res: 256,
             accum_format: AccumFormat::R32F,
+            cache_light_passes: true,
+            culling: true,
             reference_samples: crate::eval::reference::MIN_SAMPLES,
         }
     }
@@ -284,6 +295,19 @@ pub struct Renderer<'c> {
     runner: FrameRunner,
     technique: Box<dyn Technique>,
     pub light: LightView,
+    last_light_key: Option<LightKey>,
+}
+
+/// What the light-space passes of a frame depend on (`Renderer::render` skips them when it
+/// equals the last frame's).
+#[derive(Clone, Debug, PartialEq)]
+struct LightKey {
+    light: crate::scene::Light,
+    radius: f32,
+    near_far: (f32, f32),
+    transforms: Vec<Mat4>,
+    any_caster: bool,
+    settings: Settings,
 }
 
 impl<'c> Renderer<'c> {
@@ -325,6 +349,7 @@ impl<'c> Renderer<'c> {
             runner,
             technique,
             light,
+            last_light_key: None,
         })
     }
 
@@ -343,6 +368,19 @@ impl<'c> Renderer<'c> {
     pub fn render(&mut self) -> Result<FrameTimings> {
         self.light = fit_light(&self.scene);
         self.gpu.set_transforms(&self.scene);
+        let cam = camera_view_proj(&self.scene, self.settings.width, self.settings.height);
+        let any_caster = self
+            .gpu
+            .cull(self.light.view_proj, cam, self.settings.culling);
+        // Everything the light-space passes depend on; the camera is not part of it.
+        let light_key = Some(LightKey {
+            light: self.scene.light,
+            radius: self.light_radius(),
+            near_far: (self.light.near, self.light.far),
+            transforms: self.scene.objects.iter().map(|o| o.transform).collect(),
+            any_caster,
+            settings: self.settings.clone(),
+        });
         let input = FrameInput {
             scene: &self.scene,
             gpu: &self.gpu,
@@ -358,7 +396,27 @@ impl<'c> Renderer<'c> {
         self.ubo.write(0, bytemuck::bytes_of(&u))?;
         let ctx = self.ctx;
         let technique = &mut self.technique;
-        self.runner.run(|rec| technique.record(ctx, rec, &input))
+        let skip = match (light_key == self.last_light_key, any_caster) {
+            _ if !self.settings.cache_light_passes => None,
+            (true, true) => Some("light and casters unchanged"),
+            // The first frame still records the (culled, empty) passes so that every buffer the
+            // final pass samples is initialised (cleared to "lit").
+            (true, false) => Some("no caster in the light frustum"),
+            (false, _) => None,
+        };
+        let timings = self.runner.run(|rec| {
+            match skip {
+                Some(reason) => {
+                    for name in technique.light_passes() {
+                        rec.skip(&name, reason);
+                    }
+                }
+                None => technique.record_light(ctx, rec, &input)?,
+            }
+            technique.record_final(ctx, rec, &input)
+        })?;
+        self.last_light_key = light_key;
+        Ok(timings)
     }
 
     /// Reads the image and AOVs of the last frame back to the host.

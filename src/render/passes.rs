@@ -210,7 +210,7 @@ impl FinalPass {
         );
         rec.bind_pipeline(&self.pipeline);
         rec.bind_sets(&self.pipeline, &[set]);
-        scene.draw(rec, &self.pipeline, |_| true);
+        scene.draw_camera(rec, &self.pipeline);
         rec.end_rendering();
     }
 }

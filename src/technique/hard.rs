@@ -68,7 +68,7 @@ impl Technique for Hard {
         INFO.name
     }
 
-    fn record(
+    fn record_light(
         &mut self,
         _ctx: &Context,
         rec: &mut Recorder<'_>,
@@ -78,6 +78,19 @@ impl Technique for Hard {
             self.shadow.record(rec, frame.gpu);
             Ok(())
         })?;
+        Ok(())
+    }
+
+    fn light_passes(&self) -> Vec<String> {
+        vec!["hard/shadow_map".into()]
+    }
+
+    fn record_final(
+        &mut self,
+        _ctx: &Context,
+        rec: &mut Recorder<'_>,
+        frame: &FrameInput<'_>,
+    ) -> Result<()> {
         rec.pass("hard/final", |rec| {
             self.final_pass
                 .record(rec, frame.targets, frame.gpu, &self.final_set);

@@ -44,9 +44,22 @@ pub trait Technique {
         [[0.0; 4]; 2]
     }
 
-    /// CPU work of the frame (timed with `rec.cpu`) and every pass (each in `rec.pass`,
-    /// named `technique/pass`), ending with the final camera pass into `frame.targets`.
-    fn record(
+    /// The light-space work of a frame: CPU work (timed with `rec.cpu`) and every pass the
+    /// final pass reads from (each in `rec.pass`, named `technique/pass`). Skipped by the
+    /// renderer, with `light_passes` reported as skipped, when the light, the light radius
+    /// and every object's transform are unchanged since the last time it ran.
+    fn record_light(
+        &mut self,
+        ctx: &Context,
+        rec: &mut Recorder<'_>,
+        frame: &FrameInput<'_>,
+    ) -> Result<()>;
+
+    /// The names of the passes `record_light` records, for the `skipped` lines.
+    fn light_passes(&self) -> Vec<String>;
+
+    /// The final camera pass into `frame.targets` (and any work that depends on the camera).
+    fn record_final(
         &mut self,
         ctx: &Context,
         rec: &mut Recorder<'_>,

@@ -124,7 +124,7 @@ impl Technique for Pcf {
         [kernel_uniform(self.kernel), [0.0; 4]]
     }
 
-    fn record(
+    fn record_light(
         &mut self,
         _ctx: &Context,
         rec: &mut Recorder<'_>,
@@ -134,6 +134,19 @@ impl Technique for Pcf {
             self.shadow.record(rec, frame.gpu);
             Ok(())
         })?;
+        Ok(())
+    }
+
+    fn light_passes(&self) -> Vec<String> {
+        vec!["pcf/shadow_map".into()]
+    }
+
+    fn record_final(
+        &mut self,
+        _ctx: &Context,
+        rec: &mut Recorder<'_>,
+        frame: &FrameInput<'_>,
+    ) -> Result<()> {
         rec.pass("pcf/final", |rec| {
             self.final_pass
                 .record(rec, frame.targets, frame.gpu, &self.final_set);

@@ -160,7 +160,7 @@ impl Technique for Pcss {
         ]
     }
 
-    fn record(
+    fn record_light(
         &mut self,
         _ctx: &Context,
         rec: &mut Recorder<'_>,
@@ -170,6 +170,19 @@ impl Technique for Pcss {
             self.shadow.record(rec, frame.gpu);
             Ok(())
         })?;
+        Ok(())
+    }
+
+    fn light_passes(&self) -> Vec<String> {
+        vec!["pcss/shadow_map".into()]
+    }
+
+    fn record_final(
+        &mut self,
+        _ctx: &Context,
+        rec: &mut Recorder<'_>,
+        frame: &FrameInput<'_>,
+    ) -> Result<()> {
         rec.pass("pcss/final", |rec| {
             self.final_pass
                 .record(rec, frame.targets, frame.gpu, &self.final_set);

@@ -350,7 +350,7 @@ impl Technique for PenumbraMap {
         ]
     }
 
-    fn record(
+    fn record_light(
         &mut self,
         ctx: &Context,
         rec: &mut Recorder<'_>,
@@ -400,6 +400,21 @@ impl Technique for PenumbraMap {
             rec.transition(&self.penumbra, ImageLayout::SHADER_READ_ONLY_OPTIMAL);
             Ok(())
         })?;
+        Ok(())
+    }
+
+    fn light_passes(&self) -> Vec<String> {
+        ["penumbra-map/shadow_map", "penumbra-map/penumbra"]
+            .map(String::from)
+            .to_vec()
+    }
+
+    fn record_final(
+        &mut self,
+        _ctx: &Context,
+        rec: &mut Recorder<'_>,
+        frame: &FrameInput<'_>,
+    ) -> Result<()> {
         rec.pass("penumbra-map/final", |rec| {
             self.final_pass
                 .record(rec, frame.targets, frame.gpu, &self.final_set);

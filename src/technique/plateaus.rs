@@ -735,7 +735,7 @@ impl Technique for Plateaus {
         INFO.name
     }
 
-    fn record(
+    fn record_light(
         &mut self,
         ctx: &Context,
         rec: &mut Recorder<'_>,
@@ -796,6 +796,25 @@ impl Technique for Plateaus {
             self.shadow.record(rec, frame.gpu);
             Ok(())
         })?;
+        Ok(())
+    }
+
+    fn light_passes(&self) -> Vec<String> {
+        [
+            "plateaus/drop_shadow",
+            "plateaus/plateaus",
+            "plateaus/shadow_map",
+        ]
+        .map(String::from)
+        .to_vec()
+    }
+
+    fn record_final(
+        &mut self,
+        _ctx: &Context,
+        rec: &mut Recorder<'_>,
+        frame: &FrameInput<'_>,
+    ) -> Result<()> {
         rec.pass("plateaus/final", |rec| {
             self.final_pass
                 .record(rec, frame.targets, frame.gpu, &self.final_set);

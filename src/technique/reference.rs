@@ -172,7 +172,22 @@ impl Technique for Reference {
         INFO.name
     }
 
-    fn record(
+    fn record_light(
+        &mut self,
+        _ctx: &Context,
+        _rec: &mut Recorder<'_>,
+        _frame: &FrameInput<'_>,
+    ) -> Result<()> {
+        // Nothing from the light: the ray cast depends on the camera's surface points, so it
+        // runs (or is skipped by its own key) in `record_final`.
+        Ok(())
+    }
+
+    fn light_passes(&self) -> Vec<String> {
+        Vec::new()
+    }
+
+    fn record_final(
         &mut self,
         ctx: &Context,
         rec: &mut Recorder<'_>,

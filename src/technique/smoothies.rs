@@ -260,7 +260,7 @@ impl Technique for Smoothies {
         [[t, 0.0, 0.0, 0.0], [0.0; 4]]
     }
 
-    fn record(
+    fn record_light(
         &mut self,
         ctx: &Context,
         rec: &mut Recorder<'_>,
@@ -303,6 +303,21 @@ impl Technique for Smoothies {
             rec.transition(&self.smoothie_alpha, ImageLayout::SHADER_READ_ONLY_OPTIMAL);
             Ok(())
         })?;
+        Ok(())
+    }
+
+    fn light_passes(&self) -> Vec<String> {
+        ["smoothies/shadow_map", "smoothies/smoothie"]
+            .map(String::from)
+            .to_vec()
+    }
+
+    fn record_final(
+        &mut self,
+        _ctx: &Context,
+        rec: &mut Recorder<'_>,
+        frame: &FrameInput<'_>,
+    ) -> Result<()> {
         rec.pass("smoothies/final", |rec| {
             self.final_pass
                 .record(rec, frame.targets, frame.gpu, &self.final_set);

@@ -541,7 +541,7 @@ impl Technique for Ssm {
         ]
     }
 
-    fn record(
+    fn record_light(
         &mut self,
         _ctx: &Context,
         rec: &mut Recorder<'_>,
@@ -575,6 +575,29 @@ impl Technique for Ssm {
                 Ok(())
             })?;
         }
+        Ok(())
+    }
+
+    fn light_passes(&self) -> Vec<String> {
+        let mut names = vec![self.pass_name("occluder_map")];
+        if self.back.is_some() {
+            names.push("ssm2/back_occluder_map".into());
+        }
+        names.push(self.pass_name("receiver_map"));
+        names.push(self.pass_name("receiver_bound"));
+        names.push(self.front.name.into());
+        if let Some(b) = &self.back_soft {
+            names.push(b.name.into());
+        }
+        names
+    }
+
+    fn record_final(
+        &mut self,
+        _ctx: &Context,
+        rec: &mut Recorder<'_>,
+        frame: &FrameInput<'_>,
+    ) -> Result<()> {
         rec.pass(&self.pass_name("final"), |rec| {
             self.final_pass
                 .record(rec, frame.targets, frame.gpu, &self.final_set);

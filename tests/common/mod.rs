@@ -12,7 +12,7 @@ pub struct Gpu {
 }
 
 impl Gpu {
-    /// lavapipe (or SOFTSHADOW_DEVICE), validation on. Never skipped: no device is a failure.
+    /// lavapipe (or SOFTSHADOW_DEVICE), validation on. A missing device fails the test.
     pub fn new() -> Self {
         let device = std::env::var("SOFTSHADOW_DEVICE")
             .ok()

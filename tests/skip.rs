@@ -1,0 +1,203 @@
+//! Skipping what a frame does not need: light-space passes reused while the light and the
+//! objects stay put, frustum culling that changes no pixel, and lights that see no caster.
+
+mod common;
+
+use common::{small, Gpu};
+use glam::{Mat4, Vec3};
+use softshadow::render::{Renderer, Settings};
+use softshadow::scene::Scene;
+use softshadow::technique::TECHNIQUES;
+use softshadow::vk::FrameTimings;
+
+fn ran(t: &FrameTimings) -> Vec<&str> {
+    t.passes
+        .iter()
+        .filter(|p| p.gpu_ms.is_some())
+        .map(|p| p.name.as_str())
+        .collect()
+}
+
+fn skipped(t: &FrameTimings) -> Vec<&str> {
+    t.passes
+        .iter()
+        .filter(|p| p.skipped.is_some())
+        .map(|p| p.name.as_str())
+        .collect()
+}
+
+fn subjects() -> impl Iterator<Item = &'static str> {
+    // The reference has no light-space pass; its ray cast keys on the camera (tests/reference.rs).
+    TECHNIQUES
+        .iter()
+        .map(|t| t.name)
+        .filter(|&n| n != "reference")
+}
+
+#[test]
+fn static_second_frame_runs_only_the_final_pass_and_matches_the_first() {
+    let gpu = Gpu::new();
+    for name in subjects() {
+        let scene = Scene::load("boxes").unwrap();
+        let mut r = Renderer::new(&gpu.ctx, scene, name, small(96, 256)).unwrap();
+        let first = r.render().unwrap();
+        let a = r.read_back().unwrap();
+        let second = r.render().unwrap();
+        let b = r.read_back().unwrap();
+        assert!(
+            ran(&first).len() >= 2,
+            "{name}: first frame ran {:?}",
+            ran(&first)
+        );
+        assert_eq!(
+            ran(&second),
+            vec![format!("{name}/final").as_str()],
+            "{name}: second frame"
+        );
+        assert_eq!(
+            skipped(&second).len(),
+            ran(&first).len() - 1,
+            "{name}: every light pass skipped"
+        );
+        for p in &second.passes {
+            if let Some(reason) = &p.skipped {
+                assert_eq!(reason, "light and casters unchanged");
+            }
+        }
+        assert_eq!(a.visibility, b.visibility, "{name}: static frames differ");
+        assert_eq!(a.color, b.color, "{name}: static frames differ");
+    }
+}
+
+#[test]
+fn camera_moves_reuse_light_passes_light_moves_rebuild_them() {
+    let gpu = Gpu::new();
+    for name in ["hard", "smoothies", "penumbra-map", "ssm"] {
+        let scene = Scene::load("cylinder").unwrap();
+        let mut r = Renderer::new(&gpu.ctx, scene, name, small(96, 256)).unwrap();
+        r.render().unwrap();
+        let before = r.read_back().unwrap();
+        r.scene.camera.position += Vec3::new(0.7, 0.3, -0.4);
+        let moved_camera = r.render().unwrap();
+        let after = r.read_back().unwrap();
+        assert_eq!(
+            ran(&moved_camera),
+            vec![format!("{name}/final").as_str()],
+            "{name}: camera move"
+        );
+        assert_ne!(
+            before.position, after.position,
+            "{name}: the camera did move"
+        );
+        r.scene.light.position += Vec3::new(0.0, 0.2, 0.1);
+        let moved_light = r.render().unwrap();
+        assert!(
+            skipped(&moved_light).is_empty(),
+            "{name}: light move skipped {:?}",
+            skipped(&moved_light)
+        );
+        assert!(
+            ran(&moved_light).len() >= 2,
+            "{name}: light move ran {:?}",
+            ran(&moved_light)
+        );
+        // A caster that moves rebuilds too.
+        r.render().unwrap();
+        r.scene.objects[1].transform =
+            Mat4::from_translation(Vec3::X * 0.1) * r.scene.objects[1].transform;
+        let moved_caster = r.render().unwrap();
+        assert!(
+            skipped(&moved_caster).is_empty(),
+            "{name}: caster move skipped {:?}",
+            skipped(&moved_caster)
+        );
+    }
+}
+
+#[test]
+fn light_without_casters_records_no_shadow_pass() {
+    let gpu = Gpu::new();
+    let mut scene = Scene::load("boxes").unwrap();
+    // Every caster far behind the light: outside its frustum, still in the scene.
+    for o in scene.objects.iter_mut().filter(|o| o.name != "ground") {
+        o.transform = Mat4::from_translation(Vec3::new(0.0, 60.0, 0.0)) * o.transform;
+    }
+    for name in subjects() {
+        let mut r = Renderer::new(&gpu.ctx, scene.clone(), name, small(64, 128)).unwrap();
+        r.render().unwrap();
+        let second = r.render().unwrap();
+        assert_eq!(
+            ran(&second),
+            vec![format!("{name}/final").as_str()],
+            "{name}"
+        );
+        assert!(
+            second.passes.iter().all(|p| p
+                .skipped
+                .as_deref()
+                .is_none_or(|s| s == "no caster in the light frustum")),
+            "{name}: {:?}",
+            second.passes
+        );
+        let img = r.read_back().unwrap();
+        let dark: Vec<(usize, f32)> = img
+            .visibility
+            .iter()
+            .copied()
+            .enumerate()
+            .filter(|&(_, v)| v < 1.0 - 1e-6)
+            .take(5)
+            .collect();
+        assert!(
+            dark.is_empty(),
+            "{name}: a shadow without casters: {dark:?} {:?}",
+            dark.first().map(|d| img.position[d.0])
+        );
+    }
+}
+
+#[test]
+fn culling_changes_no_pixel() {
+    let gpu = Gpu::new();
+    let scenes = [
+        "cylinder",
+        "boxes",
+        "overlap",
+        "fence",
+        "bunny",
+        "primitives",
+        "dense",
+    ];
+    for scene_name in scenes {
+        let mut scene = Scene::load(scene_name).unwrap();
+        // A far copy of the first caster: outside both frusta, so culling has work to do.
+        let mut far = scene
+            .objects
+            .iter()
+            .find(|o| o.role.casts())
+            .unwrap()
+            .clone();
+        far.transform = Mat4::from_translation(Vec3::new(500.0, 0.0, 0.0)) * far.transform;
+        scene.objects.push(far);
+        let techniques: Vec<&str> = if scene_name == "boxes" {
+            subjects().collect()
+        } else {
+            vec!["hard", "smoothies"]
+        };
+        for name in techniques {
+            let render = |culling: bool| {
+                let s = Settings {
+                    culling,
+                    ..small(64, 256)
+                };
+                gpu.render_frames(scene.clone(), name, s, 1).0
+            };
+            let on = render(true);
+            let off = render(false);
+            assert!(
+                on.visibility == off.visibility,
+                "{scene_name}/{name}: culling changed the visibility"
+            );
+        }
+    }
+}

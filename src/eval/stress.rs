@@ -371,7 +371,7 @@ fn allowance(case: &str, technique: &str) -> Option<(f64, &'static str)> {
         // A light larger than the scene: every fake assumes a penumbra narrow against the
         // blocker (smoothies and penumbra maps only ever widen outward from the hard edge, PCSS
         // clamps its kernel), so the umbra they keep is far too dark. Allowed, reported.
-        ("radius-huge", "hard" | "pcf" | "smoothies" | "penumbra-map" | "pcss" | "plateaus") => {
+        ("radius-huge", "smoothies" | "penumbra-map" | "plateaus") => {
             Some((1.0, "method limit: outer-penumbra-only / clamped kernel with R > scene"))
         }
         // A blocker far smaller than the light casts no umbra, only a faint wide dimming;

@@ -36,6 +36,24 @@ enum Command {
     /// scenes x buffer resolutions x light radii; writes results.csv, results.json,
     /// report.md, time_vs_error.png and images/ into --out.
     Bench(BenchArgs),
+    /// Run the named edge cases over every technique against the reference (stress.md/json).
+    Stress(StressArgs),
+}
+
+#[derive(Args)]
+struct StressArgs {
+    /// Folder for stress.md and stress.json.
+    #[arg(long, default_value = "stress-out")]
+    out: PathBuf,
+    /// Techniques to test, comma-separated (default: all but reference).
+    #[arg(long, value_delimiter = ',')]
+    techniques: Vec<String>,
+    /// Cases to run, comma-separated (default: all).
+    #[arg(long, value_delimiter = ',')]
+    cases: Vec<String>,
+    /// Small sizes and few frames (the CI variant, under 2 minutes on lavapipe).
+    #[arg(long)]
+    quick: bool,
 }
 
 #[derive(Args)]
@@ -195,6 +213,7 @@ fn run(cli: Cli) -> Result<()> {
     match &cli.command {
         Command::Render(a) => render(&cli, a),
         Command::Bench(a) => run_bench(&cli, a),
+        Command::Stress(a) => stress(&cli, a),
         Command::Export(a) => {
             if a.width == 0 || a.height == 0 {
                 bail!("--width and --height must be at least 1");
@@ -344,6 +363,52 @@ fn run_bench(cli: &Cli, a: &BenchArgs) -> Result<()> {
         "wrote {} files into {}: report.md, results.csv, results.json, time_vs_error.png, images/",
         outcome.files.len(),
         outcome.out.display()
+fn stress(cli: &Cli, a: &StressArgs) -> Result<()> {
+    use softshadow::eval::stress;
+    let opts = stress::StressOptions {
+        quick: a.quick,
+        techniques: a.techniques.clone(),
+        cases: a.cases.clone(),
+        image_dir: Some(a.out.clone()),
+    };
+    opts.check()?;
+    let ctx = open_device(cli)?;
+    let report = stress::run(&ctx, &opts, &mut |r| {
+        println!(
+            "{:<24} {:<13} {} ({:.1} s){}",
+            r.case,
+            r.technique,
+            if r.pass { "pass" } else { "FAIL" },
+            r.seconds,
+            if r.pass {
+                String::new()
+            } else {
+                format!(
+                    ": {}{}",
+                    r.error
+                        .as_deref()
+                        .map(|e| format!("{e}; "))
+                        .unwrap_or_default(),
+                    r.note
+                )
+            }
+        )
+    })?;
+    report.write(&a.out)?;
+    println!("wrote {0}/stress.md and {0}/stress.json", a.out.display());
+    let failed = report.failed();
+    if !failed.is_empty() {
+        bail!(
+            "{} of {} stress rows failed (see {}/stress.md)",
+            failed.len(),
+            report.rows.len(),
+            a.out.display()
+        );
+    }
+    println!(
+        "all {} rows passed in {:.0} s",
+        report.rows.len(),
+        report.seconds
     );
     Ok(())
 }

@@ -12,3 +12,4 @@ pub mod bench;
 pub mod plot;
 pub mod report;
 pub mod spirv;
+pub mod stress;

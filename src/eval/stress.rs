@@ -1,0 +1,1397 @@
+//! `softshadow stress`: a fixed list of named edge cases, every technique on each, checked
+//! against the ray-cast reference (`eval::reference`) with the DESIGN.md metrics.
+//!
+//! Per case and technique a [`Row`]: counts of NaN, Inf and out-of-[0,1] visibility pixels,
+//! `mae_shadow` / `p99` / `max` against the reference, the temporal flicker where the case
+//! animates, the scale-invariance or FP16 figure where the case has one, any validation
+//! message, and pass/fail with the threshold used. A row fails when
+//! - any pixel is NaN, Inf or outside [0,1], or the technique fails to build or render,
+//!   or a validation message appears (always);
+//! - `mae_shadow` exceeds the case's limit (`Case::mae_limit`, or the technique's
+//!   documented allowance in `allowance`);
+//! - scale cases: the mean |v(scaled) - v(unscaled)| exceeds [`SCALE_TOLERANCE`];
+//! - moving light: the flicker figure exceeds [`FLICKER_LIMIT`].
+//!
+//! Scenes are built here, programmatically, so the cases do not depend on files.
+//! `--quick` shrinks images, buffers, frame counts and the largest mesh so the whole suite
+//! runs in CI on lavapipe in under two minutes; the full suite uses larger sizes.
+
+use crate::eval::metrics::{errors, Errors};
+use crate::eval::reference::{visibility_cached, ReferenceParams};
+use crate::render::{AccumFormat, FrameImages, Renderer, Settings};
+use crate::scene::builtin::{builtin, rig};
+use crate::scene::primitives as prim;
+use crate::scene::{Camera, Light, Mesh, Object, Role, Scene};
+use crate::technique::TECHNIQUES;
+use crate::vk::Context;
+use anyhow::{bail, Context as _, Result};
+use glam::{Mat4, Vec2, Vec3};
+use serde::Serialize;
+use std::path::Path;
+use std::sync::Arc;
+use std::time::Instant;
+
+/// Largest mean |v(scaled) - v(unscaled)| over covered pixels that still counts as
+/// "visibility did not change" when the whole scene (and light) is scaled by 1e-3 or 1e3.
+/// Rasterisation of the same image at another scale differs by float rounding only, which
+/// moves a shadow-map edge by at most a texel: 0.5 % of the pixels flipping is 0.005.
+pub const SCALE_TOLERANCE: f64 = 0.005;
+
+/// Largest mean per-pixel temporal change above the reference's (see `flicker`) for the
+/// moving light. 0.01 is an edge pixel in every hundred flipping fully each frame.
+pub const FLICKER_LIMIT: f64 = 0.01;
+
+/// Default `mae_shadow` limit against the reference: a technique that misses a shadow or
+/// shadows a lit area wholesale scores near 1 over the shadow region; the fakes on the
+/// standard scenes score 0.02 to 0.15. 0.3 catches breakage without flagging the known
+/// approximation errors.
+pub const MAE_LIMIT: f64 = 0.3;
+
+/// The named cases in the order the report lists them, with one line each.
+pub const CASES: &[(&str, &str)] = &[
+    ("near-contact", "four slabs at b/r = 0.9, 0.99, 0.999 and 1 - 1e-6 above the receiver"),
+    ("caster-on-receiver", "a box resting on the ground and a flat caster lying exactly in the ground plane"),
+    ("blocker-near-light", "a small plate 1 % of the way from the light (at the near plane)"),
+    ("light-in-caster-bounds", "the light inside an open lamp shade's bounding box"),
+    ("radius-0", "point light R = 0 (cylinder)"),
+    ("radius-tiny", "R = 1e-6 of the scene radius (cylinder)"),
+    ("radius-huge", "R = 1.2 x the scene's diagonal, larger than the scene (cylinder)"),
+    ("scale-1e-3", "the cylinder scene and its light scaled by 1e-3: visibility must not change"),
+    ("scale-1e3", "the cylinder scene and its light scaled by 1e3: visibility must not change"),
+    ("near-far-1e-4", "a speck caster at 1e-4 of the far distance from the light: near/far = 1e-4"),
+    ("grazing-light", "light 4 degrees above the ground plane (boxes)"),
+    ("degenerate-triangles", "zero-area triangles and duplicate vertices in a caster"),
+    ("non-manifold-open", "an open box (no lid) with a fin: an edge shared by three triangles"),
+    ("eight-silhouette-edges", "a folded fan: one vertex with eight silhouette edges"),
+    ("single-triangle", "one triangle above the ground"),
+    ("mesh-1m", "a bumpy sphere of about 1e6 triangles (--quick: 1e5)"),
+    ("moving-light", "the light sliding slowly over 120 frames (--quick: 12): flicker against the reference's change"),
+    ("ssm-r16f", "ssm/ssm2 in R16F vs R32F at occluder maps 128^2 ... 1024^2 against Eq. 4's growth"),
+];
+
+/// The case names, for error messages and `--cases`.
+pub fn case_names() -> Vec<&'static str> {
+    CASES.iter().map(|c| c.0).collect()
+}
+
+/// Techniques under test: every registered one but the yardstick.
+pub fn technique_names() -> Vec<&'static str> {
+    TECHNIQUES
+        .iter()
+        .map(|t| t.name)
+        .filter(|&n| n != "reference")
+        .collect()
+}
+
+/// What to run.
+#[derive(Clone, Debug, Default)]
+pub struct StressOptions {
+    pub quick: bool,
+    /// Empty: all but `reference`.
+    pub techniques: Vec<String>,
+    /// Empty: all cases.
+    pub cases: Vec<String>,
+    /// Where a failing static row writes `CASE-TECHNIQUE.png` and `CASE-TECHNIQUE-error.png`.
+    pub image_dir: Option<std::path::PathBuf>,
+}
+
+impl StressOptions {
+    /// Unknown names fail with one line listing the valid ones (checked before a device
+    /// is opened).
+    pub fn check(&self) -> Result<()> {
+        let valid = technique_names();
+        for t in &self.techniques {
+            if !valid.contains(&t.as_str()) {
+                bail!(
+                    "unknown technique '{t}' for stress: valid techniques are {}",
+                    valid.join(", ")
+                );
+            }
+        }
+        let cases = case_names();
+        for c in &self.cases {
+            if !cases.contains(&c.as_str()) {
+                bail!(
+                    "unknown stress case '{c}': valid cases are {}",
+                    cases.join(", ")
+                );
+            }
+        }
+        Ok(())
+    }
+
+    fn techniques(&self) -> Vec<String> {
+        if self.techniques.is_empty() {
+            technique_names().iter().map(|s| s.to_string()).collect()
+        } else {
+            self.techniques.clone()
+        }
+    }
+
+    fn cases(&self) -> Vec<&'static str> {
+        case_names()
+            .into_iter()
+            .filter(|c| self.cases.is_empty() || self.cases.iter().any(|x| x == c))
+            .collect()
+    }
+}
+
+/// One case x technique result.
+#[derive(Clone, Debug, Serialize)]
+pub struct Row {
+    pub case: String,
+    pub technique: String,
+    pub pass: bool,
+    /// What was checked, with the limits (e.g. `finite, in [0,1], mae_shadow <= 0.3`).
+    pub threshold: String,
+    pub nan: usize,
+    pub inf: usize,
+    pub out_of_range: usize,
+    pub errors: Option<Errors>,
+    /// Moving light: mean per-pixel temporal change above the reference's.
+    pub flicker: Option<f64>,
+    /// Moving light: the same with the light position snapped to shadow-map texels.
+    pub flicker_snapped: Option<f64>,
+    /// Scale cases: mean |v(scaled) - v(unscaled)|; `ssm-r16f`: see `note`.
+    pub metric: Option<f64>,
+    pub validation: Vec<String>,
+    /// Why it failed to build or render, when it did.
+    pub error: Option<String>,
+    pub note: String,
+    pub seconds: f64,
+}
+
+impl Row {
+    fn new(case: &str, technique: &str) -> Self {
+        Self {
+            case: case.into(),
+            technique: technique.into(),
+            pass: true,
+            threshold: String::new(),
+            nan: 0,
+            inf: 0,
+            out_of_range: 0,
+            errors: None,
+            flicker: None,
+            flicker_snapped: None,
+            metric: None,
+            validation: Vec::new(),
+            error: None,
+            note: String::new(),
+            seconds: 0.0,
+        }
+    }
+
+    /// Counts NaN, Inf and out-of-range pixels of every frame seen.
+    fn count(&mut self, v: &[f32]) {
+        for &x in v {
+            if x.is_nan() {
+                self.nan += 1;
+            } else if x.is_infinite() {
+                self.inf += 1;
+            } else if !(0.0..=1.0).contains(&x) {
+                self.out_of_range += 1;
+            }
+        }
+    }
+
+    fn fail(&mut self, why: impl Into<String>) {
+        self.pass = false;
+        if !self.note.is_empty() {
+            self.note.push_str("; ");
+        }
+        self.note.push_str(&why.into());
+    }
+}
+
+#[derive(Clone, Debug, Serialize)]
+pub struct Report {
+    pub device: String,
+    pub quick: bool,
+    pub image: u32,
+    pub shadow_res: u32,
+    pub reference_samples: u32,
+    pub rows: Vec<Row>,
+    pub seconds: f64,
+}
+
+impl Report {
+    pub fn failed(&self) -> Vec<&Row> {
+        self.rows.iter().filter(|r| !r.pass).collect()
+    }
+
+    pub fn passed(&self) -> bool {
+        self.failed().is_empty()
+    }
+
+    /// The Markdown report (`stress.md`).
+    pub fn markdown(&self) -> String {
+        let mut s = String::new();
+        s.push_str("# softshadow stress report\n\n");
+        s.push_str(&format!(
+            "{}. Mode: {}. Image {}x{}, shadow maps {}^2, reference {} rays/pixel. {} rows, {} failed, {:.0} s.\n\n",
+            self.device,
+            if self.quick { "--quick" } else { "full" },
+            self.image,
+            self.image,
+            self.shadow_res,
+            self.reference_samples,
+            self.rows.len(),
+            self.failed().len(),
+            self.seconds
+        ));
+        s.push_str("Cases:\n\n");
+        for (name, what) in CASES {
+            if self.rows.iter().any(|r| r.case == *name) {
+                s.push_str(&format!("- `{name}`: {what}\n"));
+            }
+        }
+        s.push_str("\n| case | technique | result | NaN | Inf | out of [0,1] | mae_shadow | p99 | max | flicker (snapped) | metric | threshold | notes |\n");
+        s.push_str("|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
+        let f = |x: Option<f64>| x.map_or("-".to_string(), |x| format!("{x:.4}"));
+        for r in &self.rows {
+            let (mae, p99, max) = match &r.errors {
+                Some(e) => (f(Some(e.mae_shadow)), f(Some(e.p99)), f(Some(e.max))),
+                None => ("-".into(), "-".into(), "-".into()),
+            };
+            let flicker = match (r.flicker, r.flicker_snapped) {
+                (Some(a), Some(b)) => format!("{a:.4} ({b:.4})"),
+                (Some(a), None) => format!("{a:.4}"),
+                _ => "-".into(),
+            };
+            let mut notes = r.note.clone();
+            if let Some(e) = &r.error {
+                notes = format!("error: {e}; {notes}");
+            }
+            if !r.validation.is_empty() {
+                notes = format!("validation: {}; {notes}", r.validation.join(" / "));
+            }
+            s.push_str(&format!(
+                "| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |\n",
+                r.case,
+                r.technique,
+                if r.pass { "pass" } else { "**FAIL**" },
+                r.nan,
+                r.inf,
+                r.out_of_range,
+                mae,
+                p99,
+                max,
+                flicker,
+                f(r.metric),
+                r.threshold,
+                notes.replace('|', "/").replace('\n', " ")
+            ));
+        }
+        s
+    }
+
+    /// Writes `dir/stress.md` and `dir/stress.json`.
+    pub fn write(&self, dir: &Path) -> Result<()> {
+        std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+        let md = dir.join("stress.md");
+        std::fs::write(&md, self.markdown())
+            .with_context(|| format!("writing {}", md.display()))?;
+        let json = dir.join("stress.json");
+        let text = serde_json::to_string_pretty(self).context("serialising the stress report")?;
+        std::fs::write(&json, text).with_context(|| format!("writing {}", json.display()))?;
+        Ok(())
+    }
+}
+
+/// Sizes of one run.
+#[derive(Clone, Copy, Debug)]
+struct Sizes {
+    image: u32,
+    shadow_res: u32,
+    occluder_res: u32,
+    moving_frames: usize,
+    mesh_segments: (u32, u32),
+    fp16_res: &'static [u32],
+}
+
+impl Sizes {
+    fn new(quick: bool) -> Self {
+        if quick {
+            Self {
+                image: 96,
+                shadow_res: 256,
+                occluder_res: 128,
+                moving_frames: 12,
+                mesh_segments: (250, 200),
+                fp16_res: &[128, 256, 512],
+            }
+        } else {
+            Self {
+                image: 256,
+                shadow_res: 1024,
+                occluder_res: 256,
+                moving_frames: 120,
+                mesh_segments: (1000, 500),
+                fp16_res: &[128, 256, 512, 1024],
+            }
+        }
+    }
+
+    fn settings(&self) -> Settings {
+        Settings {
+            width: self.image,
+            height: self.image,
+            shadow_res: self.shadow_res,
+            occluder_res: self.occluder_res,
+            ..Settings::default()
+        }
+    }
+}
+
+/// What a case checks besides the per-frame reference comparison.
+enum Kind {
+    /// One frame against the reference.
+    Static,
+    /// Against the unscaled scene's image of the same technique.
+    Scale(f32),
+    /// The light slides; flicker against the reference's change.
+    Moving,
+    /// R16F vs R32F accumulation of the soft shadow maps.
+    Fp16,
+}
+
+struct Case {
+    scene: Scene,
+    kind: Kind,
+    /// Light radius override (`None`: the scene's).
+    radius: Option<f32>,
+    mae_limit: f64,
+}
+
+/// The documented per-technique allowance over `MAE_LIMIT` for a case: known limits of the
+/// method, not bugs (each says why). `None`: the case's limit holds.
+fn allowance(case: &str, technique: &str) -> Option<(f64, &'static str)> {
+    match (case, technique) {
+        // A light larger than the scene: every fake assumes a penumbra narrow against the
+        // blocker (smoothies and penumbra maps only ever widen outward from the hard edge, PCSS
+        // clamps its kernel), so the umbra they keep is far too dark. Allowed, reported.
+        ("radius-huge", "smoothies" | "penumbra-map" | "plateaus") => {
+            Some((1.0, "method limit: outer-penumbra-only / clamped kernel with R > scene"))
+        }
+        // A blocker far smaller than the light casts no umbra, only a faint wide dimming;
+        // smoothies and penumbra maps grow a full 0-to-1 penumbra outward from the hard
+        // shadow whatever the blocker's size. Method limit.
+        ("blocker-near-light", "smoothies") => {
+            Some((0.5, "method limit: a blocker smaller than the light gets a full-strength outer penumbra"))
+        }
+        // As above, plus ring-shaped (moire) banding over the whole cone region when the
+        // cones of a caster at the near plane span near/far ~ 1e-4. OPEN: not fixed here.
+        ("blocker-near-light" | "near-far-1e-4", "penumbra-map") => Some((
+            0.7,
+            "KNOWN, NOT FIXED: moire banding in the penumbra map from cones of a caster at the near plane",
+        )),
+        // A caster lying exactly in the receiver plane: plateaus shades the sheet as under
+        // its own umbra (the sheet is coplanar with its receiver, so its drop shadow starts at
+        // distance 0). OPEN: not fixed here.
+        ("caster-on-receiver", "plateaus") => Some((
+            0.75,
+            "KNOWN, NOT FIXED: a caster coplanar with the receiver is shaded as its own umbra",
+        )),
+        // Light 4 degrees above the ground: the smoothie of the box's far edge spans the
+        // (foreshortened) box top, which the reference sees lit. Method limit of
+        // smoothies' screen-space width at grazing angles.
+        ("grazing-light", "smoothies") => {
+            Some((0.6, "method limit: smoothie width at a grazing light darkens the lit top"))
+        }
+        _ => None,
+    }
+}
+
+fn add(objects: &mut Vec<Object>, name: &str, mesh: Mesh, transform: Mat4, role: Role) {
+    objects.push(Object::new(
+        name,
+        Arc::new(mesh),
+        transform,
+        role,
+        Vec3::new(0.7, 0.5, 0.4),
+    ));
+}
+
+fn ground(objects: &mut Vec<Object>, size: f32) {
+    add(
+        objects,
+        "ground",
+        prim::plane(Vec2::splat(size), 8),
+        Mat4::IDENTITY,
+        Role::Receiver,
+    );
+}
+
+/// A mesh from positions and triangles, normals computed.
+fn mesh(positions: Vec<Vec3>, indices: Vec<u32>) -> Mesh {
+    let mut m = Mesh {
+        positions,
+        normals: Vec::new(),
+        indices,
+    };
+    m.compute_normals();
+    m
+}
+
+fn scene(name: &str, objects: Vec<Object>, light: Light, camera: Camera) -> Scene {
+    Scene {
+        name: name.into(),
+        objects,
+        light,
+        camera,
+    }
+}
+
+/// A scene rigged like the built-ins: light at `light_pos`, radius 5 % of the lit region.
+fn rigged(name: &str, objects: Vec<Object>, light_pos: Vec3) -> Scene {
+    let (light, camera) = rig(&objects, light_pos, 0.0, 0.05, Vec3::new(0.3, 0.8, 1.0));
+    scene(name, objects, light, camera)
+}
+
+fn builtin_scene(name: &str) -> Result<Scene> {
+    builtin(name)?.with_context(|| format!("built-in scene {name} is missing"))
+}
+
+/// `s` scaled by `k` about the origin: objects, light (position, target, radius), camera.
+pub fn scaled(s: &Scene, k: f32) -> Scene {
+    let m = Mat4::from_scale(Vec3::splat(k));
+    let mut out = s.clone();
+    for o in &mut out.objects {
+        o.transform = m * o.transform;
+    }
+    out.light.position *= k;
+    out.light.target *= k;
+    out.light.radius *= k;
+    out.camera.position *= k;
+    out.camera.target *= k;
+    out.name = format!("{} x {k:e}", s.name);
+    out
+}
+
+fn build(name: &str, sizes: &Sizes) -> Result<Case> {
+    let stat = |scene: Scene| Case {
+        scene,
+        kind: Kind::Static,
+        radius: None,
+        mae_limit: MAE_LIMIT,
+    };
+    let slab = |w: f32, t: f32| prim::cuboid(Vec3::new(w, t, w));
+    Ok(match name {
+        "near-contact" => {
+            let mut o = Vec::new();
+            ground(&mut o, 12.0);
+            let h_light = 8.0f32;
+            // Slab bottom at h = H (1 - b/r) under a light straight above at height H.
+            for (k, f) in [0.9f32, 0.99, 0.999, 1.0 - 1e-6].into_iter().enumerate() {
+                let h = h_light * (1.0 - f);
+                let x = -2.25 + 1.5 * k as f32;
+                let t = 0.05;
+                add(
+                    &mut o,
+                    &format!("slab{k}"),
+                    slab(1.0, t),
+                    Mat4::from_translation(Vec3::new(x, h + t * 0.5, 0.0)),
+                    Role::Both,
+                );
+            }
+            rigged(name, o, Vec3::new(0.0, h_light, 0.0)).pipe(stat)
+        }
+        "caster-on-receiver" => {
+            let mut o = Vec::new();
+            ground(&mut o, 12.0);
+            add(
+                &mut o,
+                "box",
+                prim::cuboid(Vec3::splat(1.0)),
+                Mat4::from_translation(Vec3::new(-1.0, 0.5, 0.0)),
+                Role::Both,
+            );
+            // Exactly coplanar with the ground (y = 0): zero gap, z-fighting in every map.
+            add(
+                &mut o,
+                "sheet",
+                prim::plane(Vec2::splat(1.5), 1),
+                Mat4::from_translation(Vec3::new(1.2, 0.0, 0.5)),
+                Role::Both,
+            );
+            rigged(name, o, Vec3::new(-3.0, 7.0, 2.0)).pipe(stat)
+        }
+        "blocker-near-light" => {
+            let mut s = builtin_scene("cylinder")?;
+            let l = s.light;
+            let d = l.target - l.position;
+            let side = d.cross(Vec3::Y).normalize_or(Vec3::X);
+            let p = l.position + d * 0.01 + side * d.length() * 0.002;
+            add(
+                &mut s.objects,
+                "plate",
+                slab(d.length() * 0.001, d.length() * 1e-4),
+                Mat4::from_translation(p),
+                Role::Caster,
+            );
+            s.name = name.into();
+            stat(s)
+        }
+        "light-in-caster-bounds" => {
+            let mut o = Vec::new();
+            ground(&mut o, 12.0);
+            add(
+                &mut o,
+                "box",
+                prim::cuboid(Vec3::splat(1.0)),
+                Mat4::from_translation(Vec3::new(0.8, 0.5, 0.3)),
+                Role::Both,
+            );
+            let light_pos = Vec3::new(0.0, 6.0, 0.0);
+            let (light, camera) = rig(&o, light_pos, 0.0, 0.05, Vec3::new(0.3, 0.8, 1.0));
+            // An open tube (no caps) around the light, wider at the bottom: a lamp shade.
+            let n = 24u32;
+            let mut p = Vec::new();
+            let mut idx = Vec::new();
+            for i in 0..n {
+                let a = i as f32 / n as f32 * std::f32::consts::TAU;
+                let dir = Vec3::new(a.cos(), 0.0, a.sin());
+                p.push(light_pos + dir * 0.3 + Vec3::Y * 0.4);
+                p.push(light_pos + dir * 0.8 - Vec3::Y * 0.4);
+            }
+            for i in 0..n {
+                let (a, b) = (2 * i, 2 * i + 1);
+                let (c, d) = (2 * ((i + 1) % n), 2 * ((i + 1) % n) + 1);
+                idx.extend_from_slice(&[a, b, d, a, d, c]);
+            }
+            add(&mut o, "shade", mesh(p, idx), Mat4::IDENTITY, Role::Caster);
+            stat(scene(name, o, light, camera))
+        }
+        "radius-0" | "radius-tiny" | "radius-huge" => {
+            let mut s = builtin_scene("cylinder")?;
+            let size = s.bounds().radius();
+            let r = match name {
+                "radius-0" => 0.0,
+                "radius-tiny" => 1e-6 * size,
+                _ => 2.4 * size,
+            };
+            s.name = name.into();
+            Case {
+                radius: Some(r),
+                ..stat(s)
+            }
+        }
+        "scale-1e-3" | "scale-1e3" => {
+            let k = if name == "scale-1e-3" { 1e-3 } else { 1e3 };
+            let s = builtin_scene("cylinder")?;
+            Case {
+                scene: s,
+                kind: Kind::Scale(k),
+                radius: None,
+                mae_limit: MAE_LIMIT,
+            }
+        }
+        "near-far-1e-4" => {
+            let mut s = builtin_scene("cylinder")?;
+            let l = s.light;
+            let far = crate::render::fit_light(&s).far;
+            let d = (l.target - l.position).normalize_or(Vec3::NEG_Y);
+            let side = d.cross(Vec3::Y).normalize_or(Vec3::X);
+            // A speck at 1e-4 of the far distance, a little off the axis so it shadows a
+            // patch next to the cylinder's shadow.
+            let dist = far * 1e-4;
+            let p = l.position + d * dist * 1.02 + side * dist * 0.05;
+            add(
+                &mut s.objects,
+                "speck",
+                slab(dist * 0.01, dist * 0.002),
+                Mat4::from_translation(p),
+                Role::Caster,
+            );
+            s.name = name.into();
+            stat(s)
+        }
+        "grazing-light" => {
+            let s = builtin_scene("boxes")?;
+            let elev = 4f32.to_radians();
+            let pos = Vec3::new(-elev.cos(), elev.sin(), 0.2) * 14.0;
+            let mut s = rigged(name, s.objects, pos);
+            s.camera.position = s.camera.target
+                + Vec3::new(0.3, 1.0, 0.6) * (s.camera.position - s.camera.target).length();
+            stat(s)
+        }
+        "degenerate-triangles" => {
+            let mut o = Vec::new();
+            ground(&mut o, 12.0);
+            let mut m = prim::cuboid(Vec3::new(1.5, 0.3, 1.5));
+            let n = m.positions.len() as u32;
+            // Duplicate every vertex (same position, new index) and use the copies for
+            // half of the triangles.
+            let copies: Vec<Vec3> = m.positions.clone();
+            m.positions.extend(copies);
+            let half = m.indices.len() / 2 / 3 * 3;
+            for i in &mut m.indices[..half] {
+                *i += n;
+            }
+            // Zero-area triangles: a repeated index, three collinear points, a point.
+            let c = m.positions.len() as u32;
+            m.positions.extend([
+                Vec3::new(-0.75, 0.15, -0.75),
+                Vec3::new(0.0, 0.15, 0.0),
+                Vec3::new(0.75, 0.15, 0.75),
+            ]);
+            m.indices
+                .extend_from_slice(&[0, 0, 1, c, c + 1, c + 2, c + 1, c + 1, c + 1, 2, 3, 2]);
+            m.compute_normals();
+            add(
+                &mut o,
+                "box",
+                m,
+                Mat4::from_translation(Vec3::new(0.0, 1.5, 0.0)),
+                Role::Both,
+            );
+            rigged(name, o, Vec3::new(-2.0, 8.0, 1.0)).pipe(stat)
+        }
+        "non-manifold-open" => {
+            let mut o = Vec::new();
+            ground(&mut o, 12.0);
+            // A box without its top face (open), plus a fin on one bottom edge: that edge
+            // belongs to three triangles (non-manifold).
+            let mut m = prim::cuboid(Vec3::new(1.5, 0.6, 1.5));
+            let top: Vec<u32> = m
+                .indices
+                .chunks_exact(3)
+                .filter(|t| t.iter().all(|&i| m.positions[i as usize].y > 0.29))
+                .flatten()
+                .copied()
+                .collect();
+            m.indices = m
+                .indices
+                .chunks_exact(3)
+                .filter(|t| !t.iter().all(|&i| m.positions[i as usize].y > 0.29))
+                .flatten()
+                .copied()
+                .collect();
+            debug_assert_eq!(top.len(), 6);
+            let b = m.positions.len() as u32;
+            m.positions.extend([
+                Vec3::new(-0.75, -0.3, 0.75),
+                Vec3::new(0.75, -0.3, 0.75),
+                Vec3::new(0.0, 0.6, 1.5),
+            ]);
+            m.indices.extend_from_slice(&[b, b + 1, b + 2]);
+            // Weld the fin's edge onto the box's by index, so the edge is shared by three.
+            let find = |p: Vec3| {
+                m.positions
+                    .iter()
+                    .position(|&q| (q - p).length() < 1e-6)
+                    .map(|i| i as u32)
+            };
+            if let (Some(i0), Some(i1)) = (
+                find(Vec3::new(-0.75, -0.3, 0.75)),
+                find(Vec3::new(0.75, -0.3, 0.75)),
+            ) {
+                let k = m.indices.len();
+                m.indices[k - 3] = i0;
+                m.indices[k - 2] = i1;
+            }
+            m.compute_normals();
+            add(
+                &mut o,
+                "open-box",
+                m,
+                Mat4::from_translation(Vec3::new(0.0, 1.2, 0.0)),
+                Role::Both,
+            );
+            rigged(name, o, Vec3::new(-2.0, 8.0, 1.5)).pipe(stat)
+        }
+        "eight-silhouette-edges" => {
+            let mut o = Vec::new();
+            ground(&mut o, 12.0);
+            // A closed fan whose rim angles step +150, -60 degrees alternately: seen from
+            // the light above, neighbouring triangles face opposite ways, so all eight
+            // edges at the centre vertex are silhouette edges.
+            let mut p = vec![Vec3::new(0.0, 0.5, 0.0)];
+            let mut a = 0f32;
+            for k in 0..8 {
+                p.push(
+                    Vec3::new(a.to_radians().cos(), -0.2, a.to_radians().sin())
+                        * Vec3::new(1.2, 1.0, 1.2),
+                );
+                a += if k % 2 == 0 { 150.0 } else { -60.0 };
+            }
+            let mut idx = Vec::new();
+            for k in 0..8u32 {
+                idx.extend_from_slice(&[0, 1 + k, 1 + (k + 1) % 8]);
+            }
+            add(
+                &mut o,
+                "fan",
+                mesh(p, idx),
+                Mat4::from_translation(Vec3::new(0.0, 1.5, 0.0)),
+                Role::Both,
+            );
+            rigged(name, o, Vec3::new(-1.0, 8.0, 0.5)).pipe(stat)
+        }
+        "single-triangle" => {
+            let mut o = Vec::new();
+            ground(&mut o, 12.0);
+            let m = mesh(
+                vec![
+                    Vec3::new(-1.0, 0.0, -0.6),
+                    Vec3::new(1.0, 0.0, -0.6),
+                    Vec3::new(0.0, 0.3, 1.0),
+                ],
+                vec![0, 1, 2],
+            );
+            add(
+                &mut o,
+                "triangle",
+                m,
+                Mat4::from_translation(Vec3::new(0.0, 1.5, 0.0)),
+                Role::Both,
+            );
+            rigged(name, o, Vec3::new(-1.5, 8.0, 1.0)).pipe(stat)
+        }
+        "mesh-1m" => {
+            let mut o = Vec::new();
+            ground(&mut o, 12.0);
+            let (seg, rings) = sizes.mesh_segments;
+            let m = prim::bumpy_sphere(1.0, seg, rings, 0.08, 7);
+            add(
+                &mut o,
+                "bumpy",
+                m,
+                Mat4::from_translation(Vec3::new(0.0, 1.6, 0.0)),
+                Role::Both,
+            );
+            rigged(name, o, Vec3::new(-3.0, 8.0, 1.0)).pipe(stat)
+        }
+        "moving-light" => Case {
+            kind: Kind::Moving,
+            ..stat(builtin_scene("cylinder")?)
+        },
+        "ssm-r16f" => Case {
+            kind: Kind::Fp16,
+            ..stat(builtin_scene("overlap")?)
+        },
+        _ => bail!(
+            "unknown stress case '{name}': valid cases are {}",
+            case_names().join(", ")
+        ),
+    })
+}
+
+trait Pipe: Sized {
+    fn pipe<T>(self, f: impl FnOnce(Self) -> T) -> T {
+        f(self)
+    }
+}
+impl<T> Pipe for T {}
+
+/// Renders `frames` frames (the light moved by `light_at(i)` before each) and returns each
+/// frame's images.
+fn render_frames(
+    ctx: &Context,
+    scene: &Scene,
+    technique: &str,
+    settings: &Settings,
+    frames: usize,
+    light_at: &dyn Fn(usize) -> Light,
+) -> Result<Vec<FrameImages>> {
+    let mut r = Renderer::new(ctx, scene.clone(), technique, settings.clone())?;
+    let mut out = Vec::with_capacity(frames);
+    for i in 0..frames {
+        r.scene.light = light_at(i);
+        r.render().with_context(|| format!("rendering frame {i}"))?;
+        out.push(r.read_back()?);
+    }
+    Ok(out)
+}
+
+fn covered(img: &FrameImages) -> Vec<bool> {
+    img.position.iter().map(|p| p[3] > 0.5).collect()
+}
+
+/// Mean over covered pixels of |a - b| (non-finite counts 1).
+fn mean_abs_diff(a: &[f32], b: &[f32], cov: &[bool]) -> f64 {
+    let mut sum = 0.0;
+    let mut n = 0usize;
+    for ((&x, &y), &c) in a.iter().zip(b).zip(cov) {
+        if c {
+            n += 1;
+            sum += if x.is_finite() && y.is_finite() {
+                (x as f64 - y as f64).abs()
+            } else {
+                1.0
+            };
+        }
+    }
+    if n == 0 {
+        0.0
+    } else {
+        sum / n as f64
+    }
+}
+
+/// Flicker: the mean over covered pixels and frame steps of max(0, |dv| - |dv_ref|), the
+/// per-pixel temporal change of the technique above that of the reference (flicker where the
+/// shadow crawls, snapping where it jumps).
+pub fn flicker(frames: &[Vec<f32>], reference: &[Vec<f32>], cov: &[bool]) -> f64 {
+    let mut sum = 0.0;
+    let mut n = 0usize;
+    for t in 1..frames.len().min(reference.len()) {
+        for i in 0..cov.len() {
+            if !cov[i] {
+                continue;
+            }
+            let dv = (frames[t][i] - frames[t - 1][i]).abs();
+            let dr = (reference[t][i] - reference[t - 1][i]).abs();
+            let d = if dv.is_finite() {
+                (dv - dr).max(0.0)
+            } else {
+                1.0
+            };
+            sum += d as f64;
+            n += 1;
+        }
+    }
+    if n == 0 {
+        0.0
+    } else {
+        sum / n as f64
+    }
+}
+
+/// The light at frame `i` of the moving-light case: sliding sideways by 2 % of its distance
+/// to the target over 120 frames (the same speed in --quick, fewer frames).
+fn moving_light(base: &Light, i: usize) -> Light {
+    let d = base.target - base.position;
+    let side = d.cross(Vec3::Y).normalize_or(Vec3::X);
+    let mut l = *base;
+    l.position += side * d.length() * 0.02 * (i as f32 / 120.0);
+    l
+}
+
+/// The fix for a moving light's crawling shadow-map texels: snap the light position, in the
+/// plane of its (initial) view, to multiples of one shadow-map texel's footprint at the
+/// target, so the map is identical between snaps. Moving-light case.
+pub fn snap_light(base: &Light, l: Light, shadow_res: u32) -> Light {
+    let d = base.target - base.position;
+    let dist = d.length();
+    let texel = 2.0 * (base.fov_deg.to_radians() * 0.5).tan() * dist / shadow_res.max(1) as f32;
+    if texel.is_nan() || texel <= 0.0 || !texel.is_finite() {
+        return l;
+    }
+    let w = d / dist;
+    let (u, v) = w.any_orthonormal_pair();
+    let rel = l.position - base.position;
+    let snap = |x: f32| (x / texel).round() * texel;
+    let mut out = l;
+    out.position = base.position + u * snap(rel.dot(u)) + v * snap(rel.dot(v)) + w * rel.dot(w);
+    out
+}
+
+/// The reference visibility at the pixels of `img` (the `hard` render of the same view).
+fn reference_for(scene: &Scene, radius: f32, img: &FrameImages, samples: u32) -> Result<Vec<f32>> {
+    visibility_cached(
+        scene,
+        radius,
+        &img.position,
+        &img.normal,
+        &ReferenceParams {
+            samples,
+            ..ReferenceParams::default()
+        },
+    )
+}
+
+/// Runs the suite on `ctx`. `progress` gets one line per row.
+pub fn run(ctx: &Context, opts: &StressOptions, progress: &mut dyn FnMut(&Row)) -> Result<Report> {
+    opts.check()?;
+    let start = Instant::now();
+    let sizes = Sizes::new(opts.quick);
+    let base = sizes.settings();
+    let samples = base.reference_samples;
+    let mut rows = Vec::new();
+    for case_name in opts.cases() {
+        let case = build(case_name, &sizes)?;
+        case.scene
+            .validate()
+            .with_context(|| format!("stress case {case_name}"))?;
+        let settings = Settings {
+            light_radius: case.radius,
+            ..base.clone()
+        };
+        let radius = case.radius.unwrap_or(case.scene.light.radius);
+        // The reference is computed once per case at the pixels `hard` shows (every final
+        // pass rasterises the same triangles with the same camera).
+        let needs_ref = !matches!(case.kind, Kind::Fp16);
+        let mut reference: Option<(Vec<f32>, Vec<bool>)> = None;
+        let mut ref_error = None;
+        if needs_ref && !matches!(case.kind, Kind::Moving) {
+            match render_frames(ctx, &case.scene, "hard", &settings, 1, &|_| {
+                case.scene.light
+            })
+            .and_then(|f| {
+                let img = &f[0];
+                Ok((
+                    reference_for(&case.scene, radius, img, samples)?,
+                    covered(img),
+                ))
+            }) {
+                Ok(r) => reference = Some(r),
+                Err(e) => ref_error = Some(format!("{e:#}")),
+            }
+        }
+        let moving_ref = if matches!(case.kind, Kind::Moving) {
+            let frames = sizes.moving_frames;
+            let light = case.scene.light;
+            render_frames(ctx, &case.scene, "hard", &settings, frames, &|i| {
+                moving_light(&light, i)
+            })
+            .and_then(|imgs| {
+                let mut refs = Vec::new();
+                for (i, img) in imgs.iter().enumerate() {
+                    let mut s = case.scene.clone();
+                    s.light = moving_light(&light, i);
+                    refs.push(reference_for(&s, radius, img, samples)?);
+                }
+                Ok((refs, covered(&imgs[0])))
+            })
+            .map_err(|e| format!("{e:#}"))
+        } else {
+            Err(String::new())
+        };
+        for technique in opts.techniques() {
+            if matches!(case.kind, Kind::Fp16) && !technique.starts_with("ssm") {
+                continue;
+            }
+            let t0 = Instant::now();
+            let before = ctx.validation_messages().len();
+            let mut row = Row::new(case_name, &technique);
+            let (limit, why) = allowance(case_name, &technique).unwrap_or((case.mae_limit, ""));
+            row.threshold = format!("finite, in [0,1], mae_shadow <= {limit}");
+            if !why.is_empty() {
+                row.note = why.to_string();
+            }
+            let result = run_one(
+                ctx,
+                &case,
+                &technique,
+                &settings,
+                &sizes,
+                &reference,
+                &moving_ref,
+                &mut row,
+                limit,
+                opts.image_dir.as_deref(),
+            );
+            if let Err(e) = result {
+                row.error = Some(format!("{e:#}"));
+                row.pass = false;
+            }
+            if let Some(e) = &ref_error {
+                row.fail(format!("reference failed: {e}"));
+            }
+            let msgs = ctx.validation_messages();
+            if msgs.len() > before {
+                row.validation = msgs[before..].to_vec();
+                row.fail("validation messages");
+            }
+            if row.nan + row.inf + row.out_of_range > 0 {
+                row.pass = false;
+            }
+            row.seconds = t0.elapsed().as_secs_f64();
+            progress(&row);
+            rows.push(row);
+        }
+    }
+    Ok(Report {
+        device: ctx.describe(),
+        quick: opts.quick,
+        image: sizes.image,
+        shadow_res: sizes.shadow_res,
+        reference_samples: samples,
+        rows,
+        seconds: start.elapsed().as_secs_f64(),
+    })
+}
+
+#[allow(clippy::too_many_arguments)]
+fn run_one(
+    ctx: &Context,
+    case: &Case,
+    technique: &str,
+    settings: &Settings,
+    sizes: &Sizes,
+    reference: &Option<(Vec<f32>, Vec<bool>)>,
+    moving_ref: &std::result::Result<(Vec<Vec<f32>>, Vec<bool>), String>,
+    row: &mut Row,
+    limit: f64,
+    image_dir: Option<&Path>,
+) -> Result<()> {
+    let light = case.scene.light;
+    match case.kind {
+        Kind::Static | Kind::Scale(_) => {
+            let img =
+                render_frames(ctx, &case.scene, technique, settings, 1, &|_| light)?.remove(0);
+            row.count(&img.visibility);
+            if let Some((r, cov)) = reference {
+                let e = errors(&img.visibility, r, cov);
+                if e.mae_shadow > limit {
+                    row.fail(format!("mae_shadow {:.3} > {limit}", e.mae_shadow));
+                }
+                row.errors = Some(e);
+                if !row.pass || row.nan + row.inf + row.out_of_range > 0 {
+                    if let Some(dir) = image_dir {
+                        write_images(dir, &row.case, technique, &img, r, cov)?;
+                    }
+                }
+            }
+            if let Kind::Scale(k) = case.kind {
+                let s = scaled(&case.scene, k);
+                let img_s = render_frames(ctx, &s, technique, settings, 1, &|_| s.light)?.remove(0);
+                row.count(&img_s.visibility);
+                let d = mean_abs_diff(&img_s.visibility, &img.visibility, &covered(&img));
+                row.metric = Some(d);
+                row.threshold
+                    .push_str(&format!(", mean |v(x{k:e}) - v(x1)| <= {SCALE_TOLERANCE}"));
+                if d > SCALE_TOLERANCE {
+                    row.fail(format!("visibility changed by {d:.4} under scaling"));
+                }
+            }
+        }
+        Kind::Moving => {
+            let (refs, cov) = moving_ref
+                .as_ref()
+                .map_err(|e| anyhow::anyhow!("reference: {e}"))?;
+            let frames = refs.len();
+            let imgs = render_frames(ctx, &case.scene, technique, settings, frames, &|i| {
+                moving_light(&light, i)
+            })?;
+            let vis: Vec<Vec<f32>> = imgs.iter().map(|i| i.visibility.clone()).collect();
+            for v in &vis {
+                row.count(v);
+            }
+            let e = errors(&vis[0], &refs[0], cov);
+            if e.mae_shadow > limit {
+                row.fail(format!("mae_shadow {:.3} > {limit}", e.mae_shadow));
+            }
+            row.errors = Some(e);
+            let f = flicker(&vis, refs, cov);
+            row.flicker = Some(f);
+            let res = if technique.starts_with("ssm") {
+                settings.occluder_res
+            } else {
+                settings.shadow_res
+            };
+            let snapped = render_frames(ctx, &case.scene, technique, settings, frames, &|i| {
+                snap_light(&light, moving_light(&light, i), res)
+            })?;
+            let svis: Vec<Vec<f32>> = snapped.iter().map(|i| i.visibility.clone()).collect();
+            for v in &svis {
+                row.count(v);
+            }
+            let fs = flicker(&svis, refs, cov);
+            row.flicker_snapped = Some(fs);
+            row.threshold
+                .push_str(&format!(", flicker <= {FLICKER_LIMIT} ({frames} frames)"));
+            if f.min(fs) > FLICKER_LIMIT {
+                row.fail(format!(
+                    "flicker {f:.4} (snapped {fs:.4}) > {FLICKER_LIMIT}"
+                ));
+            }
+            row.note = format!(
+                "{}snapping {}",
+                if row.note.is_empty() {
+                    String::new()
+                } else {
+                    format!("{}; ", row.note)
+                },
+                if fs < f { "helps" } else { "does not help" }
+            );
+        }
+        Kind::Fp16 => {
+            // Eq. 4 (Atty et al. Appendix A): a micro-patch hides about (texel footprint /
+            // light area) ~ 1/N^2 of the light; R16F adds are exact while that exceeds half an
+            // ulp of the sum (2^-11 near 1), so the error of the sum grows like N^2 / 2^11
+            // once patches fall below it. Predicted: e(N) = e(N0) (N / N0)^2.
+            let mut measured = Vec::new();
+            for &n in sizes.fp16_res {
+                let s32 = Settings {
+                    occluder_res: n,
+                    accum_format: AccumFormat::R32F,
+                    ..settings.clone()
+                };
+                let s16 = Settings {
+                    accum_format: AccumFormat::R16F,
+                    ..s32.clone()
+                };
+                let a = render_frames(ctx, &case.scene, technique, &s32, 1, &|_| light)?.remove(0);
+                let b = render_frames(ctx, &case.scene, technique, &s16, 1, &|_| light)?.remove(0);
+                row.count(&a.visibility);
+                row.count(&b.visibility);
+                measured.push((n, mean_abs_diff(&b.visibility, &a.visibility, &covered(&a))));
+            }
+            let (n0, e0) = measured[0];
+            let parts: Vec<String> = measured
+                .iter()
+                .map(|&(n, e)| {
+                    let pred = e0 * (n as f64 / n0 as f64).powi(2);
+                    format!("{n}^2: {e:.5} (Eq. 4: {pred:.5})")
+                })
+                .collect();
+            row.metric = measured.last().map(|m| m.1);
+            row.note = format!("R16F vs R32F mean |dv|: {}", parts.join(", "));
+            row.threshold = "finite, in [0,1] (FP16 error is reported, not judged)".into();
+        }
+    }
+    Ok(())
+}
+
+/// The colour image and the false-colour error image (0 black .. 0.5 red) of a failing row.
+fn write_images(
+    dir: &Path,
+    case: &str,
+    technique: &str,
+    img: &FrameImages,
+    r: &[f32],
+    cov: &[bool],
+) -> Result<()> {
+    std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+    crate::output::write_png(&dir.join(format!("{case}-{technique}.png")), img)?;
+    let err = crate::eval::metrics::error_image(&img.visibility, r, cov, 0.5);
+    let bytes: Vec<u8> = err.iter().flatten().copied().collect();
+    let path = dir.join(format!("{case}-{technique}-error.png"));
+    image::RgbaImage::from_raw(img.width, img.height, bytes)
+        .context("error image size")?
+        .save(&path)
+        .with_context(|| format!("writing {}", path.display()))
+}
+
+/// Rust mirrors of the shaders' guards, so each can be unit-tested at its edge (the
+/// shader comment names the same constant). Keep them in step with the GLSL.
+pub mod guards {
+    /// glsl/smoothies/smoothie.frag: `REMAP_EPS`.
+    pub const SMOOTHIE_REMAP_EPS: f32 = 1e-4;
+
+    /// glsl/smoothies/smoothie.frag, Eq. 1: alpha' = alpha / (1 - b/r), clamped; `None`
+    /// where the fragment is discarded (b > r). Case `near-contact` (b/r -> 1).
+    pub fn smoothie_alpha(alpha_raw: f32, t: f32, b: f32, r: f32) -> Option<f32> {
+        let f = b / r;
+        if f > 1.0 {
+            return None;
+        }
+        let alpha = (alpha_raw / t).clamp(0.0, 1.0);
+        let denom = 1.0 - f;
+        Some(if denom > SMOOTHIE_REMAP_EPS {
+            (alpha / denom).min(1.0)
+        } else {
+            1.0
+        })
+    }
+
+    /// glsl/penumbra_map/penumbra.frag: `CONTACT_EPS`.
+    pub const PENUMBRA_CONTACT_EPS: f32 = 1e-4;
+
+    /// glsl/penumbra_map/penumbra.frag, Eq. 1 and the smoothstep: I = (Z_F - Z_v) / (Z_P -
+    /// Z_v); `None` where discarded. `zv_h` = (Z_v * h, h) as interpolated.
+    pub fn penumbra_intensity(zp: f32, zf: f32, zv_h: (f32, f32)) -> Option<f32> {
+        const FAR_DEPTH: f32 = 1.0e30;
+        if zp >= 0.5 * FAR_DEPTH || zf > zp {
+            return None;
+        }
+        let zv = zv_h.0 / zv_h.1.max(1e-30);
+        let denom = zp - zv;
+        // Written as the shader's `!(denom > eps)`: a NaN denominator is discarded too.
+        #[allow(clippy::neg_cmp_op_on_partial_ord)]
+        if !(denom > PENUMBRA_CONTACT_EPS * zp) {
+            return None;
+        }
+        let i = ((zf - zv) / denom).clamp(0.0, 1.0);
+        Some(i * i * (3.0 - 2.0 * i))
+    }
+
+    /// glsl/pcss/final.frag: the blocker-search radius (Eq. 3) and the penumbra radius
+    /// (Eq. 1) in texels, both clamped to `max_texels`. `d_b` is the mean blocker depth,
+    /// only formed when at least one blocker was found (`blockers > 0`), so d_b > 0.
+    #[allow(clippy::too_many_arguments)]
+    pub fn pcss_radii(
+        uv_radius_near: f32,
+        r_over_2tan: f32,
+        max_texels: f32,
+        near: f32,
+        res: f32,
+        d_r: f32,
+        depth_sum: f32,
+        blockers: f32,
+    ) -> (f32, Option<f32>) {
+        let search = (uv_radius_near * (d_r - near).max(0.0) / d_r * res).min(max_texels);
+        if blockers == 0.0 {
+            return (search, None);
+        }
+        let d_b = depth_sum / blockers;
+        let radius = (r_over_2tan * (d_r - d_b) / (d_b * d_r) * res).min(max_texels);
+        (search, Some(radius))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::guards::*;
+    use super::*;
+
+    fn next_up(x: f32) -> f32 {
+        f32::from_bits(x.to_bits() + 1)
+    }
+    fn next_down(x: f32) -> f32 {
+        f32::from_bits(x.to_bits() - 1)
+    }
+
+    #[test]
+    fn smoothie_remap_is_finite_at_b_equal_r_and_one_ulp_either_side() {
+        for r in [1e-3f32, 0.5, 1.0, 7.0, 1e4] {
+            for b in [r, next_down(r), next_up(r), next_down(next_down(r))] {
+                for raw in [0.0f32, 1e-7, 0.01, 0.5, 1.0, 5.0] {
+                    if let Some(a) = smoothie_alpha(raw, 0.02, b, r) {
+                        assert!(
+                            a.is_finite() && (0.0..=1.0).contains(&a),
+                            "b {b} r {r} raw {raw}: {a}"
+                        );
+                    } else {
+                        assert!(b > r, "only b > r is discarded");
+                    }
+                }
+            }
+        }
+        // Far from contact the remap is Eq. 1 unclamped.
+        let a = smoothie_alpha(0.01, 0.02, 0.5, 1.0).unwrap();
+        assert!((a - 1.0).abs() < 1e-6);
+        let a = smoothie_alpha(0.002, 0.02, 0.5, 1.0).unwrap();
+        assert!((a - 0.2).abs() < 1e-6);
+    }
+
+    #[test]
+    fn penumbra_intensity_guard_at_contact() {
+        for zp in [1e-3f32, 1.0, 10.0, 1e4] {
+            for zv in [zp, next_down(zp), next_up(zp), zp * (1.0 - 1e-5), 0.0] {
+                for zf in [zv, zp, zp * 0.5, next_down(zp)] {
+                    for h in [1.0f32, 1e-20, 0.0] {
+                        if let Some(i) = penumbra_intensity(zp, zf, (zv * h, h)) {
+                            assert!(
+                                i.is_finite() && (0.0..=1.0).contains(&i),
+                                "zp {zp} zv {zv} zf {zf} h {h}: {i}"
+                            );
+                        }
+                    }
+                }
+            }
+        }
+        // At contact (Z_v = Z_P) the fragment is dropped: no division by ~0.
+        assert_eq!(penumbra_intensity(1.0, 1.0, (1.0, 1.0)), None);
+        // Halfway between vertex and receiver: smoothstep(0.5) = 0.5.
+        let i = penumbra_intensity(2.0, 1.5, (1.0, 1.0)).unwrap();
+        assert!((i - 0.5).abs() < 1e-6);
+    }
+
+    #[test]
+    fn pcss_divisions_are_finite() {
+        // d_r > near always (light_sample's inside test); blockers > 0 before d_b is formed.
+        for d_r in [1e-4f32, 1e-3, 1.0, 1e3] {
+            for near in [d_r * 0.999, d_r * 1e-4] {
+                for (sum, n) in [
+                    (0.0f32, 0.0f32),
+                    (d_r * 0.5, 1.0),
+                    (next_down(d_r) * 4.0, 4.0),
+                    (d_r * 1e-4, 1.0),
+                ] {
+                    let (search, radius) = pcss_radii(0.1, 0.05, 32.0, near, 256.0, d_r, sum, n);
+                    assert!(search.is_finite() && (0.0..=32.0).contains(&search));
+                    if let Some(r) = radius {
+                        assert!(r.is_finite() && r <= 32.0, "d_r {d_r} sum {sum} n {n}: {r}");
+                        assert!(
+                            r >= 0.0,
+                            "blocker behind the receiver would need a guard: {r}"
+                        );
+                    } else {
+                        assert_eq!(n, 0.0);
+                    }
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn snapping_keeps_the_light_on_texel_multiples() {
+        let base = Light {
+            position: Vec3::new(0.0, 10.0, 0.0),
+            target: Vec3::ZERO,
+            fov_deg: 60.0,
+            radius: 0.1,
+        };
+        let texel = 2.0 * 30f32.to_radians().tan() * 10.0 / 256.0;
+        let a = snap_light(&base, moving_light(&base, 1), 256);
+        let b = snap_light(&base, moving_light(&base, 2), 256);
+        // 2 % of 10 over 120 frames: 0.0017 per frame, below one texel (0.045): no move yet.
+        assert_eq!(a.position, base.position);
+        assert_eq!(b.position, base.position);
+        let far = snap_light(&base, moving_light(&base, 120), 256);
+        let moved = (far.position - base.position).length();
+        assert!(
+            (moved / texel - (moved / texel).round()).abs() < 1e-3,
+            "{moved} {texel}"
+        );
+    }
+
+    #[test]
+    fn unknown_names_list_the_valid_ones() {
+        let e = StressOptions {
+            cases: vec!["nope".into()],
+            ..Default::default()
+        }
+        .check()
+        .unwrap_err()
+        .to_string();
+        assert!(
+            e.contains("nope") && e.contains("near-contact") && e.contains("ssm-r16f"),
+            "{e}"
+        );
+        let e = StressOptions {
+            techniques: vec!["reference".into()],
+            ..Default::default()
+        }
+        .check()
+        .unwrap_err()
+        .to_string();
+        assert!(e.contains("reference") && e.contains("smoothies"), "{e}");
+    }
+
+    #[test]
+    fn every_case_builds_a_valid_scene() {
+        let sizes = Sizes::new(true);
+        for name in case_names() {
+            let c = build(name, &sizes).unwrap();
+            c.scene
+                .validate()
+                .unwrap_or_else(|e| panic!("{name}: {e:#}"));
+        }
+        // The fan really has eight silhouette edges at its centre seen from above.
+        let c = build("eight-silhouette-edges", &sizes).unwrap();
+        let m = &c.scene.objects[1].mesh;
+        let up: Vec<bool> = m
+            .indices
+            .chunks_exact(3)
+            .map(|t| {
+                let p = |k: usize| m.positions[t[k] as usize];
+                (p(1) - p(0)).cross(p(2) - p(0)).y > 0.0
+            })
+            .collect();
+        let flips = (0..8).filter(|&k| up[k] != up[(k + 1) % 8]).count();
+        assert_eq!(flips, 8);
+    }
+
+    #[test]
+    fn scaling_scales_everything() {
+        let s = builtin_scene("cylinder").unwrap();
+        let t = scaled(&s, 1e3);
+        assert!((t.bounds().radius() / s.bounds().radius() - 1e3).abs() < 1.0);
+        assert_eq!(t.light.radius, s.light.radius * 1e3);
+    }
+}

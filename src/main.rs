@@ -165,7 +165,12 @@ struct BenchArgs {
     #[arg(long, default_value_t = bench::DEFAULT_SEED)]
     seed: u64,
     /// Fixed smoothie widths reported beside the calibrated `smoothies` row.
-    #[arg(long, value_delimiter = ',', default_value = "0.02", allow_negative_numbers = true)]
+    #[arg(
+        long,
+        value_delimiter = ',',
+        default_value = "0.02",
+        allow_negative_numbers = true
+    )]
     smoothie_t: Vec<f32>,
     /// Reuse light-space passes while the light and objects stay put (default: every timed
     /// frame runs every pass).
@@ -321,11 +326,17 @@ fn run_bench(cli: &Cli, a: &BenchArgs) -> Result<()> {
     };
     // Parsed here rather than by clap so that a bad value is one line like every other error.
     let radii = match &a.radii {
-        Some(v) => v.iter().map(|r| r.parse()).collect::<Result<Vec<bench::Radius>>>()?,
+        Some(v) => v
+            .iter()
+            .map(|r| r.parse())
+            .collect::<Result<Vec<bench::Radius>>>()?,
         None => preset.radii,
     };
     let motions = match &a.motion {
-        Some(v) => v.iter().map(|m| m.parse()).collect::<Result<Vec<bench::Motion>>>()?,
+        Some(v) => v
+            .iter()
+            .map(|m| m.parse())
+            .collect::<Result<Vec<bench::Motion>>>()?,
         None => preset.motions,
     };
     let config = bench::BenchConfig {
@@ -363,6 +374,10 @@ fn run_bench(cli: &Cli, a: &BenchArgs) -> Result<()> {
         "wrote {} files into {}: report.md, results.csv, results.json, time_vs_error.png, images/",
         outcome.files.len(),
         outcome.out.display()
+    );
+    Ok(())
+}
+
 fn stress(cli: &Cli, a: &StressArgs) -> Result<()> {
     use softshadow::eval::stress;
     let opts = stress::StressOptions {

@@ -84,6 +84,13 @@ pub struct SmoothieVertex {
     pub width: f32,
 }
 
+/// Largest calibrated width: the paper's largest t (0.2 of the map). A silhouette vertex
+/// close to the light asks for t ~ R / b, up to the whole map; such a blocker is about the
+/// light's size, casts no umbra and a faint penumbra, which a full-strength outer smoothie
+/// cannot imitate at any width (stress cases `blocker-near-light`, `near-far-1e-4`: without
+/// the clamp the map-wide smoothies darken everything, mae_shadow 0.65).
+pub const MAX_CALIBRATED_T: f32 = 0.2;
+
 /// How wide smoothies are, in light-uv units.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Width {
@@ -96,14 +103,14 @@ pub enum Width {
 }
 
 impl Width {
-    /// t at linear depth `depth`, clamped to [0, 1] (a smoothie wider than the map is useless).
+    /// t at linear depth `depth`. The calibrated width is clamped to `MAX_CALIBRATED_T`.
     pub fn at(self, depth: f32) -> f32 {
         match self {
             Width::Fixed(t) => t,
             Width::Calibrated {
                 radius,
                 tan_half_fov,
-            } => (radius / (2.0 * depth.max(1e-30) * tan_half_fov)).clamp(0.0, 1.0),
+            } => (radius / (2.0 * depth.max(1e-30) * tan_half_fov)).clamp(0.0, MAX_CALIBRATED_T),
         }
     }
 }

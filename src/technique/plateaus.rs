@@ -756,11 +756,7 @@ impl Technique for Plateaus {
         };
         self.upload(ctx, &vertices)?;
 
-        let plane_gpu: Option<*const GpuObject> = frame
-            .gpu
-            .objects
-            .get(self.receiver.object)
-            .map(|o| o as *const GpuObject);
+        let plane_gpu: Option<&GpuObject> = frame.gpu.objects.get(self.receiver.object);
         rec.pass("plateaus/drop_shadow", |rec| {
             rec.begin_rendering(
                 &[(&self.texture, Some([1.0; 4]))],

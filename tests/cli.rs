@@ -125,7 +125,9 @@ fn bad_input_gets_one_clear_line() {
     )
     .unwrap();
     let lavapipe = [("SOFTSHADOW_DEVICE", "llvmpipe")];
-    let cases: Vec<(Vec<&str>, &[(&str, &str)], &str)> = vec![
+    // (arguments, environment, what the one error line must name)
+    type Case<'a> = (Vec<&'a str>, &'a [(&'a str, &'a str)], &'a str);
+    let cases: Vec<Case> = vec![
         (
             vec!["render", "--scene", "/no/such/file.obj", "--out", o],
             &lavapipe,

@@ -7,7 +7,7 @@ mod common;
 use common::{covered, pixel_at, small, Gpu};
 use glam::{Vec3, Vec4};
 use softshadow::render::{FrameImages, Settings};
-use softshadow::scene::{Role, Scene};
+use softshadow::scene::Scene;
 
 /// The `cylinder` scene's geometry, from its objects and light.
 struct CylinderFrame {

@@ -6,9 +6,8 @@
 // surface, else 1. Bilinear weights, as `hard`.
 #include "common/shadow.glsl"
 
-layout(set = 0, binding = 1) uniform sampler2D shadow_map;     // R32F caster depth
+layout(set = 0, binding = 1) uniform sampler2D shadow_map;     // RG32F: r caster depth, g foremost surface
 layout(set = 0, binding = 2) uniform sampler2D penumbra_map;   // R16F intensity (MIN)
-layout(set = 0, binding = 3) uniform sampler2D receiver_depth; // R32F foremost surface
 
 // A texel whose foremost surface is more than this (relative) beyond the point stores the
 // intensity of a background surface (e.g. the ground just outside a caster's silhouette,
@@ -21,7 +20,8 @@ float visibility(vec3 p, vec3 n) {
     LightSample s = light_sample(p, n);
     if (!s.inside) return 1.0;
     vec4 lit = lit_test(textureGather(shadow_map, s.uv, 0), s.depth);
-    vec4 own = step(textureGather(receiver_depth, s.uv, 0), vec4(s.depth * (1.0 + SAME_SURFACE)));
+    // Component 1: the foremost surface of any role.
+    vec4 own = step(textureGather(shadow_map, s.uv, 1), vec4(s.depth * (1.0 + SAME_SURFACE)));
     vec4 intensity = mix(vec4(1.0), textureGather(penumbra_map, s.uv, 0), own);
     return clamp(bilinear(lit * intensity, s.uv), 0.0, 1.0);
 }

@@ -8,7 +8,7 @@
 // ConvertToWorldSpace step is not needed.
 #include "common/frame.glsl"
 
-layout(set = 0, binding = 1) uniform sampler2D receiver_depth;   // R32F, foremost surface
+layout(set = 0, binding = 1) uniform sampler2D shadow_map;   // RG32F: g = foremost surface of any role
 
 layout(location = 0) in float v_depth;
 layout(location = 1) in vec2 v_zv_h;
@@ -21,7 +21,7 @@ const float FAR_DEPTH = 1.0e30;
 const float CONTACT_EPS = 1e-4;
 
 void main() {
-    float zp = texelFetch(receiver_depth, ivec2(gl_FragCoord.xy), 0).r;
+    float zp = texelFetch(shadow_map, ivec2(gl_FragCoord.xy), 0).g;
     float zf = v_depth;
     if (zp >= 0.5 * FAR_DEPTH) discard;
     // Step (4): a cone or sheet behind the surface cannot shadow it.

@@ -20,18 +20,12 @@
 //!    (`render::fit_light` puts it 1 % beyond the farthest scene corner, so every receiver is
 //!    nearer; the margin keeps the bases inside the clip volume). Uploaded to a host-visible
 //!    vertex buffer (20 bytes a vertex: world position, (Zv k, k)). R = 0: no geometry.
-//! 1. `penumbra-map/shadow_map` — every object from the light, one rendering, D32_SFLOAT
-//!    z-buffer (clear 1.0, LESS) and two colour attachments:
-//!    location 0 = caster shadow map, R32_SFLOAT linear depth, clear 1e30 (`FAR_DEPTH`);
-//!    location 1 = receiver depth map (Z_P of Eq. 1: the foremost surface, casting or not),
-//!    R32_SFLOAT, clear 1e30.
-//!    Casters are drawn first (`glsl/penumbra_map/caster_depth.frag`, both locations = depth,
-//!    no blend); then receive-only objects (`receiver_depth.frag`: location 0 = 1e30, location
-//!    1 = depth, both MIN-blended — one blend state for both attachments, as independentBlend
-//!    is optional — so they never cast, and on location 1 MIN is a no-op after the LESS test). The z-buffer then holds the nearest of
-//!    everything and location 0 the nearest caster, independent of draw order within a group.
-//!    The paper's shadow map holds every object; our scenes have receive-only grounds, which
-//!    need a depth for Eq. 1 but must not cast. Vertex: `glsl/common/shadow_depth.vert`.
+//! 1. `penumbra-map/shadow_map` — the shared `render::passes::ShadowMap`: every object from
+//!    the light into one R32G32_SFLOAT target, clear 1e30 (`FAR_DEPTH`), blend MIN, no depth
+//!    attachment; r = the nearest caster's linear depth (the shadow map of the final test),
+//!    g = the nearest surface of any role (Z_P of Eq. 1: the foremost surface, casting or
+//!    not). The paper's shadow map holds every object; our scenes have receive-only grounds,
+//!    which need a depth for Eq. 1 but must not cast, hence the two channels.
 //! 2. `penumbra-map/penumbra` — cones and sheets from the light, culling off, no depth
 //!    attachment; one colour attachment, the penumbra map: R16_SFLOAT intensity, clear 1.0
 //!    (the paper's "clear to white"), blend MIN. `glsl/penumbra_map/penumbra.vert` projects
@@ -71,16 +65,15 @@
 //! from the light) hides the penumbra of whatever lies behind it.
 
 use super::{FrameInput, Technique, TechniqueInfo, TechniqueInit};
-use crate::render::gpu_scene::{DRAW_PUSH_BYTES, SCENE_ATTRIBUTES, SCENE_VERTEX_STRIDE};
-use crate::render::passes::{FinalPass, FAR_DEPTH};
+use crate::render::passes::{FinalPass, ShadowMap};
 use crate::scene::LightView;
 use crate::shaders;
 use crate::silhouette::penumbra::{build_penumbra, PenumbraVertex};
 use crate::silhouette::{self, Adjacency};
 use crate::vk::{
-    Blend, Buffer, BufferUsageFlags, CompareOp, Context, CullModeFlags, DepthState, DescriptorSet,
-    Filter, Format, GraphicsPipelineDesc, Image, ImageLayout, ImageUsageFlags, MemoryLocation,
-    Pipeline, PrimitiveTopology, Recorder, Resource, Sampler,
+    Blend, Buffer, BufferUsageFlags, Context, CullModeFlags, DescriptorSet, Filter, Format,
+    GraphicsPipelineDesc, Image, ImageLayout, ImageUsageFlags, MemoryLocation, Pipeline,
+    PrimitiveTopology, Recorder, Resource, Sampler,
 };
 use anyhow::{Context as _, Result};
 
@@ -107,13 +100,8 @@ pub fn cone_base_depth(light: &LightView) -> f32 {
 }
 
 pub struct PenumbraMap {
-    caster_depth: Image,
-    receiver_depth: Image,
-    zbuffer: Image,
+    shadow: ShadowMap,
     penumbra: Image,
-    caster_pipeline: Pipeline,
-    receiver_pipeline: Pipeline,
-    depth_set: DescriptorSet,
     penumbra_pipeline: Pipeline,
     penumbra_set: DescriptorSet,
     final_pass: FinalPass,
@@ -140,85 +128,16 @@ impl PenumbraMap {
         let usage = ImageUsageFlags::COLOR_ATTACHMENT
             | ImageUsageFlags::SAMPLED
             | ImageUsageFlags::TRANSFER_SRC;
-        let caster_depth = Image::new_2d(
-            ctx,
-            res,
-            res,
-            Format::R32_SFLOAT,
-            usage,
-            "penumbra-map shadow map",
-        )
-        .context("creating the penumbra-map shadow map")?;
-        let receiver_depth = Image::new_2d(
-            ctx,
-            res,
-            res,
-            Format::R32_SFLOAT,
-            usage,
-            "penumbra-map receiver depth",
-        )
-        .context("creating the penumbra-map receiver depth map")?;
-        let zbuffer = Image::new_2d(
-            ctx,
-            res,
-            res,
-            Format::D32_SFLOAT,
-            ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT,
-            "penumbra-map z-buffer",
-        )
-        .context("creating the penumbra-map z-buffer")?;
+        let shadow = ShadowMap::new(ctx, init.ubo, res, "penumbra-map/shadow_map")?;
         let penumbra = Image::new_2d(ctx, res, res, Format::R16_SFLOAT, usage, "penumbra map")
             .context("creating the penumbra map")?;
         let nearest = Sampler::new(ctx, Filter::Nearest).context("creating the nearest sampler")?;
-
-        let depth_set = DescriptorSet::new(
-            ctx,
-            &[Resource::Uniform(init.ubo)],
-            "penumbra-map/shadow_map",
-        )?;
-        let depth_pipeline = |name: &str, fragment: &[u8], blend: Blend| {
-            Pipeline::graphics(
-                ctx,
-                &GraphicsPipelineDesc {
-                    name,
-                    vertex: shaders::COMMON_SHADOW_DEPTH_VERT,
-                    fragment: Some(fragment),
-                    vertex_stride: SCENE_VERTEX_STRIDE,
-                    attributes: &SCENE_ATTRIBUTES[..1],
-                    topology: PrimitiveTopology::TRIANGLE_LIST,
-                    // Open meshes and planes cast and receive from both sides.
-                    cull: CullModeFlags::NONE,
-                    // One blend for both: independentBlend is an optional feature.
-                    colors: &[(Format::R32_SFLOAT, blend), (Format::R32_SFLOAT, blend)],
-                    depth: Some(DepthState {
-                        format: Format::D32_SFLOAT,
-                        test: true,
-                        write: true,
-                        compare: CompareOp::LESS,
-                    }),
-                    push_constant_bytes: DRAW_PUSH_BYTES,
-                    sets: &[&depth_set],
-                },
-            )
-        };
-        let caster_pipeline = depth_pipeline(
-            "penumbra-map/shadow_map (casters)",
-            shaders::PENUMBRA_MAP_CASTER_DEPTH_FRAG,
-            Blend::None,
-        )?;
-        // MIN with the shader's FAR_DEPTH: a receive-only object never changes the caster map;
-        // on the receiver map MIN changes nothing, the LESS test already passed only nearer ones.
-        let receiver_pipeline = depth_pipeline(
-            "penumbra-map/shadow_map (receivers)",
-            shaders::PENUMBRA_MAP_RECEIVER_DEPTH_FRAG,
-            Blend::Min,
-        )?;
 
         let penumbra_set = DescriptorSet::new(
             ctx,
             &[
                 Resource::Uniform(init.ubo),
-                Resource::Sampled(&receiver_depth, &nearest),
+                Resource::Sampled(&shadow.depth, &nearest),
             ],
             "penumbra-map/penumbra",
         )?;
@@ -244,9 +163,8 @@ impl PenumbraMap {
             ctx,
             &[
                 Resource::Uniform(init.ubo),
-                Resource::Sampled(&caster_depth, &nearest),
+                Resource::Sampled(&shadow.depth, &nearest),
                 Resource::Sampled(&penumbra, &nearest),
-                Resource::Sampled(&receiver_depth, &nearest),
             ],
             "penumbra-map/final",
         )?;
@@ -271,13 +189,8 @@ impl PenumbraMap {
             })
             .collect::<Result<Vec<_>>>()?;
         Ok(Box::new(Self {
-            caster_depth,
-            receiver_depth,
-            zbuffer,
+            shadow,
             penumbra,
-            caster_pipeline,
-            receiver_pipeline,
-            depth_set,
             penumbra_pipeline,
             penumbra_set,
             final_pass,
@@ -365,27 +278,7 @@ impl Technique for PenumbraMap {
         self.upload(ctx, &vertices)?;
 
         rec.pass("penumbra-map/shadow_map", |rec| {
-            rec.begin_rendering(
-                &[
-                    (&self.caster_depth, Some([FAR_DEPTH; 4])),
-                    (&self.receiver_depth, Some([FAR_DEPTH; 4])),
-                ],
-                Some((&self.zbuffer, Some(1.0))),
-            );
-            // Every caster before any receive-only object (see the module header).
-            rec.bind_pipeline(&self.caster_pipeline);
-            rec.bind_sets(&self.caster_pipeline, &[&self.depth_set]);
-            frame
-                .gpu
-                .draw(rec, &self.caster_pipeline, |o| o.role.casts());
-            rec.bind_pipeline(&self.receiver_pipeline);
-            rec.bind_sets(&self.receiver_pipeline, &[&self.depth_set]);
-            frame
-                .gpu
-                .draw(rec, &self.receiver_pipeline, |o| !o.role.casts());
-            rec.end_rendering();
-            rec.transition(&self.caster_depth, ImageLayout::SHADER_READ_ONLY_OPTIMAL);
-            rec.transition(&self.receiver_depth, ImageLayout::SHADER_READ_ONLY_OPTIMAL);
+            self.shadow.record(rec, frame.gpu);
             Ok(())
         })?;
         rec.pass("penumbra-map/penumbra", |rec| {
@@ -424,8 +317,7 @@ impl Technique for PenumbraMap {
 
     fn debug_image(&self, name: &str) -> Option<&Image> {
         match name {
-            "shadow_map" => Some(&self.caster_depth),
-            "receiver_depth" => Some(&self.receiver_depth),
+            "shadow_map" => Some(&self.shadow.depth),
             "penumbra_map" => Some(&self.penumbra),
             _ => None,
         }

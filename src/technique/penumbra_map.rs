@@ -30,8 +30,8 @@
 //!    attachment; one colour attachment, the penumbra map: R16_SFLOAT intensity, clear 1.0
 //!    (the paper's "clear to white"), blend MIN. `glsl/penumbra_map/penumbra.vert` projects
 //!    with the light's view-projection and passes the linear depth Z_F and (Zv k, k)
-//!    perspective-correctly; `penumbra.frag` reads Z_P = receiver depth at its own texel
-//!    (texelFetch), discards when nothing is there, when Z_F > Z_P (pseudocode step 4: the
+//!    perspective-correctly; `penumbra.frag` reads Z_P = the shadow map's g (foremost
+//!    surface) at its own texel (texelFetch), discards when nothing is there, when Z_F > Z_P (pseudocode step 4: the
 //!    geometry is behind the surface) and when Z_P - Zv <= 1e-4 Z_P (the surface touches or is
 //!    in front of the silhouette vertex: no penumbra, and no NaN/Inf from the division), then
 //!    writes s = 3 I^2 - 2 I^3 with I = clamp((Z_F - Zv) / (Z_P - Zv), 0, 1) — Eq. 1 (the
@@ -40,8 +40,8 @@
 //!    blend on a colour target is the same selection, keeps the map sampleable as a plain
 //!    colour texture, and leaves no depth attachment to clear. R16F steps 2^-11 near 1.
 //! 3. `penumbra-map/final` — from the camera (`FinalPass`), `glsl/penumbra_map/final.frag`:
-//!    textureGather of the caster shadow map, the penumbra map and the receiver depth map at
-//!    the normal-offset point; per texel visibility = lit test x intensity (0 in the hard
+//!    textureGather of the shadow map's r (casters) and g (foremost surface) and of the
+//!    penumbra map at the normal-offset point; per texel visibility = lit test x intensity (0 in the hard
 //!    shadow, else the penumbra intensity), bilinear weights (the 2x2 filter of `hard`). A
 //!    texel whose foremost surface lies more than 1 % beyond the point counts as intensity 1:
 //!    it holds the penumbra of a background surface (the ground just outside a caster's

@@ -248,3 +248,58 @@ pub fn falloff_lut(ctx: &Context) -> Result<Image> {
     })?;
     Ok(image)
 }
+
+/// Vertices rebuilt on the CPU whenever the light or a caster moves (smoothie quads and fans,
+/// penumbra-map cones and sheets, plateaus), in one host-visible vertex buffer that grows by
+/// half again when too small, so a light sweeping over a mesh does not reallocate every frame.
+pub struct DynamicVertices {
+    buffer: Option<Buffer>,
+    count: u32,
+    name: &'static str,
+}
+
+impl DynamicVertices {
+    pub fn new(name: &'static str) -> Self {
+        Self {
+            buffer: None,
+            count: 0,
+            name,
+        }
+    }
+
+    /// Replaces the contents (the GPU finished with the old ones: frames wait on their fence).
+    pub fn upload<T: bytemuck::Pod>(&mut self, ctx: &Context, vertices: &[T]) -> Result<()> {
+        let bytes: &[u8] = bytemuck::cast_slice(vertices);
+        let fits = self
+            .buffer
+            .as_ref()
+            .is_some_and(|b| b.size >= bytes.len() as u64);
+        if !fits {
+            let size = (bytes.len() as u64 * 3 / 2).max(4096);
+            self.buffer = Some(Buffer::new(
+                ctx,
+                size,
+                BufferUsageFlags::VERTEX_BUFFER,
+                crate::vk::MemoryLocation::CpuToGpu,
+                self.name,
+            )?);
+        }
+        if let Some(b) = self.buffer.as_mut() {
+            b.write(0, bytes)?;
+        }
+        self.count = vertices.len() as u32;
+        Ok(())
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.count == 0
+    }
+
+    /// Binds the buffer and draws every vertex with the bound pipeline (nothing when empty).
+    pub fn draw(&self, rec: &mut Recorder<'_>) {
+        if let (Some(b), false) = (self.buffer.as_ref(), self.is_empty()) {
+            rec.bind_vertex_buffer(b);
+            rec.draw(self.count, 1);
+        }
+    }
+}

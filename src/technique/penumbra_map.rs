@@ -65,15 +65,14 @@
 //! from the light) hides the penumbra of whatever lies behind it.
 
 use super::{FrameInput, Technique, TechniqueInfo, TechniqueInit};
-use crate::render::passes::{FinalPass, ShadowMap};
+use crate::render::passes::{DynamicVertices, FinalPass, ShadowMap};
 use crate::scene::LightView;
 use crate::shaders;
 use crate::silhouette::penumbra::{build_penumbra, PenumbraVertex};
 use crate::silhouette::{self, Adjacency};
 use crate::vk::{
-    Blend, Buffer, BufferUsageFlags, Context, CullModeFlags, DescriptorSet, Filter, Format,
-    GraphicsPipelineDesc, Image, ImageLayout, ImageUsageFlags, MemoryLocation, Pipeline,
-    PrimitiveTopology, Recorder, Resource, Sampler,
+    Blend, Context, CullModeFlags, DescriptorSet, Filter, Format, GraphicsPipelineDesc, Image,
+    ImageLayout, ImageUsageFlags, Pipeline, PrimitiveTopology, Recorder, Resource, Sampler,
 };
 use anyhow::{Context as _, Result};
 
@@ -109,8 +108,7 @@ pub struct PenumbraMap {
     _nearest: Sampler,
     /// Edge adjacency per object (None for non-casters), built once.
     adjacency: Vec<Option<Adjacency>>,
-    vertices: Option<Buffer>,
-    vertex_count: u32,
+    vertices: DynamicVertices,
 }
 
 impl PenumbraMap {
@@ -197,8 +195,7 @@ impl PenumbraMap {
             final_set,
             _nearest: nearest,
             adjacency,
-            vertices: None,
-            vertex_count: 0,
+            vertices: DynamicVertices::new("penumbra-map cones and sheets"),
         }))
     }
 
@@ -220,33 +217,6 @@ impl PenumbraMap {
             out.extend_from_slice(&geom.vertices);
         }
         out
-    }
-
-    fn upload(&mut self, ctx: &Context, vertices: &[PenumbraVertex]) -> Result<()> {
-        let bytes: &[u8] = bytemuck::cast_slice(vertices);
-        let fits = self
-            .vertices
-            .as_ref()
-            .is_some_and(|b| b.size >= bytes.len() as u64);
-        if !fits {
-            // Grow by half again so a light sweeping over a mesh does not reallocate every frame.
-            let size = (bytes.len() as u64 * 3 / 2).max(4096);
-            self.vertices = Some(
-                Buffer::new(
-                    ctx,
-                    size,
-                    BufferUsageFlags::VERTEX_BUFFER,
-                    MemoryLocation::CpuToGpu,
-                    "penumbra-map cones and sheets",
-                )
-                .context("creating the penumbra geometry buffer")?,
-            );
-        }
-        if let Some(b) = self.vertices.as_mut() {
-            b.write(0, bytes)?;
-        }
-        self.vertex_count = vertices.len() as u32;
-        Ok(())
     }
 }
 
@@ -275,7 +245,7 @@ impl Technique for PenumbraMap {
         } else {
             Vec::new()
         };
-        self.upload(ctx, &vertices)?;
+        self.vertices.upload(ctx, &vertices)?;
 
         rec.pass("penumbra-map/shadow_map", |rec| {
             self.shadow.record(rec, frame.gpu);
@@ -283,11 +253,10 @@ impl Technique for PenumbraMap {
         })?;
         rec.pass("penumbra-map/penumbra", |rec| {
             rec.begin_rendering(&[(&self.penumbra, Some([1.0; 4]))], None);
-            if let (Some(vb), true) = (self.vertices.as_ref(), self.vertex_count > 0) {
+            if !self.vertices.is_empty() {
                 rec.bind_pipeline(&self.penumbra_pipeline);
                 rec.bind_sets(&self.penumbra_pipeline, &[&self.penumbra_set]);
-                rec.bind_vertex_buffer(vb);
-                rec.draw(self.vertex_count, 1);
+                self.vertices.draw(rec);
             }
             rec.end_rendering();
             rec.transition(&self.penumbra, ImageLayout::SHADER_READ_ONLY_OPTIMAL);

@@ -86,7 +86,7 @@
 
 use super::{FrameInput, Technique, TechniqueInfo, TechniqueInit};
 use crate::render::gpu_scene::{GpuObject, DRAW_PUSH_BYTES, SCENE_ATTRIBUTES, SCENE_VERTEX_STRIDE};
-use crate::render::passes::{falloff_lut, FinalPass, ShadowMap};
+use crate::render::passes::{falloff_lut, DynamicVertices, FinalPass, ShadowMap};
 use crate::scene::{normal_matrix, Aabb, LightView, Mesh, Scene};
 use crate::shaders;
 use crate::silhouette::{self, Adjacency, SilhouetteEdge};
@@ -537,8 +537,7 @@ pub struct Plateaus {
     /// Per object, per welded vertex: the stamp of the frame that drew its cone (Sec. 3).
     mailbox: Vec<Vec<u64>>,
     stamp: u64,
-    vertices: Option<Buffer>,
-    vertex_count: u32,
+    vertices: DynamicVertices,
 }
 
 impl Plateaus {
@@ -668,8 +667,7 @@ impl Plateaus {
             adjacency,
             mailbox,
             stamp: 0,
-            vertices: None,
-            vertex_count: 0,
+            vertices: DynamicVertices::new("plateau vertices"),
         }))
     }
 
@@ -704,30 +702,6 @@ impl Plateaus {
         }
         b.vertices
     }
-
-    fn upload(&mut self, ctx: &Context, vertices: &[PlateauVertex]) -> Result<()> {
-        let bytes: &[u8] = bytemuck::cast_slice(vertices);
-        let fits = self
-            .vertices
-            .as_ref()
-            .is_some_and(|b| b.size >= bytes.len() as u64);
-        if !fits {
-            // Grow by half again so a moving light does not reallocate every frame.
-            let size = (bytes.len() as u64 * 3 / 2).max(4096);
-            self.vertices = Some(Buffer::new(
-                ctx,
-                size,
-                BufferUsageFlags::VERTEX_BUFFER,
-                MemoryLocation::CpuToGpu,
-                "plateau vertices",
-            )?);
-        }
-        if let Some(b) = self.vertices.as_mut() {
-            b.write(0, bytes)?;
-        }
-        self.vertex_count = vertices.len() as u32;
-        Ok(())
-    }
 }
 
 impl Technique for Plateaus {
@@ -754,7 +728,7 @@ impl Technique for Plateaus {
         } else {
             Vec::new()
         };
-        self.upload(ctx, &vertices)?;
+        self.vertices.upload(ctx, &vertices)?;
 
         let plane_gpu: Option<&GpuObject> = frame.gpu.objects.get(self.receiver.object);
         rec.pass("plateaus/drop_shadow", |rec| {
@@ -773,13 +747,12 @@ impl Technique for Plateaus {
             rec.end_rendering();
             Ok(())
         })?;
-        match (&self.vertices, self.vertex_count > 0) {
-            (Some(vb), true) => rec.pass("plateaus/plateaus", |rec| {
+        match self.vertices.is_empty() {
+            false => rec.pass("plateaus/plateaus", |rec| {
                 // Load: the drop shadow's colour and depth stay in place under the plateaus.
                 rec.begin_rendering(&[(&self.texture, None)], Some((&self.zbuffer, None)));
                 rec.bind_pipeline(&self.plateau_pipeline);
-                rec.bind_vertex_buffer(vb);
-                rec.draw(self.vertex_count, 1);
+                self.vertices.draw(rec);
                 rec.end_rendering();
                 Ok(())
             })?,

@@ -51,15 +51,14 @@
 //! the shadow also detaches the smoothie (Volokh Fig. 8), hence normal offset.
 
 use super::{FrameInput, Technique, TechniqueInfo, TechniqueInit};
-use crate::render::passes::{falloff_lut, FinalPass, ShadowMap, FAR_DEPTH};
+use crate::render::passes::{falloff_lut, DynamicVertices, FinalPass, ShadowMap, FAR_DEPTH};
 use crate::scene::{LightView, Scene};
 use crate::shaders;
 use crate::silhouette::smoothie::{build_smoothies_width, SmoothieVertex, Width};
 use crate::silhouette::{self, Adjacency};
 use crate::vk::{
-    Blend, Buffer, BufferUsageFlags, Context, CullModeFlags, DescriptorSet, Filter, Format,
-    GraphicsPipelineDesc, Image, ImageLayout, ImageUsageFlags, MemoryLocation, Pipeline,
-    PrimitiveTopology, Recorder, Resource, Sampler,
+    Blend, Context, CullModeFlags, DescriptorSet, Filter, Format, GraphicsPipelineDesc, Image,
+    ImageLayout, ImageUsageFlags, Pipeline, PrimitiveTopology, Recorder, Resource, Sampler,
 };
 use anyhow::{Context as _, Result};
 
@@ -120,8 +119,7 @@ pub struct Smoothies {
     _linear: Sampler,
     /// Edge adjacency per object (None for non-casters), built once.
     adjacency: Vec<Option<Adjacency>>,
-    vertices: Option<Buffer>,
-    vertex_count: u32,
+    vertices: DynamicVertices,
 }
 
 impl Smoothies {
@@ -219,8 +217,7 @@ impl Smoothies {
             _nearest: nearest,
             _linear: linear,
             adjacency,
-            vertices: None,
-            vertex_count: 0,
+            vertices: DynamicVertices::new("smoothie vertices"),
         }))
     }
 
@@ -234,30 +231,6 @@ impl Smoothies {
             out.extend_from_slice(&geom.vertices);
         }
         out
-    }
-
-    fn upload(&mut self, ctx: &Context, vertices: &[SmoothieVertex]) -> Result<()> {
-        let bytes: &[u8] = bytemuck::cast_slice(vertices);
-        let fits = self
-            .vertices
-            .as_ref()
-            .is_some_and(|b| b.size >= bytes.len() as u64);
-        if !fits {
-            // Grow by half again so a light sweeping over a mesh does not reallocate every frame.
-            let size = (bytes.len() as u64 * 3 / 2).max(4096);
-            self.vertices = Some(Buffer::new(
-                ctx,
-                size,
-                BufferUsageFlags::VERTEX_BUFFER,
-                MemoryLocation::CpuToGpu,
-                "smoothie vertices",
-            )?);
-        }
-        if let Some(b) = self.vertices.as_mut() {
-            b.write(0, bytes)?;
-        }
-        self.vertex_count = vertices.len() as u32;
-        Ok(())
     }
 }
 
@@ -298,7 +271,7 @@ impl Technique for Smoothies {
         } else {
             Vec::new()
         };
-        self.upload(ctx, &vertices)?;
+        self.vertices.upload(ctx, &vertices)?;
 
         rec.pass("smoothies/shadow_map", |rec| {
             self.shadow.record(rec, frame.gpu);
@@ -312,11 +285,10 @@ impl Technique for Smoothies {
                 ],
                 None,
             );
-            if let (Some(vb), true) = (self.vertices.as_ref(), self.vertex_count > 0) {
+            if !self.vertices.is_empty() {
                 rec.bind_pipeline(&self.smoothie_pipeline);
                 rec.bind_sets(&self.smoothie_pipeline, &[&self.smoothie_set]);
-                rec.bind_vertex_buffer(vb);
-                rec.draw(self.vertex_count, 1);
+                self.vertices.draw(rec);
             }
             rec.end_rendering();
             rec.transition(&self.smoothie_depth, ImageLayout::SHADER_READ_ONLY_OPTIMAL);

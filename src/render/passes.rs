@@ -74,6 +74,14 @@ impl ShadowMap {
         })
     }
 
+    /// `record` as one timed pass named as the pipeline (the name given to `new`).
+    pub fn pass(&self, rec: &mut Recorder<'_>, scene: &GpuScene) -> Result<()> {
+        rec.pass(&self.pipeline.name, |rec| {
+            self.record(rec, scene);
+            Ok(())
+        })
+    }
+
     /// Draws every object from the light and leaves `depth` readable by shaders.
     pub fn record(&self, rec: &mut Recorder<'_>, scene: &GpuScene) {
         rec.begin_rendering(&[(&self.depth, Some([FAR_DEPTH; 4]))], None);
@@ -190,6 +198,20 @@ impl FinalPass {
             },
         )?;
         Ok(Self { pipeline })
+    }
+
+    /// `record` as one timed pass named as the pipeline (the name given to `new`).
+    pub fn pass(
+        &self,
+        rec: &mut Recorder<'_>,
+        targets: &CameraTargets,
+        scene: &GpuScene,
+        set: &DescriptorSet,
+    ) -> Result<()> {
+        rec.pass(&self.pipeline.name, |rec| {
+            self.record(rec, targets, scene, set);
+            Ok(())
+        })
     }
 
     pub fn record(

@@ -29,7 +29,7 @@
 //! a negative determinant (mirrors) are accounted for by swapping `a` and `b`.
 
 use crate::scene::Mesh;
-use anyhow::{bail, Result};
+use anyhow::{bail, Context as _, Result};
 use glam::{Mat4, Vec3};
 use rayon::prelude::*;
 use std::collections::HashMap;
@@ -436,6 +436,27 @@ pub fn extract_serial(adj: &Adjacency, model: Mat4, light_pos_world: Vec3) -> Ve
     let facings: Vec<u8> = (0..adj.num_faces()).map(|f| facing(adj, f, l)).collect();
     (0..adj.edges.len())
         .filter_map(|e| classify(adj, e, &facings, mirror))
+        .collect()
+}
+
+/// Edge adjacency of every object that casts and passes `keep` (index, object), built once
+/// per technique; `None` for the others, so the result zips with `scene.objects`.
+pub fn caster_adjacency(
+    scene: &crate::scene::Scene,
+    keep: impl Fn(usize) -> bool,
+) -> Result<Vec<Option<Adjacency>>> {
+    scene
+        .objects
+        .iter()
+        .enumerate()
+        .map(|(i, o)| {
+            (o.role.casts() && keep(i))
+                .then(|| {
+                    Adjacency::build(&o.mesh)
+                        .with_context(|| format!("edge adjacency of '{}'", o.name))
+                })
+                .transpose()
+        })
         .collect()
 }
 

@@ -74,10 +74,7 @@ impl Technique for Hard {
         rec: &mut Recorder<'_>,
         frame: &FrameInput<'_>,
     ) -> Result<()> {
-        rec.pass("hard/shadow_map", |rec| {
-            self.shadow.record(rec, frame.gpu);
-            Ok(())
-        })?;
+        self.shadow.pass(rec, frame.gpu)?;
         Ok(())
     }
 
@@ -91,11 +88,8 @@ impl Technique for Hard {
         rec: &mut Recorder<'_>,
         frame: &FrameInput<'_>,
     ) -> Result<()> {
-        rec.pass("hard/final", |rec| {
-            self.final_pass
-                .record(rec, frame.targets, frame.gpu, &self.final_set);
-            Ok(())
-        })
+        self.final_pass
+            .pass(rec, frame.targets, frame.gpu, &self.final_set)
     }
 
     fn debug_image(&self, name: &str) -> Option<&Image> {

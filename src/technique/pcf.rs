@@ -130,10 +130,7 @@ impl Technique for Pcf {
         rec: &mut Recorder<'_>,
         frame: &FrameInput<'_>,
     ) -> Result<()> {
-        rec.pass("pcf/shadow_map", |rec| {
-            self.shadow.record(rec, frame.gpu);
-            Ok(())
-        })?;
+        self.shadow.pass(rec, frame.gpu)?;
         Ok(())
     }
 
@@ -147,11 +144,8 @@ impl Technique for Pcf {
         rec: &mut Recorder<'_>,
         frame: &FrameInput<'_>,
     ) -> Result<()> {
-        rec.pass("pcf/final", |rec| {
-            self.final_pass
-                .record(rec, frame.targets, frame.gpu, &self.final_set);
-            Ok(())
-        })
+        self.final_pass
+            .pass(rec, frame.targets, frame.gpu, &self.final_set)
     }
 
     fn debug_image(&self, name: &str) -> Option<&Image> {

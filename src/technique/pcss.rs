@@ -166,10 +166,7 @@ impl Technique for Pcss {
         rec: &mut Recorder<'_>,
         frame: &FrameInput<'_>,
     ) -> Result<()> {
-        rec.pass("pcss/shadow_map", |rec| {
-            self.shadow.record(rec, frame.gpu);
-            Ok(())
-        })?;
+        self.shadow.pass(rec, frame.gpu)?;
         Ok(())
     }
 
@@ -183,11 +180,8 @@ impl Technique for Pcss {
         rec: &mut Recorder<'_>,
         frame: &FrameInput<'_>,
     ) -> Result<()> {
-        rec.pass("pcss/final", |rec| {
-            self.final_pass
-                .record(rec, frame.targets, frame.gpu, &self.final_set);
-            Ok(())
-        })
+        self.final_pass
+            .pass(rec, frame.targets, frame.gpu, &self.final_set)
     }
 
     fn debug_image(&self, name: &str) -> Option<&Image> {

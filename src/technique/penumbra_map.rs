@@ -172,20 +172,7 @@ impl PenumbraMap {
             shaders::PENUMBRA_MAP_FINAL_FRAG,
             &final_set,
         )?;
-        let adjacency = init
-            .scene
-            .objects
-            .iter()
-            .map(|o| {
-                o.role
-                    .casts()
-                    .then(|| {
-                        Adjacency::build(&o.mesh)
-                            .with_context(|| format!("edge adjacency of '{}'", o.name))
-                    })
-                    .transpose()
-            })
-            .collect::<Result<Vec<_>>>()?;
+        let adjacency = silhouette::caster_adjacency(init.scene, |_| true)?;
         Ok(Box::new(Self {
             shadow,
             penumbra,
@@ -247,10 +234,7 @@ impl Technique for PenumbraMap {
         };
         self.vertices.upload(ctx, &vertices)?;
 
-        rec.pass("penumbra-map/shadow_map", |rec| {
-            self.shadow.record(rec, frame.gpu);
-            Ok(())
-        })?;
+        self.shadow.pass(rec, frame.gpu)?;
         rec.pass("penumbra-map/penumbra", |rec| {
             rec.begin_rendering(&[(&self.penumbra, Some([1.0; 4]))], None);
             if !self.vertices.is_empty() {
@@ -277,11 +261,8 @@ impl Technique for PenumbraMap {
         rec: &mut Recorder<'_>,
         frame: &FrameInput<'_>,
     ) -> Result<()> {
-        rec.pass("penumbra-map/final", |rec| {
-            self.final_pass
-                .record(rec, frame.targets, frame.gpu, &self.final_set);
-            Ok(())
-        })
+        self.final_pass
+            .pass(rec, frame.targets, frame.gpu, &self.final_set)
     }
 
     fn debug_image(&self, name: &str) -> Option<&Image> {

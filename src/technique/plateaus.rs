@@ -95,7 +95,7 @@ use crate::vk::{
     Filter, Format, GraphicsPipelineDesc, Image, ImageLayout, ImageUsageFlags, MemoryLocation,
     Pipeline, PrimitiveTopology, Recorder, Resource, Sampler,
 };
-use anyhow::{anyhow, Context as _, Result};
+use anyhow::{anyhow, Result};
 use bytemuck::{Pod, Zeroable};
 use glam::{Mat4, Vec2, Vec3, Vec4};
 
@@ -632,20 +632,8 @@ impl Plateaus {
             shaders::PLATEAUS_FINAL_FRAG,
             &final_set,
         )?;
-        let adjacency = init
-            .scene
-            .objects
-            .iter()
-            .enumerate()
-            .map(|(i, o)| {
-                (o.role.casts() && i != receiver.object)
-                    .then(|| {
-                        Adjacency::build(&o.mesh)
-                            .with_context(|| format!("edge adjacency of '{}'", o.name))
-                    })
-                    .transpose()
-            })
-            .collect::<Result<Vec<_>>>()?;
+        let adjacency = // The plane is never a caster of its own plateaus.
+        silhouette::caster_adjacency(init.scene, |i| i != receiver.object)?;
         let mailbox = adjacency
             .iter()
             .map(|a| vec![0; a.as_ref().map_or(0, |a| a.positions.len())])
@@ -761,10 +749,7 @@ impl Technique for Plateaus {
             _ => rec.skip("plateaus/plateaus", "no silhouette edge"),
         }
         rec.transition(&self.texture, ImageLayout::SHADER_READ_ONLY_OPTIMAL);
-        rec.pass("plateaus/shadow_map", |rec| {
-            self.shadow.record(rec, frame.gpu);
-            Ok(())
-        })?;
+        self.shadow.pass(rec, frame.gpu)?;
         Ok(())
     }
 
@@ -784,11 +769,8 @@ impl Technique for Plateaus {
         rec: &mut Recorder<'_>,
         frame: &FrameInput<'_>,
     ) -> Result<()> {
-        rec.pass("plateaus/final", |rec| {
-            self.final_pass
-                .record(rec, frame.targets, frame.gpu, &self.final_set);
-            Ok(())
-        })
+        self.final_pass
+            .pass(rec, frame.targets, frame.gpu, &self.final_set)
     }
 
     fn debug_image(&self, name: &str) -> Option<&Image> {

@@ -219,11 +219,8 @@ impl Technique for Reference {
             rec.cpu("reference/upload", || self.upload(&vis))?;
             self.last = Some(key);
         }
-        rec.pass("reference/final", |rec| {
-            self.final_pass
-                .record(rec, frame.targets, frame.gpu, &self.final_set);
-            Ok(())
-        })
+        self.final_pass
+            .pass(rec, frame.targets, frame.gpu, &self.final_set)
     }
 
     fn debug_image(&self, name: &str) -> Option<&Image> {

@@ -60,7 +60,7 @@ use crate::vk::{
     Blend, Context, CullModeFlags, DescriptorSet, Filter, Format, GraphicsPipelineDesc, Image,
     ImageLayout, ImageUsageFlags, Pipeline, PrimitiveTopology, Recorder, Resource, Sampler,
 };
-use anyhow::{Context as _, Result};
+use anyhow::Result;
 
 pub const INFO: TechniqueInfo = TechniqueInfo {
     name: "smoothies",
@@ -191,20 +191,7 @@ impl Smoothies {
             shaders::SMOOTHIES_FINAL_FRAG,
             &final_set,
         )?;
-        let adjacency = init
-            .scene
-            .objects
-            .iter()
-            .map(|o| {
-                o.role
-                    .casts()
-                    .then(|| {
-                        Adjacency::build(&o.mesh)
-                            .with_context(|| format!("edge adjacency of '{}'", o.name))
-                    })
-                    .transpose()
-            })
-            .collect::<Result<Vec<_>>>()?;
+        let adjacency = silhouette::caster_adjacency(init.scene, |_| true)?;
         Ok(Box::new(Self {
             shadow,
             smoothie_depth,
@@ -273,10 +260,7 @@ impl Technique for Smoothies {
         };
         self.vertices.upload(ctx, &vertices)?;
 
-        rec.pass("smoothies/shadow_map", |rec| {
-            self.shadow.record(rec, frame.gpu);
-            Ok(())
-        })?;
+        self.shadow.pass(rec, frame.gpu)?;
         rec.pass("smoothies/smoothie", |rec| {
             rec.begin_rendering(
                 &[
@@ -310,11 +294,8 @@ impl Technique for Smoothies {
         rec: &mut Recorder<'_>,
         frame: &FrameInput<'_>,
     ) -> Result<()> {
-        rec.pass("smoothies/final", |rec| {
-            self.final_pass
-                .record(rec, frame.targets, frame.gpu, &self.final_set);
-            Ok(())
-        })
+        self.final_pass
+            .pass(rec, frame.targets, frame.gpu, &self.final_set)
     }
 
     fn debug_image(&self, name: &str) -> Option<&Image> {

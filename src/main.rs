@@ -76,6 +76,10 @@ struct RenderArgs {
     /// Smoothie width t as a fraction of the shadow map (default: calibrated from R).
     #[arg(long, allow_negative_numbers = true)]
     smoothie_t: Option<f32>,
+    /// Where smoothies find silhouettes and build their geometry: gpu (compute passes and
+    /// an indirect draw) or cpu (rayon, then an upload).
+    #[arg(long, default_value = "gpu")]
+    silhouettes: softshadow::render::SilhouettePath,
     /// Normal offset of shadow lookups, in shadow-map texels.
     #[arg(long, default_value_t = 2.0)]
     normal_offset: f32,
@@ -258,6 +262,7 @@ fn render(cli: &Cli, a: &RenderArgs) -> Result<()> {
         shadow_res: a.shadow_res,
         light_radius: a.light_radius,
         smoothie_t: a.smoothie_t,
+        silhouettes: a.silhouettes,
         pcf_kernel: a.pcf_kernel,
         normal_offset_texels: a.normal_offset,
         depth_bias: a.depth_bias,

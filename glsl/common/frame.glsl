@@ -1,5 +1,6 @@
 // Per-frame constants shared by every pass (set 0, binding 0) and the per-draw push
-// constants. Mirrors `FrameUniforms` / `DrawPush` in src/render/mod.rs (std140).
+// constants (compute shaders with their own push constants define FRAME_NO_DRAW_PUSH).
+// Mirrors `FrameUniforms` / `DrawPush` in src/render/mod.rs (std140).
 #ifndef FRAME_GLSL
 #define FRAME_GLSL
 
@@ -15,10 +16,12 @@ layout(set = 0, binding = 0, std140) uniform Frame {
     vec4 technique2;         // technique-specific
 } frame;
 
+#ifndef FRAME_NO_DRAW_PUSH
 layout(push_constant, std430) uniform Draw {
     mat4 model;
     vec4 albedo_receives;    // rgb: albedo, w: 1 if the object receives shadows
     vec4 flags;              // x: 1 if the object casts shadows
 } draw;
+#endif
 
 #endif

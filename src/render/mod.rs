@@ -49,6 +49,28 @@ pub struct Settings {
     pub accum_format: AccumFormat,
     /// Shadow rays per pixel of the `reference` technique (DESIGN.md: at least 256).
     pub reference_samples: u32,
+    /// Where smoothies find silhouettes and build their geometry.
+    pub silhouettes: SilhouettePath,
+}
+
+/// Where the silhouette edges and the smoothie geometry are computed each frame.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SilhouettePath {
+    /// Rayon over the edges, then an upload of the vertices (`silhouette::extract`).
+    Cpu,
+    /// Compute passes writing the vertex buffer of an indirect draw (`silhouette::gpu`).
+    Gpu,
+}
+
+impl std::str::FromStr for SilhouettePath {
+    type Err = anyhow::Error;
+    fn from_str(s: &str) -> Result<Self> {
+        match s.to_ascii_lowercase().as_str() {
+            "cpu" => Ok(SilhouettePath::Cpu),
+            "gpu" => Ok(SilhouettePath::Gpu),
+            _ => bail!("--silhouettes '{s}' is not a path: allowed cpu, gpu"),
+        }
+    }
 }
 
 /// A PCF filter kernel.
@@ -125,6 +147,7 @@ impl Default for Settings {
             cache_light_passes: true,
             culling: true,
             reference_samples: crate::eval::reference::MIN_SAMPLES,
+            silhouettes: SilhouettePath::Gpu,
         }
     }
 }
@@ -225,27 +248,97 @@ pub fn camera_view_proj(scene: &Scene, width: u32, height: u32) -> Mat4 {
     proj * view
 }
 
-/// The light frustum with near/far fitted to the bounds of everything in the scene, for
-/// depth precision: near is the closest bounds corner (never closer than far * 1e-4, also
-/// when the light sits inside the bounds), far the farthest.
+/// The light frustum with near/far fitted to what the light actually sees, for depth
+/// precision: each object's world bounds are clipped to the light's side planes (and to
+/// depth > 0), and near/far bracket the depths of what remains, 1 % outside on each side.
+/// An object outside the light's cone adds nothing, so a large scene whose lit part is
+/// small gets a tight range. Near is never closer than far * 1e-4 (also when the light sits
+/// inside a bounding box); with nothing in the cone the whole scene's bounds are used.
 pub fn fit_light(scene: &Scene) -> LightView {
     let probe = LightView::new(&scene.light, 1.0, 2.0);
-    let b = scene.bounds();
-    let mut lo = f32::MAX;
-    let mut hi = f32::MIN;
-    for i in 0..8 {
-        let c = Vec3::new(
-            if i & 1 == 0 { b.min.x } else { b.max.x },
-            if i & 2 == 0 { b.min.y } else { b.max.y },
-            if i & 4 == 0 { b.min.z } else { b.max.z },
-        );
-        let d = probe.linear_depth(c);
-        lo = lo.min(d);
-        hi = hi.max(d);
+    let tan_half = (scene.light.fov_deg.to_radians() * 0.5).tan();
+    let mut range: Option<(f32, f32)> = None;
+    for o in &scene.objects {
+        let b = o.world_bounds();
+        if b.is_empty() {
+            continue;
+        }
+        if let Some((lo, hi)) = clipped_depth_range(&b, probe.view, tan_half) {
+            range = Some(range.map_or((lo, hi), |(a, c)| (a.min(lo), c.max(hi))));
+        }
     }
+    let (lo, hi) = range.unwrap_or_else(|| {
+        let b = scene.bounds();
+        b.corners()
+            .iter()
+            .map(|&c| probe.linear_depth(c))
+            .fold((f32::MAX, f32::MIN), |(lo, hi), d| (lo.min(d), hi.max(d)))
+    });
     let far = (hi * 1.01).max(1e-6);
     let near = (lo * 0.99).max(far * 1e-4);
     LightView::new(&scene.light, near, far)
+}
+
+/// Linear-depth range of the part of box `b` inside the infinite light pyramid
+/// (|x|, |y| <= tan_half * depth, depth > 0, in light view space), or `None` when the box
+/// misses it. Exact for the box: each face is clipped as a polygon (Sutherland-Hodgman).
+fn clipped_depth_range(b: &crate::scene::Aabb, view: Mat4, tan_half: f32) -> Option<(f32, f32)> {
+    let c = b.corners().map(|p| view.transform_point3(p));
+    // Faces of the box as corner-index quads (corner i has bit 0: x, bit 1: y, bit 2: z).
+    const FACES: [[usize; 4]; 6] = [
+        [0, 2, 6, 4],
+        [1, 3, 7, 5],
+        [0, 1, 5, 4],
+        [2, 3, 7, 6],
+        [0, 1, 3, 2],
+        [4, 5, 7, 6],
+    ];
+    // Inside when plane(p) >= 0; depth = -z. The depth plane keeps a sliver in front of the
+    // light so that a box around the light still yields a positive near.
+    let planes: [&dyn Fn(Vec3) -> f32; 5] = [
+        &|p: Vec3| -p.z * tan_half - p.x,
+        &|p: Vec3| -p.z * tan_half + p.x,
+        &|p: Vec3| -p.z * tan_half - p.y,
+        &|p: Vec3| -p.z * tan_half + p.y,
+        &|p: Vec3| -p.z,
+    ];
+    let mut range: Option<(f32, f32)> = None;
+    for face in FACES {
+        let mut poly: Vec<Vec3> = face.iter().map(|&i| c[i]).collect();
+        for plane in planes {
+            let mut out = Vec::with_capacity(poly.len() + 2);
+            for (i, &p) in poly.iter().enumerate() {
+                let q = poly[(i + 1) % poly.len()];
+                let (dp, dq) = (plane(p), plane(q));
+                if dp >= 0.0 {
+                    out.push(p);
+                }
+                if (dp >= 0.0) != (dq >= 0.0) {
+                    out.push(p + (q - p) * (dp / (dp - dq)));
+                }
+            }
+            poly = out;
+            if poly.is_empty() {
+                break;
+            }
+        }
+        for p in poly {
+            let d = -p.z;
+            if d.is_finite() {
+                range = Some(range.map_or((d, d), |(lo, hi)| (lo.min(d), hi.max(d))));
+            }
+        }
+    }
+    // The clipped faces miss one vertex of the box-pyramid intersection: the light itself,
+    // when it sits inside the box.
+    let light = view.inverse().transform_point3(Vec3::ZERO);
+    if let Some((lo, _)) = range.as_mut() {
+        if (b.min.cmple(light) & light.cmple(b.max)).all() {
+            *lo = 0.0;
+        }
+    }
+    // A box that only touches the apex leaves depth 0: no usable range from it.
+    range.filter(|&(_, hi)| hi > 0.0)
 }
 
 fn frame_uniforms(f: &FrameInput<'_>, technique: [[f32; 4]; 2]) -> FrameUniforms {
@@ -506,5 +599,59 @@ pub fn half_to_f32(h: u16) -> f32 {
             }
         }
         _ => sign * (1.0 + frac / 1024.0) * 2f32.powi(exp - 15),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::Aabb;
+
+    fn view_down_z() -> Mat4 {
+        // Light at the origin looking down -z: view space = world space.
+        Mat4::IDENTITY
+    }
+
+    #[test]
+    fn clipped_range_of_a_box_inside_the_cone_is_its_depth_range() {
+        let b = Aabb::new(Vec3::new(-0.1, -0.1, -3.0), Vec3::new(0.1, 0.1, -2.0));
+        let (lo, hi) = clipped_depth_range(&b, view_down_z(), 1.0).unwrap();
+        assert!((lo - 2.0).abs() < 1e-6 && (hi - 3.0).abs() < 1e-6, "{lo} {hi}");
+    }
+
+    #[test]
+    fn a_box_outside_the_cone_or_behind_the_light_gives_nothing() {
+        let beside = Aabb::new(Vec3::new(10.0, -0.1, -3.0), Vec3::new(11.0, 0.1, -2.0));
+        assert_eq!(clipped_depth_range(&beside, view_down_z(), 1.0), None);
+        let behind = Aabb::new(Vec3::new(-1.0, -1.0, 2.0), Vec3::new(1.0, 1.0, 3.0));
+        assert_eq!(clipped_depth_range(&behind, view_down_z(), 1.0), None);
+    }
+
+    #[test]
+    fn a_huge_ground_is_clipped_to_the_cone() {
+        // A plane 100 wide at depth ~5 seen through a 90-degree cone: only |x|,|y| <= 5 of it
+        // is lit, and a tilt of the plane makes its far corners much deeper than what is seen.
+        let ground = Aabb::new(Vec3::new(-100.0, -100.0, -5.0), Vec3::new(100.0, 100.0, -4.0));
+        let (lo, hi) = clipped_depth_range(&ground, view_down_z(), 1.0).unwrap();
+        assert!((lo - 4.0).abs() < 1e-5 && (hi - 5.0).abs() < 1e-5, "{lo} {hi}");
+        // A box around the light: the range starts at the light.
+        let around = Aabb::new(Vec3::splat(-1.0), Vec3::splat(1.0));
+        let (lo, hi) = clipped_depth_range(&around, view_down_z(), 1.0).unwrap();
+        assert!(lo.abs() < 1e-6 && (hi - 1.0).abs() < 1e-6, "{lo} {hi}");
+    }
+
+    #[test]
+    fn fit_light_ignores_objects_the_light_cannot_see() {
+        let mut scene = Scene::load("cylinder").unwrap();
+        let before = fit_light(&scene);
+        let mut far_away = scene.objects[0].clone();
+        far_away.name = "far away".into();
+        // Far behind the light: the old scene-bounds fit would push `far` out to it.
+        let back = (scene.light.position - scene.light.target).normalize() * 1000.0;
+        far_away.transform = Mat4::from_translation(scene.light.position + back);
+        scene.objects.push(far_away);
+        let after = fit_light(&scene);
+        assert_eq!((before.near, before.far), (after.near, after.far));
+        assert!(after.far < 100.0, "far {}", after.far);
     }
 }

@@ -35,6 +35,7 @@ use rayon::prelude::*;
 use std::collections::HashMap;
 use std::hash::{BuildHasherDefault, Hasher};
 
+pub mod gpu;
 pub mod penumbra;
 pub mod smoothie;
 
@@ -403,7 +404,7 @@ fn classify(adj: &Adjacency, e: usize, facings: &[u8], mirror: bool) -> Option<S
     })
 }
 
-fn light_in_object(model: Mat4, light_pos_world: Vec3) -> (Vec3, bool) {
+pub(crate) fn light_in_object(model: Mat4, light_pos_world: Vec3) -> (Vec3, bool) {
     // A singular model has no object-space light; such an object is flat and casts no
     // meaningful silhouette, so any finite light position will do.
     let inv = model.inverse();

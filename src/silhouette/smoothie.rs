@@ -115,6 +115,27 @@ impl Width {
     }
 }
 
+/// What the smoothie geometry of an object depends on besides its model matrix: a cache
+/// keyed by this and the model rebuilds only the casters that moved.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct GeometryKey {
+    view_proj: Mat4,
+    position: Vec3,
+    near: f32,
+    width: Width,
+}
+
+impl GeometryKey {
+    pub fn new(light: &LightView, width: Width) -> Self {
+        Self {
+            view_proj: light.view_proj,
+            position: light.position,
+            near: light.near,
+            width,
+        }
+    }
+}
+
 /// Smoothies of one object for one light.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct SmoothieGeometry {

@@ -54,8 +54,11 @@ use super::{FrameInput, Technique, TechniqueInfo, TechniqueInit};
 use crate::render::passes::{falloff_lut, DynamicVertices, FinalPass, ShadowMap, FAR_DEPTH};
 use crate::scene::{LightView, Scene};
 use crate::shaders;
-use crate::silhouette::smoothie::{build_smoothies_width, SmoothieVertex, Width};
+use crate::render::{fit_light, SilhouettePath};
+use crate::silhouette::gpu::GpuSilhouettes;
+use crate::silhouette::smoothie::{build_smoothies_width, GeometryKey, SmoothieVertex, Width};
 use crate::silhouette::{self, Adjacency};
+use glam::Mat4;
 use crate::vk::{
     Blend, Context, CullModeFlags, DescriptorSet, Filter, Format, GraphicsPipelineDesc, Image,
     ImageLayout, ImageUsageFlags, Pipeline, PrimitiveTopology, Recorder, Resource, Sampler,
@@ -119,7 +122,22 @@ pub struct Smoothies {
     _linear: Sampler,
     /// Edge adjacency per object (None for non-casters), built once.
     adjacency: Vec<Option<Adjacency>>,
+    path: SilhouettePath,
+    /// CPU path: per object, the geometry and what it was built for (model, light key), so
+    /// that a frame rebuilds only the casters that moved.
+    cpu_cache: Vec<Option<CachedGeometry>>,
     vertices: DynamicVertices,
+    /// GPU path: silhouettes and geometry by compute, drawn indirectly.
+    gpu_silhouettes: Option<GpuSilhouettes>,
+    /// Whether the smoothie pass draws anything (false at t = 0).
+    draw_smoothies: bool,
+}
+
+/// One caster's CPU-built smoothies and the inputs they were built from.
+struct CachedGeometry {
+    model: Mat4,
+    light: GeometryKey,
+    vertices: Vec<SmoothieVertex>,
 }
 
 impl Smoothies {
@@ -192,6 +210,24 @@ impl Smoothies {
             &final_set,
         )?;
         let adjacency = silhouette::caster_adjacency(init.scene, |_| true)?;
+        let path = init.settings.silhouettes;
+        let gpu_silhouettes = match path {
+            SilhouettePath::Cpu => None,
+            SilhouettePath::Gpu => {
+                // Sized for the scene's own light; `prepare` grows it when a frame needs more.
+                let light = fit_light(init.scene);
+                let radius = init.settings.light_radius.unwrap_or(init.scene.light.radius);
+                let width = smoothie_widths(init.settings.smoothie_t, &light, radius);
+                GpuSilhouettes::new(
+                    ctx,
+                    init.ubo,
+                    &init.scene.objects,
+                    &adjacency,
+                    &light,
+                    width,
+                )?
+            }
+        };
         Ok(Box::new(Self {
             shadow,
             smoothie_depth,
@@ -203,21 +239,60 @@ impl Smoothies {
             _falloff: falloff,
             _nearest: nearest,
             _linear: linear,
+            cpu_cache: adjacency.iter().map(|_| None).collect(),
             adjacency,
+            path,
             vertices: DynamicVertices::new("smoothie vertices"),
+            gpu_silhouettes,
+            draw_smoothies: false,
         }))
     }
 
-    /// Silhouettes and smoothie geometry of every caster for this light.
-    fn build_geometry(&self, frame: &FrameInput<'_>, width: Width) -> Vec<SmoothieVertex> {
-        let mut out = Vec::new();
-        for (obj, adj) in frame.scene.objects.iter().zip(&self.adjacency) {
+    /// CPU path: silhouettes and smoothie geometry of every caster that moved (or of all of
+    /// them when the light changed) for this light; returns how many were rebuilt.
+    fn build_geometry(&mut self, frame: &FrameInput<'_>, width: Width, force: bool) -> usize {
+        let key = GeometryKey::new(frame.light, width);
+        let mut rebuilt = 0;
+        for ((obj, adj), cache) in frame
+            .scene
+            .objects
+            .iter()
+            .zip(&self.adjacency)
+            .zip(&mut self.cpu_cache)
+        {
             let Some(adj) = adj else { continue };
+            if !force
+                && cache
+                    .as_ref()
+                .is_some_and(|c| c.model == obj.transform && c.light == key)
+            {
+                continue;
+            }
             let sil = silhouette::extract(adj, obj.transform, frame.light.position);
             let geom = build_smoothies_width(adj, &sil, obj.transform, frame.light, width);
-            out.extend_from_slice(&geom.vertices);
+            *cache = Some(CachedGeometry {
+                model: obj.transform,
+                light: key,
+                vertices: geom.vertices,
+            });
+            rebuilt += 1;
+        }
+        rebuilt
+    }
+
+    /// Every caster's cached geometry, in object order.
+    fn cached_vertices(&self) -> Vec<SmoothieVertex> {
+        let n = self.cpu_cache.iter().flatten().map(|c| c.vertices.len()).sum();
+        let mut out = Vec::with_capacity(n);
+        for c in self.cpu_cache.iter().flatten() {
+            out.extend_from_slice(&c.vertices);
         }
         out
+    }
+
+    /// The GPU silhouettes, for the CPU-vs-GPU test (`None` on the CPU path).
+    pub fn gpu_silhouettes(&self) -> Option<&GpuSilhouettes> {
+        self.gpu_silhouettes.as_ref()
     }
 }
 
@@ -234,7 +309,9 @@ impl Technique for Smoothies {
             frame.light,
             frame.light_radius,
         );
-        [[t, 0.0, 0.0, 0.0], [0.0; 4]]
+        // y: the fixed width for the GPU silhouette pass, or -1 for the calibrated one.
+        let fixed = frame.settings.smoothie_t.unwrap_or(-1.0);
+        [[t, fixed, 0.0, 0.0], [0.0; 4]]
     }
 
     fn record_light(
@@ -251,14 +328,27 @@ impl Technique for Smoothies {
         );
         let width = smoothie_widths(frame.settings.smoothie_t, frame.light, frame.light_radius);
         // t = 0 (a point light): no smoothie can shadow anything, the result is `hard`.
-        let vertices = if t > 0.0 {
+        self.draw_smoothies = t > 0.0;
+        // Without pass caching every frame rebuilds everything (the bench's baseline).
+        let force = !frame.settings.cache_light_passes;
+        if !self.draw_smoothies {
+            rec.skip("smoothies/silhouettes", "light radius 0: hard shadows");
+        } else if let Some(gpu) = self.gpu_silhouettes.as_mut() {
+            gpu.prepare(ctx)?;
+            if !force && gpu.dirty(&frame.scene.objects, frame.light, width) == 0 {
+                rec.skip("smoothies/silhouettes", "light and casters unchanged");
+            } else {
+                rec.pass("smoothies/silhouettes", |rec| {
+                    gpu.record(rec, &frame.scene.objects, frame.light, width, force)
+                })?;
+            }
+        } else if self.path == SilhouettePath::Cpu {
             rec.cpu("smoothies/silhouettes", || {
-                self.build_geometry(frame, width)
-            })
-        } else {
-            Vec::new()
-        };
-        self.vertices.upload(ctx, &vertices)?;
+                self.build_geometry(frame, width, force)
+            });
+            let vertices = self.cached_vertices();
+            self.vertices.upload(ctx, &vertices)?;
+        }
 
         self.shadow.pass(rec, frame.gpu)?;
         rec.pass("smoothies/smoothie", |rec| {
@@ -269,10 +359,15 @@ impl Technique for Smoothies {
                 ],
                 None,
             );
-            if !self.vertices.is_empty() {
+            if self.draw_smoothies {
                 rec.bind_pipeline(&self.smoothie_pipeline);
                 rec.bind_sets(&self.smoothie_pipeline, &[&self.smoothie_set]);
-                self.vertices.draw(rec);
+                match (&self.gpu_silhouettes, self.path) {
+                    (Some(gpu), _) => gpu.draw(rec),
+                    (None, SilhouettePath::Cpu) => self.vertices.draw(rec),
+                    // The GPU path with no caster edge: nothing to draw.
+                    (None, SilhouettePath::Gpu) => {}
+                }
             }
             rec.end_rendering();
             rec.transition(&self.smoothie_depth, ImageLayout::SHADER_READ_ONLY_OPTIMAL);
@@ -283,9 +378,11 @@ impl Technique for Smoothies {
     }
 
     fn light_passes(&self) -> Vec<String> {
-        ["smoothies/shadow_map", "smoothies/smoothie"]
-            .map(String::from)
-            .to_vec()
+        let mut passes = vec!["smoothies/shadow_map", "smoothies/smoothie"];
+        if self.gpu_silhouettes.is_some() {
+            passes.insert(0, "smoothies/silhouettes");
+        }
+        passes.into_iter().map(String::from).collect()
     }
 
     fn record_final(

@@ -1,0 +1,183 @@
+#version 450
+#extension GL_GOOGLE_include_directive : require
+// One thread per welded vertex of one caster: where kept silhouette edges meet (listed by
+// edges.comp), the corner fan of build_corner in src/silhouette/smoothie.rs. Two edges: a
+// fan over the shorter arc between their outward directions (the far side at a hairpin);
+// one edge or three and more: the paper's special case, a fan over the whole disc with
+// spokes at every edge direction and at the projected vertex normal.
+#include "silhouette/silhouette.glsl"
+
+layout(local_size_x = 64) in;
+
+// Spokes of the special case: every incident edge plus the vertex normal.
+const uint MAX_SPOKES = MAX_INCIDENT + 1u;
+
+uint ids[MAX_INCIDENT];
+uint n_ids;
+
+vec2 normalize_or_zero(vec2 v) {
+    float rcp = 1.0 / length(v);
+    return (rcp > 0.0 && !isinf(rcp)) ? v * rcp : vec2(0.0);
+}
+
+// vertex_normal_screen: the sum of the faces of the vertex's silhouette edges, projected.
+vec2 vertex_normal_screen(vec3 p, vec2 s, float z) {
+    vec3 n = vec3(0.0);
+    for (uint i = 0u; i < n_ids; ++i) {
+        uvec4 e = edges[ids[i]];
+        uint nf = face_count(e);
+        for (uint k = 0u; k < nf; ++k) {
+            n += face_planes[face_entry(e, k) >> 1].xyz;
+        }
+    }
+    float rcp = 1.0 / length(n);
+    n = (rcp > 0.0 && !isinf(rcp)) ? n * rcp : vec3(0.0);
+    return project_normal(p, z, s, n);
+}
+
+// glam's Vec2::angle_to: signed angle from a to b.
+float angle_to(vec2 a, vec2 b) {
+    float c = clamp(dot(a, b) / sqrt(dot(a, a) * dot(b, b)), -1.0, 1.0);
+    return acos(c) * (perp_dot(a, b) >= 0.0 ? 1.0 : -1.0);
+}
+
+// Segments of a fan over `sweep` radians (plus the overlap on both sides).
+uint fan_segments(float sweep) {
+    float padded = abs(sweep) + 2.0 * FAN_OVERLAP;
+    return max(uint(ceil(padded / MAX_SEGMENT)), 1u);
+}
+
+// `fan` of smoothie.rs: triangles (s, at(i), at(i + 1)) whose outer vertices sit at
+// t / cos(segment / 2), so the fan covers the disc sector of radius t.
+void write_fan(inout uint at, vec2 s, float inv, float t, float from, float sweep) {
+    float pad = sweep < 0.0 ? -FAN_OVERLAP : FAN_OVERLAP;
+    from -= pad;
+    sweep += 2.0 * pad;
+    uint k = fan_segments(sweep - 2.0 * pad);
+    float phi = sweep / float(k);
+    float r = t / cos(phi * 0.5);
+    vec2 prev = s + r * vec2(cos(from), sin(from));
+    for (uint i = 0u; i < k; ++i) {
+        float a = from + phi * float(i + 1u);
+        vec2 next = s + r * vec2(cos(a), sin(a));
+        put_vertex(at + 0u, s, inv, 1.0, s, vec2(0.0), t);
+        put_vertex(at + 1u, prev, inv, 1.0, s, vec2(0.0), t);
+        put_vertex(at + 2u, next, inv, 1.0, s, vec2(0.0), t);
+        at += 3u;
+        prev = next;
+    }
+}
+
+void main() {
+    uint v = thread_index();
+    if (v >= pc.counts.y) {
+        return;
+    }
+    g_caster = vertex_caster[v];
+    if (casters[g_caster].info.w == 0u) {
+        return;
+    }
+    uint count = incident_count[v];
+    if (count == 0u) {
+        return;
+    }
+    // The CPU orders a vertex's edges by edge index; the atomics of edges.comp do not.
+    n_ids = min(count, MAX_INCIDENT);
+    for (uint i = 0u; i < n_ids; ++i) {
+        uint id = incident[v * MAX_INCIDENT + i];
+        uint j = i;
+        while (j > 0u && ids[j - 1u] > id) {
+            ids[j] = ids[j - 1u];
+            --j;
+        }
+        ids[j] = id;
+    }
+    vec3 p = world(v);
+    vec2 s;
+    float z;
+    if (!project(p, s, z)) {
+        return;
+    }
+    float inv = 1.0 / z;
+    float t = width_at(z);
+
+    if (count == 2u) {
+        vec2 d1 = edge_dir[ids[0]];
+        vec2 d2 = edge_dir[ids[1]];
+        float angle = acos(clamp(dot(d1, d2), -1.0, 1.0));
+        if (angle < MIN_CORNER_ANGLE) {
+            return;
+        }
+        float a1 = atan(d1.y, d1.x);
+        float sweep = angle_to(d1, d2);
+        if (angle > PI - MIN_CORNER_ANGLE) {
+            // Hairpin: the outside is away from where the two edges go.
+            vec2 away = vec2(0.0);
+            for (uint i = 0u; i < 2u; ++i) {
+                uvec4 e = edges[ids[i]];
+                uint other = e.x == v ? e.y : e.x;
+                vec2 so;
+                float zo;
+                if (project(world(other), so, zo)) {
+                    away -= normalize_or_zero(so - s);
+                }
+            }
+            if (length(away) < 1e-3) {
+                away = vertex_normal_screen(p, s, z);
+            }
+            sweep = dot(away, perp(d1)) >= 0.0 ? PI : -PI;
+        }
+        uint base;
+        if (reserve(3u * fan_segments(sweep), base)) {
+            write_fan(base, s, inv, t, a1, sweep);
+        }
+        return;
+    }
+
+    // Special case: spokes at every d_i and at the projected vertex normal; full disc.
+    float angles[MAX_SPOKES];
+    uint m = 0u;
+    for (uint i = 0u; i < n_ids; ++i) {
+        vec2 d = edge_dir[ids[i]];
+        angles[m++] = atan(d.y, d.x);
+    }
+    vec2 nv = vertex_normal_screen(p, s, z);
+    if (length(nv) > 1e-9) {
+        angles[m++] = atan(nv.y, nv.x);
+    }
+    for (uint i = 1u; i < m; ++i) {
+        float x = angles[i];
+        uint j = i;
+        while (j > 0u && angles[j - 1u] > x) {
+            angles[j] = angles[j - 1u];
+            --j;
+        }
+        angles[j] = x;
+    }
+    // Drop spokes within 1e-6 rad of the previous kept one (Vec::dedup_by).
+    uint kept = 0u;
+    for (uint i = 0u; i < m; ++i) {
+        if (kept == 0u || abs(angles[i] - angles[kept - 1u]) >= 1e-6) {
+            angles[kept++] = angles[i];
+        }
+    }
+    uint total = 0u;
+    for (uint i = 0u; i < kept; ++i) {
+        float next = i + 1u < kept ? angles[i + 1u] : angles[0] + 2.0 * PI;
+        float gap = next - angles[i];
+        if (gap > 1e-6) {
+            total += fan_segments(gap);
+        }
+    }
+    uint at;
+    if (total == 0u || !reserve(3u * total, at)) {
+        return;
+    }
+    for (uint i = 0u; i < kept; ++i) {
+        float next = i + 1u < kept ? angles[i + 1u] : angles[0] + 2.0 * PI;
+        float gap = next - angles[i];
+        if (gap > 1e-6) {
+            write_fan(at, s, inv, t, angles[i], gap);
+        }
+    }
+}

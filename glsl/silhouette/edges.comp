@@ -1,0 +1,193 @@
+#version 450
+#extension GL_GOOGLE_include_directive : require
+// One thread per edge of one caster: is it a silhouette edge for this light (the facing
+// test and classification of src/silhouette/mod.rs), and if so its smoothie quad (build_edge
+// of src/silhouette/smoothie.rs), appended to the vertex buffer; the edge is then listed at
+// both of its welded ends for corners.comp.
+#include "silhouette/silhouette.glsl"
+
+layout(local_size_x = 64) in;
+
+const uint BACK = 0u;
+const uint FRONT = 1u;
+const uint DEGEN = 2u;
+
+bool degenerate(uint f) {
+    return all(equal(face_planes[f].xyz, vec3(0.0)));
+}
+
+uint facing(uint f, vec3 l) {
+    vec4 plane = face_planes[f];
+    if (all(equal(plane.xyz, vec3(0.0)))) {
+        return DEGEN;
+    }
+    // `precise`: no fused multiply-add, the same roundings as the CPU's
+    // `n.dot(light - p)` ((x + y) + z), so both paths agree on every face, even at grazing
+    // light where the product is a few ulps from 0.
+    precise vec3 dl = l - vec3(plane.w, face_p0yz[f]);
+    vec3 n = plane.xyz;
+    precise float s = n.x * dl.x + n.y * dl.y + n.z * dl.z;
+    return s > 0.0 ? FRONT : BACK;
+}
+
+// Which side of s0 -> s1 the valid faces' third vertices lie on (third_vertex_side).
+float third_vertex_side(uvec4 e, uint a, uint b, vec2 s0, vec2 s1) {
+    float side = 0.0;
+    uint nf = face_count(e);
+    for (uint i = 0u; i < nf; ++i) {
+        uint f = face_entry(e, i) >> 1;
+        if (degenerate(f)) {
+            continue;
+        }
+        uvec4 t = triangles[f];
+        uint c = (t.x != a && t.x != b) ? t.x : ((t.y != a && t.y != b) ? t.y : t.z);
+        if (c == a || c == b) {
+            continue;
+        }
+        vec2 sc;
+        float zc;
+        if (project(world(c), sc, zc)) {
+            float cr = perp_dot(s1 - s0, sc - s0);
+            if (abs(cr) > 1e-12) {
+                side += sign(cr);
+            }
+        }
+    }
+    return side;
+}
+
+void main() {
+    uint ei = thread_index();
+    if (ei >= pc.counts.x) {
+        return;
+    }
+    g_caster = edge_caster[ei];
+    if (casters[g_caster].info.w == 0u) {
+        return;
+    }
+    uvec4 e = edges[ei];
+    uint valid = 0u;
+    uint n_front = 0u;
+    uint first_front = 0xffffffffu;
+    uint first_valid = 0xffffffffu;
+    vec3 l = light_obj();
+    uint nf = face_count(e);
+    for (uint i = 0u; i < nf; ++i) {
+        uint ef = face_entry(e, i);
+        uint fa = facing(ef >> 1, l);
+        if (fa == DEGEN) {
+            continue;
+        }
+        valid += 1u;
+        if (first_valid == 0xffffffffu) {
+            first_valid = ef;
+        }
+        if (fa == FRONT) {
+            n_front += 1u;
+            if (first_front == 0xffffffffu) {
+                first_front = ef;
+            }
+        }
+    }
+    bool boundary = valid == 1u;
+    bool is_sil = valid > 0u && (boundary || (n_front > 0u && n_front < valid));
+    if (!is_sil) {
+        sil[ei] = 0u;
+        return;
+    }
+    // Along the front face's winding; a back-facing boundary face backwards (see mod.rs).
+    bool along = first_front != 0xffffffffu ? (first_front & 1u) != 0u : (first_valid & 1u) == 0u;
+    uint front_face = (first_front != 0xffffffffu ? first_front : first_valid) >> 1;
+    bool reversed = !along;
+    if (casters[g_caster].info.x != 0u) {
+        reversed = !reversed;
+    }
+    uint a = reversed ? e.y : e.x;
+    uint b = reversed ? e.x : e.y;
+    uint kind = boundary ? 1u : (valid == 2u ? 2u : 3u);
+    uint flags = SIL_EDGE | (reversed ? SIL_REVERSED : 0u) | (kind << SIL_KIND_SHIFT);
+
+    // build_edge: the quad from the edge outward by t.
+    vec3 pa = world(a);
+    vec3 pb = world(b);
+    vec2 s0, s1;
+    float z0, z1;
+    bool ok = project(pa, s0, z0) && project(pb, s1, z1);
+    vec2 along_s = s1 - s0;
+    float len = length(along_s);
+    if (!ok || !(len > 1e-9)) {
+        sil[ei] = flags;
+        return;
+    }
+    vec2 d = perp(along_s) / len;
+    bool decided = false;
+    if (!boundary) {
+        vec3 m = (pa + pb) * 0.5;
+        vec2 sm;
+        float zm;
+        if (project(m, sm, zm)) {
+            vec2 avg = vec2(0.0);
+            for (uint i = 0u; i < nf; ++i) {
+                uint f = face_entry(e, i) >> 1;
+                if (!degenerate(f)) {
+                    avg += project_normal(m, zm, sm, face_planes[f].xyz);
+                }
+            }
+            float dt = dot(d, avg);
+            // Only trust the normals when they clearly pick a side (> ~0.5 degree).
+            if (abs(dt) > 1e-2 * length(avg)) {
+                if (dt < 0.0) {
+                    d = -d;
+                }
+                decided = true;
+            }
+        }
+    }
+    if (!decided) {
+        float side = third_vertex_side(e, a, b, s0, s1);
+        if (side > 0.0) {
+            d = -d;
+        } else if (side == 0.0) {
+            // No usable evidence: the orientation convention puts the outside on the right.
+            d = -d;
+            if (boundary) {
+                vec3 m = (pa + pb) * 0.5;
+                vec2 sm;
+                float zm;
+                if (project(m, sm, zm)) {
+                    vec2 n = project_normal(m, zm, sm, face_planes[front_face].xyz);
+                    if (dot(d, n) < 0.0) {
+                        d = -d;
+                    }
+                }
+            }
+        }
+    }
+    float i0 = 1.0 / z0;
+    float i1 = 1.0 / z1;
+    float t0 = width_at(z0);
+    float t1 = width_at(z1);
+    vec2 o0 = s0 + t0 * d;
+    vec2 o1 = s1 + t1 * d;
+    uint base;
+    if (reserve(6u, base)) {
+        put_vertex(base + 0u, s0, i0, 0.0, s0, d, t0);
+        put_vertex(base + 1u, s1, i1, 0.0, s0, d, t1);
+        put_vertex(base + 2u, o1, i1, 0.0, s0, d, t1);
+        put_vertex(base + 3u, s0, i0, 0.0, s0, d, t0);
+        put_vertex(base + 4u, o1, i1, 0.0, s0, d, t1);
+        put_vertex(base + 5u, o0, i0, 0.0, s0, d, t0);
+    }
+    sil[ei] = flags | SIL_QUAD;
+    edge_dir[ei] = d;
+    // List the edge at both ends for the corner fans (slots beyond MAX_INCIDENT are counted
+    // but not stored; corners.comp then falls back to the special case).
+    uint k = atomicAdd(incident_count[a], 1u);
+    if (k < MAX_INCIDENT) {
+        incident[a * MAX_INCIDENT + k] = ei;
+    }
+    k = atomicAdd(incident_count[b], 1u);
+    if (k < MAX_INCIDENT) {
+        incident[b * MAX_INCIDENT + k] = ei;
+    }
+}

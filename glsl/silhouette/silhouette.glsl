@@ -1,0 +1,176 @@
+// GPU silhouettes and smoothie geometry of every caster for one light: the bindings, the
+// push constants and the projection helpers shared by edges.comp, corners.comp and finish.comp.
+// The math mirrors src/silhouette/mod.rs (facing, classification) and
+// src/silhouette/smoothie.rs (edge quads, corner fans) line for line, so that the CPU and
+// GPU paths find the same silhouette edges and build the same smoothies; read those files'
+// headers for the why of each rule.
+#ifndef SILHOUETTE_GLSL
+#define SILHOUETTE_GLSL
+
+#define FRAME_NO_DRAW_PUSH
+#include "common/frame.glsl"
+
+layout(push_constant, std430) uniform Counts {
+    uvec4 counts;          // edges, welded vertices, casters (all casters together), 0
+} pc;
+
+// Static, built once per mesh from `silhouette::Adjacency`, every caster's data one after
+// the other with indices rebased to the whole (one dispatch per stage for all casters:
+// a dispatch costs more than a small caster's work).
+layout(set = 0, binding = 1, std430) readonly buffer Positions { vec4 positions[]; };
+// xyz: welded corners (only the third-vertex test reads them).
+layout(set = 0, binding = 2, std430) readonly buffer Triangles { uvec4 triangles[]; };
+// xyz: unit normal (zero for a degenerate face: no facing test); w: the first corner's x.
+// With face_p0yz, all the facing test reads: 6 floats (lavapipe pays per loaded component).
+layout(set = 0, binding = 3, std430) readonly buffer FacePlanes { vec4 face_planes[]; };
+layout(set = 0, binding = 4, std430) readonly buffer FaceP0yz { vec2 face_p0yz[]; };
+// x, y: welded ends (x < y); z, w: the two faces (face << 1 | 1 when its winding runs
+// x -> y), or, with w = FACE_LIST, z: where the face count and the entries start in
+// edge_faces (one face, or three and more).
+layout(set = 0, binding = 5, std430) readonly buffer Edges { uvec4 edges[]; };
+layout(set = 0, binding = 6, std430) readonly buffer EdgeFaces { uint edge_faces[]; };
+const uint FACE_LIST = 0xffffffffu;
+
+uint face_count(uvec4 e) {
+    return e.w != FACE_LIST ? 2u : edge_faces[e.z];
+}
+
+// Entry i (face << 1 | forward) of edge e.
+uint face_entry(uvec4 e, uint i) {
+    return e.w != FACE_LIST ? (i == 0u ? e.z : e.w) : edge_faces[e.z + 1u + i];
+}
+
+// The caster of each edge and of each welded vertex.
+layout(set = 0, binding = 7, std430) readonly buffer EdgeCaster { uint edge_caster[]; };
+layout(set = 0, binding = 8, std430) readonly buffer VertexCaster { uint vertex_caster[]; };
+
+// Per caster, written by the CPU each frame (`CasterData` in src/silhouette/gpu.rs).
+struct Caster {
+    mat4 model;            // object -> world
+    vec4 normal_col[3];    // xyz: columns of the normal matrix; w: the light in object space
+    uvec4 info;            // 1 if the model mirrors, first vertex of its region, capacity, 1 if rebuilt this frame
+};
+layout(set = 0, binding = 9, std430) readonly buffer Casters { Caster casters[]; };
+
+// Per frame, written by the passes.
+// Per edge: 0 = not a silhouette; else SIL_* bits (read back by the CPU-vs-GPU test).
+layout(set = 0, binding = 10, std430) buffer Silhouette { uint sil[]; };
+// Per edge: the outward direction d of its smoothie quad (valid when SIL_QUAD is set).
+layout(set = 0, binding = 11, std430) buffer EdgeDir { vec2 edge_dir[]; };
+// Per welded vertex: how many kept silhouette edges meet there (cleared every frame) and,
+// in MAX_INCIDENT slots, which.
+layout(set = 0, binding = 12, std430) buffer IncidentCount { uint incident_count[]; };
+layout(set = 0, binding = 13, std430) buffer Incident { uint incident[]; };
+// Per caster: the vertices its smoothies asked for (cleared every frame; may exceed the
+// capacity, then the CPU grows the buffer) and its VkDrawIndirectCommand.
+layout(set = 0, binding = 14, std430) buffer Requested { uint requested[]; };
+layout(set = 0, binding = 15, std430) buffer DrawCommands { uvec4 draw_commands[]; };
+
+// Set 1, replaced when the CPU grows the vertex buffer: every caster's region of
+// SmoothieVertex (9 floats: uv, inv_depth, kind, anchor, dir, width).
+layout(set = 1, binding = 0, std430) buffer Vertices { float vertices[]; };
+
+const uint SIL_EDGE = 1u;       // a silhouette edge
+const uint SIL_REVERSED = 2u;   // a -> b runs edge.y -> edge.x
+const uint SIL_QUAD = 4u;       // its smoothie quad was built (not skipped)
+const uint SIL_KIND_SHIFT = 3u; // 1 boundary, 2 manifold, 3 non-manifold
+
+const uint MAX_INCIDENT = 16u;
+const uint FLOATS_PER_VERTEX = 9u;
+
+// src/silhouette/smoothie.rs: MAX_CALIBRATED_T, MAX_SEGMENT, MIN_CORNER_ANGLE, PROBE, FAN_OVERLAP.
+const float MAX_CALIBRATED_T = 0.2;
+const float PI = 3.14159265358979;
+const float MAX_SEGMENT = PI / 6.0;
+const float MIN_CORNER_ANGLE = 1e-3 * PI / 180.0;
+const float PROBE = 1e-3;
+const float FAN_OVERLAP = 2.0 * PI / 180.0;
+
+// The caster this invocation works for (set first thing in main).
+uint g_caster;
+
+uint thread_index() {
+    // 2-D dispatches carry meshes with more than 65535 workgroups of edges.
+    return gl_GlobalInvocationID.x + gl_GlobalInvocationID.y * gl_NumWorkGroups.x * gl_WorkGroupSize.x;
+}
+
+vec3 light_obj() {
+    vec4 c0 = casters[g_caster].normal_col[0];
+    vec4 c1 = casters[g_caster].normal_col[1];
+    vec4 c2 = casters[g_caster].normal_col[2];
+    return vec3(c0.w, c1.w, c2.w);
+}
+
+vec3 world(uint v) {
+    return (casters[g_caster].model * vec4(positions[v].xyz, 1.0)).xyz;
+}
+
+bool finite2(vec2 v) {
+    return !any(isnan(v)) && !any(isinf(v));
+}
+
+// LightView::project plus the near-plane and finiteness guard of Projector::project.
+bool project(vec3 p, out vec2 uv, out float depth) {
+    vec4 c = frame.light_view_proj * vec4(p, 1.0);
+    uv = c.xy / c.w * 0.5 + 0.5;
+    depth = c.w;
+    return depth > frame.light_params.x && finite2(uv) && !isnan(depth) && !isinf(depth);
+}
+
+// Projector::project_normal: screen direction of an object-space normal at world point p.
+vec2 project_normal(vec3 p, float depth, vec2 uv, vec3 n_obj) {
+    mat3 nm = mat3(casters[g_caster].normal_col[0].xyz, casters[g_caster].normal_col[1].xyz,
+                   casters[g_caster].normal_col[2].xyz);
+    vec3 n = nm * n_obj;
+    // glam's normalize_or_zero: multiply by the reciprocal length, zero when it is not finite.
+    float rcp = 1.0 / length(n);
+    if (!(rcp > 0.0) || isinf(rcp)) {
+        return vec2(0.0);
+    }
+    n *= rcp;
+    float eps = PROBE * depth;
+    vec4 c = frame.light_view_proj * vec4(p + n * eps, 1.0);
+    vec2 uv2 = c.xy / c.w * 0.5 + 0.5;
+    vec2 v = (uv2 - uv) / eps;
+    return (c.w > 0.0 && finite2(v)) ? v : vec2(0.0);
+}
+
+// Width::at: the fixed t (frame.technique.y >= 0) or R / (2 b tan(fov/2)), clamped.
+float width_at(float depth) {
+    if (frame.technique.y >= 0.0) {
+        return frame.technique.y;
+    }
+    float t = frame.light_pos_radius.w / (2.0 * max(depth, 1e-30) * frame.light_frustum.x);
+    return clamp(t, 0.0, MAX_CALIBRATED_T);
+}
+
+vec2 perp(vec2 v) {
+    return vec2(-v.y, v.x);
+}
+
+float perp_dot(vec2 a, vec2 b) {
+    return a.x * b.y - a.y * b.x;
+}
+
+void put_vertex(uint i, vec2 uv, float inv_depth, float kind, vec2 anchor, vec2 dir, float width) {
+    uint o = i * FLOATS_PER_VERTEX;
+    vertices[o + 0u] = uv.x;
+    vertices[o + 1u] = uv.y;
+    vertices[o + 2u] = inv_depth;
+    vertices[o + 3u] = kind;
+    vertices[o + 4u] = anchor.x;
+    vertices[o + 5u] = anchor.y;
+    vertices[o + 6u] = dir.x;
+    vertices[o + 7u] = dir.y;
+    vertices[o + 8u] = width;
+}
+
+// Reserves n vertices in this caster's region; returns false (and the caller writes
+// nothing) past its capacity, so that the CPU can grow the buffer from `requested`.
+bool reserve(uint n, out uint base) {
+    uint local = atomicAdd(requested[g_caster], n);
+    base = casters[g_caster].info.y + local;
+    return local + n <= casters[g_caster].info.z;
+}
+
+#endif

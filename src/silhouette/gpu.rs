@@ -1,0 +1,509 @@
+//! GPU silhouettes: the CPU path of this module's parent (`extract` + `build_smoothies`)
+//! as three compute passes per caster, writing the smoothie vertices straight into a
+//! vertex buffer drawn with one indirect draw: no readback, no per-frame upload (Chan &
+//! Durand's hoped-for "render to vertex array"; the seeds all name the CPU silhouette
+//! upload as their bottleneck).
+//!
+//! # Passes (each ONE dispatch of `glsl/silhouette/*.comp` over every caster at once: on
+//! lavapipe a dispatch costs about as much as 3k edges of work, and `dense` has 36 casters)
+//! 1. `edges.comp`, one thread per edge: the facing test of its faces, the classification
+//!    (boundary / manifold / non-manifold), the orientation, and for a silhouette edge its
+//!    smoothie quad (6 vertices, appended with an atomic counter) and its outward direction;
+//!    the edge is listed at both welded ends (`incident`, up to 16 per vertex).
+//! 2. `corners.comp`, one thread per welded vertex: the corner fan where kept edges meet
+//!    (two edges: the arc between them; else the paper's special case).
+//! 3. `finish.comp`, one thread per caster: its `VkDrawIndirectCommand`, clamped to its
+//!    region of the vertex buffer.
+//! Threads of a caster that did not move (and whose light did not change) return at once:
+//! its region and draw command stay as they were (partial rebuilds).
+//!
+//! The shaders mirror `silhouette::extract` and `smoothie::build_smoothies_width` rule for
+//! rule. The facing test is `precise` (no fused multiply-add) with the CPU's operation order
+//! and the CPU's object-space light, so both paths find exactly the same silhouette edges
+//! (`tests/gpu_silhouettes.rs` compares them as sets). The vertices may differ in the last
+//! bits (GPU sin/cos/atan), and their order differs (atomics): the smoothie pass MIN-blends
+//! both of its targets, so the order does not change the image.
+//!
+//! # Buffers
+//! Every caster's data one after the other, indices rebased. Static (built once from each
+//! `Adjacency`): positions (vec4), triangles (uvec4, w = degenerate), face normals (vec4),
+//! edges (uvec4: ends, first face entry, face count), edge faces (face << 1 | forward), the
+//! caster of each edge and of each welded vertex. Per frame: the casters' transforms (128
+//! bytes each, the only upload), `sil` (u32 per edge), `edge_dir` (vec2 per edge),
+//! `incident_count` (cleared) and `incident` (16 u32 per vertex), `requested` (u32 per
+//! caster, cleared), the draw commands (16 bytes per caster) and the vertex buffer, one
+//! region per caster.
+//!
+//! # Capacity
+//! A caster's region starts at 1.5x what the CPU path builds for the scene's own light,
+//! plus 1024 vertices. A frame that needs more draws what fits (the shaders never write past
+//! a region), and the next frame's `prepare` grows the regions to 1.5x the request, with a
+//! warning on stderr: only a caster whose smoothies grow by half in one frame loses some,
+//! for one frame.
+//!
+//! # Limits
+//! A vertex where more than 16 silhouette edges meet keeps 16 of them (an arbitrary 16: the
+//! atomics decide) for its special-case fan; the CPU path keeps all. Silhouettes then still
+//! agree; that corner's fan may differ.
+
+use super::smoothie::{build_smoothies_width, GeometryKey, Width};
+use super::{extract, light_in_object, Adjacency};
+use crate::scene::{LightView, Object};
+use crate::shaders;
+use crate::vk::{
+    AccessFlags2, Buffer, BufferUsageFlags, Context, DescriptorSet, MemoryLocation, Pipeline,
+    PipelineStageFlags2, Recorder, Resource,
+};
+use anyhow::{Context as _, Result};
+use bytemuck::{Pod, Zeroable};
+use glam::{Mat3, Mat4};
+
+/// Slots per welded vertex in `incident` (MAX_INCIDENT in glsl/silhouette/silhouette.glsl).
+const MAX_INCIDENT: u64 = 16;
+/// Workgroup size of the three shaders.
+const GROUP: u32 = 64;
+/// Most workgroups in one dispatch dimension (the guaranteed minimum of the limit).
+const MAX_GROUPS_X: u32 = 65535;
+/// Bytes of one smoothie vertex (`SmoothieVertex`).
+const VERTEX_BYTES: u64 = std::mem::size_of::<super::SmoothieVertex>() as u64;
+/// Headroom of a caster's region over the CPU estimate (vertices).
+const REGION_SLACK: u32 = 1024;
+
+/// Push constants; mirrors `Counts` in glsl/silhouette/silhouette.glsl.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+struct CountsPush {
+    /// Edges, welded vertices, casters, 0.
+    counts: [u32; 4],
+}
+
+/// One caster's per-frame constants; mirrors `Caster` in glsl/silhouette/silhouette.glsl.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+struct CasterData {
+    model: [f32; 16],
+    /// Columns of the normal matrix; w: the light in object space.
+    normal_col: [[f32; 4]; 3],
+    /// 1 if mirrored, first vertex of its region, capacity, 1 if rebuilt this frame.
+    info: [u32; 4],
+}
+
+/// Where one caster lives in the concatenated buffers.
+struct Caster {
+    /// Index into `scene.objects`.
+    object: usize,
+    /// First edge of this caster in the concatenated arrays.
+    edge_base: u32,
+    /// Welded ends of every edge (caster-local), to decode `sil`.
+    edge_ends: Vec<[u32; 2]>,
+    /// Its region of the vertex buffer.
+    region_base: u32,
+    capacity: u32,
+    /// The light and model its region was built for.
+    built_for: Option<(GeometryKey, Mat4)>,
+}
+
+/// Silhouette edge found by the GPU: (edge index, a, b), caster-local, oriented as
+/// `SilhouetteEdge`.
+pub type GpuEdge = (u32, u32, u32);
+
+/// `edges[].w` of an edge whose faces are listed in `edge_faces` (not exactly two).
+const FACE_LIST: u32 = u32::MAX;
+
+/// Decoded `sil` bits (glsl/silhouette/silhouette.glsl).
+const SIL_EDGE: u32 = 1;
+const SIL_REVERSED: u32 = 2;
+
+/// GPU silhouettes and smoothie geometry of every caster of a scene.
+pub struct GpuSilhouettes {
+    casters: Vec<Caster>,
+    edges: u32,
+    welded_vertices: u32,
+    _statics: Vec<Buffer>,
+    caster_data: Buffer,
+    sil: Buffer,
+    _edge_dir: Buffer,
+    incident_count: Buffer,
+    _incident: Buffer,
+    /// Host-visible: `prepare` reads it.
+    requested: Buffer,
+    draw_commands: Buffer,
+    vertices: Buffer,
+    set: DescriptorSet,
+    /// Set 1: the vertex buffer (replaced when it grows).
+    output_set: DescriptorSet,
+    edges_pipeline: Pipeline,
+    corners_pipeline: Pipeline,
+    finish_pipeline: Pipeline,
+}
+
+impl GpuSilhouettes {
+    /// Uploads the adjacency of every caster (`adjacency` zips with `objects`), sized for
+    /// the smoothies of `light` with `width`. `None` when no caster has an edge.
+    pub fn new(
+        ctx: &Context,
+        ubo: &Buffer,
+        objects: &[Object],
+        adjacency: &[Option<Adjacency>],
+        light: &LightView,
+        width: Width,
+    ) -> Result<Option<Self>> {
+        let mut casters = Vec::new();
+        let mut positions: Vec<[f32; 4]> = Vec::new();
+        let mut triangles: Vec<[u32; 4]> = Vec::new();
+        let mut planes: Vec<[f32; 4]> = Vec::new();
+        let mut p0yz: Vec<[f32; 2]> = Vec::new();
+        let mut edges: Vec<[u32; 4]> = Vec::new();
+        let mut edge_faces: Vec<u32> = Vec::new();
+        let mut edge_caster: Vec<u32> = Vec::new();
+        let mut vertex_caster: Vec<u32> = Vec::new();
+        let mut region_base = 0u32;
+        for (i, (o, adj)) in objects.iter().zip(adjacency).enumerate() {
+            let Some(adj) = adj else { continue };
+            if adj.edges.is_empty() {
+                continue;
+            }
+            let id = casters.len() as u32;
+            let (vbase, fbase) = (positions.len() as u32, triangles.len() as u32);
+            let edge_base = edges.len() as u32;
+            positions.extend(adj.positions.iter().map(|p| p.extend(1.0).to_array()));
+            triangles.extend(
+                adj.triangles
+                    .iter()
+                    .map(|t| [t[0] + vbase, t[1] + vbase, t[2] + vbase, 0]),
+            );
+            for (t, n) in adj.triangles.iter().zip(&adj.face_normals) {
+                // A degenerate face has a zero normal: the shader's "no facing test".
+                let p0 = adj.positions[t[0] as usize];
+                planes.push([n.x, n.y, n.z, p0.x]);
+                p0yz.push([p0.y, p0.z]);
+            }
+            for (e, edge) in adj.edges.iter().enumerate() {
+                let entry = |f: &super::EdgeFace| (f.face + fbase) << 1 | u32::from(f.forward);
+                let (z, w) = match adj.edge_faces(e) {
+                    [f0, f1] => (entry(f0), entry(f1)),
+                    faces => {
+                        let start = edge_faces.len() as u32;
+                        edge_faces.push(faces.len() as u32);
+                        edge_faces.extend(faces.iter().map(entry));
+                        (start, FACE_LIST)
+                    }
+                };
+                edges.push([edge.v[0] + vbase, edge.v[1] + vbase, z, w]);
+            }
+            edge_caster.extend(std::iter::repeat_n(id, adj.edges.len()));
+            vertex_caster.extend(std::iter::repeat_n(id, adj.positions.len()));
+            let sil = extract(adj, o.transform, light.position);
+            let estimate = build_smoothies_width(adj, &sil, o.transform, light, width)
+                .vertices
+                .len() as u32;
+            let capacity = estimate.saturating_add(estimate / 2).saturating_add(REGION_SLACK);
+            casters.push(Caster {
+                object: i,
+                edge_base,
+                edge_ends: adj.edges.iter().map(|e| e.v).collect(),
+                region_base,
+                capacity,
+                built_for: None,
+            });
+            region_base = region_base.saturating_add(capacity);
+        }
+        if casters.is_empty() {
+            return Ok(None);
+        }
+        let storage = BufferUsageFlags::STORAGE_BUFFER;
+        let upload = |data: &[u8], what: &str| {
+            Buffer::with_data(ctx, data, storage, &format!("silhouettes: {what}"))
+        };
+        let statics = vec![
+            upload(bytemuck::cast_slice(&positions), "welded positions")?,
+            upload(bytemuck::cast_slice(&triangles), "welded triangles")?,
+            upload(bytemuck::cast_slice(&planes), "face planes")?,
+            upload(bytemuck::cast_slice(&p0yz), "face corners yz")?,
+            upload(bytemuck::cast_slice(&edges), "edges")?,
+            upload(bytemuck::cast_slice(&edge_faces), "edge faces")?,
+            upload(bytemuck::cast_slice(&edge_caster), "edge casters")?,
+            upload(bytemuck::cast_slice(&vertex_caster), "vertex casters")?,
+        ];
+        let n_casters = casters.len() as u64;
+        let (n_edges, n_verts) = (edges.len() as u64, positions.len() as u64);
+        let gpu = |size: u64, usage: BufferUsageFlags, location: MemoryLocation, what: &str| {
+            Buffer::new(ctx, size, usage, location, &format!("silhouettes: {what}"))
+        };
+        let caster_data = gpu(
+            n_casters * std::mem::size_of::<CasterData>() as u64,
+            storage,
+            MemoryLocation::CpuToGpu,
+            "caster transforms",
+        )?;
+        let sil = gpu(
+            4 * n_edges,
+            storage | BufferUsageFlags::TRANSFER_SRC,
+            MemoryLocation::GpuOnly,
+            "silhouette flags",
+        )?;
+        let edge_dir = gpu(8 * n_edges, storage, MemoryLocation::GpuOnly, "edge directions")?;
+        let incident_count = gpu(
+            4 * n_verts,
+            storage | BufferUsageFlags::TRANSFER_DST,
+            MemoryLocation::GpuOnly,
+            "incident counts",
+        )?;
+        let incident = gpu(
+            4 * MAX_INCIDENT * n_verts,
+            storage,
+            MemoryLocation::GpuOnly,
+            "incident edges",
+        )?;
+        let mut requested = gpu(
+            4 * n_casters,
+            storage | BufferUsageFlags::TRANSFER_DST,
+            MemoryLocation::GpuToCpu,
+            "vertices requested",
+        )?;
+        requested.write(0, &vec![0; 4 * n_casters as usize])?;
+        let draw_commands = gpu(
+            16 * n_casters,
+            storage | BufferUsageFlags::INDIRECT_BUFFER | BufferUsageFlags::TRANSFER_DST,
+            MemoryLocation::GpuOnly,
+            "draw commands",
+        )?;
+        let vertices = vertex_buffer(ctx, region_base)?;
+        let mut resources = vec![Resource::Uniform(ubo)];
+        resources.extend(statics.iter().map(Resource::Storage));
+        resources.extend(
+            [
+                &caster_data,
+                &sil,
+                &edge_dir,
+                &incident_count,
+                &incident,
+                &requested,
+                &draw_commands,
+            ]
+            .into_iter()
+            .map(Resource::Storage),
+        );
+        let set = DescriptorSet::new(ctx, &resources, "silhouettes")?;
+        let output_set = output_set(ctx, &vertices)?;
+        let push = std::mem::size_of::<CountsPush>() as u32;
+        let make = |name: &str, spirv: &[u8]| {
+            Pipeline::compute(ctx, name, spirv, &[&set, &output_set], push)
+                .with_context(|| format!("creating the {name} pipeline"))
+        };
+        let edges_pipeline = make("silhouette/edges", shaders::SILHOUETTE_EDGES_COMP)?;
+        let corners_pipeline = make("silhouette/corners", shaders::SILHOUETTE_CORNERS_COMP)?;
+        let finish_pipeline = make("silhouette/finish", shaders::SILHOUETTE_FINISH_COMP)?;
+        Ok(Some(Self {
+            casters,
+            edges: n_edges as u32,
+            welded_vertices: n_verts as u32,
+            _statics: statics,
+            caster_data,
+            sil,
+            _edge_dir: edge_dir,
+            incident_count,
+            _incident: incident,
+            requested,
+            draw_commands,
+            vertices,
+            set,
+            output_set,
+            edges_pipeline,
+            corners_pipeline,
+            finish_pipeline,
+        }))
+    }
+
+    /// Before recording a frame (the previous one has finished): grows the regions the last
+    /// build overflowed. Returns whether the buffer grew.
+    pub fn prepare(&mut self, ctx: &Context) -> Result<bool> {
+        let words: Vec<u32> = bytemuck::pod_collect_to_vec(self.requested.read()?);
+        let mut grew = false;
+        for (c, &asked) in self.casters.iter_mut().zip(&words) {
+            if asked > c.capacity {
+                let capacity = asked.saturating_add(asked / 2);
+                eprintln!(
+                    "warning: GPU smoothies of object {} needed {asked} vertices, {} fit: the last frame lost some; the region grows to {capacity}",
+                    c.object, c.capacity
+                );
+                c.capacity = capacity;
+                grew = true;
+            }
+        }
+        if grew {
+            let mut base = 0u32;
+            for c in &mut self.casters {
+                c.region_base = base;
+                c.built_for = None;
+                base = base.saturating_add(c.capacity);
+            }
+            self.vertices = vertex_buffer(ctx, base)?;
+            self.output_set = output_set(ctx, &self.vertices)?;
+            self.requested.write(0, &vec![0; 4 * self.casters.len()])?;
+        }
+        Ok(grew)
+    }
+
+    /// How many casters must be rebuilt for this light and these transforms.
+    pub fn dirty(&self, objects: &[Object], light: &LightView, width: Width) -> usize {
+        let key = GeometryKey::new(light, width);
+        self.casters
+            .iter()
+            .filter(|c| c.built_for != Some((key, objects[c.object].transform)))
+            .count()
+    }
+
+    /// Records the three passes for the casters whose model or light changed since their
+    /// region was built (all of them when `force`), then the barrier to the draws.
+    pub fn record(
+        &mut self,
+        rec: &mut Recorder<'_>,
+        objects: &[Object],
+        light: &LightView,
+        width: Width,
+        force: bool,
+    ) -> Result<()> {
+        let key = GeometryKey::new(light, width);
+        let data: Vec<CasterData> = self
+            .casters
+            .iter()
+            .map(|c| {
+                let model = objects[c.object].transform;
+                let dirty = force || c.built_for != Some((key, model));
+                caster_data(c, model, light, dirty)
+            })
+            .collect();
+        self.caster_data.write(0, bytemuck::cast_slice(&data))?;
+        rec.fill_buffer(&self.incident_count, 0);
+        rec.fill_buffer(&self.requested, 0);
+        rec.memory_barrier(
+            PipelineStageFlags2::CLEAR,
+            AccessFlags2::TRANSFER_WRITE,
+            PipelineStageFlags2::COMPUTE_SHADER,
+            AccessFlags2::SHADER_STORAGE_READ | AccessFlags2::SHADER_STORAGE_WRITE,
+        );
+        let push = CountsPush {
+            counts: [self.edges, self.welded_vertices, self.casters.len() as u32, 0],
+        };
+        let stages = [
+            (&self.edges_pipeline, self.edges),
+            (&self.corners_pipeline, self.welded_vertices),
+            (&self.finish_pipeline, self.casters.len() as u32),
+        ];
+        for (k, (pipeline, threads)) in stages.into_iter().enumerate() {
+            if k > 0 {
+                rec.memory_barrier(
+                    PipelineStageFlags2::COMPUTE_SHADER,
+                    AccessFlags2::SHADER_STORAGE_WRITE,
+                    PipelineStageFlags2::COMPUTE_SHADER,
+                    AccessFlags2::SHADER_STORAGE_READ | AccessFlags2::SHADER_STORAGE_WRITE,
+                );
+            }
+            rec.bind_pipeline(pipeline);
+            rec.bind_sets(pipeline, &[&self.set, &self.output_set]);
+            rec.push_constants(pipeline, bytemuck::bytes_of(&push));
+            let groups = threads.div_ceil(GROUP);
+            // Meshes with more than 65535 workgroups of edges use the y dimension too.
+            let (x, y) = if groups > MAX_GROUPS_X {
+                (MAX_GROUPS_X, groups.div_ceil(MAX_GROUPS_X))
+            } else {
+                (groups, 1)
+            };
+            rec.dispatch(x, y, 1);
+        }
+        rec.memory_barrier(
+            PipelineStageFlags2::COMPUTE_SHADER,
+            AccessFlags2::SHADER_STORAGE_WRITE,
+            PipelineStageFlags2::DRAW_INDIRECT
+                | PipelineStageFlags2::VERTEX_ATTRIBUTE_INPUT
+                | PipelineStageFlags2::COPY
+                | PipelineStageFlags2::HOST,
+            AccessFlags2::INDIRECT_COMMAND_READ
+                | AccessFlags2::VERTEX_ATTRIBUTE_READ
+                | AccessFlags2::TRANSFER_READ
+                | AccessFlags2::HOST_READ,
+        );
+        for c in &mut self.casters {
+            c.built_for = Some((key, objects[c.object].transform));
+        }
+        Ok(())
+    }
+
+    /// One indirect draw per caster, with the smoothie pipeline bound.
+    pub fn draw(&self, rec: &mut Recorder<'_>) {
+        rec.bind_vertex_buffer(&self.vertices);
+        for i in 0..self.casters.len() {
+            rec.draw_indirect(&self.draw_commands, 16 * i as u64);
+        }
+    }
+
+    /// The per-edge silhouette flags of every caster (for `decode`, after a readback).
+    pub fn silhouette_flags(&self) -> &Buffer {
+        &self.sil
+    }
+
+    /// The silhouette edges of every caster (object index, caster-local edges) from the
+    /// words of `silhouette_flags`.
+    pub fn decode(&self, words: &[u32]) -> Vec<(usize, Vec<GpuEdge>)> {
+        self.casters
+            .iter()
+            .map(|c| {
+                let start = c.edge_base as usize;
+                let mine = words.get(start..start + c.edge_ends.len()).unwrap_or(&[]);
+                let edges = mine
+                    .iter()
+                    .zip(&c.edge_ends)
+                    .enumerate()
+                    .filter(|(_, (w, _))| **w & SIL_EDGE != 0)
+                    .map(|(e, (w, ends))| {
+                        let (a, b) = if w & SIL_REVERSED != 0 {
+                            (ends[1], ends[0])
+                        } else {
+                            (ends[0], ends[1])
+                        };
+                        (e as u32, a, b)
+                    })
+                    .collect();
+                (c.object, edges)
+            })
+            .collect()
+    }
+}
+
+fn vertex_buffer(ctx: &Context, vertices: u32) -> Result<Buffer> {
+    Buffer::new(
+        ctx,
+        u64::from(vertices) * VERTEX_BYTES,
+        BufferUsageFlags::STORAGE_BUFFER | BufferUsageFlags::VERTEX_BUFFER,
+        MemoryLocation::GpuOnly,
+        "silhouettes: smoothie vertices",
+    )
+}
+
+fn output_set(ctx: &Context, vertices: &Buffer) -> Result<DescriptorSet> {
+    DescriptorSet::new(ctx, &[Resource::Storage(vertices)], "silhouettes output")
+}
+
+/// The caster's constants: as the CPU path's `Projector`, a singular model gets a zero
+/// normal matrix, and the light in object space comes from the same `light_in_object`.
+fn caster_data(c: &Caster, model: Mat4, light: &LightView, dirty: bool) -> CasterData {
+    let (l, mirror) = light_in_object(model, light.position);
+    let nm = Mat3::from_mat4(model).inverse().transpose();
+    let nm = if nm.is_finite() { nm } else { Mat3::ZERO };
+    let col = |c: glam::Vec3, w: f32| [c.x, c.y, c.z, w];
+    CasterData {
+        model: model.to_cols_array(),
+        normal_col: [
+            col(nm.x_axis, l.x),
+            col(nm.y_axis, l.y),
+            col(nm.z_axis, l.z),
+        ],
+        info: [
+            u32::from(mirror),
+            c.region_base,
+            c.capacity,
+            u32::from(dirty),
+        ],
+    }
+}

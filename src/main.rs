@@ -105,9 +105,10 @@ struct RenderArgs {
     /// Print per-pass GPU times (median of 5 frames after 2 warm-up frames).
     #[arg(long)]
     timings: bool,
-    /// Which SPIR-V to run: glslang's (optimised by spirv-opt) or the hand-tuned one.
-    #[arg(long, default_value = "glslang", value_parser = ["glslang", "tuned"])]
-    spirv: String,
+    /// Which SPIR-V to run: glslang (glslangValidator + spirv-opt -O) or tuned (the
+    /// hand-tuned modules under glsl/; techniques without one fall back to glslang's).
+    #[arg(long, default_value = "glslang")]
+    spirv: softshadow::render::SpirvChoice,
 }
 
 #[derive(Args)]
@@ -246,11 +247,8 @@ fn render(cli: &Cli, a: &RenderArgs) -> Result<()> {
     let scene = Scene::load(&a.scene)?;
     check_writable(&a.out)?;
     let ctx = open_device(cli)?;
-    if a.spirv == "tuned" {
-        eprintln!(
-            "note: no hand-tuned SPIR-V for '{}' yet: using glslang's",
-            a.technique
-        );
+    if let Some(note) = a.spirv.fallback_note(&a.technique) {
+        eprintln!("{note}");
     }
     let settings = Settings {
         width: a.width,
@@ -264,6 +262,7 @@ fn render(cli: &Cli, a: &RenderArgs) -> Result<()> {
         occluder_res: a.occluder_res,
         accum_format: a.accum_format,
         reference_samples: a.reference_samples,
+        spirv: a.spirv,
         // Timed frames rebuild every pass so that each one is measured; frame-to-frame reuse
         // shows in `bench --motion static,camera`.
         cache_light_passes: !a.timings,

@@ -49,6 +49,60 @@ pub struct Settings {
     pub accum_format: AccumFormat,
     /// Shadow rays per pixel of the `reference` technique (DESIGN.md: at least 256).
     pub reference_samples: u32,
+    /// Which SPIR-V the technique runs where a hand-tuned module exists (`--spirv`).
+    pub spirv: SpirvChoice,
+}
+
+/// glslang's SPIR-V (glslangValidator + spirv-opt -O) or the hand-tuned `.spvasm` modules
+/// under glsl/ (`shaders::has_tuned` says which techniques have them; the others run
+/// glslang's either way).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum SpirvChoice {
+    #[default]
+    Glslang,
+    Tuned,
+}
+
+impl SpirvChoice {
+    pub fn name(self) -> &'static str {
+        match self {
+            SpirvChoice::Glslang => "glslang",
+            SpirvChoice::Tuned => "tuned",
+        }
+    }
+
+    /// Picks the module for this choice: `tuned` where one exists, else `glslang`.
+    pub fn pick(self, glslang: &'static [u8], tuned: &'static [u8]) -> &'static [u8] {
+        match self {
+            SpirvChoice::Glslang => glslang,
+            SpirvChoice::Tuned => tuned,
+        }
+    }
+
+    /// The note printed once when `tuned` is asked of a technique that has no tuned module.
+    pub fn fallback_note(self, technique: &str) -> Option<String> {
+        (self == SpirvChoice::Tuned && !crate::shaders::has_tuned(technique)).then(|| {
+            format!("note: no hand-tuned SPIR-V for '{technique}': falling back to glslang's")
+        })
+    }
+}
+
+impl std::str::FromStr for SpirvChoice {
+    type Err = anyhow::Error;
+    fn from_str(s: &str) -> Result<Self> {
+        match s.trim().to_ascii_lowercase().as_str() {
+            "glslang" => Ok(SpirvChoice::Glslang),
+            "tuned" => Ok(SpirvChoice::Tuned),
+            _ => bail!("--spirv '{s}' is not a choice: allowed glslang, tuned"),
+        }
+    }
+}
+
+impl std::fmt::Display for SpirvChoice {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
 }
 
 /// A PCF filter kernel.
@@ -125,6 +179,7 @@ impl Default for Settings {
             cache_light_passes: true,
             culling: true,
             reference_samples: crate::eval::reference::MIN_SAMPLES,
+            spirv: SpirvChoice::Glslang,
         }
     }
 }

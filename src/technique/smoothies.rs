@@ -159,7 +159,10 @@ impl Smoothies {
             &GraphicsPipelineDesc {
                 name: "smoothies/smoothie",
                 vertex: shaders::SMOOTHIES_SMOOTHIE_VERT,
-                fragment: Some(shaders::SMOOTHIES_SMOOTHIE_FRAG),
+                fragment: Some(init.settings.spirv.pick(
+                    shaders::SMOOTHIES_SMOOTHIE_FRAG,
+                    shaders::SMOOTHIES_SMOOTHIE_FRAG_SPVASM,
+                )),
                 vertex_stride: SMOOTHIE_VERTEX_BYTES,
                 attributes: SMOOTHIE_ATTRIBUTES,
                 topology: PrimitiveTopology::TRIANGLE_LIST,
@@ -188,7 +191,10 @@ impl Smoothies {
         let final_pass = FinalPass::new(
             ctx,
             "smoothies/final",
-            shaders::SMOOTHIES_FINAL_FRAG,
+            init.settings.spirv.pick(
+                shaders::SMOOTHIES_FINAL_FRAG,
+                shaders::SMOOTHIES_FINAL_FRAG_SPVASM,
+            ),
             &final_set,
         )?;
         let adjacency = silhouette::caster_adjacency(init.scene, |_| true)?;

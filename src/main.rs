@@ -173,6 +173,10 @@ struct BenchArgs {
         allow_negative_numbers = true
     )]
     smoothie_t: Vec<f32>,
+    /// SPIR-V to time, comma-separated: glslang, tuned. Techniques with hand-tuned modules
+    /// get a row per choice (`smoothies spirv=tuned`); the others run glslang's.
+    #[arg(long, value_delimiter = ',', default_value = "glslang")]
+    spirv: Vec<softshadow::render::SpirvChoice>,
     /// Reuse light-space passes while the light and objects stay put (default: every timed
     /// frame runs every pass).
     #[arg(long)]
@@ -344,6 +348,7 @@ fn run_bench(cli: &Cli, a: &BenchArgs) -> Result<()> {
         resolutions: a.resolutions.clone().unwrap_or(preset.resolutions),
         radii,
         smoothie_t: a.smoothie_t.clone(),
+        spirv: a.spirv.clone(),
         width: a.width.unwrap_or(preset.width),
         height: a.height.unwrap_or(preset.height),
         frames: a.frames.unwrap_or(preset.frames),
@@ -361,6 +366,20 @@ fn run_bench(cli: &Cli, a: &BenchArgs) -> Result<()> {
     let ctx = open_device(cli)?;
     if plan.hard_added {
         println!("note: hard added to the sweep (every ratio is to hard)");
+    }
+    // Once per technique that has no tuned module, not once per row or frame.
+    if a.spirv.contains(&softshadow::render::SpirvChoice::Tuned) {
+        let mut seen: Vec<&str> = Vec::new();
+        for v in &plan.variants {
+            if v.technique != bench::BASELINE && !seen.contains(&v.technique) {
+                seen.push(v.technique);
+                if let Some(note) =
+                    softshadow::render::SpirvChoice::Tuned.fallback_note(v.technique)
+                {
+                    eprintln!("{note}");
+                }
+            }
+        }
     }
     println!(
         "bench: {} sweep points ({} scenes x {} rows x buffers x radii x motions)",

@@ -33,6 +33,10 @@
 //!    else 1 (Sec. 3 step 5); bilinear weights (the 2x2 tent of the paper's hardware PCF);
 //!    then the sinusoidal falloff 0.5 - 0.5 cos(pi v) from a 256-texel R32F 1-D texture.
 //!
+//! `--spirv tuned` (`Settings::spirv`) runs hand-written SPIR-V for passes 2 and 3 instead
+//! of glslang's: glsl/smoothies/smoothie.frag.spvasm and final.frag.spvasm, same bindings,
+//! same image within one 8-bit level (tests/spirv.rs); each change is commented in the file.
+//!
 //! ## The width t
 //! t is in light-uv units (a fraction of the shadow map's side). `--smoothie-t` fixes it
 //! (the paper's knob, the same everywhere); by default it is calibrated from the light

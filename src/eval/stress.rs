@@ -380,19 +380,6 @@ fn allowance(case: &str, technique: &str) -> Option<(f64, &'static str)> {
         ("blocker-near-light", "smoothies") => {
             Some((0.5, "method limit: a blocker smaller than the light gets a full-strength outer penumbra"))
         }
-        // As above, plus ring-shaped (moire) banding over the whole cone region when the
-        // cones of a caster at the near plane span near/far ~ 1e-4. OPEN: not fixed here.
-        ("blocker-near-light" | "near-far-1e-4", "penumbra-map") => Some((
-            0.7,
-            "KNOWN, NOT FIXED: moire banding in the penumbra map from cones of a caster at the near plane",
-        )),
-        // A caster lying exactly in the receiver plane: plateaus shades the sheet as under
-        // its own umbra (the sheet is coplanar with its receiver, so its drop shadow starts at
-        // distance 0). OPEN: not fixed here.
-        ("caster-on-receiver", "plateaus") => Some((
-            0.75,
-            "KNOWN, NOT FIXED: a caster coplanar with the receiver is shaded as its own umbra",
-        )),
         // Light 4 degrees above the ground: the smoothie of the box's far edge spans the
         // (foreshortened) box top, which the reference sees lit. Method limit of
         // smoothies' screen-space width at grazing angles.

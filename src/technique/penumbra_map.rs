@@ -88,6 +88,7 @@ const PENUMBRA_VERTEX_BYTES: u32 = std::mem::size_of::<PenumbraVertex>() as u32;
 const PENUMBRA_ATTRIBUTES: &[crate::vk::Attribute] = &[
     (0, Format::R32G32B32_SFLOAT, 0),
     (1, Format::R32G32_SFLOAT, 12),
+    (2, Format::R32_SFLOAT, 20),
 ];
 
 /// Z_far as a fraction of the light's far plane (see the module header).

@@ -260,7 +260,10 @@ fn tiny_caster_near_the_light_darkens_nothing_around_its_hard_shadow() {
         .map(|&i| (with.visibility[i] - without.visibility[i]).abs())
         .fold(0.0f32, f32::max);
     // The bound leaves 1 - 4 r / (pi Lr) ~ 0.985 under the cones; 0.05 with filtering.
-    assert!(worst < 0.05, "the plate changed lit ground by up to {worst}");
+    assert!(
+        worst < 0.05,
+        "the plate changed lit ground by up to {worst}"
+    );
 }
 
 #[test]
@@ -302,7 +305,10 @@ fn wide_penumbra_on_a_sloped_receiver_is_smooth() {
             }
         }
     }
-    eprintln!("{jumps} jumps over {pairs} pairs, {dark} dark of {}", lit.len());
+    eprintln!(
+        "{jumps} jumps over {pairs} pairs, {dark} dark of {}",
+        lit.len()
+    );
     assert!(dark > 1000, "the plate's penumbra covers {dark} pixels");
     assert!(jumps * 20 < pairs, "{jumps} jumps > 0.1 over {pairs} pairs");
 }

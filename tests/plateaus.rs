@@ -243,7 +243,11 @@ fn caster_lying_in_the_plane_is_lit() {
                 Role::Receiver,
                 Vec3::splat(0.8),
             ),
-            obj("box", primitives::cuboid(Vec3::ONE), Vec3::new(-1.0, 0.5, 0.0)),
+            obj(
+                "box",
+                primitives::cuboid(Vec3::ONE),
+                Vec3::new(-1.0, 0.5, 0.0),
+            ),
             obj(
                 "sheet",
                 primitives::plane(Vec2::splat(1.5), 1),

@@ -167,13 +167,7 @@ struct SheetOut {
 }
 
 /// The sheet quad of edge a -> b as two triangles, or None (see the module doc).
-fn sheet(
-    a: &ConeData,
-    b: &ConeData,
-    view_inv: Mat4,
-    z_far: f32,
-    reach: f32,
-) -> Option<SheetOut> {
+fn sheet(a: &ConeData, b: &ConeData, view_inv: Mat4, z_far: f32, reach: f32) -> Option<SheetOut> {
     let along = b.centre - a.centre;
     let d = along.length();
     if d.is_nan() || d <= 1e-7 * z_far {
@@ -224,7 +218,10 @@ fn blocker_reach(cones: &[Option<ConeData>], z_far: f32) -> f32 {
         |(lo, hi), p| (lo.min(*p), hi.max(*p)),
     );
     let mid = (lo + hi) * 0.5;
-    let r = pts.iter().map(|p| (*p - mid).length()).fold(0.0f32, f32::max);
+    let r = pts
+        .iter()
+        .map(|p| (*p - mid).length())
+        .fold(0.0f32, f32::max);
     if pts.is_empty() || !r.is_finite() {
         BLOCKER_REACH_UNKNOWN
     } else {

@@ -77,8 +77,8 @@ struct RenderArgs {
     #[arg(long, allow_negative_numbers = true)]
     smoothie_t: Option<f32>,
     /// Where smoothies find silhouettes and build their geometry: gpu (compute passes and
-    /// an indirect draw) or cpu (rayon, then an upload).
-    #[arg(long, default_value = "gpu")]
+    /// an indirect draw), cpu (rayon, then an upload), or auto (gpu on a GPU, cpu on lavapipe).
+    #[arg(long, default_value = "auto")]
     silhouettes: softshadow::render::SilhouettePath,
     /// Normal offset of shadow lookups, in shadow-map texels.
     #[arg(long, default_value_t = 2.0)]
@@ -109,9 +109,10 @@ struct RenderArgs {
     /// Print per-pass GPU times (median of 5 frames after 2 warm-up frames).
     #[arg(long)]
     timings: bool,
-    /// Which SPIR-V to run: glslang's (optimised by spirv-opt) or the hand-tuned one.
-    #[arg(long, default_value = "glslang", value_parser = ["glslang", "tuned"])]
-    spirv: String,
+    /// Which SPIR-V to run: glslang (glslangValidator + spirv-opt -O) or tuned (the
+    /// hand-tuned modules under glsl/; techniques without one fall back to glslang's).
+    #[arg(long, default_value = "glslang")]
+    spirv: softshadow::render::SpirvChoice,
 }
 
 #[derive(Args)]
@@ -176,6 +177,10 @@ struct BenchArgs {
         allow_negative_numbers = true
     )]
     smoothie_t: Vec<f32>,
+    /// SPIR-V to time, comma-separated: glslang, tuned. Techniques with hand-tuned modules
+    /// get a row per choice (`smoothies spirv=tuned`); the others run glslang's.
+    #[arg(long, value_delimiter = ',', default_value = "glslang")]
+    spirv: Vec<softshadow::render::SpirvChoice>,
     /// Reuse light-space passes while the light and objects stay put (default: every timed
     /// frame runs every pass).
     #[arg(long)]
@@ -250,11 +255,8 @@ fn render(cli: &Cli, a: &RenderArgs) -> Result<()> {
     let scene = Scene::load(&a.scene)?;
     check_writable(&a.out)?;
     let ctx = open_device(cli)?;
-    if a.spirv == "tuned" {
-        eprintln!(
-            "note: no hand-tuned SPIR-V for '{}' yet: using glslang's",
-            a.technique
-        );
+    if let Some(note) = a.spirv.fallback_note(&a.technique) {
+        eprintln!("{note}");
     }
     let settings = Settings {
         width: a.width,
@@ -269,6 +271,7 @@ fn render(cli: &Cli, a: &RenderArgs) -> Result<()> {
         occluder_res: a.occluder_res,
         accum_format: a.accum_format,
         reference_samples: a.reference_samples,
+        spirv: a.spirv,
         // Timed frames rebuild every pass so that each one is measured; frame-to-frame reuse
         // shows in `bench --motion static,camera`.
         cache_light_passes: !a.timings,
@@ -350,6 +353,7 @@ fn run_bench(cli: &Cli, a: &BenchArgs) -> Result<()> {
         resolutions: a.resolutions.clone().unwrap_or(preset.resolutions),
         radii,
         smoothie_t: a.smoothie_t.clone(),
+        spirv: a.spirv.clone(),
         width: a.width.unwrap_or(preset.width),
         height: a.height.unwrap_or(preset.height),
         frames: a.frames.unwrap_or(preset.frames),
@@ -367,6 +371,20 @@ fn run_bench(cli: &Cli, a: &BenchArgs) -> Result<()> {
     let ctx = open_device(cli)?;
     if plan.hard_added {
         println!("note: hard added to the sweep (every ratio is to hard)");
+    }
+    // Once per technique that has no tuned module, not once per row or frame.
+    if a.spirv.contains(&softshadow::render::SpirvChoice::Tuned) {
+        let mut seen: Vec<&str> = Vec::new();
+        for v in &plan.variants {
+            if v.technique != bench::BASELINE && !seen.contains(&v.technique) {
+                seen.push(v.technique);
+                if let Some(note) =
+                    softshadow::render::SpirvChoice::Tuned.fallback_note(v.technique)
+                {
+                    eprintln!("{note}");
+                }
+            }
+        }
     }
     println!(
         "bench: {} sweep points ({} scenes x {} rows x buffers x radii x motions)",

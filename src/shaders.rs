@@ -1,6 +1,17 @@
 //! SPIR-V of every shader under glsl/, compiled by build.rs: `glsl/smoothies/final.frag`
 //! is `SMOOTHIES_FINAL_FRAG` (spirv-opt -O applied when available) and
 //! `SMOOTHIES_FINAL_FRAG_RAW` (glslang's output as is). `ALL` lists every module.
+//! Hand-tuned SPIR-V assembly beside a shader, `glsl/smoothies/final.frag.spvasm`, is
+//! `SMOOTHIES_FINAL_FRAG_SPVASM` (assembled with spirv-as, checked with spirv-val).
+
+/// Techniques that run hand-tuned modules under `--spirv tuned` (`Settings::spirv`); the
+/// others fall back to glslang's.
+pub const TUNED_TECHNIQUES: &[&str] = &["smoothies"];
+
+/// Whether `technique` has hand-tuned SPIR-V.
+pub fn has_tuned(technique: &str) -> bool {
+    TUNED_TECHNIQUES.contains(&technique)
+}
 
 /// One compiled shader file, as listed in [`ALL`].
 #[derive(Clone, Copy, Debug)]

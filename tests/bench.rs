@@ -375,7 +375,7 @@ fn stat_is_median_min_max() {
 #[test]
 fn rows_put_hard_first_and_smoothies_twice() {
     let names = |v: &[&str]| v.iter().map(|s| s.to_string()).collect::<Vec<_>>();
-    let (rows, added) = bench::variants(&names(&["smoothies"]), &[0.02, 0.2]).unwrap();
+    let (rows, added) = bench::variants(&names(&["smoothies"]), &[0.02, 0.2], &[]).unwrap();
     assert!(added);
     let labels: Vec<&str> = rows.iter().map(|r| r.label.as_str()).collect();
     assert_eq!(
@@ -384,10 +384,10 @@ fn rows_put_hard_first_and_smoothies_twice() {
     );
     assert_eq!(rows[1].smoothie_t, None);
     assert_eq!(rows[3].smoothie_t, Some(0.2));
-    let (rows, added) = bench::variants(&names(&["smoothies", "hard", "hard"]), &[]).unwrap();
+    let (rows, added) = bench::variants(&names(&["smoothies", "hard", "hard"]), &[], &[]).unwrap();
     assert!(!added);
     assert_eq!(rows.len(), 2);
-    assert!(bench::variants(&names(&["nope"]), &[]).is_err());
+    assert!(bench::variants(&names(&["nope"]), &[], &[]).is_err());
     assert!(!bench::default_techniques().iter().any(|t| t == "reference"));
 }
 

@@ -210,3 +210,105 @@ fn bowtie_special_vertex_renders() {
         .iter()
         .any(|&i| img.visibility[i] > 0.1 && img.visibility[i] < 0.9));
 }
+
+/// The cylinder scene plus a square plate of side `side` x the light distance, 1 % of the way
+/// from the light and a little off its axis (stress case `blocker-near-light`).
+fn with_near_light_plate(side: f32) -> Scene {
+    let mut s = Scene::load("cylinder").unwrap_or_else(|e| panic!("{e:#}"));
+    let l = s.light;
+    let d = l.target - l.position;
+    let off = d.cross(Vec3::Y).normalize_or(Vec3::X) * d.length() * (0.002 + side * 0.5);
+    s.objects.push(Object::new(
+        "plate",
+        Arc::new(primitives::cuboid(Vec3::new(
+            d.length() * side,
+            d.length() * 1e-4,
+            d.length() * side,
+        ))),
+        Mat4::from_translation(l.position + d * 0.01 + off),
+        Role::Caster,
+        Vec3::ONE,
+    ));
+    s
+}
+
+/// Ground pixels outside every hard shadow (per `hard` of the same scene).
+fn hard_lit_ground(gpu: &Gpu, scene: &Scene, s: &Settings) -> Vec<usize> {
+    let (hard, _) = gpu.render_frames(scene.clone(), "hard", s.clone(), 1);
+    ground_pixels(&hard)
+        .filter(|&(i, _)| hard.visibility[i] == 1.0)
+        .map(|(i, _)| i)
+        .collect()
+}
+
+#[test]
+fn tiny_caster_near_the_light_darkens_nothing_around_its_hard_shadow() {
+    // A plate 1e-3 of the light distance wide at 1 % of it hides ~1e-4 of the light from the
+    // ground. Before the blocker-size bound its cones (radius ~ Lr / Zv x depth, wider than
+    // the map) gave Eq. 1 intensities ~1e-6 over the whole ground, shown through the old
+    // own-surface window as rings of 0.4..0.8.
+    let gpu = Gpu::new();
+    let s = small(128, 256);
+    let plate = with_near_light_plate(1e-3);
+    let plain = Scene::load("cylinder").unwrap_or_else(|e| panic!("{e:#}"));
+    let lit = hard_lit_ground(&gpu, &plate, &s);
+    let (with, _) = gpu.render_frames(plate, PM, s.clone(), 1);
+    let (without, _) = gpu.render_frames(plain, PM, s, 1);
+    assert!(lit.len() > 2000, "{} lit ground pixels", lit.len());
+    let worst = lit
+        .iter()
+        .map(|&i| (with.visibility[i] - without.visibility[i]).abs())
+        .fold(0.0f32, f32::max);
+    // The bound leaves 1 - 4 r / (pi Lr) ~ 0.985 under the cones; 0.05 with filtering.
+    assert!(
+        worst < 0.05,
+        "the plate changed lit ground by up to {worst}"
+    );
+}
+
+#[test]
+fn wide_penumbra_on_a_sloped_receiver_is_smooth() {
+    // A plate three light radii wide at 10 % of the light distance, just outside the light's
+    // frustum: no hard shadow, but its cones sweep over much of the ground, where the
+    // penumbra map is dark and smooth. The old own-surface window (1 % of the point's depth
+    // for all four texels of the footprint) misread ground texels one texel away on this
+    // receiver (~0.5-0.8 % of depth a texel at 256^2) as background and showed the map only
+    // on the others: a moire of rings (stress cases `blocker-near-light`, `near-far-1e-4`).
+    // Count neighbouring ground pixels whose visibility jumps.
+    let gpu = Gpu::new();
+    let s = small(128, 256);
+    let mut scene = Scene::load("cylinder").unwrap_or_else(|e| panic!("{e:#}"));
+    let l = scene.light;
+    let d = l.target - l.position;
+    let depth = d.length() * 0.1;
+    let side = d.cross(Vec3::Y).normalize_or(Vec3::X);
+    let edge = (l.fov_deg.to_radians() * 0.5).tan() * depth;
+    let w = 3.0 * l.radius;
+    scene.objects.push(Object::new(
+        "plate",
+        Arc::new(primitives::cuboid(Vec3::new(w, w * 0.01, w))),
+        Mat4::from_translation(l.position + d.normalize() * depth + side * (edge * 1.05 + w * 0.5)),
+        Role::Caster,
+        Vec3::ONE,
+    ));
+    let lit: std::collections::HashSet<usize> =
+        hard_lit_ground(&gpu, &scene, &s).into_iter().collect();
+    let (img, _) = gpu.render_frames(scene, PM, s, 1);
+    let dark = lit.iter().filter(|&&i| img.visibility[i] < 0.5).count();
+    let wd = img.width as usize;
+    let (mut pairs, mut jumps) = (0usize, 0usize);
+    for &i in &lit {
+        if lit.contains(&(i + 1)) && (i + 1) % wd != 0 {
+            pairs += 1;
+            if (img.visibility[i] - img.visibility[i + 1]).abs() > 0.1 {
+                jumps += 1;
+            }
+        }
+    }
+    eprintln!(
+        "{jumps} jumps over {pairs} pairs, {dark} dark of {}",
+        lit.len()
+    );
+    assert!(dark > 1000, "the plate's penumbra covers {dark} pixels");
+    assert!(jumps * 20 < pairs, "{jumps} jumps > 0.1 over {pairs} pairs");
+}

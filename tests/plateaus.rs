@@ -217,3 +217,67 @@ fn scene_without_planar_receiver_is_refused() {
     // The same scene is fine for techniques that need no plane.
     assert!(Renderer::new(&gpu.ctx, scene, "hard", small(64, 64)).is_ok());
 }
+
+#[test]
+fn caster_lying_in_the_plane_is_lit() {
+    // Stress case `caster-on-receiver`: a flat sheet exactly in the ground plane (it IS the
+    // receiver surface there) beside a box resting on the ground. Before the fix its drop
+    // shadow was drawn at height 0 and the sheet read as its own umbra.
+    let gpu = Gpu::new();
+    let obj = |name: &str, mesh, at: Vec3| {
+        Object::new(
+            name,
+            Arc::new(mesh),
+            Mat4::from_translation(at),
+            Role::Both,
+            Vec3::splat(0.7),
+        )
+    };
+    let scene = Scene {
+        name: "coplanar".into(),
+        objects: vec![
+            Object::new(
+                "ground",
+                Arc::new(primitives::plane(Vec2::splat(12.0), 8)),
+                Mat4::IDENTITY,
+                Role::Receiver,
+                Vec3::splat(0.8),
+            ),
+            obj(
+                "box",
+                primitives::cuboid(Vec3::ONE),
+                Vec3::new(-1.0, 0.5, 0.0),
+            ),
+            obj(
+                "sheet",
+                primitives::plane(Vec2::splat(1.5), 1),
+                Vec3::new(1.2, 0.0, 0.5),
+            ),
+        ],
+        light: Light {
+            position: Vec3::new(-3.0, 7.0, 2.0),
+            target: Vec3::ZERO,
+            fov_deg: 60.0,
+            radius: 0.3,
+        },
+        camera: Camera {
+            position: Vec3::new(1.0, 6.0, 6.0),
+            target: Vec3::new(0.5, 0.0, 0.3),
+            up: Vec3::Y,
+            fov_deg: 50.0,
+        },
+    };
+    let (img, _) = gpu.render_frames(scene, "plateaus", small(128, 256), 1);
+    // The sheet's inner part (0.1 from its edges) and the box's shadow behind it.
+    let mut n = 0;
+    for i in covered(&img) {
+        let p = Vec4::from(img.position[i]).truncate();
+        if p.y.abs() < 1e-3 && (p.x - 1.2).abs() < 0.65 && (p.z - 0.5).abs() < 0.65 {
+            n += 1;
+            assert_eq!(img.visibility[i], 1.0, "sheet point {p}");
+        }
+    }
+    assert!(n > 100, "{n} sheet pixels");
+    let shadow = vis_at(&img, Vec3::new(-0.25, 0.0, -0.7));
+    assert!(shadow < 0.01, "the box still shadows the ground: {shadow}");
+}

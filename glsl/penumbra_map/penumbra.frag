@@ -12,6 +12,7 @@ layout(set = 0, binding = 1) uniform sampler2D shadow_map;   // RG32F: g = forem
 
 layout(location = 0) in float v_depth;
 layout(location = 1) in vec2 v_zv_h;
+layout(location = 2) flat in float v_reach;
 layout(location = 0) out float o_intensity;
 
 // FAR_DEPTH of src/render/passes.rs: texels that see no surface.
@@ -33,5 +34,19 @@ void main() {
     if (!(denom > CONTACT_EPS * zp)) discard;
     // Rasterised F can fall a rounding error in front of the tip.
     float i = clamp((zf - zv) / denom, 0.0, 1.0);
-    o_intensity = i * i * (3.0 - 2.0 * i);
+    float s = i * i * (3.0 - 2.0 * i);
+    // Blocker-size bound (not in the paper). Cases `blocker-near-light`, `near-far-1e-4`: a
+    // caster smaller than the light, near it, has cones of radius (Z_far - Zv) Lr / Zv that
+    // span the whole map, and Eq. 1 darkens everything under them to ~0 (I ~ (Zv / Z_P) f /
+    // (1 - f) at the fraction f across the penumbra), while such a caster hides only a
+    // sliver of the light. Seen from P, the caster (within v_reach of its centre, in tangent
+    // units, so within v_reach Zv laterally at depth Zv) covers on the light's plane at
+    // most a strip of half-width r = v_reach Zv Z_P / (Z_P - Zv) through the disc of radius
+    // Lr: a fraction <= 4 r / (pi Lr) of its area. P keeps at least the rest. For casters
+    // as large as the light (every standard scene) the bound is <= 0 and changes nothing;
+    // it assumes the caster's depth extent is small against Z_P - Zv.
+    float lr = frame.light_pos_radius.w;
+    float r = v_reach * zv * (zp / denom);
+    float hidden = lr > 0.0 ? min(4.0 * r / (3.14159265 * lr), 1.0) : 1.0;
+    o_intensity = max(s, 1.0 - hidden);
 }

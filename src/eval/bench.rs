@@ -15,6 +15,10 @@
 //! radius (`Settings::smoothie_t = None`) and `smoothies t=0.02` with the paper's fixed
 //! screen-space knob (one row per `--smoothie-t` value).
 //!
+//! `--spirv glslang,tuned` adds a row per technique with hand-tuned SPIR-V
+//! (`shaders::has_tuned`): `smoothies spirv=tuned` beside `smoothies`, timed in the same run.
+//! Techniques without one keep their glslang row only.
+//!
 //! Every timed frame runs every pass (`Settings::cache_light_passes` off) unless
 //! `reuse_light_passes` is set, which times what a static or camera-only frame really costs.
 //!
@@ -32,7 +36,7 @@
 use super::metrics::{self, Errors};
 use super::reference::{self, ReferenceParams};
 use super::{plot, report, spirv};
-use crate::render::{FrameImages, Renderer, Settings};
+use crate::render::{FrameImages, Renderer, Settings, SpirvChoice};
 use crate::scene::{Scene, BUILTIN_SCENES};
 use crate::technique::{self, smoothies::smoothie_width};
 use crate::vk::{Context, FrameTimings};
@@ -203,6 +207,8 @@ pub struct BenchConfig {
     pub radii: Vec<Radius>,
     /// Fixed smoothie widths reported beside the calibrated one.
     pub smoothie_t: Vec<f32>,
+    /// SPIR-V variants timed for techniques with hand-tuned modules (one row each).
+    pub spirv: Vec<SpirvChoice>,
     pub width: u32,
     pub height: u32,
     pub frames: u32,
@@ -230,6 +236,7 @@ impl Default for BenchConfig {
             resolutions: DEFAULT_RESOLUTIONS.to_vec(),
             radii: vec![Radius::Scene],
             smoothie_t: vec![DEFAULT_SMOOTHIE_T],
+            spirv: vec![SpirvChoice::Glslang],
             width: DEFAULT_SIZE,
             height: DEFAULT_SIZE,
             frames: DEFAULT_FRAMES,
@@ -277,10 +284,18 @@ pub struct Variant {
     pub technique: &'static str,
     /// `Settings::smoothie_t` (None: calibrated from R).
     pub smoothie_t: Option<f32>,
+    /// `Settings::spirv`; rows with `Tuned` are labelled `... spirv=tuned`.
+    pub spirv: SpirvChoice,
 }
 
 /// The rows for `techniques`, `hard` first (added when missing: the second value says so).
-pub fn variants(techniques: &[String], smoothie_t: &[f32]) -> Result<(Vec<Variant>, bool)> {
+/// A technique with hand-tuned SPIR-V gets one row per `spirv` choice; the others one
+/// glslang row.
+pub fn variants(
+    techniques: &[String],
+    smoothie_t: &[f32],
+    spirv: &[SpirvChoice],
+) -> Result<(Vec<Variant>, bool)> {
     let mut names: Vec<&'static str> = Vec::new();
     for t in techniques {
         let info = technique::find(t.trim())?;
@@ -301,19 +316,37 @@ pub fn variants(techniques: &[String], smoothie_t: &[f32]) -> Result<(Vec<Varian
         label: BASELINE.into(),
         technique: base.name,
         smoothie_t: None,
+        spirv: SpirvChoice::Glslang,
     }];
+    let spirv = if spirv.is_empty() {
+        vec![SpirvChoice::Glslang]
+    } else {
+        dedup(spirv)
+    };
     for name in names {
-        out.push(Variant {
-            label: name.into(),
-            technique: name,
-            smoothie_t: None,
-        });
+        let mut widths = vec![None];
         if name == "smoothies" {
-            for &t in smoothie_t {
+            widths.extend(smoothie_t.iter().map(|&t| Some(t)));
+        }
+        let choices = if crate::shaders::has_tuned(name) {
+            spirv.clone()
+        } else {
+            vec![SpirvChoice::Glslang]
+        };
+        for t in widths {
+            for &choice in &choices {
+                let mut label = match t {
+                    Some(t) => format!("{name} t={t}"),
+                    None => name.to_string(),
+                };
+                if choice == SpirvChoice::Tuned {
+                    label.push_str(" spirv=tuned");
+                }
                 out.push(Variant {
-                    label: format!("smoothies t={t}"),
+                    label,
                     technique: name,
-                    smoothie_t: Some(t),
+                    smoothie_t: t,
+                    spirv: choice,
                 });
             }
         }
@@ -360,6 +393,7 @@ impl Plan {
             shadow_res: c.shadow_res,
             light_radius: Some(self.config.radii[c.radius].resolve(scene)),
             smoothie_t: self.variants[c.variant].smoothie_t,
+            spirv: self.variants[c.variant].spirv,
             // Used only when `reference` itself is benched (--techniques reference).
             reference_samples: self.config.samples,
             cache_light_passes: self.config.reuse_light_passes,
@@ -412,7 +446,8 @@ pub fn prepare(config: BenchConfig) -> Result<Plan> {
             }
         }
     }
-    let (variants, hard_added) = variants(&c.techniques, &c.smoothie_t)?;
+    nonempty(&c.spirv, "--spirv")?;
+    let (variants, hard_added) = variants(&c.techniques, &c.smoothie_t, &c.spirv)?;
     let mut scenes = Vec::new();
     for name in dedup(&c.scenes) {
         scenes.push(Scene::load(name.trim())?);
@@ -590,6 +625,8 @@ pub struct Record {
     /// Smoothie width t in light-uv units actually used (fixed or calibrated); smoothies only.
     pub smoothie_t: Option<f32>,
     pub smoothie_t_fixed: bool,
+    /// The SPIR-V the row ran (`tuned` only for techniques with hand-tuned modules).
+    pub spirv: SpirvChoice,
     pub frames: u32,
     pub warmup: u32,
     /// Sum of the passes per frame.
@@ -779,6 +816,7 @@ pub fn run(ctx: &Context, plan: Plan) -> Result<Outcome> {
             motion: case.motion,
             smoothie_t,
             smoothie_t_fixed: variant.smoothie_t.is_some(),
+            spirv: variant.spirv,
             frames: cfg.frames,
             warmup: cfg.warmup,
             frame_ms: timing.frame_ms,

@@ -299,22 +299,34 @@ pub fn markdown(res: &Results<'_>) -> String {
     let _ = writeln!(s, "## SPIR-V instruction counts\n");
     let _ = writeln!(
         s,
-        "Per shader file: instructions in the whole module (total), from the first OpFunction on (body), and in the body less labels, branches, merges, function framing, variables, loads, stores and access chains (ops, the nearest to the paper's assembly counts). \"glslang\" is glslangValidator's output, \"shipped\" what the renderer runs (spirv-opt -O, or the hand-tuned `.spvasm`). The last column is the smoothie paper's Fig. 11 count for the same job.\n"
+        "Per shader file: instructions in the whole module (total), from the first OpFunction on (body), and in the body less labels, branches, merges, function framing, variables, loads, stores and access chains (ops, the nearest to the paper's assembly counts). \"glslang\" is glslangValidator's output, \"shipped\" what the renderer runs by default (spirv-opt -O), \"tuned\" the hand-tuned `.spvasm` beside the shader that `--spirv tuned` runs (rows `... spirv=tuned` above). The last column is the smoothie paper's Fig. 11 count for the same job.\n"
     );
     let _ = writeln!(
         s,
-        "| shader | stage | glslang total | body | ops | shipped total | body | ops | shipped is | paper (Fig. 11) |"
+        "| shader | stage | glslang total | body | ops | shipped total | body | ops | shipped is | tuned total | body | ops | paper (Fig. 11) |"
     );
-    let _ = writeln!(s, "|:---|:---|---:|---:|---:|---:|---:|---:|:---|:---|");
-    for c in res.spirv {
+    let _ = writeln!(
+        s,
+        "|:---|:---|---:|---:|---:|---:|---:|---:|:---|---:|---:|---:|:---|"
+    );
+    // A hand-tuned module is shown in its shader's row.
+    let shown_beside = |c: &ShaderCost| {
+        c.hand_tuned
+            && res
+                .spirv
+                .iter()
+                .any(|g| g.tuned.is_some() && format!("{}.spvasm", g.shader) == c.shader)
+    };
+    for c in res.spirv.iter().filter(|c| !shown_beside(c)) {
         let _ = writeln!(
             s,
-            "| {} | {} | {} | {} | {} | {} |",
+            "| {} | {} | {} | {} | {} | {} | {} |",
             c.shader,
             c.stage,
             counts_cells(c.glslang),
             counts_cells(Some(c.shipped)),
             shipped_is(c),
+            counts_cells(c.tuned),
             c.paper.unwrap_or("")
         );
     }

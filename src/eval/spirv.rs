@@ -1,6 +1,8 @@
 //! SPIR-V cost table: instruction counts of every shader module (`shaders::ALL`), before
 //! and after `spirv-opt -O`, beside the counts of the smoothie paper's Fig. 11 (Chan &
 //! Durand 2003: GeForce FX assembly instructions per pass), so that hand-tuning shows.
+//! A shader with a hand-tuned module beside it (`smoothies/final.frag.spvasm`) carries the
+//! tuned counts in its own row (`tuned`); the tuned module also has a row of its own.
 //!
 //! A module is walked word by word: after the 5-word header every instruction starts with
 //! a word whose high 16 bits are its word count and low 16 bits its opcode. Three counts:
@@ -119,6 +121,8 @@ pub struct ShaderCost {
     pub shipped: Counts,
     pub optimised: bool,
     pub hand_tuned: bool,
+    /// The hand-tuned module of the same shader (`PATH.spvasm`), when there is one.
+    pub tuned: Option<Counts>,
     /// The smoothie paper's Fig. 11 instruction count for the matching pass and stage.
     pub paper: Option<&'static str>,
 }
@@ -147,6 +151,12 @@ pub fn cost_table(shaders: &[Shader]) -> Result<Vec<ShaderCost>> {
                 .raw
                 .map(|r| count(r).map_err(|e| e.context(s.path)))
                 .transpose()?;
+            let tuned_path = format!("{}.spvasm", s.path);
+            let tuned = shaders
+                .iter()
+                .find(|t| t.hand_tuned && t.path == tuned_path)
+                .map(|t| count(t.spirv).map_err(|e| e.context(t.path)))
+                .transpose()?;
             Ok(ShaderCost {
                 shader: s.path.to_string(),
                 stage: s.stage.to_string(),
@@ -154,6 +164,7 @@ pub fn cost_table(shaders: &[Shader]) -> Result<Vec<ShaderCost>> {
                 shipped,
                 optimised: s.optimised,
                 hand_tuned: s.hand_tuned,
+                tuned,
                 paper: paper_count(s.path),
             })
         })

@@ -371,34 +371,25 @@ fn allowance(case: &str, technique: &str) -> Option<(f64, &'static str)> {
         // A light larger than the scene: every fake assumes a penumbra narrow against the
         // blocker (smoothies and penumbra maps only ever widen outward from the hard edge, PCSS
         // clamps its kernel), so the umbra they keep is far too dark. Allowed, reported.
-        ("radius-huge", "smoothies" | "penumbra-map" | "plateaus") => {
-            Some((1.0, "method limit: outer-penumbra-only / clamped kernel with R > scene"))
-        }
-        // A blocker far smaller than the light casts no umbra, only a faint wide dimming;
-        // smoothies and penumbra maps grow a full 0-to-1 penumbra outward from the hard
-        // shadow whatever the blocker's size. Method limit.
-        ("blocker-near-light", "smoothies") => {
-            Some((0.5, "method limit: a blocker smaller than the light gets a full-strength outer penumbra"))
-        }
-        // As above, plus ring-shaped (moire) banding over the whole cone region when the
-        // cones of a caster at the near plane span near/far ~ 1e-4. OPEN: not fixed here.
-        ("blocker-near-light" | "near-far-1e-4", "penumbra-map") => Some((
-            0.7,
-            "KNOWN, NOT FIXED: moire banding in the penumbra map from cones of a caster at the near plane",
+        ("radius-huge", "smoothies" | "penumbra-map" | "plateaus") => Some((
+            1.0,
+            "method limit: outer-penumbra-only / clamped kernel with R > scene",
         )),
-        // A caster lying exactly in the receiver plane: plateaus shades the sheet as under
-        // its own umbra (the sheet is coplanar with its receiver, so its drop shadow starts at
-        // distance 0). OPEN: not fixed here.
-        ("caster-on-receiver", "plateaus") => Some((
-            0.75,
-            "KNOWN, NOT FIXED: a caster coplanar with the receiver is shaded as its own umbra",
+        // A blocker far smaller than the light casts no umbra, only a faint wide dimming;
+        // smoothies grow a full 0-to-1 penumbra outward from the hard shadow whatever the
+        // blocker's size. Method limit. (penumbra-map bounds its penumbra by the blocker's
+        // size, glsl/penumbra_map/penumbra.frag, and passes the default limit.)
+        ("blocker-near-light", "smoothies") => Some((
+            0.5,
+            "method limit: a blocker smaller than the light gets a full-strength outer penumbra",
         )),
         // Light 4 degrees above the ground: the smoothie of the box's far edge spans the
         // (foreshortened) box top, which the reference sees lit. Method limit of
         // smoothies' screen-space width at grazing angles.
-        ("grazing-light", "smoothies") => {
-            Some((0.6, "method limit: smoothie width at a grazing light darkens the lit top"))
-        }
+        ("grazing-light", "smoothies") => Some((
+            0.6,
+            "method limit: smoothie width at a grazing light darkens the lit top",
+        )),
         _ => None,
     }
 }

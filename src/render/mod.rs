@@ -51,24 +51,103 @@ pub struct Settings {
     pub reference_samples: u32,
     /// Where smoothies find silhouettes and build their geometry.
     pub silhouettes: SilhouettePath,
+    /// Which SPIR-V the technique runs where a hand-tuned module exists (`--spirv`).
+    pub spirv: SpirvChoice,
+}
+
+/// glslang's SPIR-V (glslangValidator + spirv-opt -O) or the hand-tuned `.spvasm` modules
+/// under glsl/ (`shaders::has_tuned` says which techniques have them; the others run
+/// glslang's either way).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum SpirvChoice {
+    #[default]
+    Glslang,
+    Tuned,
+}
+
+impl SpirvChoice {
+    pub fn name(self) -> &'static str {
+        match self {
+            SpirvChoice::Glslang => "glslang",
+            SpirvChoice::Tuned => "tuned",
+        }
+    }
+
+    /// Picks the module for this choice: `tuned` where one exists, else `glslang`.
+    pub fn pick(self, glslang: &'static [u8], tuned: &'static [u8]) -> &'static [u8] {
+        match self {
+            SpirvChoice::Glslang => glslang,
+            SpirvChoice::Tuned => tuned,
+        }
+    }
+
+    /// The note printed once when `tuned` is asked of a technique that has no tuned module.
+    pub fn fallback_note(self, technique: &str) -> Option<String> {
+        (self == SpirvChoice::Tuned && !crate::shaders::has_tuned(technique)).then(|| {
+            format!("note: no hand-tuned SPIR-V for '{technique}': falling back to glslang's")
+        })
+    }
+}
+
+impl std::str::FromStr for SpirvChoice {
+    type Err = anyhow::Error;
+    fn from_str(s: &str) -> Result<Self> {
+        match s.trim().to_ascii_lowercase().as_str() {
+            "glslang" => Ok(SpirvChoice::Glslang),
+            "tuned" => Ok(SpirvChoice::Tuned),
+            _ => bail!("--spirv '{s}' is not a choice: allowed glslang, tuned"),
+        }
+    }
+}
+
+impl std::fmt::Display for SpirvChoice {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
 }
 
 /// Where the silhouette edges and the smoothie geometry are computed each frame.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum SilhouettePath {
+    /// `Gpu` on a GPU, `Cpu` on a CPU driver (lavapipe), where the compute passes run on
+    /// the same cores as the CPU path, several times slower (BENCHMARKS.md).
+    Auto,
     /// Rayon over the edges, then an upload of the vertices (`silhouette::extract`).
     Cpu,
     /// Compute passes writing the vertex buffer of an indirect draw (`silhouette::gpu`).
     Gpu,
 }
 
+impl SilhouettePath {
+    /// `Auto` resolved for this device.
+    pub fn resolve(self, ctx: &Context) -> SilhouettePath {
+        match self {
+            SilhouettePath::Auto if ctx.device_type == crate::vk::PhysicalDeviceType::CPU => {
+                SilhouettePath::Cpu
+            }
+            SilhouettePath::Auto => SilhouettePath::Gpu,
+            p => p,
+        }
+    }
+
+    pub fn name(self) -> &'static str {
+        match self {
+            SilhouettePath::Auto => "auto",
+            SilhouettePath::Cpu => "cpu",
+            SilhouettePath::Gpu => "gpu",
+        }
+    }
+}
+
 impl std::str::FromStr for SilhouettePath {
     type Err = anyhow::Error;
     fn from_str(s: &str) -> Result<Self> {
         match s.to_ascii_lowercase().as_str() {
+            "auto" => Ok(SilhouettePath::Auto),
             "cpu" => Ok(SilhouettePath::Cpu),
             "gpu" => Ok(SilhouettePath::Gpu),
-            _ => bail!("--silhouettes '{s}' is not a path: allowed cpu, gpu"),
+            _ => bail!("--silhouettes '{s}' is not a path: allowed auto, cpu, gpu"),
         }
     }
 }
@@ -147,7 +226,8 @@ impl Default for Settings {
             cache_light_passes: true,
             culling: true,
             reference_samples: crate::eval::reference::MIN_SAMPLES,
-            silhouettes: SilhouettePath::Gpu,
+            silhouettes: SilhouettePath::Auto,
+            spirv: SpirvChoice::Glslang,
         }
     }
 }
@@ -616,7 +696,10 @@ mod tests {
     fn clipped_range_of_a_box_inside_the_cone_is_its_depth_range() {
         let b = Aabb::new(Vec3::new(-0.1, -0.1, -3.0), Vec3::new(0.1, 0.1, -2.0));
         let (lo, hi) = clipped_depth_range(&b, view_down_z(), 1.0).unwrap();
-        assert!((lo - 2.0).abs() < 1e-6 && (hi - 3.0).abs() < 1e-6, "{lo} {hi}");
+        assert!(
+            (lo - 2.0).abs() < 1e-6 && (hi - 3.0).abs() < 1e-6,
+            "{lo} {hi}"
+        );
     }
 
     #[test]
@@ -631,9 +714,15 @@ mod tests {
     fn a_huge_ground_is_clipped_to_the_cone() {
         // A plane 100 wide at depth ~5 seen through a 90-degree cone: only |x|,|y| <= 5 of it
         // is lit, and a tilt of the plane makes its far corners much deeper than what is seen.
-        let ground = Aabb::new(Vec3::new(-100.0, -100.0, -5.0), Vec3::new(100.0, 100.0, -4.0));
+        let ground = Aabb::new(
+            Vec3::new(-100.0, -100.0, -5.0),
+            Vec3::new(100.0, 100.0, -4.0),
+        );
         let (lo, hi) = clipped_depth_range(&ground, view_down_z(), 1.0).unwrap();
-        assert!((lo - 4.0).abs() < 1e-5 && (hi - 5.0).abs() < 1e-5, "{lo} {hi}");
+        assert!(
+            (lo - 4.0).abs() < 1e-5 && (hi - 5.0).abs() < 1e-5,
+            "{lo} {hi}"
+        );
         // A box around the light: the range starts at the light.
         let around = Aabb::new(Vec3::splat(-1.0), Vec3::splat(1.0));
         let (lo, hi) = clipped_depth_range(&around, view_down_z(), 1.0).unwrap();

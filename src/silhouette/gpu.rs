@@ -197,7 +197,9 @@ impl GpuSilhouettes {
             let estimate = build_smoothies_width(adj, &sil, o.transform, light, width)
                 .vertices
                 .len() as u32;
-            let capacity = estimate.saturating_add(estimate / 2).saturating_add(REGION_SLACK);
+            let capacity = estimate
+                .saturating_add(estimate / 2)
+                .saturating_add(REGION_SLACK);
             casters.push(Caster {
                 object: i,
                 edge_base,
@@ -242,7 +244,12 @@ impl GpuSilhouettes {
             MemoryLocation::GpuOnly,
             "silhouette flags",
         )?;
-        let edge_dir = gpu(8 * n_edges, storage, MemoryLocation::GpuOnly, "edge directions")?;
+        let edge_dir = gpu(
+            8 * n_edges,
+            storage,
+            MemoryLocation::GpuOnly,
+            "edge directions",
+        )?;
         let incident_count = gpu(
             4 * n_verts,
             storage | BufferUsageFlags::TRANSFER_DST,
@@ -384,7 +391,12 @@ impl GpuSilhouettes {
             AccessFlags2::SHADER_STORAGE_READ | AccessFlags2::SHADER_STORAGE_WRITE,
         );
         let push = CountsPush {
-            counts: [self.edges, self.welded_vertices, self.casters.len() as u32, 0],
+            counts: [
+                self.edges,
+                self.welded_vertices,
+                self.casters.len() as u32,
+                0,
+            ],
         };
         let stages = [
             (&self.edges_pipeline, self.edges),

@@ -40,6 +40,13 @@
 //! the ratio of the two interpolated (world-affine) attributes is exactly depth(e). The
 //! paper interpolates Zv linearly, which is exact only along the edge itself.
 //!
+//! # Blocker size (case `blocker-near-light`, `near-far-1e-4`)
+//! Every vertex also carries `reach`: the radius, in light-screen tangent units (lateral offset
+//! over linear depth), of the bounding circle of the object's silhouette vertices as the light
+//! centre sees them (`BLOCKER_REACH_UNKNOWN` when a vertex was skipped). The penumbra shader
+//! uses it to bound how much light the object can hide from a receiver point (see
+//! glsl/penumbra_map/penumbra.frag); the paper has no such bound.
+//!
 //! # Robustness
 //! A vertex at linear depth <= near (behind or too close to the light) or >= z_far gets no
 //! cone and its edges no sheet (counted in `skipped_vertices` / `skipped_edges`); so does an
@@ -51,7 +58,7 @@ use crate::scene::LightView;
 use glam::{Mat4, Vec2, Vec3};
 use rayon::prelude::*;
 
-/// One penumbra-geometry vertex; the GPU vertex layout (20 bytes, tightly packed f32s).
+/// One penumbra-geometry vertex; the GPU vertex layout (24 bytes, tightly packed f32s).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct PenumbraVertex {
@@ -60,6 +67,9 @@ pub struct PenumbraVertex {
     /// (Zv * k, k): Zv of the silhouette point this vertex belongs to, homogeneous (see the
     /// module doc); the shader interpolates both perspective-correctly and divides.
     pub zv_h: [f32; 2],
+    /// The caster's angular radius from the light centre (see "Blocker size" in the module
+    /// doc), the same for every vertex of one object.
+    pub reach: f32,
 }
 
 /// Cones and sheets of one object for one light.
@@ -78,6 +88,10 @@ pub struct PenumbraGeometry {
     /// Edges without a sheet: a skipped end, coincident base centres or one cone inside the other.
     pub skipped_edges: usize,
 }
+
+/// `reach` of an object whose extent is unknown (a silhouette vertex was skipped): so large
+/// that the shader's bound never lightens anything.
+pub const BLOCKER_REACH_UNKNOWN: f32 = 1e6;
 
 /// Triangles per cone: 16 keeps the circumscribed polygon within 2 % of the round cone.
 pub const CONE_SEGMENTS: usize = 16;
@@ -115,6 +129,7 @@ fn cone_data(p_world: Vec3, light: &LightView, lr: f32, z_far: f32) -> Option<Co
 fn emit_cone(
     out: &mut Vec<PenumbraVertex>,
     c: &ConeData,
+    reach: f32,
     view_inv: Mat4,
     z_far: f32,
     from: f32,
@@ -131,11 +146,13 @@ fn emit_cone(
         PenumbraVertex {
             position: view_inv.transform_point3(p.extend(-z_far)).to_array(),
             zv_h,
+            reach,
         }
     };
     let tip = PenumbraVertex {
         position: c.world.to_array(),
         zv_h,
+        reach,
     };
     for i in 0..k {
         out.extend_from_slice(&[tip, base(i), base(i + 1)]);
@@ -150,7 +167,7 @@ struct SheetOut {
 }
 
 /// The sheet quad of edge a -> b as two triangles, or None (see the module doc).
-fn sheet(a: &ConeData, b: &ConeData, view_inv: Mat4, z_far: f32) -> Option<SheetOut> {
+fn sheet(a: &ConeData, b: &ConeData, view_inv: Mat4, z_far: f32, reach: f32) -> Option<SheetOut> {
     let along = b.centre - a.centre;
     let d = along.length();
     if d.is_nan() || d <= 1e-7 * z_far {
@@ -170,16 +187,46 @@ fn sheet(a: &ConeData, b: &ConeData, view_inv: Mat4, z_far: f32) -> Option<Sheet
             .to_array(),
         // k = z_far / Zv: (Zv * k, k) = (z_far, k).
         zv_h: [z_far, z_far / c.zv],
+        reach,
     };
     let tip = |c: &ConeData| PenumbraVertex {
         position: c.world.to_array(),
         zv_h: [c.zv, 1.0],
+        reach,
     };
     let (ta, tb) = (base(a), base(b));
     Some(SheetOut {
         verts: [tip(a), tip(b), tb, tip(a), tb, ta],
         n,
     })
+}
+
+/// Radius (tangent units) of the bounding circle, about the bounding box's centre, of the
+/// silhouette vertices as seen from the light centre; `BLOCKER_REACH_UNKNOWN` when any was
+/// skipped (its position is not trustworthy) or there is none.
+fn blocker_reach(cones: &[Option<ConeData>], z_far: f32) -> f32 {
+    let mut pts = Vec::with_capacity(cones.len());
+    for c in cones {
+        match c {
+            // The base centre is the vertex's light ray at depth z_far.
+            Some(c) => pts.push(c.centre / z_far),
+            None => return BLOCKER_REACH_UNKNOWN,
+        }
+    }
+    let (lo, hi) = pts.iter().fold(
+        (Vec2::splat(f32::MAX), Vec2::splat(f32::MIN)),
+        |(lo, hi), p| (lo.min(*p), hi.max(*p)),
+    );
+    let mid = (lo + hi) * 0.5;
+    let r = pts
+        .iter()
+        .map(|p| (*p - mid).length())
+        .fold(0.0f32, f32::max);
+    if pts.is_empty() || !r.is_finite() {
+        BLOCKER_REACH_UNKNOWN
+    } else {
+        r.min(BLOCKER_REACH_UNKNOWN)
+    }
 }
 
 /// The part of a vertex's cone to draw: `(from, sweep)` in base-plane angles.
@@ -229,12 +276,13 @@ pub fn build_penumbra(
             cone_data(p, light, light_radius, z_far)
         })
         .collect();
+    let reach = blocker_reach(&cones, z_far);
     let index_of = |v: u32| groups.binary_search_by_key(&v, |g| g.0).ok();
     let cone_of = |v: u32| index_of(v).and_then(|i| cones[i].as_ref());
     let sheets: Vec<Option<SheetOut>> = sil
         .par_iter()
         .with_min_len(256)
-        .map(|e| sheet(cone_of(e.a)?, cone_of(e.b)?, view_inv, z_far))
+        .map(|e| sheet(cone_of(e.a)?, cone_of(e.b)?, view_inv, z_far, reach))
         .collect();
     // Per vertex, the tangent normals of its sheets, in silhouette order.
     let mut normals: Vec<Vec<Vec2>> = vec![Vec::new(); groups.len()];
@@ -254,7 +302,7 @@ pub fn build_penumbra(
             let mut tris = 0;
             if let Some(c) = c {
                 let (from, sweep) = cone_arc(ns);
-                tris = emit_cone(&mut out, c, view_inv, z_far, from, sweep);
+                tris = emit_cone(&mut out, c, reach, view_inv, z_far, from, sweep);
             }
             (out, tris)
         })
@@ -302,9 +350,13 @@ mod tests {
     }
 
     fn all_finite(g: &PenumbraGeometry) -> bool {
-        g.vertices
-            .iter()
-            .all(|v| v.position.iter().chain(&v.zv_h).all(|x| x.is_finite()))
+        g.vertices.iter().all(|v| {
+            v.position
+                .iter()
+                .chain(&v.zv_h)
+                .chain([&v.reach])
+                .all(|x| x.is_finite())
+        })
     }
 
     fn check_counts(g: &PenumbraGeometry) {
@@ -312,8 +364,8 @@ mod tests {
     }
 
     #[test]
-    fn vertex_is_20_bytes() {
-        assert_eq!(std::mem::size_of::<PenumbraVertex>(), 20);
+    fn vertex_is_24_bytes() {
+        assert_eq!(std::mem::size_of::<PenumbraVertex>(), 24);
     }
 
     #[test]

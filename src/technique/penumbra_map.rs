@@ -19,7 +19,8 @@
 //!    "extremely non-planar" quads is never needed. Z_far = 0.995 x the light's far plane
 //!    (`render::fit_light` puts it 1 % beyond the farthest scene corner, so every receiver is
 //!    nearer; the margin keeps the bases inside the clip volume). Uploaded to a host-visible
-//!    vertex buffer (20 bytes a vertex: world position, (Zv k, k)). R = 0: no geometry.
+//!    vertex buffer (24 bytes a vertex: world position, (Zv k, k), the object's angular
+//!    radius `reach` from the light centre). R = 0: no geometry.
 //! 1. `penumbra-map/shadow_map` — the shared `render::passes::ShadowMap`: every object from
 //!    the light into one R32G32_SFLOAT target, clear 1e30 (`FAR_DEPTH`), blend MIN, no depth
 //!    attachment; r = the nearest caster's linear depth (the shadow map of the final test),
@@ -35,7 +36,11 @@
 //!    geometry is behind the surface) and when Z_P - Zv <= 1e-4 Z_P (the surface touches or is
 //!    in front of the silhouette vertex: no penumbra, and no NaN/Inf from the division), then
 //!    writes s = 3 I^2 - 2 I^3 with I = clamp((Z_F - Zv) / (Z_P - Zv), 0, 1) — Eq. 1 (the
-//!    issue's I = (ZF - Zv)/(ZP - Zv) is the same formula) with Parker et al.'s falloff.
+//!    issue's I = (ZF - Zv)/(ZP - Zv) is the same formula) with Parker et al.'s falloff —
+//!    raised to the blocker-size bound max(s, 1 - 4 r / (pi Lr)), r = reach Zv Z_P / (Z_P - Zv)
+//!    (not in the paper; stress cases `blocker-near-light`, `near-far-1e-4`: a caster smaller
+//!    than the light cannot hide more than a strip of the light disc; <= 0 for casters as
+//!    large as the light).
 //!    Darkest wins: the paper writes I' as the fragment depth with a LESS test (Sec. 4); a MIN
 //!    blend on a colour target is the same selection, keeps the map sampleable as a plain
 //!    colour texture, and leaves no depth attachment to clear. R16F steps 2^-11 near 1.
@@ -43,13 +48,18 @@
 //!    textureGather of the shadow map's r (casters) and g (foremost surface) and of the
 //!    penumbra map at the normal-offset point; per texel visibility = lit test x intensity (0 in the hard
 //!    shadow, else the penumbra intensity), bilinear weights (the 2x2 filter of `hard`). A
-//!    texel whose foremost surface lies more than 1 % beyond the point counts as intensity 1:
-//!    it holds the penumbra of a background surface (the ground just outside a caster's
-//!    silhouette), which the bilinear footprint would otherwise smear over grazing caster
-//!    faces only a texel or two wide. Writes the standard camera targets.
+//!    texel whose foremost surface lies more than 1 % beyond the point's own surface AT THAT
+//!    TEXEL (the depth of the point's tangent plane through the texel centre, clamped to
+//!    [depth, 1.05 depth]) counts as intensity 1: it holds the penumbra of a background
+//!    surface (the ground just outside a caster's silhouette), which the bilinear footprint
+//!    would otherwise smear over grazing caster faces only a texel or two wide. (A single
+//!    window at the point's depth misread sloped receivers: moire, stress case
+//!    `blocker-near-light`.) Writes the standard camera targets.
 //!
 //! ## Equations
-//! Sec. 3: C_r = (Z_far - Z_v) L_r / Z_v (cone radius). Eq. 1: I = 1 - (Z_P - Z_F) / (Z_P -
+//! Sec. 3: C_r = (Z_far - Z_v) L_r / Z_v (cone radius). Eq. 1 (in linear, "world-space"
+//! depths as the paper's pseudocode converts them; for Zv << Z_P it is far from linear across
+//! the penumbra, I ~ (Zv / Z_P) f / (1 - f) at the fraction f): I = 1 - (Z_P - Z_F) / (Z_P -
 //! Z_v) = (Z_F - Z_v) / (Z_P - Z_v), Z_F = cone/sheet fragment depth, Z_P = surface depth, Z_v =
 //! silhouette vertex depth. Sec. 3 falloff: s = 3 I^2 - 2 I^3. Sheets: Z_v exact per fragment
 //! as the ratio of two perspective-correct attributes (the paper interpolates it linearly).
@@ -88,6 +98,7 @@ const PENUMBRA_VERTEX_BYTES: u32 = std::mem::size_of::<PenumbraVertex>() as u32;
 const PENUMBRA_ATTRIBUTES: &[crate::vk::Attribute] = &[
     (0, Format::R32G32B32_SFLOAT, 0),
     (1, Format::R32G32_SFLOAT, 12),
+    (2, Format::R32_SFLOAT, 20),
 ];
 
 /// Z_far as a fraction of the light's far plane (see the module header).

@@ -33,6 +33,10 @@
 //!    else 1 (Sec. 3 step 5); bilinear weights (the 2x2 tent of the paper's hardware PCF);
 //!    then the sinusoidal falloff 0.5 - 0.5 cos(pi v) from a 256-texel R32F 1-D texture.
 //!
+//! `--spirv tuned` (`Settings::spirv`) runs hand-written SPIR-V for passes 2 and 3 instead
+//! of glslang's: glsl/smoothies/smoothie.frag.spvasm and final.frag.spvasm, same bindings,
+//! same image within one 8-bit level (tests/spirv.rs); each change is commented in the file.
+//!
 //! ## The width t
 //! t is in light-uv units (a fraction of the shadow map's side). `--smoothie-t` fixes it
 //! (the paper's knob, the same everywhere); by default it is calibrated from the light
@@ -52,18 +56,18 @@
 
 use super::{FrameInput, Technique, TechniqueInfo, TechniqueInit};
 use crate::render::passes::{falloff_lut, DynamicVertices, FinalPass, ShadowMap, FAR_DEPTH};
+use crate::render::{fit_light, SilhouettePath};
 use crate::scene::{LightView, Scene};
 use crate::shaders;
-use crate::render::{fit_light, SilhouettePath};
 use crate::silhouette::gpu::GpuSilhouettes;
 use crate::silhouette::smoothie::{build_smoothies_width, GeometryKey, SmoothieVertex, Width};
 use crate::silhouette::{self, Adjacency};
-use glam::Mat4;
 use crate::vk::{
     Blend, Context, CullModeFlags, DescriptorSet, Filter, Format, GraphicsPipelineDesc, Image,
     ImageLayout, ImageUsageFlags, Pipeline, PrimitiveTopology, Recorder, Resource, Sampler,
 };
 use anyhow::Result;
+use glam::Mat4;
 
 pub const INFO: TechniqueInfo = TechniqueInfo {
     name: "smoothies",
@@ -177,7 +181,10 @@ impl Smoothies {
             &GraphicsPipelineDesc {
                 name: "smoothies/smoothie",
                 vertex: shaders::SMOOTHIES_SMOOTHIE_VERT,
-                fragment: Some(shaders::SMOOTHIES_SMOOTHIE_FRAG),
+                fragment: Some(init.settings.spirv.pick(
+                    shaders::SMOOTHIES_SMOOTHIE_FRAG,
+                    shaders::SMOOTHIES_SMOOTHIE_FRAG_SPVASM,
+                )),
                 vertex_stride: SMOOTHIE_VERTEX_BYTES,
                 attributes: SMOOTHIE_ATTRIBUTES,
                 topology: PrimitiveTopology::TRIANGLE_LIST,
@@ -206,17 +213,23 @@ impl Smoothies {
         let final_pass = FinalPass::new(
             ctx,
             "smoothies/final",
-            shaders::SMOOTHIES_FINAL_FRAG,
+            init.settings.spirv.pick(
+                shaders::SMOOTHIES_FINAL_FRAG,
+                shaders::SMOOTHIES_FINAL_FRAG_SPVASM,
+            ),
             &final_set,
         )?;
         let adjacency = silhouette::caster_adjacency(init.scene, |_| true)?;
-        let path = init.settings.silhouettes;
+        let path = init.settings.silhouettes.resolve(ctx);
         let gpu_silhouettes = match path {
-            SilhouettePath::Cpu => None,
+            SilhouettePath::Cpu | SilhouettePath::Auto => None,
             SilhouettePath::Gpu => {
                 // Sized for the scene's own light; `prepare` grows it when a frame needs more.
                 let light = fit_light(init.scene);
-                let radius = init.settings.light_radius.unwrap_or(init.scene.light.radius);
+                let radius = init
+                    .settings
+                    .light_radius
+                    .unwrap_or(init.scene.light.radius);
                 let width = smoothie_widths(init.settings.smoothie_t, &light, radius);
                 GpuSilhouettes::new(
                     ctx,
@@ -264,7 +277,7 @@ impl Smoothies {
             if !force
                 && cache
                     .as_ref()
-                .is_some_and(|c| c.model == obj.transform && c.light == key)
+                    .is_some_and(|c| c.model == obj.transform && c.light == key)
             {
                 continue;
             }
@@ -282,7 +295,12 @@ impl Smoothies {
 
     /// Every caster's cached geometry, in object order.
     fn cached_vertices(&self) -> Vec<SmoothieVertex> {
-        let n = self.cpu_cache.iter().flatten().map(|c| c.vertices.len()).sum();
+        let n = self
+            .cpu_cache
+            .iter()
+            .flatten()
+            .map(|c| c.vertices.len())
+            .sum();
         let mut out = Vec::with_capacity(n);
         for c in self.cpu_cache.iter().flatten() {
             out.extend_from_slice(&c.vertices);
@@ -366,7 +384,7 @@ impl Technique for Smoothies {
                     (Some(gpu), _) => gpu.draw(rec),
                     (None, SilhouettePath::Cpu) => self.vertices.draw(rec),
                     // The GPU path with no caster edge: nothing to draw.
-                    (None, SilhouettePath::Gpu) => {}
+                    (None, _) => {}
                 }
             }
             rec.end_rendering();

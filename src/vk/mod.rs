@@ -8,7 +8,7 @@ mod pipeline;
 
 pub use ash::vk::{
     AccessFlags2, BufferUsageFlags, CompareOp, CullModeFlags, Format, ImageLayout, ImageUsageFlags,
-    PipelineStageFlags2, PrimitiveTopology,
+    PhysicalDeviceType, PipelineStageFlags2, PrimitiveTopology,
 };
 pub use cmd::{read_image, Clear, FrameRunner, FrameTimings, PassTiming, Recorder};
 pub use context::{Context, ContextOptions};

@@ -613,6 +613,24 @@ impl<'c> Renderer<'c> {
         })
     }
 
+    /// The silhouette edges the GPU found in the last build, per caster (object index,
+    /// caster-local edges), or `None` when the technique does not run the GPU path.
+    pub fn read_gpu_silhouettes(
+        &mut self,
+    ) -> Result<Option<Vec<(usize, Vec<crate::silhouette::gpu::GpuEdge>)>>> {
+        let Some(gpu) = self.technique.gpu_silhouettes() else {
+            return Ok(None);
+        };
+        let words: Vec<u32> =
+            crate::vk::read_buffer(self.ctx, &mut self.runner, gpu.silhouette_flags())?;
+        Ok(Some(gpu.decode(&words)))
+    }
+
+    /// How many casters the GPU silhouette passes rebuilt in the last frame that ran them.
+    pub fn gpu_silhouettes_rebuilt(&self) -> Option<usize> {
+        self.technique.gpu_silhouettes().map(|g| g.rebuilt())
+    }
+
     /// Names of the technique's light-space buffers (`read_technique_buffer`).
     pub fn technique_buffer_names(&self) -> &'static [&'static str] {
         self.technique.debug_image_names()

@@ -135,6 +135,8 @@ pub struct GpuSilhouettes {
     edges_pipeline: Pipeline,
     corners_pipeline: Pipeline,
     finish_pipeline: Pipeline,
+    /// Casters rebuilt by the last `record`.
+    rebuilt: usize,
 }
 
 impl GpuSilhouettes {
@@ -319,6 +321,7 @@ impl GpuSilhouettes {
             edges_pipeline,
             corners_pipeline,
             finish_pipeline,
+            rebuilt: 0,
         }))
     }
 
@@ -382,6 +385,7 @@ impl GpuSilhouettes {
             })
             .collect();
         self.caster_data.write(0, bytemuck::cast_slice(&data))?;
+        self.rebuilt = data.iter().filter(|d| d.info[3] != 0).count();
         rec.fill_buffer(&self.incident_count, 0);
         rec.fill_buffer(&self.requested, 0);
         rec.memory_barrier(
@@ -440,6 +444,11 @@ impl GpuSilhouettes {
             c.built_for = Some((key, objects[c.object].transform));
         }
         Ok(())
+    }
+
+    /// Casters rebuilt by the last `record` (the others kept their smoothies).
+    pub fn rebuilt(&self) -> usize {
+        self.rebuilt
     }
 
     /// One indirect draw per caster, with the smoothie pipeline bound.

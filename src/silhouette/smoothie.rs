@@ -119,8 +119,10 @@ impl Width {
 /// keyed by this and the model rebuilds only the casters that moved.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct GeometryKey {
-    view_proj: Mat4,
-    position: Vec3,
+    /// Not the projection: uv and linear depth do not depend on `far`, which moves with
+    /// every object (`render::fit_light`); `near` drops edges, so it is part of the key.
+    view: Mat4,
+    fov_deg: f32,
     near: f32,
     width: Width,
 }
@@ -128,8 +130,8 @@ pub struct GeometryKey {
 impl GeometryKey {
     pub fn new(light: &LightView, width: Width) -> Self {
         Self {
-            view_proj: light.view_proj,
-            position: light.position,
+            view: light.view,
+            fov_deg: light.fov_deg,
             near: light.near,
             width,
         }

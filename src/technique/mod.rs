@@ -71,6 +71,11 @@ pub trait Technique {
         None
     }
 
+    /// The GPU silhouette passes' state, for the CPU-vs-GPU tests (smoothies on the GPU path).
+    fn gpu_silhouettes(&self) -> Option<&crate::silhouette::gpu::GpuSilhouettes> {
+        None
+    }
+
     /// The names `debug_image` answers to (`render --buffers DIR` writes each as EXR).
     fn debug_image_names(&self) -> &'static [&'static str] {
         &[]

@@ -307,11 +307,6 @@ impl Smoothies {
         }
         out
     }
-
-    /// The GPU silhouettes, for the CPU-vs-GPU test (`None` on the CPU path).
-    pub fn gpu_silhouettes(&self) -> Option<&GpuSilhouettes> {
-        self.gpu_silhouettes.as_ref()
-    }
 }
 
 impl Technique for Smoothies {
@@ -420,6 +415,10 @@ impl Technique for Smoothies {
             "smoothie_alpha" => Some(&self.smoothie_alpha),
             _ => None,
         }
+    }
+
+    fn gpu_silhouettes(&self) -> Option<&GpuSilhouettes> {
+        self.gpu_silhouettes.as_ref()
     }
 
     fn debug_image_names(&self) -> &'static [&'static str] {

@@ -655,3 +655,30 @@ pub fn read_image<T: bytemuck::Pod>(
     let bytes = &bytes[..size as usize];
     Ok(bytemuck::pod_collect_to_vec(bytes))
 }
+
+/// Copies a buffer (with TRANSFER_SRC usage) to host memory as `T`s.
+pub fn read_buffer<T: bytemuck::Pod>(
+    ctx: &Context,
+    runner: &mut FrameRunner,
+    src: &Buffer,
+) -> Result<Vec<T>> {
+    let buf = Buffer::new(
+        ctx,
+        src.size,
+        vk::BufferUsageFlags::TRANSFER_DST,
+        gpu_allocator::MemoryLocation::GpuToCpu,
+        "readback buffer",
+    )?;
+    runner.run(|rec| {
+        rec.copy_buffer(src, &buf);
+        rec.memory_barrier(
+            vk::PipelineStageFlags2::COPY,
+            vk::AccessFlags2::TRANSFER_WRITE,
+            vk::PipelineStageFlags2::HOST,
+            vk::AccessFlags2::HOST_READ,
+        );
+        Ok(())
+    })?;
+    let bytes = &buf.read()?[..src.size as usize];
+    Ok(bytemuck::pod_collect_to_vec(bytes))
+}

@@ -1,0 +1,269 @@
+//! The GPU silhouette path (`silhouette::gpu`: compute passes + indirect draws) against the
+//! CPU path (`silhouette::extract` + `build_smoothies`): the same silhouette edges, as sets,
+//! and the same images; and partial rebuilds when one caster moves.
+
+mod common;
+
+use common::{small, Gpu};
+use glam::{Mat4, Vec3};
+use softshadow::render::{fit_light, Renderer, Settings, SilhouettePath};
+use softshadow::scene::{Mesh, Scene};
+use softshadow::silhouette::{extract, Adjacency, EdgeKind};
+use std::collections::BTreeSet;
+use std::sync::Arc;
+
+fn settings(path: SilhouettePath) -> Settings {
+    Settings {
+        silhouettes: path,
+        ..small(128, 512)
+    }
+}
+
+/// `cylinder`'s ground, light and camera with another caster in the cylinder's place.
+fn with_caster(mesh: Mesh, name: &str) -> Scene {
+    let mut scene = Scene::load("cylinder").unwrap();
+    let caster = scene
+        .objects
+        .iter_mut()
+        .find(|o| o.name == "cylinder")
+        .unwrap();
+    caster.mesh = Arc::new(mesh);
+    caster.transform = Mat4::from_translation(Vec3::new(0.0, 1.2, 0.0));
+    scene.name = name.into();
+    scene
+}
+
+fn quad(m: &mut Mesh, corners: [Vec3; 4]) {
+    let base = m.positions.len() as u32;
+    m.positions.extend(corners);
+    m.indices
+        .extend_from_slice(&[base, base + 1, base + 2, base, base + 2, base + 3]);
+}
+
+/// A unit cube, flat shaded (split vertices, welded by the adjacency).
+fn cube() -> Mesh {
+    softshadow::scene::primitives::cuboid(Vec3::ONE)
+}
+
+/// An open bowl: the lower half of a sphere, rim and all (boundary edges).
+fn bowl() -> Mesh {
+    let sphere = softshadow::scene::primitives::sphere(0.8, 24, 12);
+    let mut m = Mesh {
+        positions: sphere.positions.clone(),
+        ..Mesh::default()
+    };
+    for t in sphere.indices.chunks_exact(3) {
+        let c = t
+            .iter()
+            .map(|&i| sphere.positions[i as usize])
+            .sum::<Vec3>()
+            / 3.0;
+        if c.y < 0.0 {
+            m.indices.extend_from_slice(t);
+        }
+    }
+    m.compute_normals();
+    m
+}
+
+/// Three pages sharing one spine: the spine is a non-manifold edge (three faces).
+fn book() -> Mesh {
+    let mut m = Mesh::default();
+    let (z0, z1) = (Vec3::new(0.0, 0.0, -0.6), Vec3::new(0.0, 0.0, 0.6));
+    for k in 0..3 {
+        let a = 0.4 + k as f32 * std::f32::consts::TAU / 3.0;
+        let out = Vec3::new(a.cos(), a.sin(), 0.0) * 0.9;
+        quad(&mut m, [z0, z1, z1 + out, z0 + out]);
+    }
+    m.compute_normals();
+    m
+}
+
+fn scenes() -> Vec<Scene> {
+    vec![
+        with_caster(cube(), "cube"),
+        with_caster(bowl(), "open bowl"),
+        with_caster(book(), "non-manifold book"),
+        Scene::load("bunny").unwrap(),
+        Scene::load("dense").unwrap(),
+    ]
+}
+
+#[test]
+fn gpu_finds_exactly_the_cpu_silhouette_edges() {
+    let gpu = Gpu::new();
+    for scene in scenes() {
+        let name = scene.name.clone();
+        let light = fit_light(&scene);
+        let mut r = Renderer::new(
+            &gpu.ctx,
+            scene.clone(),
+            "smoothies",
+            settings(SilhouettePath::Gpu),
+        )
+        .unwrap();
+        r.render().unwrap();
+        let found = r
+            .read_gpu_silhouettes()
+            .unwrap()
+            .expect("smoothies on the GPU path expose their silhouettes");
+        assert!(!found.is_empty(), "{name}: no caster on the GPU path");
+        let mut kinds = BTreeSet::new();
+        for (object, gpu_edges) in found {
+            let o = &scene.objects[object];
+            let adj = Adjacency::build(&o.mesh).unwrap();
+            let cpu_sil = extract(&adj, o.transform, light.position);
+            kinds.extend(cpu_sil.iter().map(|e| format!("{:?}", e.kind)));
+            let cpu: BTreeSet<(u32, u32, u32)> =
+                cpu_sil.iter().map(|e| (e.edge, e.a, e.b)).collect();
+            let gpu: BTreeSet<(u32, u32, u32)> = gpu_edges.into_iter().collect();
+            assert!(!cpu.is_empty(), "{name}/{}: no silhouette at all", o.name);
+            assert_eq!(
+                cpu.symmetric_difference(&gpu).count(),
+                0,
+                "{name}/{}: {} CPU edges, {} GPU edges, first differences {:?}",
+                o.name,
+                cpu.len(),
+                gpu.len(),
+                cpu.symmetric_difference(&gpu).take(5).collect::<Vec<_>>()
+            );
+        }
+        // The special meshes exercise their special edges.
+        let want = match name.as_str() {
+            "open bowl" => Some(EdgeKind::Boundary),
+            "non-manifold book" => Some(EdgeKind::NonManifold),
+            _ => None,
+        };
+        if let Some(k) = want {
+            assert!(
+                kinds.contains(&format!("{k:?}")),
+                "{name}: no {k:?} silhouette edge among {kinds:?}"
+            );
+        }
+    }
+}
+
+#[test]
+fn gpu_and_cpu_paths_render_the_same_image() {
+    let gpu = Gpu::new();
+    for scene in scenes() {
+        let name = scene.name.clone();
+        let cpu = gpu
+            .render_frames(
+                scene.clone(),
+                "smoothies",
+                settings(SilhouettePath::Cpu),
+                1,
+            )
+            .0;
+        let on_gpu = gpu
+            .render_frames(
+                scene.clone(),
+                "smoothies",
+                settings(SilhouettePath::Gpu),
+                1,
+            )
+            .0;
+        let hard = gpu
+            .render_frames(scene, "hard", settings(SilhouettePath::Cpu), 1)
+            .0;
+        let max_diff = cpu
+            .visibility
+            .iter()
+            .zip(&on_gpu.visibility)
+            .map(|(a, b)| (a - b).abs())
+            .fold(0.0f32, f32::max);
+        // Within one 8-bit level: the vertices may differ in the last bits (GPU sin/cos).
+        assert!(
+            max_diff <= 1.0 / 255.0,
+            "{name}: GPU and CPU smoothies differ by {max_diff}"
+        );
+        let max_colour = cpu
+            .color
+            .iter()
+            .zip(&on_gpu.color)
+            .flat_map(|(a, b)| a.iter().zip(b).map(|(x, y)| x.abs_diff(*y)))
+            .max()
+            .unwrap_or(0);
+        assert!(max_colour <= 1, "{name}: colours differ by {max_colour} levels");
+        // Both drew smoothies: a penumbra that hard shadows do not have.
+        let soft = |v: &[f32]| v.iter().filter(|&&x| x > 0.05 && x < 0.95).count();
+        assert!(
+            soft(&on_gpu.visibility) > soft(&hard.visibility) + 20,
+            "{name}: GPU smoothies drew no penumbra ({} vs hard {})",
+            soft(&on_gpu.visibility),
+            soft(&hard.visibility)
+        );
+    }
+}
+
+#[test]
+fn a_moved_caster_rebuilds_only_its_own_smoothies() {
+    let gpu = Gpu::new();
+    for path in [SilhouettePath::Gpu, SilhouettePath::Cpu] {
+        let scene = Scene::load("boxes").unwrap();
+        let casters = scene.objects.iter().filter(|o| o.role.casts()).count();
+        assert!(casters >= 2);
+        // The lower box: moving it changes neither near (the upper box's top) nor far (the
+        // ground), so the light's frame stays and only this caster is dirty.
+        let lower = scene
+            .objects
+            .iter()
+            .position(|o| o.role.casts())
+            .unwrap();
+        let mut r = Renderer::new(&gpu.ctx, scene, "smoothies", settings(path)).unwrap();
+        r.render().unwrap();
+        if path == SilhouettePath::Gpu {
+            assert_eq!(r.gpu_silhouettes_rebuilt(), Some(casters));
+        }
+        let near = fit_light(&r.scene).near;
+        r.scene.objects[lower].transform =
+            Mat4::from_translation(Vec3::new(0.3, 0.0, -0.2)) * r.scene.objects[lower].transform;
+        assert_eq!(fit_light(&r.scene).near, near);
+        let moved = r.render().unwrap();
+        let ran: Vec<&str> = moved
+            .passes
+            .iter()
+            .filter(|p| p.skipped.is_none())
+            .map(|p| p.name.as_str())
+            .collect();
+        assert!(
+            ran.contains(&"smoothies/smoothie") && ran.contains(&"smoothies/shadow_map"),
+            "{path:?}: {ran:?}"
+        );
+        if path == SilhouettePath::Gpu {
+            assert!(ran.contains(&"smoothies/silhouettes"), "{ran:?}");
+            assert_eq!(r.gpu_silhouettes_rebuilt(), Some(1), "only the moved caster");
+        }
+        let partial = r.read_back().unwrap();
+        // The same scene rendered from scratch: a partial rebuild must not change a pixel
+        // (min blending makes the draw order irrelevant).
+        let fresh = gpu
+            .render_frames(r.scene.clone(), "smoothies", settings(path), 1)
+            .0;
+        assert_eq!(partial.visibility, fresh.visibility, "{path:?}");
+
+        // A moving receiver changes no silhouette: the GPU passes are skipped.
+        let ground = r.scene.objects.iter().position(|o| !o.role.casts()).unwrap();
+        r.scene.objects[ground].transform =
+            Mat4::from_translation(Vec3::new(0.0, -0.05, 0.0)) * r.scene.objects[ground].transform;
+        let receiver_moved = r.render().unwrap();
+        if path == SilhouettePath::Gpu {
+            let sil = receiver_moved
+                .passes
+                .iter()
+                .find(|p| p.name == "smoothies/silhouettes")
+                .unwrap();
+            assert_eq!(
+                sil.skipped.as_deref(),
+                Some("light and casters unchanged"),
+                "{path:?}"
+            );
+        }
+        let partial = r.read_back().unwrap();
+        let fresh = gpu
+            .render_frames(r.scene.clone(), "smoothies", settings(path), 1)
+            .0;
+        assert_eq!(partial.visibility, fresh.visibility, "{path:?}: receiver move");
+    }
+}

@@ -669,3 +669,17 @@ mod equivalence {
         assert!(0.5f32.acos() > 1.04 && (-0.5f32).acos() < 2.1);
     }
 }
+#[test]
+fn zz_dense_stats() {
+    let scene = crate::scene::Scene::load("dense").unwrap();
+    let lv = crate::render::fit_light(&scene);
+    let mut tot = [0usize; 6];
+    for o in scene.objects.iter().filter(|o| o.role.casts()) {
+        let adj = Adjacency::build(&o.mesh).unwrap();
+        let sil = super::extract(&adj, o.transform, lv.position);
+        let g = super::smoothie::build_smoothies(&adj, &sil, o.transform, &lv, 0.0165);
+        let k = [sil.len(), g.edges, g.corners, g.special_vertices, g.corner_triangles, adj.positions.len()];
+        for i in 0..6 { tot[i] += k[i]; }
+    }
+    eprintln!("sil, edges, corners, special, corner_tris, nv: {tot:?}");
+}

@@ -14,7 +14,8 @@
 //! runs it (`CLOCK_THREAD_CPUTIME_ID`) instead of wall time: on the shared 2-core machine
 //! other processes' load stretches wall time (time slices lost to them) but not this.
 //! `extract_1core` is `extract_serial`, `smoothies_1core` is `build_smoothies` and
-//! `total_1core` both, all inside a one-thread pool.
+//! `total_1core` both, all inside a one-thread pool. `SIL_SCENES=dense,bunny` limits it
+//! to those scenes.
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion};
 use glam::{Mat4, Vec3};
@@ -257,7 +258,12 @@ fn scenes_cpu(c: &mut Criterion) {
     g.sample_size(20)
         .warm_up_time(Duration::from_millis(300))
         .measurement_time(Duration::from_secs(2));
+    // SIL_SCENES=dense,bunny limits the group to those scenes (loading dense-1m takes a while).
+    let only = std::env::var("SIL_SCENES").ok();
     for &name in BUILTIN_SCENES {
+        if only.as_ref().is_some_and(|o| !o.split(',').any(|s| s == name)) {
+            continue;
+        }
         let Some(cs) = Casters::load(name) else {
             continue;
         };

@@ -121,9 +121,10 @@ pub struct Adjacency {
     /// CSR offsets into `edge_face_list`, `edges.len() + 1` entries.
     edge_face_start: Vec<u32>,
     edge_face_list: Vec<EdgeFace>,
-    /// Per face: its first welded corner's position, beside `face_normals` so the per-light
-    /// facing test streams through two arrays instead of gathering from `positions`.
-    face_p0: Vec<Vec3>,
+    /// Per face, structure of arrays: the unit normal (x, y, z) and the first welded corner
+    /// (x, y, z), so the per-light facing test streams through six arrays (and vectorises)
+    /// instead of gathering from `positions`.
+    face_planes: [Vec<f32>; 6],
     /// Per edge: for the common edge with exactly two faces, both non-degenerate, those faces
     /// (in face order) with `FORWARD_BIT` set when the face runs `v[0] -> v[1]`; `[NOT_SIMPLE;
     /// 2]` for every other edge (boundary, non-manifold, degenerate faces), which takes the
@@ -253,7 +254,16 @@ impl Adjacency {
         }
         edge_face_start.push(edge_face_list.len() as u32);
 
-        let face_p0 = triangles.iter().map(|t| positions[t[0] as usize]).collect();
+        let face_planes = std::array::from_fn(|k| {
+            triangles
+                .iter()
+                .zip(&face_normals)
+                .map(|(t, n)| match k {
+                    0..3 => n[k],
+                    _ => positions[t[0] as usize][k - 3],
+                })
+                .collect()
+        });
         let edge_pairs = edge_face_start
             .windows(2)
             .map(|w| match &edge_face_list[w[0] as usize..w[1] as usize] {
@@ -273,7 +283,7 @@ impl Adjacency {
             edges,
             edge_face_start,
             edge_face_list,
-            face_p0,
+            face_planes,
             edge_pairs,
         })
     }
@@ -371,13 +381,14 @@ const FRONT: u8 = 1;
 /// Facing of faces `first..first + out.len()`. Branch-free so that it vectorises; the test
 /// is exactly `dot(n_f, L - p_f) > 0`, with `degenerate` folded in as bit 1.
 fn facings_into(adj: &Adjacency, first: usize, out: &mut [u8], light_obj: Vec3) {
-    let range = first..first + out.len();
-    let faces = adj.face_normals[range.clone()]
-        .iter()
-        .zip(&adj.face_p0[range.clone()])
-        .zip(&adj.degenerate[range]);
-    for (o, ((n, p), &deg)) in out.iter_mut().zip(faces) {
-        *o = u8::from(n.dot(light_obj - *p) > 0.0) | (u8::from(deg) << 1);
+    let r = first..first + out.len();
+    let [nx, ny, nz, px, py, pz] = adj.face_planes.each_ref().map(|a| &a[r.clone()]);
+    let deg = &adj.degenerate[r];
+    let l = light_obj;
+    for (i, o) in out.iter_mut().enumerate() {
+        // Vec3::dot's order of operations: (x * x' + y * y') + z * z'.
+        let d = nx[i] * (l.x - px[i]) + ny[i] * (l.y - py[i]) + nz[i] * (l.z - pz[i]);
+        *o = u8::from(d > 0.0) | (u8::from(deg[i]) << 1);
     }
 }
 

@@ -372,7 +372,9 @@ fn vertex_normal_screen<'a>(
 
 /// Appends the corner fan of silhouette vertex `vtx`, whose kept incident edges are
 /// `sil[i]` with outward direction `dirs[i]` for `i` in `inc` (ascending). Returns whether
-/// it is a special vertex, or `None` when it needs no corner. `angles` is scratch.
+/// it is a special vertex, or `None` when it needs no corner. `angles` is scratch;
+/// `angle_of[i]` caches `dirs[i].to_angle()` (NaN: not yet computed), since most edges
+/// need it at both of their corners and atan2 is one of the costliest steps here.
 #[allow(clippy::too_many_arguments)]
 fn build_corner(
     adj: &Adjacency,
@@ -383,10 +385,18 @@ fn build_corner(
     dirs: &[Option<Vec2>],
     out: &mut Vec<SmoothieVertex>,
     angles: &mut Vec<f32>,
+    angle_of: &mut [f32],
 ) -> Option<bool> {
     let p = vtx.p;
     let Projected { s, z, inv, t } = vtx.proj?;
     let dir = |i: u32| dirs[i as usize].unwrap_or(Vec2::ZERO);
+    let mut angle = |i: u32| {
+        let a = &mut angle_of[i as usize];
+        if a.is_nan() {
+            *a = dir(i).to_angle();
+        }
+        *a
+    };
     let edges = || inc.iter().map(|&i| &sil[i as usize]);
     if let [i1, i2] = *inc {
         let (d1, d2) = (dir(i1), dir(i2));
@@ -398,7 +408,7 @@ fn build_corner(
         if cos >= 1.0 {
             return None;
         }
-        let a1 = d1.to_angle();
+        let a1 = angle(i1);
         let mut sweep = d1.angle_to(d2);
         if cos <= -1.0 {
             // Hairpin: both edges leave the vertex in almost the same screen direction, so
@@ -427,7 +437,7 @@ fn build_corner(
     }
     // Special case: spokes at every d_i and at the projected vertex normal; full disc.
     angles.clear();
-    angles.extend(inc.iter().map(|&i| dir(i).to_angle()));
+    angles.extend(inc.iter().map(|&i| angle(i)));
     let n = vertex_normal_screen(adj, pr, edges(), p, s, z);
     if n.length() > 1e-9 {
         angles.push(n.to_angle());
@@ -494,11 +504,21 @@ fn corners_into(
 ) -> CornerStats {
     let mut st = CornerStats::default();
     let mut angles = Vec::new();
+    let mut angle_of = vec![f32::NAN; sil.len()];
     for &c in order {
         let c = c as usize;
         let list = &inc[inc_start[c] as usize..inc_start[c + 1] as usize];
-        if let Some(special) = build_corner(adj, pr, &verts[c], list, sil, dirs, out, &mut angles)
-        {
+        if let Some(special) = build_corner(
+            adj,
+            pr,
+            &verts[c],
+            list,
+            sil,
+            dirs,
+            out,
+            &mut angles,
+            &mut angle_of,
+        ) {
             st.corners += 1;
             st.special += usize::from(special);
         }
@@ -590,7 +610,9 @@ pub(super) fn build_impl(
             dirs.extend_from_slice(&d);
         }
     } else {
-        geo.vertices.reserve(6 * sil.len());
+        // One allocation for the quads and (usually) the corners, about three fan segments
+        // per silhouette vertex: growing it later copies megabytes on big silhouettes.
+        geo.vertices.reserve(6 * sil.len() + 10 * verts.len());
         quads(sil, &ends, &mut geo.vertices, &mut dirs);
     }
     geo.edges = geo.vertices.len() / 6;
@@ -651,9 +673,7 @@ pub(super) fn build_impl(
         }
         geo.vertices.extend_from_slice(&all);
     } else {
-        // About three fan segments per corner.
         let mut out = std::mem::take(&mut geo.vertices);
-        out.reserve(9 * order.len());
         stats.push(corners(&order, &mut out));
         geo.vertices = out;
     }

@@ -261,7 +261,10 @@ fn scenes_cpu(c: &mut Criterion) {
     // SIL_SCENES=dense,bunny limits the group to those scenes (loading dense-1m takes a while).
     let only = std::env::var("SIL_SCENES").ok();
     for &name in BUILTIN_SCENES {
-        if only.as_ref().is_some_and(|o| !o.split(',').any(|s| s == name)) {
+        if only
+            .as_ref()
+            .is_some_and(|o| !o.split(',').any(|s| s == name))
+        {
             continue;
         }
         let Some(cs) = Casters::load(name) else {

@@ -3,7 +3,9 @@
 //! bit-identical output. Test-only.
 #![allow(dead_code)]
 
-use super::smoothie::{SmoothieGeometry, SmoothieVertex, Width, MAX_SEGMENT, MIN_CORNER_ANGLE, PROBE, FAN_OVERLAP};
+use super::smoothie::{
+    SmoothieGeometry, SmoothieVertex, Width, FAN_OVERLAP, MAX_SEGMENT, MIN_CORNER_ANGLE, PROBE,
+};
 use super::{kind_of, light_in_object, Adjacency, EdgeFace, EdgeKind, SilhouetteEdge};
 use crate::scene::LightView;
 use glam::{Mat3, Mat4, Vec2, Vec3};
@@ -79,14 +81,17 @@ fn classify(adj: &Adjacency, e: usize, facings: &[u8], mirror: bool) -> Option<S
 }
 
 /// The old `extract_serial` (the old `extract` gave the same result in parallel).
-pub fn extract_serial_old(adj: &Adjacency, model: Mat4, light_pos_world: Vec3) -> Vec<SilhouetteEdge> {
+pub fn extract_serial_old(
+    adj: &Adjacency,
+    model: Mat4,
+    light_pos_world: Vec3,
+) -> Vec<SilhouetteEdge> {
     let (l, mirror) = light_in_object(model, light_pos_world);
     let facings: Vec<u8> = (0..adj.num_faces()).map(|f| facing(adj, f, l)).collect();
     (0..adj.edges.len())
         .filter_map(|e| classify(adj, e, &facings, mirror))
         .collect()
 }
-
 
 /// Projects object-space geometry of one object for one light.
 struct Projector<'a> {
@@ -634,9 +639,12 @@ mod equivalence {
         for name in ["dense", "primitives", "bunny", "fence"] {
             let scene = Scene::load(name).unwrap();
             let fitted = crate::render::fit_light(&scene);
-            let mut views = vec![fitted.clone()];
+            let mut views = vec![fitted];
             let b = scene.bounds();
-            views.extend(lights((b.min + b.max) * 0.5, (b.max - b.min).length() * 0.5));
+            views.extend(lights(
+                (b.min + b.max) * 0.5,
+                (b.max - b.min).length() * 0.5,
+            ));
             let (mut e, mut v) = (0, 0);
             for o in scene.objects.iter().filter(|o| o.role.casts()) {
                 let adj = Adjacency::build(&o.mesh).unwrap();
@@ -668,18 +676,4 @@ mod equivalence {
         }
         assert!(0.5f32.acos() > 1.04 && (-0.5f32).acos() < 2.1);
     }
-}
-#[test]
-fn zz_dense_stats() {
-    let scene = crate::scene::Scene::load("dense").unwrap();
-    let lv = crate::render::fit_light(&scene);
-    let mut tot = [0usize; 6];
-    for o in scene.objects.iter().filter(|o| o.role.casts()) {
-        let adj = Adjacency::build(&o.mesh).unwrap();
-        let sil = super::extract(&adj, o.transform, lv.position);
-        let g = super::smoothie::build_smoothies(&adj, &sil, o.transform, &lv, 0.0165);
-        let k = [sil.len(), g.edges, g.corners, g.special_vertices, g.corner_triangles, adj.positions.len()];
-        for i in 0..6 { tot[i] += k[i]; }
-    }
-    eprintln!("sil, edges, corners, special, corner_tris, nv: {tot:?}");
 }

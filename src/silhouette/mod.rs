@@ -1,5 +1,6 @@
 //! CPU silhouettes: an edge -> triangle adjacency built once per mesh, and per light a
-//! brute-force, parallel pass over the edges.
+//! brute-force pass over the faces and then the edges (split over rayon only for meshes
+//! above `PAR_CHUNK` faces or edges; smaller ones are faster on the calling thread).
 //!
 //! # Adjacency ([`Adjacency::build`])
 //! Positions are welded by exact value (`-0.0` and `0.0` are the same point) because meshes
@@ -14,11 +15,16 @@
 //!
 //! # Extraction ([`extract`])
 //! The light is moved into object space once; face `f` faces the light iff
-//! `dot(n_f, L - p_f) > 0` (`p_f` = its first welded corner). With only non-degenerate faces
+//! `dot(n_f, L - p_f) > 0` (`p_f` = its first welded corner), evaluated over per-face
+//! arrays of n and p prepared by the adjacency build. With only non-degenerate faces
 //! counted, an edge is a silhouette when
 //! - it has 2 faces (manifold) and exactly one of them faces the light;
 //! - it has 1 face (boundary): always, the rim of an open mesh outlines its shadow;
 //! - it has 3 or more faces (non-manifold): its faces disagree in facing.
+//!
+//! The build also records, per edge, whether it is a plain manifold edge (exactly two faces,
+//! both non-degenerate) and if so its two faces with their winding flags, so the per-light
+//! pass decides those edges from two facing bytes; only the others walk their face lists.
 //!
 //! # Orientation convention of [`SilhouetteEdge`]
 //! `front_face` is a light-facing face of the edge (the lowest-numbered one), or, for a
@@ -526,7 +532,14 @@ fn extract_impl(
             .map(|c| {
                 let first = c * chunk;
                 let mut part = Vec::with_capacity(chunk / 8);
-                classify_range(adj, first, chunk.min(ne - first), &facings, mirror, &mut part);
+                classify_range(
+                    adj,
+                    first,
+                    chunk.min(ne - first),
+                    &facings,
+                    mirror,
+                    &mut part,
+                );
                 part
             })
             .collect();

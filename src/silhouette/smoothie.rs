@@ -52,6 +52,15 @@
 //! silhouette order), then the corners ordered by welded vertex index. Windings are mixed:
 //! draw with culling off.
 //!
+//! # Cost
+//! Each silhouette vertex is transformed and projected once (its edges and its corner share
+//! it); incidences are grouped through arrays over the welded vertices instead of a sort;
+//! output goes into one preallocated vector; silhouettes below `PAR_CHUNK` edges (every
+//! object of the built-in scenes) run on the calling thread. What is left is mostly libm:
+//! one atan2 per corner (cached per edge), one cos per fan and one sin/cos per fan spoke,
+//! kept as they are so that the geometry stays bit-identical to the pre-rewrite code (tests
+//! in `legacy.rs`); the two acos comparisons became exact comparisons of the cosine.
+//!
 //! # Robustness
 //! An edge with a vertex at linear depth <= near (behind or too close to the light) or with
 //! a non-finite projection is dropped and counted in `skipped_edges`; so is an edge whose
@@ -666,16 +675,13 @@ pub(super) fn build_impl(
                 (out, st)
             })
             .collect();
-        let mut all = Vec::with_capacity(parts.iter().map(|p| p.0.len()).sum());
+        geo.vertices.reserve(parts.iter().map(|p| p.0.len()).sum());
         for (out, st) in parts {
-            all.extend_from_slice(&out);
+            geo.vertices.extend_from_slice(&out);
             stats.push(st);
         }
-        geo.vertices.extend_from_slice(&all);
     } else {
-        let mut out = std::mem::take(&mut geo.vertices);
-        stats.push(corners(&order, &mut out));
-        geo.vertices = out;
+        stats.push(corners(&order, &mut geo.vertices));
     }
     for st in stats {
         geo.corners += st.corners;

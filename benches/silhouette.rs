@@ -9,6 +9,13 @@
 //! `build_smoothies`, and `total` (extract + smoothies, what one frame of `smoothies`
 //! does per light) on all cores and on one core (a one-thread rayon pool). The goal for
 //! `dense` is `total_1core` <= 1 ms per light.
+//!
+//! The `scenes_cpu` group times the same one-core work by the CPU time of the thread that
+//! runs it (`CLOCK_THREAD_CPUTIME_ID`) instead of wall time: on the shared 2-core machine
+//! other processes' load stretches wall time (time slices lost to them) but not this.
+//! `extract_1core` is `extract_serial`, `smoothies_1core` is `build_smoothies` and
+//! `total_1core` both, all inside a one-thread pool. `SIL_SCENES=dense,bunny` limits it
+//! to those scenes.
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion};
 use glam::{Mat4, Vec3};
@@ -219,5 +226,63 @@ fn scenes(c: &mut Criterion) {
     g.finish();
 }
 
-criterion_group!(benches, bench, scenes);
+/// CPU time consumed by the calling thread.
+fn thread_cpu_time() -> Duration {
+    let mut ts = libc::timespec {
+        tv_sec: 0,
+        tv_nsec: 0,
+    };
+    // SAFETY: `ts` is a valid, writable timespec; CLOCK_THREAD_CPUTIME_ID exists on Linux.
+    let rc = unsafe { libc::clock_gettime(libc::CLOCK_THREAD_CPUTIME_ID, &mut ts) };
+    assert_eq!(rc, 0, "clock_gettime(CLOCK_THREAD_CPUTIME_ID)");
+    Duration::new(ts.tv_sec as u64, ts.tv_nsec as u32)
+}
+
+/// `iters` runs of `f` on the one thread of `pool`, timed by that thread's CPU clock.
+fn cpu_iters<R>(pool: &rayon::ThreadPool, iters: u64, f: impl Fn() -> R + Sync) -> Duration {
+    pool.install(|| {
+        let t0 = thread_cpu_time();
+        for _ in 0..iters {
+            black_box(f());
+        }
+        thread_cpu_time() - t0
+    })
+}
+
+fn scenes_cpu(c: &mut Criterion) {
+    let Ok(pool) = rayon::ThreadPoolBuilder::new().num_threads(1).build() else {
+        eprintln!("no one-thread pool");
+        return;
+    };
+    let mut g = c.benchmark_group("scenes_cpu");
+    g.sample_size(20)
+        .warm_up_time(Duration::from_millis(300))
+        .measurement_time(Duration::from_secs(2));
+    // SIL_SCENES=dense,bunny limits the group to those scenes (loading dense-1m takes a while).
+    let only = std::env::var("SIL_SCENES").ok();
+    for &name in BUILTIN_SCENES {
+        if only
+            .as_ref()
+            .is_some_and(|o| !o.split(',').any(|s| s == name))
+        {
+            continue;
+        }
+        let Some(cs) = Casters::load(name) else {
+            continue;
+        };
+        let sil = cs.extract(true);
+        g.bench_function(BenchmarkId::new("extract_1core", name), |b| {
+            b.iter_custom(|iters| cpu_iters(&pool, iters, || cs.extract(true)))
+        });
+        g.bench_function(BenchmarkId::new("smoothies_1core", name), |b| {
+            b.iter_custom(|iters| cpu_iters(&pool, iters, || cs.smoothies(black_box(&sil))))
+        });
+        g.bench_function(BenchmarkId::new("total_1core", name), |b| {
+            b.iter_custom(|iters| cpu_iters(&pool, iters, || cs.smoothies(&cs.extract(true))))
+        });
+    }
+    g.finish();
+}
+
+criterion_group!(benches, bench, scenes, scenes_cpu);
 criterion_main!(benches);

@@ -1,5 +1,6 @@
 //! CPU silhouettes: an edge -> triangle adjacency built once per mesh, and per light a
-//! brute-force, parallel pass over the edges.
+//! brute-force pass over the faces and then the edges (split over rayon only for meshes
+//! above `PAR_CHUNK` faces or edges; smaller ones are faster on the calling thread).
 //!
 //! # Adjacency ([`Adjacency::build`])
 //! Positions are welded by exact value (`-0.0` and `0.0` are the same point) because meshes
@@ -14,11 +15,16 @@
 //!
 //! # Extraction ([`extract`])
 //! The light is moved into object space once; face `f` faces the light iff
-//! `dot(n_f, L - p_f) > 0` (`p_f` = its first welded corner). With only non-degenerate faces
+//! `dot(n_f, L - p_f) > 0` (`p_f` = its first welded corner), evaluated over per-face
+//! arrays of n and p prepared by the adjacency build. With only non-degenerate faces
 //! counted, an edge is a silhouette when
 //! - it has 2 faces (manifold) and exactly one of them faces the light;
 //! - it has 1 face (boundary): always, the rim of an open mesh outlines its shadow;
 //! - it has 3 or more faces (non-manifold): its faces disagree in facing.
+//!
+//! The build also records, per edge, whether it is a plain manifold edge (exactly two faces,
+//! both non-degenerate) and if so its two faces with their winding flags, so the per-light
+//! pass decides those edges from two facing bytes; only the others walk their face lists.
 //!
 //! # Orientation convention of [`SilhouetteEdge`]
 //! `front_face` is a light-facing face of the edge (the lowest-numbered one), or, for a
@@ -36,6 +42,8 @@ use std::collections::HashMap;
 use std::hash::{BuildHasherDefault, Hasher};
 
 pub mod gpu;
+#[cfg(test)]
+mod legacy;
 pub mod penumbra;
 pub mod smoothie;
 
@@ -120,7 +128,22 @@ pub struct Adjacency {
     /// CSR offsets into `edge_face_list`, `edges.len() + 1` entries.
     edge_face_start: Vec<u32>,
     edge_face_list: Vec<EdgeFace>,
+    /// Per face, structure of arrays: the unit normal (x, y, z) and the first welded corner
+    /// (x, y, z), so the per-light facing test streams through six arrays (and vectorises)
+    /// instead of gathering from `positions`.
+    face_planes: [Vec<f32>; 6],
+    /// Per edge: for the common edge with exactly two faces, both non-degenerate, those faces
+    /// (in face order) with `FORWARD_BIT` set when the face runs `v[0] -> v[1]`; `[NOT_SIMPLE;
+    /// 2]` for every other edge (boundary, non-manifold, degenerate faces), which takes the
+    /// general path.
+    edge_pairs: Vec<[u32; 2]>,
 }
+
+/// Marks an edge of `Adjacency::edge_pairs` that is not a plain two-face manifold edge.
+const NOT_SIMPLE: u32 = u32::MAX;
+/// Winding flag in `Adjacency::edge_pairs`; face numbers stay below 2^31 because corner numbers
+/// `3 * face + k` fit in 32 bits.
+const FORWARD_BIT: u32 = 1 << 31;
 
 /// A face is degenerate when |e0 x e1| <= this * max|e|^2, i.e. its smallest angle is below
 /// ~1e-6 rad: such faces' normals are noise, and a facing test on them would be random.
@@ -238,6 +261,27 @@ impl Adjacency {
         }
         edge_face_start.push(edge_face_list.len() as u32);
 
+        let face_planes = std::array::from_fn(|k| {
+            triangles
+                .iter()
+                .zip(&face_normals)
+                .map(|(t, n)| match k {
+                    0..3 => n[k],
+                    _ => positions[t[0] as usize][k - 3],
+                })
+                .collect()
+        });
+        let edge_pairs = edge_face_start
+            .windows(2)
+            .map(|w| match &edge_face_list[w[0] as usize..w[1] as usize] {
+                [x, y] if !degenerate[x.face as usize] && !degenerate[y.face as usize] => {
+                    let pack = |ef: &EdgeFace| ef.face | if ef.forward { FORWARD_BIT } else { 0 };
+                    [pack(x), pack(y)]
+                }
+                _ => [NOT_SIMPLE; 2],
+            })
+            .collect();
+
         Ok(Adjacency {
             positions,
             triangles,
@@ -246,6 +290,8 @@ impl Adjacency {
             edges,
             edge_face_start,
             edge_face_list,
+            face_planes,
+            edge_pairs,
         })
     }
 
@@ -335,23 +381,25 @@ pub struct SilhouetteEdge {
     pub front_face: u32,
 }
 
-/// Per face: 0 faces away, 1 faces the light, 2 degenerate.
+/// Per face: 0 faces away, 1 faces the light, 2 or 3 degenerate.
 const BACK: u8 = 0;
 const FRONT: u8 = 1;
-const DEGEN: u8 = 2;
 
-fn facing(adj: &Adjacency, f: usize, light_obj: Vec3) -> u8 {
-    if adj.degenerate[f] {
-        return DEGEN;
-    }
-    let p = adj.positions[adj.triangles[f][0] as usize];
-    if adj.face_normals[f].dot(light_obj - p) > 0.0 {
-        FRONT
-    } else {
-        BACK
+/// Facing of faces `first..first + out.len()`. Branch-free so that it vectorises; the test
+/// is exactly `dot(n_f, L - p_f) > 0`, with `degenerate` folded in as bit 1.
+fn facings_into(adj: &Adjacency, first: usize, out: &mut [u8], light_obj: Vec3) {
+    let r = first..first + out.len();
+    let [nx, ny, nz, px, py, pz] = adj.face_planes.each_ref().map(|a| &a[r.clone()]);
+    let deg = &adj.degenerate[r];
+    let l = light_obj;
+    for (i, o) in out.iter_mut().enumerate() {
+        // Vec3::dot's order of operations: (x * x' + y * y') + z * z'.
+        let d = nx[i] * (l.x - px[i]) + ny[i] * (l.y - py[i]) + nz[i] * (l.z - pz[i]);
+        *o = u8::from(d > 0.0) | (u8::from(deg[i]) << 1);
     }
 }
 
+/// Any edge, by its face list (the general rule of the module header).
 fn classify(adj: &Adjacency, e: usize, facings: &[u8], mirror: bool) -> Option<SilhouetteEdge> {
     let faces = adj.edge_faces(e);
     let mut valid = 0usize;
@@ -390,18 +438,60 @@ fn classify(adj: &Adjacency, e: usize, facings: &[u8], mirror: bool) -> Option<S
             (ef, !ef.forward)
         }
     };
+    Some(oriented(adj, e, ef.face, along, kind, mirror))
+}
+
+fn oriented(
+    adj: &Adjacency,
+    e: usize,
+    front_face: u32,
+    along: bool,
+    kind: EdgeKind,
+    mirror: bool,
+) -> SilhouetteEdge {
     let [lo, hi] = adj.edges[e].v;
-    let (mut a, mut b) = if along { (lo, hi) } else { (hi, lo) };
-    if mirror {
-        std::mem::swap(&mut a, &mut b);
-    }
-    Some(SilhouetteEdge {
+    // `along != mirror`: a mirror swaps a and b.
+    let (a, b) = if along != mirror { (lo, hi) } else { (hi, lo) };
+    SilhouetteEdge {
         edge: e as u32,
         a,
         b,
         kind,
-        front_face: ef.face,
-    })
+        front_face,
+    }
+}
+
+/// Silhouette edges among edges `first..first + n`, appended to `out` in edge order.
+fn classify_range(
+    adj: &Adjacency,
+    first: usize,
+    n: usize,
+    facings: &[u8],
+    mirror: bool,
+    out: &mut Vec<SilhouetteEdge>,
+) {
+    for (i, &[p, q]) in adj.edge_pairs[first..first + n].iter().enumerate() {
+        let e = first + i;
+        if p == NOT_SIMPLE {
+            out.extend(classify(adj, e, facings, mirror));
+            continue;
+        }
+        // Two valid faces: a silhouette iff exactly one faces the light, which is then the
+        // front face (the general rule for a manifold edge, without the face-list walk).
+        let fp = facings[(p & !FORWARD_BIT) as usize];
+        let fq = facings[(q & !FORWARD_BIT) as usize];
+        if fp != fq {
+            let front = if fp == FRONT { p } else { q };
+            out.push(oriented(
+                adj,
+                e,
+                front & !FORWARD_BIT,
+                front & FORWARD_BIT != 0,
+                EdgeKind::Manifold,
+                mirror,
+            ));
+        }
+    }
 }
 
 pub(crate) fn light_in_object(model: Mat4, light_pos_world: Vec3) -> (Vec3, bool) {
@@ -413,31 +503,66 @@ pub(crate) fn light_in_object(model: Mat4, light_pos_world: Vec3) -> (Vec3, bool
     (l, model.determinant() < 0.0)
 }
 
-/// Silhouette edges of `adj` under `model` (object -> world) for a point light at
-/// `light_pos_world`, sorted by edge index. Parallel over faces, then over edges.
-pub fn extract(adj: &Adjacency, model: Mat4, light_pos_world: Vec3) -> Vec<SilhouetteEdge> {
+/// Work items (faces, edges) per rayon task: below about this much work per task, the
+/// hand-off to the pool costs more than it saves, so smaller meshes run on the calling thread.
+const PAR_CHUNK: usize = 32 * 1024;
+
+fn extract_impl(
+    adj: &Adjacency,
+    model: Mat4,
+    light_pos_world: Vec3,
+    parallel: bool,
+    chunk: usize,
+) -> Vec<SilhouetteEdge> {
     let (l, mirror) = light_in_object(model, light_pos_world);
-    // Chunks of >= 4096 items: below that the per-task cost exceeds the work.
-    let facings: Vec<u8> = (0..adj.num_faces())
-        .into_par_iter()
-        .with_min_len(4096)
-        .map(|f| facing(adj, f, l))
-        .collect();
-    // Rayon's collect into a Vec keeps the source order, so the output stays sorted.
-    (0..adj.edges.len())
-        .into_par_iter()
-        .with_min_len(4096)
-        .filter_map(|e| classify(adj, e, &facings, mirror))
-        .collect()
+    let (nf, ne) = (adj.num_faces(), adj.edges.len());
+    let mut facings = vec![0u8; nf];
+    if parallel && nf > chunk {
+        facings
+            .par_chunks_mut(chunk)
+            .enumerate()
+            .for_each(|(c, out)| facings_into(adj, c * chunk, out, l));
+    } else {
+        facings_into(adj, 0, &mut facings, l);
+    }
+    // About one edge in ten is a silhouette edge on a typical closed mesh.
+    let mut out = Vec::with_capacity(ne / 8 + 16);
+    if parallel && ne > chunk {
+        let parts: Vec<Vec<SilhouetteEdge>> = (0..ne.div_ceil(chunk))
+            .into_par_iter()
+            .map(|c| {
+                let first = c * chunk;
+                let mut part = Vec::with_capacity(chunk / 8);
+                classify_range(
+                    adj,
+                    first,
+                    chunk.min(ne - first),
+                    &facings,
+                    mirror,
+                    &mut part,
+                );
+                part
+            })
+            .collect();
+        for p in parts {
+            out.extend_from_slice(&p);
+        }
+    } else {
+        classify_range(adj, 0, ne, &facings, mirror, &mut out);
+    }
+    out
 }
 
-/// Same result as [`extract`] on one thread (for benchmarks and as a reference).
+/// Silhouette edges of `adj` under `model` (object -> world) for a point light at
+/// `light_pos_world`, sorted by edge index. Meshes above `PAR_CHUNK` faces or edges are
+/// split over rayon, smaller ones run on the calling thread; the result is the same.
+pub fn extract(adj: &Adjacency, model: Mat4, light_pos_world: Vec3) -> Vec<SilhouetteEdge> {
+    extract_impl(adj, model, light_pos_world, true, PAR_CHUNK)
+}
+
+/// Same result as [`extract`] on the calling thread only (for benchmarks and as a reference).
 pub fn extract_serial(adj: &Adjacency, model: Mat4, light_pos_world: Vec3) -> Vec<SilhouetteEdge> {
-    let (l, mirror) = light_in_object(model, light_pos_world);
-    let facings: Vec<u8> = (0..adj.num_faces()).map(|f| facing(adj, f, l)).collect();
-    (0..adj.edges.len())
-        .filter_map(|e| classify(adj, e, &facings, mirror))
-        .collect()
+    extract_impl(adj, model, light_pos_world, false, PAR_CHUNK)
 }
 
 /// Edge adjacency of every object that casts and passes `keep` (index, object), built once

@@ -52,6 +52,15 @@
 //! silhouette order), then the corners ordered by welded vertex index. Windings are mixed:
 //! draw with culling off.
 //!
+//! # Cost
+//! Each silhouette vertex is transformed and projected once (its edges and its corner share
+//! it); incidences are grouped through arrays over the welded vertices instead of a sort;
+//! output goes into one preallocated vector; silhouettes below `PAR_CHUNK` edges (every
+//! object of the built-in scenes) run on the calling thread. What is left is mostly libm:
+//! one atan2 per corner (cached per edge), one cos per fan and one sin/cos per fan spoke,
+//! kept as they are so that the geometry stays bit-identical to the pre-rewrite code (tests
+//! in `legacy.rs`); the two acos comparisons became exact comparisons of the cosine.
+//!
 //! # Robustness
 //! An edge with a vertex at linear depth <= near (behind or too close to the light) or with
 //! a non-finite projection is dropped and counted in `skipped_edges`; so is an edge whose
@@ -158,13 +167,27 @@ pub struct SmoothieGeometry {
 
 /// Largest angle of one fan segment: 30 degrees keeps the overshoot t / cos(15 deg) within
 /// 3.5 % of t while costing at most 12 triangles for a full disc.
-const MAX_SEGMENT: f32 = std::f32::consts::PI / 6.0;
+pub(crate) const MAX_SEGMENT: f32 = std::f32::consts::PI / 6.0;
 /// Below this angle between d1 and d2 the two quads' outer sides coincide. Anything larger
 /// needs a corner: even a 1-degree wedge is almost a texel wide at the outer side of a
 /// 50-texel smoothie, and an uncovered texel reads as alpha 1 (a lit speckle in the penumbra).
-const MIN_CORNER_ANGLE: f32 = 1e-3 * std::f32::consts::PI / 180.0;
+// Only the tests and the pre-rewrite reference read it: `build_corner` compares the cosine.
+#[cfg_attr(not(test), allow(dead_code))]
+pub(crate) const MIN_CORNER_ANGLE: f32 = 1e-3 * std::f32::consts::PI / 180.0;
 /// Relative size of the normal probe (of the point's linear depth).
-const PROBE: f32 = 1e-3;
+pub(crate) const PROBE: f32 = 1e-3;
+
+/// Extra angle a fan reaches past each of its edges' directions. The fan's spokes and the
+/// edge quads' sides are collinear but share no vertices (T-junctions), so without overlap
+/// the rasteriser leaves single-texel cracks that show as lit speckles inside penumbrae.
+/// The overlap is harmless: inside an edge quad the radial alpha |p - s| / t is never below
+/// the quad's own alpha, and MIN blending keeps the quad's.
+pub(crate) const FAN_OVERLAP: f32 = 2.0 * std::f32::consts::PI / 180.0;
+
+/// Silhouettes with at least this many edges are split over rayon in chunks of this size;
+/// smaller ones (every object of the built-in scenes) run on the calling thread, where the
+/// whole object takes less time than a hand-off to the pool.
+const PAR_CHUNK: usize = 4096;
 
 /// Projects object-space geometry of one object for one light.
 struct Projector<'a> {
@@ -203,12 +226,23 @@ impl Projector<'_> {
     }
 }
 
-/// Kept silhouette edge: screen data needed by the quads and the corners.
-struct EdgeOut {
-    a: u32,
-    b: u32,
-    d: Vec2,
-    verts: [SmoothieVertex; 6],
+/// A silhouette vertex, transformed and projected once for all its edges and its corner.
+#[derive(Clone, Copy)]
+struct SilVertex {
+    /// Welded vertex index.
+    v: u32,
+    /// World position.
+    p: Vec3,
+    /// `None` when `Projector::project` rejects the point: its edges are skipped.
+    proj: Option<Projected>,
+}
+
+#[derive(Clone, Copy)]
+struct Projected {
+    s: Vec2,
+    z: f32,
+    inv: f32,
+    t: f32,
 }
 
 fn vertex(
@@ -257,16 +291,19 @@ fn third_vertex_side(
     side
 }
 
+/// Appends the quad of silhouette edge `e` (ends `va`, `vb`) to `out`; returns its outward
+/// direction, or `None` (nothing appended) when the edge is skipped.
 fn build_edge(
     adj: &Adjacency,
     pr: &Projector,
     e: &SilhouetteEdge,
-    width: Width,
-) -> Option<EdgeOut> {
-    let pa = pr.world(adj.positions[e.a as usize]);
-    let pb = pr.world(adj.positions[e.b as usize]);
-    let (s0, z0) = pr.project(pa)?;
-    let (s1, z1) = pr.project(pb)?;
+    va: &SilVertex,
+    vb: &SilVertex,
+    out: &mut Vec<SmoothieVertex>,
+) -> Option<Vec2> {
+    let (pa, pb) = (va.p, vb.p);
+    let (a, b) = (va.proj?, vb.proj?);
+    let (s0, s1) = (a.s, b.s);
     let along = s1 - s0;
     let len = along.length();
     // Also catches NaN.
@@ -314,31 +351,18 @@ fn build_edge(
             }
         }
     }
-    let (i0, i1) = (1.0 / z0, 1.0 / z1);
-    let (t0, t1) = (width.at(z0), width.at(z1));
-    let (o0, o1) = (s0 + t0 * d, s1 + t1 * d);
+    let (o0, o1) = (s0 + a.t * d, s1 + b.t * d);
     let v = |uv: Vec2, inv: f32, t: f32| vertex(uv, inv, 0.0, s0, d, t);
-    Some(EdgeOut {
-        a: e.a,
-        b: e.b,
-        d,
-        verts: [
-            v(s0, i0, t0),
-            v(s1, i1, t1),
-            v(o1, i1, t1),
-            v(s0, i0, t0),
-            v(o1, i1, t1),
-            v(o0, i0, t0),
-        ],
-    })
+    out.extend_from_slice(&[
+        v(s0, a.inv, a.t),
+        v(s1, b.inv, b.t),
+        v(o1, b.inv, b.t),
+        v(s0, a.inv, a.t),
+        v(o1, b.inv, b.t),
+        v(o0, a.inv, a.t),
+    ]);
+    Some(d)
 }
-
-/// Extra angle a fan reaches past each of its edges' directions. The fan's spokes and the
-/// edge quads' sides are collinear but share no vertices (T-junctions), so without overlap
-/// the rasteriser leaves single-texel cracks that show as lit speckles inside penumbrae.
-/// The overlap is harmless: inside an edge quad the radial alpha |p - s| / t is never below
-/// the quad's own alpha, and MIN blending keeps the quad's.
-const FAN_OVERLAP: f32 = 2.0 * std::f32::consts::PI / 180.0;
 
 /// Fan from the vertex at `s` over directions `from` .. `from + sweep` (radians, signed).
 fn fan(out: &mut Vec<SmoothieVertex>, s: Vec2, inv: f32, t: f32, from: f32, sweep: f32) -> usize {
@@ -349,24 +373,22 @@ fn fan(out: &mut Vec<SmoothieVertex>, s: Vec2, inv: f32, t: f32, from: f32, swee
     let r = t / (phi * 0.5).cos();
     let at = |i: usize| s + r * Vec2::from_angle(from + phi * i as f32);
     let cv = |uv: Vec2| vertex(uv, inv, 1.0, s, Vec2::ZERO, t);
+    let centre = cv(s);
+    // Each inner spoke is shared by two segments: one sin/cos per spoke.
+    let mut prev = cv(at(0));
     for i in 0..k {
-        out.push(cv(s));
-        out.push(cv(at(i)));
-        out.push(cv(at(i + 1)));
+        let next = cv(at(i + 1));
+        out.extend_from_slice(&[centre, prev, next]);
+        prev = next;
     }
     k
 }
 
-struct CornerOut {
-    verts: Vec<SmoothieVertex>,
-    special: bool,
-}
-
 /// Projected vertex normal: sum of the faces adjacent to the vertex's silhouette edges.
-fn vertex_normal_screen(
+fn vertex_normal_screen<'a>(
     adj: &Adjacency,
     pr: &Projector,
-    edges: &[&SilhouetteEdge],
+    edges: impl Iterator<Item = &'a SilhouetteEdge>,
     p: Vec3,
     s: Vec2,
     z: f32,
@@ -380,41 +402,60 @@ fn vertex_normal_screen(
     pr.project_normal(p, z, s, n.normalize_or_zero())
 }
 
+/// Appends the corner fan of silhouette vertex `vtx`, whose kept incident edges are
+/// `sil[i]` with outward direction `dirs[i]` for `i` in `inc` (ascending). Returns whether
+/// it is a special vertex, or `None` when it needs no corner. `angles` is scratch;
+/// `angle_of[i]` caches `dirs[i].to_angle()` (NaN: not yet computed), since most edges
+/// need it at both of their corners and atan2 is one of the costliest steps here.
+#[allow(clippy::too_many_arguments)]
 fn build_corner(
     adj: &Adjacency,
     pr: &Projector,
-    vtx: u32,
-    inc: &[(&SilhouetteEdge, Vec2)],
-    width: Width,
-) -> Option<CornerOut> {
-    let p = pr.world(adj.positions[vtx as usize]);
-    let (s, z) = pr.project(p)?;
-    let inv = 1.0 / z;
-    let t = width.at(z);
-    let edges: Vec<&SilhouetteEdge> = inc.iter().map(|(e, _)| *e).collect();
-    let mut verts = Vec::new();
-    if let [(_, d1), (_, d2)] = inc {
-        let cos = d1.dot(*d2).clamp(-1.0, 1.0);
-        let angle = cos.acos();
-        if angle < MIN_CORNER_ANGLE {
+    vtx: &SilVertex,
+    inc: &[u32],
+    sil: &[SilhouetteEdge],
+    dirs: &[Option<Vec2>],
+    out: &mut Vec<SmoothieVertex>,
+    angles: &mut Vec<f32>,
+    angle_of: &mut [f32],
+) -> Option<bool> {
+    let p = vtx.p;
+    let Projected { s, z, inv, t } = vtx.proj?;
+    let dir = |i: u32| dirs[i as usize].unwrap_or(Vec2::ZERO);
+    let mut angle = |i: u32| {
+        let a = &mut angle_of[i as usize];
+        if a.is_nan() {
+            *a = dir(i).to_angle();
+        }
+        *a
+    };
+    let edges = || inc.iter().map(|&i| &sil[i as usize]);
+    if let [i1, i2] = *inc {
+        let (d1, d2) = (dir(i1), dir(i2));
+        let cos = d1.dot(d2).clamp(-1.0, 1.0);
+        // acos(cos) < MIN_CORNER_ANGLE exactly when cos == 1, and acos(cos) > PI -
+        // MIN_CORNER_ANGLE exactly when cos == -1: the neighbours of +-1 (1 - 2^-24,
+        // -1 + 2^-24) are already 3.4e-4 rad away (`acos_thresholds_are_exact` checks every
+        // float near +-1), so the comparisons need no acos.
+        if cos >= 1.0 {
             return None;
         }
-        let a1 = d1.to_angle();
-        let mut sweep = d1.angle_to(*d2);
-        if angle > std::f32::consts::PI - MIN_CORNER_ANGLE {
+        let a1 = angle(i1);
+        let mut sweep = d1.angle_to(d2);
+        if cos <= -1.0 {
             // Hairpin: both edges leave the vertex in almost the same screen direction, so
             // the outside is the opposite way. The projected vertex normal (Volokh) only
             // decides when that is ambiguous: for faces facing the light it points radially
             // from the light's axis, not necessarily away from the blocker.
             let mut away = Vec2::ZERO;
-            for (e, _) in inc {
-                let other = if e.a == vtx { e.b } else { e.a };
+            for e in edges() {
+                let other = if e.a == vtx.v { e.b } else { e.a };
                 if let Some((so, _)) = pr.project(pr.world(adj.positions[other as usize])) {
                     away -= (so - s).normalize_or_zero();
                 }
             }
             if away.length() < 1e-3 {
-                away = vertex_normal_screen(adj, pr, &edges, p, s, z);
+                away = vertex_normal_screen(adj, pr, edges(), p, s, z);
             }
             let ccw = away.dot(d1.perp()) >= 0.0;
             sweep = if ccw {
@@ -423,15 +464,13 @@ fn build_corner(
                 -std::f32::consts::PI
             };
         }
-        fan(&mut verts, s, inv, t, a1, sweep);
-        return Some(CornerOut {
-            verts,
-            special: false,
-        });
+        fan(out, s, inv, t, a1, sweep);
+        return Some(false);
     }
     // Special case: spokes at every d_i and at the projected vertex normal; full disc.
-    let mut angles: Vec<f32> = inc.iter().map(|(_, d)| d.to_angle()).collect();
-    let n = vertex_normal_screen(adj, pr, &edges, p, s, z);
+    angles.clear();
+    angles.extend(inc.iter().map(|&i| angle(i)));
+    let n = vertex_normal_screen(adj, pr, edges(), p, s, z);
     if n.length() > 1e-9 {
         angles.push(n.to_angle());
     }
@@ -445,18 +484,15 @@ fn build_corner(
         };
         let gap = next - a;
         if gap > 1e-6 {
-            fan(&mut verts, s, inv, t, a, gap);
+            fan(out, s, inv, t, a, gap);
         }
     }
-    Some(CornerOut {
-        verts,
-        special: true,
-    })
+    Some(true)
 }
 
 /// Smoothie edges and corners of one object (`model`: object -> world) for `light`, from
 /// its silhouette `sil` (as returned by `extract`); `t` is the smoothie width in uv units.
-/// Parallel over edges and over corners; the output order is deterministic.
+/// Silhouettes of `PAR_CHUNK` edges or more are split over rayon; the output is the same.
 pub fn build_smoothies(
     adj: &Adjacency,
     sil: &[SilhouetteEdge],
@@ -475,6 +511,61 @@ pub fn build_smoothies_width(
     light: &LightView,
     width: Width,
 ) -> SmoothieGeometry {
+    build_impl(adj, sil, model, light, width, PAR_CHUNK)
+}
+
+/// Corners (and the triangle counts) appended by `corners_into`.
+#[derive(Default)]
+struct CornerStats {
+    corners: usize,
+    special: usize,
+}
+
+/// Corners of the silhouette vertices `order` (compact indices, by welded index).
+#[allow(clippy::too_many_arguments)]
+fn corners_into(
+    adj: &Adjacency,
+    pr: &Projector,
+    sil: &[SilhouetteEdge],
+    dirs: &[Option<Vec2>],
+    verts: &[SilVertex],
+    inc_start: &[u32],
+    inc: &[u32],
+    order: &[u32],
+    out: &mut Vec<SmoothieVertex>,
+) -> CornerStats {
+    let mut st = CornerStats::default();
+    let mut angles = Vec::new();
+    let mut angle_of = vec![f32::NAN; sil.len()];
+    for &c in order {
+        let c = c as usize;
+        let list = &inc[inc_start[c] as usize..inc_start[c + 1] as usize];
+        if let Some(special) = build_corner(
+            adj,
+            pr,
+            &verts[c],
+            list,
+            sil,
+            dirs,
+            out,
+            &mut angles,
+            &mut angle_of,
+        ) {
+            st.corners += 1;
+            st.special += usize::from(special);
+        }
+    }
+    st
+}
+
+pub(super) fn build_impl(
+    adj: &Adjacency,
+    sil: &[SilhouetteEdge],
+    model: Mat4,
+    light: &LightView,
+    width: Width,
+    chunk: usize,
+) -> SmoothieGeometry {
     let normal_matrix = Mat3::from_mat4(model).inverse().transpose();
     let normal_matrix = if normal_matrix.is_finite() {
         normal_matrix
@@ -487,43 +578,139 @@ pub fn build_smoothies_width(
         normal_matrix,
         light,
     };
-    let built: Vec<Option<EdgeOut>> = sil
-        .par_iter()
-        .with_min_len(256)
-        .map(|e| build_edge(adj, &pr, e, width))
-        .collect();
+    let parallel = sil.len() >= chunk;
 
-    let mut geo = SmoothieGeometry::default();
-    // (vertex, index into `sil`, outward d) for the corner pass, grouped by sorting.
-    let mut incid: Vec<(u32, usize, Vec2)> = Vec::new();
-    for (i, b) in built.iter().enumerate() {
-        match b {
-            Some(eo) => {
-                geo.vertices.extend_from_slice(&eo.verts);
-                geo.edges += 1;
-                incid.push((eo.a, i, eo.d));
-                incid.push((eo.b, i, eo.d));
+    // Silhouette vertices, numbered compactly in order of first use: `slot[v]` is welded
+    // vertex v's number when bit v of `used` is set. Dense arrays over the welded vertices
+    // group the incidences without sorting, and `used` lists them in welded order.
+    let nv = adj.positions.len();
+    let mut slot = vec![0u32; nv];
+    let mut used = vec![0u64; nv.div_ceil(64)];
+    let mut verts: Vec<SilVertex> = Vec::with_capacity(sil.len() + 8);
+    let mut ends: Vec<[u32; 2]> = Vec::with_capacity(sil.len());
+    for e in sil {
+        let mut number = |v: u32| {
+            let (w, bit) = ((v / 64) as usize, 1u64 << (v % 64));
+            if used[w] & bit == 0 {
+                used[w] |= bit;
+                slot[v as usize] = verts.len() as u32;
+                let p = pr.world(adj.positions[v as usize]);
+                let proj = pr.project(p).map(|(s, z)| Projected {
+                    s,
+                    z,
+                    inv: 1.0 / z,
+                    t: width.at(z),
+                });
+                verts.push(SilVertex { v, p, proj });
             }
-            None => geo.skipped_edges += 1,
+            slot[v as usize]
+        };
+        ends.push([number(e.a), number(e.b)]);
+    }
+
+    // Edge quads, in silhouette order.
+    let mut geo = SmoothieGeometry::default();
+    let mut dirs: Vec<Option<Vec2>> = Vec::with_capacity(sil.len());
+    let quads = |sil: &[SilhouetteEdge],
+                 ends: &[[u32; 2]],
+                 out: &mut Vec<SmoothieVertex>,
+                 dirs: &mut Vec<Option<Vec2>>| {
+        for (e, &[a, b]) in sil.iter().zip(ends) {
+            dirs.push(build_edge(
+                adj,
+                &pr,
+                e,
+                &verts[a as usize],
+                &verts[b as usize],
+                out,
+            ));
+        }
+    };
+    if parallel {
+        let parts: Vec<(Vec<SmoothieVertex>, Vec<Option<Vec2>>)> = sil
+            .par_chunks(chunk)
+            .zip(ends.par_chunks(chunk))
+            .map(|(s, e)| {
+                let (mut out, mut d) = (Vec::with_capacity(6 * s.len()), Vec::new());
+                quads(s, e, &mut out, &mut d);
+                (out, d)
+            })
+            .collect();
+        geo.vertices.reserve(parts.iter().map(|p| p.0.len()).sum());
+        for (out, d) in parts {
+            geo.vertices.extend_from_slice(&out);
+            dirs.extend_from_slice(&d);
+        }
+    } else {
+        // One allocation for the quads and (usually) the corners, about three fan segments
+        // per silhouette vertex: growing it later copies megabytes on big silhouettes.
+        geo.vertices.reserve(6 * sil.len() + 10 * verts.len());
+        quads(sil, &ends, &mut geo.vertices, &mut dirs);
+    }
+    geo.edges = geo.vertices.len() / 6;
+    geo.skipped_edges = sil.len() - geo.edges;
+
+    // Kept incident edges per silhouette vertex (CSR, ascending silhouette index).
+    let mut inc_start = vec![0u32; verts.len() + 1];
+    for (&[a, b], d) in ends.iter().zip(&dirs) {
+        if d.is_some() {
+            inc_start[a as usize + 1] += 1;
+            inc_start[b as usize + 1] += 1;
         }
     }
-    incid.sort_by_key(|&(v, i, _)| (v, i));
-    let groups: Vec<&[(u32, usize, Vec2)]> = incid.chunk_by(|x, y| x.0 == y.0).collect();
-    let corners: Vec<Option<CornerOut>> = groups
-        .par_iter()
-        .with_min_len(64)
-        .map(|g| {
-            let inc: Vec<(&SilhouetteEdge, Vec2)> =
-                g.iter().map(|&(_, i, d)| (&sil[i], d)).collect();
-            build_corner(adj, &pr, g[0].0, &inc, width)
-        })
-        .collect();
-    for c in corners.into_iter().flatten() {
-        geo.corners += 1;
-        geo.special_vertices += usize::from(c.special);
-        geo.corner_triangles += c.verts.len() / 3;
-        geo.vertices.extend_from_slice(&c.verts);
+    for c in 0..verts.len() {
+        inc_start[c + 1] += inc_start[c];
     }
+    let mut inc = vec![0u32; inc_start[verts.len()] as usize];
+    let mut fill = inc_start.clone();
+    for (i, (&[a, b], d)) in ends.iter().zip(&dirs).enumerate() {
+        if d.is_some() {
+            for c in [a, b] {
+                inc[fill[c as usize] as usize] = i as u32;
+                fill[c as usize] += 1;
+            }
+        }
+    }
+    // Corners by welded vertex index, only where a kept edge ends.
+    let mut order: Vec<u32> = Vec::with_capacity(verts.len());
+    for (w, &bits) in used.iter().enumerate() {
+        let mut bits = bits;
+        while bits != 0 {
+            let v = w * 64 + bits.trailing_zeros() as usize;
+            bits &= bits - 1;
+            let c = slot[v];
+            if inc_start[c as usize + 1] > inc_start[c as usize] {
+                order.push(c);
+            }
+        }
+    }
+    let quad_vertices = geo.vertices.len();
+    let corners = |order: &[u32], out: &mut Vec<SmoothieVertex>| {
+        corners_into(adj, &pr, sil, &dirs, &verts, &inc_start, &inc, order, out)
+    };
+    let mut stats = Vec::new();
+    if parallel {
+        let parts: Vec<(Vec<SmoothieVertex>, CornerStats)> = order
+            .par_chunks(chunk)
+            .map(|o| {
+                let mut out = Vec::with_capacity(9 * o.len());
+                let st = corners(o, &mut out);
+                (out, st)
+            })
+            .collect();
+        geo.vertices.reserve(parts.iter().map(|p| p.0.len()).sum());
+        for (out, st) in parts {
+            geo.vertices.extend_from_slice(&out);
+            stats.push(st);
+        }
+    } else {
+        stats.push(corners(&order, &mut geo.vertices));
+    }
+    for st in stats {
+        geo.corners += st.corners;
+        geo.special_vertices += st.special;
+    }
+    geo.corner_triangles = (geo.vertices.len() - quad_vertices) / 3;
     geo
 }
 

@@ -181,6 +181,10 @@ struct BenchArgs {
     /// get a row per choice (`smoothies spirv=tuned`); the others run glslang's.
     #[arg(long, value_delimiter = ',', default_value = "glslang")]
     spirv: Vec<softshadow::render::SpirvChoice>,
+    /// Silhouette paths for smoothies, comma-separated: auto, cpu, gpu. More than one gives
+    /// a row each (`smoothies sil=cpu`, `smoothies sil=gpu`).
+    #[arg(long, value_delimiter = ',', default_value = "auto")]
+    silhouettes: Vec<softshadow::render::SilhouettePath>,
     /// Reuse light-space passes while the light and objects stay put (default: every timed
     /// frame runs every pass).
     #[arg(long)]
@@ -354,6 +358,7 @@ fn run_bench(cli: &Cli, a: &BenchArgs) -> Result<()> {
         radii,
         smoothie_t: a.smoothie_t.clone(),
         spirv: a.spirv.clone(),
+        silhouettes: a.silhouettes.clone(),
         width: a.width.unwrap_or(preset.width),
         height: a.height.unwrap_or(preset.height),
         frames: a.frames.unwrap_or(preset.frames),

@@ -36,7 +36,7 @@
 use super::metrics::{self, Errors};
 use super::reference::{self, ReferenceParams};
 use super::{plot, report, spirv};
-use crate::render::{FrameImages, Renderer, Settings, SpirvChoice};
+use crate::render::{FrameImages, Renderer, Settings, SilhouettePath, SpirvChoice};
 use crate::scene::{Scene, BUILTIN_SCENES};
 use crate::technique::{self, smoothies::smoothie_width};
 use crate::vk::{Context, FrameTimings};
@@ -209,6 +209,8 @@ pub struct BenchConfig {
     pub smoothie_t: Vec<f32>,
     /// SPIR-V variants timed for techniques with hand-tuned modules (one row each).
     pub spirv: Vec<SpirvChoice>,
+    /// Silhouette paths timed for smoothies (one row each when more than one).
+    pub silhouettes: Vec<SilhouettePath>,
     pub width: u32,
     pub height: u32,
     pub frames: u32,
@@ -237,6 +239,7 @@ impl Default for BenchConfig {
             radii: vec![Radius::Scene],
             smoothie_t: vec![DEFAULT_SMOOTHIE_T],
             spirv: vec![SpirvChoice::Glslang],
+            silhouettes: vec![SilhouettePath::Auto],
             width: DEFAULT_SIZE,
             height: DEFAULT_SIZE,
             frames: DEFAULT_FRAMES,
@@ -286,6 +289,45 @@ pub struct Variant {
     pub smoothie_t: Option<f32>,
     /// `Settings::spirv`; rows with `Tuned` are labelled `... spirv=tuned`.
     pub spirv: SpirvChoice,
+    /// `Settings::silhouettes`; labelled `... sil=cpu` / `sil=gpu` when the bench compares
+    /// paths (`with_silhouette_paths`).
+    #[serde(serialize_with = "path_name")]
+    pub silhouettes: SilhouettePath,
+}
+
+fn path_name<S: serde::Serializer>(p: &SilhouettePath, s: S) -> Result<S::Ok, S::Error> {
+    s.serialize_str(p.name())
+}
+
+/// Smoothies rows once per silhouette path when more than one is asked for (the others
+/// keep one row): `smoothies sil=cpu` beside `smoothies sil=gpu`, timed in the same run.
+pub fn with_silhouette_paths(rows: Vec<Variant>, paths: &[SilhouettePath]) -> Vec<Variant> {
+    let paths = dedup(paths);
+    if paths.len() < 2 {
+        let only = paths.first().copied().unwrap_or(SilhouettePath::Auto);
+        return rows
+            .into_iter()
+            .map(|v| Variant {
+                silhouettes: only,
+                ..v
+            })
+            .collect();
+    }
+    let mut out = Vec::new();
+    for v in rows {
+        if v.technique == "smoothies" {
+            for &p in &paths {
+                out.push(Variant {
+                    label: format!("{} sil={}", v.label, p.name()),
+                    silhouettes: p,
+                    ..v.clone()
+                });
+            }
+        } else {
+            out.push(v);
+        }
+    }
+    out
 }
 
 /// The rows for `techniques`, `hard` first (added when missing: the second value says so).
@@ -317,6 +359,7 @@ pub fn variants(
         technique: base.name,
         smoothie_t: None,
         spirv: SpirvChoice::Glslang,
+        silhouettes: SilhouettePath::Auto,
     }];
     let spirv = if spirv.is_empty() {
         vec![SpirvChoice::Glslang]
@@ -347,6 +390,7 @@ pub fn variants(
                     technique: name,
                     smoothie_t: t,
                     spirv: choice,
+                    silhouettes: SilhouettePath::Auto,
                 });
             }
         }
@@ -394,6 +438,7 @@ impl Plan {
             light_radius: Some(self.config.radii[c.radius].resolve(scene)),
             smoothie_t: self.variants[c.variant].smoothie_t,
             spirv: self.variants[c.variant].spirv,
+            silhouettes: self.variants[c.variant].silhouettes,
             // Used only when `reference` itself is benched (--techniques reference).
             reference_samples: self.config.samples,
             cache_light_passes: self.config.reuse_light_passes,
@@ -447,7 +492,9 @@ pub fn prepare(config: BenchConfig) -> Result<Plan> {
         }
     }
     nonempty(&c.spirv, "--spirv")?;
+    nonempty(&c.silhouettes, "--silhouettes")?;
     let (variants, hard_added) = variants(&c.techniques, &c.smoothie_t, &c.spirv)?;
+    let variants = with_silhouette_paths(variants, &c.silhouettes);
     let mut scenes = Vec::new();
     for name in dedup(&c.scenes) {
         scenes.push(Scene::load(name.trim())?);

@@ -8,14 +8,23 @@
 //! screen-space normals, corner construction, the b ~ r guard, linear R32F depths).
 //!
 //! ## Passes, in order
-//! 0. CPU `smoothies/silhouettes` — per caster, per light: brute-force silhouette edges over
-//!    the edge adjacency built once per mesh (`silhouette::extract`, rayon), then smoothie
-//!    geometry in light screen space (`silhouette::smoothie::build_smoothies`): per edge a
-//!    quad from the edge outward by t (alpha 0 -> 1, Sec. 3 step 3, Fig. 2); per silhouette
-//!    vertex a fan covering the gap between its two edges with radial alpha |v - p| / t
-//!    (Fig. 6); vertices with more than two silhouette edges get the paper's special case
-//!    (averaged vertex normal, triangles to each adjacent edge). Uploaded to a host-visible
-//!    vertex buffer (32 bytes a vertex: uv, 1/depth, kind, anchor, dir).
+//! 0. `smoothies/silhouettes` — per caster, per light: brute-force silhouette edges over
+//!    the edge adjacency built once per mesh, then smoothie geometry in light screen space:
+//!    per edge a quad from the edge outward by t (alpha 0 -> 1, Sec. 3 step 3, Fig. 2); per
+//!    silhouette vertex a fan covering the gap between its two edges with radial alpha
+//!    |v - p| / t (Fig. 6); vertices with one or more than two silhouette edges get the
+//!    paper's special case (averaged vertex normal, a fan to each adjacent edge). 36 bytes a
+//!    vertex: uv, 1/depth, kind, anchor, dir, width. Two interchangeable paths
+//!    (`--silhouettes`, `Settings::silhouettes`):
+//!    - GPU (default on a GPU): three compute dispatches over every caster
+//!      (`silhouette::gpu`, glsl/silhouette/): edges, corners, indirect-draw commands,
+//!      written straight into a device-local vertex buffer; no readback, no upload but the
+//!      casters' transforms. A timed pass.
+//!    - CPU (default on lavapipe, where the "GPU" is the same two cores, several times
+//!      slower at this): `silhouette::extract` + `build_smoothies_width`, uploaded to a
+//!      host-visible vertex buffer. A `cpu` timing.
+//!    Both find the same edges (tests/gpu_silhouettes.rs) and keep each caster's geometry
+//!    until its model or the light changes: a moved caster rebuilds only its own smoothies.
 //! 1. `smoothies/shadow_map` — as `hard`: R32G32_SFLOAT, clear 1e30, blend MIN; r = nearest
 //!    caster's linear depth (the umbra test), g = nearest surface of any role (the receiver
 //!    depth r of Eq. 1). Linear depth, not the depth buffer's, because Eq. 1 needs b/r.

@@ -149,20 +149,10 @@ fn gpu_and_cpu_paths_render_the_same_image() {
     for scene in scenes() {
         let name = scene.name.clone();
         let cpu = gpu
-            .render_frames(
-                scene.clone(),
-                "smoothies",
-                settings(SilhouettePath::Cpu),
-                1,
-            )
+            .render_frames(scene.clone(), "smoothies", settings(SilhouettePath::Cpu), 1)
             .0;
         let on_gpu = gpu
-            .render_frames(
-                scene.clone(),
-                "smoothies",
-                settings(SilhouettePath::Gpu),
-                1,
-            )
+            .render_frames(scene.clone(), "smoothies", settings(SilhouettePath::Gpu), 1)
             .0;
         let hard = gpu
             .render_frames(scene, "hard", settings(SilhouettePath::Cpu), 1)
@@ -185,7 +175,10 @@ fn gpu_and_cpu_paths_render_the_same_image() {
             .flat_map(|(a, b)| a.iter().zip(b).map(|(x, y)| x.abs_diff(*y)))
             .max()
             .unwrap_or(0);
-        assert!(max_colour <= 1, "{name}: colours differ by {max_colour} levels");
+        assert!(
+            max_colour <= 1,
+            "{name}: colours differ by {max_colour} levels"
+        );
         // Both drew smoothies: a penumbra that hard shadows do not have.
         let soft = |v: &[f32]| v.iter().filter(|&&x| x > 0.05 && x < 0.95).count();
         assert!(
@@ -206,11 +199,7 @@ fn a_moved_caster_rebuilds_only_its_own_smoothies() {
         assert!(casters >= 2);
         // The lower box: moving it changes neither near (the upper box's top) nor far (the
         // ground), so the light's frame stays and only this caster is dirty.
-        let lower = scene
-            .objects
-            .iter()
-            .position(|o| o.role.casts())
-            .unwrap();
+        let lower = scene.objects.iter().position(|o| o.role.casts()).unwrap();
         let mut r = Renderer::new(&gpu.ctx, scene, "smoothies", settings(path)).unwrap();
         r.render().unwrap();
         if path == SilhouettePath::Gpu {
@@ -233,7 +222,11 @@ fn a_moved_caster_rebuilds_only_its_own_smoothies() {
         );
         if path == SilhouettePath::Gpu {
             assert!(ran.contains(&"smoothies/silhouettes"), "{ran:?}");
-            assert_eq!(r.gpu_silhouettes_rebuilt(), Some(1), "only the moved caster");
+            assert_eq!(
+                r.gpu_silhouettes_rebuilt(),
+                Some(1),
+                "only the moved caster"
+            );
         }
         let partial = r.read_back().unwrap();
         // The same scene rendered from scratch: a partial rebuild must not change a pixel
@@ -244,7 +237,12 @@ fn a_moved_caster_rebuilds_only_its_own_smoothies() {
         assert_eq!(partial.visibility, fresh.visibility, "{path:?}");
 
         // A moving receiver changes no silhouette: the GPU passes are skipped.
-        let ground = r.scene.objects.iter().position(|o| !o.role.casts()).unwrap();
+        let ground = r
+            .scene
+            .objects
+            .iter()
+            .position(|o| !o.role.casts())
+            .unwrap();
         r.scene.objects[ground].transform =
             Mat4::from_translation(Vec3::new(0.0, -0.05, 0.0)) * r.scene.objects[ground].transform;
         let receiver_moved = r.render().unwrap();
@@ -264,6 +262,31 @@ fn a_moved_caster_rebuilds_only_its_own_smoothies() {
         let fresh = gpu
             .render_frames(r.scene.clone(), "smoothies", settings(path), 1)
             .0;
-        assert_eq!(partial.visibility, fresh.visibility, "{path:?}: receiver move");
+        assert_eq!(
+            partial.visibility, fresh.visibility,
+            "{path:?}: receiver move"
+        );
     }
+}
+
+#[test]
+fn penumbra_map_keeps_unmoved_casters_and_matches_a_fresh_render() {
+    // penumbra-map caches each caster's cones and sheets like the smoothies' CPU path: after
+    // one caster moves, the cached others plus the rebuilt one must be what a fresh
+    // renderer builds.
+    let gpu = Gpu::new();
+    let scene = Scene::load("boxes").unwrap();
+    let lower = scene.objects.iter().position(|o| o.role.casts()).unwrap();
+    let mut r = Renderer::new(&gpu.ctx, scene, "penumbra-map", small(128, 512)).unwrap();
+    r.render().unwrap();
+    let before = r.read_back().unwrap();
+    r.scene.objects[lower].transform =
+        Mat4::from_translation(Vec3::new(0.3, 0.0, -0.2)) * r.scene.objects[lower].transform;
+    r.render().unwrap();
+    let partial = r.read_back().unwrap();
+    assert_ne!(before.visibility, partial.visibility, "the box did move");
+    let fresh = gpu
+        .render_frames(r.scene.clone(), "penumbra-map", small(128, 512), 1)
+        .0;
+    assert_eq!(partial.visibility, fresh.visibility);
 }

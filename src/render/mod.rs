@@ -328,25 +328,35 @@ pub fn camera_view_proj(scene: &Scene, width: u32, height: u32) -> Mat4 {
     proj * view
 }
 
-/// The light frustum with near/far fitted to what the light actually sees, for depth
-/// precision: each object's world bounds are clipped to the light's side planes (and to
-/// depth > 0), and near/far bracket the depths of what remains, 1 % outside on each side.
-/// An object outside the light's cone adds nothing, so a large scene whose lit part is
-/// small gets a tight range. Near is never closer than far * 1e-4 (also when the light sits
-/// inside a bounding box); with nothing in the cone the whole scene's bounds are used.
+/// The light frustum with near/far fitted for depth precision: `far` to what the light
+/// actually sees (each object's world bounds clipped to the light's side planes and to
+/// depth > 0), `near` to that and to every caster in front of the light, seen or not (a
+/// caster just outside the cone still throws a penumbra into it; cutting it at `near` would
+/// drop its silhouette). 1 % outside on each side. A large receiver whose lit part is small
+/// and anything behind the light add nothing. Near is never closer than far * 1e-4 (also
+/// when the light sits inside a bounding box); with nothing in the cone the whole scene's
+/// bounds are used.
 pub fn fit_light(scene: &Scene) -> LightView {
     let probe = LightView::new(&scene.light, 1.0, 2.0);
     let tan_half = (scene.light.fov_deg.to_radians() * 0.5).tan();
     let mut range: Option<(f32, f32)> = None;
+    let mut caster_near = f32::MAX;
     for o in &scene.objects {
         let b = o.world_bounds();
         if b.is_empty() {
             continue;
         }
-        if let Some((lo, hi)) = clipped_depth_range(&b, probe.view, tan_half) {
+        if let Some((lo, hi)) = clipped_depth_range(&b, probe.view, Some(tan_half)) {
             range = Some(range.map_or((lo, hi), |(a, c)| (a.min(lo), c.max(hi))));
         }
+        if o.role.casts() {
+            // The nearest in-front depth of the box: only the depth plane clips.
+            if let Some((lo, _)) = clipped_depth_range(&b, probe.view, None) {
+                caster_near = caster_near.min(lo);
+            }
+        }
     }
+    let range = range.map(|(lo, hi)| (lo.min(caster_near), hi));
     let (lo, hi) = range.unwrap_or_else(|| {
         let b = scene.bounds();
         b.corners()
@@ -362,7 +372,11 @@ pub fn fit_light(scene: &Scene) -> LightView {
 /// Linear-depth range of the part of box `b` inside the infinite light pyramid
 /// (|x|, |y| <= tan_half * depth, depth > 0, in light view space), or `None` when the box
 /// misses it. Exact for the box: each face is clipped as a polygon (Sutherland-Hodgman).
-fn clipped_depth_range(b: &crate::scene::Aabb, view: Mat4, tan_half: f32) -> Option<(f32, f32)> {
+fn clipped_depth_range(
+    b: &crate::scene::Aabb,
+    view: Mat4,
+    tan_half: Option<f32>,
+) -> Option<(f32, f32)> {
     let c = b.corners().map(|p| view.transform_point3(p));
     // Faces of the box as corner-index quads (corner i has bit 0: x, bit 1: y, bit 2: z).
     const FACES: [[usize; 4]; 6] = [
@@ -375,17 +389,23 @@ fn clipped_depth_range(b: &crate::scene::Aabb, view: Mat4, tan_half: f32) -> Opt
     ];
     // Inside when plane(p) >= 0; depth = -z. The depth plane keeps a sliver in front of the
     // light so that a box around the light still yields a positive near.
-    let planes: [&dyn Fn(Vec3) -> f32; 5] = [
-        &|p: Vec3| -p.z * tan_half - p.x,
-        &|p: Vec3| -p.z * tan_half + p.x,
-        &|p: Vec3| -p.z * tan_half - p.y,
-        &|p: Vec3| -p.z * tan_half + p.y,
-        &|p: Vec3| -p.z,
+    // Without `tan_half`, only the depth plane: the whole half-space in front of the light.
+    let t = tan_half.unwrap_or(0.0);
+    let sides: [&dyn Fn(Vec3) -> f32; 4] = [
+        &|p: Vec3| -p.z * t - p.x,
+        &|p: Vec3| -p.z * t + p.x,
+        &|p: Vec3| -p.z * t - p.y,
+        &|p: Vec3| -p.z * t + p.y,
     ];
+    let depth_plane: &dyn Fn(Vec3) -> f32 = &|p: Vec3| -p.z;
+    let mut planes = vec![depth_plane];
+    if tan_half.is_some() {
+        planes.extend(sides);
+    }
     let mut range: Option<(f32, f32)> = None;
     for face in FACES {
         let mut poly: Vec<Vec3> = face.iter().map(|&i| c[i]).collect();
-        for plane in planes {
+        for plane in &planes {
             let mut out = Vec::with_capacity(poly.len() + 2);
             for (i, &p) in poly.iter().enumerate() {
                 let q = poly[(i + 1) % poly.len()];
@@ -617,7 +637,7 @@ impl<'c> Renderer<'c> {
     /// caster-local edges), or `None` when the technique does not run the GPU path.
     pub fn read_gpu_silhouettes(
         &mut self,
-    ) -> Result<Option<Vec<(usize, Vec<crate::silhouette::gpu::GpuEdge>)>>> {
+    ) -> Result<Option<crate::silhouette::gpu::CasterSilhouettes>> {
         let Some(gpu) = self.technique.gpu_silhouettes() else {
             return Ok(None);
         };
@@ -713,7 +733,7 @@ mod tests {
     #[test]
     fn clipped_range_of_a_box_inside_the_cone_is_its_depth_range() {
         let b = Aabb::new(Vec3::new(-0.1, -0.1, -3.0), Vec3::new(0.1, 0.1, -2.0));
-        let (lo, hi) = clipped_depth_range(&b, view_down_z(), 1.0).unwrap();
+        let (lo, hi) = clipped_depth_range(&b, view_down_z(), Some(1.0)).unwrap();
         assert!(
             (lo - 2.0).abs() < 1e-6 && (hi - 3.0).abs() < 1e-6,
             "{lo} {hi}"
@@ -723,9 +743,12 @@ mod tests {
     #[test]
     fn a_box_outside_the_cone_or_behind_the_light_gives_nothing() {
         let beside = Aabb::new(Vec3::new(10.0, -0.1, -3.0), Vec3::new(11.0, 0.1, -2.0));
-        assert_eq!(clipped_depth_range(&beside, view_down_z(), 1.0), None);
+        assert_eq!(clipped_depth_range(&beside, view_down_z(), Some(1.0)), None);
+        // ... but in front of the light: a caster there still counts for `near`.
+        let (lo, _) = clipped_depth_range(&beside, view_down_z(), None).unwrap();
+        assert!((lo - 2.0).abs() < 1e-6, "{lo}");
         let behind = Aabb::new(Vec3::new(-1.0, -1.0, 2.0), Vec3::new(1.0, 1.0, 3.0));
-        assert_eq!(clipped_depth_range(&behind, view_down_z(), 1.0), None);
+        assert_eq!(clipped_depth_range(&behind, view_down_z(), Some(1.0)), None);
     }
 
     #[test]
@@ -736,14 +759,14 @@ mod tests {
             Vec3::new(-100.0, -100.0, -5.0),
             Vec3::new(100.0, 100.0, -4.0),
         );
-        let (lo, hi) = clipped_depth_range(&ground, view_down_z(), 1.0).unwrap();
+        let (lo, hi) = clipped_depth_range(&ground, view_down_z(), Some(1.0)).unwrap();
         assert!(
             (lo - 4.0).abs() < 1e-5 && (hi - 5.0).abs() < 1e-5,
             "{lo} {hi}"
         );
         // A box around the light: the range starts at the light.
         let around = Aabb::new(Vec3::splat(-1.0), Vec3::splat(1.0));
-        let (lo, hi) = clipped_depth_range(&around, view_down_z(), 1.0).unwrap();
+        let (lo, hi) = clipped_depth_range(&around, view_down_z(), Some(1.0)).unwrap();
         assert!(lo.abs() < 1e-6 && (hi - 1.0).abs() < 1e-6, "{lo} {hi}");
     }
 

@@ -9,6 +9,7 @@ use crate::vk::{
     PrimitiveTopology, Recorder, Resource,
 };
 use anyhow::Result;
+use glam::Mat4;
 
 /// Clear value of linear-depth targets: "nothing here", farther than any far plane, finite
 /// so that ratios like b / r stay finite.
@@ -323,5 +324,56 @@ impl DynamicVertices {
             rec.bind_vertex_buffer(b);
             rec.draw(self.count, 1);
         }
+    }
+}
+
+/// Per-caster CPU geometry kept between frames: a caster is rebuilt only when its model
+/// matrix or the frame's `key` (everything else the geometry depends on: the light, the
+/// widths...) changed, so a moving caster rebuilds only its own silhouette geometry.
+pub struct CasterCache<K, V> {
+    entries: Vec<Option<(Mat4, K, Vec<V>)>>,
+}
+
+impl<K: PartialEq + Copy, V: Copy> CasterCache<K, V> {
+    /// One slot per scene object.
+    pub fn new(objects: usize) -> Self {
+        Self {
+            entries: (0..objects).map(|_| None).collect(),
+        }
+    }
+
+    /// Rebuilds, with `build(index)`, every object in `models` (index, model) whose slot is
+    /// stale (all of them when `force`); returns how many were rebuilt.
+    pub fn update(
+        &mut self,
+        models: impl IntoIterator<Item = (usize, Mat4)>,
+        key: K,
+        force: bool,
+        mut build: impl FnMut(usize) -> Vec<V>,
+    ) -> usize {
+        let mut rebuilt = 0;
+        for (i, model) in models {
+            let Some(slot) = self.entries.get_mut(i) else {
+                continue;
+            };
+            let fresh = slot
+                .as_ref()
+                .is_some_and(|(m, k, _)| *m == model && *k == key);
+            if force || !fresh {
+                *slot = Some((model, key, build(i)));
+                rebuilt += 1;
+            }
+        }
+        rebuilt
+    }
+
+    /// Every cached object's geometry, in object order.
+    pub fn concat(&self) -> Vec<V> {
+        let n = self.entries.iter().flatten().map(|e| e.2.len()).sum();
+        let mut out = Vec::with_capacity(n);
+        for (_, _, v) in self.entries.iter().flatten() {
+            out.extend_from_slice(v);
+        }
+        out
     }
 }

@@ -14,6 +14,7 @@
 //!    (two edges: the arc between them; else the paper's special case).
 //! 3. `finish.comp`, one thread per caster: its `VkDrawIndirectCommand`, clamped to its
 //!    region of the vertex buffer.
+//!
 //! Threads of a caster that did not move (and whose light did not change) return at once:
 //! its region and draw command stay as they were (partial rebuilds).
 //!
@@ -106,6 +107,9 @@ struct Caster {
 /// Silhouette edge found by the GPU: (edge index, a, b), caster-local, oriented as
 /// `SilhouetteEdge`.
 pub type GpuEdge = (u32, u32, u32);
+
+/// Per caster: its object index and the silhouette edges the GPU found.
+pub type CasterSilhouettes = Vec<(usize, Vec<GpuEdge>)>;
 
 /// `edges[].w` of an edge whose faces are listed in `edge_faces` (not exactly two).
 const FACE_LIST: u32 = u32::MAX;
@@ -466,7 +470,7 @@ impl GpuSilhouettes {
 
     /// The silhouette edges of every caster (object index, caster-local edges) from the
     /// words of `silhouette_flags`.
-    pub fn decode(&self, words: &[u32]) -> Vec<(usize, Vec<GpuEdge>)> {
+    pub fn decode(&self, words: &[u32]) -> CasterSilhouettes {
         self.casters
             .iter()
             .map(|c| {

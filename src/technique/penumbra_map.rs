@@ -75,7 +75,7 @@
 //! from the light) hides the penumbra of whatever lies behind it.
 
 use super::{FrameInput, Technique, TechniqueInfo, TechniqueInit};
-use crate::render::passes::{DynamicVertices, FinalPass, ShadowMap};
+use crate::render::passes::{CasterCache, DynamicVertices, FinalPass, ShadowMap};
 use crate::scene::LightView;
 use crate::shaders;
 use crate::silhouette::penumbra::{build_penumbra, PenumbraVertex};
@@ -119,6 +119,9 @@ pub struct PenumbraMap {
     _nearest: Sampler,
     /// Edge adjacency per object (None for non-casters), built once.
     adjacency: Vec<Option<Adjacency>>,
+    /// Per caster, its cones and sheets and what they were built for: a moved caster
+    /// rebuilds only its own.
+    cache: CasterCache<GeometryKey, PenumbraVertex>,
     vertices: DynamicVertices,
 }
 
@@ -192,30 +195,50 @@ impl PenumbraMap {
             final_pass,
             final_set,
             _nearest: nearest,
+            cache: CasterCache::new(adjacency.len()),
             adjacency,
             vertices: DynamicVertices::new("penumbra-map cones and sheets"),
         }))
     }
 
     /// Silhouettes, cones and sheets of every caster for this light.
-    fn build_geometry(&self, frame: &FrameInput<'_>) -> Vec<PenumbraVertex> {
+    /// Silhouettes, cones and sheets of every caster that moved since its were built (of
+    /// all when the light changed); returns how many were rebuilt.
+    fn build_geometry(&mut self, frame: &FrameInput<'_>, force: bool) -> usize {
         let z_far = cone_base_depth(frame.light);
-        let mut out = Vec::new();
-        for (obj, adj) in frame.scene.objects.iter().zip(&self.adjacency) {
-            let Some(adj) = adj else { continue };
-            let sil = silhouette::extract(adj, obj.transform, frame.light.position);
-            let geom = build_penumbra(
-                adj,
-                &sil,
-                obj.transform,
-                frame.light,
-                frame.light_radius,
-                z_far,
-            );
-            out.extend_from_slice(&geom.vertices);
-        }
-        out
+        let objects = &frame.scene.objects;
+        let adjacency = &self.adjacency;
+        let casters = adjacency
+            .iter()
+            .enumerate()
+            .filter(|(_, a)| a.is_some())
+            .map(|(i, _)| (i, objects[i].transform));
+        let key = GeometryKey {
+            view_proj: frame.light.view_proj,
+            near: frame.light.near,
+            radius: frame.light_radius,
+            z_far,
+        };
+        self.cache
+            .update(casters, key, force, |i| match &adjacency[i] {
+                Some(adj) => {
+                    let model = objects[i].transform;
+                    let sil = silhouette::extract(adj, model, frame.light.position);
+                    build_penumbra(adj, &sil, model, frame.light, frame.light_radius, z_far)
+                        .vertices
+                }
+                None => Vec::new(),
+            })
     }
+}
+
+/// What a caster's cones and sheets depend on besides its model.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct GeometryKey {
+    view_proj: glam::Mat4,
+    near: f32,
+    radius: f32,
+    z_far: f32,
 }
 
 impl Technique for PenumbraMap {
@@ -239,7 +262,12 @@ impl Technique for PenumbraMap {
     ) -> Result<()> {
         // R = 0 (a point light): every cone has radius 0, the result is `hard`.
         let vertices = if frame.light_radius > 0.0 {
-            rec.cpu("penumbra-map/silhouettes", || self.build_geometry(frame))
+            // Without pass caching every frame rebuilds everything (the bench's baseline).
+            let force = !frame.settings.cache_light_passes;
+            rec.cpu("penumbra-map/silhouettes", || {
+                self.build_geometry(frame, force)
+            });
+            self.cache.concat()
         } else {
             Vec::new()
         };

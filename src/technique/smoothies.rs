@@ -23,6 +23,7 @@
 //!    - CPU (default on lavapipe, where the "GPU" is the same two cores, several times
 //!      slower at this): `silhouette::extract` + `build_smoothies_width`, uploaded to a
 //!      host-visible vertex buffer. A `cpu` timing.
+//!
 //!    Both find the same edges (tests/gpu_silhouettes.rs) and keep each caster's geometry
 //!    until its model or the light changes: a moved caster rebuilds only its own smoothies.
 //! 1. `smoothies/shadow_map` — as `hard`: R32G32_SFLOAT, clear 1e30, blend MIN; r = nearest
@@ -64,7 +65,9 @@
 //! the shadow also detaches the smoothie (Volokh Fig. 8), hence normal offset.
 
 use super::{FrameInput, Technique, TechniqueInfo, TechniqueInit};
-use crate::render::passes::{falloff_lut, DynamicVertices, FinalPass, ShadowMap, FAR_DEPTH};
+use crate::render::passes::{
+    falloff_lut, CasterCache, DynamicVertices, FinalPass, ShadowMap, FAR_DEPTH,
+};
 use crate::render::{fit_light, SilhouettePath};
 use crate::scene::{LightView, Scene};
 use crate::shaders;
@@ -76,7 +79,6 @@ use crate::vk::{
     ImageLayout, ImageUsageFlags, Pipeline, PrimitiveTopology, Recorder, Resource, Sampler,
 };
 use anyhow::Result;
-use glam::Mat4;
 
 pub const INFO: TechniqueInfo = TechniqueInfo {
     name: "smoothies",
@@ -138,19 +140,12 @@ pub struct Smoothies {
     path: SilhouettePath,
     /// CPU path: per object, the geometry and what it was built for (model, light key), so
     /// that a frame rebuilds only the casters that moved.
-    cpu_cache: Vec<Option<CachedGeometry>>,
+    cpu_cache: CasterCache<GeometryKey, SmoothieVertex>,
     vertices: DynamicVertices,
     /// GPU path: silhouettes and geometry by compute, drawn indirectly.
     gpu_silhouettes: Option<GpuSilhouettes>,
     /// Whether the smoothie pass draws anything (false at t = 0).
     draw_smoothies: bool,
-}
-
-/// One caster's CPU-built smoothies and the inputs they were built from.
-struct CachedGeometry {
-    model: Mat4,
-    light: GeometryKey,
-    vertices: Vec<SmoothieVertex>,
 }
 
 impl Smoothies {
@@ -261,7 +256,7 @@ impl Smoothies {
             _falloff: falloff,
             _nearest: nearest,
             _linear: linear,
-            cpu_cache: adjacency.iter().map(|_| None).collect(),
+            cpu_cache: CasterCache::new(adjacency.len()),
             adjacency,
             path,
             vertices: DynamicVertices::new("smoothie vertices"),
@@ -273,48 +268,27 @@ impl Smoothies {
     /// CPU path: silhouettes and smoothie geometry of every caster that moved (or of all of
     /// them when the light changed) for this light; returns how many were rebuilt.
     fn build_geometry(&mut self, frame: &FrameInput<'_>, width: Width, force: bool) -> usize {
-        let key = GeometryKey::new(frame.light, width);
-        let mut rebuilt = 0;
-        for ((obj, adj), cache) in frame
-            .scene
-            .objects
+        let objects = &frame.scene.objects;
+        let adjacency = &self.adjacency;
+        let casters = adjacency
             .iter()
-            .zip(&self.adjacency)
-            .zip(&mut self.cpu_cache)
-        {
-            let Some(adj) = adj else { continue };
-            if !force
-                && cache
-                    .as_ref()
-                    .is_some_and(|c| c.model == obj.transform && c.light == key)
-            {
-                continue;
-            }
-            let sil = silhouette::extract(adj, obj.transform, frame.light.position);
-            let geom = build_smoothies_width(adj, &sil, obj.transform, frame.light, width);
-            *cache = Some(CachedGeometry {
-                model: obj.transform,
-                light: key,
-                vertices: geom.vertices,
-            });
-            rebuilt += 1;
-        }
-        rebuilt
-    }
-
-    /// Every caster's cached geometry, in object order.
-    fn cached_vertices(&self) -> Vec<SmoothieVertex> {
-        let n = self
-            .cpu_cache
-            .iter()
-            .flatten()
-            .map(|c| c.vertices.len())
-            .sum();
-        let mut out = Vec::with_capacity(n);
-        for c in self.cpu_cache.iter().flatten() {
-            out.extend_from_slice(&c.vertices);
-        }
-        out
+            .enumerate()
+            .filter(|(_, a)| a.is_some())
+            .map(|(i, _)| (i, objects[i].transform));
+        self.cpu_cache
+            .update(
+                casters,
+                GeometryKey::new(frame.light, width),
+                force,
+                |i| match &adjacency[i] {
+                    Some(adj) => {
+                        let model = objects[i].transform;
+                        let sil = silhouette::extract(adj, model, frame.light.position);
+                        build_smoothies_width(adj, &sil, model, frame.light, width).vertices
+                    }
+                    None => Vec::new(),
+                },
+            )
     }
 }
 
@@ -368,7 +342,7 @@ impl Technique for Smoothies {
             rec.cpu("smoothies/silhouettes", || {
                 self.build_geometry(frame, width, force)
             });
-            let vertices = self.cached_vertices();
+            let vertices = self.cpu_cache.concat();
             self.vertices.upload(ctx, &vertices)?;
         }
 

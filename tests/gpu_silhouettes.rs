@@ -290,3 +290,60 @@ fn penumbra_map_keeps_unmoved_casters_and_matches_a_fresh_render() {
         .0;
     assert_eq!(partial.visibility, fresh.visibility);
 }
+
+fn softshadow(args: &[&str]) -> std::process::Output {
+    std::process::Command::new(env!("CARGO_BIN_EXE_softshadow"))
+        .args(args)
+        .arg("--validation")
+        .env_remove("SOFTSHADOW_DEVICE")
+        .output()
+        .expect("running softshadow")
+}
+
+#[test]
+fn cli_selects_the_path_and_rejects_an_unknown_one() {
+    let dir = std::env::temp_dir().join(format!("softshadow-sil-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let out = dir.join("gpu.png");
+    let o = softshadow(&[
+        "render",
+        "--scene",
+        "boxes",
+        "--technique",
+        "smoothies",
+        "--width",
+        "64",
+        "--height",
+        "64",
+        "--shadow-res",
+        "128",
+        "--silhouettes",
+        "gpu",
+        "--timings",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    // The GPU path is a timed pass, not CPU work.
+    assert!(stdout.contains("pass smoothies/silhouettes"), "{stdout}");
+    assert!(!stdout.contains("cpu  smoothies/silhouettes"), "{stdout}");
+    assert!(out.exists());
+
+    let bogus = dir.join("bogus.png");
+    let o = softshadow(&[
+        "render",
+        "--silhouettes",
+        "bogus",
+        "--out",
+        bogus.to_str().unwrap(),
+    ]);
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success());
+    assert!(!stderr.contains("panicked"), "{stderr}");
+    let errors: Vec<&str> = stderr.lines().filter(|l| l.starts_with("error")).collect();
+    assert_eq!(errors.len(), 1, "{stderr}");
+    assert!(errors[0].contains("allowed auto, cpu, gpu"), "{stderr}");
+    assert!(!bogus.exists());
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -4,7 +4,7 @@
 
 mod common;
 
-use common::{small, Gpu};
+use common::{small, softshadow, Gpu};
 use glam::{Mat4, Vec3};
 use softshadow::render::{fit_light, Renderer, Settings, SilhouettePath};
 use softshadow::scene::{Mesh, Scene};
@@ -289,15 +289,6 @@ fn penumbra_map_keeps_unmoved_casters_and_matches_a_fresh_render() {
         .render_frames(r.scene.clone(), "penumbra-map", small(128, 512), 1)
         .0;
     assert_eq!(partial.visibility, fresh.visibility);
-}
-
-fn softshadow(args: &[&str]) -> std::process::Output {
-    std::process::Command::new(env!("CARGO_BIN_EXE_softshadow"))
-        .args(args)
-        .arg("--validation")
-        .env_remove("SOFTSHADOW_DEVICE")
-        .output()
-        .expect("running softshadow")
 }
 
 #[test]

@@ -4,11 +4,10 @@
 
 mod common;
 
-use common::{covered, small, Gpu};
+use common::{covered, small, softshadow, Gpu};
 use softshadow::eval::{bench, spirv};
 use softshadow::render::{Renderer, Settings, SpirvChoice};
 use softshadow::scene::Scene;
-use std::process::Command;
 
 const ONE_LEVEL: f32 = 1.0 / 255.0;
 
@@ -181,15 +180,6 @@ fn bench_rows_time_both_spirv_variants() {
     assert_eq!(labels, ["hard", "pcf", "smoothies spirv=tuned"]);
     assert_eq!("tuned".parse::<SpirvChoice>().unwrap(), SpirvChoice::Tuned);
     assert!("bogus".parse::<SpirvChoice>().is_err());
-}
-
-fn softshadow(args: &[&str]) -> std::process::Output {
-    Command::new(env!("CARGO_BIN_EXE_softshadow"))
-        .args(args)
-        .arg("--validation")
-        .env_remove("SOFTSHADOW_DEVICE")
-        .output()
-        .expect("running softshadow")
 }
 
 #[test]

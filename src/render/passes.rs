@@ -342,25 +342,25 @@ impl<K: PartialEq + Copy, V: Copy> CasterCache<K, V> {
         }
     }
 
-    /// Rebuilds, with `build(index)`, every object in `models` (index, model) whose slot is
-    /// stale (all of them when `force`); returns how many were rebuilt.
+    /// Rebuilds, with `build(adjacency, model)`, every caster (object with an adjacency)
+    /// whose slot is stale (all of them when `force`); returns how many were rebuilt.
     pub fn update(
         &mut self,
-        models: impl IntoIterator<Item = (usize, Mat4)>,
+        objects: &[crate::scene::Object],
+        adjacency: &[Option<crate::silhouette::Adjacency>],
         key: K,
         force: bool,
-        mut build: impl FnMut(usize) -> Vec<V>,
+        mut build: impl FnMut(&crate::silhouette::Adjacency, Mat4) -> Vec<V>,
     ) -> usize {
         let mut rebuilt = 0;
-        for (i, model) in models {
-            let Some(slot) = self.entries.get_mut(i) else {
-                continue;
-            };
+        for ((o, adj), slot) in objects.iter().zip(adjacency).zip(&mut self.entries) {
+            let Some(adj) = adj else { continue };
+            let model = o.transform;
             let fresh = slot
                 .as_ref()
                 .is_some_and(|(m, k, _)| *m == model && *k == key);
             if force || !fresh {
-                *slot = Some((model, key, build(i)));
+                *slot = Some((model, key, build(adj, model)));
                 rebuilt += 1;
             }
         }

@@ -104,6 +104,13 @@ struct Caster {
     built_for: Option<(GeometryKey, Mat4)>,
 }
 
+impl Caster {
+    /// Its region was built for another light or model (or never).
+    fn stale(&self, key: GeometryKey, objects: &[Object]) -> bool {
+        self.built_for != Some((key, objects[self.object].transform))
+    }
+}
+
 /// Silhouette edge found by the GPU: (edge index, a, b), caster-local, oriented as
 /// `SilhouetteEdge`.
 pub type GpuEdge = (u32, u32, u32);
@@ -364,7 +371,7 @@ impl GpuSilhouettes {
         let key = GeometryKey::new(light, width);
         self.casters
             .iter()
-            .filter(|c| c.built_for != Some((key, objects[c.object].transform)))
+            .filter(|c| c.stale(key, objects))
             .count()
     }
 
@@ -383,9 +390,8 @@ impl GpuSilhouettes {
             .casters
             .iter()
             .map(|c| {
-                let model = objects[c.object].transform;
-                let dirty = force || c.built_for != Some((key, model));
-                caster_data(c, model, light, dirty)
+                let dirty = force || c.stale(key, objects);
+                caster_data(c, objects[c.object].transform, light, dirty)
             })
             .collect();
         self.caster_data.write(0, bytemuck::cast_slice(&data))?;

@@ -206,29 +206,23 @@ impl PenumbraMap {
     /// all when the light changed); returns how many were rebuilt.
     fn build_geometry(&mut self, frame: &FrameInput<'_>, force: bool) -> usize {
         let z_far = cone_base_depth(frame.light);
-        let objects = &frame.scene.objects;
-        let adjacency = &self.adjacency;
-        let casters = adjacency
-            .iter()
-            .enumerate()
-            .filter(|(_, a)| a.is_some())
-            .map(|(i, _)| (i, objects[i].transform));
+        let (light, radius) = (frame.light, frame.light_radius);
         let key = GeometryKey {
-            view_proj: frame.light.view_proj,
-            near: frame.light.near,
-            radius: frame.light_radius,
+            view_proj: light.view_proj,
+            near: light.near,
+            radius,
             z_far,
         };
-        self.cache
-            .update(casters, key, force, |i| match &adjacency[i] {
-                Some(adj) => {
-                    let model = objects[i].transform;
-                    let sil = silhouette::extract(adj, model, frame.light.position);
-                    build_penumbra(adj, &sil, model, frame.light, frame.light_radius, z_far)
-                        .vertices
-                }
-                None => Vec::new(),
-            })
+        self.cache.update(
+            &frame.scene.objects,
+            &self.adjacency,
+            key,
+            force,
+            |adj, model| {
+                let sil = silhouette::extract(adj, model, light.position);
+                build_penumbra(adj, &sil, model, light, radius, z_far).vertices
+            },
+        )
     }
 }
 

@@ -268,27 +268,17 @@ impl Smoothies {
     /// CPU path: silhouettes and smoothie geometry of every caster that moved (or of all of
     /// them when the light changed) for this light; returns how many were rebuilt.
     fn build_geometry(&mut self, frame: &FrameInput<'_>, width: Width, force: bool) -> usize {
-        let objects = &frame.scene.objects;
-        let adjacency = &self.adjacency;
-        let casters = adjacency
-            .iter()
-            .enumerate()
-            .filter(|(_, a)| a.is_some())
-            .map(|(i, _)| (i, objects[i].transform));
-        self.cpu_cache
-            .update(
-                casters,
-                GeometryKey::new(frame.light, width),
-                force,
-                |i| match &adjacency[i] {
-                    Some(adj) => {
-                        let model = objects[i].transform;
-                        let sil = silhouette::extract(adj, model, frame.light.position);
-                        build_smoothies_width(adj, &sil, model, frame.light, width).vertices
-                    }
-                    None => Vec::new(),
-                },
-            )
+        let light = frame.light;
+        self.cpu_cache.update(
+            &frame.scene.objects,
+            &self.adjacency,
+            GeometryKey::new(light, width),
+            force,
+            |adj, model| {
+                let sil = silhouette::extract(adj, model, light.position);
+                build_smoothies_width(adj, &sil, model, light, width).vertices
+            },
+        )
     }
 }
 

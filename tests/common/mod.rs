@@ -95,3 +95,13 @@ pub fn pixel_at(img: &FrameImages, p: glam::Vec3) -> usize {
         })
         .expect("no covered pixel")
 }
+
+/// Runs the `softshadow` binary with validation on and no device override.
+pub fn softshadow(args: &[&str]) -> std::process::Output {
+    std::process::Command::new(env!("CARGO_BIN_EXE_softshadow"))
+        .args(args)
+        .arg("--validation")
+        .env_remove("SOFTSHADOW_DEVICE")
+        .output()
+        .expect("running softshadow")
+}

@@ -272,13 +272,15 @@ pub fn falloff_lut(ctx: &Context) -> Result<Image> {
     Ok(image)
 }
 
-/// Vertices rebuilt on the CPU whenever the light or a caster moves (smoothie quads and fans,
-/// penumbra-map cones and sheets, plateaus), in one host-visible vertex buffer that grows by
-/// half again when too small, so a light sweeping over a mesh does not reallocate every frame.
+/// Vertices rebuilt on the CPU whenever the light or a caster moves (smoothie records,
+/// penumbra-map cones and sheets, plateaus), in one host-visible buffer that grows by half
+/// again when too small, so a light sweeping over a mesh does not reallocate every frame.
+/// A vertex buffer by default; `storage` makes a storage buffer for vertex pulling.
 pub struct DynamicVertices {
     buffer: Option<Buffer>,
     count: u32,
     name: &'static str,
+    usage: BufferUsageFlags,
 }
 
 impl DynamicVertices {
@@ -287,11 +289,24 @@ impl DynamicVertices {
             buffer: None,
             count: 0,
             name,
+            usage: BufferUsageFlags::VERTEX_BUFFER,
         }
     }
 
-    /// Replaces the contents (the GPU finished with the old ones: frames wait on their fence).
-    pub fn upload<T: bytemuck::Pod>(&mut self, ctx: &Context, vertices: &[T]) -> Result<()> {
+    /// A storage buffer (read by a vertex shader, no vertex input), allocated now at its
+    /// minimum size so that a descriptor set can point at it before the first upload.
+    pub fn storage(ctx: &Context, name: &'static str) -> Result<Self> {
+        let mut v = Self {
+            usage: BufferUsageFlags::STORAGE_BUFFER,
+            ..Self::new(name)
+        };
+        v.upload::<u32>(ctx, &[])?;
+        Ok(v)
+    }
+
+    /// Replaces the contents (the GPU finished with the old ones: frames wait on their
+    /// fence); returns whether the buffer was reallocated (descriptors must be rewritten).
+    pub fn upload<T: bytemuck::Pod>(&mut self, ctx: &Context, vertices: &[T]) -> Result<bool> {
         let bytes: &[u8] = bytemuck::cast_slice(vertices);
         let fits = self
             .buffer
@@ -302,7 +317,7 @@ impl DynamicVertices {
             self.buffer = Some(Buffer::new(
                 ctx,
                 size,
-                BufferUsageFlags::VERTEX_BUFFER,
+                self.usage,
                 crate::vk::MemoryLocation::CpuToGpu,
                 self.name,
             )?);
@@ -311,11 +326,16 @@ impl DynamicVertices {
             b.write(0, bytes)?;
         }
         self.count = vertices.len() as u32;
-        Ok(())
+        Ok(!fits)
     }
 
     pub fn is_empty(&self) -> bool {
         self.count == 0
+    }
+
+    /// The buffer (None before the first upload of a vertex buffer).
+    pub fn buffer(&self) -> Option<&Buffer> {
+        self.buffer.as_ref()
     }
 
     /// Binds the buffer and draws every vertex with the bound pipeline (nothing when empty).
@@ -330,11 +350,15 @@ impl DynamicVertices {
 /// Per-caster CPU geometry kept between frames: a caster is rebuilt only when its model
 /// matrix or the frame's `key` (everything else the geometry depends on: the light, the
 /// widths...) changed, so a moving caster rebuilds only its own silhouette geometry.
-pub struct CasterCache<K, V> {
-    entries: Vec<Option<(Mat4, K, Vec<V>)>>,
+/// `T` is one caster's geometry (`CasterCache` holds vertex lists).
+pub struct CasterCacheOf<K, T> {
+    entries: Vec<Option<(Mat4, K, T)>>,
 }
 
-impl<K: PartialEq + Copy, V: Copy> CasterCache<K, V> {
+/// Per-caster vertex lists.
+pub type CasterCache<K, V> = CasterCacheOf<K, Vec<V>>;
+
+impl<K: PartialEq + Copy, T> CasterCacheOf<K, T> {
     /// One slot per scene object.
     pub fn new(objects: usize) -> Self {
         Self {
@@ -350,7 +374,7 @@ impl<K: PartialEq + Copy, V: Copy> CasterCache<K, V> {
         adjacency: &[Option<crate::silhouette::Adjacency>],
         key: K,
         force: bool,
-        mut build: impl FnMut(&crate::silhouette::Adjacency, Mat4) -> Vec<V>,
+        mut build: impl FnMut(&crate::silhouette::Adjacency, Mat4) -> T,
     ) -> usize {
         let mut rebuilt = 0;
         for ((o, adj), slot) in objects.iter().zip(adjacency).zip(&mut self.entries) {
@@ -368,10 +392,17 @@ impl<K: PartialEq + Copy, V: Copy> CasterCache<K, V> {
     }
 
     /// Every cached object's geometry, in object order.
+    pub fn iter(&self) -> impl Iterator<Item = &T> {
+        self.entries.iter().flatten().map(|e| &e.2)
+    }
+}
+
+impl<K: PartialEq + Copy, V: Copy> CasterCacheOf<K, Vec<V>> {
+    /// Every cached object's geometry, in object order.
     pub fn concat(&self) -> Vec<V> {
-        let n = self.entries.iter().flatten().map(|e| e.2.len()).sum();
+        let n = self.iter().map(Vec::len).sum();
         let mut out = Vec::with_capacity(n);
-        for (_, _, v) in self.entries.iter().flatten() {
+        for v in self.iter() {
             out.extend_from_slice(v);
         }
         out

@@ -67,6 +67,8 @@
 //! ends project to the same uv (Volokh: "A and B at the same position"). No vertex is ever
 //! NaN or infinite.
 
+pub mod records;
+
 use super::{Adjacency, EdgeKind, SilhouetteEdge};
 use crate::scene::LightView;
 use glam::{Mat3, Mat4, Vec2, Vec3};
@@ -190,20 +192,36 @@ pub(crate) const FAN_OVERLAP: f32 = 2.0 * std::f32::consts::PI / 180.0;
 const PAR_CHUNK: usize = 4096;
 
 /// Projects object-space geometry of one object for one light.
-struct Projector<'a> {
+pub(super) struct Projector<'a> {
     model: Mat4,
     normal_matrix: Mat3,
     light: &'a LightView,
 }
 
-impl Projector<'_> {
-    fn world(&self, p_obj: Vec3) -> Vec3 {
+impl<'a> Projector<'a> {
+    /// `model`'s normal matrix, or zero for a singular model (the third-vertex test takes
+    /// over where normals cannot be transformed).
+    pub(super) fn new(model: Mat4, light: &'a LightView) -> Self {
+        let normal_matrix = Mat3::from_mat4(model).inverse().transpose();
+        let normal_matrix = if normal_matrix.is_finite() {
+            normal_matrix
+        } else {
+            Mat3::ZERO
+        };
+        Self {
+            model,
+            normal_matrix,
+            light,
+        }
+    }
+
+    pub(super) fn world(&self, p_obj: Vec3) -> Vec3 {
         self.model.transform_point3(p_obj)
     }
 
     /// uv and linear depth, or None when the point is at or behind the near plane or the
     /// result is not finite (so callers never see NaN/Inf).
-    fn project(&self, p_world: Vec3) -> Option<(Vec2, f32)> {
+    pub(super) fn project(&self, p_world: Vec3) -> Option<(Vec2, f32)> {
         let (uv, depth) = self.light.project(p_world);
         (depth > self.light.near && uv.is_finite() && depth.is_finite()).then_some((uv, depth))
     }
@@ -228,21 +246,21 @@ impl Projector<'_> {
 
 /// A silhouette vertex, transformed and projected once for all its edges and its corner.
 #[derive(Clone, Copy)]
-struct SilVertex {
+pub(super) struct SilVertex {
     /// Welded vertex index.
-    v: u32,
+    pub(super) v: u32,
     /// World position.
-    p: Vec3,
+    pub(super) p: Vec3,
     /// `None` when `Projector::project` rejects the point: its edges are skipped.
-    proj: Option<Projected>,
+    pub(super) proj: Option<Projected>,
 }
 
 #[derive(Clone, Copy)]
-struct Projected {
-    s: Vec2,
-    z: f32,
-    inv: f32,
-    t: f32,
+pub(super) struct Projected {
+    pub(super) s: Vec2,
+    pub(super) z: f32,
+    pub(super) inv: f32,
+    pub(super) t: f32,
 }
 
 fn vertex(
@@ -301,6 +319,31 @@ fn build_edge(
     vb: &SilVertex,
     out: &mut Vec<SmoothieVertex>,
 ) -> Option<Vec2> {
+    let d = edge_dir(adj, pr, e, va, vb)?;
+    let (a, b) = (va.proj?, vb.proj?);
+    let (s0, s1) = (a.s, b.s);
+    let (o0, o1) = (s0 + a.t * d, s1 + b.t * d);
+    let v = |uv: Vec2, inv: f32, t: f32| vertex(uv, inv, 0.0, s0, d, t);
+    out.extend_from_slice(&[
+        v(s0, a.inv, a.t),
+        v(s1, b.inv, b.t),
+        v(o1, b.inv, b.t),
+        v(s0, a.inv, a.t),
+        v(o1, b.inv, b.t),
+        v(o0, a.inv, a.t),
+    ]);
+    Some(d)
+}
+
+/// The outward unit direction of silhouette edge `e` (ends `va`, `vb`) in light uv, or
+/// `None` when the edge is skipped (an end rejected by the projection, zero length).
+pub(super) fn edge_dir(
+    adj: &Adjacency,
+    pr: &Projector,
+    e: &SilhouetteEdge,
+    va: &SilVertex,
+    vb: &SilVertex,
+) -> Option<Vec2> {
     let (pa, pb) = (va.p, vb.p);
     let (a, b) = (va.proj?, vb.proj?);
     let (s0, s1) = (a.s, b.s);
@@ -351,16 +394,6 @@ fn build_edge(
             }
         }
     }
-    let (o0, o1) = (s0 + a.t * d, s1 + b.t * d);
-    let v = |uv: Vec2, inv: f32, t: f32| vertex(uv, inv, 0.0, s0, d, t);
-    out.extend_from_slice(&[
-        v(s0, a.inv, a.t),
-        v(s1, b.inv, b.t),
-        v(o1, b.inv, b.t),
-        v(s0, a.inv, a.t),
-        v(o1, b.inv, b.t),
-        v(o0, a.inv, a.t),
-    ]);
     Some(d)
 }
 
@@ -385,7 +418,7 @@ fn fan(out: &mut Vec<SmoothieVertex>, s: Vec2, inv: f32, t: f32, from: f32, swee
 }
 
 /// Projected vertex normal: sum of the faces adjacent to the vertex's silhouette edges.
-fn vertex_normal_screen<'a>(
+pub(super) fn vertex_normal_screen<'a>(
     adj: &Adjacency,
     pr: &Projector,
     edges: impl Iterator<Item = &'a SilhouetteEdge>,
@@ -400,6 +433,33 @@ fn vertex_normal_screen<'a>(
         }
     }
     pr.project_normal(p, z, s, n.normalize_or_zero())
+}
+
+/// Whether the half-turn fan of a hairpin corner at `vtx` (incident silhouette edges
+/// `edges`, the first one's outward direction `d1`) sweeps counter-clockwise from `d1`: the
+/// way that leads away from the edges' other ends, or the projected vertex normal's way
+/// when those cancel out.
+pub(super) fn hairpin_ccw<'a>(
+    adj: &Adjacency,
+    pr: &Projector,
+    vtx: &SilVertex,
+    edges: impl Iterator<Item = &'a SilhouetteEdge> + Clone,
+    d1: Vec2,
+) -> bool {
+    let Some(Projected { s, z, .. }) = vtx.proj else {
+        return true;
+    };
+    let mut away = Vec2::ZERO;
+    for e in edges.clone() {
+        let other = if e.a == vtx.v { e.b } else { e.a };
+        if let Some((so, _)) = pr.project(pr.world(adj.positions[other as usize])) {
+            away -= (so - s).normalize_or_zero();
+        }
+    }
+    if away.length() < 1e-3 {
+        away = vertex_normal_screen(adj, pr, edges, vtx.p, s, z);
+    }
+    away.dot(d1.perp()) >= 0.0
 }
 
 /// Appends the corner fan of silhouette vertex `vtx`, whose kept incident edges are
@@ -447,17 +507,7 @@ fn build_corner(
             // the outside is the opposite way. The projected vertex normal (Volokh) only
             // decides when that is ambiguous: for faces facing the light it points radially
             // from the light's axis, not necessarily away from the blocker.
-            let mut away = Vec2::ZERO;
-            for e in edges() {
-                let other = if e.a == vtx.v { e.b } else { e.a };
-                if let Some((so, _)) = pr.project(pr.world(adj.positions[other as usize])) {
-                    away -= (so - s).normalize_or_zero();
-                }
-            }
-            if away.length() < 1e-3 {
-                away = vertex_normal_screen(adj, pr, edges(), p, s, z);
-            }
-            let ccw = away.dot(d1.perp()) >= 0.0;
+            let ccw = hairpin_ccw(adj, pr, vtx, edges(), d1);
             sweep = if ccw {
                 std::f32::consts::PI
             } else {
@@ -566,18 +616,7 @@ pub(super) fn build_impl(
     width: Width,
     chunk: usize,
 ) -> SmoothieGeometry {
-    let normal_matrix = Mat3::from_mat4(model).inverse().transpose();
-    let normal_matrix = if normal_matrix.is_finite() {
-        normal_matrix
-    } else {
-        // Singular model: normals cannot be transformed; the third-vertex test takes over.
-        Mat3::ZERO
-    };
-    let pr = Projector {
-        model,
-        normal_matrix,
-        light,
-    };
+    let pr = Projector::new(model, light);
     let parallel = sil.len() >= chunk;
 
     // Silhouette vertices, numbered compactly in order of first use: `slot[v]` is welded

@@ -66,13 +66,14 @@
 
 use super::{FrameInput, Technique, TechniqueInfo, TechniqueInit};
 use crate::render::passes::{
-    falloff_lut, CasterCache, DynamicVertices, FinalPass, ShadowMap, FAR_DEPTH,
+    falloff_lut, CasterCacheOf, DynamicVertices, FinalPass, ShadowMap, FAR_DEPTH,
 };
 use crate::render::{fit_light, SilhouettePath};
 use crate::scene::{LightView, Scene};
 use crate::shaders;
 use crate::silhouette::gpu::GpuSilhouettes;
-use crate::silhouette::smoothie::{build_smoothies_width, GeometryKey, SmoothieVertex, Width};
+use crate::silhouette::smoothie::records::{build_records, SmoothieRecords};
+use crate::silhouette::smoothie::{GeometryKey, SmoothieVertex, Width};
 use crate::silhouette::{self, Adjacency};
 use crate::vk::{
     Blend, Context, CullModeFlags, DescriptorSet, Filter, Format, GraphicsPipelineDesc, Image,
@@ -97,6 +98,10 @@ const SMOOTHIE_ATTRIBUTES: &[crate::vk::Attribute] = &[
     (4, Format::R32G32_SFLOAT, 24),
     (5, Format::R32_SFLOAT, 32),
 ];
+
+/// Push constants of glsl/smoothies/smoothie_records.vert, per caster: first word of its
+/// records, vertex, edge and fan record counts.
+const RECORDS_PUSH_BYTES: u32 = 16;
 
 /// The smoothie widths: the fixed knob when given, else calibrated per silhouette vertex
 /// from the light radius and the vertex's depth (see the module header).
@@ -128,8 +133,13 @@ pub struct Smoothies {
     shadow: ShadowMap,
     smoothie_depth: Image,
     smoothie_alpha: Image,
+    /// GPU path: expanded `SmoothieVertex` buffer written by the silhouette compute pass.
     smoothie_pipeline: Pipeline,
     smoothie_set: DescriptorSet,
+    /// CPU path: records pulled from a storage buffer by smoothie_records.vert.
+    records_pipeline: Pipeline,
+    /// Rewritten whenever `records` reallocates its buffer.
+    records_set: DescriptorSet,
     final_pass: FinalPass,
     final_set: DescriptorSet,
     _falloff: Image,
@@ -140,8 +150,12 @@ pub struct Smoothies {
     path: SilhouettePath,
     /// CPU path: per object, the geometry and what it was built for (model, light key), so
     /// that a frame rebuilds only the casters that moved.
-    cpu_cache: CasterCache<GeometryKey, SmoothieVertex>,
-    vertices: DynamicVertices,
+    cpu_cache: CasterCacheOf<GeometryKey, SmoothieRecords>,
+    /// Every caster's records, back to back (`SmoothieRecords::write_words`).
+    records: DynamicVertices,
+    /// Per caster with geometry: push constants (first word, vertex, edge, fan records) and
+    /// the vertex count of its draw.
+    record_draws: Vec<([u32; 4], u32)>,
     /// GPU path: silhouettes and geometry by compute, drawn indirectly.
     gpu_silhouettes: Option<GpuSilhouettes>,
     /// Whether the smoothie pass draws anything (false at t = 0).
@@ -203,6 +217,31 @@ impl Smoothies {
                 sets: &[&smoothie_set],
             },
         )?;
+        let records = DynamicVertices::storage(ctx, "smoothie records")?;
+        let records_set = Self::records_set(ctx, &records)?;
+        let records_pipeline = Pipeline::graphics(
+            ctx,
+            &GraphicsPipelineDesc {
+                name: "smoothies/smoothie",
+                vertex: shaders::SMOOTHIES_SMOOTHIE_RECORDS_VERT,
+                fragment: Some(init.settings.spirv.pick(
+                    shaders::SMOOTHIES_SMOOTHIE_FRAG,
+                    shaders::SMOOTHIES_SMOOTHIE_FRAG_SPVASM,
+                )),
+                // Vertex pulling: no vertex input.
+                vertex_stride: 0,
+                attributes: &[],
+                topology: PrimitiveTopology::TRIANGLE_LIST,
+                cull: CullModeFlags::NONE,
+                colors: &[
+                    (Format::R32_SFLOAT, Blend::Min),
+                    (Format::R16_SFLOAT, Blend::Min),
+                ],
+                depth: None,
+                push_constant_bytes: RECORDS_PUSH_BYTES,
+                sets: &[&smoothie_set, &records_set],
+            },
+        )?;
         let final_set = DescriptorSet::new(
             ctx,
             &[
@@ -251,18 +290,55 @@ impl Smoothies {
             smoothie_alpha,
             smoothie_pipeline,
             smoothie_set,
+            records_pipeline,
+            records_set,
             final_pass,
             final_set,
             _falloff: falloff,
             _nearest: nearest,
             _linear: linear,
-            cpu_cache: CasterCache::new(adjacency.len()),
+            cpu_cache: CasterCacheOf::new(adjacency.len()),
             adjacency,
             path,
-            vertices: DynamicVertices::new("smoothie vertices"),
+            records,
+            record_draws: Vec::new(),
             gpu_silhouettes,
             draw_smoothies: false,
         }))
+    }
+
+    /// Set 1 of the records pipeline: the records (set 0 is `smoothie_set`, shared with
+    /// the GPU path's pipeline). Its own set so that a reallocated buffer only rewrites it.
+    fn records_set(ctx: &Context, records: &DynamicVertices) -> Result<DescriptorSet> {
+        let Some(buffer) = records.buffer() else {
+            anyhow::bail!("smoothie records buffer missing");
+        };
+        DescriptorSet::new(
+            ctx,
+            &[Resource::Storage(buffer)],
+            "smoothies/smoothie records",
+        )
+    }
+
+    /// CPU path: uploads every cached caster's records into one storage buffer and notes
+    /// each caster's draw.
+    fn upload_records(&mut self, ctx: &Context) -> Result<()> {
+        let words = self.cpu_cache.iter().map(SmoothieRecords::words).sum();
+        let mut all = Vec::with_capacity(words);
+        self.record_draws.clear();
+        for r in self.cpu_cache.iter() {
+            let count = r.draw_vertices();
+            if count > 0 {
+                let counts = [r.vertices.len(), r.edges.len(), r.fans.len()].map(|n| n as u32);
+                self.record_draws
+                    .push(([all.len() as u32, counts[0], counts[1], counts[2]], count));
+            }
+            r.write_words(&mut all);
+        }
+        if self.records.upload(ctx, &all)? {
+            self.records_set = Self::records_set(ctx, &self.records)?;
+        }
+        Ok(())
     }
 
     /// CPU path: silhouettes and smoothie geometry of every caster that moved (or of all of
@@ -276,7 +352,7 @@ impl Smoothies {
             force,
             |adj, model| {
                 let sil = silhouette::extract(adj, model, light.position);
-                build_smoothies_width(adj, &sil, model, light, width).vertices
+                build_records(adj, &sil, model, light, width)
             },
         )
     }
@@ -332,8 +408,7 @@ impl Technique for Smoothies {
             rec.cpu("smoothies/silhouettes", || {
                 self.build_geometry(frame, width, force)
             });
-            let vertices = self.cpu_cache.concat();
-            self.vertices.upload(ctx, &vertices)?;
+            self.upload_records(ctx)?;
         }
 
         self.shadow.pass(rec, frame.gpu)?;
@@ -346,12 +421,24 @@ impl Technique for Smoothies {
                 None,
             );
             if self.draw_smoothies {
-                rec.bind_pipeline(&self.smoothie_pipeline);
-                rec.bind_sets(&self.smoothie_pipeline, &[&self.smoothie_set]);
                 match (&self.gpu_silhouettes, self.path) {
-                    (Some(gpu), _) => gpu.draw(rec),
-                    (None, SilhouettePath::Cpu) => self.vertices.draw(rec),
-                    // The GPU path with no caster edge: nothing to draw.
+                    (Some(gpu), _) => {
+                        rec.bind_pipeline(&self.smoothie_pipeline);
+                        rec.bind_sets(&self.smoothie_pipeline, &[&self.smoothie_set]);
+                        gpu.draw(rec);
+                    }
+                    (None, SilhouettePath::Cpu) if !self.record_draws.is_empty() => {
+                        rec.bind_pipeline(&self.records_pipeline);
+                        rec.bind_sets(
+                            &self.records_pipeline,
+                            &[&self.smoothie_set, &self.records_set],
+                        );
+                        for (push, count) in &self.record_draws {
+                            rec.push_constants(&self.records_pipeline, bytemuck::bytes_of(push));
+                            rec.draw(*count, 1);
+                        }
+                    }
+                    // No caster edge: nothing to draw.
                     (None, _) => {}
                 }
             }

@@ -1,0 +1,462 @@
+//! Compact smoothie records, expanded into triangles by the vertex shader
+//! (glsl/smoothies/smoothie_records.vert, vertex pulling) — what the CPU path renders.
+//!
+//! The expanded triangle list of [`super::build_smoothies_width`] costs, per light on
+//! `dense`, 145k 36-byte vertices and ~57k libm calls (atan2 per corner, cos per fan,
+//! sin/cos per spoke). Here the CPU keeps the decisions (which edges, which side, which arc,
+//! how many segments) and writes 16-byte records; the GPU does the arithmetic.
+//!
+//! # Records (all little-endian 32-bit words, one storage buffer per frame)
+//! Per caster, four arrays laid out back to back, in this order:
+//! - [`VertexRecord`] per silhouette vertex, projected once: uv, 1 / linear depth, width t.
+//!   Vertices the projection rejects (behind the near plane) get zeros and are never
+//!   referenced.
+//! - [`EdgeRecord`] per kept silhouette edge: the two vertex records' indices and the unit
+//!   outward direction d (decided on the CPU exactly as `build_edge` decides it, Volokh).
+//!   Expands to 6 vertices: (s0, s1, s1 + t1 d) and (s0, s1 + t1 d, s0 + t0 d), all with
+//!   kind 0, anchor s0, dir d, each end's own 1/depth and t — bit for bit `build_edge`.
+//! - [`FanRecord`] per fan: the centre vertex record's index, the unit direction `from` of
+//!   the first spoke (an edge's d, or for special vertices any sorted spoke) and the signed
+//!   sweep in radians (> 0 counter-clockwise in uv). A two-edge corner is one fan (shorter
+//!   arc d1 -> d2, or the hairpin half turn); a special vertex is one fan per gap between
+//!   its sorted spokes (d_i and the projected vertex normal), covering the full disc.
+//! - one `u32` per fan segment: `fan << 8 | n << 4 | k`, segment k of the fan's n
+//!   (n <= 13, so 4 bits each; fan < 2^24 per caster). Expands to 3 vertices: the centre,
+//!   spoke k, spoke k + 1.
+//!
+//! Spoke i of a fan with sweep S (pad P = FAN_OVERLAP with S's sign, total S + 2P split
+//! into n segments of phi = (S + 2P) / n) points at angle -P + phi i from `from`, at radius
+//! t / cos(phi / 2) so each segment's chord stays outside the disc of radius t. n is the
+//! legacy count ceil(|S + 2P| / MAX_SEGMENT) (>= 1). Fan vertices: kind 1, anchor and
+//! 1/depth and t of the centre, dir 0. Adjacent segments compute their shared spoke from
+//! the same expression, so the fan is watertight.
+//!
+//! # No libm on the CPU
+//! Arc angles come from [`fast_atan2`] (a degree-11 odd polynomial, |error| < 2e-6 rad):
+//! one per two-edge corner, one per spoke of a special vertex (which also sorts them).
+//! The sweep only positions spokes (an error of 2e-6 rad moves a spoke 2e-6 t, far below
+//! a texel, and the fan already overlaps its edges by FAN_OVERLAP) and picks n (which only
+//! changes the tessellation when it lands on the other side of a 30-degree multiple).
+//!
+//! # Draw
+//! One draw per caster of `6 * edges + 3 * segments` vertices with push constants (first
+//! word of the caster's records, vertex, edge and fan counts); no vertex buffer.
+//! [`SmoothieRecords::expand`] is the shader's reference on the CPU (tests, porters).
+
+use super::{
+    edge_dir, hairpin_ccw, vertex_normal_screen, Projected, Projector, SilVertex, SmoothieVertex,
+    Width, FAN_OVERLAP, MAX_SEGMENT,
+};
+use crate::scene::LightView;
+use crate::silhouette::{Adjacency, SilhouetteEdge};
+use glam::{Mat4, Vec2};
+use std::f32::consts::{FRAC_PI_2, PI, TAU};
+
+/// A silhouette vertex: light uv, 1 / linear depth, smoothie width t (16 bytes).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct VertexRecord {
+    pub uv: [f32; 2],
+    pub inv_depth: f32,
+    pub width: f32,
+}
+
+/// A smoothie edge: vertex record indices of its ends and its unit outward direction.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct EdgeRecord {
+    pub a: u32,
+    pub b: u32,
+    pub dir: [f32; 2],
+}
+
+/// A corner fan: centre vertex record index, unit first spoke, signed sweep (radians).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct FanRecord {
+    pub centre: u32,
+    pub from: [f32; 2],
+    pub sweep: f32,
+}
+
+/// Largest fan index a segment word can hold (24 bits).
+pub const MAX_FANS: usize = 1 << 24;
+
+/// Smoothies of one object for one light, as records.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct SmoothieRecords {
+    pub vertices: Vec<VertexRecord>,
+    pub edges: Vec<EdgeRecord>,
+    pub fans: Vec<FanRecord>,
+    /// `fan << 8 | n << 4 | k` per fan segment.
+    pub segments: Vec<u32>,
+    /// Silhouette vertices that got a corner (two-edge corners and special vertices).
+    pub corners: usize,
+    /// Silhouette vertices with one or three and more kept edges (full-disc fans).
+    pub special_vertices: usize,
+    /// Silhouette edges dropped: behind or too close to the light, or zero length on screen.
+    pub skipped_edges: usize,
+}
+
+/// atan2(y, x) in [-PI, PI] without libm: |error| < 2e-6 rad (checked against libm by
+/// `fast_atan2_accuracy`), monotonic in the angle. atan2(0, 0) = 0.
+pub fn fast_atan2(y: f32, x: f32) -> f32 {
+    let (ax, ay) = (x.abs(), y.abs());
+    let (lo, hi) = (ax.min(ay), ax.max(ay));
+    if hi == 0.0 || hi.is_nan() {
+        return 0.0;
+    }
+    let a = lo / hi;
+    let s = a * a;
+    let mut r = a
+        * (0.999_977_26
+            + s * (-0.332_623_47
+                + s * (0.193_543_46
+                    + s * (-0.116_432_87 + s * (0.052_653_32 + s * -0.011_721_20)))));
+    if ay > ax {
+        r = FRAC_PI_2 - r;
+    }
+    if x < 0.0 {
+        r = PI - r;
+    }
+    if y < 0.0 {
+        -r
+    } else {
+        r
+    }
+}
+
+/// The padding of a fan of sweep `sweep`: FAN_OVERLAP on the side the fan turns to.
+/// (The shader's `sweep < 0.0 ? -OVERLAP : OVERLAP`.)
+fn pad_of(sweep: f32) -> f32 {
+    if sweep < 0.0 {
+        -FAN_OVERLAP
+    } else {
+        FAN_OVERLAP
+    }
+}
+
+/// Segments of a fan of sweep `sweep` (the padded sweep in <= MAX_SEGMENT pieces, >= 1).
+pub fn segment_count(sweep: f32) -> u32 {
+    let q = (sweep + 2.0 * pad_of(sweep)).abs() / MAX_SEGMENT;
+    // ceil without libm; q <= 13 for any sweep in [-2 PI, 2 PI].
+    let k = q as u32;
+    let k = if (k as f32) < q { k + 1 } else { k };
+    k.clamp(1, 15)
+}
+
+impl SmoothieRecords {
+    /// Vertices the draw expands to: 6 per edge, 3 per fan segment.
+    pub fn draw_vertices(&self) -> u32 {
+        (6 * self.edges.len() + 3 * self.segments.len()) as u32
+    }
+
+    /// 32-bit words of the records as laid out in the storage buffer.
+    pub fn words(&self) -> usize {
+        4 * (self.vertices.len() + self.edges.len() + self.fans.len()) + self.segments.len()
+    }
+
+    /// Appends the records to `out` in buffer order (vertices, edges, fans, segments).
+    pub fn write_words(&self, out: &mut Vec<u32>) {
+        out.extend_from_slice(bytemuck::cast_slice(&self.vertices));
+        out.extend_from_slice(bytemuck::cast_slice(&self.edges));
+        out.extend_from_slice(bytemuck::cast_slice(&self.fans));
+        out.extend_from_slice(&self.segments);
+    }
+
+    fn push_fan(&mut self, centre: u32, from: Vec2, sweep: f32) {
+        let fan = self.fans.len();
+        if fan >= MAX_FANS {
+            return;
+        }
+        self.fans.push(FanRecord {
+            centre,
+            from: from.to_array(),
+            sweep,
+        });
+        let n = segment_count(sweep);
+        let word = (fan as u32) << 8 | n << 4;
+        self.segments.extend((0..n).map(|k| word | k));
+    }
+
+    /// The triangle list the vertex shader draws, computed as the shader computes it
+    /// (same order: edges' 6 vertices, then each segment's centre, spoke k, spoke k + 1).
+    pub fn expand(&self) -> Vec<SmoothieVertex> {
+        let mut out = Vec::with_capacity(self.draw_vertices() as usize);
+        let vtx = |uv: Vec2, r: &VertexRecord, kind: f32, anchor: Vec2, dir: Vec2| SmoothieVertex {
+            uv: uv.to_array(),
+            inv_depth: r.inv_depth,
+            kind,
+            anchor: anchor.to_array(),
+            dir: dir.to_array(),
+            width: r.width,
+        };
+        for e in &self.edges {
+            let (a, b) = (&self.vertices[e.a as usize], &self.vertices[e.b as usize]);
+            let (s0, s1, d) = (Vec2::from(a.uv), Vec2::from(b.uv), Vec2::from(e.dir));
+            let (o0, o1) = (s0 + a.width * d, s1 + b.width * d);
+            out.extend_from_slice(&[
+                vtx(s0, a, 0.0, s0, d),
+                vtx(s1, b, 0.0, s0, d),
+                vtx(o1, b, 0.0, s0, d),
+                vtx(s0, a, 0.0, s0, d),
+                vtx(o1, b, 0.0, s0, d),
+                vtx(o0, a, 0.0, s0, d),
+            ]);
+        }
+        for &w in &self.segments {
+            let (fan, n, k) = (w >> 8, (w >> 4) & 15, w & 15);
+            let f = &self.fans[fan as usize];
+            let c = &self.vertices[f.centre as usize];
+            let s = Vec2::from(c.uv);
+            let from = Vec2::from(f.from);
+            let pad = pad_of(f.sweep);
+            let phi = (f.sweep + 2.0 * pad) / n as f32;
+            let r = c.width / (phi * 0.5).cos();
+            let spoke = |i: u32| {
+                let a = -pad + phi * i as f32;
+                let (sin, cos) = a.sin_cos();
+                s + r * (from * cos + from.perp() * sin)
+            };
+            let z = Vec2::ZERO;
+            out.extend_from_slice(&[
+                vtx(s, c, 1.0, s, z),
+                vtx(spoke(k), c, 1.0, s, z),
+                vtx(spoke(k + 1), c, 1.0, s, z),
+            ]);
+        }
+        out
+    }
+}
+
+/// Smoothie records of one object (`model`: object -> world) for `light` from its
+/// silhouette `sil` (as returned by `extract`): the same edges, directions and corners as
+/// `build_smoothies_width`, serial (the records are cheap enough for one thread).
+pub fn build_records(
+    adj: &Adjacency,
+    sil: &[SilhouetteEdge],
+    model: Mat4,
+    light: &LightView,
+    width: Width,
+) -> SmoothieRecords {
+    let pr = Projector::new(model, light);
+    let mut rec = SmoothieRecords::default();
+
+    // Silhouette vertices numbered in order of first use (as `build_impl`): `slot[v]` is
+    // welded vertex v's number when bit v of `used` is set.
+    let nv = adj.positions.len();
+    let mut slot = vec![0u32; nv];
+    let mut used = vec![0u64; nv.div_ceil(64)];
+    let mut verts: Vec<SilVertex> = Vec::with_capacity(sil.len() + 8);
+    rec.vertices.reserve(sil.len() + 8);
+    let mut ends: Vec<[u32; 2]> = Vec::with_capacity(sil.len());
+    for e in sil {
+        let mut number = |v: u32| {
+            let (w, bit) = ((v / 64) as usize, 1u64 << (v % 64));
+            if used[w] & bit == 0 {
+                used[w] |= bit;
+                slot[v as usize] = verts.len() as u32;
+                let p = pr.world(adj.positions[v as usize]);
+                let proj = pr.project(p).map(|(s, z)| Projected {
+                    s,
+                    z,
+                    inv: 1.0 / z,
+                    t: width.at(z),
+                });
+                rec.vertices
+                    .push(proj.map_or(VertexRecord::default(), |q| VertexRecord {
+                        uv: q.s.to_array(),
+                        inv_depth: q.inv,
+                        width: q.t,
+                    }));
+                verts.push(SilVertex { v, p, proj });
+            }
+            slot[v as usize]
+        };
+        ends.push([number(e.a), number(e.b)]);
+    }
+
+    // Edges, in silhouette order; incidence counts of the kept ones.
+    let mut dirs: Vec<Option<Vec2>> = Vec::with_capacity(sil.len());
+    let mut inc_start = vec![0u32; verts.len() + 1];
+    rec.edges.reserve(sil.len());
+    for (e, &[a, b]) in sil.iter().zip(&ends) {
+        let d = edge_dir(adj, &pr, e, &verts[a as usize], &verts[b as usize]);
+        if let Some(d) = d {
+            rec.edges.push(EdgeRecord {
+                a,
+                b,
+                dir: d.to_array(),
+            });
+            inc_start[a as usize + 1] += 1;
+            inc_start[b as usize + 1] += 1;
+        }
+        dirs.push(d);
+    }
+    rec.skipped_edges = sil.len() - rec.edges.len();
+
+    // Kept incident edges per silhouette vertex (CSR, ascending silhouette index).
+    for c in 0..verts.len() {
+        inc_start[c + 1] += inc_start[c];
+    }
+    let mut inc = vec![0u32; inc_start[verts.len()] as usize];
+    let mut fill = inc_start.clone();
+    for (i, (&[a, b], d)) in ends.iter().zip(&dirs).enumerate() {
+        if d.is_some() {
+            for c in [a, b] {
+                inc[fill[c as usize] as usize] = i as u32;
+                fill[c as usize] += 1;
+            }
+        }
+    }
+
+    // Corners by welded vertex index (the order of `build_smoothies_width`).
+    rec.fans.reserve(verts.len() + verts.len() / 4);
+    rec.segments.reserve(4 * verts.len());
+    let mut spokes: Vec<(f32, Vec2)> = Vec::new();
+    for (w, &bits) in used.iter().enumerate() {
+        let mut bits = bits;
+        while bits != 0 {
+            let v = w * 64 + bits.trailing_zeros() as usize;
+            bits &= bits - 1;
+            let c = slot[v];
+            let list = &inc[inc_start[c as usize] as usize..inc_start[c as usize + 1] as usize];
+            if list.is_empty() {
+                continue;
+            }
+            if let Some(special) = corner(
+                adj,
+                &pr,
+                &verts[c as usize],
+                c,
+                list,
+                sil,
+                &dirs,
+                &mut rec,
+                &mut spokes,
+            ) {
+                rec.corners += 1;
+                rec.special_vertices += usize::from(special);
+            }
+        }
+    }
+    rec
+}
+
+/// The fan(s) of silhouette vertex `vtx` (record index `c`) whose kept incident edges are
+/// `sil[i]` for `i` in `inc`, as `build_corner` decides them; whether it is special, or
+/// `None` when it needs no corner.
+#[allow(clippy::too_many_arguments)]
+fn corner(
+    adj: &Adjacency,
+    pr: &Projector,
+    vtx: &SilVertex,
+    c: u32,
+    inc: &[u32],
+    sil: &[SilhouetteEdge],
+    dirs: &[Option<Vec2>],
+    rec: &mut SmoothieRecords,
+    spokes: &mut Vec<(f32, Vec2)>,
+) -> Option<bool> {
+    let Projected { s, z, .. } = vtx.proj?;
+    let dir = |i: u32| dirs[i as usize].unwrap_or(Vec2::ZERO);
+    let edges = || inc.iter().map(|&i| &sil[i as usize]);
+    if let [i1, i2] = *inc {
+        let (d1, d2) = (dir(i1), dir(i2));
+        let cos = d1.dot(d2).clamp(-1.0, 1.0);
+        // The exact thresholds of `build_corner` (no corner below MIN_CORNER_ANGLE, the
+        // hairpin above PI - MIN_CORNER_ANGLE): cos == +-1.
+        if cos >= 1.0 {
+            return None;
+        }
+        let sweep = if cos <= -1.0 {
+            if hairpin_ccw(adj, pr, vtx, edges(), d1) {
+                PI
+            } else {
+                -PI
+            }
+        } else {
+            fast_atan2(d1.perp_dot(d2), cos)
+        };
+        rec.push_fan(c, d1, sweep);
+        return Some(false);
+    }
+    // Special vertex: spokes at every d_i and at the projected vertex normal, sorted by
+    // angle; one fan per gap, together the full disc.
+    spokes.clear();
+    spokes.extend(inc.iter().map(|&i| {
+        let d = dir(i);
+        (fast_atan2(d.y, d.x), d)
+    }));
+    let n = vertex_normal_screen(adj, pr, edges(), vtx.p, s, z);
+    let len = n.length();
+    if len > 1e-9 {
+        spokes.push((fast_atan2(n.y, n.x), n / len));
+    }
+    spokes.sort_by(|a, b| a.0.total_cmp(&b.0));
+    spokes.dedup_by(|x, y| (x.0 - y.0).abs() < 1e-6);
+    for i in 0..spokes.len() {
+        let (a, from) = spokes[i];
+        let next = spokes.get(i + 1).map_or(spokes[0].0 + TAU, |x| x.0);
+        let gap = next - a;
+        if gap > 1e-6 {
+            rec.push_fan(c, from, gap);
+        }
+    }
+    Some(true)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn record_sizes() {
+        assert_eq!(std::mem::size_of::<VertexRecord>(), 16);
+        assert_eq!(std::mem::size_of::<EdgeRecord>(), 16);
+        assert_eq!(std::mem::size_of::<FanRecord>(), 16);
+    }
+
+    #[test]
+    fn fast_atan2_accuracy() {
+        let mut worst = 0.0f32;
+        let mut prev = -4.0f32;
+        for i in 0..=200_000 {
+            let a = -PI + TAU * i as f32 / 200_000.0;
+            let (y, x) = (a.sin(), a.cos());
+            let f = fast_atan2(y, x);
+            worst = worst.max((f - y.atan2(x)).abs());
+            // Monotonic along the circle (away from the wrap at +-PI).
+            if i > 0 && i < 200_000 {
+                assert!(f >= prev - 1e-7, "{a}: {f} < {prev}");
+            }
+            prev = f;
+        }
+        assert!(worst < 2e-6, "max error {worst}");
+        for (y, x) in [
+            (0.0, 1.0),
+            (1.0, 0.0),
+            (0.0, -1.0),
+            (-1.0, 0.0),
+            (3.0, -3.0),
+        ] {
+            assert!(
+                (fast_atan2(y, x) - f32::atan2(y, x)).abs() < 2e-6,
+                "{y} {x}"
+            );
+        }
+        assert_eq!(fast_atan2(0.0, 0.0), 0.0);
+    }
+
+    #[test]
+    fn segment_counts_match_the_legacy_ceil() {
+        for i in -4000..=4000 {
+            let sweep = TAU * i as f32 / 4000.0;
+            let padded = sweep + 2.0 * FAN_OVERLAP.copysign(sweep);
+            let legacy = ((padded.abs() / MAX_SEGMENT).ceil() as u32).max(1);
+            assert_eq!(segment_count(sweep), legacy, "{sweep}");
+        }
+        assert_eq!(segment_count(TAU), 13);
+        assert_eq!(segment_count(PI), 7);
+    }
+}

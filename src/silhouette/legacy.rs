@@ -449,9 +449,20 @@ pub fn build_smoothies_width_old(
 
 /// The rewritten extraction and smoothie construction against the code above, bit for bit.
 mod equivalence {
+    use super::super::smoothie::records::{build_records, SmoothieRecords};
     use super::super::test_meshes::{bowtie, cube, sphere};
     use super::super::{extract, extract_impl, extract_serial};
     use super::*;
+
+    /// Fan vertices of the records against the old ones, in units of t: the old spokes are
+    /// `from_angle(atan2(d1) - pad + phi i)`, the new ones `d1` rotated by `-pad + phi i`
+    /// with the sweep from `fast_atan2` (< 2e-6 rad) and a few f32 roundings of angles up
+    /// to 2 PI (< 1e-6 rad), at radius <= 1.04 t: about 3e-6 t, bounded here by 1e-5 t
+    /// (2e-6 uv at the largest t = 0.2: 0.004 texel of a 2048 map).
+    const FAN_TOL: f32 = 1e-5;
+    /// Both constructions round uv (|uv| < 2 for anything on the map's side, ulp 2.4e-7)
+    /// after a different sequence of operations: two ulps.
+    const UV_ROUNDING: f32 = 5e-7;
     use crate::scene::{Light, Mesh, Scene};
 
     fn light_at(position: Vec3, target: Vec3) -> LightView {
@@ -501,7 +512,126 @@ mod equivalence {
         assert_eq!(bits(&new), bits(&old), "light at {}", lv.position);
         let par = super::super::smoothie::build_impl(adj, &sil, model, lv, width, 3);
         assert_eq!(bits(&par), bits(&old), "parallel, light at {}", lv.position);
+        let records = build_records(adj, &sil, model, lv, width);
+        let fallbacks = records_match(&records, &old);
+        assert!(
+            fallbacks * 100 <= old.corners.max(1) + 99,
+            "{fallbacks} of {} corners compared by coverage, light at {}",
+            old.corners,
+            lv.position
+        );
         (sil.len(), old.vertices.len())
+    }
+
+    /// Records (expanded as the shader expands them) against the old triangle list: the
+    /// same edges bit for bit (same counts, same quads: `expand` does `build_edge`'s
+    /// arithmetic on the same inputs); corners as fans around the same anchors in the same
+    /// order, each vertex within `FAN_TOL` of the old one. Where a fan's segmentation or a
+    /// special vertex's spoke order differs (an arc within 2e-6 rad of a 30-degree step
+    /// minus the padding, spokes straddling +-PI in a different order), the corner is
+    /// compared by coverage instead: points of the disc of radius t on a polar grid are
+    /// inside the old triangles exactly when inside the new ones (away from the sector
+    /// sides by 1e-3 rad). Returns how many corners needed the coverage comparison.
+    fn records_match(records: &SmoothieRecords, old: &SmoothieGeometry) -> usize {
+        assert_eq!(records.edges.len(), old.edges);
+        assert_eq!(records.skipped_edges, old.skipped_edges);
+        assert_eq!(records.corners, old.corners);
+        assert_eq!(records.special_vertices, old.special_vertices);
+        let new = records.expand();
+        assert_eq!(new.len(), records.draw_vertices() as usize);
+        let quads = 6 * old.edges;
+        let as_bits = |v: &[SmoothieVertex]| bytemuck::cast_slice::<_, u32>(v).to_vec();
+        assert_eq!(as_bits(&new[..quads]), as_bits(&old.vertices[..quads]));
+        let (a, b) = (groups(&new[quads..]), groups(&old.vertices[quads..]));
+        assert_eq!(a.len(), b.len(), "corner groups");
+        // Per group, the acos error of the old sweep (`angle_to` = acos(d1 . d2) for a
+        // two-edge corner): about 2.5e-7 / sin(sweep) rad, up to 6e-4 rad for the smallest
+        // corners (`fast_atan2` of the cross and dot products has no such loss).
+        let mut acos_err: Vec<f32> = Vec::new();
+        let mut last: Option<[f32; 2]> = None;
+        for f in &records.fans {
+            let uv = records.vertices[f.centre as usize].uv;
+            let e = if f.sweep.abs() < std::f32::consts::PI {
+                2.5e-7 / f.sweep.sin().abs().max(4e-4)
+            } else {
+                0.0
+            };
+            if last == Some(uv) {
+                let l = acos_err.len() - 1;
+                acos_err[l] = acos_err[l].max(e);
+            } else {
+                acos_err.push(e);
+            }
+            last = Some(uv);
+        }
+        assert_eq!(acos_err.len(), a.len());
+        let mut fallbacks = 0;
+        for ((ga, gb), eps) in a.iter().zip(&b).zip(&acos_err) {
+            let (c, t) = (Vec2::from(ga[0].anchor), ga[0].width);
+            assert_eq!(ga[0].anchor, gb[0].anchor);
+            assert_eq!(ga[0].inv_depth, gb[0].inv_depth);
+            assert_eq!(ga[0].width, gb[0].width);
+            let close = ga.len() == gb.len()
+                && ga.iter().zip(gb.iter()).all(|(x, y)| {
+                    x.kind == 1.0
+                        && x.dir == [0.0, 0.0]
+                        && (Vec2::from(x.uv) - Vec2::from(y.uv)).length()
+                            <= (FAN_TOL + 1.04 * eps) * t + UV_ROUNDING
+                });
+            if close {
+                continue;
+            }
+            fallbacks += 1;
+            let inside = |tris: &[SmoothieVertex], p: Vec2| {
+                tris.chunks_exact(3).any(|q| {
+                    let [p0, p1, p2] = [0, 1, 2].map(|i| Vec2::from(q[i].uv));
+                    let (d0, d1, d2) = (
+                        (p1 - p0).perp_dot(p - p0),
+                        (p2 - p1).perp_dot(p - p1),
+                        (p0 - p2).perp_dot(p - p2),
+                    );
+                    let e = -1e-9;
+                    (d0 >= e && d1 >= e && d2 >= e) || (d0 <= -e && d1 <= -e && d2 <= -e)
+                })
+            };
+            // The old fans' sector sides, to keep samples off them.
+            let sides: Vec<f32> = gb
+                .chunks_exact(3)
+                .flat_map(|q| [q[1], q[2]])
+                .map(|v| (Vec2::from(v.uv) - c).to_angle())
+                .collect();
+            for i in 0..720 {
+                let ang = (i as f32 + 0.37) * std::f32::consts::TAU / 720.0 - std::f32::consts::PI;
+                let off = sides.iter().all(|&s| {
+                    let d = (ang - s).rem_euclid(std::f32::consts::TAU);
+                    d.min(std::f32::consts::TAU - d) > 1e-3
+                });
+                if !off {
+                    continue;
+                }
+                for r in [0.05, 0.3, 0.6, 0.9, 0.99] {
+                    let p = c + r * t * Vec2::from_angle(ang);
+                    assert_eq!(
+                        inside(&ga, p),
+                        inside(&gb, p),
+                        "corner at {c}, angle {ang}, r {r}"
+                    );
+                }
+            }
+        }
+        fallbacks
+    }
+
+    /// Corner triangles grouped by anchor (consecutive runs), as vertex lists.
+    fn groups(v: &[SmoothieVertex]) -> Vec<Vec<SmoothieVertex>> {
+        let mut out: Vec<Vec<SmoothieVertex>> = Vec::new();
+        for q in v.chunks_exact(3) {
+            match out.last_mut() {
+                Some(g) if g[0].anchor == q[0].anchor => g.extend_from_slice(q),
+                _ => out.push(q.to_vec()),
+            }
+        }
+        out
     }
 
     /// Lights around and close to an object at `centre` of size about `size`: above, below,

@@ -13,14 +13,18 @@
 //! The `scenes_cpu` group times the same one-core work by the CPU time of the thread that
 //! runs it (`CLOCK_THREAD_CPUTIME_ID`) instead of wall time: on the shared 2-core machine
 //! other processes' load stretches wall time (time slices lost to them) but not this.
-//! `extract_1core` is `extract_serial`, `smoothies_1core` is `build_smoothies` and
-//! `total_1core` both, all inside a one-thread pool. `SIL_SCENES=dense,bunny` limits it
-//! to those scenes.
+//! `extract_1core` is `extract_serial`, `records_1core` is `build_records` (what the
+//! renderer's CPU path builds: compact records the vertex shader expands),
+//! `smoothies_1core` is `build_smoothies` (the expanded triangle list it built before, kept
+//! for comparison) and `total_1core` is extract + records, all inside a one-thread pool.
+//! `SIL_SCENES=dense,bunny` limits it to those scenes.
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion};
 use glam::{Mat4, Vec3};
 use softshadow::render::fit_light;
 use softshadow::scene::{Light, LightView, Mesh, Scene, BUILTIN_SCENES};
+use softshadow::silhouette::smoothie::records::build_records;
+use softshadow::silhouette::smoothie::Width;
 use softshadow::silhouette::SilhouetteEdge;
 use softshadow::silhouette::{build_smoothies, extract, extract_serial, Adjacency};
 use softshadow::technique::smoothies::smoothie_width;
@@ -173,6 +177,18 @@ impl Casters {
             .collect()
     }
 
+    /// What the renderer's CPU path builds: records for the vertex shader to expand.
+    fn records(&self, sil: &[Vec<SilhouetteEdge>]) -> usize {
+        self.objects
+            .iter()
+            .zip(sil)
+            .map(|((m, adj), s)| {
+                build_records(adj, s, *m, &self.light, Width::Fixed(self.t)).words()
+            })
+            .sum()
+    }
+
+    /// The expanded triangle list (the pre-records CPU path; the GPU path's size estimate).
     fn smoothies(&self, sil: &[Vec<SilhouetteEdge>]) -> usize {
         self.objects
             .iter()
@@ -277,8 +293,11 @@ fn scenes_cpu(c: &mut Criterion) {
         g.bench_function(BenchmarkId::new("smoothies_1core", name), |b| {
             b.iter_custom(|iters| cpu_iters(&pool, iters, || cs.smoothies(black_box(&sil))))
         });
+        g.bench_function(BenchmarkId::new("records_1core", name), |b| {
+            b.iter_custom(|iters| cpu_iters(&pool, iters, || cs.records(black_box(&sil))))
+        });
         g.bench_function(BenchmarkId::new("total_1core", name), |b| {
-            b.iter_custom(|iters| cpu_iters(&pool, iters, || cs.smoothies(&cs.extract(true))))
+            b.iter_custom(|iters| cpu_iters(&pool, iters, || cs.records(&cs.extract(true))))
         });
     }
     g.finish();

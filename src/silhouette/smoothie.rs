@@ -193,9 +193,9 @@ const PAR_CHUNK: usize = 4096;
 
 /// Projects object-space geometry of one object for one light.
 pub(super) struct Projector<'a> {
-    model: Mat4,
-    normal_matrix: Mat3,
-    light: &'a LightView,
+    pub(super) model: Mat4,
+    pub(super) normal_matrix: Mat3,
+    pub(super) light: &'a LightView,
 }
 
 impl<'a> Projector<'a> {
@@ -376,25 +376,44 @@ pub(super) fn edge_dir(
         }
     }
     if !decided {
-        let side = third_vertex_side(adj, pr, e, s0, s1);
-        if side > 0.0 {
-            d = -d;
-        } else if side == 0.0 {
-            // No usable evidence: the orientation convention puts the outside on the right.
-            d = -d;
-            if e.kind == EdgeKind::Boundary {
-                let fi = e.front_face as usize;
-                let m = (pa + pb) * 0.5;
-                if let Some((sm, zm)) = pr.project(m) {
-                    let n = pr.project_normal(m, zm, sm, adj.face_normals[fi]);
-                    if d.dot(n) < 0.0 {
-                        d = -d;
-                    }
+        d = undecided_dir(adj, pr, e, pa, pb, s0, s1, d);
+    }
+    Some(d)
+}
+
+/// The outward direction of edge `e` (world ends `pa`, `pb`, projected `s0`, `s1`, left
+/// perpendicular `d`) when the face normals do not decide: the side away from the faces'
+/// third vertices, else the orientation convention's right side (for a boundary edge, the
+/// front face's projected normal has the last word).
+#[allow(clippy::too_many_arguments)]
+pub(super) fn undecided_dir(
+    adj: &Adjacency,
+    pr: &Projector,
+    e: &SilhouetteEdge,
+    pa: Vec3,
+    pb: Vec3,
+    s0: Vec2,
+    s1: Vec2,
+    mut d: Vec2,
+) -> Vec2 {
+    let side = third_vertex_side(adj, pr, e, s0, s1);
+    if side > 0.0 {
+        d = -d;
+    } else if side == 0.0 {
+        // No usable evidence: the orientation convention puts the outside on the right.
+        d = -d;
+        if e.kind == EdgeKind::Boundary {
+            let fi = e.front_face as usize;
+            let m = (pa + pb) * 0.5;
+            if let Some((sm, zm)) = pr.project(m) {
+                let n = pr.project_normal(m, zm, sm, adj.face_normals[fi]);
+                if d.dot(n) < 0.0 {
+                    d = -d;
                 }
             }
         }
     }
-    Some(d)
+    d
 }
 
 /// Fan from the vertex at `s` over directions `from` .. `from + sweep` (radians, signed).

@@ -525,13 +525,13 @@ mod equivalence {
 
     /// Records (expanded as the shader expands them) against the old triangle list: the
     /// same edges bit for bit (same counts, same quads: `expand` does `build_edge`'s
-    /// arithmetic on the same inputs); corners as fans around the same anchors in the same
-    /// order, each vertex within `FAN_TOL` of the old one. Where a fan's segmentation or a
-    /// special vertex's spoke order differs (an arc within 2e-6 rad of a 30-degree step
-    /// minus the padding, spokes straddling +-PI in a different order), the corner is
-    /// compared by coverage instead: points of the disc of radius t on a polar grid are
-    /// inside the old triangles exactly when inside the new ones (away from the sector
-    /// sides by 1e-3 rad). Returns how many corners needed the coverage comparison.
+    /// arithmetic on the same inputs); two-edge corners as fans around the same anchors in
+    /// the same order, each vertex within `FAN_TOL` (plus the old sweep's acos error) of the
+    /// old one. Special vertices (full discs, spokes placed differently), and any fan whose
+    /// segmentation differs (an arc within 2e-6 rad of a 30-degree step minus the padding),
+    /// are compared by coverage: points of the disc of radius t on a polar grid are inside
+    /// the old triangles exactly when inside the new ones (away from the old sector sides by
+    /// 1e-3 rad). Returns how many two-edge corners needed the coverage comparison.
     fn records_match(records: &SmoothieRecords, old: &SmoothieGeometry) -> usize {
         assert_eq!(records.edges.len(), old.edges);
         assert_eq!(records.skipped_edges, old.skipped_edges);
@@ -547,7 +547,9 @@ mod equivalence {
         // Per group, the acos error of the old sweep (`angle_to` = acos(d1 . d2) for a
         // two-edge corner): about 2.5e-7 / sin(sweep) rad, up to 6e-4 rad for the smallest
         // corners (`fast_atan2` of the cross and dot products has no such loss).
-        let mut acos_err: Vec<f32> = Vec::new();
+        // Special vertices (full discs) are compared by coverage only: the records draw one
+        // fan from the first edge's d, the old code one per gap between sorted spokes.
+        let mut acos_err: Vec<(f32, bool)> = Vec::new();
         let mut last: Option<[f32; 2]> = None;
         for f in &records.fans {
             let uv = records.vertices[f.centre as usize].uv;
@@ -556,22 +558,25 @@ mod equivalence {
             } else {
                 0.0
             };
+            let special = f.sweep == std::f32::consts::TAU;
             if last == Some(uv) {
                 let l = acos_err.len() - 1;
-                acos_err[l] = acos_err[l].max(e);
+                acos_err[l].0 = acos_err[l].0.max(e);
+                acos_err[l].1 |= special;
             } else {
-                acos_err.push(e);
+                acos_err.push((e, special));
             }
             last = Some(uv);
         }
         assert_eq!(acos_err.len(), a.len());
         let mut fallbacks = 0;
-        for ((ga, gb), eps) in a.iter().zip(&b).zip(&acos_err) {
+        for ((ga, gb), &(eps, special)) in a.iter().zip(&b).zip(&acos_err) {
             let (c, t) = (Vec2::from(ga[0].anchor), ga[0].width);
             assert_eq!(ga[0].anchor, gb[0].anchor);
             assert_eq!(ga[0].inv_depth, gb[0].inv_depth);
             assert_eq!(ga[0].width, gb[0].width);
-            let close = ga.len() == gb.len()
+            let close = !special
+                && ga.len() == gb.len()
                 && ga.iter().zip(gb.iter()).all(|(x, y)| {
                     x.kind == 1.0
                         && x.dir == [0.0, 0.0]
@@ -581,7 +586,7 @@ mod equivalence {
             if close {
                 continue;
             }
-            fallbacks += 1;
+            fallbacks += usize::from(!special);
             let inside = |tris: &[SmoothieVertex], p: Vec2| {
                 tris.chunks_exact(3).any(|q| {
                     let [p0, p1, p2] = [0, 1, 2].map(|i| Vec2::from(q[i].uv));
@@ -600,8 +605,8 @@ mod equivalence {
                 .flat_map(|q| [q[1], q[2]])
                 .map(|v| (Vec2::from(v.uv) - c).to_angle())
                 .collect();
-            for i in 0..720 {
-                let ang = (i as f32 + 0.37) * std::f32::consts::TAU / 720.0 - std::f32::consts::PI;
+            for i in 0..360 {
+                let ang = (i as f32 + 0.37) * std::f32::consts::TAU / 360.0 - std::f32::consts::PI;
                 let off = sides.iter().all(|&s| {
                     let d = (ang - s).rem_euclid(std::f32::consts::TAU);
                     d.min(std::f32::consts::TAU - d) > 1e-3

@@ -44,8 +44,8 @@
 //! [`SmoothieRecords::expand`] is the shader's reference on the CPU (tests, porters).
 
 use super::{
-    hairpin_ccw, undecided_dir, vertex_normal_screen, Projected, Projector, SilVertex,
-    SmoothieVertex, Width, FAN_OVERLAP, MAX_SEGMENT,
+    hairpin_ccw, undecided_dir, Projected, Projector, SilVertex, SmoothieVertex, Width,
+    FAN_OVERLAP, MAX_SEGMENT,
 };
 use crate::scene::LightView;
 use crate::silhouette::{Adjacency, EdgeKind, SilhouetteEdge};
@@ -230,8 +230,9 @@ impl SmoothieRecords {
 }
 
 /// Smoothie records of one object (`model`: object -> world) for `light` from its
-/// silhouette `sil` (as returned by `extract`): the same edges, directions and corners as
-/// `build_smoothies_width`, serial (the records are cheap enough for one thread).
+/// silhouette `sil` (as returned by `extract`): the same edges and directions, and corners
+/// covering the same areas, as `build_smoothies_width`; serial (cheap enough for one
+/// thread).
 pub fn build_records(
     adj: &Adjacency,
     sil: &[SilhouetteEdge],
@@ -240,116 +241,114 @@ pub fn build_records(
     width: Width,
 ) -> SmoothieRecords {
     let pr = Projector::new(model, light);
+    let normals = NormalProjector::new(&pr);
     let mut rec = SmoothieRecords::default();
 
     // Silhouette vertices numbered in order of first use (as `build_impl`): `slot[v]` is
-    // welded vertex v's number when bit v of `used` is set.
+    // welded vertex v's number when bit v of `used` is set. Numbering first and projecting
+    // afterwards keeps the branchy part and the arithmetic in separate tight loops.
     let nv = adj.positions.len();
     let mut slot = vec![0u32; nv];
     let mut used = vec![0u64; nv.div_ceil(64)];
-    let mut verts: Vec<SilVertex> = Vec::with_capacity(sil.len() + 8);
-    rec.vertices.reserve(sil.len() + 8);
-    // Clip coordinates per silhouette vertex: linear in the world point, so an edge's
-    // midpoint needs no projection of its own.
-    let mut clips: Vec<Vec4> = Vec::with_capacity(sil.len() + 8);
+    let mut welded: Vec<u32> = Vec::with_capacity(sil.len() + 8);
     let mut ends: Vec<[u32; 2]> = Vec::with_capacity(sil.len());
     for e in sil {
         let mut number = |v: u32| {
             let (w, bit) = ((v / 64) as usize, 1u64 << (v % 64));
             if used[w] & bit == 0 {
                 used[w] |= bit;
-                slot[v as usize] = verts.len() as u32;
-                let p = pr.world(adj.positions[v as usize]);
-                // `LightView::project` and `Projector::project`, operation for operation.
-                let c = light.view_proj * p.extend(1.0);
-                let (s, z) = (c.xy() / c.w * 0.5 + Vec2::splat(0.5), c.w);
-                let ok = z > light.near && s.is_finite() && z.is_finite();
-                let proj = ok.then(|| Projected {
-                    s,
-                    z,
-                    inv: 1.0 / z,
-                    t: width.at(z),
-                });
-                clips.push(c);
-                rec.vertices
-                    .push(proj.map_or(VertexRecord::default(), |q| VertexRecord {
-                        uv: q.s.to_array(),
-                        inv_depth: q.inv,
-                        width: q.t,
-                    }));
-                verts.push(SilVertex { v, p, proj });
+                slot[v as usize] = welded.len() as u32;
+                welded.push(v);
             }
             slot[v as usize]
         };
-        ends.push([number(e.a), number(e.b)]);
+        let a = number(e.a);
+        ends.push([a, number(e.b)]);
+    }
+    // Clip coordinates per silhouette vertex: linear in the world point, so an edge's
+    // midpoint needs no projection of its own.
+    let mut clips: Vec<Vec4> = Vec::with_capacity(welded.len());
+    let mut verts: Vec<SilVertex> = Vec::with_capacity(welded.len());
+    rec.vertices.reserve(welded.len());
+    for &v in &welded {
+        let p = pr.world(adj.positions[v as usize]);
+        // `LightView::project` and `Projector::project`, operation for operation.
+        let c = light.view_proj * p.extend(1.0);
+        let (s, z) = (c.xy() / c.w * 0.5 + Vec2::splat(0.5), c.w);
+        let ok = z > light.near && s.is_finite() && z.is_finite();
+        let proj = ok.then(|| Projected {
+            s,
+            z,
+            inv: 1.0 / z,
+            t: width.at(z),
+        });
+        rec.vertices
+            .push(proj.map_or(VertexRecord::default(), |q| VertexRecord {
+                uv: q.s.to_array(),
+                inv_depth: q.inv,
+                width: q.t,
+            }));
+        clips.push(c);
+        verts.push(SilVertex { v, p, proj });
     }
 
-    // Edges, in silhouette order; incidence counts of the kept ones.
-    let mut dirs: Vec<Option<Vec2>> = Vec::with_capacity(sil.len());
-    let mut inc_start = vec![0u32; verts.len() + 1];
+    // Edges, in silhouette order. Per silhouette vertex, the number of kept incident edges
+    // (saturating) and the first two of them in silhouette order: all a corner needs.
+    let mut incident = vec![Incident::default(); verts.len()];
     rec.edges.reserve(sil.len());
-    for (e, &[a, b]) in sil.iter().zip(&ends) {
+    for (i, (e, &[a, b])) in sil.iter().zip(&ends).enumerate() {
         let (va, vb) = (&verts[a as usize], &verts[b as usize]);
-        let d = edge_dir(adj, &pr, e, va, vb, clips[a as usize], clips[b as usize]);
-        if let Some(d) = d {
+        let clip = [clips[a as usize], clips[b as usize]];
+        if let Some(d) = edge_dir(adj, &pr, &normals, e, va, vb, clip) {
             rec.edges.push(EdgeRecord {
                 a,
                 b,
                 dir: d.to_array(),
             });
-            inc_start[a as usize + 1] += 1;
-            inc_start[b as usize + 1] += 1;
-        }
-        dirs.push(d);
-    }
-    rec.skipped_edges = sil.len() - rec.edges.len();
-
-    // Kept incident edges per silhouette vertex (CSR, ascending silhouette index).
-    for c in 0..verts.len() {
-        inc_start[c + 1] += inc_start[c];
-    }
-    let mut inc = vec![0u32; inc_start[verts.len()] as usize];
-    let mut fill = inc_start.clone();
-    for (i, (&[a, b], d)) in ends.iter().zip(&dirs).enumerate() {
-        if d.is_some() {
             for c in [a, b] {
-                inc[fill[c as usize] as usize] = i as u32;
-                fill[c as usize] += 1;
+                incident[c as usize].add(i as u32, d);
             }
         }
     }
+    rec.skipped_edges = sil.len() - rec.edges.len();
 
     // Corners by welded vertex index (the order of `build_smoothies_width`).
-    rec.fans.reserve(verts.len() + verts.len() / 4);
+    rec.fans.reserve(verts.len());
     rec.segments.reserve(4 * verts.len());
-    let mut spokes: Vec<(f32, Vec2)> = Vec::new();
     for (w, &bits) in used.iter().enumerate() {
         let mut bits = bits;
         while bits != 0 {
             let v = w * 64 + bits.trailing_zeros() as usize;
             bits &= bits - 1;
             let c = slot[v];
-            let list = &inc[inc_start[c as usize] as usize..inc_start[c as usize + 1] as usize];
-            if list.is_empty() {
+            let inc = &incident[c as usize];
+            if inc.count == 0 {
                 continue;
             }
-            if let Some(special) = corner(
-                adj,
-                &pr,
-                &verts[c as usize],
-                c,
-                list,
-                sil,
-                &dirs,
-                &mut rec,
-                &mut spokes,
-            ) {
+            if let Some(special) = corner(adj, &pr, &verts[c as usize], c, inc, sil, &mut rec) {
                 rec.corners += 1;
                 rec.special_vertices += usize::from(special);
             }
         }
     }
     rec
+}
+
+/// A silhouette vertex's kept incident edges: how many (saturating at 3) and the first two
+/// (silhouette index, outward direction), in silhouette order.
+#[derive(Clone, Copy, Default)]
+struct Incident {
+    count: u8,
+    edges: [(u32, Vec2); 2],
+}
+
+impl Incident {
+    fn add(&mut self, edge: u32, d: Vec2) {
+        if let Some(slot) = self.edges.get_mut(self.count as usize) {
+            *slot = (edge, d);
+        }
+        self.count = (self.count + 1).min(3);
+    }
 }
 
 /// `smoothie::edge_dir` with the normals' screen direction by the projection's derivative
@@ -365,11 +364,11 @@ pub fn build_records(
 fn edge_dir(
     adj: &Adjacency,
     pr: &Projector,
+    normals: &NormalProjector,
     e: &SilhouetteEdge,
     va: &SilVertex,
     vb: &SilVertex,
-    ca: Vec4,
-    cb: Vec4,
+    [ca, cb]: [Vec4; 2],
 ) -> Option<Vec2> {
     let (a, b) = (va.proj?, vb.proj?);
     let (s0, s1) = (a.s, b.s);
@@ -383,13 +382,7 @@ fn edge_dir(
     if e.kind != EdgeKind::Boundary {
         // Both ends lie beyond the near plane, so does the midpoint.
         let cm = (ca + cb) * 0.5;
-        let mut n = glam::Vec3::ZERO;
-        for ef in adj.edge_faces(e.edge as usize) {
-            if !adj.degenerate[ef.face as usize] {
-                n += (pr.normal_matrix * adj.face_normals[ef.face as usize]).normalize_or_zero();
-            }
-        }
-        let cn = pr.light.view_proj * n.extend(0.0);
+        let cn = normals.clip(adj, pr, e);
         let avg = cn.xy() * cm.w - cm.xy() * cn.w;
         let dot = d.dot(avg);
         // Only trust the normals when they clearly pick a side (> ~0.5 degree).
@@ -400,67 +393,99 @@ fn edge_dir(
     Some(undecided_dir(adj, pr, e, va.p, vb.p, s0, s1, d))
 }
 
-/// The fan(s) of silhouette vertex `vtx` (record index `c`) whose kept incident edges are
-/// `sil[i]` for `i` in `inc`, as `build_corner` decides them; whether it is special, or
-/// `None` when it needs no corner.
-#[allow(clippy::too_many_arguments)]
+/// Clip-space direction of the sum of an edge's adjacent unit world normals (up to a
+/// positive factor).
+enum NormalProjector {
+    /// The normal matrix N is a rotation times a uniform scale s (any rigid or uniformly
+    /// scaled model, mirrored or not): every unit face normal maps to length s, so
+    /// sum(normalize(N n_i)) = N sum(n_i) / s, and VP N sum(n_i) has the right direction
+    /// with no square root or division. Holds VP N.
+    Similar(Mat4),
+    /// Anything else: each face normal is transformed and normalized.
+    General,
+}
+
+impl NormalProjector {
+    fn new(pr: &Projector) -> Self {
+        let n = pr.normal_matrix;
+        let (x, y, z) = (n.x_axis, n.y_axis, n.z_axis);
+        let l = x.length_squared();
+        let tol = 1e-5 * l;
+        let similar = l > 0.0
+            && (y.length_squared() - l).abs() <= tol
+            && (z.length_squared() - l).abs() <= tol
+            && x.dot(y).abs() <= tol
+            && x.dot(z).abs() <= tol
+            && y.dot(z).abs() <= tol;
+        if similar {
+            NormalProjector::Similar(pr.light.view_proj * Mat4::from_mat3(n))
+        } else {
+            NormalProjector::General
+        }
+    }
+
+    fn clip(&self, adj: &Adjacency, pr: &Projector, e: &SilhouetteEdge) -> Vec4 {
+        let faces = adj.edge_faces(e.edge as usize);
+        let valid = faces.iter().filter(|ef| !adj.degenerate[ef.face as usize]);
+        match self {
+            NormalProjector::Similar(m) => {
+                let n: glam::Vec3 = valid.map(|ef| adj.face_normals[ef.face as usize]).sum();
+                *m * n.extend(0.0)
+            }
+            NormalProjector::General => {
+                let n: glam::Vec3 = valid
+                    .map(|ef| {
+                        (pr.normal_matrix * adj.face_normals[ef.face as usize]).normalize_or_zero()
+                    })
+                    .sum();
+                pr.light.view_proj * n.extend(0.0)
+            }
+        }
+    }
+}
+
+/// The fan of silhouette vertex `vtx` (record index `c`) with kept incident edges `inc`:
+/// whether it is special, or `None` when it needs no corner. Two edges: `build_corner`'s
+/// arc (the shorter one from d1 to d2, the half turn of a hairpin; none when d1 == d2).
+/// One edge, or three and more (the paper's special case): a full disc, one fan of
+/// 2 PI from the first edge's d. `build_corner` puts spokes at every d_i and at the
+/// projected vertex normal n_t, but a full disc has no sides that must meet an edge quad,
+/// and the paper's triangles (s, s + t d_i, s + n_t) have their corners on the circle of
+/// radius t, which every fan polygon circumscribes: the covered area is the same without
+/// the normal's projection, the sort, and one fan per gap.
 fn corner(
     adj: &Adjacency,
     pr: &Projector,
     vtx: &SilVertex,
     c: u32,
-    inc: &[u32],
+    inc: &Incident,
     sil: &[SilhouetteEdge],
-    dirs: &[Option<Vec2>],
     rec: &mut SmoothieRecords,
-    spokes: &mut Vec<(f32, Vec2)>,
 ) -> Option<bool> {
-    let Projected { s, z, .. } = vtx.proj?;
-    let dir = |i: u32| dirs[i as usize].unwrap_or(Vec2::ZERO);
-    let edges = || inc.iter().map(|&i| &sil[i as usize]);
-    if let [i1, i2] = *inc {
-        let (d1, d2) = (dir(i1), dir(i2));
-        let cos = d1.dot(d2).clamp(-1.0, 1.0);
-        // The exact thresholds of `build_corner` (no corner below MIN_CORNER_ANGLE, the
-        // hairpin above PI - MIN_CORNER_ANGLE): cos == +-1.
-        if cos >= 1.0 {
-            return None;
-        }
-        let sweep = if cos <= -1.0 {
-            if hairpin_ccw(adj, pr, vtx, edges(), d1) {
-                PI
-            } else {
-                -PI
-            }
+    vtx.proj?;
+    let [(i1, d1), (i2, d2)] = inc.edges;
+    if inc.count != 2 {
+        rec.push_fan(c, d1, TAU);
+        return Some(true);
+    }
+    let cos = d1.dot(d2).clamp(-1.0, 1.0);
+    // The exact thresholds of `build_corner` (no corner below MIN_CORNER_ANGLE, the
+    // hairpin above PI - MIN_CORNER_ANGLE): cos == +-1.
+    if cos >= 1.0 {
+        return None;
+    }
+    let sweep = if cos <= -1.0 {
+        let edges = [&sil[i1 as usize], &sil[i2 as usize]];
+        if hairpin_ccw(adj, pr, vtx, edges.into_iter(), d1) {
+            PI
         } else {
-            fast_atan2(d1.perp_dot(d2), cos)
-        };
-        rec.push_fan(c, d1, sweep);
-        return Some(false);
-    }
-    // Special vertex: spokes at every d_i and at the projected vertex normal, sorted by
-    // angle; one fan per gap, together the full disc.
-    spokes.clear();
-    spokes.extend(inc.iter().map(|&i| {
-        let d = dir(i);
-        (fast_atan2(d.y, d.x), d)
-    }));
-    let n = vertex_normal_screen(adj, pr, edges(), vtx.p, s, z);
-    let len = n.length();
-    if len > 1e-9 {
-        spokes.push((fast_atan2(n.y, n.x), n / len));
-    }
-    spokes.sort_by(|a, b| a.0.total_cmp(&b.0));
-    spokes.dedup_by(|x, y| (x.0 - y.0).abs() < 1e-6);
-    for i in 0..spokes.len() {
-        let (a, from) = spokes[i];
-        let next = spokes.get(i + 1).map_or(spokes[0].0 + TAU, |x| x.0);
-        let gap = next - a;
-        if gap > 1e-6 {
-            rec.push_fan(c, from, gap);
+            -PI
         }
-    }
-    Some(true)
+    } else {
+        fast_atan2(d1.perp_dot(d2), cos)
+    };
+    rec.push_fan(c, d1, sweep);
+    Some(false)
 }
 
 #[cfg(test)]

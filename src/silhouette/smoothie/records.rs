@@ -385,8 +385,9 @@ fn edge_dir(
         let cn = normals.clip(adj, pr, e);
         let avg = cn.xy() * cm.w - cm.xy() * cn.w;
         let dot = d.dot(avg);
-        // Only trust the normals when they clearly pick a side (> ~0.5 degree).
-        if dot.abs() > 1e-2 * avg.length() {
+        // Only trust the normals when they clearly pick a side (> ~0.5 degree):
+        // |dot| > 1e-2 |avg|, squared (no square root).
+        if dot * dot > 1e-4 * avg.length_squared() {
             return Some(if dot < 0.0 { -d } else { d });
         }
     }

@@ -2,6 +2,17 @@
 //! screen-space quads outside each silhouette edge and fans around silhouette vertices,
 //! emitted as one triangle list of [`SmoothieVertex`] for the smoothie passes.
 //!
+//! Two forms of the same geometry:
+//! - [`records`] (`build_records`): what the renderer's CPU path draws. Compact records
+//!   (a vertex record per silhouette vertex, an edge record per quad, a fan record per
+//!   corner, a word per fan segment) that glsl/smoothies/smoothie_records.vert expands into
+//!   exactly these triangles; no trigonometry and no 36-byte vertices on the CPU.
+//! - this module's expanded list (`build_smoothies_width`): the readable construction that
+//!   the rules below describe, the GPU compute path's model (glsl/silhouette/, and its
+//!   buffer-size estimate) and the tests' reference; bit-identical to the pre-rewrite code
+//!   (`legacy.rs`). The records give the same edges bit for bit and the same corner areas
+//!   (fan vertices within 1e-5 t; special vertices as one full-disc fan, see `records`).
+//!
 //! # Spaces and units
 //! Everything is built in light-screen uv (`LightView::project`: uv = ndc * 0.5 + 0.5, x
 //! right, y up, [0,1]^2 inside the frustum). The smoothie width `t` is in those uv units,
@@ -52,7 +63,7 @@
 //! silhouette order), then the corners ordered by welded vertex index. Windings are mixed:
 //! draw with culling off.
 //!
-//! # Cost
+//! # Cost (of this expanded form; `records` for the renderer's)
 //! Each silhouette vertex is transformed and projected once (its edges and its corner share
 //! it); incidences are grouped through arrays over the welded vertices instead of a sort;
 //! output goes into one preallocated vector; silhouettes below `PAR_CHUNK` edges (every

@@ -13,23 +13,34 @@
 //!    per edge a quad from the edge outward by t (alpha 0 -> 1, Sec. 3 step 3, Fig. 2); per
 //!    silhouette vertex a fan covering the gap between its two edges with radial alpha
 //!    |v - p| / t (Fig. 6); vertices with one or more than two silhouette edges get the
-//!    paper's special case (averaged vertex normal, a fan to each adjacent edge). 36 bytes a
-//!    vertex: uv, 1/depth, kind, anchor, dir, width. Two interchangeable paths
-//!    (`--silhouettes`, `Settings::silhouettes`):
+//!    paper's special case (averaged vertex normal, a fan to each adjacent edge; here a fan
+//!    over the whole disc, which contains those). What the smoothie pass rasterises is a
+//!    triangle list of 36-byte vertices: uv, 1/depth, kind, anchor, dir, width
+//!    (`SmoothieVertex`). Two interchangeable paths (`--silhouettes`,
+//!    `Settings::silhouettes`):
 //!    - GPU (default on a GPU): three compute dispatches over every caster
 //!      (`silhouette::gpu`, glsl/silhouette/): edges, corners, indirect-draw commands,
-//!      written straight into a device-local vertex buffer; no readback, no upload but the
-//!      casters' transforms. A timed pass.
+//!      written as expanded `SmoothieVertex`es straight into a device-local vertex buffer;
+//!      no readback, no upload but the casters' transforms. A timed pass.
 //!    - CPU (default on lavapipe, where the "GPU" is the same two cores, several times
-//!      slower at this): `silhouette::extract` + `build_smoothies_width`, uploaded to a
-//!      host-visible vertex buffer. A `cpu` timing.
+//!      slower at this): `silhouette::extract` + `smoothie::records::build_records`: compact
+//!      records (16 bytes per silhouette vertex, edge and corner, 4 per fan segment; layout
+//!      in src/silhouette/smoothie/records.rs) uploaded to one host-visible storage buffer,
+//!      caster after caster; the vertex shader expands them (pass 2). A `cpu` timing.
 //!
 //!    Both find the same edges (tests/gpu_silhouettes.rs) and keep each caster's geometry
 //!    until its model or the light changes: a moved caster rebuilds only its own smoothies.
 //! 1. `smoothies/shadow_map` — as `hard`: R32G32_SFLOAT, clear 1e30, blend MIN; r = nearest
 //!    caster's linear depth (the umbra test), g = nearest surface of any role (the receiver
 //!    depth r of Eq. 1). Linear depth, not the depth buffer's, because Eq. 1 needs b/r.
-//! 2. `smoothies/smoothie` — ONE pass, two colour attachments, no depth attachment:
+//! 2. `smoothies/smoothie` — ONE pass, two colour attachments, no depth attachment.
+//!    Two pipelines of that name, one per path, with the same fragment shader:
+//!    GPU path: glsl/smoothies/smoothie.vert reads `SmoothieVertex` attributes (stride 36:
+//!    locations 0 uv, 1 1/depth, 2 kind, 3 anchor, 4 dir, 5 width), one indirect draw.
+//!    CPU path: glsl/smoothies/smoothie_records.vert pulls the records from the storage
+//!    buffer at set 1 binding 0 (no vertex input): one draw per caster of
+//!    6 * edges + 3 * segments vertices, push constants = first word, vertex, edge and fan
+//!    record counts; it emits smoothie.vert's varyings exactly. Attachments:
 //!    location 0 = smoothie linear depth b, R32_SFLOAT, clear 1e30, blend MIN;
 //!    location 1 = remapped alpha, R16_SFLOAT, clear 1.0, blend MIN (the paper's "minimum
 //!    blending" of overlapping smoothies, Sec. 3.1; the min depth keeps the nearest smoothie).

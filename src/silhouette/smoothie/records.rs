@@ -1,47 +1,60 @@
 //! Compact smoothie records, expanded into triangles by the vertex shader
-//! (glsl/smoothies/smoothie_records.vert, vertex pulling) — what the CPU path renders.
+//! (glsl/smoothies/smoothie_records.vert, vertex pulling): what the renderer's CPU path
+//! (`--silhouettes cpu`) builds and draws. The GPU path (`silhouette::gpu`) still writes
+//! expanded [`SmoothieVertex`]es and draws them with glsl/smoothies/smoothie.vert.
 //!
 //! The expanded triangle list of [`super::build_smoothies_width`] costs, per light on
-//! `dense`, 145k 36-byte vertices and ~57k libm calls (atan2 per corner, cos per fan,
-//! sin/cos per spoke). Here the CPU keeps the decisions (which edges, which side, which arc,
-//! how many segments) and writes 16-byte records; the GPU does the arithmetic.
+//! `dense`, 145k 36-byte vertices (5.2 MB) and ~57k libm calls (atan2 per corner, cos per
+//! fan, sin/cos per spoke). Here the CPU keeps the decisions (which edges, which side,
+//! which arc, how many segments) and writes 16-byte records (~0.6 MB on `dense`); the
+//! vertex shader does the per-vertex arithmetic and the trigonometry.
 //!
-//! # Records (all little-endian 32-bit words, one storage buffer per frame)
-//! Per caster, four arrays laid out back to back, in this order:
-//! - [`VertexRecord`] per silhouette vertex, projected once: uv, 1 / linear depth, width t.
-//!   Vertices the projection rejects (behind the near plane) get zeros and are never
-//!   referenced.
-//! - [`EdgeRecord`] per kept silhouette edge: the two vertex records' indices and the unit
-//!   outward direction d (decided on the CPU exactly as `build_edge` decides it, Volokh).
-//!   Expands to 6 vertices: (s0, s1, s1 + t1 d) and (s0, s1 + t1 d, s0 + t0 d), all with
-//!   kind 0, anchor s0, dir d, each end's own 1/depth and t — bit for bit `build_edge`.
-//! - [`FanRecord`] per fan: the centre vertex record's index, the unit direction `from` of
-//!   the first spoke (an edge's d, or for special vertices any sorted spoke) and the signed
-//!   sweep in radians (> 0 counter-clockwise in uv). A two-edge corner is one fan (shorter
-//!   arc d1 -> d2, or the hairpin half turn); a special vertex is one fan per gap between
-//!   its sorted spokes (d_i and the projected vertex normal), covering the full disc.
-//! - one `u32` per fan segment: `fan << 8 | n << 4 | k`, segment k of the fan's n
-//!   (n <= 13, so 4 bits each; fan < 2^24 per caster). Expands to 3 vertices: the centre,
-//!   spoke k, spoke k + 1.
+//! # Records (32-bit words, one storage buffer per frame)
+//! Per caster, four arrays back to back, in this order:
+//! - [`VertexRecord`] per silhouette vertex, projected once: uv, 1 / linear depth, width t
+//!   (bit for bit `build_smoothies_width`'s). Vertices the projection rejects (at or
+//!   behind the near plane) get zeros and are never referenced.
+//! - [`EdgeRecord`] per kept silhouette edge: its two vertex records' indices and the unit
+//!   outward direction d. Expands to 6 vertices: (s0, s1, s1 + t1 d) and
+//!   (s0, s1 + t1 d, s0 + t0 d), all with kind 0, anchor s0, dir d, each end's own 1/depth
+//!   and t: bit for bit `build_edge`'s quad when d is the same.
+//! - [`FanRecord`] per fan: the centre vertex record's index, the unit direction `from`
+//!   of the first spoke (the first incident edge's d, in silhouette order) and the signed
+//!   sweep in radians (> 0: counter-clockwise in uv). Two-edge corner: the shorter arc
+//!   from d1 to d2, or the hairpin half turn (+-PI), decided as `build_corner` decides.
+//!   Special vertex (one, or three and more, kept edges): a full disc, sweep 2 PI.
+//!   `build_corner` splits that disc at every d_i and at the projected vertex normal n_t;
+//!   a full disc has no sides that must meet an edge quad, and the paper's triangles
+//!   (s, s + t d_i, s + n_t) have their corners on the circle of radius t, which every fan
+//!   polygon circumscribes, so one fan covers the same area without projecting n_t,
+//!   sorting spokes, or one fan per gap.
+//! - one `u32` per fan segment: `fan << 8 | n << 4 | k` (segment k of the fan's n;
+//!   n <= 13, 4 bits each; fewer than 2^24 fans per caster). Expands to 3 vertices: the
+//!   centre, spoke k, spoke k + 1.
 //!
-//! Spoke i of a fan with sweep S (pad P = FAN_OVERLAP with S's sign, total S + 2P split
-//! into n segments of phi = (S + 2P) / n) points at angle -P + phi i from `from`, at radius
-//! t / cos(phi / 2) so each segment's chord stays outside the disc of radius t. n is the
-//! legacy count ceil(|S + 2P| / MAX_SEGMENT) (>= 1). Fan vertices: kind 1, anchor and
-//! 1/depth and t of the centre, dir 0. Adjacent segments compute their shared spoke from
-//! the same expression, so the fan is watertight.
+//! Spoke i of a fan of sweep S points at angle -P + phi i from `from` (P = FAN_OVERLAP
+//! with S's sign, phi = (S + 2P) / n), at radius t / cos(phi / 2) so that every segment's
+//! chord stays outside the disc of radius t. n = ceil(|S + 2P| / MAX_SEGMENT) >= 1, the
+//! count of `build_smoothies_width`. Fan vertices: kind 1, anchor = centre uv, dir 0,
+//! 1/depth and t of the centre. Adjacent segments compute their shared spoke from the
+//! same expression, so a fan is watertight; fans still overlap the edge quads by
+//! FAN_OVERLAP (T-junctions).
 //!
-//! # No libm on the CPU
-//! Arc angles come from [`fast_atan2`] (a degree-11 odd polynomial, |error| < 2e-6 rad):
-//! one per two-edge corner, one per spoke of a special vertex (which also sorts them).
-//! The sweep only positions spokes (an error of 2e-6 rad moves a spoke 2e-6 t, far below
-//! a texel, and the fan already overlaps its edges by FAN_OVERLAP) and picks n (which only
-//! changes the tessellation when it lands on the other side of a 30-degree multiple).
+//! # Cost (per light, one core; BENCHMARKS.md)
+//! No libm: a two-edge corner's arc is [`fast_atan2`] of the cross and dot products (a
+//! degree-11 odd polynomial, |error| < 2e-6 rad: the last spoke moves by 2e-6 t, far below
+//! a texel); n is a ceil by truncation (no libm). The Volokh normal test takes the
+//! projection's derivative instead of three projections (see `edge_dir`), with the
+//! clip-space normal matrix precomputed for rigid and uniformly scaled models. Every
+//! silhouette vertex is numbered in one loop and projected in the next; a corner needs
+//! only its first two incident edges and a count, gathered while the edges are built.
+//! What is left is roughly 30 ns per edge (the normal test's face lookups and the
+//! division for d), 30 ns per corner and 20 ns per vertex on the CI box.
 //!
 //! # Draw
-//! One draw per caster of `6 * edges + 3 * segments` vertices with push constants (first
-//! word of the caster's records, vertex, edge and fan counts); no vertex buffer.
-//! [`SmoothieRecords::expand`] is the shader's reference on the CPU (tests, porters).
+//! One draw per caster of `6 * edges + 3 * segments` vertices, no vertex buffer, push
+//! constants: the caster's first word, and its vertex, edge and fan record counts.
+//! [`SmoothieRecords::expand`] is the shader on the CPU (for the tests and for porters).
 
 use super::{
     hairpin_ccw, undecided_dir, Projected, Projector, SilVertex, SmoothieVertex, Width,
@@ -295,6 +308,8 @@ pub fn build_records(
     // Edges, in silhouette order. Per silhouette vertex, the number of kept incident edges
     // (saturating) and the first two of them in silhouette order: all a corner needs.
     let mut incident = vec![Incident::default(); verts.len()];
+    // (silhouette vertex, edge, d) of every kept incident edge past a vertex's second.
+    let mut spill: Vec<(u32, u32, Vec2)> = Vec::new();
     rec.edges.reserve(sil.len());
     for (i, (e, &[a, b])) in sil.iter().zip(&ends).enumerate() {
         let (va, vb) = (&verts[a as usize], &verts[b as usize]);
@@ -306,13 +321,16 @@ pub fn build_records(
                 dir: d.to_array(),
             });
             for c in [a, b] {
-                incident[c as usize].add(i as u32, d);
+                if !incident[c as usize].add(i as u32, d) {
+                    spill.push((c, i as u32, d));
+                }
             }
         }
     }
     rec.skipped_edges = sil.len() - rec.edges.len();
 
     // Corners by welded vertex index (the order of `build_smoothies_width`).
+    let mut spokes: Vec<(f32, Vec2)> = Vec::new();
     rec.fans.reserve(verts.len());
     rec.segments.reserve(4 * verts.len());
     for (w, &bits) in used.iter().enumerate() {
@@ -325,7 +343,10 @@ pub fn build_records(
             if inc.count == 0 {
                 continue;
             }
-            if let Some(special) = corner(adj, &pr, &verts[c as usize], c, inc, sil, &mut rec) {
+            let vtx = &verts[c as usize];
+            let clip = clips[c as usize];
+            let corner = Corner { c, vtx, clip, inc };
+            if let Some(special) = corner.build(adj, &pr, sil, &spill, &mut spokes, &mut rec) {
                 rec.corners += 1;
                 rec.special_vertices += usize::from(special);
             }
@@ -343,11 +364,16 @@ struct Incident {
 }
 
 impl Incident {
-    fn add(&mut self, edge: u32, d: Vec2) {
-        if let Some(slot) = self.edges.get_mut(self.count as usize) {
+    /// Counts the edge; false when it is a third or later one (not kept here).
+    fn add(&mut self, edge: u32, d: Vec2) -> bool {
+        let kept = if let Some(slot) = self.edges.get_mut(self.count as usize) {
             *slot = (edge, d);
-        }
+            true
+        } else {
+            false
+        };
         self.count = (self.count + 1).min(3);
+        kept
     }
 }
 
@@ -445,48 +471,101 @@ impl NormalProjector {
     }
 }
 
-/// The fan of silhouette vertex `vtx` (record index `c`) with kept incident edges `inc`:
-/// whether it is special, or `None` when it needs no corner. Two edges: `build_corner`'s
-/// arc (the shorter one from d1 to d2, the half turn of a hairpin; none when d1 == d2).
-/// One edge, or three and more (the paper's special case): a full disc, one fan of
-/// 2 PI from the first edge's d. `build_corner` puts spokes at every d_i and at the
-/// projected vertex normal n_t, but a full disc has no sides that must meet an edge quad,
-/// and the paper's triangles (s, s + t d_i, s + n_t) have their corners on the circle of
-/// radius t, which every fan polygon circumscribes: the covered area is the same without
-/// the normal's projection, the sort, and one fan per gap.
-fn corner(
-    adj: &Adjacency,
-    pr: &Projector,
-    vtx: &SilVertex,
+/// One silhouette vertex's corner: record index `c`, the vertex, its clip coordinates
+/// and its kept incident edges.
+struct Corner<'a> {
     c: u32,
-    inc: &Incident,
-    sil: &[SilhouetteEdge],
-    rec: &mut SmoothieRecords,
-) -> Option<bool> {
-    vtx.proj?;
-    let [(i1, d1), (i2, d2)] = inc.edges;
-    if inc.count != 2 {
-        rec.push_fan(c, d1, TAU);
-        return Some(true);
-    }
-    let cos = d1.dot(d2).clamp(-1.0, 1.0);
-    // The exact thresholds of `build_corner` (no corner below MIN_CORNER_ANGLE, the
-    // hairpin above PI - MIN_CORNER_ANGLE): cos == +-1.
-    if cos >= 1.0 {
-        return None;
-    }
-    let sweep = if cos <= -1.0 {
-        let edges = [&sil[i1 as usize], &sil[i2 as usize]];
-        if hairpin_ccw(adj, pr, vtx, edges.into_iter(), d1) {
-            PI
-        } else {
-            -PI
+    vtx: &'a SilVertex,
+    clip: Vec4,
+    inc: &'a Incident,
+}
+
+impl Corner<'_> {
+    /// The corner's fans as `build_corner` decides them; whether it is special, or `None`
+    /// when it needs no corner. Two edges: the shorter arc from d1 to d2, or the hairpin
+    /// half turn; none when d1 == d2. One edge, or three and more (the paper's special
+    /// case): the full disc split at every d_i and at the projected vertex normal n_t, one
+    /// fan per gap (`spill` holds the third and later edges; `spokes` is scratch).
+    fn build(
+        &self,
+        adj: &Adjacency,
+        pr: &Projector,
+        sil: &[SilhouetteEdge],
+        spill: &[(u32, u32, Vec2)],
+        spokes: &mut Vec<(f32, Vec2)>,
+        rec: &mut SmoothieRecords,
+    ) -> Option<bool> {
+        self.vtx.proj?;
+        let [(i1, d1), (i2, d2)] = self.inc.edges;
+        if self.inc.count == 2 {
+            let cos = d1.dot(d2).clamp(-1.0, 1.0);
+            // The exact thresholds of `build_corner` (no corner below MIN_CORNER_ANGLE,
+            // the hairpin above PI - MIN_CORNER_ANGLE): cos == +-1.
+            if cos >= 1.0 {
+                return None;
+            }
+            let sweep = if cos <= -1.0 {
+                let edges = [&sil[i1 as usize], &sil[i2 as usize]];
+                if hairpin_ccw(adj, pr, self.vtx, edges.into_iter(), d1) {
+                    PI
+                } else {
+                    -PI
+                }
+            } else {
+                fast_atan2(d1.perp_dot(d2), cos)
+            };
+            rec.push_fan(self.c, d1, sweep);
+            return Some(false);
         }
-    } else {
-        fast_atan2(d1.perp_dot(d2), cos)
-    };
-    rec.push_fan(c, d1, sweep);
-    Some(false)
+        // Special vertex.
+        let first = &self.inc.edges[..usize::from(self.inc.count).min(2)];
+        let rest = spill.iter().filter(|x| x.0 == self.c).map(|x| (x.1, x.2));
+        let all = first.iter().copied().chain(rest);
+        spokes.clear();
+        spokes.extend(all.clone().map(|(_, d)| (fast_atan2(d.y, d.x), d)));
+        if let Some(n) = self.normal(adj, pr, sil, all.map(|(i, _)| i)) {
+            spokes.push((fast_atan2(n.y, n.x), n));
+        }
+        spokes.sort_by(|a, b| a.0.total_cmp(&b.0));
+        spokes.dedup_by(|x, y| (x.0 - y.0).abs() < 1e-6);
+        for i in 0..spokes.len() {
+            let (a, from) = spokes[i];
+            let next = spokes.get(i + 1).map_or(spokes[0].0 + TAU, |x| x.0);
+            let gap = next - a;
+            if gap > 1e-6 {
+                rec.push_fan(self.c, from, gap);
+            }
+        }
+        Some(true)
+    }
+
+    /// `vertex_normal_screen` (the sum of the incident edges' faces' normals, projected
+    /// at the vertex) by the projection's derivative, as `edge_dir` does it: unit, or
+    /// `None` where the old code finds no direction (|n_t| <= 1e-9 uv per unit length).
+    fn normal(
+        &self,
+        adj: &Adjacency,
+        pr: &Projector,
+        sil: &[SilhouetteEdge],
+        edges: impl Iterator<Item = u32>,
+    ) -> Option<Vec2> {
+        let mut n = glam::Vec3::ZERO;
+        for i in edges {
+            for ef in adj.edge_faces(sil[i as usize].edge as usize) {
+                n += adj.face_normals[ef.face as usize];
+            }
+        }
+        let w = pr.normal_matrix * n;
+        let len = w.length();
+        if !(len > 0.0) {
+            return None;
+        }
+        let (c, cn) = (self.clip, pr.light.view_proj * w.extend(0.0));
+        // J (w / |w|) with J = 0.5 (cn.xy c.w - c.xy cn.w) / c.w^2.
+        let v = (cn.xy() * c.w - c.xy() * cn.w) * (0.5 / (c.w * c.w * len));
+        let l = v.length();
+        (l > 1e-9 && v.is_finite()).then(|| v / l)
+    }
 }
 
 #[cfg(test)]

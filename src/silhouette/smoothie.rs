@@ -10,8 +10,8 @@
 //! - this module's expanded list (`build_smoothies_width`): the readable construction that
 //!   the rules below describe, the GPU compute path's model (glsl/silhouette/, and its
 //!   buffer-size estimate) and the tests' reference; bit-identical to the pre-rewrite code
-//!   (`legacy.rs`). The records give the same edges bit for bit and the same corner areas
-//!   (fan vertices within 1e-5 t; special vertices as one full-disc fan, see `records`).
+//!   (`legacy.rs`). The records give the same edges bit for bit and the same corners
+//!   (fan vertices within 1e-5 t of these; a special vertex's n_t spoke within ~1e-3 rad).
 //!
 //! # Spaces and units
 //! Everything is built in light-screen uv (`LightView::project`: uv = ndc * 0.5 + 0.5, x

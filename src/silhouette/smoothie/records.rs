@@ -19,15 +19,17 @@
 //!   (s0, s1 + t1 d, s0 + t0 d), all with kind 0, anchor s0, dir d, each end's own 1/depth
 //!   and t: bit for bit `build_edge`'s quad when d is the same.
 //! - [`FanRecord`] per fan: the centre vertex record's index, the unit direction `from`
-//!   of the first spoke (the first incident edge's d, in silhouette order) and the signed
-//!   sweep in radians (> 0: counter-clockwise in uv). Two-edge corner: the shorter arc
-//!   from d1 to d2, or the hairpin half turn (+-PI), decided as `build_corner` decides.
-//!   Special vertex (one, or three and more, kept edges): a full disc, sweep 2 PI.
-//!   `build_corner` splits that disc at every d_i and at the projected vertex normal n_t;
-//!   a full disc has no sides that must meet an edge quad, and the paper's triangles
-//!   (s, s + t d_i, s + n_t) have their corners on the circle of radius t, which every fan
-//!   polygon circumscribes, so one fan covers the same area without projecting n_t,
-//!   sorting spokes, or one fan per gap.
+//!   of the first spoke and the signed sweep in radians (> 0: counter-clockwise in uv).
+//!   Two-edge corner: one fan from d1 (the first incident edge in silhouette order) over
+//!   the shorter arc to d2, or the hairpin half turn (+-PI), decided as `build_corner`
+//!   decides. Special vertex (one, or three and more, kept edges): the full disc split at
+//!   every d_i and at the projected vertex normal n_t, one fan per gap, as `build_corner`
+//!   (n_t by the projection's derivative, see `Corner::normal`). One full-disc fan from d1
+//!   would cover the same disc of radius t, but its polygon's overshoot (t to
+//!   t / cos(15 deg), alpha clamped to 1) lies elsewhere, and those fragments still
+//!   MIN-blend their depth b into the smoothie buffer: on `bunny` that moved a receiver
+//!   between two smoothie depths into a penumbra (visibility off by 0.047 against the GPU
+//!   path, tests/gpu_silhouettes.rs), so the spokes stay where they were.
 //! - one `u32` per fan segment: `fan << 8 | n << 4 | k` (segment k of the fan's n;
 //!   n <= 13, 4 bits each; fewer than 2^24 fans per caster). Expands to 3 vertices: the
 //!   centre, spoke k, spoke k + 1.
@@ -43,13 +45,13 @@
 //! # Cost (per light, one core; BENCHMARKS.md)
 //! No libm: a two-edge corner's arc is [`fast_atan2`] of the cross and dot products (a
 //! degree-11 odd polynomial, |error| < 2e-6 rad: the last spoke moves by 2e-6 t, far below
-//! a texel); n is a ceil by truncation (no libm). The Volokh normal test takes the
-//! projection's derivative instead of three projections (see `edge_dir`), with the
-//! clip-space normal matrix precomputed for rigid and uniformly scaled models. Every
-//! silhouette vertex is numbered in one loop and projected in the next; a corner needs
-//! only its first two incident edges and a count, gathered while the edges are built.
-//! What is left is roughly 30 ns per edge (the normal test's face lookups and the
-//! division for d), 30 ns per corner and 20 ns per vertex on the CI box.
+//! a texel), as are a special vertex's spoke angles (sorted by them); n is a ceil by
+//! truncation. The Volokh normal test takes the projection's derivative instead of three
+//! projections (see `edge_dir`), with the clip-space normal matrix precomputed for rigid
+//! and uniformly scaled models; so does n_t. Every silhouette vertex is numbered in one
+//! loop and projected in the next; a corner needs only its first two incident edges and a
+//! count, gathered while the edges are built (later ones, at special vertices, spill into
+//! a short list).
 //!
 //! # Draw
 //! One draw per caster of `6 * edges + 3 * segments` vertices, no vertex buffer, push

@@ -520,12 +520,24 @@ impl Corner<'_> {
             return Some(false);
         }
         // Special vertex.
-        let first = &self.inc.edges[..usize::from(self.inc.count).min(2)];
-        let rest = spill.iter().filter(|x| x.0 == self.c).map(|x| (x.1, x.2));
-        let all = first.iter().copied().chain(rest);
+        // Spokes at every d_i, and the sum of the incident edges' faces' normals.
         spokes.clear();
-        spokes.extend(all.clone().map(|(_, d)| (fast_atan2(d.y, d.x), d)));
-        if let Some(n) = self.normal(adj, pr, sil, all.map(|(i, _)| i)) {
+        let mut n = glam::Vec3::ZERO;
+        let mut add = |i: u32, d: Vec2| {
+            spokes.push((fast_atan2(d.y, d.x), d));
+            for ef in adj.edge_faces(sil[i as usize].edge as usize) {
+                n += adj.face_normals[ef.face as usize];
+            }
+        };
+        for &(i, d) in &self.inc.edges[..usize::from(self.inc.count).min(2)] {
+            add(i, d);
+        }
+        for &(v, i, d) in spill {
+            if v == self.c {
+                add(i, d);
+            }
+        }
+        if let Some(n) = self.normal(pr, n) {
             spokes.push((fast_atan2(n.y, n.x), n));
         }
         spokes.sort_by(|a, b| a.0.total_cmp(&b.0));
@@ -541,22 +553,10 @@ impl Corner<'_> {
         Some(true)
     }
 
-    /// `vertex_normal_screen` (the sum of the incident edges' faces' normals, projected
+    /// `vertex_normal_screen` (`n`, the sum of the incident edges' faces' normals, projected
     /// at the vertex) by the projection's derivative, as `edge_dir` does it: unit, or
     /// `None` where the old code finds no direction (|n_t| <= 1e-9 uv per unit length).
-    fn normal(
-        &self,
-        adj: &Adjacency,
-        pr: &Projector,
-        sil: &[SilhouetteEdge],
-        edges: impl Iterator<Item = u32>,
-    ) -> Option<Vec2> {
-        let mut n = glam::Vec3::ZERO;
-        for i in edges {
-            for ef in adj.edge_faces(sil[i as usize].edge as usize) {
-                n += adj.face_normals[ef.face as usize];
-            }
-        }
+    fn normal(&self, pr: &Projector, n: glam::Vec3) -> Option<Vec2> {
         let w = pr.normal_matrix * n;
         let len = w.length();
         if !(len > 0.0) {

@@ -618,8 +618,8 @@ mod equivalence {
                 for r in [0.05, 0.3, 0.6, 0.9, 0.99] {
                     let p = c + r * t * Vec2::from_angle(ang);
                     assert_eq!(
-                        inside(&ga, p),
-                        inside(&gb, p),
+                        inside(ga, p),
+                        inside(gb, p),
                         "corner at {c}, angle {ang}, r {r}"
                     );
                 }

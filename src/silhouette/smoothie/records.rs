@@ -127,7 +127,7 @@ pub fn fast_atan2(y: f32, x: f32) -> f32 {
         * (0.999_977_26
             + s * (-0.332_623_47
                 + s * (0.193_543_46
-                    + s * (-0.116_432_87 + s * (0.052_653_32 + s * -0.011_721_20)))));
+                    + s * (-0.116_432_87 + s * (0.052_653_32 + s * -0.011_721_2)))));
     if ay > ax {
         r = FRAC_PI_2 - r;
     }
@@ -559,7 +559,7 @@ impl Corner<'_> {
     fn normal(&self, pr: &Projector, n: glam::Vec3) -> Option<Vec2> {
         let w = pr.normal_matrix * n;
         let len = w.length();
-        if !(len > 0.0) {
+        if len.is_nan() || len <= 0.0 {
             return None;
         }
         let (c, cn) = (self.clip, pr.light.view_proj * w.extend(0.0));

@@ -6,12 +6,14 @@
 // outputs are exactly those of smoothie.vert, so smoothie.frag (and its hand-tuned SPIR-V)
 // run unchanged. It needs nothing from the frame constants.
 
-// Per caster, back to back: vertex records (uv, 1/depth, t), edge records (a, b, dir),
-// fan records (centre, from, sweep), one word per fan segment (fan << 8 | n << 4 | k).
-layout(set = 1, binding = 0, std430) readonly buffer Records { uint words[]; };
+// Per caster, back to back, in 16-byte units: vertex records (uv, 1/depth, t), edge
+// records (a, b, dir), fan records (centre, from, sweep), then one word per fan segment
+// (fan << 8 | n << 4 | k), four to a unit. Whole 16-byte loads: on lavapipe every buffer
+// access is a gather with a bounds check, so one per record rather than one per word.
+layout(set = 1, binding = 0, std430) readonly buffer Records { uvec4 units[]; };
 
 layout(push_constant) uniform Caster {
-    uint base;      // first word of this caster's records
+    uint base;      // first unit of this caster's records
     uint vertices;  // vertex records
     uint edges;     // edge records
     uint fans;      // fan records
@@ -28,21 +30,20 @@ layout(location = 4) noperspective out float v_width;
 const float FAN_OVERLAP = 0.034906585;
 
 vec4 vertex_record(uint i) {
-    uint o = pc.base + 4u * i;
-    return uintBitsToFloat(uvec4(words[o], words[o + 1u], words[o + 2u], words[o + 3u]));
+    return uintBitsToFloat(units[pc.base + i]);
 }
 
 void main() {
     uint id = uint(gl_VertexIndex);
-    uint edge_words = pc.base + 4u * pc.vertices;
+    uint edge_units = pc.base + pc.vertices;
     vec2 uv;
     if (id < 6u * pc.edges) {
         // Quad (s0, s1, s1 + t1 d), (s0, s1 + t1 d, s0 + t0 d): alpha = dot(p - s0, d) / t.
-        uint o = edge_words + 4u * (id / 6u);
+        uvec4 e = units[edge_units + id / 6u];
         uint corner = id % 6u;
-        vec4 a = vertex_record(words[o]);
-        vec4 b = vertex_record(words[o + 1u]);
-        vec2 d = uintBitsToFloat(uvec2(words[o + 2u], words[o + 3u]));
+        vec4 a = vertex_record(e.x);
+        vec4 b = vertex_record(e.y);
+        vec2 d = uintBitsToFloat(e.zw);
         bool at_b = corner == 1u || corner == 2u || corner == 4u;
         bool outer = corner == 2u || corner == 4u || corner == 5u;
         vec4 v = at_b ? b : a;
@@ -55,14 +56,15 @@ void main() {
     } else {
         // Fan segment k of n: centre, spoke k, spoke k + 1 at radius t / cos(phi / 2).
         uint j = id - 6u * pc.edges;
-        uint fan_words = edge_words + 4u * pc.edges;
-        uint seg = words[fan_words + 4u * pc.fans + j / 3u];
-        uint o = fan_words + 4u * (seg >> 8);
+        uint fan_units = edge_units + pc.edges;
+        uint s = j / 3u;
+        uint seg = units[fan_units + pc.fans + s / 4u][s % 4u];
+        uvec4 f = units[fan_units + (seg >> 8)];
         uint n = (seg >> 4) & 15u;
         uint spoke = (seg & 15u) + (j % 3u) - 1u;
-        vec4 c = vertex_record(words[o]);
-        vec2 from = uintBitsToFloat(uvec2(words[o + 1u], words[o + 2u]));
-        float sweep = uintBitsToFloat(words[o + 3u]);
+        vec4 c = vertex_record(f.x);
+        vec2 from = uintBitsToFloat(f.yz);
+        float sweep = uintBitsToFloat(f.w);
         float pad = sweep < 0.0 ? -FAN_OVERLAP : FAN_OVERLAP;
         float phi = (sweep + 2.0 * pad) / float(n);
         float r = c.w / cos(phi * 0.5);

@@ -39,7 +39,7 @@
 //!    locations 0 uv, 1 1/depth, 2 kind, 3 anchor, 4 dir, 5 width), one indirect draw.
 //!    CPU path: glsl/smoothies/smoothie_records.vert pulls the records from the storage
 //!    buffer at set 1 binding 0 (no vertex input): one draw per caster of
-//!    6 * edges + 3 * segments vertices, push constants = first word, vertex, edge and fan
+//!    6 * edges + 3 * segments vertices, push constants = first 16-byte unit, vertex, edge and fan
 //!    record counts; it emits smoothie.vert's varyings exactly. Attachments:
 //!    location 0 = smoothie linear depth b, R32_SFLOAT, clear 1e30, blend MIN;
 //!    location 1 = remapped alpha, R16_SFLOAT, clear 1.0, blend MIN (the paper's "minimum
@@ -110,8 +110,8 @@ const SMOOTHIE_ATTRIBUTES: &[crate::vk::Attribute] = &[
     (5, Format::R32_SFLOAT, 32),
 ];
 
-/// Push constants of glsl/smoothies/smoothie_records.vert, per caster: first word of its
-/// records, vertex, edge and fan record counts.
+/// Push constants of glsl/smoothies/smoothie_records.vert, per caster: first 16-byte unit
+/// of its records, vertex, edge and fan record counts.
 const RECORDS_PUSH_BYTES: u32 = 16;
 
 /// The smoothie widths: the fixed knob when given, else calibrated per silhouette vertex
@@ -164,7 +164,7 @@ pub struct Smoothies {
     cpu_cache: CasterCacheOf<GeometryKey, SmoothieRecords>,
     /// Every caster's records, back to back (`SmoothieRecords::write_words`).
     records: DynamicVertices,
-    /// Per caster with geometry: push constants (first word, vertex, edge, fan records) and
+    /// Per caster with geometry: push constants (first 16-byte unit, vertex, edge, fan records) and
     /// the vertex count of its draw.
     record_draws: Vec<([u32; 4], u32)>,
     /// GPU path: silhouettes and geometry by compute, drawn indirectly.
@@ -341,8 +341,10 @@ impl Smoothies {
             let count = r.draw_vertices();
             if count > 0 {
                 let counts = [r.vertices.len(), r.edges.len(), r.fans.len()].map(|n| n as u32);
+                // `write_words` keeps every caster on a 16-byte unit.
+                let unit = (all.len() / 4) as u32;
                 self.record_draws
-                    .push(([all.len() as u32, counts[0], counts[1], counts[2]], count));
+                    .push(([unit, counts[0], counts[1], counts[2]], count));
             }
             r.write_words(&mut all);
         }

@@ -9,8 +9,8 @@
 //! which arc, how many segments) and writes 16-byte records (~0.6 MB on `dense`); the
 //! vertex shader does the per-vertex arithmetic and the trigonometry.
 //!
-//! # Records (32-bit words, one storage buffer per frame)
-//! Per caster, four arrays back to back, in this order:
+//! # Records (16-byte units, one storage buffer per frame)
+//! Per caster, four arrays back to back, in this order (the shader loads whole units):
 //! - [`VertexRecord`] per silhouette vertex, projected once: uv, 1 / linear depth, width t
 //!   (bit for bit `build_smoothies_width`'s). Vertices the projection rejects (at or
 //!   behind the near plane) get zeros and are never referenced.
@@ -31,8 +31,8 @@
 //!   between two smoothie depths into a penumbra (visibility off by 0.047 against the GPU
 //!   path, tests/gpu_silhouettes.rs), so the spokes stay where they were.
 //! - one `u32` per fan segment: `fan << 8 | n << 4 | k` (segment k of the fan's n;
-//!   n <= 13, 4 bits each; fewer than 2^24 fans per caster). Expands to 3 vertices: the
-//!   centre, spoke k, spoke k + 1.
+//!   n <= 13, 4 bits each; fewer than 2^24 fans per caster), four to a unit, the last unit
+//!   padded with zeros. Expands to 3 vertices: the centre, spoke k, spoke k + 1.
 //!
 //! Spoke i of a fan of sweep S points at angle -P + phi i from `from` (P = FAN_OVERLAP
 //! with S's sign, phi = (S + 2P) / n), at radius t / cos(phi / 2) so that every segment's
@@ -55,7 +55,7 @@
 //!
 //! # Draw
 //! One draw per caster of `6 * edges + 3 * segments` vertices, no vertex buffer, push
-//! constants: the caster's first word, and its vertex, edge and fan record counts.
+//! constants: the caster's first 16-byte unit, and its vertex, edge and fan record counts.
 //! [`SmoothieRecords::expand`] is the shader on the CPU (for the tests and for porters).
 
 use super::{
@@ -166,17 +166,22 @@ impl SmoothieRecords {
         (6 * self.edges.len() + 3 * self.segments.len()) as u32
     }
 
-    /// 32-bit words of the records as laid out in the storage buffer.
+    /// 32-bit words of the records as laid out in the storage buffer: a multiple of 4
+    /// (the segment words are padded to whole 16-byte units).
     pub fn words(&self) -> usize {
-        4 * (self.vertices.len() + self.edges.len() + self.fans.len()) + self.segments.len()
+        4 * (self.vertices.len() + self.edges.len() + self.fans.len())
+            + self.segments.len().next_multiple_of(4)
     }
 
-    /// Appends the records to `out` in buffer order (vertices, edges, fans, segments).
+    /// Appends the records to `out` in buffer order (vertices, edges, fans, segments,
+    /// zeros up to a multiple of 4 words).
     pub fn write_words(&self, out: &mut Vec<u32>) {
         out.extend_from_slice(bytemuck::cast_slice(&self.vertices));
         out.extend_from_slice(bytemuck::cast_slice(&self.edges));
         out.extend_from_slice(bytemuck::cast_slice(&self.fans));
         out.extend_from_slice(&self.segments);
+        let pad = self.segments.len().next_multiple_of(4) - self.segments.len();
+        out.extend(std::iter::repeat_n(0, pad));
     }
 
     fn push_fan(&mut self, centre: u32, from: Vec2, sweep: f32) {

@@ -5,7 +5,7 @@
 //! Two forms of the same geometry:
 //! - [`records`] (`build_records`): what the renderer's CPU path draws. Compact records
 //!   (a vertex record per silhouette vertex, an edge record per quad, a fan record per
-//!   corner, a word per fan segment) that glsl/smoothies/smoothie_records.vert expands into
+//!   corner, a word per fan segment) that glsl/smoothies/smoothie_{edges,fans}.vert expand into
 //!   exactly these triangles; no trigonometry and no 36-byte vertices on the CPU.
 //! - this module's expanded list (`build_smoothies_width`): the readable construction that
 //!   the rules below describe, the GPU compute path's model (glsl/silhouette/, and its

@@ -34,13 +34,14 @@
 //!    caster's linear depth (the umbra test), g = nearest surface of any role (the receiver
 //!    depth r of Eq. 1). Linear depth, not the depth buffer's, because Eq. 1 needs b/r.
 //! 2. `smoothies/smoothie` — ONE pass, two colour attachments, no depth attachment.
-//!    Two pipelines of that name, one per path, with the same fragment shader:
+//!    Pipelines of that name per path, all with the same fragment shader:
 //!    GPU path: glsl/smoothies/smoothie.vert reads `SmoothieVertex` attributes (stride 36:
 //!    locations 0 uv, 1 1/depth, 2 kind, 3 anchor, 4 dir, 5 width), one indirect draw.
-//!    CPU path: glsl/smoothies/smoothie_records.vert pulls the records from the storage
-//!    buffer at set 1 binding 0 (no vertex input): one draw per caster of
-//!    6 * edges + 3 * segments vertices, push constants = first 16-byte unit, vertex, edge and fan
-//!    record counts; it emits smoothie.vert's varyings exactly. Attachments:
+//!    CPU path: glsl/smoothies/smoothie_edges.vert (6 vertices per edge record), then
+//!    smoothie_fans.vert (3 per fan segment) pull the records from the storage buffer at
+//!    set 1 binding 0 (no vertex input): two draws per caster, push constants = first
+//!    16-byte unit, vertex, edge and fan record counts; both emit smoothie.vert's varyings
+//!    exactly (glsl/smoothies/records.glsl). Attachments:
 //!    location 0 = smoothie linear depth b, R32_SFLOAT, clear 1e30, blend MIN;
 //!    location 1 = remapped alpha, R16_SFLOAT, clear 1.0, blend MIN (the paper's "minimum
 //!    blending" of overlapping smoothies, Sec. 3.1; the min depth keeps the nearest smoothie).
@@ -110,7 +111,7 @@ const SMOOTHIE_ATTRIBUTES: &[crate::vk::Attribute] = &[
     (5, Format::R32_SFLOAT, 32),
 ];
 
-/// Push constants of glsl/smoothies/smoothie_records.vert, per caster: first 16-byte unit
+/// Push constants of glsl/smoothies/records.glsl, per caster: first 16-byte unit
 /// of its records, vertex, edge and fan record counts.
 const RECORDS_PUSH_BYTES: u32 = 16;
 
@@ -147,8 +148,9 @@ pub struct Smoothies {
     /// GPU path: expanded `SmoothieVertex` buffer written by the silhouette compute pass.
     smoothie_pipeline: Pipeline,
     smoothie_set: DescriptorSet,
-    /// CPU path: records pulled from a storage buffer by smoothie_records.vert.
-    records_pipeline: Pipeline,
+    /// CPU path: records pulled from a storage buffer by smoothie_edges.vert and
+    /// smoothie_fans.vert (in that order).
+    records_pipelines: [Pipeline; 2],
     /// Rewritten whenever `records` reallocates its buffer.
     records_set: DescriptorSet,
     final_pass: FinalPass,
@@ -164,9 +166,9 @@ pub struct Smoothies {
     cpu_cache: CasterCacheOf<GeometryKey, SmoothieRecords>,
     /// Every caster's records, back to back (`SmoothieRecords::write_words`).
     records: DynamicVertices,
-    /// Per caster with geometry: push constants (first 16-byte unit, vertex, edge, fan records) and
-    /// the vertex count of its draw.
-    record_draws: Vec<([u32; 4], u32)>,
+    /// Per caster with geometry: push constants (first 16-byte unit, vertex, edge, fan
+    /// records) and the vertex counts of its edge and fan draws.
+    record_draws: Vec<([u32; 4], [u32; 2])>,
     /// GPU path: silhouettes and geometry by compute, drawn indirectly.
     gpu_silhouettes: Option<GpuSilhouettes>,
     /// Whether the smoothie pass draws anything (false at t = 0).
@@ -230,29 +232,35 @@ impl Smoothies {
         )?;
         let records = DynamicVertices::storage(ctx, "smoothie records")?;
         let records_set = Self::records_set(ctx, &records)?;
-        let records_pipeline = Pipeline::graphics(
-            ctx,
-            &GraphicsPipelineDesc {
-                name: "smoothies/smoothie",
-                vertex: shaders::SMOOTHIES_SMOOTHIE_RECORDS_VERT,
-                fragment: Some(init.settings.spirv.pick(
-                    shaders::SMOOTHIES_SMOOTHIE_FRAG,
-                    shaders::SMOOTHIES_SMOOTHIE_FRAG_SPVASM,
-                )),
-                // Vertex pulling: no vertex input.
-                vertex_stride: 0,
-                attributes: &[],
-                topology: PrimitiveTopology::TRIANGLE_LIST,
-                cull: CullModeFlags::NONE,
-                colors: &[
-                    (Format::R32_SFLOAT, Blend::Min),
-                    (Format::R16_SFLOAT, Blend::Min),
-                ],
-                depth: None,
-                push_constant_bytes: RECORDS_PUSH_BYTES,
-                sets: &[&smoothie_set, &records_set],
-            },
-        )?;
+        let records_pipeline = |vertex: &[u8]| {
+            Pipeline::graphics(
+                ctx,
+                &GraphicsPipelineDesc {
+                    name: "smoothies/smoothie",
+                    vertex,
+                    fragment: Some(init.settings.spirv.pick(
+                        shaders::SMOOTHIES_SMOOTHIE_FRAG,
+                        shaders::SMOOTHIES_SMOOTHIE_FRAG_SPVASM,
+                    )),
+                    // Vertex pulling: no vertex input.
+                    vertex_stride: 0,
+                    attributes: &[],
+                    topology: PrimitiveTopology::TRIANGLE_LIST,
+                    cull: CullModeFlags::NONE,
+                    colors: &[
+                        (Format::R32_SFLOAT, Blend::Min),
+                        (Format::R16_SFLOAT, Blend::Min),
+                    ],
+                    depth: None,
+                    push_constant_bytes: RECORDS_PUSH_BYTES,
+                    sets: &[&smoothie_set, &records_set],
+                },
+            )
+        };
+        let records_pipelines = [
+            records_pipeline(shaders::SMOOTHIES_SMOOTHIE_EDGES_VERT)?,
+            records_pipeline(shaders::SMOOTHIES_SMOOTHIE_FANS_VERT)?,
+        ];
         let final_set = DescriptorSet::new(
             ctx,
             &[
@@ -301,7 +309,7 @@ impl Smoothies {
             smoothie_alpha,
             smoothie_pipeline,
             smoothie_set,
-            records_pipeline,
+            records_pipelines,
             records_set,
             final_pass,
             final_set,
@@ -338,8 +346,8 @@ impl Smoothies {
         let mut all = Vec::with_capacity(words);
         self.record_draws.clear();
         for r in self.cpu_cache.iter() {
-            let count = r.draw_vertices();
-            if count > 0 {
+            let count = [6 * r.edges.len(), 3 * r.segments.len()].map(|n| n as u32);
+            if r.draw_vertices() > 0 {
                 let counts = [r.vertices.len(), r.edges.len(), r.fans.len()].map(|n| n as u32);
                 // `write_words` keeps every caster on a 16-byte unit.
                 let unit = (all.len() / 4) as u32;
@@ -441,14 +449,15 @@ impl Technique for Smoothies {
                         gpu.draw(rec);
                     }
                     (None, SilhouettePath::Cpu) if !self.record_draws.is_empty() => {
-                        rec.bind_pipeline(&self.records_pipeline);
-                        rec.bind_sets(
-                            &self.records_pipeline,
-                            &[&self.smoothie_set, &self.records_set],
-                        );
-                        for (push, count) in &self.record_draws {
-                            rec.push_constants(&self.records_pipeline, bytemuck::bytes_of(push));
-                            rec.draw(*count, 1);
+                        for (i, pipeline) in self.records_pipelines.iter().enumerate() {
+                            rec.bind_pipeline(pipeline);
+                            rec.bind_sets(pipeline, &[&self.smoothie_set, &self.records_set]);
+                            for (push, counts) in &self.record_draws {
+                                if counts[i] > 0 {
+                                    rec.push_constants(pipeline, bytemuck::bytes_of(push));
+                                    rec.draw(counts[i], 1);
+                                }
+                            }
                         }
                     }
                     // No caster edge: nothing to draw.

@@ -1,6 +1,6 @@
-//! Compact smoothie records, expanded into triangles by the vertex shader
-//! (glsl/smoothies/smoothie_records.vert, vertex pulling): what the renderer's CPU path
-//! (`--silhouettes cpu`) builds and draws. The GPU path (`silhouette::gpu`) still writes
+//! Compact smoothie records, expanded into triangles by the vertex shaders
+//! (glsl/smoothies/smoothie_edges.vert and smoothie_fans.vert, vertex pulling): what the
+//! renderer's CPU path (`--silhouettes cpu`) builds and draws. The GPU path (`silhouette::gpu`) still writes
 //! expanded [`SmoothieVertex`]es and draws them with glsl/smoothies/smoothie.vert.
 //!
 //! The expanded triangle list of [`super::build_smoothies_width`] costs, per light on
@@ -54,9 +54,12 @@
 //! a short list).
 //!
 //! # Draw
-//! One draw per caster of `6 * edges + 3 * segments` vertices, no vertex buffer, push
-//! constants: the caster's first 16-byte unit, and its vertex, edge and fan record counts.
-//! [`SmoothieRecords::expand`] is the shader on the CPU (for the tests and for porters).
+//! Per caster, one draw of `6 * edges` vertices (smoothie_edges.vert) and one of
+//! `3 * segments` (smoothie_fans.vert), no vertex buffer, push constants: the caster's
+//! first 16-byte unit, and its vertex, edge and fan record counts. Two shaders, not one
+//! branching on the vertex index: lavapipe shades vertices on one thread, 8 at a time,
+//! through both sides of a divergent branch. [`SmoothieRecords::expand`] is the shaders
+//! on the CPU (for the tests and for porters).
 
 use super::{
     hairpin_ccw, undecided_dir, Projected, Projector, SilVertex, SmoothieVertex, Width,

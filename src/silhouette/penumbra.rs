@@ -89,6 +89,30 @@ pub struct PenumbraGeometry {
     pub skipped_edges: usize,
 }
 
+/// What an object's cones and sheets depend on besides its model matrix: a cache keyed by
+/// this and the model rebuilds only the casters that moved (the CPU path's `CasterCache`, the
+/// GPU path's per-caster regions).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PenumbraKey {
+    pub view_proj: Mat4,
+    pub near: f32,
+    /// The light radius Lr.
+    pub radius: f32,
+    /// The cone bases' linear depth.
+    pub z_far: f32,
+}
+
+impl PenumbraKey {
+    pub fn new(light: &LightView, radius: f32, z_far: f32) -> Self {
+        Self {
+            view_proj: light.view_proj,
+            near: light.near,
+            radius,
+            z_far,
+        }
+    }
+}
+
 /// `reach` of an object whose extent is unknown (a silhouette vertex was skipped): so large
 /// that the shader's bound never lightens anything.
 pub const BLOCKER_REACH_UNKNOWN: f32 = 1e6;

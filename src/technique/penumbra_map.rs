@@ -76,9 +76,11 @@
 
 use super::{FrameInput, Technique, TechniqueInfo, TechniqueInit};
 use crate::render::passes::{CasterCache, DynamicVertices, FinalPass, ShadowMap};
+use crate::render::{fit_light, SilhouettePath};
 use crate::scene::LightView;
 use crate::shaders;
-use crate::silhouette::penumbra::{build_penumbra, PenumbraVertex};
+use crate::silhouette::gpu::GpuSilhouettes;
+use crate::silhouette::penumbra::{build_penumbra, PenumbraKey, PenumbraVertex};
 use crate::silhouette::{self, Adjacency};
 use crate::vk::{
     Blend, Context, CullModeFlags, DescriptorSet, Filter, Format, GraphicsPipelineDesc, Image,
@@ -119,10 +121,15 @@ pub struct PenumbraMap {
     _nearest: Sampler,
     /// Edge adjacency per object (None for non-casters), built once.
     adjacency: Vec<Option<Adjacency>>,
-    /// Per caster, its cones and sheets and what they were built for: a moved caster
-    /// rebuilds only its own.
-    cache: CasterCache<GeometryKey, PenumbraVertex>,
+    /// CPU path: per caster, its cones and sheets and what they were built for: a moved
+    /// caster rebuilds only its own.
+    cache: CasterCache<PenumbraKey, PenumbraVertex>,
     vertices: DynamicVertices,
+    /// GPU path: silhouettes, cones and sheets by compute, drawn indirectly (None on the CPU
+    /// path, or when no caster has an edge).
+    gpu_silhouettes: Option<GpuSilhouettes>,
+    /// Whether the penumbra pass draws anything this frame (R > 0).
+    draw_geometry: bool,
 }
 
 impl PenumbraMap {
@@ -187,6 +194,27 @@ impl PenumbraMap {
             &final_set,
         )?;
         let adjacency = silhouette::caster_adjacency(init.scene, |_| true)?;
+        let gpu_silhouettes = match init.settings.silhouettes.resolve(ctx) {
+            SilhouettePath::Cpu | SilhouettePath::Auto => None,
+            SilhouettePath::Gpu => {
+                // Sized for the scene's own light; `prepare` grows it when a frame needs more.
+                let light = fit_light(init.scene);
+                let radius = init
+                    .settings
+                    .light_radius
+                    .unwrap_or(init.scene.light.radius);
+                GpuSilhouettes::new_penumbra(
+                    ctx,
+                    init.ubo,
+                    &init.scene.objects,
+                    &adjacency,
+                    &light,
+                    radius,
+                    cone_base_depth(&light),
+                )
+                .context("creating the GPU penumbra-map geometry passes")?
+            }
+        };
         Ok(Box::new(Self {
             shadow,
             penumbra,
@@ -198,21 +226,15 @@ impl PenumbraMap {
             cache: CasterCache::new(adjacency.len()),
             adjacency,
             vertices: DynamicVertices::new("penumbra-map cones and sheets"),
+            gpu_silhouettes,
+            draw_geometry: false,
         }))
     }
 
-    /// Silhouettes, cones and sheets of every caster for this light.
-    /// Silhouettes, cones and sheets of every caster that moved since its were built (of
-    /// all when the light changed); returns how many were rebuilt.
-    fn build_geometry(&mut self, frame: &FrameInput<'_>, force: bool) -> usize {
-        let z_far = cone_base_depth(frame.light);
-        let (light, radius) = (frame.light, frame.light_radius);
-        let key = GeometryKey {
-            view_proj: light.view_proj,
-            near: light.near,
-            radius,
-            z_far,
-        };
+    /// CPU path: silhouettes, cones and sheets of every caster that moved since they were
+    /// built (of all when the light changed); returns how many were rebuilt.
+    fn build_geometry(&mut self, frame: &FrameInput<'_>, key: PenumbraKey, force: bool) -> usize {
+        let (light, radius, z_far) = (frame.light, key.radius, key.z_far);
         self.cache.update(
             &frame.scene.objects,
             &self.adjacency,
@@ -224,15 +246,6 @@ impl PenumbraMap {
             },
         )
     }
-}
-
-/// What a caster's cones and sheets depend on besides its model.
-#[derive(Clone, Copy, Debug, PartialEq)]
-struct GeometryKey {
-    view_proj: glam::Mat4,
-    near: f32,
-    radius: f32,
-    z_far: f32,
 }
 
 impl Technique for PenumbraMap {
@@ -255,25 +268,47 @@ impl Technique for PenumbraMap {
         frame: &FrameInput<'_>,
     ) -> Result<()> {
         // R = 0 (a point light): every cone has radius 0, the result is `hard`.
-        let vertices = if frame.light_radius > 0.0 {
-            // Without pass caching every frame rebuilds everything (the bench's baseline).
-            let force = !frame.settings.cache_light_passes;
-            rec.cpu("penumbra-map/silhouettes", || {
-                self.build_geometry(frame, force)
-            });
-            self.cache.concat()
+        self.draw_geometry = frame.light_radius > 0.0;
+        // Without pass caching every frame rebuilds everything (the bench's baseline).
+        let force = !frame.settings.cache_light_passes;
+        let key = PenumbraKey::new(
+            frame.light,
+            frame.light_radius,
+            cone_base_depth(frame.light),
+        );
+        if !self.draw_geometry {
+            if self.gpu_silhouettes.is_some() {
+                rec.skip("penumbra-map/silhouettes", "light radius 0: hard shadows");
+            }
+            self.vertices.upload::<PenumbraVertex>(ctx, &[])?;
+        } else if let Some(gpu) = self.gpu_silhouettes.as_mut() {
+            gpu.prepare(ctx)?;
+            if !force && gpu.dirty_penumbra(&frame.scene.objects, key) == 0 {
+                rec.skip("penumbra-map/silhouettes", "light and casters unchanged");
+            } else {
+                rec.pass("penumbra-map/silhouettes", |rec| {
+                    gpu.record_penumbra(rec, &frame.scene.objects, frame.light, key, force)
+                })?;
+            }
         } else {
-            Vec::new()
-        };
-        self.vertices.upload(ctx, &vertices)?;
+            rec.cpu("penumbra-map/silhouettes", || {
+                self.build_geometry(frame, key, force)
+            });
+            let vertices = self.cache.concat();
+            self.vertices.upload(ctx, &vertices)?;
+        }
 
         self.shadow.pass(rec, frame.gpu)?;
         rec.pass("penumbra-map/penumbra", |rec| {
             rec.begin_rendering(&[(&self.penumbra, Some([1.0; 4]))], None);
-            if !self.vertices.is_empty() {
+            if self.draw_geometry {
                 rec.bind_pipeline(&self.penumbra_pipeline);
                 rec.bind_sets(&self.penumbra_pipeline, &[&self.penumbra_set]);
-                self.vertices.draw(rec);
+                match &self.gpu_silhouettes {
+                    Some(gpu) => gpu.draw(rec),
+                    None if !self.vertices.is_empty() => self.vertices.draw(rec),
+                    None => {}
+                }
             }
             rec.end_rendering();
             rec.transition(&self.penumbra, ImageLayout::SHADER_READ_ONLY_OPTIMAL);
@@ -283,9 +318,11 @@ impl Technique for PenumbraMap {
     }
 
     fn light_passes(&self) -> Vec<String> {
-        ["penumbra-map/shadow_map", "penumbra-map/penumbra"]
-            .map(String::from)
-            .to_vec()
+        let mut passes = vec!["penumbra-map/shadow_map", "penumbra-map/penumbra"];
+        if self.gpu_silhouettes.is_some() {
+            passes.insert(0, "penumbra-map/silhouettes");
+        }
+        passes.into_iter().map(String::from).collect()
     }
 
     fn record_final(
@@ -304,5 +341,9 @@ impl Technique for PenumbraMap {
             "penumbra_map" => Some(&self.penumbra),
             _ => None,
         }
+    }
+
+    fn gpu_silhouettes(&self) -> Option<&GpuSilhouettes> {
+        self.gpu_silhouettes.as_ref()
     }
 }

@@ -646,6 +646,19 @@ impl<'c> Renderer<'c> {
         Ok(Some(gpu.decode(&words)))
     }
 
+    /// The geometry the GPU silhouette passes built, per caster (object index, the floats of
+    /// the vertices its indirect draw draws), or `None` when the technique does not run the
+    /// GPU path.
+    pub fn read_gpu_geometry(&mut self) -> Result<Option<Vec<(usize, Vec<f32>)>>> {
+        let Some(gpu) = self.technique.gpu_silhouettes() else {
+            return Ok(None);
+        };
+        let (commands, vertices) = gpu.geometry_buffers();
+        let commands: Vec<u32> = crate::vk::read_buffer(self.ctx, &mut self.runner, commands)?;
+        let floats: Vec<f32> = crate::vk::read_buffer(self.ctx, &mut self.runner, vertices)?;
+        Ok(Some(gpu.decode_geometry(&commands, &floats)))
+    }
+
     /// How many casters the GPU silhouette passes rebuilt in the last frame that ran them.
     pub fn gpu_silhouettes_rebuilt(&self) -> Option<usize> {
         self.technique.gpu_silhouettes().map(|g| g.rebuilt())

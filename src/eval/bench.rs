@@ -299,8 +299,12 @@ fn path_name<S: serde::Serializer>(p: &SilhouettePath, s: S) -> Result<S::Ok, S:
     s.serialize_str(p.name())
 }
 
-/// Smoothies rows once per silhouette path when more than one is asked for (the others
-/// keep one row): `smoothies sil=cpu` beside `smoothies sil=gpu`, timed in the same run.
+/// Techniques with a CPU and a GPU silhouette path (`Settings::silhouettes`).
+pub const SILHOUETTE_TECHNIQUES: &[&str] = &["smoothies", "penumbra-map"];
+
+/// Rows of `SILHOUETTE_TECHNIQUES` once per silhouette path when more than one is asked for
+/// (the others keep one row): `smoothies sil=cpu` beside `smoothies sil=gpu`, timed in the
+/// same run.
 pub fn with_silhouette_paths(rows: Vec<Variant>, paths: &[SilhouettePath]) -> Vec<Variant> {
     let paths = dedup(paths);
     if paths.len() < 2 {
@@ -315,7 +319,7 @@ pub fn with_silhouette_paths(rows: Vec<Variant>, paths: &[SilhouettePath]) -> Ve
     }
     let mut out = Vec::new();
     for v in rows {
-        if v.technique == "smoothies" {
+        if SILHOUETTE_TECHNIQUES.contains(&v.technique) {
             for &p in &paths {
                 out.push(Variant {
                     label: format!("{} sil={}", v.label, p.name()),

@@ -12,6 +12,7 @@ use softshadow::scene::{Mesh, Scene};
 use softshadow::silhouette::penumbra::{build_penumbra, PenumbraVertex};
 use softshadow::silhouette::{extract, Adjacency};
 use softshadow::technique::penumbra_map::cone_base_depth;
+use std::collections::BTreeSet;
 use std::sync::Arc;
 
 const TECHNIQUE: &str = "penumbra-map";
@@ -136,6 +137,21 @@ fn gpu_cones_and_sheets_are_the_cpu_triangles() {
         let z_far = cone_base_depth(&light);
         let mut r = Renderer::new(&gpu.ctx, scene.clone(), TECHNIQUE, s).unwrap();
         r.render().unwrap();
+        // The smoothie path's classification: exactly the CPU's silhouette edges.
+        let edges = r
+            .read_gpu_silhouettes()
+            .unwrap()
+            .expect("penumbra-map on the GPU path exposes its silhouettes");
+        for (object, gpu_edges) in edges {
+            let o = &scene.objects[object];
+            let adj = Adjacency::build(&o.mesh).unwrap();
+            let cpu: BTreeSet<(u32, u32, u32)> = extract(&adj, o.transform, light.position)
+                .iter()
+                .map(|e| (e.edge, e.a, e.b))
+                .collect();
+            let gpu: BTreeSet<(u32, u32, u32)> = gpu_edges.into_iter().collect();
+            assert_eq!(cpu, gpu, "{name}/{}: silhouette edges", o.name);
+        }
         let found = r
             .read_gpu_geometry()
             .unwrap()

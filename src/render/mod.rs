@@ -650,7 +650,7 @@ impl<'c> Renderer<'c> {
     /// The geometry the GPU silhouette passes built, per caster (object index, the floats of
     /// the vertices its indirect draw draws), or `None` when the technique does not run the
     /// GPU path.
-    pub fn read_gpu_geometry(&mut self) -> Result<Option<Vec<(usize, Vec<f32>)>>> {
+    pub fn read_gpu_geometry(&mut self) -> Result<Option<crate::silhouette::gpu::CasterGeometry>> {
         let Some(gpu) = self.technique.gpu_silhouettes() else {
             return Ok(None);
         };

@@ -1,51 +1,75 @@
-//! GPU silhouettes: the CPU path of this module's parent (`extract` + `build_smoothies`)
-//! as three compute passes per caster, writing the smoothie vertices straight into a
-//! vertex buffer drawn with one indirect draw: no readback, no per-frame upload (Chan &
-//! Durand's hoped-for "render to vertex array"; the seeds all name the CPU silhouette
-//! upload as their bottleneck).
+//! GPU silhouettes: the CPU path of this module's parent (`extract`, then `build_smoothies`
+//! or `penumbra::build_penumbra`) as a few compute dispatches, writing the geometry straight
+//! into a vertex buffer drawn with one indirect draw per caster: no readback, no per-frame
+//! upload but the casters' transforms (Chan & Durand's hoped-for "render to vertex array";
+//! the seeds all name the CPU silhouette upload as their bottleneck). One struct, two sets of
+//! emitters: [`GpuSilhouettes::new`] builds smoothies (`smoothies`),
+//! [`GpuSilhouettes::new_penumbra`] cones and sheets (`penumbra-map`); the buffers, the
+//! classification, the regions, the partial rebuilds and the draws are shared.
 //!
 //! # Passes (each ONE dispatch of `glsl/silhouette/*.comp` over every caster at once: on
 //! lavapipe a dispatch costs about as much as 3k edges of work, and `dense` has 36 casters)
-//! 1. `edges.comp`, one thread per edge: the facing test of its faces, the classification
-//!    (boundary / manifold / non-manifold), the orientation, and for a silhouette edge its
-//!    smoothie quad (6 vertices, appended with an atomic counter) and its outward direction;
-//!    the edge is listed at both welded ends (`incident`, up to 16 per vertex).
+//! Every first pass runs `classify` (glsl/silhouette/silhouette.glsl) per edge: the facing
+//! test of its faces, the classification (boundary / manifold / non-manifold) and the
+//! orientation, written to `sil`; then lists the edge at both welded ends (`incident`, up to
+//! 16 per vertex).
+//!
+//! Smoothies:
+//! 1. `edges.comp`, one thread per edge: `classify`, and for a silhouette edge its smoothie
+//!    quad (6 vertices, appended with an atomic counter) and its outward direction.
 //! 2. `corners.comp`, one thread per welded vertex: the corner fan where kept edges meet
 //!    (two edges: the arc between them; else the paper's special case).
 //! 3. `finish.comp`, one thread per caster: its `VkDrawIndirectCommand`, clamped to its
 //!    region of the vertex buffer.
 //!
+//! Penumbra map (`glsl/silhouette/penumbra.glsl` mirrors `penumbra.rs`):
+//! 1. `penumbra_edges.comp`, one thread per edge: `classify`; both ends of a silhouette edge
+//!    folded into the caster's bounding box of `blocker_reach` (atomicMax on order-preserving
+//!    keys of the tangent-unit points) or its "a vertex was skipped" flag.
+//! 2. `penumbra_reach.comp`, one thread per welded vertex on a silhouette: its distance from
+//!    the box centre, atomicMax'ed as float bits into the caster's `reach` (the bounding
+//!    circle's radius; all emitters read it).
+//! 3. `penumbra_emit.comp`, one thread per edge then one per welded vertex: the sheet of a
+//!    silhouette edge (6 vertices); the cone of a silhouette vertex (3 x up to
+//!    `CONE_SEGMENTS`), whose arc needs the sheet normals of its edges, recomputed from
+//!    their ends rather than waiting for another dispatch.
+//! 4. `finish.comp`, as above.
+//!
 //! Threads of a caster that did not move (and whose light did not change) return at once:
 //! its region and draw command stay as they were (partial rebuilds).
 //!
-//! The shaders mirror `silhouette::extract` and `smoothie::build_smoothies_width` rule for
-//! rule. The facing test is `precise` (no fused multiply-add) with the CPU's operation order
-//! and the CPU's object-space light, so both paths find exactly the same silhouette edges
-//! (`tests/gpu_silhouettes.rs` compares them as sets). The vertices may differ in the last
-//! bits (GPU sin/cos/atan), and their order differs (atomics): the smoothie pass MIN-blends
-//! both of its targets, so the order does not change the image.
+//! The shaders mirror `silhouette::extract`, `smoothie::build_smoothies_width` and
+//! `penumbra::build_penumbra` rule for rule. The facing test is `precise` (no fused
+//! multiply-add) with the CPU's operation order and the CPU's object-space light, so both
+//! paths find exactly the same silhouette edges (`tests/gpu_silhouettes.rs` compares them as
+//! sets). The vertices may differ in the last bits (GPU sin/cos/atan, fused multiply-adds;
+//! `tests/gpu_penumbra.rs` matches the cones and sheets to 1e-4 relative, ~1e-5 seen), and
+//! their order differs (atomics): both passes that draw them MIN-blend, so the order does
+//! not change the image.
 //!
 //! # Buffers
 //! Every caster's data one after the other, indices rebased. Static (built once from each
 //! `Adjacency`): positions (vec4), triangles (uvec4, w = degenerate), face normals (vec4),
 //! edges (uvec4: ends, first face entry, face count), edge faces (face << 1 | forward), the
 //! caster of each edge and of each welded vertex. Per frame: the casters' transforms (128
-//! bytes each, the only upload), `sil` (u32 per edge), `edge_dir` (vec2 per edge),
-//! `incident_count` (cleared) and `incident` (16 u32 per vertex), `requested` (u32 per
-//! caster, cleared), the draw commands (16 bytes per caster) and the vertex buffer, one
-//! region per caster.
+//! bytes each, the only upload besides the penumbra emitters' 144-byte light), `sil` (u32 per
+//! edge), `edge_dir` (vec2 per edge, smoothies), `incident_count` (cleared) and `incident`
+//! (16 u32 per vertex), `requested` (u32 per caster, cleared), the penumbra emitters' reach
+//! state (8 u32 per caster, cleared), the draw commands (16 bytes per caster) and the vertex
+//! buffer (`SmoothieVertex` or `PenumbraVertex`), one region per caster.
 //!
 //! # Capacity
 //! A caster's region starts at 1.5x what the CPU path builds for the scene's own light,
 //! plus 1024 vertices. A frame that needs more draws what fits (the shaders never write past
 //! a region), and the next frame's `prepare` grows the regions to 1.5x the request, with a
-//! warning on stderr: only a caster whose smoothies grow by half in one frame loses some,
+//! warning on stderr: only a caster whose geometry grows by half in one frame loses some,
 //! for one frame.
 //!
 //! # Limits
 //! A vertex where more than 16 silhouette edges meet keeps 16 of them (an arbitrary 16: the
 //! atomics decide) for its special-case fan; the CPU path keeps all. Silhouettes then still
-//! agree; that corner's fan may differ.
+//! agree; that corner's fan may differ. The penumbra emitters draw a whole cone at such a
+//! vertex (the CPU path draws an arc when exactly two of its edges have sheets).
 
 use super::penumbra::{build_penumbra, PenumbraKey, PenumbraVertex};
 use super::smoothie::{build_smoothies_width, GeometryKey, Width};
@@ -171,6 +195,9 @@ pub type GpuEdge = (u32, u32, u32);
 
 /// Per caster: its object index and the silhouette edges the GPU found.
 pub type CasterSilhouettes = Vec<(usize, Vec<GpuEdge>)>;
+
+/// Per caster: its object index and the floats of the vertices its indirect draw draws.
+pub type CasterGeometry = Vec<(usize, Vec<f32>)>;
 
 /// `edges[].w` of an edge whose faces are listed in `edge_faces` (not exactly two).
 const FACE_LIST: u32 = u32::MAX;
@@ -693,7 +720,7 @@ impl GpuSilhouettes {
 
     /// Per caster: its object index and the floats of the vertices its draw command draws,
     /// from the words of `geometry_buffers` (`floats`: the whole vertex buffer).
-    pub fn decode_geometry(&self, commands: &[u32], floats: &[f32]) -> Vec<(usize, Vec<f32>)> {
+    pub fn decode_geometry(&self, commands: &[u32], floats: &[f32]) -> CasterGeometry {
         let per_vertex = (self.emitter.vertex_bytes() / 4) as usize;
         self.casters
             .iter()

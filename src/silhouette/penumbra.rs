@@ -1,6 +1,8 @@
 //! CPU penumbra-map geometry (Wyman & Hansen 2003, Sec. 3, Fig. 4): a cone at every
 //! silhouette vertex and a sheet along every silhouette edge, in world space, emitted as one
-//! triangle list of [`PenumbraVertex`] that the penumbra pass draws from the light.
+//! triangle list of [`PenumbraVertex`] that the penumbra pass draws from the light. The GPU
+//! path (`silhouette::gpu::GpuSilhouettes::new_penumbra`, glsl/silhouette/penumbra*.glsl,
+//! penumbra_*.comp) mirrors every rule below; keep the two in step.
 //!
 //! # Spaces
 //! Built in the light's view space (light centre at the origin, looking down -z, x right and

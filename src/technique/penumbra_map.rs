@@ -7,20 +7,33 @@
 //! umbra is the hard shadow, the penumbra grows outward from it.
 //!
 //! ## Passes, in order
-//! 0. CPU `penumbra-map/silhouettes` — per caster: brute-force silhouette edges from the light
-//!    centre (`silhouette::extract` over the adjacency built once per mesh), then the cones and
-//!    sheets in world space (`silhouette::penumbra::build_penumbra`, see its doc for the
-//!    geometry): cone tip at vertex v (linear light depth Zv), base at depth Z_far with the
-//!    paper's radius C_r = (Z_far - Zv) Lr / Zv (Sec. 3, third bullet; Lr = the light radius R),
-//!    16 triangles each, one cone per distinct silhouette vertex however many silhouette edges
-//!    meet there (the paper's 3..8-edge vertices); one sheet per edge, the plane through the
-//!    edge tangent to the light disc on the inner side, i.e. the exact outer tangent of the
-//!    two cones (fourth bullet). That quad is planar, so the paper's subdivision of
-//!    "extremely non-planar" quads is never needed. Z_far = 0.995 x the light's far plane
-//!    (`render::fit_light` puts it 1 % beyond the farthest scene corner, so every receiver is
-//!    nearer; the margin keeps the bases inside the clip volume). Uploaded to a host-visible
-//!    vertex buffer (24 bytes a vertex: world position, (Zv k, k), the object's angular
-//!    radius `reach` from the light centre). R = 0: no geometry.
+//! 0. `penumbra-map/silhouettes` — per caster: brute-force silhouette edges from the light
+//!    centre over the edge adjacency built once per mesh, then the cones and sheets in world
+//!    space (see `silhouette::penumbra` for the geometry): cone tip at vertex v (linear light
+//!    depth Zv), base at depth Z_far with the paper's radius C_r = (Z_far - Zv) Lr / Zv
+//!    (Sec. 3, third bullet; Lr = the light radius R), 16 triangles each, one cone per
+//!    distinct silhouette vertex however many silhouette edges meet there (the paper's
+//!    3..8-edge vertices); one sheet per edge, the plane through the edge tangent to the light
+//!    disc on the inner side, i.e. the exact outer tangent of the two cones (fourth bullet).
+//!    That quad is planar, so the paper's subdivision of "extremely non-planar" quads is never
+//!    needed. Z_far = 0.995 x the light's far plane (`render::fit_light` puts it 1 % beyond
+//!    the farthest scene corner, so every receiver is nearer; the margin keeps the bases
+//!    inside the clip volume). 24 bytes a vertex: world position, (Zv k, k), the object's
+//!    angular radius `reach` from the light centre. R = 0: no geometry (the pass is skipped).
+//!    Two interchangeable paths (`--silhouettes`, `Settings::silhouettes`):
+//!    - GPU (default on a GPU): `silhouette::gpu::GpuSilhouettes::new_penumbra`, four
+//!      compute dispatches over every caster (glsl/silhouette/penumbra_*.comp, finish.comp):
+//!      the smoothie path's silhouette classification, a per-caster reduction for `reach`
+//!      (atomicMax), the cones and sheets, the indirect-draw commands; written straight into
+//!      a device-local vertex buffer drawn with one indirect draw per caster. No readback, no
+//!      upload but the casters' transforms and the light. A timed pass.
+//!    - CPU (default on lavapipe, where the compute passes share the CPU's two cores and are
+//!      slower, BENCHMARKS.md): `silhouette::extract` + `penumbra::build_penumbra` (rayon),
+//!      uploaded to a host-visible vertex buffer. A `cpu` timing.
+//!
+//!    Both build the same triangles (tests/gpu_penumbra.rs) and keep each caster's geometry
+//!    until its model or the light changes (a moved caster rebuilds only its own). Z_far is
+//!    part of the light: a receiver that moves the far plane rebuilds every caster.
 //! 1. `penumbra-map/shadow_map` — the shared `render::passes::ShadowMap`: every object from
 //!    the light into one R32G32_SFLOAT target, clear 1e30 (`FAR_DEPTH`), blend MIN, no depth
 //!    attachment; r = the nearest caster's linear depth (the shadow map of the final test),

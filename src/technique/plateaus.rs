@@ -60,7 +60,8 @@
 //! and geometry, the others are reused and everything is concatenated in object order and
 //! uploaded (the same vertex buffer a full rebuild makes, so the same image bit for bit). A
 //! change of the key — light moved or resized, plane moved, `shadow_res` — rebuilds every
-//! caster. `--timings` prints `cpu plateaus/silhouettes ... (rebuilt K of N casters)`. The
+//! caster. `--timings` and the bench report print `cpu plateaus/silhouettes ... (rebuilt K
+//! of N casters)` (`render --timings` rebuilds every pass of its timed frames: N of N). The
 //! GPU passes redraw every caster whenever anything moved: the texture is one image whose
 //! texels hold the darkest of all casters' plateaus, so a moved caster's old plateaus cannot
 //! be taken out without redrawing the others (likewise the shadow map). A frame whose light
@@ -715,7 +716,7 @@ impl Plateaus {
         ))
     }
 
-    /// Silhouettes, cones and sheets of every caster that moved since its were built (of
+    /// Silhouettes, cones and sheets of every caster that moved since theirs were built (of
     /// all when the plane frame or the radius changed, or when `force`); returns how many
     /// were rebuilt.
     fn build_geometry(&mut self, frame: &FrameInput<'_>, plane: &PlaneFrame, force: bool) -> usize {

@@ -656,6 +656,10 @@ pub struct PassStat {
 pub struct CpuStat {
     pub name: String,
     pub ms: Stat,
+    /// Casters whose geometry this work rebuilt per frame (0 in frames that skipped it), and
+    /// how many casters there are, for work that caches per caster (`plateaus/silhouettes`).
+    pub rebuilt: Option<Stat>,
+    pub casters: Option<usize>,
 }
 
 /// Everything measured at one sweep point.
@@ -1030,9 +1034,17 @@ pub fn summarise(timed: &[FrameTimings]) -> Timing {
                         .fold(0.0, |a, c| a + c.1)
                 })
                 .collect();
+            let counts: Vec<_> = timed.iter().map(|t| t.rebuilt_by(name)).collect();
+            let casters = counts.iter().flatten().map(|r| r.casters).max();
+            let rebuilt: Vec<f64> = counts
+                .iter()
+                .map(|r| r.map_or(0.0, |r| r.rebuilt as f64))
+                .collect();
             Stat::of(&ms).map(|ms| CpuStat {
                 name: name.into(),
                 ms,
+                rebuilt: casters.and_then(|_| Stat::of(&rebuilt)),
+                casters,
             })
         })
         .collect();

@@ -20,11 +20,22 @@ pub struct PassTiming {
     pub skipped: Option<String>,
 }
 
+/// Per-caster work of one frame: `rebuilt` of the `casters` had their geometry rebuilt by
+/// the CPU work `name` (the others reused what an earlier frame built).
+#[derive(Clone, Debug, PartialEq, Eq, serde::Serialize)]
+pub struct CasterRebuilds {
+    pub name: String,
+    pub rebuilt: usize,
+    pub casters: usize,
+}
+
 /// Per-pass GPU times and named CPU times of one frame.
 #[derive(Clone, Debug, Default, serde::Serialize)]
 pub struct FrameTimings {
     pub passes: Vec<PassTiming>,
     pub cpu: Vec<(String, f64)>,
+    /// Partial rebuilds, printed after the `cpu` line of the same name.
+    pub rebuilt: Vec<CasterRebuilds>,
 }
 
 impl FrameTimings {
@@ -38,6 +49,11 @@ impl FrameTimings {
             .iter()
             .find(|p| p.name == name)
             .and_then(|p| p.gpu_ms)
+    }
+
+    /// The partial-rebuild count the CPU work `name` recorded this frame, if any.
+    pub fn rebuilt_by(&self, name: &str) -> Option<&CasterRebuilds> {
+        self.rebuilt.iter().find(|r| r.name == name)
     }
 
     /// The `--timings` block of DESIGN.md.
@@ -59,7 +75,11 @@ impl FrameTimings {
             }
         }
         for (name, ms) in &self.cpu {
-            s += &format!("cpu  {name:<width$} {ms:8.3} ms\n");
+            s += &format!("cpu  {name:<width$} {ms:8.3} ms");
+            if let Some(r) = self.rebuilt_by(name) {
+                s += &format!(" (rebuilt {} of {} casters)", r.rebuilt, r.casters);
+            }
+            s += "\n";
         }
         s += &format!(
             "frame {:<w$} {:8.3} ms\n",
@@ -159,10 +179,12 @@ impl FrameRunner {
             next_query: 0,
             passes: Vec::new(),
             cpu: Vec::new(),
+            rebuilt: Vec::new(),
         };
         let recorded = f(&mut rec);
         let passes = std::mem::take(&mut rec.passes);
         let cpu = std::mem::take(&mut rec.cpu);
+        let rebuilt = std::mem::take(&mut rec.rebuilt);
         let used = rec.next_query;
         // SAFETY: recording began above; ending is required even when `f` failed.
         let ended = unsafe { device.end_command_buffer(self.cmd) };
@@ -212,7 +234,11 @@ impl FrameRunner {
                 skipped: p.skipped,
             })
             .collect();
-        Ok(FrameTimings { passes, cpu })
+        Ok(FrameTimings {
+            passes,
+            cpu,
+            rebuilt,
+        })
     }
 }
 
@@ -243,6 +269,7 @@ pub struct Recorder<'a> {
     next_query: u32,
     passes: Vec<RecordedPass>,
     cpu: Vec<(String, f64)>,
+    rebuilt: Vec<CasterRebuilds>,
 }
 
 fn layout_sync(layout: vk::ImageLayout) -> (vk::PipelineStageFlags2, vk::AccessFlags2) {
@@ -341,6 +368,16 @@ impl Recorder<'_> {
         self.cpu
             .push((name.to_string(), t.elapsed().as_secs_f64() * 1e3));
         out
+    }
+
+    /// Records that the CPU work `name` rebuilt `rebuilt` of `casters` casters' geometry
+    /// (`--timings` prints it after that work's `cpu` line).
+    pub fn rebuilt(&mut self, name: &str, rebuilt: usize, casters: usize) {
+        self.rebuilt.push(CasterRebuilds {
+            name: name.to_string(),
+            rebuilt,
+            casters,
+        });
     }
 
     /// Moves `image` to `layout`, with the stages and accesses that layout implies. A

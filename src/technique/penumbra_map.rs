@@ -244,6 +244,11 @@ impl PenumbraMap {
         }))
     }
 
+    /// How many objects cast (have an edge adjacency).
+    fn casters(&self) -> usize {
+        self.adjacency.iter().flatten().count()
+    }
+
     /// CPU path: silhouettes, cones and sheets of every caster that moved since they were
     /// built (of all when the light changed); returns how many were rebuilt.
     fn build_geometry(&mut self, frame: &FrameInput<'_>, key: PenumbraKey, force: bool) -> usize {
@@ -284,6 +289,7 @@ impl Technique for PenumbraMap {
         self.draw_geometry = frame.light_radius > 0.0;
         // Without pass caching every frame rebuilds everything (the bench's baseline).
         let force = !frame.settings.cache_light_passes;
+        let casters = self.casters();
         let key = PenumbraKey::new(
             frame.light,
             frame.light_radius,
@@ -302,11 +308,13 @@ impl Technique for PenumbraMap {
                 rec.pass("penumbra-map/silhouettes", |rec| {
                     gpu.record_penumbra(rec, &frame.scene.objects, frame.light, key, force)
                 })?;
+                rec.rebuilt("penumbra-map/silhouettes", gpu.rebuilt(), casters);
             }
         } else {
-            rec.cpu("penumbra-map/silhouettes", || {
+            let rebuilt = rec.cpu("penumbra-map/silhouettes", || {
                 self.build_geometry(frame, key, force)
             });
+            rec.rebuilt("penumbra-map/silhouettes", rebuilt, casters);
             let vertices = self.cache.concat();
             self.vertices.upload(ctx, &vertices)?;
         }

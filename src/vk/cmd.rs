@@ -56,6 +56,13 @@ impl FrameTimings {
         self.rebuilt.iter().find(|r| r.name == name)
     }
 
+    /// ` (rebuilt K of N casters)` after a pass or cpu line whose per-caster work was counted.
+    fn rebuilt_suffix(&self, name: &str) -> String {
+        self.rebuilt_by(name)
+            .map(|r| format!(" (rebuilt {} of {} casters)", r.rebuilt, r.casters))
+            .unwrap_or_default()
+    }
+
     /// The `--timings` block of DESIGN.md.
     pub fn report(&self) -> String {
         let mut s = String::new();
@@ -70,15 +77,17 @@ impl FrameTimings {
         for p in &self.passes {
             match (&p.gpu_ms, &p.skipped) {
                 (_, Some(reason)) => s += &format!("pass {:<width$} skipped ({reason})\n", p.name),
-                (Some(ms), None) => s += &format!("pass {:<width$} {ms:8.3} ms\n", p.name),
+                (Some(ms), None) => {
+                    s += &format!("pass {:<width$} {ms:8.3} ms", p.name);
+                    s += &self.rebuilt_suffix(&p.name);
+                    s += "\n";
+                }
                 (None, None) => s += &format!("pass {:<width$}      n/a\n", p.name),
             }
         }
         for (name, ms) in &self.cpu {
             s += &format!("cpu  {name:<width$} {ms:8.3} ms");
-            if let Some(r) = self.rebuilt_by(name) {
-                s += &format!(" (rebuilt {} of {} casters)", r.rebuilt, r.casters);
-            }
+            s += &self.rebuilt_suffix(name);
             s += "\n";
         }
         s += &format!(

@@ -76,8 +76,9 @@ struct RenderArgs {
     /// Smoothie width t as a fraction of the shadow map (default: calibrated from R).
     #[arg(long, allow_negative_numbers = true)]
     smoothie_t: Option<f32>,
-    /// Where smoothies find silhouettes and build their geometry: gpu (compute passes and
-    /// an indirect draw), cpu (rayon, then an upload), or auto (gpu on a GPU, cpu on lavapipe).
+    /// Where smoothies and penumbra-map find silhouettes and build their geometry: gpu
+    /// (compute passes and indirect draws), cpu (rayon, then an upload), or auto (gpu on a
+    /// GPU, cpu on lavapipe).
     #[arg(long, default_value = "auto")]
     silhouettes: softshadow::render::SilhouettePath,
     /// Normal offset of shadow lookups, in shadow-map texels.
@@ -181,8 +182,8 @@ struct BenchArgs {
     /// get a row per choice (`smoothies spirv=tuned`); the others run glslang's.
     #[arg(long, value_delimiter = ',', default_value = "glslang")]
     spirv: Vec<softshadow::render::SpirvChoice>,
-    /// Silhouette paths for smoothies, comma-separated: auto, cpu, gpu. More than one gives
-    /// a row each (`smoothies sil=cpu`, `smoothies sil=gpu`).
+    /// Silhouette paths for smoothies and penumbra-map, comma-separated: auto, cpu, gpu. More
+    /// than one gives a row each (`smoothies sil=cpu`, `smoothies sil=gpu`).
     #[arg(long, value_delimiter = ',', default_value = "auto")]
     silhouettes: Vec<softshadow::render::SilhouettePath>,
     /// Reuse light-space passes while the light and objects stay put (default: every timed

@@ -531,3 +531,42 @@ fn light_passes_are_rebuilt_unless_reuse_is_asked() {
         );
     }
 }
+
+/// Per-caster caches show in the report: with reuse, an object motion rebuilds one of
+/// `boxes`' two casters' plateaus each frame, and report.md says so.
+#[test]
+fn bench_reports_partial_rebuilds() {
+    let gpu = common::Gpu::new();
+    let out = scratch("rebuilds");
+    let config = bench::BenchConfig {
+        scenes: vec!["boxes".into()],
+        techniques: vec!["plateaus".into()],
+        resolutions: vec![128],
+        smoothie_t: vec![],
+        width: 64,
+        height: 64,
+        frames: 3,
+        warmup: 1,
+        motions: vec![Motion::Object],
+        reuse_light_passes: true,
+        out: out.clone(),
+        progress: false,
+        ..bench::BenchConfig::default()
+    };
+    let outcome = bench::run(&gpu.ctx, bench::prepare(config).expect("valid")).expect("runs");
+    let row = outcome
+        .records
+        .iter()
+        .find(|r| r.technique == "plateaus")
+        .expect("plateaus row");
+    let sil = row
+        .cpu
+        .iter()
+        .find(|c| c.name == "plateaus/silhouettes")
+        .expect("silhouettes timed");
+    assert_eq!(sil.casters, Some(2));
+    assert_eq!(sil.rebuilt.as_ref().map(|k| k.median), Some(1.0));
+    let report = std::fs::read_to_string(out.join("report.md")).expect("report.md");
+    assert!(report.contains("(rebuilt 1 of 2 casters)"), "{}", report);
+    let _ = std::fs::remove_dir_all(&out);
+}

@@ -9,6 +9,7 @@ use glam::{Mat4, Vec3};
 use softshadow::render::{fit_light, Renderer, Settings, SilhouettePath};
 use softshadow::scene::{Mesh, Scene};
 use softshadow::silhouette::{extract, Adjacency, EdgeKind};
+use softshadow::vk::FrameTimings;
 use std::collections::BTreeSet;
 use std::sync::Arc;
 
@@ -289,6 +290,105 @@ fn penumbra_map_keeps_unmoved_casters_and_matches_a_fresh_render() {
         .render_frames(r.scene.clone(), "penumbra-map", small(128, 512), 1)
         .0;
     assert_eq!(partial.visibility, fresh.visibility);
+}
+
+#[test]
+fn plateaus_rebuild_only_the_moved_caster_and_match_a_fresh_render() {
+    // plateaus caches each caster's cones and sheets keyed on the plane frame and R: moving
+    // one caster rebuilds 1 of 2, even when it moves the light's fitted near plane (the
+    // texture's square does not depend on it); the concatenation of cached and rebuilt
+    // geometry must give what a fresh renderer builds, bit for bit.
+    let gpu = Gpu::new();
+    let s = Settings {
+        light_radius: Some(0.25),
+        ..small(128, 512)
+    };
+    let scene = Scene::load("boxes").unwrap();
+    let casters = scene.objects.iter().filter(|o| o.role.casts()).count();
+    assert_eq!(casters, 2, "boxes: two boxes on a receive-only ground");
+    let lower = scene.objects.iter().position(|o| o.name == "box2").unwrap();
+    let upper = scene.objects.iter().position(|o| o.name == "box1").unwrap();
+    let ground = scene
+        .objects
+        .iter()
+        .position(|o| o.name == "ground")
+        .unwrap();
+    let rebuilt = |t: &FrameTimings| {
+        t.rebuilt_by("plateaus/silhouettes")
+            .map(|r| (r.rebuilt, r.casters))
+    };
+    let fresh = |scene: &Scene| gpu.render_frames(scene.clone(), "plateaus", s.clone(), 1).0;
+    let mut r = Renderer::new(&gpu.ctx, scene, "plateaus", s.clone()).unwrap();
+    let first = r.render().unwrap();
+    assert_eq!(
+        rebuilt(&first),
+        Some((2, 2)),
+        "first frame builds every caster"
+    );
+    let before = r.read_back().unwrap();
+
+    // The lower box slides: the light's frame stays.
+    let near = fit_light(&r.scene).near;
+    r.scene.objects[lower].transform =
+        Mat4::from_translation(Vec3::new(0.3, 0.0, -0.2)) * r.scene.objects[lower].transform;
+    assert_eq!(fit_light(&r.scene).near, near);
+    let moved = r.render().unwrap();
+    assert_eq!(rebuilt(&moved), Some((1, 2)), "only the moved caster");
+    assert!(
+        moved
+            .passes
+            .iter()
+            .any(|p| p.name == "plateaus/plateaus" && p.gpu_ms.is_some()),
+        "{:?}",
+        moved.passes
+    );
+    let partial = r.read_back().unwrap();
+    assert_ne!(before.visibility, partial.visibility, "the box did move");
+    assert_eq!(partial.visibility, fresh(&r.scene).visibility, "lower box");
+
+    // The upper box rises towards the light: near moves, the plane frame does not.
+    r.scene.objects[upper].transform =
+        Mat4::from_translation(Vec3::new(0.0, 0.6, 0.1)) * r.scene.objects[upper].transform;
+    assert_ne!(fit_light(&r.scene).near, near, "the near plane did move");
+    let moved = r.render().unwrap();
+    assert_eq!(rebuilt(&moved), Some((1, 2)), "only the risen caster");
+    let partial = r.read_back().unwrap();
+    assert_eq!(partial.visibility, fresh(&r.scene).visibility, "upper box");
+
+    // Nothing moved: no light pass runs, nothing is rebuilt, the image stays.
+    let still = r.render().unwrap();
+    assert_eq!(rebuilt(&still), None);
+    assert!(still
+        .passes
+        .iter()
+        .filter(|p| p.name.starts_with("plateaus/") && p.name != "plateaus/final")
+        .all(|p| p.skipped.as_deref() == Some("light and casters unchanged")));
+    assert_eq!(r.read_back().unwrap().visibility, partial.visibility);
+
+    // The plane moves: its frame is every caster's key, so all are rebuilt.
+    r.scene.objects[ground].transform =
+        Mat4::from_translation(Vec3::new(0.0, -0.05, 0.0)) * r.scene.objects[ground].transform;
+    let moved = r.render().unwrap();
+    assert_eq!(rebuilt(&moved), Some((2, 2)), "the plane moved");
+    let partial = r.read_back().unwrap();
+    assert_eq!(partial.visibility, fresh(&r.scene).visibility, "ground");
+
+    // Without pass caching (`--timings`, the bench baseline) every frame rebuilds all.
+    let (_, t) = gpu.render_frames(
+        r.scene.clone(),
+        "plateaus",
+        Settings {
+            cache_light_passes: false,
+            ..s.clone()
+        },
+        2,
+    );
+    assert_eq!(rebuilt(&t[1]), Some((2, 2)));
+    assert!(
+        t[1].report().contains("(rebuilt 2 of 2 casters)"),
+        "{}",
+        t[1].report()
+    );
 }
 
 #[test]

@@ -35,12 +35,6 @@ vec2 vertex_normal_screen(vec3 p, vec2 s, float z) {
     return project_normal(p, z, s, n);
 }
 
-// glam's Vec2::angle_to: signed angle from a to b.
-float angle_to(vec2 a, vec2 b) {
-    float c = clamp(dot(a, b) / sqrt(dot(a, a) * dot(b, b)), -1.0, 1.0);
-    return acos(c) * (perp_dot(a, b) >= 0.0 ? 1.0 : -1.0);
-}
-
 // Segments of a fan over `sweep` radians (plus the overlap on both sides).
 uint fan_segments(float sweep) {
     float padded = abs(sweep) + 2.0 * FAN_OVERLAP;

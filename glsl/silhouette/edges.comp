@@ -1,34 +1,12 @@
 #version 450
 #extension GL_GOOGLE_include_directive : require
-// One thread per edge of one caster: is it a silhouette edge for this light (the facing
-// test and classification of src/silhouette/mod.rs), and if so its smoothie quad (build_edge
-// of src/silhouette/smoothie.rs), appended to the vertex buffer; the edge is then listed at
+// One thread per edge of one caster: is it a silhouette edge for this light (`classify` of
+// silhouette.glsl: the facing test and classification of src/silhouette/mod.rs), and if so
+// its smoothie quad (build_edge of src/silhouette/smoothie.rs), appended to the vertex buffer; the edge is then listed at
 // both of its welded ends for corners.comp.
 #include "silhouette/silhouette.glsl"
 
 layout(local_size_x = 64) in;
-
-const uint BACK = 0u;
-const uint FRONT = 1u;
-const uint DEGEN = 2u;
-
-bool degenerate(uint f) {
-    return all(equal(face_planes[f].xyz, vec3(0.0)));
-}
-
-uint facing(uint f, vec3 l) {
-    vec4 plane = face_planes[f];
-    if (all(equal(plane.xyz, vec3(0.0)))) {
-        return DEGEN;
-    }
-    // `precise`: no fused multiply-add, the same roundings as the CPU's
-    // `n.dot(light - p)` ((x + y) + z), so both paths agree on every face, even at grazing
-    // light where the product is a few ulps from 0.
-    precise vec3 dl = l - vec3(plane.w, face_p0yz[f]);
-    vec3 n = plane.xyz;
-    precise float s = n.x * dl.x + n.y * dl.y + n.z * dl.z;
-    return s > 0.0 ? FRONT : BACK;
-}
 
 // Which side of s0 -> s1 the valid faces' third vertices lie on (third_vertex_side).
 float third_vertex_side(uvec4 e, uint a, uint b, vec2 s0, vec2 s1) {
@@ -66,46 +44,14 @@ void main() {
         return;
     }
     uvec4 e = edges[ei];
-    uint valid = 0u;
-    uint n_front = 0u;
-    uint first_front = 0xffffffffu;
-    uint first_valid = 0xffffffffu;
-    vec3 l = light_obj();
     uint nf = face_count(e);
-    for (uint i = 0u; i < nf; ++i) {
-        uint ef = face_entry(e, i);
-        uint fa = facing(ef >> 1, l);
-        if (fa == DEGEN) {
-            continue;
-        }
-        valid += 1u;
-        if (first_valid == 0xffffffffu) {
-            first_valid = ef;
-        }
-        if (fa == FRONT) {
-            n_front += 1u;
-            if (first_front == 0xffffffffu) {
-                first_front = ef;
-            }
-        }
-    }
-    bool boundary = valid == 1u;
-    bool is_sil = valid > 0u && (boundary || (n_front > 0u && n_front < valid));
-    if (!is_sil) {
+    uint a, b, front_face;
+    uint flags = classify(e, a, b, front_face);
+    if (flags == 0u) {
         sil[ei] = 0u;
         return;
     }
-    // Along the front face's winding; a back-facing boundary face backwards (see mod.rs).
-    bool along = first_front != 0xffffffffu ? (first_front & 1u) != 0u : (first_valid & 1u) == 0u;
-    uint front_face = (first_front != 0xffffffffu ? first_front : first_valid) >> 1;
-    bool reversed = !along;
-    if (casters[g_caster].info.x != 0u) {
-        reversed = !reversed;
-    }
-    uint a = reversed ? e.y : e.x;
-    uint b = reversed ? e.x : e.y;
-    uint kind = boundary ? 1u : (valid == 2u ? 2u : 3u);
-    uint flags = SIL_EDGE | (reversed ? SIL_REVERSED : 0u) | (kind << SIL_KIND_SHIFT);
+    bool boundary = (flags >> SIL_KIND_SHIFT) == 1u;
 
     // build_edge: the quad from the edge outward by t.
     vec3 pa = world(a);

@@ -1,5 +1,7 @@
-// GPU silhouettes and smoothie geometry of every caster for one light: the bindings, the
-// push constants and the projection helpers shared by edges.comp, corners.comp and finish.comp.
+// GPU silhouettes of every caster for one light: the bindings, the push constants, the
+// silhouette classification (`classify`) and the projection helpers shared by the smoothie
+// emitters (edges.comp, corners.comp), the penumbra-map emitters (penumbra_*.comp, with
+// penumbra.glsl) and finish.comp.
 // The math mirrors src/silhouette/mod.rs (facing, classification) and
 // src/silhouette/smoothie.rs (edge quads, corner fans) line for line, so that the CPU and
 // GPU paths find the same silhouette edges and build the same smoothies; read those files'
@@ -67,7 +69,8 @@ layout(set = 0, binding = 14, std430) buffer Requested { uint requested[]; };
 layout(set = 0, binding = 15, std430) buffer DrawCommands { uvec4 draw_commands[]; };
 
 // Set 1, replaced when the CPU grows the vertex buffer: every caster's region of
-// SmoothieVertex (9 floats: uv, inv_depth, kind, anchor, dir, width).
+// SmoothieVertex (9 floats: uv, inv_depth, kind, anchor, dir, width) or, for penumbra-map,
+// PenumbraVertex (6 floats: position, zv_h, reach).
 layout(set = 1, binding = 0, std430) buffer Vertices { float vertices[]; };
 
 const uint SIL_EDGE = 1u;       // a silhouette edge
@@ -150,6 +153,91 @@ vec2 perp(vec2 v) {
 
 float perp_dot(vec2 a, vec2 b) {
     return a.x * b.y - a.y * b.x;
+}
+
+// glam's Vec2::angle_to: signed angle from a to b.
+float angle_to(vec2 a, vec2 b) {
+    float c = clamp(dot(a, b) / sqrt(dot(a, a) * dot(b, b)), -1.0, 1.0);
+    return acos(c) * (perp_dot(a, b) >= 0.0 ? 1.0 : -1.0);
+}
+
+const uint BACK = 0u;
+const uint FRONT = 1u;
+const uint DEGEN = 2u;
+
+bool degenerate(uint f) {
+    return all(equal(face_planes[f].xyz, vec3(0.0)));
+}
+
+uint facing(uint f, vec3 l) {
+    vec4 plane = face_planes[f];
+    if (all(equal(plane.xyz, vec3(0.0)))) {
+        return DEGEN;
+    }
+    // `precise`: no fused multiply-add, the same roundings as the CPU's
+    // `n.dot(light - p)` ((x + y) + z), so both paths agree on every face, even at grazing
+    // light where the product is a few ulps from 0.
+    precise vec3 dl = l - vec3(plane.w, face_p0yz[f]);
+    vec3 n = plane.xyz;
+    precise float s = n.x * dl.x + n.y * dl.y + n.z * dl.z;
+    return s > 0.0 ? FRONT : BACK;
+}
+
+// The facing test and classification of `classify_range` in src/silhouette/mod.rs for edge
+// e of caster g_caster: 0 when it is not a silhouette edge, else its SIL_EDGE,
+// SIL_REVERSED and kind bits, with a -> b its ends oriented as `SilhouetteEdge` and
+// front_face the face that oriented it. Shared by every emitter, so all GPU paths find the
+// same edges as the CPU.
+uint classify(uvec4 e, out uint a, out uint b, out uint front_face) {
+    uint valid = 0u;
+    uint n_front = 0u;
+    uint first_front = 0xffffffffu;
+    uint first_valid = 0xffffffffu;
+    vec3 l = light_obj();
+    uint nf = face_count(e);
+    for (uint i = 0u; i < nf; ++i) {
+        uint ef = face_entry(e, i);
+        uint fa = facing(ef >> 1, l);
+        if (fa == DEGEN) {
+            continue;
+        }
+        valid += 1u;
+        if (first_valid == 0xffffffffu) {
+            first_valid = ef;
+        }
+        if (fa == FRONT) {
+            n_front += 1u;
+            if (first_front == 0xffffffffu) {
+                first_front = ef;
+            }
+        }
+    }
+    a = e.x;
+    b = e.y;
+    front_face = 0u;
+    bool boundary = valid == 1u;
+    bool is_sil = valid > 0u && (boundary || (n_front > 0u && n_front < valid));
+    if (!is_sil) {
+        return 0u;
+    }
+    // Along the front face's winding; a back-facing boundary face backwards (see mod.rs).
+    bool along = first_front != 0xffffffffu ? (first_front & 1u) != 0u : (first_valid & 1u) == 0u;
+    front_face = (first_front != 0xffffffffu ? first_front : first_valid) >> 1;
+    bool reversed = !along;
+    if (casters[g_caster].info.x != 0u) {
+        reversed = !reversed;
+    }
+    a = reversed ? e.y : e.x;
+    b = reversed ? e.x : e.y;
+    uint kind = boundary ? 1u : (valid == 2u ? 2u : 3u);
+    return SIL_EDGE | (reversed ? SIL_REVERSED : 0u) | (kind << SIL_KIND_SHIFT);
+}
+
+// The oriented ends of silhouette edge e from its flags (as `classify` returned them).
+void oriented_ends(uvec4 e, uint flags, out uint a, out uint b) {
+    bool reversed = (flags & SIL_REVERSED) != 0u;
+    a = reversed ? e.y : e.x;
+    b = reversed ? e.x : e.y;
 }
 
 void put_vertex(uint i, vec2 uv, float inv_depth, float kind, vec2 anchor, vec2 dir, float width) {

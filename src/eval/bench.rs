@@ -299,8 +299,12 @@ fn path_name<S: serde::Serializer>(p: &SilhouettePath, s: S) -> Result<S::Ok, S:
     s.serialize_str(p.name())
 }
 
-/// Smoothies rows once per silhouette path when more than one is asked for (the others
-/// keep one row): `smoothies sil=cpu` beside `smoothies sil=gpu`, timed in the same run.
+/// Techniques with a CPU and a GPU silhouette path (`Settings::silhouettes`).
+pub const SILHOUETTE_TECHNIQUES: &[&str] = &["smoothies", "penumbra-map"];
+
+/// Rows of `SILHOUETTE_TECHNIQUES` once per silhouette path when more than one is asked for
+/// (the others keep one row): `smoothies sil=cpu` beside `smoothies sil=gpu`, timed in the
+/// same run.
 pub fn with_silhouette_paths(rows: Vec<Variant>, paths: &[SilhouettePath]) -> Vec<Variant> {
     let paths = dedup(paths);
     if paths.len() < 2 {
@@ -315,7 +319,7 @@ pub fn with_silhouette_paths(rows: Vec<Variant>, paths: &[SilhouettePath]) -> Ve
     }
     let mut out = Vec::new();
     for v in rows {
-        if v.technique == "smoothies" {
+        if SILHOUETTE_TECHNIQUES.contains(&v.technique) {
             for &p in &paths {
                 out.push(Variant {
                     label: format!("{} sil={}", v.label, p.name()),
@@ -652,6 +656,10 @@ pub struct PassStat {
 pub struct CpuStat {
     pub name: String,
     pub ms: Stat,
+    /// Casters whose geometry this work rebuilt per frame (0 in frames that skipped it), and
+    /// how many casters there are, for work that caches per caster (`plateaus/silhouettes`).
+    pub rebuilt: Option<Stat>,
+    pub casters: Option<usize>,
 }
 
 /// Everything measured at one sweep point.
@@ -1026,9 +1034,17 @@ pub fn summarise(timed: &[FrameTimings]) -> Timing {
                         .fold(0.0, |a, c| a + c.1)
                 })
                 .collect();
+            let counts: Vec<_> = timed.iter().map(|t| t.rebuilt_by(name)).collect();
+            let casters = counts.iter().flatten().map(|r| r.casters).max();
+            let rebuilt: Vec<f64> = counts
+                .iter()
+                .map(|r| r.map_or(0.0, |r| r.rebuilt as f64))
+                .collect();
             Stat::of(&ms).map(|ms| CpuStat {
                 name: name.into(),
                 ms,
+                rebuilt: casters.and_then(|_| Stat::of(&rebuilt)),
+                casters,
             })
         })
         .collect();

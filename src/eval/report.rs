@@ -240,11 +240,15 @@ pub fn markdown(res: &Results<'_>) -> String {
                     (None, None) => format!("{} n/a", short(&p.name)),
                 })
                 .collect();
-            cells.extend(
-                r.cpu
-                    .iter()
-                    .map(|c| format!("cpu {} {}", short(&c.name), ms(c.ms.median))),
-            );
+            cells.extend(r.cpu.iter().map(|c| match (&c.rebuilt, c.casters) {
+                (Some(k), Some(n)) => format!(
+                    "cpu {} {} (rebuilt {} of {n} casters)",
+                    short(&c.name),
+                    ms(c.ms.median),
+                    k.median
+                ),
+                _ => format!("cpu {} {}", short(&c.name), ms(c.ms.median)),
+            }));
             let _ = writeln!(
                 s,
                 "| {} | {} | {} |{motion} {} |",

@@ -49,7 +49,7 @@ pub struct Settings {
     pub accum_format: AccumFormat,
     /// Shadow rays per pixel of the `reference` technique (DESIGN.md: at least 256).
     pub reference_samples: u32,
-    /// Where smoothies find silhouettes and build their geometry.
+    /// Where smoothies and penumbra-map find silhouettes and build their geometry.
     pub silhouettes: SilhouettePath,
     /// Which SPIR-V the technique runs where a hand-tuned module exists (`--spirv`).
     pub spirv: SpirvChoice,
@@ -107,7 +107,8 @@ impl std::fmt::Display for SpirvChoice {
     }
 }
 
-/// Where the silhouette edges and the smoothie geometry are computed each frame.
+/// Where the silhouette edges and the smoothie / penumbra-map geometry are computed each
+/// frame.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum SilhouettePath {
     /// `Gpu` on a GPU, `Cpu` on a CPU driver (lavapipe), where the compute passes run on
@@ -115,7 +116,7 @@ pub enum SilhouettePath {
     Auto,
     /// Rayon over the edges, then an upload of the vertices (`silhouette::extract`).
     Cpu,
-    /// Compute passes writing the vertex buffer of an indirect draw (`silhouette::gpu`).
+    /// Compute passes writing the vertex buffer of indirect draws (`silhouette::gpu`).
     Gpu,
 }
 
@@ -644,6 +645,19 @@ impl<'c> Renderer<'c> {
         let words: Vec<u32> =
             crate::vk::read_buffer(self.ctx, &mut self.runner, gpu.silhouette_flags())?;
         Ok(Some(gpu.decode(&words)))
+    }
+
+    /// The geometry the GPU silhouette passes built, per caster (object index, the floats of
+    /// the vertices its indirect draw draws), or `None` when the technique does not run the
+    /// GPU path.
+    pub fn read_gpu_geometry(&mut self) -> Result<Option<crate::silhouette::gpu::CasterGeometry>> {
+        let Some(gpu) = self.technique.gpu_silhouettes() else {
+            return Ok(None);
+        };
+        let (commands, vertices) = gpu.geometry_buffers();
+        let commands: Vec<u32> = crate::vk::read_buffer(self.ctx, &mut self.runner, commands)?;
+        let floats: Vec<f32> = crate::vk::read_buffer(self.ctx, &mut self.runner, vertices)?;
+        Ok(Some(gpu.decode_geometry(&commands, &floats)))
     }
 
     /// How many casters the GPU silhouette passes rebuilt in the last frame that ran them.

@@ -54,6 +54,47 @@ pub struct Object {
     pub transform: Mat4,
     pub role: Role,
     pub albedo: Vec3,
+    bounds: BoundsCache,
+}
+
+/// The last `Object::world_bounds` and the (transform bits, mesh) it was computed for.
+/// Every frame fits the light's near/far and the camera's to every object's bounds (and
+/// smoothies its width to the casters'), several times over; recomputing them transforms
+/// every vertex of unmoved objects too (`dense-1m`: ~3M points per call). Holding the mesh's
+/// `Arc` keeps its address from being reused by a replacement mesh while cached; a mesh is
+/// never changed in place behind its `Arc`.
+#[derive(Default)]
+struct BoundsCache(std::sync::Mutex<Option<CachedBounds>>);
+
+/// Transform bits, the mesh, its world bounds.
+type CachedBounds = ([u32; 16], Arc<Mesh>, Aabb);
+
+impl BoundsCache {
+    fn get(&self, transform: &[u32; 16], mesh: &Arc<Mesh>) -> Option<Aabb> {
+        let slot = self.0.lock().ok()?;
+        let (t, m, b) = slot.as_ref()?;
+        (t == transform && Arc::ptr_eq(m, mesh)).then_some(*b)
+    }
+
+    fn set(&self, transform: [u32; 16], mesh: &Arc<Mesh>, bounds: Aabb) {
+        // A poisoned lock only means no caching.
+        if let Ok(mut slot) = self.0.lock() {
+            *slot = Some((transform, mesh.clone(), bounds));
+        }
+    }
+}
+
+impl Clone for BoundsCache {
+    fn clone(&self) -> Self {
+        let slot = self.0.lock().ok().and_then(|s| s.clone());
+        Self(std::sync::Mutex::new(slot))
+    }
+}
+
+impl std::fmt::Debug for BoundsCache {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("BoundsCache")
+    }
 }
 
 /// A spherical light of `radius` at `position`, shadow-mapped as a spotlight towards `target`.
@@ -254,19 +295,27 @@ impl Object {
             transform,
             role,
             albedo,
+            bounds: BoundsCache::default(),
         }
     }
 
     /// World-space bounds: the exact bounds of the transformed vertices (tighter than
-    /// transforming the object-space box).
+    /// transforming the object-space box). Cached until the transform or the mesh changes.
     pub fn world_bounds(&self) -> Aabb {
+        // Bits, not ==: -0.0 and 0.0 may give bounds that differ in the sign of a zero.
+        let key = self.transform.to_cols_array().map(f32::to_bits);
+        if let Some(b) = self.bounds.get(&key, &self.mesh) {
+            return b;
+        }
         let m = &self.mesh;
-        Aabb::from_points(
+        let b = Aabb::from_points(
             m.indices
                 .iter()
                 .filter_map(|&i| m.positions.get(i as usize))
                 .map(|&p| self.transform.transform_point3(p)),
-        )
+        );
+        self.bounds.set(key, &self.mesh, b);
+        b
     }
 
     /// The object's triangles in world space.
@@ -473,4 +522,40 @@ fn check_view(scene: &str, what: &str, position: Vec3, target: Vec3, fov_deg: f3
         bail!("scene '{scene}': {what} fov_deg {fov_deg} must be in (0, 180)");
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn uncached(o: &Object) -> Aabb {
+        Aabb::from_points(o.world_triangles().flatten())
+    }
+
+    #[test]
+    fn cached_world_bounds_follow_the_transform_and_the_mesh() {
+        let mut o = Object::new(
+            "box",
+            Arc::new(primitives::cuboid(Vec3::new(1.0, 2.0, 3.0))),
+            Mat4::from_translation(Vec3::X),
+            Role::Both,
+            Vec3::ONE,
+        );
+        let first = o.world_bounds();
+        assert_eq!(first, uncached(&o));
+        assert_eq!(o.world_bounds(), first, "cached");
+        o.transform = Mat4::from_rotation_y(0.7) * o.transform;
+        assert_ne!(o.world_bounds(), first, "a moved object has new bounds");
+        assert_eq!(o.world_bounds(), uncached(&o));
+        // A clone carries the cache and still follows its own transform.
+        let mut c = o.clone();
+        c.transform = Mat4::from_scale(Vec3::splat(2.0));
+        assert_eq!(c.world_bounds(), uncached(&c));
+        assert_eq!(o.world_bounds(), uncached(&o));
+        // Same transform, another mesh.
+        let before = o.world_bounds();
+        o.mesh = Arc::new(primitives::sphere(0.5, 8, 4));
+        assert_ne!(o.world_bounds(), before);
+        assert_eq!(o.world_bounds(), uncached(&o));
+    }
 }

@@ -1,52 +1,77 @@
-//! GPU silhouettes: the CPU path of this module's parent (`extract` + `build_smoothies`)
-//! as three compute passes per caster, writing the smoothie vertices straight into a
-//! vertex buffer drawn with one indirect draw: no readback, no per-frame upload (Chan &
-//! Durand's hoped-for "render to vertex array"; the seeds all name the CPU silhouette
-//! upload as their bottleneck).
+//! GPU silhouettes: the CPU path of this module's parent (`extract`, then `build_smoothies`
+//! or `penumbra::build_penumbra`) as a few compute dispatches, writing the geometry straight
+//! into a vertex buffer drawn with one indirect draw per caster: no readback, no per-frame
+//! upload but the casters' transforms (Chan & Durand's hoped-for "render to vertex array";
+//! the seeds all name the CPU silhouette upload as their bottleneck). One struct, two sets of
+//! emitters: [`GpuSilhouettes::new`] builds smoothies (`smoothies`),
+//! [`GpuSilhouettes::new_penumbra`] cones and sheets (`penumbra-map`); the buffers, the
+//! classification, the regions, the partial rebuilds and the draws are shared.
 //!
 //! # Passes (each ONE dispatch of `glsl/silhouette/*.comp` over every caster at once: on
 //! lavapipe a dispatch costs about as much as 3k edges of work, and `dense` has 36 casters)
-//! 1. `edges.comp`, one thread per edge: the facing test of its faces, the classification
-//!    (boundary / manifold / non-manifold), the orientation, and for a silhouette edge its
-//!    smoothie quad (6 vertices, appended with an atomic counter) and its outward direction;
-//!    the edge is listed at both welded ends (`incident`, up to 16 per vertex).
+//! Every first pass runs `classify` (glsl/silhouette/silhouette.glsl) per edge: the facing
+//! test of its faces, the classification (boundary / manifold / non-manifold) and the
+//! orientation, written to `sil`; then lists the edge at both welded ends (`incident`, up to
+//! 16 per vertex).
+//!
+//! Smoothies:
+//! 1. `edges.comp`, one thread per edge: `classify`, and for a silhouette edge its smoothie
+//!    quad (6 vertices, appended with an atomic counter) and its outward direction.
 //! 2. `corners.comp`, one thread per welded vertex: the corner fan where kept edges meet
 //!    (two edges: the arc between them; else the paper's special case).
 //! 3. `finish.comp`, one thread per caster: its `VkDrawIndirectCommand`, clamped to its
 //!    region of the vertex buffer.
 //!
+//! Penumbra map (`glsl/silhouette/penumbra.glsl` mirrors `penumbra.rs`):
+//! 1. `penumbra_edges.comp`, one thread per edge: `classify`; both ends of a silhouette edge
+//!    folded into the caster's bounding box of `blocker_reach` (atomicMax on order-preserving
+//!    keys of the tangent-unit points) or its "a vertex was skipped" flag.
+//! 2. `penumbra_reach.comp`, one thread per welded vertex on a silhouette: its distance from
+//!    the box centre, atomicMax'ed as float bits into the caster's `reach` (the bounding
+//!    circle's radius; all emitters read it).
+//! 3. `penumbra_emit.comp`, one thread per edge then one per welded vertex: the sheet of a
+//!    silhouette edge (6 vertices); the cone of a silhouette vertex (3 x up to
+//!    `CONE_SEGMENTS`), whose arc needs the sheet normals of its edges, recomputed from
+//!    their ends rather than waiting for another dispatch.
+//! 4. `finish.comp`, as above.
+//!
 //! Threads of a caster that did not move (and whose light did not change) return at once:
 //! its region and draw command stay as they were (partial rebuilds).
 //!
-//! The shaders mirror `silhouette::extract` and `smoothie::build_smoothies_width` rule for
-//! rule. The facing test is `precise` (no fused multiply-add) with the CPU's operation order
-//! and the CPU's object-space light, so both paths find exactly the same silhouette edges
-//! (`tests/gpu_silhouettes.rs` compares them as sets). The vertices may differ in the last
-//! bits (GPU sin/cos/atan), and their order differs (atomics): the smoothie pass MIN-blends
-//! both of its targets, so the order does not change the image.
+//! The shaders mirror `silhouette::extract`, `smoothie::build_smoothies_width` and
+//! `penumbra::build_penumbra` rule for rule. The facing test is `precise` (no fused
+//! multiply-add) with the CPU's operation order and the CPU's object-space light, so both
+//! paths find exactly the same silhouette edges (`tests/gpu_silhouettes.rs` compares them as
+//! sets). The vertices may differ in the last bits (GPU sin/cos/atan, fused multiply-adds;
+//! `tests/gpu_penumbra.rs` matches the cones and sheets to 1e-4 relative, ~1e-5 seen), and
+//! their order differs (atomics): both passes that draw them MIN-blend, so the order does
+//! not change the image.
 //!
 //! # Buffers
 //! Every caster's data one after the other, indices rebased. Static (built once from each
 //! `Adjacency`): positions (vec4), triangles (uvec4, w = degenerate), face normals (vec4),
 //! edges (uvec4: ends, first face entry, face count), edge faces (face << 1 | forward), the
 //! caster of each edge and of each welded vertex. Per frame: the casters' transforms (128
-//! bytes each, the only upload), `sil` (u32 per edge), `edge_dir` (vec2 per edge),
-//! `incident_count` (cleared) and `incident` (16 u32 per vertex), `requested` (u32 per
-//! caster, cleared), the draw commands (16 bytes per caster) and the vertex buffer, one
-//! region per caster.
+//! bytes each, the only upload besides the penumbra emitters' 144-byte light), `sil` (u32 per
+//! edge), `edge_dir` (vec2 per edge, smoothies), `incident_count` (cleared) and `incident`
+//! (16 u32 per vertex), `requested` (u32 per caster, cleared), the penumbra emitters' reach
+//! state (8 u32 per caster, cleared), the draw commands (16 bytes per caster) and the vertex
+//! buffer (`SmoothieVertex` or `PenumbraVertex`), one region per caster.
 //!
 //! # Capacity
 //! A caster's region starts at 1.5x what the CPU path builds for the scene's own light,
 //! plus 1024 vertices. A frame that needs more draws what fits (the shaders never write past
 //! a region), and the next frame's `prepare` grows the regions to 1.5x the request, with a
-//! warning on stderr: only a caster whose smoothies grow by half in one frame loses some,
+//! warning on stderr: only a caster whose geometry grows by half in one frame loses some,
 //! for one frame.
 //!
 //! # Limits
 //! A vertex where more than 16 silhouette edges meet keeps 16 of them (an arbitrary 16: the
 //! atomics decide) for its special-case fan; the CPU path keeps all. Silhouettes then still
-//! agree; that corner's fan may differ.
+//! agree; that corner's fan may differ. The penumbra emitters draw a whole cone at such a
+//! vertex (the CPU path draws an arc when exactly two of its edges have sheets).
 
+use super::penumbra::{build_penumbra, PenumbraKey, PenumbraVertex};
 use super::smoothie::{build_smoothies_width, GeometryKey, Width};
 use super::{extract, light_in_object, Adjacency};
 use crate::scene::{LightView, Object};
@@ -65,8 +90,8 @@ const MAX_INCIDENT: u64 = 16;
 const GROUP: u32 = 64;
 /// Most workgroups in one dispatch dimension (the guaranteed minimum of the limit).
 const MAX_GROUPS_X: u32 = 65535;
-/// Bytes of one smoothie vertex (`SmoothieVertex`).
-const VERTEX_BYTES: u64 = std::mem::size_of::<super::SmoothieVertex>() as u64;
+/// Words of per-caster reach state (REACH_WORDS in glsl/silhouette/penumbra.glsl).
+const REACH_WORDS: u64 = 8;
 /// Headroom of a caster's region over the CPU estimate (vertices).
 const REGION_SLACK: u32 = 1024;
 
@@ -89,6 +114,59 @@ struct CasterData {
     info: [u32; 4],
 }
 
+/// The penumbra emitters' per-frame constants; mirrors `PenumbraFrame` in
+/// glsl/silhouette/penumbra.glsl.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+struct PenumbraFrame {
+    view: [f32; 16],
+    view_inv: [f32; 16],
+    /// near, z_far, light radius, 0.
+    params: [f32; 4],
+}
+
+/// What the passes after the shared classification build from the silhouette edges.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Emitter {
+    /// Smoothie quads and corner fans (`SmoothieVertex`).
+    Smoothies,
+    /// Penumbra-map cones and sheets (`PenumbraVertex`).
+    Penumbra,
+}
+
+impl Emitter {
+    fn vertex_bytes(self) -> u64 {
+        match self {
+            Emitter::Smoothies => std::mem::size_of::<super::SmoothieVertex>() as u64,
+            Emitter::Penumbra => std::mem::size_of::<PenumbraVertex>() as u64,
+        }
+    }
+
+    fn what(self) -> &'static str {
+        match self {
+            Emitter::Smoothies => "smoothie",
+            Emitter::Penumbra => "penumbra-map",
+        }
+    }
+}
+
+/// What a caster's region was built for besides its model.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum BuildKey {
+    Smoothies(GeometryKey),
+    Penumbra(PenumbraKey),
+}
+
+/// The threads of one dispatch.
+#[derive(Clone, Copy, Debug)]
+enum Threads {
+    Edges,
+    Vertices,
+    /// Every edge, then every welded vertex.
+    EdgesThenVertices,
+    Casters,
+}
+
 /// Where one caster lives in the concatenated buffers.
 struct Caster {
     /// Index into `scene.objects`.
@@ -101,12 +179,12 @@ struct Caster {
     region_base: u32,
     capacity: u32,
     /// The light and model its region was built for.
-    built_for: Option<(GeometryKey, Mat4)>,
+    built_for: Option<(BuildKey, Mat4)>,
 }
 
 impl Caster {
     /// Its region was built for another light or model (or never).
-    fn stale(&self, key: GeometryKey, objects: &[Object]) -> bool {
+    fn stale(&self, key: BuildKey, objects: &[Object]) -> bool {
         self.built_for != Some((key, objects[self.object].transform))
     }
 }
@@ -118,6 +196,9 @@ pub type GpuEdge = (u32, u32, u32);
 /// Per caster: its object index and the silhouette edges the GPU found.
 pub type CasterSilhouettes = Vec<(usize, Vec<GpuEdge>)>;
 
+/// Per caster: its object index and the floats of the vertices its indirect draw draws.
+pub type CasterGeometry = Vec<(usize, Vec<f32>)>;
+
 /// `edges[].w` of an edge whose faces are listed in `edge_faces` (not exactly two).
 const FACE_LIST: u32 = u32::MAX;
 
@@ -125,8 +206,9 @@ const FACE_LIST: u32 = u32::MAX;
 const SIL_EDGE: u32 = 1;
 const SIL_REVERSED: u32 = 2;
 
-/// GPU silhouettes and smoothie geometry of every caster of a scene.
+/// GPU silhouettes and smoothie (or penumbra-map) geometry of every caster of a scene.
 pub struct GpuSilhouettes {
+    emitter: Emitter,
     casters: Vec<Caster>,
     edges: u32,
     welded_vertices: u32,
@@ -140,12 +222,15 @@ pub struct GpuSilhouettes {
     requested: Buffer,
     draw_commands: Buffer,
     vertices: Buffer,
+    /// Host-visible, penumbra emitters only (zero for smoothies).
+    penumbra_frame: Buffer,
+    /// Per caster `REACH_WORDS` (cleared every frame; penumbra emitters only).
+    reach_state: Buffer,
     set: DescriptorSet,
     /// Set 1: the vertex buffer (replaced when it grows).
     output_set: DescriptorSet,
-    edges_pipeline: Pipeline,
-    corners_pipeline: Pipeline,
-    finish_pipeline: Pipeline,
+    /// The dispatches in order: the classification with the first emitter, ..., finish.
+    stages: Vec<(Pipeline, Threads)>,
     /// Casters rebuilt by the last `record`.
     rebuilt: usize,
 }
@@ -160,6 +245,51 @@ impl GpuSilhouettes {
         adjacency: &[Option<Adjacency>],
         light: &LightView,
         width: Width,
+    ) -> Result<Option<Self>> {
+        Self::with_emitter(
+            ctx,
+            ubo,
+            objects,
+            adjacency,
+            Emitter::Smoothies,
+            |adj, o| {
+                let sil = extract(adj, o.transform, light.position);
+                build_smoothies_width(adj, &sil, o.transform, light, width)
+                    .vertices
+                    .len()
+            },
+        )
+    }
+
+    /// The same silhouettes with the penumbra-map emitters: cones and sheets
+    /// (`penumbra::build_penumbra`) for a light of radius `radius` with cone bases at depth
+    /// `z_far`, sized for `light`. `None` when no caster has an edge.
+    pub fn new_penumbra(
+        ctx: &Context,
+        ubo: &Buffer,
+        objects: &[Object],
+        adjacency: &[Option<Adjacency>],
+        light: &LightView,
+        radius: f32,
+        z_far: f32,
+    ) -> Result<Option<Self>> {
+        Self::with_emitter(ctx, ubo, objects, adjacency, Emitter::Penumbra, |adj, o| {
+            let sil = extract(adj, o.transform, light.position);
+            build_penumbra(adj, &sil, o.transform, light, radius, z_far)
+                .vertices
+                .len()
+        })
+    }
+
+    /// The shared buffers and the pipelines of `emitter`; `estimate` is the CPU path's
+    /// vertex count of one caster, which sizes its region.
+    fn with_emitter(
+        ctx: &Context,
+        ubo: &Buffer,
+        objects: &[Object],
+        adjacency: &[Option<Adjacency>],
+        emitter: Emitter,
+        estimate: impl Fn(&Adjacency, &Object) -> usize,
     ) -> Result<Option<Self>> {
         let mut casters = Vec::new();
         let mut positions: Vec<[f32; 4]> = Vec::new();
@@ -206,10 +336,7 @@ impl GpuSilhouettes {
             }
             edge_caster.extend(std::iter::repeat_n(id, adj.edges.len()));
             vertex_caster.extend(std::iter::repeat_n(id, adj.positions.len()));
-            let sil = extract(adj, o.transform, light.position);
-            let estimate = build_smoothies_width(adj, &sil, o.transform, light, width)
-                .vertices
-                .len() as u32;
+            let estimate = u32::try_from(estimate(adj, o)).unwrap_or(u32::MAX);
             let capacity = estimate
                 .saturating_add(estimate / 2)
                 .saturating_add(REGION_SLACK);
@@ -284,11 +411,27 @@ impl GpuSilhouettes {
         requested.write(0, &vec![0; 4 * n_casters as usize])?;
         let draw_commands = gpu(
             16 * n_casters,
-            storage | BufferUsageFlags::INDIRECT_BUFFER | BufferUsageFlags::TRANSFER_DST,
+            storage
+                | BufferUsageFlags::INDIRECT_BUFFER
+                | BufferUsageFlags::TRANSFER_DST
+                | BufferUsageFlags::TRANSFER_SRC,
             MemoryLocation::GpuOnly,
             "draw commands",
         )?;
-        let vertices = vertex_buffer(ctx, region_base)?;
+        let mut penumbra_frame = gpu(
+            std::mem::size_of::<PenumbraFrame>() as u64,
+            storage,
+            MemoryLocation::CpuToGpu,
+            "penumbra-map light",
+        )?;
+        penumbra_frame.write(0, bytemuck::bytes_of(&PenumbraFrame::zeroed()))?;
+        let reach_state = gpu(
+            4 * REACH_WORDS * n_casters,
+            storage | BufferUsageFlags::TRANSFER_DST,
+            MemoryLocation::GpuOnly,
+            "caster reach",
+        )?;
+        let vertices = vertex_buffer(ctx, emitter, region_base)?;
         let mut resources = vec![Resource::Uniform(ubo)];
         resources.extend(statics.iter().map(Resource::Storage));
         resources.extend(
@@ -300,6 +443,8 @@ impl GpuSilhouettes {
                 &incident,
                 &requested,
                 &draw_commands,
+                &penumbra_frame,
+                &reach_state,
             ]
             .into_iter()
             .map(Resource::Storage),
@@ -311,10 +456,49 @@ impl GpuSilhouettes {
             Pipeline::compute(ctx, name, spirv, &[&set, &output_set], push)
                 .with_context(|| format!("creating the {name} pipeline"))
         };
-        let edges_pipeline = make("silhouette/edges", shaders::SILHOUETTE_EDGES_COMP)?;
-        let corners_pipeline = make("silhouette/corners", shaders::SILHOUETTE_CORNERS_COMP)?;
-        let finish_pipeline = make("silhouette/finish", shaders::SILHOUETTE_FINISH_COMP)?;
+        let finish = (
+            make("silhouette/finish", shaders::SILHOUETTE_FINISH_COMP)?,
+            Threads::Casters,
+        );
+        let stages = match emitter {
+            Emitter::Smoothies => vec![
+                (
+                    make("silhouette/edges", shaders::SILHOUETTE_EDGES_COMP)?,
+                    Threads::Edges,
+                ),
+                (
+                    make("silhouette/corners", shaders::SILHOUETTE_CORNERS_COMP)?,
+                    Threads::Vertices,
+                ),
+                finish,
+            ],
+            Emitter::Penumbra => vec![
+                (
+                    make(
+                        "silhouette/penumbra_edges",
+                        shaders::SILHOUETTE_PENUMBRA_EDGES_COMP,
+                    )?,
+                    Threads::Edges,
+                ),
+                (
+                    make(
+                        "silhouette/penumbra_reach",
+                        shaders::SILHOUETTE_PENUMBRA_REACH_COMP,
+                    )?,
+                    Threads::Vertices,
+                ),
+                (
+                    make(
+                        "silhouette/penumbra_emit",
+                        shaders::SILHOUETTE_PENUMBRA_EMIT_COMP,
+                    )?,
+                    Threads::EdgesThenVertices,
+                ),
+                finish,
+            ],
+        };
         Ok(Some(Self {
+            emitter,
             casters,
             edges: n_edges as u32,
             welded_vertices: n_verts as u32,
@@ -327,11 +511,11 @@ impl GpuSilhouettes {
             requested,
             draw_commands,
             vertices,
+            penumbra_frame,
+            reach_state,
             set,
             output_set,
-            edges_pipeline,
-            corners_pipeline,
-            finish_pipeline,
+            stages,
             rebuilt: 0,
         }))
     }
@@ -345,8 +529,8 @@ impl GpuSilhouettes {
             if asked > c.capacity {
                 let capacity = asked.saturating_add(asked / 2);
                 eprintln!(
-                    "warning: GPU smoothies of object {} needed {asked} vertices, {} fit: the last frame lost some; the region grows to {capacity}",
-                    c.object, c.capacity
+                    "warning: GPU {} geometry of object {} needed {asked} vertices, {} fit: the last frame lost some; the region grows to {capacity}",
+                    self.emitter.what(), c.object, c.capacity
                 );
                 c.capacity = capacity;
                 grew = true;
@@ -359,7 +543,7 @@ impl GpuSilhouettes {
                 c.built_for = None;
                 base = base.saturating_add(c.capacity);
             }
-            self.vertices = vertex_buffer(ctx, base)?;
+            self.vertices = vertex_buffer(ctx, self.emitter, base)?;
             self.output_set = output_set(ctx, &self.vertices)?;
             self.requested.write(0, &vec![0; 4 * self.casters.len()])?;
         }
@@ -368,14 +552,22 @@ impl GpuSilhouettes {
 
     /// How many casters must be rebuilt for this light and these transforms.
     pub fn dirty(&self, objects: &[Object], light: &LightView, width: Width) -> usize {
-        let key = GeometryKey::new(light, width);
+        self.dirty_for(objects, BuildKey::Smoothies(GeometryKey::new(light, width)))
+    }
+
+    /// `dirty` for the penumbra-map emitters.
+    pub fn dirty_penumbra(&self, objects: &[Object], key: PenumbraKey) -> usize {
+        self.dirty_for(objects, BuildKey::Penumbra(key))
+    }
+
+    fn dirty_for(&self, objects: &[Object], key: BuildKey) -> usize {
         self.casters
             .iter()
             .filter(|c| c.stale(key, objects))
             .count()
     }
 
-    /// Records the three passes for the casters whose model or light changed since their
+    /// Records the smoothie passes for the casters whose model or light changed since their
     /// region was built (all of them when `force`), then the barrier to the draws.
     pub fn record(
         &mut self,
@@ -385,7 +577,49 @@ impl GpuSilhouettes {
         width: Width,
         force: bool,
     ) -> Result<()> {
-        let key = GeometryKey::new(light, width);
+        anyhow::ensure!(
+            self.emitter == Emitter::Smoothies,
+            "GpuSilhouettes::record on {} emitters",
+            self.emitter.what()
+        );
+        let key = BuildKey::Smoothies(GeometryKey::new(light, width));
+        self.record_for(rec, objects, light, key, force)
+    }
+
+    /// `record` for the penumbra-map emitters: cones and sheets for `key` (the light's
+    /// radius and cone-base depth with `light`).
+    pub fn record_penumbra(
+        &mut self,
+        rec: &mut Recorder<'_>,
+        objects: &[Object],
+        light: &LightView,
+        key: PenumbraKey,
+        force: bool,
+    ) -> Result<()> {
+        anyhow::ensure!(
+            self.emitter == Emitter::Penumbra,
+            "GpuSilhouettes::record_penumbra on {} emitters",
+            self.emitter.what()
+        );
+        let constants = PenumbraFrame {
+            view: light.view.to_cols_array(),
+            // The CPU path's own inverse, so both paths place the cone bases alike.
+            view_inv: light.view.inverse().to_cols_array(),
+            params: [key.near, key.z_far, key.radius, 0.0],
+        };
+        self.penumbra_frame
+            .write(0, bytemuck::bytes_of(&constants))?;
+        self.record_for(rec, objects, light, BuildKey::Penumbra(key), force)
+    }
+
+    fn record_for(
+        &mut self,
+        rec: &mut Recorder<'_>,
+        objects: &[Object],
+        light: &LightView,
+        key: BuildKey,
+        force: bool,
+    ) -> Result<()> {
         let data: Vec<CasterData> = self
             .casters
             .iter()
@@ -398,6 +632,9 @@ impl GpuSilhouettes {
         self.rebuilt = data.iter().filter(|d| d.info[3] != 0).count();
         rec.fill_buffer(&self.incident_count, 0);
         rec.fill_buffer(&self.requested, 0);
+        if self.emitter == Emitter::Penumbra {
+            rec.fill_buffer(&self.reach_state, 0);
+        }
         rec.memory_barrier(
             PipelineStageFlags2::CLEAR,
             AccessFlags2::TRANSFER_WRITE,
@@ -412,12 +649,7 @@ impl GpuSilhouettes {
                 0,
             ],
         };
-        let stages = [
-            (&self.edges_pipeline, self.edges),
-            (&self.corners_pipeline, self.welded_vertices),
-            (&self.finish_pipeline, self.casters.len() as u32),
-        ];
-        for (k, (pipeline, threads)) in stages.into_iter().enumerate() {
+        for (k, (pipeline, threads)) in self.stages.iter().enumerate() {
             if k > 0 {
                 rec.memory_barrier(
                     PipelineStageFlags2::COMPUTE_SHADER,
@@ -426,6 +658,12 @@ impl GpuSilhouettes {
                     AccessFlags2::SHADER_STORAGE_READ | AccessFlags2::SHADER_STORAGE_WRITE,
                 );
             }
+            let threads = match threads {
+                Threads::Edges => self.edges,
+                Threads::Vertices => self.welded_vertices,
+                Threads::EdgesThenVertices => self.edges.saturating_add(self.welded_vertices),
+                Threads::Casters => self.casters.len() as u32,
+            };
             rec.bind_pipeline(pipeline);
             rec.bind_sets(pipeline, &[&self.set, &self.output_set]);
             rec.push_constants(pipeline, bytemuck::bytes_of(&push));
@@ -461,7 +699,7 @@ impl GpuSilhouettes {
         self.rebuilt
     }
 
-    /// One indirect draw per caster, with the smoothie pipeline bound.
+    /// One indirect draw per caster, with the smoothie (or penumbra) pipeline bound.
     pub fn draw(&self, rec: &mut Recorder<'_>) {
         rec.bind_vertex_buffer(&self.vertices);
         for i in 0..self.casters.len() {
@@ -472,6 +710,28 @@ impl GpuSilhouettes {
     /// The per-edge silhouette flags of every caster (for `decode`, after a readback).
     pub fn silhouette_flags(&self) -> &Buffer {
         &self.sil
+    }
+
+    /// The indirect draw commands (4 words per caster) and the vertex buffer, for
+    /// `decode_geometry` after a readback.
+    pub fn geometry_buffers(&self) -> (&Buffer, &Buffer) {
+        (&self.draw_commands, &self.vertices)
+    }
+
+    /// Per caster: its object index and the floats of the vertices its draw command draws,
+    /// from the words of `geometry_buffers` (`floats`: the whole vertex buffer).
+    pub fn decode_geometry(&self, commands: &[u32], floats: &[f32]) -> CasterGeometry {
+        let per_vertex = (self.emitter.vertex_bytes() / 4) as usize;
+        self.casters
+            .iter()
+            .enumerate()
+            .map(|(i, c)| {
+                let cmd = commands.get(4 * i..4 * i + 4).unwrap_or(&[0; 4]);
+                let (count, first) = (cmd[0] as usize, cmd[2] as usize);
+                let range = first * per_vertex..(first + count) * per_vertex;
+                (c.object, floats.get(range).unwrap_or(&[]).to_vec())
+            })
+            .collect()
     }
 
     /// The silhouette edges of every caster (object index, caster-local edges) from the
@@ -502,13 +762,16 @@ impl GpuSilhouettes {
     }
 }
 
-fn vertex_buffer(ctx: &Context, vertices: u32) -> Result<Buffer> {
+fn vertex_buffer(ctx: &Context, emitter: Emitter, vertices: u32) -> Result<Buffer> {
     Buffer::new(
         ctx,
-        u64::from(vertices) * VERTEX_BYTES,
-        BufferUsageFlags::STORAGE_BUFFER | BufferUsageFlags::VERTEX_BUFFER,
+        u64::from(vertices) * emitter.vertex_bytes(),
+        // TRANSFER_SRC: the tests read the geometry back.
+        BufferUsageFlags::STORAGE_BUFFER
+            | BufferUsageFlags::VERTEX_BUFFER
+            | BufferUsageFlags::TRANSFER_SRC,
         MemoryLocation::GpuOnly,
-        "silhouettes: smoothie vertices",
+        &format!("silhouettes: {} vertices", emitter.what()),
     )
 }
 

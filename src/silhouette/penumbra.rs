@@ -1,6 +1,8 @@
 //! CPU penumbra-map geometry (Wyman & Hansen 2003, Sec. 3, Fig. 4): a cone at every
 //! silhouette vertex and a sheet along every silhouette edge, in world space, emitted as one
-//! triangle list of [`PenumbraVertex`] that the penumbra pass draws from the light.
+//! triangle list of [`PenumbraVertex`] that the penumbra pass draws from the light. The GPU
+//! path (`silhouette::gpu::GpuSilhouettes::new_penumbra`, glsl/silhouette/penumbra*.glsl,
+//! penumbra_*.comp) mirrors every rule below; keep the two in step.
 //!
 //! # Spaces
 //! Built in the light's view space (light centre at the origin, looking down -z, x right and
@@ -87,6 +89,30 @@ pub struct PenumbraGeometry {
     pub skipped_vertices: usize,
     /// Edges without a sheet: a skipped end, coincident base centres or one cone inside the other.
     pub skipped_edges: usize,
+}
+
+/// What an object's cones and sheets depend on besides its model matrix: a cache keyed by
+/// this and the model rebuilds only the casters that moved (the CPU path's `CasterCache`, the
+/// GPU path's per-caster regions).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PenumbraKey {
+    pub view_proj: Mat4,
+    pub near: f32,
+    /// The light radius Lr.
+    pub radius: f32,
+    /// The cone bases' linear depth.
+    pub z_far: f32,
+}
+
+impl PenumbraKey {
+    pub fn new(light: &LightView, radius: f32, z_far: f32) -> Self {
+        Self {
+            view_proj: light.view_proj,
+            near: light.near,
+            radius,
+            z_far,
+        }
+    }
 }
 
 /// `reach` of an object whose extent is unknown (a silhouette vertex was skipped): so large

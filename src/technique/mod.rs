@@ -71,7 +71,8 @@ pub trait Technique {
         None
     }
 
-    /// The GPU silhouette passes' state, for the CPU-vs-GPU tests (smoothies on the GPU path).
+    /// The GPU silhouette passes' state, for the CPU-vs-GPU tests (smoothies and penumbra-map on
+    /// the GPU path).
     fn gpu_silhouettes(&self) -> Option<&crate::silhouette::gpu::GpuSilhouettes> {
         None
     }

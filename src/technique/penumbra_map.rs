@@ -7,20 +7,33 @@
 //! umbra is the hard shadow, the penumbra grows outward from it.
 //!
 //! ## Passes, in order
-//! 0. CPU `penumbra-map/silhouettes` — per caster: brute-force silhouette edges from the light
-//!    centre (`silhouette::extract` over the adjacency built once per mesh), then the cones and
-//!    sheets in world space (`silhouette::penumbra::build_penumbra`, see its doc for the
-//!    geometry): cone tip at vertex v (linear light depth Zv), base at depth Z_far with the
-//!    paper's radius C_r = (Z_far - Zv) Lr / Zv (Sec. 3, third bullet; Lr = the light radius R),
-//!    16 triangles each, one cone per distinct silhouette vertex however many silhouette edges
-//!    meet there (the paper's 3..8-edge vertices); one sheet per edge, the plane through the
-//!    edge tangent to the light disc on the inner side, i.e. the exact outer tangent of the
-//!    two cones (fourth bullet). That quad is planar, so the paper's subdivision of
-//!    "extremely non-planar" quads is never needed. Z_far = 0.995 x the light's far plane
-//!    (`render::fit_light` puts it 1 % beyond the farthest scene corner, so every receiver is
-//!    nearer; the margin keeps the bases inside the clip volume). Uploaded to a host-visible
-//!    vertex buffer (24 bytes a vertex: world position, (Zv k, k), the object's angular
-//!    radius `reach` from the light centre). R = 0: no geometry.
+//! 0. `penumbra-map/silhouettes` — per caster: brute-force silhouette edges from the light
+//!    centre over the edge adjacency built once per mesh, then the cones and sheets in world
+//!    space (see `silhouette::penumbra` for the geometry): cone tip at vertex v (linear light
+//!    depth Zv), base at depth Z_far with the paper's radius C_r = (Z_far - Zv) Lr / Zv
+//!    (Sec. 3, third bullet; Lr = the light radius R), 16 triangles each, one cone per
+//!    distinct silhouette vertex however many silhouette edges meet there (the paper's
+//!    3..8-edge vertices); one sheet per edge, the plane through the edge tangent to the light
+//!    disc on the inner side, i.e. the exact outer tangent of the two cones (fourth bullet).
+//!    That quad is planar, so the paper's subdivision of "extremely non-planar" quads is never
+//!    needed. Z_far = 0.995 x the light's far plane (`render::fit_light` puts it 1 % beyond
+//!    the farthest scene corner, so every receiver is nearer; the margin keeps the bases
+//!    inside the clip volume). 24 bytes a vertex: world position, (Zv k, k), the object's
+//!    angular radius `reach` from the light centre. R = 0: no geometry (the pass is skipped).
+//!    Two interchangeable paths (`--silhouettes`, `Settings::silhouettes`):
+//!    - GPU (default on a GPU): `silhouette::gpu::GpuSilhouettes::new_penumbra`, four
+//!      compute dispatches over every caster (glsl/silhouette/penumbra_*.comp, finish.comp):
+//!      the smoothie path's silhouette classification, a per-caster reduction for `reach`
+//!      (atomicMax), the cones and sheets, the indirect-draw commands; written straight into
+//!      a device-local vertex buffer drawn with one indirect draw per caster. No readback, no
+//!      upload but the casters' transforms and the light. A timed pass.
+//!    - CPU (default on lavapipe, where the compute passes share the CPU's two cores and are
+//!      slower, BENCHMARKS.md): `silhouette::extract` + `penumbra::build_penumbra` (rayon),
+//!      uploaded to a host-visible vertex buffer. A `cpu` timing.
+//!
+//!    Both build the same triangles (tests/gpu_penumbra.rs) and keep each caster's geometry
+//!    until its model or the light changes (a moved caster rebuilds only its own). Z_far is
+//!    part of the light: a receiver that moves the far plane rebuilds every caster.
 //! 1. `penumbra-map/shadow_map` — the shared `render::passes::ShadowMap`: every object from
 //!    the light into one R32G32_SFLOAT target, clear 1e30 (`FAR_DEPTH`), blend MIN, no depth
 //!    attachment; r = the nearest caster's linear depth (the shadow map of the final test),
@@ -76,9 +89,11 @@
 
 use super::{FrameInput, Technique, TechniqueInfo, TechniqueInit};
 use crate::render::passes::{CasterCache, DynamicVertices, FinalPass, ShadowMap};
+use crate::render::{fit_light, SilhouettePath};
 use crate::scene::LightView;
 use crate::shaders;
-use crate::silhouette::penumbra::{build_penumbra, PenumbraVertex};
+use crate::silhouette::gpu::GpuSilhouettes;
+use crate::silhouette::penumbra::{build_penumbra, PenumbraKey, PenumbraVertex};
 use crate::silhouette::{self, Adjacency};
 use crate::vk::{
     Blend, Context, CullModeFlags, DescriptorSet, Filter, Format, GraphicsPipelineDesc, Image,
@@ -119,10 +134,15 @@ pub struct PenumbraMap {
     _nearest: Sampler,
     /// Edge adjacency per object (None for non-casters), built once.
     adjacency: Vec<Option<Adjacency>>,
-    /// Per caster, its cones and sheets and what they were built for: a moved caster
-    /// rebuilds only its own.
-    cache: CasterCache<GeometryKey, PenumbraVertex>,
+    /// CPU path: per caster, its cones and sheets and what they were built for: a moved
+    /// caster rebuilds only its own.
+    cache: CasterCache<PenumbraKey, PenumbraVertex>,
     vertices: DynamicVertices,
+    /// GPU path: silhouettes, cones and sheets by compute, drawn indirectly (None on the CPU
+    /// path, or when no caster has an edge).
+    gpu_silhouettes: Option<GpuSilhouettes>,
+    /// Whether the penumbra pass draws anything this frame (R > 0).
+    draw_geometry: bool,
 }
 
 impl PenumbraMap {
@@ -187,6 +207,27 @@ impl PenumbraMap {
             &final_set,
         )?;
         let adjacency = silhouette::caster_adjacency(init.scene, |_| true)?;
+        let gpu_silhouettes = match init.settings.silhouettes.resolve(ctx) {
+            SilhouettePath::Cpu | SilhouettePath::Auto => None,
+            SilhouettePath::Gpu => {
+                // Sized for the scene's own light; `prepare` grows it when a frame needs more.
+                let light = fit_light(init.scene);
+                let radius = init
+                    .settings
+                    .light_radius
+                    .unwrap_or(init.scene.light.radius);
+                GpuSilhouettes::new_penumbra(
+                    ctx,
+                    init.ubo,
+                    &init.scene.objects,
+                    &adjacency,
+                    &light,
+                    radius,
+                    cone_base_depth(&light),
+                )
+                .context("creating the GPU penumbra-map geometry passes")?
+            }
+        };
         Ok(Box::new(Self {
             shadow,
             penumbra,
@@ -198,21 +239,20 @@ impl PenumbraMap {
             cache: CasterCache::new(adjacency.len()),
             adjacency,
             vertices: DynamicVertices::new("penumbra-map cones and sheets"),
+            gpu_silhouettes,
+            draw_geometry: false,
         }))
     }
 
-    /// Silhouettes, cones and sheets of every caster for this light.
-    /// Silhouettes, cones and sheets of every caster that moved since its were built (of
-    /// all when the light changed); returns how many were rebuilt.
-    fn build_geometry(&mut self, frame: &FrameInput<'_>, force: bool) -> usize {
-        let z_far = cone_base_depth(frame.light);
-        let (light, radius) = (frame.light, frame.light_radius);
-        let key = GeometryKey {
-            view_proj: light.view_proj,
-            near: light.near,
-            radius,
-            z_far,
-        };
+    /// How many objects cast (have an edge adjacency).
+    fn casters(&self) -> usize {
+        self.adjacency.iter().flatten().count()
+    }
+
+    /// CPU path: silhouettes, cones and sheets of every caster that moved since they were
+    /// built (of all when the light changed); returns how many were rebuilt.
+    fn build_geometry(&mut self, frame: &FrameInput<'_>, key: PenumbraKey, force: bool) -> usize {
+        let (light, radius, z_far) = (frame.light, key.radius, key.z_far);
         self.cache.update(
             &frame.scene.objects,
             &self.adjacency,
@@ -224,15 +264,6 @@ impl PenumbraMap {
             },
         )
     }
-}
-
-/// What a caster's cones and sheets depend on besides its model.
-#[derive(Clone, Copy, Debug, PartialEq)]
-struct GeometryKey {
-    view_proj: glam::Mat4,
-    near: f32,
-    radius: f32,
-    z_far: f32,
 }
 
 impl Technique for PenumbraMap {
@@ -255,25 +286,50 @@ impl Technique for PenumbraMap {
         frame: &FrameInput<'_>,
     ) -> Result<()> {
         // R = 0 (a point light): every cone has radius 0, the result is `hard`.
-        let vertices = if frame.light_radius > 0.0 {
-            // Without pass caching every frame rebuilds everything (the bench's baseline).
-            let force = !frame.settings.cache_light_passes;
-            rec.cpu("penumbra-map/silhouettes", || {
-                self.build_geometry(frame, force)
-            });
-            self.cache.concat()
+        self.draw_geometry = frame.light_radius > 0.0;
+        // Without pass caching every frame rebuilds everything (the bench's baseline).
+        let force = !frame.settings.cache_light_passes;
+        let casters = self.casters();
+        let key = PenumbraKey::new(
+            frame.light,
+            frame.light_radius,
+            cone_base_depth(frame.light),
+        );
+        if !self.draw_geometry {
+            if self.gpu_silhouettes.is_some() {
+                rec.skip("penumbra-map/silhouettes", "light radius 0: hard shadows");
+            }
+            self.vertices.upload::<PenumbraVertex>(ctx, &[])?;
+        } else if let Some(gpu) = self.gpu_silhouettes.as_mut() {
+            gpu.prepare(ctx)?;
+            if !force && gpu.dirty_penumbra(&frame.scene.objects, key) == 0 {
+                rec.skip("penumbra-map/silhouettes", "light and casters unchanged");
+            } else {
+                rec.pass("penumbra-map/silhouettes", |rec| {
+                    gpu.record_penumbra(rec, &frame.scene.objects, frame.light, key, force)
+                })?;
+                rec.rebuilt("penumbra-map/silhouettes", gpu.rebuilt(), casters);
+            }
         } else {
-            Vec::new()
-        };
-        self.vertices.upload(ctx, &vertices)?;
+            let rebuilt = rec.cpu("penumbra-map/silhouettes", || {
+                self.build_geometry(frame, key, force)
+            });
+            rec.rebuilt("penumbra-map/silhouettes", rebuilt, casters);
+            let vertices = self.cache.concat();
+            self.vertices.upload(ctx, &vertices)?;
+        }
 
         self.shadow.pass(rec, frame.gpu)?;
         rec.pass("penumbra-map/penumbra", |rec| {
             rec.begin_rendering(&[(&self.penumbra, Some([1.0; 4]))], None);
-            if !self.vertices.is_empty() {
+            if self.draw_geometry {
                 rec.bind_pipeline(&self.penumbra_pipeline);
                 rec.bind_sets(&self.penumbra_pipeline, &[&self.penumbra_set]);
-                self.vertices.draw(rec);
+                match &self.gpu_silhouettes {
+                    Some(gpu) => gpu.draw(rec),
+                    None if !self.vertices.is_empty() => self.vertices.draw(rec),
+                    None => {}
+                }
             }
             rec.end_rendering();
             rec.transition(&self.penumbra, ImageLayout::SHADER_READ_ONLY_OPTIMAL);
@@ -283,9 +339,11 @@ impl Technique for PenumbraMap {
     }
 
     fn light_passes(&self) -> Vec<String> {
-        ["penumbra-map/shadow_map", "penumbra-map/penumbra"]
-            .map(String::from)
-            .to_vec()
+        let mut passes = vec!["penumbra-map/shadow_map", "penumbra-map/penumbra"];
+        if self.gpu_silhouettes.is_some() {
+            passes.insert(0, "penumbra-map/silhouettes");
+        }
+        passes.into_iter().map(String::from).collect()
     }
 
     fn record_final(
@@ -304,5 +362,9 @@ impl Technique for PenumbraMap {
             "penumbra_map" => Some(&self.penumbra),
             _ => None,
         }
+    }
+
+    fn gpu_silhouettes(&self) -> Option<&GpuSilhouettes> {
+        self.gpu_silhouettes.as_ref()
     }
 }

@@ -41,18 +41,38 @@
 //! into an N x N grid with N = ceil(sqrt(|r1 - r2| / texel)) (the bilinear cross term then
 //! bends less than 1/4 texel inside a cell). No sheet when one disc holds the other
 //! (|a| >= 1): its cone covers the other. Cones are fans of clamp(2 r / texel, 8, 64) segments
-//! (chord sagitta under ~0.3 texel). Each silhouette vertex gets one cone per frame (the
-//! paper's mailbox, a frame stamp per welded vertex).
+//! (chord sagitta under ~0.3 texel). Each silhouette vertex gets one cone per caster build
+//! (the paper's mailbox, a build stamp per welded vertex of that caster; a vertex belongs to
+//! one caster, so per-caster builds keep "one cone per vertex per frame").
 //!
 //! Texture region: the plane object's bounding rectangle (in the plane) clipped to the light
 //! frustum (Sutherland-Hodgman against its four sides and near plane), its bounding square
-//! in plane coordinates plus one texel each side, at `Settings::shadow_res`^2 texels.
+//! in plane coordinates plus one texel each side, at `Settings::shadow_res`^2 texels. It
+//! depends on the plane's transform, the light (position, target, fov) and the resolution,
+//! not on the casters: the frustum's sides do not move with the fitted near/far, and
+//! `render::fit_light` puts near 1 % in front of every object it sees, the plane included,
+//! so the near plane never cuts the lit part of the plane (only its far * 1e-4 floor could,
+//! for a plane almost touching the light).
+//!
+//! ## What a frame rebuilds
+//! Cones and sheets are cached per caster (`render::passes::CasterCache`) with the key
+//! (`PlaneFrame`, R): a caster whose model matrix changed rebuilds only its own silhouette
+//! and geometry, the others are reused and everything is concatenated in object order and
+//! uploaded (the same vertex buffer a full rebuild makes, so the same image bit for bit). A
+//! change of the key — light moved or resized, plane moved, `shadow_res` — rebuilds every
+//! caster. `--timings` and the bench report print `cpu plateaus/silhouettes ... (rebuilt K
+//! of N casters)` (`render --timings` rebuilds every pass of its timed frames: N of N). The
+//! GPU passes redraw every caster whenever anything moved: the texture is one image whose
+//! texels hold the darkest of all casters' plateaus, so a moved caster's old plateaus cannot
+//! be taken out without redrawing the others (likewise the shadow map). A frame whose light
+//! and casters did not move skips all three light passes (`render::Renderer::render`).
 //!
 //! ## Passes, in order
-//! 0. CPU `plateaus/silhouettes` (only when R > 0) — per caster (not the plane) silhouette
-//!    edges from the light centre (`silhouette::extract` over an `Adjacency` built once), then
-//!    cones and sheets in the texture's clip space (x, y, depth), 12 bytes a vertex, uploaded
-//!    to a host-visible vertex buffer.
+//! 0. CPU `plateaus/silhouettes` (only when R > 0) — per caster (not the plane) that moved
+//!    (see above) silhouette edges from the light centre (`silhouette::extract` over an
+//!    `Adjacency` built once), then cones and sheets in the texture's clip space (x, y,
+//!    depth), 12 bytes a vertex; every caster's cached geometry is uploaded to a host-visible
+//!    vertex buffer.
 //! 1. `plateaus/drop_shadow` — casters (every caster but the plane) through the matrix of (P1)
 //!    then the top-down orthographic map, clip z = 0. Attachments: `plateaus` R32_SFLOAT
 //!    penumbra fraction, clear 1.0 (lit), no blend; D32_SFLOAT, clear 1.0, LESS, write.
@@ -86,7 +106,7 @@
 
 use super::{FrameInput, Technique, TechniqueInfo, TechniqueInit};
 use crate::render::gpu_scene::{GpuObject, DRAW_PUSH_BYTES, SCENE_ATTRIBUTES, SCENE_VERTEX_STRIDE};
-use crate::render::passes::{falloff_lut, DynamicVertices, FinalPass, ShadowMap};
+use crate::render::passes::{falloff_lut, CasterCache, DynamicVertices, FinalPass, ShadowMap};
 use crate::scene::{normal_matrix, Aabb, LightView, Mesh, Scene};
 use crate::shaders;
 use crate::silhouette::{self, Adjacency, SilhouetteEdge};
@@ -534,10 +554,25 @@ pub struct Plateaus {
     _linear: Sampler,
     /// Edge adjacency per object (None for non-casters and the plane), built once.
     adjacency: Vec<Option<Adjacency>>,
-    /// Per object, per welded vertex: the stamp of the frame that drew its cone (Sec. 3).
-    mailbox: Vec<Vec<u64>>,
+    /// Casters (objects with an adjacency).
+    casters: usize,
+    /// Per caster, its cones and sheets and the plane frame and radius they were built for:
+    /// a moved caster rebuilds only its own.
+    cache: CasterCache<GeometryKey, PlateauVertex>,
+    /// Per welded vertex of the caster being built: the stamp of the build that drew its
+    /// cone (Sec. 3's mailbox). Every caster build takes a fresh stamp, so one buffer as
+    /// long as the largest caster serves them all.
+    mailbox: Vec<u64>,
     stamp: u64,
     vertices: DynamicVertices,
+}
+
+/// What a caster's cones and sheets depend on besides its model: the plane frame (the
+/// plane, the light centre, the texture square and resolution) and the light radius.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct GeometryKey {
+    plane: PlaneFrame,
+    radius: f32,
 }
 
 impl Plateaus {
@@ -634,10 +669,16 @@ impl Plateaus {
         )?;
         let adjacency = // The plane is never a caster of its own plateaus.
         silhouette::caster_adjacency(init.scene, |i| i != receiver.object)?;
-        let mailbox = adjacency
-            .iter()
-            .map(|a| vec![0; a.as_ref().map_or(0, |a| a.positions.len())])
-            .collect();
+        let mailbox = vec![
+            0;
+            adjacency
+                .iter()
+                .flatten()
+                .map(|a| a.positions.len())
+                .max()
+                .unwrap_or(0)
+        ];
+        let casters = adjacency.iter().flatten().count();
         Ok(Box::new(Self {
             receiver,
             texture,
@@ -652,7 +693,9 @@ impl Plateaus {
             _falloff: falloff,
             _nearest: nearest,
             _linear: linear,
+            cache: CasterCache::new(adjacency.len()),
             adjacency,
+            casters,
             mailbox,
             stamp: 0,
             vertices: DynamicVertices::new("plateau vertices"),
@@ -673,22 +716,28 @@ impl Plateaus {
         ))
     }
 
-    /// Silhouettes, cones and sheets of every caster for this frame.
-    fn build_geometry(&mut self, frame: &FrameInput<'_>, plane: &PlaneFrame) -> Vec<PlateauVertex> {
-        self.stamp += 1;
-        let mut b = PlateauBuilder::new(plane, frame.light_radius);
-        for ((obj, adj), mailbox) in frame
-            .scene
-            .objects
-            .iter()
-            .zip(&self.adjacency)
-            .zip(self.mailbox.iter_mut())
-        {
-            let Some(adj) = adj else { continue };
-            let sil = silhouette::extract(adj, obj.transform, frame.light.position);
-            b.silhouette(adj, &sil, obj.transform, mailbox, self.stamp);
-        }
-        b.vertices
+    /// Silhouettes, cones and sheets of every caster that moved since theirs were built (of
+    /// all when the plane frame or the radius changed, or when `force`); returns how many
+    /// were rebuilt.
+    fn build_geometry(&mut self, frame: &FrameInput<'_>, plane: &PlaneFrame, force: bool) -> usize {
+        let key = GeometryKey {
+            plane: *plane,
+            radius: frame.light_radius,
+        };
+        let (mailbox, stamp) = (&mut self.mailbox, &mut self.stamp);
+        self.cache.update(
+            &frame.scene.objects,
+            &self.adjacency,
+            key,
+            force,
+            |adj, model| {
+                *stamp += 1;
+                let mut b = PlateauBuilder::new(plane, frame.light_radius);
+                let sil = silhouette::extract(adj, model, plane.light);
+                b.silhouette(adj, &sil, model, mailbox, *stamp);
+                b.vertices
+            },
+        )
     }
 }
 
@@ -710,9 +759,13 @@ impl Technique for Plateaus {
         let lit_plane = plane.light_height > plane.texel() * 1e-3;
         let soft = lit_plane && frame.light_radius > 0.0;
         let vertices = if soft {
-            rec.cpu("plateaus/silhouettes", || {
-                self.build_geometry(frame, &plane)
-            })
+            // Without pass caching every frame rebuilds everything (the bench's baseline).
+            let force = !frame.settings.cache_light_passes;
+            let rebuilt = rec.cpu("plateaus/silhouettes", || {
+                self.build_geometry(frame, &plane, force)
+            });
+            rec.rebuilt("plateaus/silhouettes", rebuilt, self.casters);
+            self.cache.concat()
         } else {
             Vec::new()
         };

@@ -20,11 +20,22 @@ pub struct PassTiming {
     pub skipped: Option<String>,
 }
 
+/// Per-caster work of one frame: `rebuilt` of the `casters` had their geometry rebuilt by
+/// the CPU work `name` (the others reused what an earlier frame built).
+#[derive(Clone, Debug, PartialEq, Eq, serde::Serialize)]
+pub struct CasterRebuilds {
+    pub name: String,
+    pub rebuilt: usize,
+    pub casters: usize,
+}
+
 /// Per-pass GPU times and named CPU times of one frame.
 #[derive(Clone, Debug, Default, serde::Serialize)]
 pub struct FrameTimings {
     pub passes: Vec<PassTiming>,
     pub cpu: Vec<(String, f64)>,
+    /// Partial rebuilds, printed after the `cpu` line of the same name.
+    pub rebuilt: Vec<CasterRebuilds>,
 }
 
 impl FrameTimings {
@@ -38,6 +49,18 @@ impl FrameTimings {
             .iter()
             .find(|p| p.name == name)
             .and_then(|p| p.gpu_ms)
+    }
+
+    /// The partial-rebuild count the CPU work `name` recorded this frame, if any.
+    pub fn rebuilt_by(&self, name: &str) -> Option<&CasterRebuilds> {
+        self.rebuilt.iter().find(|r| r.name == name)
+    }
+
+    /// ` (rebuilt K of N casters)` after a pass or cpu line whose per-caster work was counted.
+    fn rebuilt_suffix(&self, name: &str) -> String {
+        self.rebuilt_by(name)
+            .map(|r| format!(" (rebuilt {} of {} casters)", r.rebuilt, r.casters))
+            .unwrap_or_default()
     }
 
     /// The `--timings` block of DESIGN.md.
@@ -54,12 +77,18 @@ impl FrameTimings {
         for p in &self.passes {
             match (&p.gpu_ms, &p.skipped) {
                 (_, Some(reason)) => s += &format!("pass {:<width$} skipped ({reason})\n", p.name),
-                (Some(ms), None) => s += &format!("pass {:<width$} {ms:8.3} ms\n", p.name),
+                (Some(ms), None) => {
+                    s += &format!("pass {:<width$} {ms:8.3} ms", p.name);
+                    s += &self.rebuilt_suffix(&p.name);
+                    s += "\n";
+                }
                 (None, None) => s += &format!("pass {:<width$}      n/a\n", p.name),
             }
         }
         for (name, ms) in &self.cpu {
-            s += &format!("cpu  {name:<width$} {ms:8.3} ms\n");
+            s += &format!("cpu  {name:<width$} {ms:8.3} ms");
+            s += &self.rebuilt_suffix(name);
+            s += "\n";
         }
         s += &format!(
             "frame {:<w$} {:8.3} ms\n",
@@ -159,10 +188,12 @@ impl FrameRunner {
             next_query: 0,
             passes: Vec::new(),
             cpu: Vec::new(),
+            rebuilt: Vec::new(),
         };
         let recorded = f(&mut rec);
         let passes = std::mem::take(&mut rec.passes);
         let cpu = std::mem::take(&mut rec.cpu);
+        let rebuilt = std::mem::take(&mut rec.rebuilt);
         let used = rec.next_query;
         // SAFETY: recording began above; ending is required even when `f` failed.
         let ended = unsafe { device.end_command_buffer(self.cmd) };
@@ -212,7 +243,11 @@ impl FrameRunner {
                 skipped: p.skipped,
             })
             .collect();
-        Ok(FrameTimings { passes, cpu })
+        Ok(FrameTimings {
+            passes,
+            cpu,
+            rebuilt,
+        })
     }
 }
 
@@ -243,6 +278,7 @@ pub struct Recorder<'a> {
     next_query: u32,
     passes: Vec<RecordedPass>,
     cpu: Vec<(String, f64)>,
+    rebuilt: Vec<CasterRebuilds>,
 }
 
 fn layout_sync(layout: vk::ImageLayout) -> (vk::PipelineStageFlags2, vk::AccessFlags2) {
@@ -341,6 +377,16 @@ impl Recorder<'_> {
         self.cpu
             .push((name.to_string(), t.elapsed().as_secs_f64() * 1e3));
         out
+    }
+
+    /// Records that the CPU work `name` rebuilt `rebuilt` of `casters` casters' geometry
+    /// (`--timings` prints it after that work's `cpu` line).
+    pub fn rebuilt(&mut self, name: &str, rebuilt: usize, casters: usize) {
+        self.rebuilt.push(CasterRebuilds {
+            name: name.to_string(),
+            rebuilt,
+            casters,
+        });
     }
 
     /// Moves `image` to `layout`, with the stages and accesses that layout implies. A

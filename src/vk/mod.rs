@@ -10,7 +10,9 @@ pub use ash::vk::{
     AccessFlags2, BufferUsageFlags, CompareOp, CullModeFlags, Format, ImageLayout, ImageUsageFlags,
     PhysicalDeviceType, PipelineStageFlags2, PrimitiveTopology,
 };
-pub use cmd::{read_buffer, read_image, Clear, FrameRunner, FrameTimings, PassTiming, Recorder};
+pub use cmd::{
+    read_buffer, read_image, CasterRebuilds, Clear, FrameRunner, FrameTimings, PassTiming, Recorder,
+};
 pub use context::{Context, ContextOptions};
 pub use gpu_allocator::MemoryLocation;
 pub use memory::{Buffer, Filter, Image, Sampler};

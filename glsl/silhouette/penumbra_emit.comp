@@ -1,0 +1,127 @@
+#version 450
+#extension GL_GOOGLE_include_directive : require
+// penumbra-map, dispatch 3 of 4: one thread per edge, then one per welded vertex, of every
+// caster rebuilt this frame. An edge thread writes its silhouette edge's sheet (`sheet` of
+// src/silhouette/penumbra.rs: the quad (a, b, tb) (a, tb, ta)); a vertex thread writes the
+// cone of a silhouette vertex (`cone_arc` + `emit_cone`), recomputing the sheet normals of
+// its edges rather than waiting for the edge threads (one dispatch instead of two).
+#include "silhouette/penumbra.glsl"
+
+layout(local_size_x = 64) in;
+
+void emit_sheet(uint ei) {
+    uint flags = sil[ei];
+    if (flags == 0u) {
+        return;
+    }
+    uint a, b;
+    oriented_ends(edges[ei], flags, a, b);
+    Cone ca, cb;
+    vec2 n;
+    if (!cone_data(a, ca) || !cone_data(b, cb) || !sheet_normal(ca, cb, n)) {
+        return;
+    }
+    float reach = caster_reach();
+    float z_far = pm_params.y;
+    vec3 ta = base_world(ca.centre + ca.radius * n);
+    vec3 tb = base_world(cb.centre + cb.radius * n);
+    // Base corners: k = z_far / Zv, so (Zv k, k) = (z_far, k).
+    vec2 ha = vec2(z_far, z_far / ca.zv);
+    vec2 hb = vec2(z_far, z_far / cb.zv);
+    uint at;
+    if (reserve(6u, at)) {
+        put_penumbra(at + 0u, ca.world, vec2(ca.zv, 1.0), reach);
+        put_penumbra(at + 1u, cb.world, vec2(cb.zv, 1.0), reach);
+        put_penumbra(at + 2u, tb, hb, reach);
+        put_penumbra(at + 3u, ca.world, vec2(ca.zv, 1.0), reach);
+        put_penumbra(at + 4u, tb, hb, reach);
+        put_penumbra(at + 5u, ta, ha, reach);
+    }
+}
+
+void emit_cone(uint v) {
+    uint count = incident_count[v];
+    if (count == 0u) {
+        return;
+    }
+    Cone c;
+    if (!cone_data(v, c)) {
+        return;
+    }
+    // cone_arc: the arc between exactly two sheet normals, taken in silhouette (= edge
+    // index) order like the CPU; else (or past MAX_INCIDENT edges) the whole cone.
+    float from = 0.0;
+    float sweep = 2.0 * PI;
+    if (count <= MAX_INCIDENT) {
+        uint first = 0xffffffffu;
+        uint second = 0xffffffffu;
+        vec2 n_first = vec2(0.0);
+        vec2 n_second = vec2(0.0);
+        uint sheets = 0u;
+        for (uint i = 0u; i < count; ++i) {
+            uint ei = incident[v * MAX_INCIDENT + i];
+            vec2 n;
+            if (!edge_sheet_normal(ei, n)) {
+                continue;
+            }
+            sheets += 1u;
+            if (ei < first) {
+                second = first;
+                n_second = n_first;
+                first = ei;
+                n_first = n;
+            } else if (ei < second) {
+                second = ei;
+                n_second = n;
+            }
+        }
+        if (sheets == 2u) {
+            float s = angle_to(n_first, n_second);
+            // Hairpin: which side is outside is ambiguous; draw the whole cone.
+            if (!isnan(s) && !isinf(s) && abs(s) <= PI - HAIRPIN) {
+                from = atan(n_first.y, n_first.x);
+                sweep = s;
+            }
+        }
+    }
+    float max_step = 2.0 * PI / float(CONE_SEGMENTS);
+    uint k = uint(clamp(ceil(abs(sweep) / max_step), 1.0, float(CONE_SEGMENTS)));
+    float step = sweep / float(k);
+    // Circumscribed: the polygon's edges touch the round base circle.
+    float r = c.radius / cos(step * 0.5);
+    float reach = caster_reach();
+    vec2 zv_h = vec2(c.zv, 1.0);
+    uint at;
+    if (!reserve(3u * k, at)) {
+        return;
+    }
+    vec3 prev = base_world(c.centre + r * vec2(cos(from), sin(from)));
+    for (uint i = 0u; i < k; ++i) {
+        float a = from + step * float(i + 1u);
+        vec3 next = base_world(c.centre + r * vec2(cos(a), sin(a)));
+        put_penumbra(at + 0u, c.world, zv_h, reach);
+        put_penumbra(at + 1u, prev, zv_h, reach);
+        put_penumbra(at + 2u, next, zv_h, reach);
+        at += 3u;
+        prev = next;
+    }
+}
+
+void main() {
+    uint t = thread_index();
+    if (t < pc.counts.x) {
+        g_caster = edge_caster[t];
+        if (casters[g_caster].info.w != 0u) {
+            emit_sheet(t);
+        }
+        return;
+    }
+    uint v = t - pc.counts.x;
+    if (v >= pc.counts.y) {
+        return;
+    }
+    g_caster = vertex_caster[v];
+    if (casters[g_caster].info.w != 0u) {
+        emit_cone(v);
+    }
+}

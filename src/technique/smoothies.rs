@@ -414,6 +414,7 @@ impl Technique for Smoothies {
         self.draw_smoothies = t > 0.0;
         // Without pass caching every frame rebuilds everything (the bench's baseline).
         let force = !frame.settings.cache_light_passes;
+        let casters = self.adjacency.iter().flatten().count();
         if !self.draw_smoothies {
             rec.skip("smoothies/silhouettes", "light radius 0: hard shadows");
         } else if let Some(gpu) = self.gpu_silhouettes.as_mut() {
@@ -424,11 +425,13 @@ impl Technique for Smoothies {
                 rec.pass("smoothies/silhouettes", |rec| {
                     gpu.record(rec, &frame.scene.objects, frame.light, width, force)
                 })?;
+                rec.rebuilt("smoothies/silhouettes", gpu.rebuilt(), casters);
             }
         } else if self.path == SilhouettePath::Cpu {
-            rec.cpu("smoothies/silhouettes", || {
+            let rebuilt = rec.cpu("smoothies/silhouettes", || {
                 self.build_geometry(frame, width, force)
             });
+            rec.rebuilt("smoothies/silhouettes", rebuilt, casters);
             self.upload_records(ctx)?;
         }
 

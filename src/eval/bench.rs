@@ -773,7 +773,7 @@ pub fn run(ctx: &Context, plan: Plan) -> Result<Outcome> {
         let base = &plan.scenes[case.scene];
         let variant = &plan.variants[case.variant];
         let settings = plan.settings(case);
-        let radius = settings.light_radius.unwrap_or(base.light.radius);
+        let radius = settings.radius_for(base);
         let what = format!(
             "{} / {} / buffer {} / R {radius:.4} / {}",
             base.name,

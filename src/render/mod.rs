@@ -234,6 +234,11 @@ impl Default for Settings {
 }
 
 impl Settings {
+    /// The light radius in effect for `scene`: `light_radius`, else the scene's own.
+    pub fn radius_for(&self, scene: &Scene) -> f32 {
+        self.light_radius.unwrap_or(scene.light.radius)
+    }
+
     /// `--reference-samples` in range (checked before any device is opened, too).
     pub fn check_reference_samples(&self) -> Result<()> {
         use crate::eval::reference::{MAX_SAMPLES, MIN_SAMPLES};
@@ -553,9 +558,7 @@ impl<'c> Renderer<'c> {
 
     /// The light radius in effect.
     pub fn light_radius(&self) -> f32 {
-        self.settings
-            .light_radius
-            .unwrap_or(self.scene.light.radius)
+        self.settings.radius_for(&self.scene)
     }
 
     /// Renders one frame and returns its per-pass timings.
@@ -581,10 +584,7 @@ impl<'c> Renderer<'c> {
             light: &self.light,
             settings: &self.settings,
             targets: &self.targets,
-            light_radius: self
-                .settings
-                .light_radius
-                .unwrap_or(self.scene.light.radius),
+            light_radius: self.light_radius(),
         };
         let u = frame_uniforms(&input, self.technique.uniforms(&input));
         self.ubo.write(0, bytemuck::bytes_of(&u))?;

@@ -212,10 +212,7 @@ impl PenumbraMap {
             SilhouettePath::Gpu => {
                 // Sized for the scene's own light; `prepare` grows it when a frame needs more.
                 let light = fit_light(init.scene);
-                let radius = init
-                    .settings
-                    .light_radius
-                    .unwrap_or(init.scene.light.radius);
+                let radius = init.settings.radius_for(init.scene);
                 GpuSilhouettes::new_penumbra(
                     ctx,
                     init.ubo,

@@ -288,10 +288,7 @@ impl Smoothies {
             SilhouettePath::Gpu => {
                 // Sized for the scene's own light; `prepare` grows it when a frame needs more.
                 let light = fit_light(init.scene);
-                let radius = init
-                    .settings
-                    .light_radius
-                    .unwrap_or(init.scene.light.radius);
+                let radius = init.settings.radius_for(init.scene);
                 let width = smoothie_widths(init.settings.smoothie_t, &light, radius);
                 GpuSilhouettes::new(
                     ctx,

@@ -5,15 +5,14 @@
 
 mod common;
 
-use common::{covered, pixel_at, small, softshadow, Gpu};
+use common::{bowl, covered, cube, pixel_at, small, softshadow, with_caster, Gpu};
 use glam::{Mat4, Vec3};
 use softshadow::render::{fit_light, FrameImages, Renderer, Settings, SilhouettePath};
-use softshadow::scene::{Mesh, Scene};
+use softshadow::scene::Scene;
 use softshadow::silhouette::penumbra::{build_penumbra, PenumbraVertex};
 use softshadow::silhouette::{extract, Adjacency};
 use softshadow::technique::penumbra_map::cone_base_depth;
 use std::collections::BTreeSet;
-use std::sync::Arc;
 
 const TECHNIQUE: &str = "penumbra-map";
 
@@ -22,46 +21,6 @@ fn settings(path: SilhouettePath) -> Settings {
         silhouettes: path,
         ..small(128, 512)
     }
-}
-
-/// `cylinder`'s ground, light and camera with another caster in the cylinder's place.
-fn with_caster(mesh: Mesh, name: &str) -> Scene {
-    let mut scene = Scene::load("cylinder").unwrap();
-    let caster = scene
-        .objects
-        .iter_mut()
-        .find(|o| o.name == "cylinder")
-        .unwrap();
-    caster.mesh = Arc::new(mesh);
-    caster.transform = Mat4::from_translation(Vec3::new(0.0, 1.2, 0.0));
-    scene.name = name.into();
-    scene
-}
-
-/// A unit cube, flat shaded (split vertices, welded by the adjacency).
-fn cube() -> Mesh {
-    softshadow::scene::primitives::cuboid(Vec3::ONE)
-}
-
-/// An open bowl: the lower half of a sphere (its rim: boundary silhouette edges).
-fn bowl() -> Mesh {
-    let sphere = softshadow::scene::primitives::sphere(0.8, 24, 12);
-    let mut m = Mesh {
-        positions: sphere.positions.clone(),
-        ..Mesh::default()
-    };
-    for t in sphere.indices.chunks_exact(3) {
-        let c = t
-            .iter()
-            .map(|&i| sphere.positions[i as usize])
-            .sum::<Vec3>()
-            / 3.0;
-        if c.y < 0.0 {
-            m.indices.extend_from_slice(t);
-        }
-    }
-    m.compute_normals();
-    m
 }
 
 /// One triangle: three vertices of 6 floats (position, zv_h, reach).

@@ -4,14 +4,13 @@
 
 mod common;
 
-use common::{small, softshadow, Gpu};
+use common::{bowl, cube, small, softshadow, with_caster, Gpu};
 use glam::{Mat4, Vec3};
 use softshadow::render::{fit_light, Renderer, Settings, SilhouettePath};
 use softshadow::scene::{Mesh, Scene};
 use softshadow::silhouette::{extract, Adjacency, EdgeKind};
 use softshadow::vk::FrameTimings;
 use std::collections::BTreeSet;
-use std::sync::Arc;
 
 fn settings(path: SilhouettePath) -> Settings {
     Settings {
@@ -20,51 +19,11 @@ fn settings(path: SilhouettePath) -> Settings {
     }
 }
 
-/// `cylinder`'s ground, light and camera with another caster in the cylinder's place.
-fn with_caster(mesh: Mesh, name: &str) -> Scene {
-    let mut scene = Scene::load("cylinder").unwrap();
-    let caster = scene
-        .objects
-        .iter_mut()
-        .find(|o| o.name == "cylinder")
-        .unwrap();
-    caster.mesh = Arc::new(mesh);
-    caster.transform = Mat4::from_translation(Vec3::new(0.0, 1.2, 0.0));
-    scene.name = name.into();
-    scene
-}
-
 fn quad(m: &mut Mesh, corners: [Vec3; 4]) {
     let base = m.positions.len() as u32;
     m.positions.extend(corners);
     m.indices
         .extend_from_slice(&[base, base + 1, base + 2, base, base + 2, base + 3]);
-}
-
-/// A unit cube, flat shaded (split vertices, welded by the adjacency).
-fn cube() -> Mesh {
-    softshadow::scene::primitives::cuboid(Vec3::ONE)
-}
-
-/// An open bowl: the lower half of a sphere, rim and all (boundary edges).
-fn bowl() -> Mesh {
-    let sphere = softshadow::scene::primitives::sphere(0.8, 24, 12);
-    let mut m = Mesh {
-        positions: sphere.positions.clone(),
-        ..Mesh::default()
-    };
-    for t in sphere.indices.chunks_exact(3) {
-        let c = t
-            .iter()
-            .map(|&i| sphere.positions[i as usize])
-            .sum::<Vec3>()
-            / 3.0;
-        if c.y < 0.0 {
-            m.indices.extend_from_slice(t);
-        }
-    }
-    m.compute_normals();
-    m
 }
 
 /// Three pages sharing one spine: the spine is a non-manifold edge (three faces).

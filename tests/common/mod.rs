@@ -105,3 +105,45 @@ pub fn softshadow(args: &[&str]) -> std::process::Output {
         .output()
         .expect("running softshadow")
 }
+
+// Casters for the CPU-vs-GPU geometry tests (tests/gpu_silhouettes.rs, tests/gpu_penumbra.rs).
+
+/// `cylinder`'s ground, light and camera with another caster in the cylinder's place.
+pub fn with_caster(mesh: softshadow::scene::Mesh, name: &str) -> Scene {
+    let mut scene = Scene::load("cylinder").unwrap();
+    let caster = scene
+        .objects
+        .iter_mut()
+        .find(|o| o.name == "cylinder")
+        .unwrap();
+    caster.mesh = std::sync::Arc::new(mesh);
+    caster.transform = glam::Mat4::from_translation(glam::Vec3::new(0.0, 1.2, 0.0));
+    scene.name = name.into();
+    scene
+}
+
+/// A unit cube, flat shaded (split vertices, welded by the adjacency).
+pub fn cube() -> softshadow::scene::Mesh {
+    softshadow::scene::primitives::cuboid(glam::Vec3::ONE)
+}
+
+/// An open bowl: the lower half of a sphere, rim and all (boundary edges).
+pub fn bowl() -> softshadow::scene::Mesh {
+    let sphere = softshadow::scene::primitives::sphere(0.8, 24, 12);
+    let mut m = softshadow::scene::Mesh {
+        positions: sphere.positions.clone(),
+        ..softshadow::scene::Mesh::default()
+    };
+    for t in sphere.indices.chunks_exact(3) {
+        let c = t
+            .iter()
+            .map(|&i| sphere.positions[i as usize])
+            .sum::<glam::Vec3>()
+            / 3.0;
+        if c.y < 0.0 {
+            m.indices.extend_from_slice(t);
+        }
+    }
+    m.compute_normals();
+    m
+}

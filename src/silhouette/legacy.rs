@@ -570,8 +570,18 @@ mod equivalence {
             last = Some(uv);
         }
         assert_eq!(acos_err.len(), a.len());
+        // The records visit corners in silhouette-vertex order, the old code by welded
+        // vertex index: pair the groups by anchor (the smoothie pass blends with MIN, so the
+        // order is invisible). Anchors are distinct vertices' uv; a sort by their bits puts
+        // both lists in one order.
+        let key = |g: &Vec<SmoothieVertex>| g[0].anchor.map(f32::to_bits);
+        let mut a: Vec<_> = a.into_iter().zip(acos_err).collect();
+        a.sort_by_key(|(g, _)| key(g));
+        let mut b = b;
+        b.sort_by_key(key);
         let mut fallbacks = 0;
-        for ((ga, gb), &(eps, special)) in a.iter().zip(&b).zip(&acos_err) {
+        for ((ga, (eps, special)), gb) in a.iter().zip(&b) {
+            let (eps, special) = (*eps, *special);
             let (c, t) = (Vec2::from(ga[0].anchor), ga[0].width);
             assert_eq!(ga[0].anchor, gb[0].anchor);
             assert_eq!(ga[0].inv_depth, gb[0].inv_depth);

@@ -156,7 +156,11 @@ fn pad_of(sweep: f32) -> f32 {
 
 /// Segments of a fan of sweep `sweep` (the padded sweep in <= MAX_SEGMENT pieces, >= 1).
 pub fn segment_count(sweep: f32) -> u32 {
-    let q = (sweep + 2.0 * pad_of(sweep)).abs() / MAX_SEGMENT;
+    // A multiply by the rounded reciprocal, not a division (half the corner loop's latency
+    // chain): q can differ from the quotient in its last bit, so the count differs from the
+    // legacy ceil only for a sweep within ~1e-7 rad of a segment boundary, where either
+    // count covers the arc (the legacy tests compare such fans by coverage).
+    let q = (sweep + 2.0 * pad_of(sweep)).abs() * (1.0 / MAX_SEGMENT);
     // ceil without libm; q <= 13 for any sweep in [-2 PI, 2 PI].
     let k = q as u32;
     let k = if (k as f32) < q { k + 1 } else { k };
@@ -268,26 +272,31 @@ pub fn build_records(
     let mut rec = SmoothieRecords::default();
 
     // Silhouette vertices numbered in order of first use (as `build_impl`): `slot[v]` is
-    // welded vertex v's number when bit v of `used` is set. Numbering first and projecting
-    // afterwards keeps the branchy part and the arithmetic in separate tight loops.
+    // welded vertex v's number, or UNNUMBERED. Numbering first and projecting afterwards
+    // keeps the bookkeeping and the arithmetic in separate tight loops. Branch-free: every
+    // vertex is new at exactly one of its (usually two) uses, so "is it new" is a coin toss
+    // to the branch predictor; `welded` is written at every use and advanced only at the
+    // first.
+    const UNNUMBERED: u32 = u32::MAX;
     let nv = adj.positions.len();
-    let mut slot = vec![0u32; nv];
-    let mut used = vec![0u64; nv.div_ceil(64)];
-    let mut welded: Vec<u32> = Vec::with_capacity(sil.len() + 8);
+    let mut slot = vec![UNNUMBERED; nv];
+    let mut welded = vec![0u32; 2 * sil.len()];
+    let mut numbered = 0usize;
     let mut ends: Vec<[u32; 2]> = Vec::with_capacity(sil.len());
     for e in sil {
         let mut number = |v: u32| {
-            let (w, bit) = ((v / 64) as usize, 1u64 << (v % 64));
-            if used[w] & bit == 0 {
-                used[w] |= bit;
-                slot[v as usize] = welded.len() as u32;
-                welded.push(v);
-            }
-            slot[v as usize]
+            let old = slot[v as usize];
+            let new = old == UNNUMBERED;
+            welded[numbered] = v;
+            let id = if new { numbered as u32 } else { old };
+            slot[v as usize] = id;
+            numbered += usize::from(new);
+            id
         };
         let a = number(e.a);
         ends.push([a, number(e.b)]);
     }
+    welded.truncate(numbered);
     // Clip coordinates per silhouette vertex: linear in the world point, so an edge's
     // midpoint needs no projection of its own.
     let mut clips: Vec<Vec4> = Vec::with_capacity(welded.len());
@@ -324,7 +333,7 @@ pub fn build_records(
     for (i, (e, &[a, b])) in sil.iter().zip(&ends).enumerate() {
         let (va, vb) = (&verts[a as usize], &verts[b as usize]);
         let clip = [clips[a as usize], clips[b as usize]];
-        if let Some(d) = edge_dir(adj, &pr, &normals, e, va, vb, clip) {
+        if let Some(d) = edge_dir(adj, &pr, normals.clip(adj, &pr, e), e, va, vb, clip) {
             rec.edges.push(EdgeRecord {
                 a,
                 b,
@@ -338,28 +347,30 @@ pub fn build_records(
         }
     }
     rec.skipped_edges = sil.len() - rec.edges.len();
+    // By vertex (stable: each vertex's edges stay in silhouette order), so a special vertex
+    // finds its own in a binary search instead of a scan of every vertex's.
+    spill.sort_by_key(|s| s.0);
 
-    // Corners by welded vertex index (the order of `build_smoothies_width`).
+    // Corners in silhouette-vertex order (the order of first use), so that every per-vertex
+    // array is read front to back. `build_smoothies_width` goes by welded vertex index; the
+    // fans are the same, in another order, which the smoothie pass cannot see (both of its
+    // attachments blend with MIN).
     let mut spokes: Vec<(f32, Vec2)> = Vec::new();
     rec.fans.reserve(verts.len());
     rec.segments.reserve(4 * verts.len());
-    for (w, &bits) in used.iter().enumerate() {
-        let mut bits = bits;
-        while bits != 0 {
-            let v = w * 64 + bits.trailing_zeros() as usize;
-            bits &= bits - 1;
-            let c = slot[v];
-            let inc = &incident[c as usize];
-            if inc.count == 0 {
-                continue;
-            }
-            let vtx = &verts[c as usize];
-            let clip = clips[c as usize];
-            let corner = Corner { c, vtx, clip, inc };
-            if let Some(special) = corner.build(adj, &pr, sil, &spill, &mut spokes, &mut rec) {
-                rec.corners += 1;
-                rec.special_vertices += usize::from(special);
-            }
+    for (c, (vtx, (inc, &clip))) in verts.iter().zip(incident.iter().zip(&clips)).enumerate() {
+        if inc.count == 0 {
+            continue;
+        }
+        let corner = Corner {
+            c: c as u32,
+            vtx,
+            clip,
+            inc,
+        };
+        if let Some(special) = corner.build(adj, &pr, sil, &spill, &mut spokes, &mut rec) {
+            rec.corners += 1;
+            rec.special_vertices += usize::from(special);
         }
     }
     rec
@@ -400,7 +411,7 @@ impl Incident {
 fn edge_dir(
     adj: &Adjacency,
     pr: &Projector,
-    normals: &NormalProjector,
+    cn: Vec4,
     e: &SilhouetteEdge,
     va: &SilVertex,
     vb: &SilVertex,
@@ -418,7 +429,6 @@ fn edge_dir(
     if e.kind != EdgeKind::Boundary {
         // Both ends lie beyond the near plane, so does the midpoint.
         let cm = (ca + cb) * 0.5;
-        let cn = normals.clip(adj, pr, e);
         let avg = cn.xy() * cm.w - cm.xy() * cn.w;
         let dot = d.dot(avg);
         // Only trust the normals when they clearly pick a side (> ~0.5 degree):
@@ -462,14 +472,12 @@ impl NormalProjector {
     }
 
     fn clip(&self, adj: &Adjacency, pr: &Projector, e: &SilhouetteEdge) -> Vec4 {
-        let faces = adj.edge_faces(e.edge as usize);
-        let valid = faces.iter().filter(|ef| !adj.degenerate[ef.face as usize]);
         match self {
-            NormalProjector::Similar(m) => {
-                let n: glam::Vec3 = valid.map(|ef| adj.face_normals[ef.face as usize]).sum();
-                *m * n.extend(0.0)
-            }
+            // The same sum, in the same order, as the General branch's before normalizing.
+            NormalProjector::Similar(m) => *m * adj.edge_normals[e.edge as usize].extend(0.0),
             NormalProjector::General => {
+                let faces = adj.edge_faces(e.edge as usize);
+                let valid = faces.iter().filter(|ef| !adj.degenerate[ef.face as usize]);
                 let n: glam::Vec3 = valid
                     .map(|ef| {
                         (pr.normal_matrix * adj.face_normals[ef.face as usize]).normalize_or_zero()
@@ -533,17 +541,14 @@ impl Corner<'_> {
         let mut n = glam::Vec3::ZERO;
         let mut add = |i: u32, d: Vec2| {
             spokes.push((fast_atan2(d.y, d.x), d));
-            for ef in adj.edge_faces(sil[i as usize].edge as usize) {
-                n += adj.face_normals[ef.face as usize];
-            }
+            n += adj.edge_normals[sil[i as usize].edge as usize];
         };
         for &(i, d) in &self.inc.edges[..usize::from(self.inc.count).min(2)] {
             add(i, d);
         }
-        for &(v, i, d) in spill {
-            if v == self.c {
-                add(i, d);
-            }
+        let first = spill.partition_point(|s| s.0 < self.c);
+        for &(_, i, d) in spill[first..].iter().take_while(|s| s.0 == self.c) {
+            add(i, d);
         }
         if let Some(n) = self.normal(pr, n) {
             spokes.push((fast_atan2(n.y, n.x), n));

@@ -16,17 +16,21 @@
 //! `extract_1core` is `extract_serial`, `records_1core` is `build_records` (what the
 //! renderer's CPU path builds: compact records the vertex shader expands),
 //! `smoothies_1core` is `build_smoothies` (the expanded triangle list it built before, kept
-//! for comparison) and `total_1core` is extract + records, all inside a one-thread pool.
+//! for comparison), `total_1core` is extract + records, and `penumbra_1core` is
+//! penumbra-map's CPU path (`build_penumbra`: cones and sheets, Lr = the scene's light
+//! radius, bases at `cone_base_depth`), all inside a one-thread pool.
 //! `SIL_SCENES=dense,bunny` limits it to those scenes.
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion};
 use glam::{Mat4, Vec3};
 use softshadow::render::fit_light;
 use softshadow::scene::{Light, LightView, Mesh, Scene, BUILTIN_SCENES};
+use softshadow::silhouette::penumbra::build_penumbra;
 use softshadow::silhouette::smoothie::records::build_records;
 use softshadow::silhouette::smoothie::Width;
 use softshadow::silhouette::SilhouetteEdge;
 use softshadow::silhouette::{build_smoothies, extract, extract_serial, Adjacency};
+use softshadow::technique::penumbra_map::cone_base_depth;
 use softshadow::technique::smoothies::smoothie_width;
 use std::f32::consts::{PI, TAU};
 use std::hint::black_box;
@@ -146,6 +150,8 @@ struct Casters {
     objects: Vec<(Mat4, Adjacency)>,
     light: LightView,
     t: f32,
+    /// The scene's light radius (penumbra-map's Lr).
+    radius: f32,
 }
 
 impl Casters {
@@ -161,7 +167,12 @@ impl Casters {
             .filter(|o| o.role.casts())
             .filter_map(|o| Adjacency::build(&o.mesh).ok().map(|a| (o.transform, a)))
             .collect();
-        Some(Self { objects, light, t })
+        Some(Self {
+            objects,
+            light,
+            t,
+            radius: scene.light.radius,
+        })
     }
 
     fn extract(&self, serial: bool) -> Vec<Vec<SilhouetteEdge>> {
@@ -184,6 +195,20 @@ impl Casters {
             .zip(sil)
             .map(|((m, adj), s)| {
                 build_records(adj, s, *m, &self.light, Width::Fixed(self.t)).words()
+            })
+            .sum()
+    }
+
+    /// penumbra-map's CPU path: cones and sheets of every caster.
+    fn penumbra(&self, sil: &[Vec<SilhouetteEdge>]) -> usize {
+        let z_far = cone_base_depth(&self.light);
+        self.objects
+            .iter()
+            .zip(sil)
+            .map(|((m, adj), s)| {
+                build_penumbra(adj, s, *m, &self.light, self.radius, z_far)
+                    .vertices
+                    .len()
             })
             .sum()
     }
@@ -298,6 +323,9 @@ fn scenes_cpu(c: &mut Criterion) {
         });
         g.bench_function(BenchmarkId::new("total_1core", name), |b| {
             b.iter_custom(|iters| cpu_iters(&pool, iters, || cs.records(&cs.extract(true))))
+        });
+        g.bench_function(BenchmarkId::new("penumbra_1core", name), |b| {
+            b.iter_custom(|iters| cpu_iters(&pool, iters, || cs.penumbra(black_box(&sil))))
         });
     }
     g.finish();

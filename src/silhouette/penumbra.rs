@@ -150,15 +150,16 @@ fn cone_data(p_world: Vec3, light: &LightView, lr: f32, z_far: f32) -> Option<Co
     })
 }
 
-/// Cone triangles around `c` over base angles `from .. from + sweep` (radians, signed; TAU
-/// for the whole cone), in segments of at most TAU / CONE_SEGMENTS. Returns the triangle count.
+/// Cone triangles around `c` over the base-plane arc from unit direction `first` to unit
+/// direction `last`, of signed angle `sweep` (radians; TAU and `last == first` for the whole
+/// cone), in segments of at most TAU / CONE_SEGMENTS. Returns the triangle count.
 fn emit_cone(
     out: &mut Vec<PenumbraVertex>,
     c: &ConeData,
     reach: f32,
     view_inv: Mat4,
     z_far: f32,
-    from: f32,
+    [first, last]: [Vec2; 2],
     sweep: f32,
 ) -> usize {
     let max_step = std::f32::consts::TAU / CONE_SEGMENTS as f32;
@@ -167,21 +168,27 @@ fn emit_cone(
     // Circumscribed: the polygon's edges touch the round base circle.
     let r = c.radius / (step * 0.5).cos();
     let zv_h = [c.zv, 1.0];
-    let base = |i: usize| {
-        let p = c.centre + r * Vec2::from_angle(from + step * i as f32);
-        PenumbraVertex {
-            position: view_inv.transform_point3(p.extend(-z_far)).to_array(),
-            zv_h,
-            reach,
-        }
-    };
     let tip = PenumbraVertex {
         position: c.world.to_array(),
         zv_h,
         reach,
     };
-    for i in 0..k {
-        out.extend_from_slice(&[tip, base(i), base(i + 1)]);
+    // Each base vertex once, shared by its two triangles. The inner spokes turn by rotation
+    // (one sin/cos per cone, not one per spoke; after at most CONE_SEGMENTS turns a spoke is
+    // off by a few ulps, far inside the 2 % circumscription margin); the end spokes are
+    // `first` and `last` themselves, so an arc meets its two sheets' tangent lines exactly
+    // and a whole cone closes.
+    let turn = Vec2::from_angle(step);
+    let mut dir = first;
+    let mut base = [tip; CONE_SEGMENTS + 1];
+    for (i, b) in base[..=k].iter_mut().enumerate() {
+        let d = if i == k { last } else { dir };
+        let p = c.centre + r * d;
+        b.position = view_inv.transform_point3(p.extend(-z_far)).to_array();
+        dir = turn.rotate(dir);
+    }
+    for w in base[..=k].windows(2) {
+        out.extend_from_slice(&[tip, w[0], w[1]]);
     }
     k
 }
@@ -255,18 +262,21 @@ fn blocker_reach(cones: &[Option<ConeData>], z_far: f32) -> f32 {
     }
 }
 
-/// The part of a vertex's cone to draw: `(from, sweep)` in base-plane angles.
-fn cone_arc(normals: &[Vec2]) -> (f32, f32) {
-    let full = (0.0, std::f32::consts::TAU);
-    let [n1, n2] = normals else {
+/// The part of a vertex's cone to draw: its end directions and signed sweep in the base
+/// plane, from how many sheets meet there (saturating) and the first two's tangent normals.
+/// Only a vertex with exactly two sheets draws an arc (from the first normal to the second),
+/// the rest the whole cone.
+fn cone_arc(sheets: u8, [n1, n2]: [Vec2; 2]) -> ([Vec2; 2], f32) {
+    let full = ([Vec2::X; 2], std::f32::consts::TAU);
+    if sheets != 2 {
         return full;
-    };
-    let sweep = n1.angle_to(*n2);
+    }
+    let sweep = n1.angle_to(n2);
     // Hairpin: which side is outside is ambiguous; draw the whole cone.
     if !sweep.is_finite() || sweep.abs() > std::f32::consts::PI - HAIRPIN {
         return full;
     }
-    (n1.to_angle(), sweep)
+    ([n1, n2], sweep)
 }
 
 /// Within this angle (1 degree) of a half turn, two sheet normals form a hairpin.
@@ -274,8 +284,9 @@ const HAIRPIN: f32 = std::f32::consts::PI / 180.0;
 
 /// Cones and sheets of one object (`model`: object -> world) for `light` with disc radius
 /// `light_radius`, from its silhouette `sil` (as returned by `extract`); cone bases lie at
-/// linear depth `z_far`, which must be beyond every receiver. Parallel over vertices and
-/// edges; the output order is deterministic.
+/// linear depth `z_far`, which must be beyond every receiver. Cones come in welded-vertex
+/// order, then sheets in silhouette order. Objects with at least `PAR_EDGES` silhouette edges
+/// compute their cones and sheets on rayon; the output is the same either way.
 pub fn build_penumbra(
     adj: &Adjacency,
     sil: &[SilhouetteEdge],
@@ -286,59 +297,66 @@ pub fn build_penumbra(
 ) -> PenumbraGeometry {
     let mut geo = PenumbraGeometry::default();
     let view_inv = light.view.inverse();
-    // Distinct silhouette vertices with their number of silhouette edges.
-    let mut ends: Vec<u32> = sil.iter().flat_map(|e| [e.a, e.b]).collect();
-    ends.sort_unstable();
-    let groups: Vec<(u32, usize)> = ends
-        .chunk_by(|x, y| x == y)
-        .map(|g| (g[0], g.len()))
-        .collect();
-    geo.special_vertices = groups.iter().filter(|g| g.1 != 2).count();
-    let cones: Vec<Option<ConeData>> = groups
-        .par_iter()
-        .with_min_len(256)
-        .map(|&(v, _)| {
-            let p = model.transform_point3(adj.positions[v as usize]);
-            cone_data(p, light, light_radius, z_far)
-        })
-        .collect();
-    let reach = blocker_reach(&cones, z_far);
-    let index_of = |v: u32| groups.binary_search_by_key(&v, |g| g.0).ok();
-    let cone_of = |v: u32| index_of(v).and_then(|i| cones[i].as_ref());
-    let sheets: Vec<Option<SheetOut>> = sil
-        .par_iter()
-        .with_min_len(256)
-        .map(|e| sheet(cone_of(e.a)?, cone_of(e.b)?, view_inv, z_far, reach))
-        .collect();
-    // Per vertex, the tangent normals of its sheets, in silhouette order.
-    let mut normals: Vec<Vec<Vec2>> = vec![Vec::new(); groups.len()];
-    for (e, s) in sil.iter().zip(&sheets) {
+    let par = sil.len() >= PAR_EDGES;
+    // Distinct silhouette vertices in welded-vertex order (a bit per welded vertex, then
+    // the set bits in order: no sort), `slot[v]` their number, and per vertex how many
+    // silhouette edges meet there.
+    let nv = adj.positions.len();
+    let mut used = vec![0u64; nv.div_ceil(64)];
+    for e in sil {
         for v in [e.a, e.b] {
-            if let (Some(i), Some(s)) = (index_of(v), s) {
-                normals[i].push(s.n);
-            }
+            used[(v / 64) as usize] |= 1 << (v % 64);
         }
     }
-    let cone_verts: Vec<(Vec<PenumbraVertex>, usize)> = cones
-        .par_iter()
-        .zip(&normals)
-        .with_min_len(256)
-        .map(|(c, ns)| {
-            let mut out = Vec::new();
-            let mut tris = 0;
-            if let Some(c) = c {
-                let (from, sweep) = cone_arc(ns);
-                tris = emit_cone(&mut out, c, reach, view_inv, z_far, from, sweep);
+    let mut slot = vec![0u32; nv];
+    let mut verts: Vec<u32> = Vec::with_capacity(sil.len() + 8);
+    for (w, &bits) in used.iter().enumerate() {
+        let mut bits = bits;
+        while bits != 0 {
+            let v = w * 64 + bits.trailing_zeros() as usize;
+            bits &= bits - 1;
+            slot[v] = verts.len() as u32;
+            verts.push(v as u32);
+        }
+    }
+    let mut edges_at = vec![0u32; verts.len()];
+    for e in sil {
+        edges_at[slot[e.a as usize] as usize] += 1;
+        edges_at[slot[e.b as usize] as usize] += 1;
+    }
+    geo.special_vertices = edges_at.iter().filter(|&&n| n != 2).count();
+    let cones: Vec<Option<ConeData>> = map_maybe_par(&verts, par, |&v| {
+        let p = model.transform_point3(adj.positions[v as usize]);
+        cone_data(p, light, light_radius, z_far)
+    });
+    let reach = blocker_reach(&cones, z_far);
+    let cone_of = |v: u32| cones[slot[v as usize] as usize].as_ref();
+    let sheets: Vec<Option<SheetOut>> = map_maybe_par(sil, par, |e| {
+        sheet(cone_of(e.a)?, cone_of(e.b)?, view_inv, z_far, reach)
+    });
+    // Per vertex, how many sheets it has (saturating at 3) and the tangent normals of the
+    // first two, in silhouette order: all `cone_arc` needs.
+    let mut normals: Vec<(u8, [Vec2; 2])> = vec![(0, [Vec2::ZERO; 2]); verts.len()];
+    for (e, s) in sil.iter().zip(&sheets) {
+        let Some(s) = s else { continue };
+        for v in [e.a, e.b] {
+            let (n, first) = &mut normals[slot[v as usize] as usize];
+            if let Some(x) = first.get_mut(usize::from(*n)) {
+                *x = s.n;
             }
-            (out, tris)
-        })
-        .collect();
-    for (c, (verts, tris)) in cones.iter().zip(&cone_verts) {
+            *n = (*n + 1).min(3);
+        }
+    }
+    let sheet_count = sheets.iter().flatten().count();
+    geo.vertices
+        .reserve(3 * CONE_SEGMENTS * cones.len() + 6 * sheet_count);
+    for (c, &(n, first)) in cones.iter().zip(&normals) {
         match c {
-            Some(_) => {
+            Some(c) => {
+                let (ends, sweep) = cone_arc(n, first);
                 geo.cones += 1;
-                geo.cone_triangles += tris;
-                geo.vertices.extend_from_slice(verts);
+                geo.cone_triangles +=
+                    emit_cone(&mut geo.vertices, c, reach, view_inv, z_far, ends, sweep);
             }
             None => geo.skipped_vertices += 1,
         }
@@ -353,6 +371,23 @@ pub fn build_penumbra(
         }
     }
     geo
+}
+
+/// Silhouette edges from which `build_penumbra` computes cones and sheets on rayon: below
+/// this a caster's work is shorter than the hand-off to the pool.
+const PAR_EDGES: usize = 4096;
+
+/// `f` over `items`, on rayon when `par`, in order.
+fn map_maybe_par<T: Sync, U: Send>(
+    items: &[T],
+    par: bool,
+    f: impl Fn(&T) -> U + Sync + Send,
+) -> Vec<U> {
+    if par {
+        items.par_iter().with_min_len(256).map(f).collect()
+    } else {
+        items.iter().map(f).collect()
+    }
 }
 
 #[cfg(test)]

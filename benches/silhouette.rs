@@ -18,7 +18,9 @@
 //! `smoothies_1core` is `build_smoothies` (the expanded triangle list it built before, kept
 //! for comparison), `total_1core` is extract + records, and `penumbra_1core` is
 //! penumbra-map's CPU path (`build_penumbra`: cones and sheets, Lr = the scene's light
-//! radius, bases at `cone_base_depth`), all inside a one-thread pool.
+//! radius, bases at `cone_base_depth`) and `plateaus_1core` plateaus' (`PlateauBuilder`:
+//! cones and sheets in a 1024² plane texture; scenes with a planar receiver), all inside a
+//! one-thread pool.
 //! `SIL_SCENES=dense,bunny` limits it to those scenes.
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion};
@@ -31,6 +33,7 @@ use softshadow::silhouette::smoothie::Width;
 use softshadow::silhouette::SilhouetteEdge;
 use softshadow::silhouette::{build_smoothies, extract, extract_serial, Adjacency};
 use softshadow::technique::penumbra_map::cone_base_depth;
+use softshadow::technique::plateaus::{find_planar_receiver, PlaneFrame, PlateauBuilder};
 use softshadow::technique::smoothies::smoothie_width;
 use std::f32::consts::{PI, TAU};
 use std::hint::black_box;
@@ -152,6 +155,8 @@ struct Casters {
     t: f32,
     /// The scene's light radius (penumbra-map's Lr).
     radius: f32,
+    /// plateaus' plane frame (1024² texture), when the scene has a planar receiver.
+    plane: Option<PlaneFrame>,
 }
 
 impl Casters {
@@ -167,11 +172,15 @@ impl Casters {
             .filter(|o| o.role.casts())
             .filter_map(|o| Adjacency::build(&o.mesh).ok().map(|a| (o.transform, a)))
             .collect();
+        let plane = find_planar_receiver(&scene)
+            .ok()
+            .map(|r| PlaneFrame::new(&r, scene.objects[r.object].transform, &light, 1024));
         Some(Self {
             objects,
             light,
             t,
             radius: scene.light.radius,
+            plane,
         })
     }
 
@@ -211,6 +220,21 @@ impl Casters {
                     .len()
             })
             .sum()
+    }
+
+    /// plateaus' CPU path: cones and sheets of every caster in the plane's texture (one
+    /// mailbox stamp per caster, as the technique).
+    fn plateaus(&self, sil: &[Vec<SilhouetteEdge>]) -> usize {
+        let Some(plane) = &self.plane else { return 0 };
+        let most = self.objects.iter().map(|(_, a)| a.positions.len()).max();
+        let mut mailbox = vec![0u64; most.unwrap_or(0)];
+        let mut n = 0;
+        for (stamp, ((m, adj), s)) in (1..).zip(self.objects.iter().zip(sil)) {
+            let mut b = PlateauBuilder::new(plane, self.radius);
+            b.silhouette(adj, s, *m, &mut mailbox, stamp);
+            n += b.vertices.len();
+        }
+        n
     }
 
     /// The expanded triangle list (the pre-records CPU path; the GPU path's size estimate).
@@ -327,6 +351,11 @@ fn scenes_cpu(c: &mut Criterion) {
         g.bench_function(BenchmarkId::new("penumbra_1core", name), |b| {
             b.iter_custom(|iters| cpu_iters(&pool, iters, || cs.penumbra(black_box(&sil))))
         });
+        if cs.plane.is_some() {
+            g.bench_function(BenchmarkId::new("plateaus_1core", name), |b| {
+                b.iter_custom(|iters| cpu_iters(&pool, iters, || cs.plateaus(black_box(&sil))))
+            });
+        }
     }
     g.finish();
 }

@@ -429,7 +429,18 @@ pub struct PlateauBuilder<'a> {
     pub vertices: Vec<PlateauVertex>,
     pub cones: usize,
     pub sheets: usize,
+    /// `spokes[n]`: the unit directions (cos, sin) of angle TAU i / n, i = 0..=n, for a cone
+    /// of n segments; filled on first use, so a build takes its sines and cosines once per
+    /// segment count instead of twice per cone triangle.
+    spokes: Vec<Vec<Vec2>>,
+    /// Scratch: one cone's or sheet's points in clip space (x, y) with their depth.
+    points: Vec<[f32; 3]>,
 }
+
+/// Segments of a cone: at least this many...
+const MIN_CONE_SEGMENTS: u32 = 8;
+/// ... and at most this many (two per texel of radius in between).
+const MAX_CONE_SEGMENTS: u32 = 64;
 
 impl<'a> PlateauBuilder<'a> {
     pub fn new(plane: &'a PlaneFrame, radius: f32) -> Self {
@@ -439,14 +450,15 @@ impl<'a> PlateauBuilder<'a> {
             vertices: Vec::new(),
             cones: 0,
             sheets: 0,
+            spokes: vec![Vec::new(); MAX_CONE_SEGMENTS as usize + 1],
+            points: Vec::new(),
         }
     }
 
-    fn push(&mut self, p: Vec2, depth: f32) {
+    /// A point in texture clip space with its depth.
+    fn clip(&self, p: Vec2, depth: f32) -> [f32; 3] {
         let c = self.plane.uv(p) * 2.0 - Vec2::ONE;
-        self.vertices.push(PlateauVertex {
-            clip: [c.x, c.y, depth],
-        });
+        [c.x, c.y, depth]
     }
 
     /// A cone with its apex at `c` (depth 0) and base circle of radius `r` (depth 1).
@@ -456,16 +468,37 @@ impl<'a> PlateauBuilder<'a> {
         if texels.is_nan() || texels <= 1e-3 {
             return;
         }
-        let segments = (2.0 * texels).ceil().clamp(8.0, 64.0) as u32;
-        let at = |i: u32| {
-            let a = std::f32::consts::TAU * i as f32 / segments as f32;
-            c + Vec2::new(a.cos(), a.sin()) * r
-        };
-        for i in 0..segments {
-            self.push(c, 0.0);
-            self.push(at(i), 1.0);
-            self.push(at(i + 1), 1.0);
+        let segments = (2.0 * texels)
+            .ceil()
+            .clamp(MIN_CONE_SEGMENTS as f32, MAX_CONE_SEGMENTS as f32)
+            as u32;
+        let spokes = &mut self.spokes[segments as usize];
+        if spokes.is_empty() {
+            spokes.extend((0..=segments).map(|i| {
+                let a = std::f32::consts::TAU * i as f32 / segments as f32;
+                Vec2::new(a.cos(), a.sin())
+            }));
         }
+        // Each base point once, shared by its two triangles.
+        let mut points = std::mem::take(&mut self.points);
+        points.clear();
+        points.extend(
+            self.spokes[segments as usize]
+                .iter()
+                .map(|&d| self.clip(c + d * r, 1.0)),
+        );
+        let apex = PlateauVertex {
+            clip: self.clip(c, 0.0),
+        };
+        self.vertices.reserve(3 * segments as usize);
+        for w in points.windows(2) {
+            self.vertices.extend_from_slice(&[
+                apex,
+                PlateauVertex { clip: w[0] },
+                PlateauVertex { clip: w[1] },
+            ]);
+        }
+        self.points = points;
         self.cones += 1;
     }
 
@@ -488,19 +521,29 @@ impl<'a> PlateauBuilder<'a> {
         }
         let m = e * a + p * (1.0 - a * a).sqrt();
         let n = ((r1 - r2).abs() / texel).sqrt().ceil().clamp(1.0, 16.0) as u32;
-        let at = |i: u32, j: u32| {
+        // The (n + 1)^2 grid points once each, row i (along the edge) after row i - 1.
+        let mut points = std::mem::take(&mut self.points);
+        points.clear();
+        for i in 0..=n {
             let s = i as f32 / n as f32;
-            let t = j as f32 / n as f32;
-            (c1 + d * s + m * (t * (r1 + (r2 - r1) * s)), t)
+            for j in 0..=n {
+                let t = j as f32 / n as f32;
+                points.push(self.clip(c1 + d * s + m * (t * (r1 + (r2 - r1) * s)), t));
+            }
+        }
+        let at = |i: u32, j: u32| PlateauVertex {
+            clip: points[(i * (n + 1) + j) as usize],
         };
+        self.vertices.reserve(6 * (n * n) as usize);
         for i in 0..n {
             for j in 0..n {
                 let q = [at(i, j), at(i + 1, j), at(i + 1, j + 1), at(i, j + 1)];
                 for k in [0, 1, 2, 0, 2, 3] {
-                    self.push(q[k].0, q[k].1);
+                    self.vertices.push(q[k]);
                 }
             }
         }
+        self.points = points;
         self.sheets += 1;
     }
 

@@ -28,7 +28,8 @@
 //!      a device-local vertex buffer drawn with one indirect draw per caster. No readback, no
 //!      upload but the casters' transforms and the light. A timed pass.
 //!    - CPU (default on lavapipe, where the compute passes share the CPU's two cores and are
-//!      slower, BENCHMARKS.md): `silhouette::extract` + `penumbra::build_penumbra` (rayon),
+//!      slower, BENCHMARKS.md): `silhouette::extract` + `penumbra::build_penumbra` (rayon
+//!      for casters of 4096 silhouette edges and more),
 //!      uploaded to a host-visible vertex buffer. A `cpu` timing.
 //!
 //!    Both build the same triangles (tests/gpu_penumbra.rs) and keep each caster's geometry

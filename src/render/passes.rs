@@ -10,6 +10,7 @@ use crate::vk::{
 };
 use anyhow::Result;
 use glam::Mat4;
+use rayon::prelude::*;
 
 /// Clear value of linear-depth targets: "nothing here", farther than any far plane, finite
 /// so that ratios like b / r stay finite.
@@ -366,34 +367,44 @@ impl<K: PartialEq + Copy, T> CasterCacheOf<K, T> {
         }
     }
 
+    /// Every cached object's geometry, in object order.
+    pub fn iter(&self) -> impl Iterator<Item = &T> {
+        self.entries.iter().flatten().map(|e| &e.2)
+    }
+}
+
+impl<K: PartialEq + Copy + Send + Sync, T: Send> CasterCacheOf<K, T> {
     /// Rebuilds, with `build(adjacency, model)`, every caster (object with an adjacency)
-    /// whose slot is stale (all of them when `force`); returns how many were rebuilt.
+    /// whose slot is stale (all of them when `force`); returns how many were rebuilt. The
+    /// casters are built in parallel on rayon (each slot is its caster's alone, so the result
+    /// does not depend on the schedule): a light move rebuilds every caster, and `dense`'s
+    /// 36 then share the cores instead of queueing on one.
     pub fn update(
         &mut self,
         objects: &[crate::scene::Object],
         adjacency: &[Option<crate::silhouette::Adjacency>],
         key: K,
         force: bool,
-        mut build: impl FnMut(&crate::silhouette::Adjacency, Mat4) -> T,
+        build: impl Fn(&crate::silhouette::Adjacency, Mat4) -> T + Sync,
     ) -> usize {
-        let mut rebuilt = 0;
-        for ((o, adj), slot) in objects.iter().zip(adjacency).zip(&mut self.entries) {
-            let Some(adj) = adj else { continue };
-            let model = o.transform;
-            let fresh = slot
-                .as_ref()
-                .is_some_and(|(m, k, _)| *m == model && *k == key);
-            if force || !fresh {
-                *slot = Some((model, key, build(adj, model)));
-                rebuilt += 1;
-            }
-        }
-        rebuilt
-    }
-
-    /// Every cached object's geometry, in object order.
-    pub fn iter(&self) -> impl Iterator<Item = &T> {
-        self.entries.iter().flatten().map(|e| &e.2)
+        self.entries
+            .par_iter_mut()
+            .zip(objects)
+            .zip(adjacency)
+            .map(|((slot, o), adj)| {
+                let Some(adj) = adj else { return 0 };
+                let model = o.transform;
+                let fresh = slot
+                    .as_ref()
+                    .is_some_and(|(m, k, _)| *m == model && *k == key);
+                if force || !fresh {
+                    *slot = Some((model, key, build(adj, model)));
+                    1
+                } else {
+                    0
+                }
+            })
+            .sum()
     }
 }
 

@@ -42,8 +42,9 @@
 //! bends less than 1/4 texel inside a cell). No sheet when one disc holds the other
 //! (|a| >= 1): its cone covers the other. Cones are fans of clamp(2 r / texel, 8, 64) segments
 //! (chord sagitta under ~0.3 texel). Each silhouette vertex gets one cone per caster build
-//! (the paper's mailbox, a build stamp per welded vertex of that caster; a vertex belongs to
-//! one caster, so per-caster builds keep "one cone per vertex per frame").
+//! (the paper's mailbox, a build stamp per welded vertex of that caster, one mailbox per
+//! caster build so that casters build in parallel; a vertex belongs to one caster, so
+//! per-caster builds keep "one cone per vertex per frame").
 //!
 //! Texture region: the plane object's bounding rectangle (in the plane) clipped to the light
 //! frustum (Sutherland-Hodgman against its four sides and near plane), its bounding square
@@ -602,11 +603,6 @@ pub struct Plateaus {
     /// Per caster, its cones and sheets and the plane frame and radius they were built for:
     /// a moved caster rebuilds only its own.
     cache: CasterCache<GeometryKey, PlateauVertex>,
-    /// Per welded vertex of the caster being built: the stamp of the build that drew its
-    /// cone (Sec. 3's mailbox). Every caster build takes a fresh stamp, so one buffer as
-    /// long as the largest caster serves them all.
-    mailbox: Vec<u64>,
-    stamp: u64,
     vertices: DynamicVertices,
 }
 
@@ -712,15 +708,6 @@ impl Plateaus {
         )?;
         let adjacency = // The plane is never a caster of its own plateaus.
         silhouette::caster_adjacency(init.scene, |i| i != receiver.object)?;
-        let mailbox = vec![
-            0;
-            adjacency
-                .iter()
-                .flatten()
-                .map(|a| a.positions.len())
-                .max()
-                .unwrap_or(0)
-        ];
         let casters = adjacency.iter().flatten().count();
         Ok(Box::new(Self {
             receiver,
@@ -739,8 +726,6 @@ impl Plateaus {
             cache: CasterCache::new(adjacency.len()),
             adjacency,
             casters,
-            mailbox,
-            stamp: 0,
             vertices: DynamicVertices::new("plateau vertices"),
         }))
     }
@@ -763,21 +748,22 @@ impl Plateaus {
     /// all when the plane frame or the radius changed, or when `force`); returns how many
     /// were rebuilt.
     fn build_geometry(&mut self, frame: &FrameInput<'_>, plane: &PlaneFrame, force: bool) -> usize {
+        let radius = frame.light_radius;
         let key = GeometryKey {
             plane: *plane,
-            radius: frame.light_radius,
+            radius,
         };
-        let (mailbox, stamp) = (&mut self.mailbox, &mut self.stamp);
         self.cache.update(
             &frame.scene.objects,
             &self.adjacency,
             key,
             force,
             |adj, model| {
-                *stamp += 1;
-                let mut b = PlateauBuilder::new(plane, frame.light_radius);
+                let mut b = PlateauBuilder::new(plane, radius);
                 let sil = silhouette::extract(adj, model, plane.light);
-                b.silhouette(adj, &sil, model, mailbox, *stamp);
+                // Each caster's own mailbox: the casters build in parallel.
+                let mut mailbox = vec![0u64; adj.positions.len()];
+                b.silhouette(adj, &sil, model, &mut mailbox, 1);
                 b.vertices
             },
         )

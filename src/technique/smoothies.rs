@@ -23,7 +23,8 @@
 //!      written as expanded `SmoothieVertex`es straight into a device-local vertex buffer;
 //!      no readback, no upload but the casters' transforms. A timed pass.
 //!    - CPU (default on lavapipe, where the "GPU" is the same two cores, several times
-//!      slower at this): `silhouette::extract` + `smoothie::records::build_records`: compact
+//!      slower at this): `silhouette::extract` + `smoothie::records::build_records`, the
+//!      casters in parallel (rayon, `CasterCacheOf::update`): compact
 //!      records (16 bytes per silhouette vertex, edge and corner, 4 per fan segment; layout
 //!      in src/silhouette/smoothie/records.rs) uploaded to one host-visible storage buffer,
 //!      caster after caster; the vertex shader expands them (pass 2). A `cpu` timing.

@@ -347,9 +347,10 @@ pub fn build_penumbra(
             *n = (*n + 1).min(3);
         }
     }
+    // A lower bound (one triangle per cone): most cones are short arcs, and the cache keeps
+    // each caster's vector, so no room for whole cones everywhere.
     let sheet_count = sheets.iter().flatten().count();
-    geo.vertices
-        .reserve(3 * CONE_SEGMENTS * cones.len() + 6 * sheet_count);
+    geo.vertices.reserve(3 * cones.len() + 6 * sheet_count);
     for (c, &(n, first)) in cones.iter().zip(&normals) {
         match c {
             Some(c) => {

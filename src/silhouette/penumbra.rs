@@ -162,8 +162,7 @@ fn emit_cone(
     [first, last]: [Vec2; 2],
     sweep: f32,
 ) -> usize {
-    let max_step = std::f32::consts::TAU / CONE_SEGMENTS as f32;
-    let k = ((sweep.abs() / max_step).ceil() as usize).clamp(1, CONE_SEGMENTS);
+    let k = cone_segments(sweep);
     let step = sweep / k as f32;
     // Circumscribed: the polygon's edges touch the round base circle.
     let r = c.radius / (step * 0.5).cos();
@@ -191,6 +190,12 @@ fn emit_cone(
         out.extend_from_slice(&[tip, w[0], w[1]]);
     }
     k
+}
+
+/// Triangles of a cone over an arc of `sweep` radians: steps of at most TAU / CONE_SEGMENTS.
+fn cone_segments(sweep: f32) -> usize {
+    let max_step = std::f32::consts::TAU / CONE_SEGMENTS as f32;
+    ((sweep.abs() / max_step).ceil() as usize).clamp(1, CONE_SEGMENTS)
 }
 
 /// A sheet: its two triangles and its tangent normal n in the base plane.
@@ -347,19 +352,24 @@ pub fn build_penumbra(
             *n = (*n + 1).min(3);
         }
     }
-    // A lower bound (one triangle per cone): most cones are short arcs, and the cache keeps
-    // each caster's vector, so no room for whole cones everywhere.
+    // Every cone's arc and segment count first, so the output is reserved exactly (the
+    // cache keeps each caster's vector; most cones are short arcs of one or two segments).
+    let arcs: Vec<Option<([Vec2; 2], f32)>> = cones
+        .iter()
+        .zip(&normals)
+        .map(|(c, &(n, first))| c.as_ref().map(|_| cone_arc(n, first)))
+        .collect();
+    let cone_tris: usize = arcs.iter().flatten().map(|a| cone_segments(a.1)).sum();
     let sheet_count = sheets.iter().flatten().count();
-    geo.vertices.reserve(3 * cones.len() + 6 * sheet_count);
-    for (c, &(n, first)) in cones.iter().zip(&normals) {
-        match c {
-            Some(c) => {
-                let (ends, sweep) = cone_arc(n, first);
+    geo.vertices.reserve(3 * cone_tris + 6 * sheet_count);
+    for (c, arc) in cones.iter().zip(&arcs) {
+        match (c, arc) {
+            (Some(c), Some((ends, sweep))) => {
                 geo.cones += 1;
                 geo.cone_triangles +=
-                    emit_cone(&mut geo.vertices, c, reach, view_inv, z_far, ends, sweep);
+                    emit_cone(&mut geo.vertices, c, reach, view_inv, z_far, *ends, *sweep);
             }
-            None => geo.skipped_vertices += 1,
+            _ => geo.skipped_vertices += 1,
         }
     }
     for s in sheets {

@@ -203,7 +203,14 @@ impl SmoothieRecords {
         });
         let n = segment_count(sweep);
         let word = (fan as u32) << 8 | n << 4;
-        self.segments.extend((0..n).map(|k| word | k));
+        // Most fans (two-edge corners) have one or two segments: two words are written
+        // unconditionally and the length set after, so that the count is not a branch.
+        let len = self.segments.len();
+        self.segments.extend_from_slice(&[word, word | 1]);
+        if n > 2 {
+            self.segments.extend((2..n).map(|k| word | k));
+        }
+        self.segments.truncate(len + n as usize);
     }
 
     /// The triangle list the vertex shader draws, computed as the shader computes it
@@ -327,8 +334,9 @@ pub fn build_records(
     // Edges, in silhouette order. Per silhouette vertex, the number of kept incident edges
     // (saturating) and the first two of them in silhouette order: all a corner needs.
     let mut incident = vec![Incident::default(); verts.len()];
-    // (silhouette vertex, edge, d) of every kept incident edge past a vertex's second.
-    let mut spill: Vec<(u32, u32, Vec2)> = Vec::new();
+    // Every kept incident edge past a vertex's second, chained per vertex from
+    // `Incident::spill`.
+    let mut spill: Vec<Spill> = Vec::new();
     rec.edges.reserve(sil.len());
     for (i, (e, &[a, b])) in sil.iter().zip(&ends).enumerate() {
         let (va, vb) = (&verts[a as usize], &verts[b as usize]);
@@ -340,16 +348,11 @@ pub fn build_records(
                 dir: d.to_array(),
             });
             for c in [a, b] {
-                if !incident[c as usize].add(i as u32, d) {
-                    spill.push((c, i as u32, d));
-                }
+                incident[c as usize].add(i as u32, d, &mut spill);
             }
         }
     }
     rec.skipped_edges = sil.len() - rec.edges.len();
-    // By vertex (stable: each vertex's edges stay in silhouette order), so a special vertex
-    // finds its own in a binary search instead of a scan of every vertex's.
-    spill.sort_by_key(|s| s.0);
 
     // Corners in silhouette-vertex order (the order of first use), so that every per-vertex
     // array is read front to back. `build_smoothies_width` goes by welded vertex index; the
@@ -376,25 +379,51 @@ pub fn build_records(
     rec
 }
 
-/// A silhouette vertex's kept incident edges: how many (saturating at 3) and the first two
-/// (silhouette index, outward direction), in silhouette order.
-#[derive(Clone, Copy, Default)]
+/// A silhouette vertex's kept incident edges: how many (saturating at 3), the first two
+/// (silhouette index, outward direction) in silhouette order, and the head of the chain of
+/// the others in the spill list (newest first), or [`NO_SPILL`].
+#[derive(Clone, Copy)]
 struct Incident {
     count: u8,
+    spill: u32,
     edges: [(u32, Vec2); 2],
 }
 
+impl Default for Incident {
+    fn default() -> Self {
+        Self {
+            count: 0,
+            spill: NO_SPILL,
+            edges: Default::default(),
+        }
+    }
+}
+
+/// A third or later kept edge at a vertex: the next one of the same vertex (or
+/// [`NO_SPILL`]), the edge's silhouette index and outward direction. A chain per vertex,
+/// not a list sorted by vertex: no sort, and a special vertex walks only its own.
+#[derive(Clone, Copy)]
+struct Spill {
+    next: u32,
+    edge: u32,
+    d: Vec2,
+}
+
+const NO_SPILL: u32 = u32::MAX;
+
 impl Incident {
-    /// Counts the edge; false when it is a third or later one (not kept here).
-    fn add(&mut self, edge: u32, d: Vec2) -> bool {
-        let kept = if let Some(slot) = self.edges.get_mut(self.count as usize) {
+    fn add(&mut self, edge: u32, d: Vec2, spill: &mut Vec<Spill>) {
+        if let Some(slot) = self.edges.get_mut(self.count as usize) {
             *slot = (edge, d);
-            true
         } else {
-            false
-        };
+            spill.push(Spill {
+                next: self.spill,
+                edge,
+                d,
+            });
+            self.spill = (spill.len() - 1) as u32;
+        }
         self.count = (self.count + 1).min(3);
-        kept
     }
 }
 
@@ -434,7 +463,8 @@ fn edge_dir(
         // Only trust the normals when they clearly pick a side (> ~0.5 degree):
         // |dot| > 1e-2 |avg|, squared (no square root).
         if dot * dot > 1e-4 * avg.length_squared() {
-            return Some(if dot < 0.0 { -d } else { d });
+            // The side is a coin toss per edge: a sign copy, not a branch (dot != 0 here).
+            return Some(d * 1f32.copysign(dot));
         }
     }
     Some(undecided_dir(adj, pr, e, va.p, vb.p, s0, s1, d))
@@ -489,6 +519,21 @@ impl NormalProjector {
     }
 }
 
+/// Insertion sort by angle: a special vertex has about five spokes (four edges and n_t on
+/// `dense`), where the library's stable sort costs more in its set-up than in its
+/// comparisons. The angles are finite: every spoke is a finite unit vector.
+fn sort_by_angle(s: &mut [(f32, Vec2)]) {
+    for i in 1..s.len() {
+        let x = s[i];
+        let mut j = i;
+        while j > 0 && s[j - 1].0 > x.0 {
+            s[j] = s[j - 1];
+            j -= 1;
+        }
+        s[j] = x;
+    }
+}
+
 /// One silhouette vertex's corner: record index `c`, the vertex, its clip coordinates
 /// and its kept incident edges.
 struct Corner<'a> {
@@ -509,11 +554,11 @@ impl Corner<'_> {
         adj: &Adjacency,
         pr: &Projector,
         sil: &[SilhouetteEdge],
-        spill: &[(u32, u32, Vec2)],
+        spill: &[Spill],
         spokes: &mut Vec<(f32, Vec2)>,
         rec: &mut SmoothieRecords,
     ) -> Option<bool> {
-        self.vtx.proj?;
+        // A kept edge has both ends projected (`edge_dir`), so a vertex with one is too.
         let [(i1, d1), (i2, d2)] = self.inc.edges;
         if self.inc.count == 2 {
             let cos = d1.dot(d2).clamp(-1.0, 1.0);
@@ -546,14 +591,15 @@ impl Corner<'_> {
         for &(i, d) in &self.inc.edges[..usize::from(self.inc.count).min(2)] {
             add(i, d);
         }
-        let first = spill.partition_point(|s| s.0 < self.c);
-        for &(_, i, d) in spill[first..].iter().take_while(|s| s.0 == self.c) {
-            add(i, d);
+        let mut next = self.inc.spill;
+        while let Some(s) = spill.get(next as usize) {
+            add(s.edge, s.d);
+            next = s.next;
         }
         if let Some(n) = self.normal(pr, n) {
             spokes.push((fast_atan2(n.y, n.x), n));
         }
-        spokes.sort_by(|a, b| a.0.total_cmp(&b.0));
+        sort_by_angle(spokes);
         spokes.dedup_by(|x, y| (x.0 - y.0).abs() < 1e-6);
         for i in 0..spokes.len() {
             let (a, from) = spokes[i];

@@ -97,6 +97,14 @@ pub struct FanRecord {
     pub sweep: f32,
 }
 
+impl VertexRecord {
+    /// Whether the projection kept the vertex: a kept one has 1 / depth > 0 (depth finite,
+    /// beyond the near plane), a rejected one is all zeros.
+    fn projected(&self) -> bool {
+        self.inv_depth > 0.0
+    }
+}
+
 /// Largest fan index a segment word can hold (24 bits).
 pub const MAX_FANS: usize = 1 << 24;
 
@@ -306,8 +314,9 @@ pub fn build_records(
     welded.truncate(numbered);
     // Clip coordinates per silhouette vertex: linear in the world point, so an edge's
     // midpoint needs no projection of its own.
+    // The later loops read only these two arrays per vertex (32 bytes): the world point
+    // is recomputed where the rare fallbacks need it (`edge_dir`, hairpins).
     let mut clips: Vec<Vec4> = Vec::with_capacity(welded.len());
-    let mut verts: Vec<SilVertex> = Vec::with_capacity(welded.len());
     rec.vertices.reserve(welded.len());
     for &v in &welded {
         let p = pr.world(adj.positions[v as usize]);
@@ -315,33 +324,29 @@ pub fn build_records(
         let c = light.view_proj * p.extend(1.0);
         let (s, z) = (c.xy() / c.w * 0.5 + Vec2::splat(0.5), c.w);
         let ok = z > light.near && s.is_finite() && z.is_finite();
-        let proj = ok.then(|| Projected {
-            s,
-            z,
-            inv: 1.0 / z,
-            t: width.at(z),
+        rec.vertices.push(if ok {
+            VertexRecord {
+                uv: s.to_array(),
+                inv_depth: 1.0 / z,
+                width: width.at(z),
+            }
+        } else {
+            VertexRecord::default()
         });
-        rec.vertices
-            .push(proj.map_or(VertexRecord::default(), |q| VertexRecord {
-                uv: q.s.to_array(),
-                inv_depth: q.inv,
-                width: q.t,
-            }));
         clips.push(c);
-        verts.push(SilVertex { v, p, proj });
     }
 
     // Edges, in silhouette order. Per silhouette vertex, the number of kept incident edges
     // (saturating) and the first two of them in silhouette order: all a corner needs.
-    let mut incident = vec![Incident::default(); verts.len()];
+    let mut incident = vec![Incident::default(); welded.len()];
     // Every kept incident edge past a vertex's second, chained per vertex from
     // `Incident::spill`.
     let mut spill: Vec<Spill> = Vec::new();
     rec.edges.reserve(sil.len());
     for (i, (e, &[a, b])) in sil.iter().zip(&ends).enumerate() {
-        let (va, vb) = (&verts[a as usize], &verts[b as usize]);
+        let ends = [&rec.vertices[a as usize], &rec.vertices[b as usize]];
         let clip = [clips[a as usize], clips[b as usize]];
-        if let Some(d) = edge_dir(adj, &pr, normals.clip(adj, &pr, e), e, va, vb, clip) {
+        if let Some(d) = edge_dir(adj, &pr, normals.clip(adj, &pr, e), e, ends, clip) {
             rec.edges.push(EdgeRecord {
                 a,
                 b,
@@ -359,15 +364,15 @@ pub fn build_records(
     // fans are the same, in another order, which the smoothie pass cannot see (both of its
     // attachments blend with MIN).
     let mut spokes: Vec<(f32, Vec2)> = Vec::new();
-    rec.fans.reserve(verts.len());
-    rec.segments.reserve(4 * verts.len());
-    for (c, (vtx, (inc, &clip))) in verts.iter().zip(incident.iter().zip(&clips)).enumerate() {
+    rec.fans.reserve(welded.len());
+    rec.segments.reserve(4 * welded.len());
+    for (c, (&v, (inc, &clip))) in welded.iter().zip(incident.iter().zip(&clips)).enumerate() {
         if inc.count == 0 {
             continue;
         }
         let corner = Corner {
             c: c as u32,
-            vtx,
+            v,
             clip,
             inc,
         };
@@ -442,12 +447,13 @@ fn edge_dir(
     pr: &Projector,
     cn: Vec4,
     e: &SilhouetteEdge,
-    va: &SilVertex,
-    vb: &SilVertex,
+    [ra, rb]: [&VertexRecord; 2],
     [ca, cb]: [Vec4; 2],
 ) -> Option<Vec2> {
-    let (a, b) = (va.proj?, vb.proj?);
-    let (s0, s1) = (a.s, b.s);
+    if !ra.projected() || !rb.projected() {
+        return None;
+    }
+    let (s0, s1) = (Vec2::from(ra.uv), Vec2::from(rb.uv));
     let along = s1 - s0;
     let len = along.length();
     // Also catches NaN.
@@ -467,7 +473,8 @@ fn edge_dir(
             return Some(d * 1f32.copysign(dot));
         }
     }
-    Some(undecided_dir(adj, pr, e, va.p, vb.p, s0, s1, d))
+    let [pa, pb] = [e.a, e.b].map(|v| pr.world(adj.positions[v as usize]));
+    Some(undecided_dir(adj, pr, e, pa, pb, s0, s1, d))
 }
 
 /// Clip-space direction of the sum of an edge's adjacent unit world normals (up to a
@@ -534,16 +541,32 @@ fn sort_by_angle(s: &mut [(f32, Vec2)]) {
     }
 }
 
-/// One silhouette vertex's corner: record index `c`, the vertex, its clip coordinates
-/// and its kept incident edges.
+/// One silhouette vertex's corner: record index `c`, welded vertex `v`, its clip
+/// coordinates and its kept incident edges.
 struct Corner<'a> {
     c: u32,
-    vtx: &'a SilVertex,
+    v: u32,
     clip: Vec4,
     inc: &'a Incident,
 }
 
 impl Corner<'_> {
+    /// The vertex as the shared helpers take it, exactly as `build_smoothies_width`
+    /// projects it (uv from the record, depth = clip w, the world point recomputed).
+    fn vertex(&self, adj: &Adjacency, pr: &Projector, rec: &SmoothieRecords) -> SilVertex {
+        let r = &rec.vertices[self.c as usize];
+        SilVertex {
+            v: self.v,
+            p: pr.world(adj.positions[self.v as usize]),
+            proj: Some(Projected {
+                s: Vec2::from(r.uv),
+                z: self.clip.w,
+                inv: r.inv_depth,
+                t: r.width,
+            }),
+        }
+    }
+
     /// The corner's fans as `build_corner` decides them; whether it is special, or `None`
     /// when it needs no corner. Two edges: the shorter arc from d1 to d2, or the hairpin
     /// half turn; none when d1 == d2. One edge, or three and more (the paper's special
@@ -569,7 +592,7 @@ impl Corner<'_> {
             }
             let sweep = if cos <= -1.0 {
                 let edges = [&sil[i1 as usize], &sil[i2 as usize]];
-                if hairpin_ccw(adj, pr, self.vtx, edges.into_iter(), d1) {
+                if hairpin_ccw(adj, pr, &self.vertex(adj, pr, rec), edges.into_iter(), d1) {
                     PI
                 } else {
                     -PI

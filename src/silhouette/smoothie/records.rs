@@ -50,8 +50,9 @@
 //! projections (see `edge_dir`), with the clip-space normal matrix precomputed for rigid
 //! and uniformly scaled models; so does n_t. Every silhouette vertex is numbered in one
 //! loop and projected in the next; a corner needs only its first two incident edges and a
-//! count, gathered while the edges are built (later ones, at special vertices, spill into
-//! a short list).
+//! count, gathered while the edges are built (later ones, at special vertices, go into a
+//! chain per vertex). The two-edge arcs are computed for every vertex in a loop of their
+//! own, branch-free so that it vectorises, before the loop that writes the fans.
 //!
 //! # Draw
 //! Per caster, one draw of `6 * edges` vertices (smoothie_edges.vert) and one of
@@ -125,28 +126,23 @@ pub struct SmoothieRecords {
 }
 
 /// atan2(y, x) in [-PI, PI] without libm: |error| < 2e-6 rad (checked against libm by
-/// `fast_atan2_accuracy`), monotonic in the angle. atan2(0, 0) = 0.
+/// `fast_atan2_accuracy`), monotonic in the angle. atan2(0, 0) = 0, and never NaN.
+/// Branch-free (the quadrant fix-ups are selects), so that a loop of it vectorises.
 pub fn fast_atan2(y: f32, x: f32) -> f32 {
     let (ax, ay) = (x.abs(), y.abs());
-    let (lo, hi) = (ax.min(ay), ax.max(ay));
-    if hi == 0.0 || hi.is_nan() {
-        return 0.0;
-    }
-    let a = lo / hi;
+    // 0 / 0 (and inf / inf) give a NaN ratio, mapped to 0 at the end.
+    let a = ax.min(ay) / ax.max(ay);
     let s = a * a;
-    let mut r = a
+    let r = a
         * (0.999_977_26
             + s * (-0.332_623_47
                 + s * (0.193_543_46
                     + s * (-0.116_432_87 + s * (0.052_653_32 + s * -0.011_721_2)))));
-    if ay > ax {
-        r = FRAC_PI_2 - r;
-    }
-    if x < 0.0 {
-        r = PI - r;
-    }
-    if y < 0.0 {
-        -r
+    let r = if ay > ax { FRAC_PI_2 - r } else { r };
+    let r = if x < 0.0 { PI - r } else { r };
+    let r = if y < 0.0 { -r } else { r };
+    if r.is_nan() {
+        0.0
     } else {
         r
     }
@@ -363,10 +359,20 @@ pub fn build_records(
     // array is read front to back. `build_smoothies_width` goes by welded vertex index; the
     // fans are the same, in another order, which the smoothie pass cannot see (both of its
     // attachments blend with MIN).
+    // Every vertex's arc from its first to its second edge (used by two-edge corners), in a
+    // loop of its own: no pushes and no branches, so it vectorises.
+    let arcs: Vec<f32> = incident
+        .iter()
+        .map(|inc| {
+            let [(_, d1), (_, d2)] = inc.edges;
+            fast_atan2(d1.perp_dot(d2), d1.dot(d2).clamp(-1.0, 1.0))
+        })
+        .collect();
     let mut spokes: Vec<(f32, Vec2)> = Vec::new();
     rec.fans.reserve(welded.len());
     rec.segments.reserve(4 * welded.len());
-    for (c, (&v, (inc, &clip))) in welded.iter().zip(incident.iter().zip(&clips)).enumerate() {
+    let per_vertex = welded.iter().zip(&clips).zip(incident.iter().zip(&arcs));
+    for (c, ((&v, &clip), (inc, &arc))) in per_vertex.enumerate() {
         if inc.count == 0 {
             continue;
         }
@@ -375,6 +381,7 @@ pub fn build_records(
             v,
             clip,
             inc,
+            arc,
         };
         if let Some(special) = corner.build(adj, &pr, sil, &spill, &mut spokes, &mut rec) {
             rec.corners += 1;
@@ -548,6 +555,8 @@ struct Corner<'a> {
     v: u32,
     clip: Vec4,
     inc: &'a Incident,
+    /// `fast_atan2` of the cross and dot products of the first two edges' directions.
+    arc: f32,
 }
 
 impl Corner<'_> {
@@ -598,7 +607,7 @@ impl Corner<'_> {
                     -PI
                 }
             } else {
-                fast_atan2(d1.perp_dot(d2), cos)
+                self.arc
             };
             rec.push_fan(self.c, d1, sweep);
             return Some(false);

@@ -52,7 +52,8 @@
 //! loop and projected in the next; a corner needs only its first two incident edges and a
 //! count, gathered while the edges are built (later ones, at special vertices, go into a
 //! chain per vertex). The two-edge arcs are computed for every vertex in a loop of their
-//! own, branch-free so that it vectorises, before the loop that writes the fans.
+//! own, with no pushes or branches (consecutive vertices' divisions and polynomials
+//! overlap; it does not vectorise), before the loop that writes the fans.
 //!
 //! # Draw
 //! Per caster, one draw of `6 * edges` vertices (smoothie_edges.vert) and one of
@@ -127,7 +128,8 @@ pub struct SmoothieRecords {
 
 /// atan2(y, x) in [-PI, PI] without libm: |error| < 2e-6 rad (checked against libm by
 /// `fast_atan2_accuracy`), monotonic in the angle. atan2(0, 0) = 0, and never NaN.
-/// Branch-free (the quadrant fix-ups are selects), so that a loop of it vectorises.
+/// Branch-free (the quadrant fix-ups are selects): in a loop, one call's division and
+/// polynomial overlap the next's, with no quadrant branch to mispredict.
 pub fn fast_atan2(y: f32, x: f32) -> f32 {
     let (ax, ay) = (x.abs(), y.abs());
     // 0 / 0 (and inf / inf) give a NaN ratio, mapped to 0 at the end.
@@ -360,7 +362,8 @@ pub fn build_records(
     // fans are the same, in another order, which the smoothie pass cannot see (both of its
     // attachments blend with MIN).
     // Every vertex's arc from its first to its second edge (used by two-edge corners), in a
-    // loop of its own: no pushes and no branches, so it vectorises.
+    // loop of its own: no pushes and no branches, so that the vertices' divisions and
+    // polynomials overlap.
     let arcs: Vec<f32> = incident
         .iter()
         .map(|inc| {

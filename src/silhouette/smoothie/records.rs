@@ -427,6 +427,8 @@ struct Spill {
 const NO_SPILL: u32 = u32::MAX;
 
 impl Incident {
+    /// Counts the edge: one of the first two is kept here, a later one goes to the head of
+    /// this vertex's chain in `spill`.
     fn add(&mut self, edge: u32, d: Vec2, spill: &mut Vec<Spill>) {
         if let Some(slot) = self.edges.get_mut(self.count as usize) {
             *slot = (edge, d);

@@ -150,19 +150,22 @@ fn cone_data(p_world: Vec3, light: &LightView, lr: f32, z_far: f32) -> Option<Co
     })
 }
 
-/// Cone triangles around `c` over the base-plane arc from unit direction `first` to unit
-/// direction `last`, of signed angle `sweep` (radians; TAU and `last == first` for the whole
-/// cone), in segments of at most TAU / CONE_SEGMENTS. Returns the triangle count.
+/// Cone triangles around `c` over the base-plane arc `arc` (from unit direction `first` to
+/// unit direction `last`, TAU and `last == first` for the whole cone), `arc.segments` of
+/// them. Returns the triangle count.
 fn emit_cone(
     out: &mut Vec<PenumbraVertex>,
     c: &ConeData,
     reach: f32,
     view_inv: Mat4,
     z_far: f32,
-    [first, last]: [Vec2; 2],
-    sweep: f32,
+    arc: ConeArc,
 ) -> usize {
-    let k = cone_segments(sweep);
+    let ConeArc {
+        ends: [first, last],
+        sweep,
+        segments: k,
+    } = arc;
     let step = sweep / k as f32;
     // Circumscribed: the polygon's edges touch the round base circle.
     let r = c.radius / (step * 0.5).cos();
@@ -192,10 +195,26 @@ fn emit_cone(
     k
 }
 
-/// Triangles of a cone over an arc of `sweep` radians: steps of at most TAU / CONE_SEGMENTS.
-fn cone_segments(sweep: f32) -> usize {
-    let max_step = std::f32::consts::TAU / CONE_SEGMENTS as f32;
-    ((sweep.abs() / max_step).ceil() as usize).clamp(1, CONE_SEGMENTS)
+/// The part of a vertex's cone to draw: end directions and signed sweep (radians) in the
+/// base plane, and its triangle count (steps of at most TAU / CONE_SEGMENTS), known before
+/// any is written so that the output can be reserved exactly.
+#[derive(Clone, Copy)]
+struct ConeArc {
+    ends: [Vec2; 2],
+    sweep: f32,
+    segments: usize,
+}
+
+impl ConeArc {
+    fn new(ends: [Vec2; 2], sweep: f32) -> Self {
+        let max_step = std::f32::consts::TAU / CONE_SEGMENTS as f32;
+        let segments = ((sweep.abs() / max_step).ceil() as usize).clamp(1, CONE_SEGMENTS);
+        Self {
+            ends,
+            sweep,
+            segments,
+        }
+    }
 }
 
 /// A sheet: its two triangles and its tangent normal n in the base plane.
@@ -267,12 +286,11 @@ fn blocker_reach(cones: &[Option<ConeData>], z_far: f32) -> f32 {
     }
 }
 
-/// The part of a vertex's cone to draw: its end directions and signed sweep in the base
-/// plane, from how many sheets meet there (saturating) and the first two's tangent normals.
-/// Only a vertex with exactly two sheets draws an arc (from the first normal to the second),
-/// the rest the whole cone.
-fn cone_arc(sheets: u8, [n1, n2]: [Vec2; 2]) -> ([Vec2; 2], f32) {
-    let full = ([Vec2::X; 2], std::f32::consts::TAU);
+/// The part of a vertex's cone to draw, from how many sheets meet there (saturating) and
+/// the first two's tangent normals. Only a vertex with exactly two sheets draws an arc (from
+/// the first normal to the second), the rest the whole cone.
+fn cone_arc(sheets: u8, [n1, n2]: [Vec2; 2]) -> ConeArc {
+    let full = ConeArc::new([Vec2::X; 2], std::f32::consts::TAU);
     if sheets != 2 {
         return full;
     }
@@ -281,7 +299,7 @@ fn cone_arc(sheets: u8, [n1, n2]: [Vec2; 2]) -> ([Vec2; 2], f32) {
     if !sweep.is_finite() || sweep.abs() > std::f32::consts::PI - HAIRPIN {
         return full;
     }
-    ([n1, n2], sweep)
+    ConeArc::new([n1, n2], sweep)
 }
 
 /// Within this angle (1 degree) of a half turn, two sheet normals form a hairpin.
@@ -354,20 +372,19 @@ pub fn build_penumbra(
     }
     // Every cone's arc and segment count first, so the output is reserved exactly (the
     // cache keeps each caster's vector; most cones are short arcs of one or two segments).
-    let arcs: Vec<Option<([Vec2; 2], f32)>> = cones
+    let arcs: Vec<Option<ConeArc>> = cones
         .iter()
         .zip(&normals)
         .map(|(c, &(n, first))| c.as_ref().map(|_| cone_arc(n, first)))
         .collect();
-    let cone_tris: usize = arcs.iter().flatten().map(|a| cone_segments(a.1)).sum();
+    let cone_tris: usize = arcs.iter().flatten().map(|a| a.segments).sum();
     let sheet_count = sheets.iter().flatten().count();
     geo.vertices.reserve(3 * cone_tris + 6 * sheet_count);
     for (c, arc) in cones.iter().zip(&arcs) {
         match (c, arc) {
-            (Some(c), Some((ends, sweep))) => {
+            (Some(c), Some(arc)) => {
                 geo.cones += 1;
-                geo.cone_triangles +=
-                    emit_cone(&mut geo.vertices, c, reach, view_inv, z_far, *ends, *sweep);
+                geo.cone_triangles += emit_cone(&mut geo.vertices, c, reach, view_inv, z_far, *arc);
             }
             _ => geo.skipped_vertices += 1,
         }

@@ -25,6 +25,10 @@
 //! The build also records, per edge, whether it is a plain manifold edge (exactly two faces,
 //! both non-degenerate) and if so its two faces with their winding flags, so the per-light
 //! pass decides those edges from two facing bytes; only the others walk their face lists.
+//! That pass is branch-free over the edges (a flag byte per edge, packed 64 to a mask) and
+//! branches only per silhouette edge: about one edge in ten is one, scattered along the
+//! edge order, so a branch per edge mispredicted at nearly every silhouette edge (see
+//! [`classify_range`]).
 //!
 //! # Orientation convention of [`SilhouetteEdge`]
 //! `front_face` is a light-facing face of the edge (the lowest-numbered one), or, for a
@@ -133,9 +137,10 @@ pub struct Adjacency {
     /// instead of gathering from `positions`.
     face_planes: [Vec<f32>; 6],
     /// Per edge: for the common edge with exactly two faces, both non-degenerate, those faces
-    /// (in face order) with `FORWARD_BIT` set when the face runs `v[0] -> v[1]`; `[NOT_SIMPLE;
-    /// 2]` for every other edge (boundary, non-manifold, degenerate faces), which takes the
-    /// general path.
+    /// (in face order) with `FORWARD_BIT` set when the face runs `v[0] -> v[1]`; `[F, F + 1]`
+    /// (F = the face count) for every other edge (boundary, non-manifold, degenerate faces),
+    /// which takes the general path: the per-light facing table has two extra entries there,
+    /// back and front, so such an edge always reads as a candidate.
     edge_pairs: Vec<[u32; 2]>,
     /// Per edge: the sum of its non-degenerate faces' unit normals, in face order (what
     /// Volokh's direction test and a special vertex's normal project), so the per-light
@@ -144,8 +149,6 @@ pub struct Adjacency {
     pub edge_normals: Vec<Vec3>,
 }
 
-/// Marks an edge of `Adjacency::edge_pairs` that is not a plain two-face manifold edge.
-const NOT_SIMPLE: u32 = u32::MAX;
 /// Winding flag in `Adjacency::edge_pairs`; face numbers stay below 2^31 because corner numbers
 /// `3 * face + k` fit in 32 bits.
 const FORWARD_BIT: u32 = 1 << 31;
@@ -276,6 +279,8 @@ impl Adjacency {
                 })
                 .collect()
         });
+        // Cannot fail: the corner count 3 F fits in u32 (checked above), so F + 1 < 2^31 too.
+        let general = u32::try_from(triangles.len()).context("face count")?;
         let edge_pairs = edge_face_start
             .windows(2)
             .map(|w| match &edge_face_list[w[0] as usize..w[1] as usize] {
@@ -283,7 +288,7 @@ impl Adjacency {
                     let pack = |ef: &EdgeFace| ef.face | if ef.forward { FORWARD_BIT } else { 0 };
                     [pack(x), pack(y)]
                 }
-                _ => [NOT_SIMPLE; 2],
+                _ => [general, general + 1],
             })
             .collect();
         let edge_normals = edge_face_start
@@ -477,7 +482,19 @@ fn oriented(
     }
 }
 
+/// Edges per block of [`classify_range`]: their flag bytes (1 KiB on the stack) stay in L1
+/// between the two passes.
+const CLASSIFY_BLOCK: usize = 1024;
+
 /// Silhouette edges among edges `first..first + n`, appended to `out` in edge order.
+/// `facings` has the two extra entries of `Adjacency::edge_pairs`' general edges.
+///
+/// Two passes per block of edges. The first writes a flag byte per edge, "its two facing
+/// bytes differ", with no branch; the second packs 64 flags into a mask and visits only
+/// the set bits. A branch per edge on the same test mispredicts at nearly every silhouette
+/// edge (about one in ten, scattered), which cost more than the test itself; a candidate
+/// list written at a running count (a store whose address waits on the previous edge's
+/// loads) and a mask built bit by bit were both slower than the branch (BENCHMARKS.md).
 fn classify_range(
     adj: &Adjacency,
     first: usize,
@@ -486,26 +503,48 @@ fn classify_range(
     mirror: bool,
     out: &mut Vec<SilhouetteEdge>,
 ) {
-    for (i, &[p, q]) in adj.edge_pairs[first..first + n].iter().enumerate() {
-        let e = first + i;
-        if p == NOT_SIMPLE {
-            out.extend(classify(adj, e, facings, mirror));
-            continue;
+    let general = adj.num_faces() as u32;
+    let face = |f: u32| (f & !FORWARD_BIT) as usize;
+    let mut flags = [0u8; CLASSIFY_BLOCK];
+    for (b, block) in adj.edge_pairs[first..first + n]
+        .chunks(CLASSIFY_BLOCK)
+        .enumerate()
+    {
+        let base = first + b * CLASSIFY_BLOCK;
+        for (f, &[p, q]) in flags.iter_mut().zip(block) {
+            *f = u8::from(facings[face(p)] != facings[face(q)]);
         }
-        // Two valid faces: a silhouette iff exactly one faces the light, which is then the
-        // front face (the general rule for a manifold edge, without the face-list walk).
-        let fp = facings[(p & !FORWARD_BIT) as usize];
-        let fq = facings[(q & !FORWARD_BIT) as usize];
-        if fp != fq {
-            let front = if fp == FRONT { p } else { q };
-            out.push(oriented(
-                adj,
-                e,
-                front & !FORWARD_BIT,
-                front & FORWARD_BIT != 0,
-                EdgeKind::Manifold,
-                mirror,
-            ));
+        // The last group's flags past the block's end are stale: cleared.
+        let used = &mut flags[..block.len().next_multiple_of(64)];
+        used[block.len()..].fill(0);
+        for (g, group) in used.as_chunks::<64>().0.iter().enumerate() {
+            let mut mask = 0u64;
+            for (j, w) in group.as_chunks::<8>().0.iter().enumerate() {
+                // Eight 0/1 bytes to eight bits: the product sums byte k's bit into bit
+                // 56 + k, with no carries (each bit lands in its own place).
+                let bits = u64::from_le_bytes(*w).wrapping_mul(0x0102_0408_1020_4080) >> 56;
+                mask |= bits << (8 * j);
+            }
+            while mask != 0 {
+                let e = base + 64 * g + mask.trailing_zeros() as usize;
+                mask &= mask - 1;
+                let [p, q] = adj.edge_pairs[e];
+                if p == general {
+                    out.extend(classify(adj, e, facings, mirror));
+                    continue;
+                }
+                // Two valid faces, exactly one facing the light: it is the front face (the
+                // general rule for a manifold edge, without the face-list walk).
+                let front = if facings[face(p)] == FRONT { p } else { q };
+                out.push(oriented(
+                    adj,
+                    e,
+                    front & !FORWARD_BIT,
+                    front & FORWARD_BIT != 0,
+                    EdgeKind::Manifold,
+                    mirror,
+                ));
+            }
         }
     }
 }
@@ -532,14 +571,16 @@ fn extract_impl(
 ) -> Vec<SilhouetteEdge> {
     let (l, mirror) = light_in_object(model, light_pos_world);
     let (nf, ne) = (adj.num_faces(), adj.edges.len());
-    let mut facings = vec![0u8; nf];
+    // Two extra entries, back and front, for `edge_pairs`' general edges.
+    let mut facings = vec![BACK; nf + 2];
+    facings[nf + 1] = FRONT;
     if parallel && nf > chunk {
-        facings
+        facings[..nf]
             .par_chunks_mut(chunk)
             .enumerate()
             .for_each(|(c, out)| facings_into(adj, c * chunk, out, l));
     } else {
-        facings_into(adj, 0, &mut facings, l);
+        facings_into(adj, 0, &mut facings[..nf], l);
     }
     // About one edge in ten is a silhouette edge on a typical closed mesh.
     let mut out = Vec::with_capacity(ne / 8 + 16);

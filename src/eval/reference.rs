@@ -193,7 +193,7 @@ fn jitter(seed: u64, pixel: u64, sample: u64) -> Vec2 {
     Vec2::new(to01(h), to01(h << 24))
 }
 
-/// Shirley & Chiu's concentric map: the square [0,1]^2 onto the unit disc, area-preserving,
+/// Shirley & Chiu's concentric map: the square \[0,1\]^2 onto the unit disc, area-preserving,
 /// so equal strata of the square are equal areas of the disc.
 pub fn concentric_disc(u: Vec2) -> Vec2 {
     let a = 2.0 * u.x - 1.0;

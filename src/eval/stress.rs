@@ -1,11 +1,11 @@
 //! `softshadow stress`: a fixed list of named edge cases, every technique on each, checked
 //! against the ray-cast reference (`eval::reference`) with the DESIGN.md metrics.
 //!
-//! Per case and technique a [`Row`]: counts of NaN, Inf and out-of-[0,1] visibility pixels,
+//! Per case and technique a [`Row`]: counts of NaN, Inf and out-of-\[0,1\] visibility pixels,
 //! `mae_shadow` / `p99` / `max` against the reference, the temporal flicker where the case
 //! animates, the scale-invariance or FP16 figure where the case has one, any validation
 //! message, and pass/fail with the threshold used. A row fails when
-//! - any pixel is NaN, Inf or outside [0,1], or the technique fails to build or render,
+//! - any pixel is NaN, Inf or outside \[0,1\], or the technique fails to build or render,
 //!   or a validation message appears (always);
 //! - `mae_shadow` exceeds the case's limit (`Case::mae_limit`, or the technique's
 //!   documented allowance in `allowance`);

@@ -99,7 +99,7 @@ impl ShadowMap {
 pub struct CameraTargets {
     /// RGBA8 UNORM, gamma-encoded shaded colour (the PNG).
     pub color: Image,
-    /// R32F light visibility in [0,1]; background 1.
+    /// R32F light visibility in \[0,1\]; background 1.
     pub visibility: Image,
     /// RGBA32F world position, A = 1 on surfaces, 0 on background.
     pub position: Image,

@@ -130,7 +130,7 @@ pub struct Aabb {
 }
 
 /// The light's shadow-map frame: a square perspective frustum from `Light::position`
-/// towards `Light::target`. Light screen space is uv in [0,1]^2 with uv = ndc * 0.5 + 0.5
+/// towards `Light::target`. Light screen space is uv in \[0,1\]^2 with uv = ndc * 0.5 + 0.5
 /// (no flip: rendering and sampling use the same mapping). Linear depth is the distance
 /// along the light's view axis (-z in view space); along one texel's ray the ratio of two
 /// linear depths equals the ratio of their distances to the light (smoothies' b/r).
@@ -163,7 +163,7 @@ impl LightView {
         }
     }
 
-    /// Light-screen uv (in [0,1]^2 inside the frustum) and linear depth of a world point.
+    /// Light-screen uv (in \[0,1\]^2 inside the frustum) and linear depth of a world point.
     pub fn project(&self, p: Vec3) -> (glam::Vec2, f32) {
         let c = self.view_proj * p.extend(1.0);
         let ndc = c.truncate().truncate() / c.w;

@@ -28,7 +28,7 @@
 //! That pass is branch-free over the edges (a flag byte per edge, packed 64 to a mask) and
 //! branches only per silhouette edge: about one edge in ten is one, scattered along the
 //! edge order, so a branch per edge mispredicted at nearly every silhouette edge (see
-//! [`classify_range`]).
+//! `classify_range`).
 //!
 //! # Orientation convention of [`SilhouetteEdge`]
 //! `front_face` is a light-facing face of the edge (the lowest-numbered one), or, for a
@@ -127,7 +127,7 @@ pub struct Adjacency {
     pub face_normals: Vec<Vec3>,
     /// Per face: zero area or repeated welded corner. Ignored by facing tests.
     pub degenerate: Vec<bool>,
-    /// Unique undirected edges, sorted by (v[0], v[1]).
+    /// Unique undirected edges, sorted by (`v[0]`, `v[1]`).
     pub edges: Vec<Edge>,
     /// CSR offsets into `edge_face_list`, `edges.len() + 1` entries.
     edge_face_start: Vec<u32>,

@@ -15,7 +15,7 @@
 //!
 //! # Spaces and units
 //! Everything is built in light-screen uv (`LightView::project`: uv = ndc * 0.5 + 0.5, x
-//! right, y up, [0,1]^2 inside the frustum). The smoothie width `t` is in those uv units,
+//! right, y up, \[0,1\]^2 inside the frustum). The smoothie width `t` is in those uv units,
 //! i.e. a fraction of the shadow map's width (the paper's "normalized screen space"; it
 //! suggests 0.02 to 0.2). Each vertex carries `1 / linear depth` of the silhouette vertex it
 //! belongs to (extruded vertices keep their silhouette vertex's depth, so a smoothie lies at

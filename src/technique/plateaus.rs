@@ -363,7 +363,7 @@ impl PlaneFrame {
         (x - self.origin).dot(self.n)
     }
 
-    /// Texture uv in [0,1]^2 of plane coordinates.
+    /// Texture uv in \[0,1\]^2 of plane coordinates.
     pub fn uv(&self, p: Vec2) -> Vec2 {
         (p - self.min) / self.side
     }

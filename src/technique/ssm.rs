@@ -72,7 +72,7 @@
 //!    occluder texels), 2x2 footprint of the receiver map and the SSMs; per texel layer 0 if
 //!    the point is within 3 texels of depth slope of the front receiver, layer 1 if behind,
 //!    no data if the front receiver is behind the point (weights renormalised); ssm2 takes
-//!    max(front SSM, back SSM) per layer; occlusion clamped to [0,1] per texel, bilinear
+//!    max(front SSM, back SSM) per layer; occlusion clamped to \[0,1\] per texel, bilinear
 //!    weights; visibility = 1 - occlusion.
 //!
 //! ## Frame constants

@@ -24,7 +24,8 @@
 //!   the shorter arc to d2, or the hairpin half turn (+-PI), decided as `build_corner`
 //!   decides. Special vertex (one, or three and more, kept edges): the full disc split at
 //!   every d_i and at the projected vertex normal n_t, one fan per gap, as `build_corner`
-//!   (n_t by the projection's derivative, see `Corner::normal`). One full-disc fan from d1
+//!   (n_t by the projection's derivative, see `Corner::normal`; of spokes within 1e-6 rad
+//!   of each other, the last one in angle order starts the fan). One full-disc fan from d1
 //!   would cover the same disc of radius t, but its polygon's overshoot (t to
 //!   t / cos(15 deg), alpha clamped to 1) lies elsewhere, and those fragments still
 //!   MIN-blend their depth b into the smoothie buffer: on `bunny` that moved a receiver
@@ -46,14 +47,24 @@
 //! No libm: a two-edge corner's arc is [`fast_atan2`] of the cross and dot products (a
 //! degree-11 odd polynomial, |error| < 2e-6 rad: the last spoke moves by 2e-6 t, far below
 //! a texel), as are a special vertex's spoke angles (sorted by them); n is a ceil by
-//! truncation. The Volokh normal test takes the projection's derivative instead of three
+//! compares with the steps 1..14. The Volokh normal test takes the projection's derivative instead of three
 //! projections (see `edge_dir`), with the clip-space normal matrix precomputed for rigid
 //! and uniformly scaled models; so does n_t. Every silhouette vertex is numbered in one
 //! loop and projected in the next; a corner needs only its first two incident edges and a
 //! count, gathered while the edges are built (later ones, at special vertices, go into a
 //! chain per vertex). The two-edge arcs are computed for every vertex in a loop of their
 //! own, with no pushes or branches (consecutive vertices' divisions and polynomials
-//! overlap; it does not vectorise), before the loop that writes the fans.
+//! overlap; it does not vectorise), before the loop that writes the fans. A special vertex
+//! with up to 7 edges (`Corner::special_fixed`) keeps its spokes in 8 fixed lanes: the
+//! angles of all lanes at once, a stable sort by ranks, no loop whose trip count is the
+//! spoke count but the last; n_t's angle is taken before its normalisation. The working
+//! arrays live per thread between calls (`Scratch`).
+//!
+//! Measured slower on this CPU (Zen 1) and dropped (BENCHMARKS.md): plain two-edge fans
+//! written branch-free at a running count (records 0.80 -> 1.12 ms on `dense`), numbering
+//! in branch-free passes with a scatter (0.89 ms), both `Incident` slots rewritten per
+//! edge (1.0 ms), `push_fan` inlined (0.88 ms). A store whose address waits on a recent
+//! load is the likely common cost.
 //!
 //! # Draw
 //! Per caster, one draw of `6 * edges` vertices (smoothie_edges.vert) and one of
@@ -105,6 +116,24 @@ impl VertexRecord {
     fn projected(&self) -> bool {
         self.inv_depth > 0.0
     }
+}
+
+/// Spokes (kept edges and n_t) a special vertex may have for `Corner::special_fixed`.
+const SPOKES: usize = 8;
+
+#[cfg(test)]
+thread_local! {
+    /// Whether special vertices take `special_fixed` (a test turns it off to compare).
+    static FIXED_SPOKES: std::cell::Cell<bool> = const { std::cell::Cell::new(true) };
+}
+
+/// Whether special vertices with few spokes take `Corner::special_fixed`: always, outside
+/// the test that compares it with `Corner::special_general`.
+fn fixed_spokes() -> bool {
+    #[cfg(test)]
+    return FIXED_SPOKES.with(|f| f.get());
+    #[cfg(not(test))]
+    true
 }
 
 /// Largest fan index a segment word can hold (24 bits).
@@ -166,11 +195,30 @@ pub fn segment_count(sweep: f32) -> u32 {
     // chain): q can differ from the quotient in its last bit, so the count differs from the
     // legacy ceil only for a sweep within ~1e-7 rad of a segment boundary, where either
     // count covers the arc (the legacy tests compare such fans by coverage).
-    let q = (sweep + 2.0 * pad_of(sweep)).abs() * (1.0 / MAX_SEGMENT);
-    // ceil without libm; q <= 13 for any sweep in [-2 PI, 2 PI].
-    let k = q as u32;
-    let k = if (k as f32) < q { k + 1 } else { k };
-    k.clamp(1, 15)
+    // |sweep + 2 pad| = |sweep| + 2 FAN_OVERLAP exactly (pad has the sweep's sign, and
+    // rounding is symmetric): no select.
+    let q = (sweep.abs() + 2.0 * FAN_OVERLAP) * (1.0 / MAX_SEGMENT);
+    // ceil(q) clamped to [1, 15] as 1 + #{k in 1..=14 : k < q}: compares against constants
+    // (they vectorise) instead of a float -> int -> float round trip. NaN compares false: 1.
+    const STEPS: [f32; 16] = [
+        1.0,
+        2.0,
+        3.0,
+        4.0,
+        5.0,
+        6.0,
+        7.0,
+        8.0,
+        9.0,
+        10.0,
+        11.0,
+        12.0,
+        13.0,
+        14.0,
+        f32::INFINITY,
+        f32::INFINITY,
+    ];
+    1 + STEPS.iter().map(|&k| u32::from(k < q)).sum::<u32>()
 }
 
 impl SmoothieRecords {
@@ -197,7 +245,14 @@ impl SmoothieRecords {
         out.extend(std::iter::repeat_n(0, pad));
     }
 
-    fn push_fan(&mut self, centre: u32, from: Vec2, sweep: f32) {
+    /// Appends a fan of sweep `sweep` and its `n` (= `segment_count(sweep)`) segment words.
+    /// The count comes from the caller, computed in a loop of its own: here it would make
+    /// the next fan's stores wait, through the segment list's length, on this fan's float
+    /// to integer chain (the corner loop was bound by that chain). All 16 possible words
+    /// are written and the length set after: a fixed-size copy, not a loop whose trip count
+    /// the branch predictor cannot guess.
+    fn push_fan(&mut self, centre: u32, from: Vec2, sweep: f32, n: u32) {
+        debug_assert_eq!(n, segment_count(sweep));
         let fan = self.fans.len();
         if fan >= MAX_FANS {
             return;
@@ -207,14 +262,13 @@ impl SmoothieRecords {
             from: from.to_array(),
             sweep,
         });
-        let n = segment_count(sweep);
         let word = (fan as u32) << 8 | n << 4;
-        // Most fans (two-edge corners) have one or two segments: two words are written
-        // unconditionally and the length set after, so that the count is not a branch.
         let len = self.segments.len();
-        self.segments.extend_from_slice(&[word, word | 1]);
-        if n > 2 {
-            self.segments.extend((2..n).map(|k| word | k));
+        if n <= 2 {
+            self.segments.extend_from_slice(&[word, word | 1]);
+        } else {
+            let words: [u32; 16] = std::array::from_fn(|k| word | k as u32);
+            self.segments.extend_from_slice(&words);
         }
         self.segments.truncate(len + n as usize);
     }
@@ -280,8 +334,56 @@ pub fn build_records(
     light: &LightView,
     width: Width,
 ) -> SmoothieRecords {
+    SCRATCH.with_borrow_mut(|scratch| build_with(adj, sil, model, light, width, scratch))
+}
+
+/// Silhouette-vertex number of a welded vertex not (yet) numbered.
+const UNNUMBERED: u32 = u32::MAX;
+
+/// `build_records`' working arrays, kept per thread between calls: a light's ~36 casters on
+/// `dense` made ~300 allocations and cleared a slot per welded vertex each time.
+#[derive(Default)]
+struct Scratch {
+    /// Per welded vertex, its silhouette-vertex number or UNNUMBERED: all UNNUMBERED
+    /// between calls (a call resets the entries it numbered).
+    slot: Vec<u32>,
+    /// Set while a call runs: a call that finds it set (the last one unwound) clears `slot`.
+    dirty: bool,
+    welded: Vec<u32>,
+    ends: Vec<[u32; 2]>,
+    clips: Vec<Vec4>,
+    incident: Vec<Incident>,
+    spill: Vec<Spill>,
+    arcs: Vec<f32>,
+    spokes: Vec<(f32, Vec2)>,
+}
+
+thread_local! {
+    static SCRATCH: std::cell::RefCell<Scratch> = std::cell::RefCell::default();
+}
+
+fn build_with(
+    adj: &Adjacency,
+    sil: &[SilhouetteEdge],
+    model: Mat4,
+    light: &LightView,
+    width: Width,
+    scratch: &mut Scratch,
+) -> SmoothieRecords {
+    let Scratch {
+        slot,
+        dirty,
+        welded,
+        ends,
+        clips,
+        incident,
+        spill,
+        arcs,
+        spokes,
+    } = scratch;
     let pr = Projector::new(model, light);
     let normals = NormalProjector::new(&pr);
+    let vpn = light.view_proj * Mat4::from_mat3(pr.normal_matrix);
     let mut rec = SmoothieRecords::default();
 
     // Silhouette vertices numbered in order of first use (as `build_impl`): `slot[v]` is
@@ -290,12 +392,18 @@ pub fn build_records(
     // vertex is new at exactly one of its (usually two) uses, so "is it new" is a coin toss
     // to the branch predictor; `welded` is written at every use and advanced only at the
     // first.
-    const UNNUMBERED: u32 = u32::MAX;
     let nv = adj.positions.len();
-    let mut slot = vec![UNNUMBERED; nv];
-    let mut welded = vec![0u32; 2 * sil.len()];
+    if *dirty {
+        slot.fill(UNNUMBERED);
+    }
+    *dirty = true;
+    if slot.len() < nv {
+        slot.resize(nv, UNNUMBERED);
+    }
+    welded.clear();
+    welded.resize(2 * sil.len(), 0);
     let mut numbered = 0usize;
-    let mut ends: Vec<[u32; 2]> = Vec::with_capacity(sil.len());
+    ends.clear();
     for e in sil {
         let mut number = |v: u32| {
             let old = slot[v as usize];
@@ -314,18 +422,20 @@ pub fn build_records(
     // midpoint needs no projection of its own.
     // The later loops read only these two arrays per vertex (32 bytes): the world point
     // is recomputed where the rare fallbacks need it (`edge_dir`, hairpins).
-    let mut clips: Vec<Vec4> = Vec::with_capacity(welded.len());
+    clips.clear();
     rec.vertices.reserve(welded.len());
-    for &v in &welded {
+    for &v in welded.iter() {
         let p = pr.world(adj.positions[v as usize]);
         // `LightView::project` and `Projector::project`, operation for operation.
         let c = light.view_proj * p.extend(1.0);
-        let (s, z) = (c.xy() / c.w * 0.5 + Vec2::splat(0.5), c.w);
+        // x / w, y / w and 1 / w in one division (each lane rounds as its own would).
+        let q = Vec4::new(c.x, c.y, 1.0, 1.0) / c.w;
+        let (s, z) = (q.xy() * 0.5 + Vec2::splat(0.5), c.w);
         let ok = z > light.near && s.is_finite() && z.is_finite();
         rec.vertices.push(if ok {
             VertexRecord {
                 uv: s.to_array(),
-                inv_depth: 1.0 / z,
+                inv_depth: q.z,
                 width: width.at(z),
             }
         } else {
@@ -336,12 +446,13 @@ pub fn build_records(
 
     // Edges, in silhouette order. Per silhouette vertex, the number of kept incident edges
     // (saturating) and the first two of them in silhouette order: all a corner needs.
-    let mut incident = vec![Incident::default(); welded.len()];
+    incident.clear();
+    incident.resize(welded.len(), Incident::default());
     // Every kept incident edge past a vertex's second, chained per vertex from
     // `Incident::spill`.
-    let mut spill: Vec<Spill> = Vec::new();
+    spill.clear();
     rec.edges.reserve(sil.len());
-    for (i, (e, &[a, b])) in sil.iter().zip(&ends).enumerate() {
+    for (i, (e, &[a, b])) in sil.iter().zip(ends.iter()).enumerate() {
         let ends = [&rec.vertices[a as usize], &rec.vertices[b as usize]];
         let clip = [clips[a as usize], clips[b as usize]];
         if let Some(d) = edge_dir(adj, &pr, normals.clip(adj, &pr, e), e, ends, clip) {
@@ -351,7 +462,7 @@ pub fn build_records(
                 dir: d.to_array(),
             });
             for c in [a, b] {
-                incident[c as usize].add(i as u32, d, &mut spill);
+                incident[c as usize].add(i as u32, d, spill);
             }
         }
     }
@@ -364,17 +475,19 @@ pub fn build_records(
     // Every vertex's arc from its first to its second edge (used by two-edge corners), in a
     // loop of its own: no pushes and no branches, so that the vertices' divisions and
     // polynomials overlap.
-    let arcs: Vec<f32> = incident
+    arcs.clear();
+    arcs.extend(incident.iter().map(|inc| {
+        let [(_, d1), (_, d2)] = inc.edges;
+        fast_atan2(d1.perp_dot(d2), d1.dot(d2).clamp(-1.0, 1.0))
+    }));
+    // About 1.5 fans per vertex on `dense` (special vertices have ~5), and the 16 words a
+    // fan's segments may write past the end.
+    rec.fans.reserve(2 * welded.len());
+    rec.segments.reserve(4 * welded.len() + 16);
+    let per_vertex = welded
         .iter()
-        .map(|inc| {
-            let [(_, d1), (_, d2)] = inc.edges;
-            fast_atan2(d1.perp_dot(d2), d1.dot(d2).clamp(-1.0, 1.0))
-        })
-        .collect();
-    let mut spokes: Vec<(f32, Vec2)> = Vec::new();
-    rec.fans.reserve(welded.len());
-    rec.segments.reserve(4 * welded.len());
-    let per_vertex = welded.iter().zip(&clips).zip(incident.iter().zip(&arcs));
+        .zip(clips.iter())
+        .zip(incident.iter().zip(arcs.iter()));
     for (c, ((&v, &clip), (inc, &arc))) in per_vertex.enumerate() {
         if inc.count == 0 {
             continue;
@@ -385,12 +498,17 @@ pub fn build_records(
             clip,
             inc,
             arc,
+            vpn: &vpn,
         };
-        if let Some(special) = corner.build(adj, &pr, sil, &spill, &mut spokes, &mut rec) {
+        if let Some(special) = corner.build(adj, &pr, sil, spill, spokes, &mut rec) {
             rec.corners += 1;
             rec.special_vertices += usize::from(special);
         }
     }
+    for &v in welded.iter() {
+        slot[v as usize] = UNNUMBERED;
+    }
+    *dirty = false;
     rec
 }
 
@@ -562,6 +680,8 @@ struct Corner<'a> {
     inc: &'a Incident,
     /// `fast_atan2` of the cross and dot products of the first two edges' directions.
     arc: f32,
+    /// VP N: an object-space normal to clip space.
+    vpn: &'a Mat4,
 }
 
 impl Corner<'_> {
@@ -604,20 +724,104 @@ impl Corner<'_> {
             if cos >= 1.0 {
                 return None;
             }
-            let sweep = if cos <= -1.0 {
+            let (sweep, n) = if cos <= -1.0 {
                 let edges = [&sil[i1 as usize], &sil[i2 as usize]];
-                if hairpin_ccw(adj, pr, &self.vertex(adj, pr, rec), edges.into_iter(), d1) {
-                    PI
-                } else {
-                    -PI
-                }
+                let ccw = hairpin_ccw(adj, pr, &self.vertex(adj, pr, rec), edges.into_iter(), d1);
+                let sweep = if ccw { PI } else { -PI };
+                (sweep, segment_count(sweep))
             } else {
-                self.arc
+                (self.arc, segment_count(self.arc))
             };
-            rec.push_fan(self.c, d1, sweep);
+            rec.push_fan(self.c, d1, sweep, n);
             return Some(false);
         }
         // Special vertex.
+        if !fixed_spokes() || !self.special_fixed(adj, pr, sil, spill, rec) {
+            self.special_general(adj, pr, sil, spill, spokes, rec);
+        }
+        Some(true)
+    }
+
+    /// A special vertex with at most `SPOKES` spokes (its kept edges and n_t), in fixed-size
+    /// arrays: the angles of all lanes at once, a stable sort by ranks and the gaps in
+    /// loops of fixed length, so that the spoke count is no branch. The same fans, bit for
+    /// bit, as `special_general`; `false` (nothing written) when the vertex has more spokes.
+    fn special_fixed(
+        &self,
+        adj: &Adjacency,
+        pr: &Projector,
+        sil: &[SilhouetteEdge],
+        spill: &[Spill],
+        rec: &mut SmoothieRecords,
+    ) -> bool {
+        // (x, y): the direction the angle is taken of; (ux, uy): the unit spoke.
+        let (mut x, mut y) = ([0f32; SPOKES], [0f32; SPOKES]);
+        let (mut ux, mut uy) = ([0f32; SPOKES], [0f32; SPOKES]);
+        let mut len = 0usize;
+        let mut n = glam::Vec3::ZERO;
+        let first = self.inc.edges[..usize::from(self.inc.count).min(2)]
+            .iter()
+            .copied();
+        let chain = std::iter::successors(spill.get(self.inc.spill as usize), |s| {
+            spill.get(s.next as usize)
+        });
+        // The general path's order: first two edges, then the chain (n's sum likewise).
+        for (i, d) in first.chain(chain.map(|s| (s.edge, s.d))) {
+            // One lane stays free for n_t.
+            if len == SPOKES - 1 {
+                return false;
+            }
+            (x[len], y[len], ux[len], uy[len]) = (d.x, d.y, d.x, d.y);
+            len += 1;
+            n += adj.edge_normals[sil[i as usize].edge as usize];
+        }
+        if let Some((v, u)) = self.normal(pr, n) {
+            (x[len], y[len], ux[len], uy[len]) = (v.x, v.y, u.x, u.y);
+            len += 1;
+        }
+        // Unused lanes sort last (and, being equal, keep their order).
+        let a: [f32; SPOKES] = std::array::from_fn(|k| {
+            let a = fast_atan2(y[k], x[k]);
+            if k < len {
+                a
+            } else {
+                f32::INFINITY
+            }
+        });
+        // Stable: ties keep their gathering order, as the insertion sort.
+        let (mut sa, mut sx, mut sy) = ([0f32; SPOKES + 1], [0f32; SPOKES], [0f32; SPOKES]);
+        for i in 0..SPOKES {
+            let rank: usize = (0..SPOKES)
+                .map(|j| usize::from(a[j] < a[i] || (j < i && a[j] == a[i])))
+                .sum();
+            let r = rank % SPOKES;
+            (sa[r], sx[r], sy[r]) = (a[i], ux[i], uy[i]);
+        }
+        sa[len] = sa[0] + TAU;
+        // Unused lanes' gaps (infinite or NaN) are zeroed, not counted.
+        let gaps: [f32; SPOKES] =
+            std::array::from_fn(|k| if k < len { sa[k + 1] - sa[k] } else { 0.0 });
+        for k in 0..len {
+            if gaps[k] > 1e-6 {
+                let n = segment_count(gaps[k]);
+                rec.push_fan(self.c, Vec2::new(sx[k], sy[k]), gaps[k], n);
+            }
+        }
+        true
+    }
+
+    /// A special vertex's fans, any number of spokes: a fan from every spoke to the next
+    /// one counter-clockwise, where they are more than 1e-6 rad apart (of coinciding
+    /// spokes, the last one's fan spans the gap).
+    fn special_general(
+        &self,
+        adj: &Adjacency,
+        pr: &Projector,
+        sil: &[SilhouetteEdge],
+        spill: &[Spill],
+        spokes: &mut Vec<(f32, Vec2)>,
+        rec: &mut SmoothieRecords,
+    ) {
         // Spokes at every d_i, and the sum of the incident edges' faces' normals.
         spokes.clear();
         let mut n = glam::Vec3::ZERO;
@@ -633,42 +837,66 @@ impl Corner<'_> {
             add(s.edge, s.d);
             next = s.next;
         }
-        if let Some(n) = self.normal(pr, n) {
-            spokes.push((fast_atan2(n.y, n.x), n));
+        if let Some((v, u)) = self.normal(pr, n) {
+            spokes.push((fast_atan2(v.y, v.x), u));
         }
         sort_by_angle(spokes);
-        spokes.dedup_by(|x, y| (x.0 - y.0).abs() < 1e-6);
         for i in 0..spokes.len() {
             let (a, from) = spokes[i];
             let next = spokes.get(i + 1).map_or(spokes[0].0 + TAU, |x| x.0);
             let gap = next - a;
             if gap > 1e-6 {
-                rec.push_fan(self.c, from, gap);
+                rec.push_fan(self.c, from, gap, segment_count(gap));
             }
         }
-        Some(true)
     }
 
-    /// `vertex_normal_screen` (`n`, the sum of the incident edges' faces' normals, projected
-    /// at the vertex) by the projection's derivative, as `edge_dir` does it: unit, or
-    /// `None` where the old code finds no direction (|n_t| <= 1e-9 uv per unit length).
-    fn normal(&self, pr: &Projector, n: glam::Vec3) -> Option<Vec2> {
-        let w = pr.normal_matrix * n;
-        let len = w.length();
-        if len.is_nan() || len <= 0.0 {
-            return None;
-        }
-        let (c, cn) = (self.clip, pr.light.view_proj * w.extend(0.0));
-        // J (w / |w|) with J = 0.5 (cn.xy c.w - c.xy cn.w) / c.w^2.
-        let v = (cn.xy() * c.w - c.xy() * cn.w) * (0.5 / (c.w * c.w * len));
-        let l = v.length();
-        (l > 1e-9 && v.is_finite()).then(|| v / l)
+    /// n_t, `vertex_normal_screen` by the projection's derivative (as `edge_dir`): `n` is
+    /// the sum of the incident edges' faces' normals, w = N n its world direction, and
+    /// J w = 0.5 (cn.xy c.w - c.xy cn.w) / c.w^2 (cn = VP (w, 0)). Returns v = J w up to a
+    /// positive factor (what the spoke's angle is taken of: no root or division on the way
+    /// to the sort) and v's unit vector; `None` where |J (w / |w|)| <= 1e-9 uv per unit
+    /// length, compared squared.
+    fn normal(&self, pr: &Projector, n: glam::Vec3) -> Option<(Vec2, Vec2)> {
+        let c = self.clip;
+        let cn = *self.vpn * n.extend(0.0);
+        let v = cn.xy() * c.w - c.xy() * cn.w;
+        let w2 = (pr.normal_matrix * n).length_squared();
+        let l2 = v.length_squared();
+        let ww = c.w * c.w;
+        let ok = w2 > 0.0 && l2.is_finite() && 0.25 * l2 > 1e-18 * (ww * ww) * w2;
+        ok.then(|| (v, v / l2.sqrt()))
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The fixed-size special-vertex path writes the general path's fans, bit for bit, on
+    /// every built-in scene and on meshes with many edges per vertex.
+    #[test]
+    fn fixed_spokes_match_the_general_path() {
+        use crate::render::fit_light;
+        use crate::scene::{Scene, BUILTIN_SCENES};
+        let mut specials = 0;
+        for &name in BUILTIN_SCENES.iter().filter(|&&n| n != "dense-1m") {
+            let scene = Scene::load(name).expect("built-in scene");
+            let light = fit_light(&scene);
+            for o in scene.objects.iter().filter(|o| o.role.casts()) {
+                let adj = Adjacency::build(&o.mesh).expect("adjacency");
+                let sil = crate::silhouette::extract(&adj, o.transform, light.position);
+                let width = Width::Fixed(0.02);
+                let fixed = build_records(&adj, &sil, o.transform, &light, width);
+                FIXED_SPOKES.with(|f| f.set(false));
+                let general = build_records(&adj, &sil, o.transform, &light, width);
+                FIXED_SPOKES.with(|f| f.set(true));
+                assert_eq!(fixed, general, "{name}");
+                specials += fixed.special_vertices;
+            }
+        }
+        assert!(specials > 1000, "{specials} special vertices");
+    }
 
     #[test]
     fn record_sizes() {

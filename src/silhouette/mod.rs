@@ -518,7 +518,10 @@ fn classify_range(
         .enumerate()
     {
         let base = first + b * CLASSIFY_BLOCK;
-        for (f, &[p, q]) in flags.iter_mut().zip(block) {
+        for (f, &pair) in flags.iter_mut().zip(block) {
+            // Both face numbers in one 8-byte load (four loads per edge were the limit).
+            let pq: u64 = bytemuck::cast(pair);
+            let (p, q) = (pq as u32, (pq >> 32) as u32);
             *f = u8::from(facings[face(p)] != facings[face(q)]);
         }
         // The last group's flags past the block's end are stale: cleared.

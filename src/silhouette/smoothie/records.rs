@@ -246,11 +246,9 @@ impl SmoothieRecords {
     }
 
     /// Appends a fan of sweep `sweep` and its `n` (= `segment_count(sweep)`) segment words.
-    /// The count comes from the caller, computed in a loop of its own: here it would make
-    /// the next fan's stores wait, through the segment list's length, on this fan's float
-    /// to integer chain (the corner loop was bound by that chain). All 16 possible words
-    /// are written and the length set after: a fixed-size copy, not a loop whose trip count
-    /// the branch predictor cannot guess.
+    /// Most fans (two-edge corners) have one or two segments: two words are written, else
+    /// all 16 possible ones, and the length is set after, so that no loop runs n times
+    /// (a trip count the branch predictor cannot guess).
     fn push_fan(&mut self, centre: u32, from: Vec2, sweep: f32, n: u32) {
         debug_assert_eq!(n, segment_count(sweep));
         let fan = self.fans.len();

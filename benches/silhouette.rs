@@ -16,7 +16,9 @@
 //! `extract_1core` is `extract_serial`, `records_1core` is `build_records` (what the
 //! renderer's CPU path builds: compact records the vertex shader expands),
 //! `smoothies_1core` is `build_smoothies` (the expanded triangle list it built before, kept
-//! for comparison), `total_1core` is extract + records, and `penumbra_1core` is
+//! for comparison), `total_1core` is extract + records caster by caster, as the renderer
+//! does them (`Smoothies::build_geometry`), `total_split_1core` the same work with every
+//! caster's extraction first and then every caster's records, and `penumbra_1core` is
 //! penumbra-map's CPU path (`build_penumbra`: cones and sheets, Lr = the scene's light
 //! radius, bases at `cone_base_depth`) and `plateaus_1core` plateaus' (`PlateauBuilder`:
 //! cones and sheets in a 1024² plane texture; scenes with a planar receiver), all inside a
@@ -208,6 +210,19 @@ impl Casters {
             .sum()
     }
 
+    /// What the renderer's CPU path does per light: extract, then records, one caster after
+    /// the other (`Smoothies::build_geometry`), so a caster's adjacency is still in the
+    /// caches when its records are built.
+    fn extract_records(&self) -> usize {
+        self.objects
+            .iter()
+            .map(|(m, adj)| {
+                let sil = extract_serial(adj, *m, self.light.position);
+                build_records(adj, &sil, *m, &self.light, Width::Fixed(self.t)).words()
+            })
+            .sum()
+    }
+
     /// penumbra-map's CPU path: cones and sheets of every caster.
     fn penumbra(&self, sil: &[Vec<SilhouetteEdge>]) -> usize {
         let z_far = cone_base_depth(&self.light);
@@ -346,6 +361,9 @@ fn scenes_cpu(c: &mut Criterion) {
             b.iter_custom(|iters| cpu_iters(&pool, iters, || cs.records(black_box(&sil))))
         });
         g.bench_function(BenchmarkId::new("total_1core", name), |b| {
+            b.iter_custom(|iters| cpu_iters(&pool, iters, || cs.extract_records()))
+        });
+        g.bench_function(BenchmarkId::new("total_split_1core", name), |b| {
             b.iter_custom(|iters| cpu_iters(&pool, iters, || cs.records(&cs.extract(true))))
         });
         g.bench_function(BenchmarkId::new("penumbra_1core", name), |b| {

@@ -49,16 +49,16 @@
 //! a texel), as are a special vertex's spoke angles (sorted by them); n is a ceil by
 //! compares with the steps 1..14. The Volokh normal test takes the projection's derivative
 //! instead of three projections (see `edge_dir`), with the clip-space normal matrix
-//! precomputed for rigid and uniformly scaled models; so does n_t. Every silhouette vertex is numbered in one
-//! loop and projected in the next; a corner needs only its first two incident edges and a
-//! count, gathered while the edges are built (later ones, at special vertices, go into a
-//! chain per vertex). The two-edge arcs are computed for every vertex in a loop of their
-//! own, with no pushes or branches (consecutive vertices' divisions and polynomials
-//! overlap; it does not vectorise), before the loop that writes the fans. A special vertex
-//! with up to 7 edges (`Corner::special_fixed`) keeps its spokes in 8 fixed lanes: the
-//! angles of all lanes at once, a stable sort by ranks, no loop whose trip count is the
-//! spoke count but the last; n_t's angle is taken before its normalisation. The working
-//! arrays live per thread between calls (`Scratch`).
+//! precomputed for rigid and uniformly scaled models; so does n_t. Every silhouette vertex
+//! is numbered in one loop and projected in the next; a corner needs only its first two
+//! incident edges and a count, gathered while the edges are built (later ones, at special
+//! vertices, go into a chain per vertex). The two-edge arcs are computed for every vertex
+//! in a loop of their own, with no pushes or branches (consecutive vertices' divisions and
+//! polynomials overlap; it does not vectorise), before the loop that writes the fans. A
+//! special vertex with up to 7 edges (`Corner::special_fixed`) keeps its spokes in 8 fixed
+//! lanes: the angles of all lanes at once, a stable sort by ranks, no loop whose trip count
+//! is the spoke count but the last; n_t's angle is taken before its normalisation. The
+//! working arrays live per thread between calls (`Scratch`).
 //!
 //! Measured slower on this CPU (Zen 1) and dropped (BENCHMARKS.md): plain two-edge fans
 //! written branch-free at a running count (records 0.80 -> 1.12 ms on `dense`), numbering

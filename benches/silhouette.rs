@@ -23,6 +23,9 @@
 //! radius, bases at `cone_base_depth`) and `plateaus_1core` plateaus' (`PlateauBuilder`:
 //! cones and sheets in a 1024² plane texture; scenes with a planar receiver), all inside a
 //! one-thread pool.
+//! Before `total_split_1core`, each scene prints `total_1core`'s spread over runs timed one
+//! by one (min, median, mean, p90): criterion's estimate is a mean, which a shared
+//! machine's slow spells pull up.
 //! `SIL_SCENES=dense,bunny` limits it to those scenes.
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion};
@@ -318,6 +321,36 @@ fn thread_cpu_time() -> Duration {
     Duration::new(ts.tv_sec as u64, ts.tv_nsec as u32)
 }
 
+/// Prints the spread of `f`'s CPU time run by run (`total_1core`: one light's extraction and
+/// records on one core), over about half a second of runs timed one by one. Criterion's
+/// estimate is a mean over batches, which a shared machine's slow spells (other tenants on
+/// the same cache and core) pull up; the median and the minimum are what the work costs
+/// when it is not disturbed, and the p90 shows how often it is.
+fn per_light_summary<R>(pool: &rayon::ThreadPool, name: &str, f: impl Fn() -> R + Sync) {
+    let mut ms: Vec<f64> = pool.install(|| {
+        let mut ms = Vec::new();
+        let start = thread_cpu_time();
+        while ms.len() < 20
+            || (ms.len() < 2000 && thread_cpu_time() - start < Duration::from_millis(500))
+        {
+            let t0 = thread_cpu_time();
+            black_box(f());
+            ms.push((thread_cpu_time() - t0).as_secs_f64() * 1e3);
+        }
+        ms
+    });
+    ms.sort_by(f64::total_cmp);
+    let n = ms.len();
+    let mean = ms.iter().sum::<f64>() / n as f64;
+    eprintln!(
+        "scenes_cpu/total_1core/{name}: per light, {n} runs timed one by one: min {:.3} ms, \
+         median {:.3} ms, mean {mean:.3} ms, p90 {:.3} ms",
+        ms[0],
+        ms[n / 2],
+        ms[n * 9 / 10],
+    );
+}
+
 /// `iters` runs of `f` on the one thread of `pool`, timed by that thread's CPU clock.
 fn cpu_iters<R>(pool: &rayon::ThreadPool, iters: u64, f: impl Fn() -> R + Sync) -> Duration {
     pool.install(|| {
@@ -363,6 +396,7 @@ fn scenes_cpu(c: &mut Criterion) {
         g.bench_function(BenchmarkId::new("total_1core", name), |b| {
             b.iter_custom(|iters| cpu_iters(&pool, iters, || cs.extract_records()))
         });
+        per_light_summary(&pool, name, || cs.extract_records());
         g.bench_function(BenchmarkId::new("total_split_1core", name), |b| {
             b.iter_custom(|iters| cpu_iters(&pool, iters, || cs.records(&cs.extract(true))))
         });

@@ -47,7 +47,7 @@
 //! No libm: a two-edge corner's arc is [`fast_atan2`] of the cross and dot products (a
 //! degree-11 odd polynomial, |error| < 2e-6 rad: the last spoke moves by 2e-6 t, far below
 //! a texel), as are a special vertex's spoke angles (sorted by them); n is a ceil by
-//! compares with the steps 1..14. The Volokh normal test takes the projection's derivative
+//! truncation and one compare. The Volokh normal test takes the projection's derivative
 //! instead of three projections (see `edge_dir`), with the clip-space normal matrix
 //! precomputed for rigid and uniformly scaled models; so does n_t. Every silhouette vertex
 //! is numbered in one loop and projected in the next; a corner needs only its first two
@@ -198,27 +198,14 @@ pub fn segment_count(sweep: f32) -> u32 {
     // |sweep + 2 pad| = |sweep| + 2 FAN_OVERLAP exactly (pad has the sweep's sign, and
     // rounding is symmetric): no select.
     let q = (sweep.abs() + 2.0 * FAN_OVERLAP) * (1.0 / MAX_SEGMENT);
-    // ceil(q) clamped to [1, 15] as 1 + #{k in 1..=14 : k < q}: compares against constants
-    // (they vectorise) instead of a float -> int -> float round trip. NaN compares false: 1.
-    const STEPS: [f32; 16] = [
-        1.0,
-        2.0,
-        3.0,
-        4.0,
-        5.0,
-        6.0,
-        7.0,
-        8.0,
-        9.0,
-        10.0,
-        11.0,
-        12.0,
-        13.0,
-        14.0,
-        f32::INFINITY,
-        f32::INFINITY,
-    ];
-    1 + STEPS.iter().map(|&k| u32::from(k < q)).sum::<u32>()
+    // ceil(q) clamped to [1, 15] by truncation: `as` saturates (NaN -> 0, inf -> u32::MAX,
+    // capped so that the + 1 cannot overflow), and the compare adds one exactly when q has
+    // a fraction, so for every q in [0, 15] this is ceil (no libm `ceilf`: the baseline
+    // x86-64 target has no `roundss`). A handful of instructions; the 14 compares against
+    // 1..14 it replaced did not vectorise and cost ~30 instructions a fan (BENCHMARKS.md).
+    // NaN gives 1.
+    let t = (q as u32).min(15);
+    (t + u32::from((t as f32) < q)).clamp(1, 15)
 }
 
 impl SmoothieRecords {
@@ -995,5 +982,15 @@ mod tests {
         }
         assert_eq!(segment_count(TAU), 13);
         assert_eq!(segment_count(PI), 7);
+        // The clamp to [1, 15], and no overflow or panic on what a broken input could send.
+        assert_eq!(segment_count(0.0), 1);
+        assert_eq!(segment_count(f32::NAN), 1);
+        assert_eq!(segment_count(f32::INFINITY), 15);
+        assert_eq!(segment_count(f32::NEG_INFINITY), 15);
+        assert_eq!(segment_count(1e30), 15);
+        // Exactly on a step (q an integer): no extra segment.
+        let on_step = 3.0 * MAX_SEGMENT - 2.0 * FAN_OVERLAP;
+        let q = (on_step.abs() + 2.0 * FAN_OVERLAP) * (1.0 / MAX_SEGMENT);
+        assert_eq!(segment_count(on_step), q.ceil() as u32);
     }
 }

@@ -198,14 +198,15 @@ pub fn segment_count(sweep: f32) -> u32 {
     // |sweep + 2 pad| = |sweep| + 2 FAN_OVERLAP exactly (pad has the sweep's sign, and
     // rounding is symmetric): no select.
     let q = (sweep.abs() + 2.0 * FAN_OVERLAP) * (1.0 / MAX_SEGMENT);
-    // ceil(q) clamped to [1, 15] by truncation: `as` saturates (NaN -> 0, inf -> u32::MAX,
-    // capped so that the + 1 cannot overflow), and the compare adds one exactly when q has
-    // a fraction, so for every q in [0, 15] this is ceil (no libm `ceilf`: the baseline
-    // x86-64 target has no `roundss`). A handful of instructions; the 14 compares against
-    // 1..14 it replaced did not vectorise and cost ~30 instructions a fan (BENCHMARKS.md).
+    // ceil(q) clamped to [1, 15] by truncation: q is first clamped to [0, 15] (NaN to 0),
+    // which lets the compiler drop most of the conversion's saturation checks, and the
+    // compare adds one exactly when q has a fraction: ceil, with no libm `ceilf` (the
+    // baseline x86-64 target has no `roundss`). About ten instructions; the 14 compares
+    // against 1..14 it replaced did not vectorise and cost ~30 a fan (BENCHMARKS.md).
     // NaN gives 1.
-    let t = (q as u32).min(15);
-    (t + u32::from((t as f32) < q)).clamp(1, 15)
+    let q = if q > 0.0 { q.min(15.0) } else { 0.0 };
+    let t = q as i32;
+    (t + i32::from((t as f32) < q)).max(1) as u32
 }
 
 impl SmoothieRecords {

@@ -507,6 +507,14 @@ mod equivalence {
         assert_eq!(extract_serial(adj, model, lv.position), old_sil);
         // Tiny chunks force the rayon paths.
         assert_eq!(extract_impl(adj, model, lv.position, true, 5), old_sil);
+        // Without the 16-bit face numbers (the path of meshes above 2^16 - 2 faces).
+        let wide = Adjacency {
+            edge_pairs16: Vec::new(),
+            ..adj.clone()
+        };
+        assert!(adj.edge_pairs16.len() == adj.edges.len() || adj.edge_pairs16.is_empty());
+        assert_eq!(extract_serial(&wide, model, lv.position), old_sil);
+        assert_eq!(extract_impl(&wide, model, lv.position, true, 5), old_sil);
         let old = build_smoothies_width_old(adj, &sil, model, lv, width);
         let new = super::super::smoothie::build_smoothies_width(adj, &sil, model, lv, width);
         assert_eq!(bits(&new), bits(&old), "light at {}", lv.position);

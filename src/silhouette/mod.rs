@@ -142,12 +142,20 @@ pub struct Adjacency {
     /// which takes the general path: the per-light facing table has two extra entries there,
     /// back and front, so such an edge always reads as a candidate.
     edge_pairs: Vec<[u32; 2]>,
+    /// `edge_pairs` as 16-bit face numbers without the winding flag, when every number fits
+    /// (face count + 2 <= 2^16, every caster of the built-in scenes but `dense-1m`'s);
+    /// empty otherwise. The per-light flag loop reads these: half the bytes per edge, and
+    /// no mask to keep its lookups in bounds (a u16 indexes a 2^16-entry table).
+    edge_pairs16: Vec<[u16; 2]>,
     /// Per edge: the sum of its non-degenerate faces' unit normals, in face order (what
     /// Volokh's direction test and a special vertex's normal project), so the per-light
     /// smoothie build reads 12 bytes per silhouette edge instead of walking the face list
     /// and gathering each face's normal.
     pub edge_normals: Vec<Vec3>,
 }
+
+/// Facing-table entries for `Adjacency::edge_pairs16`: every u16 face number is in bounds.
+const SMALL_FACES: usize = 1 << 16;
 
 /// Winding flag in `Adjacency::edge_pairs`; face numbers stay below 2^31 because corner numbers
 /// `3 * face + k` fit in 32 bits.
@@ -281,7 +289,7 @@ impl Adjacency {
         });
         // Cannot fail: the corner count 3 F fits in u32 (checked above), so F + 1 < 2^31 too.
         let general = u32::try_from(triangles.len()).context("face count")?;
-        let edge_pairs = edge_face_start
+        let edge_pairs: Vec<[u32; 2]> = edge_face_start
             .windows(2)
             .map(|w| match &edge_face_list[w[0] as usize..w[1] as usize] {
                 [x, y] if !degenerate[x.face as usize] && !degenerate[y.face as usize] => {
@@ -291,6 +299,15 @@ impl Adjacency {
                 _ => [general, general + 1],
             })
             .collect();
+        let edge_pairs16 = if triangles.len() + 2 <= SMALL_FACES {
+            edge_pairs
+                .iter()
+                // In range: every number is below F + 2 <= 2^16 once the flag is stripped.
+                .map(|pair| pair.map(|f| (f & !FORWARD_BIT) as u16))
+                .collect()
+        } else {
+            Vec::new()
+        };
         let edge_normals = edge_face_start
             .windows(2)
             .map(|w| {
@@ -312,6 +329,7 @@ impl Adjacency {
             edge_face_list,
             face_planes,
             edge_pairs,
+            edge_pairs16,
             edge_normals,
         })
     }
@@ -518,11 +536,19 @@ fn classify_range(
         .enumerate()
     {
         let base = first + b * CLASSIFY_BLOCK;
-        for (f, &pair) in flags.iter_mut().zip(block) {
-            // Both face numbers in one 8-byte load (four loads per edge were the limit).
-            let pq: u64 = bytemuck::cast(pair);
-            let (p, q) = (pq as u32, (pq >> 32) as u32);
-            *f = u8::from(facings[face(p)] != facings[face(q)]);
+        let small = adj.edge_pairs16.get(base..base + block.len());
+        if let (Some(pairs), Ok(table)) = (small, <&[u8; SMALL_FACES]>::try_from(facings)) {
+            // 16-bit face numbers into a table of 2^16 entries: no mask, half the bytes.
+            for (f, &[p, q]) in flags.iter_mut().zip(pairs) {
+                *f = u8::from(table[usize::from(p)] != table[usize::from(q)]);
+            }
+        } else {
+            for (f, &pair) in flags.iter_mut().zip(block) {
+                // Both face numbers in one 8-byte load (four loads per edge were the limit).
+                let pq: u64 = bytemuck::cast(pair);
+                let (p, q) = (pq as u32, (pq >> 32) as u32);
+                *f = u8::from(facings[face(p)] != facings[face(q)]);
+            }
         }
         // The last group's flags past the block's end are stale: cleared.
         let used = &mut flags[..block.len().next_multiple_of(64)];
@@ -579,11 +605,53 @@ fn extract_impl(
     parallel: bool,
     chunk: usize,
 ) -> Vec<SilhouetteEdge> {
+    let nf = adj.num_faces();
+    // Two extra entries, back and front, for `edge_pairs`' general edges; a power of two
+    // in all, so that `classify_range`'s lookups need no bounds check (see there), and
+    // 2^16 for `edge_pairs16`.
+    let len = if adj.edge_pairs16.is_empty() {
+        (nf + 2).next_power_of_two()
+    } else {
+        SMALL_FACES
+    };
+    with_facings(len, |facings| {
+        extract_into(adj, model, light_pos_world, parallel, chunk, facings)
+    })
+}
+
+thread_local! {
+    /// The per-light facing table, kept per thread: a fresh 2^16-entry table per caster
+    /// (calloc and its memset) cost more than the 16-bit face numbers saved.
+    static FACINGS: std::cell::RefCell<Vec<u8>> = const { std::cell::RefCell::new(Vec::new()) };
+}
+
+/// Runs `f` on a facing table of `len` entries: this thread's, or a new one while that is
+/// in use (a rayon worker that waits inside one extraction may start another). Entries
+/// keep what an earlier caster wrote: only the first F + 2 are ever read, and
+/// `extract_into` writes all of those.
+fn with_facings<R>(len: usize, f: impl FnOnce(&mut [u8]) -> R) -> R {
+    FACINGS.with(|cell| match cell.try_borrow_mut() {
+        Ok(mut table) => {
+            if table.len() < len {
+                table.resize(len, BACK);
+            }
+            f(&mut table[..len])
+        }
+        Err(_) => f(&mut vec![BACK; len]),
+    })
+}
+
+fn extract_into(
+    adj: &Adjacency,
+    model: Mat4,
+    light_pos_world: Vec3,
+    parallel: bool,
+    chunk: usize,
+    facings: &mut [u8],
+) -> Vec<SilhouetteEdge> {
     let (l, mirror) = light_in_object(model, light_pos_world);
     let (nf, ne) = (adj.num_faces(), adj.edges.len());
-    // Two extra entries, back and front, for `edge_pairs`' general edges; a power of two
-    // in all, so that `classify_range`'s lookups need no bounds check (see there).
-    let mut facings = vec![BACK; (nf + 2).next_power_of_two()];
+    facings[nf] = BACK;
     facings[nf + 1] = FRONT;
     if parallel && nf > chunk {
         facings[..nf]
@@ -605,7 +673,7 @@ fn extract_impl(
                     adj,
                     first,
                     chunk.min(ne - first),
-                    &facings,
+                    facings,
                     mirror,
                     &mut part,
                 );
@@ -616,7 +684,7 @@ fn extract_impl(
             out.extend_from_slice(&p);
         }
     } else {
-        classify_range(adj, 0, ne, &facings, mirror, &mut out);
+        classify_range(adj, 0, ne, facings, mirror, &mut out);
     }
     out
 }

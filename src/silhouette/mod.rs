@@ -420,21 +420,21 @@ pub struct SilhouetteEdge {
     pub front_face: u32,
 }
 
-/// Per face: 0 faces away, 1 faces the light, 2 or 3 degenerate.
+/// Per face: 0 faces away, 1 faces the light. A degenerate face reads as BACK (its normal
+/// is zero); only general edges have one, and `classify` skips it by `Adjacency::degenerate`.
 const BACK: u8 = 0;
 const FRONT: u8 = 1;
 
 /// Facing of faces `first..first + out.len()`. Branch-free so that it vectorises; the test
-/// is exactly `dot(n_f, L - p_f) > 0`, with `degenerate` folded in as bit 1.
+/// is exactly `dot(n_f, L - p_f) > 0`.
 fn facings_into(adj: &Adjacency, first: usize, out: &mut [u8], light_obj: Vec3) {
     let r = first..first + out.len();
     let [nx, ny, nz, px, py, pz] = adj.face_planes.each_ref().map(|a| &a[r.clone()]);
-    let deg = &adj.degenerate[r];
     let l = light_obj;
     for (i, o) in out.iter_mut().enumerate() {
         // Vec3::dot's order of operations: (x * x' + y * y') + z * z'.
         let d = nx[i] * (l.x - px[i]) + ny[i] * (l.y - py[i]) + nz[i] * (l.z - pz[i]);
-        *o = u8::from(d > 0.0) | (u8::from(deg[i]) << 1);
+        *o = u8::from(d > 0.0);
     }
 }
 
@@ -445,19 +445,12 @@ fn classify(adj: &Adjacency, e: usize, facings: &[u8], mirror: bool) -> Option<S
     let mut n_front = 0usize;
     let mut first_front: Option<EdgeFace> = None;
     let mut first_valid: Option<EdgeFace> = None;
-    for ef in faces {
-        match facings[ef.face as usize] {
-            FRONT => {
-                valid += 1;
-                n_front += 1;
-                first_front.get_or_insert(*ef);
-                first_valid.get_or_insert(*ef);
-            }
-            BACK => {
-                valid += 1;
-                first_valid.get_or_insert(*ef);
-            }
-            _ => {}
+    for ef in faces.iter().filter(|ef| !adj.degenerate[ef.face as usize]) {
+        valid += 1;
+        first_valid.get_or_insert(*ef);
+        if facings[ef.face as usize] == FRONT {
+            n_front += 1;
+            first_front.get_or_insert(*ef);
         }
     }
     let kind = kind_of(valid)?;

@@ -28,7 +28,11 @@
 //! That pass is branch-free over the edges (a flag byte per edge, packed 64 to a mask) and
 //! branches only per silhouette edge: about one edge in ten is one, scattered along the
 //! edge order, so a branch per edge mispredicted at nearly every silhouette edge (see
-//! `classify_range`).
+//! `classify_range`). A mesh of fewer than 2^16 - 2 faces (every caster of the built-in
+//! scenes but `dense-1m`'s) also keeps those two face numbers as u16, which index a
+//! 2^16-entry facing table with no mask or bounds check and halve the bytes read per edge;
+//! the table is kept per thread and never cleared (only the entries of real faces and the
+//! two of the general edges are read, and each light writes all of them).
 //!
 //! # Orientation convention of [`SilhouetteEdge`]
 //! `front_face` is a light-facing face of the edge (the lowest-numbered one), or, for a

@@ -323,9 +323,10 @@ fn thread_cpu_time() -> Duration {
 
 /// Prints the spread of `f`'s CPU time run by run (`total_1core`: one light's extraction and
 /// records on one core), over about half a second of runs timed one by one. Criterion's
-/// estimate is a mean over batches, which a shared machine's slow spells (other tenants on
-/// the same cache and core) pull up; the median and the minimum are what the work costs
-/// when it is not disturbed, and the p90 shows how often it is.
+/// estimate is a mean over batches, which a shared machine's slow spells pull up (on one
+/// VM, every run was up to ~1.8x slower for minutes at a time, BENCHMARKS.md);
+/// the median and the minimum are what the work costs when it is not disturbed, and the
+/// p90 shows how often it is.
 fn per_light_summary<R>(pool: &rayon::ThreadPool, name: &str, f: impl Fn() -> R + Sync) {
     let mut ms: Vec<f64> = pool.install(|| {
         let mut ms = Vec::new();

@@ -28,7 +28,7 @@
 //! That pass is branch-free over the edges (a flag byte per edge, packed 64 to a mask) and
 //! branches only per silhouette edge: about one edge in ten is one, scattered along the
 //! edge order, so a branch per edge mispredicted at nearly every silhouette edge (see
-//! `classify_range`). A mesh of fewer than 2^16 - 2 faces (every caster of the built-in
+//! `classify_range`). A mesh of at most 2^16 - 2 faces (every caster of the built-in
 //! scenes but `dense-1m`'s) also keeps those two face numbers as u16, which index a
 //! 2^16-entry facing table with no mask or bounds check and halve the bytes read per edge;
 //! the table is kept per thread and never cleared (only the entries of real faces and the
@@ -527,16 +527,21 @@ fn classify_range(
     // Re-sliced to exactly mask + 1 entries: what lets the compiler see it.
     let facings = &facings[..=mask];
     let face = |f: u32| f as usize & mask;
+    // The 16-bit numbers, with the 2^16-entry table they index (`extract_impl` sizes the
+    // table so whenever the mesh has them).
+    let small = match <&[u8; SMALL_FACES]>::try_from(facings) {
+        Ok(table) if !adj.edge_pairs16.is_empty() => Some((&adj.edge_pairs16, table)),
+        _ => None,
+    };
     let mut flags = [0u8; CLASSIFY_BLOCK];
     for (b, block) in adj.edge_pairs[first..first + n]
         .chunks(CLASSIFY_BLOCK)
         .enumerate()
     {
         let base = first + b * CLASSIFY_BLOCK;
-        let small = adj.edge_pairs16.get(base..base + block.len());
-        if let (Some(pairs), Ok(table)) = (small, <&[u8; SMALL_FACES]>::try_from(facings)) {
+        if let Some((pairs, table)) = small {
             // 16-bit face numbers into a table of 2^16 entries: no mask, half the bytes.
-            for (f, &[p, q]) in flags.iter_mut().zip(pairs) {
+            for (f, &[p, q]) in flags.iter_mut().zip(&pairs[base..base + block.len()]) {
                 *f = u8::from(table[usize::from(p)] != table[usize::from(q)]);
             }
         } else {

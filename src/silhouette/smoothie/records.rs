@@ -58,13 +58,18 @@
 //! special vertex with up to 7 edges (`Corner::special_fixed`) keeps its spokes in 8 fixed
 //! lanes: the angles of all lanes at once, a stable sort by ranks, no loop whose trip count
 //! is the spoke count but the last; n_t's angle is taken before its normalisation. The
-//! working arrays live per thread between calls (`Scratch`).
+//! working arrays live per thread between calls (`Scratch`). The loops read and write
+//! them through slices or `extend`, not through `Vec` pushes and indexing: a store into
+//! a `Vec`'s buffer may, for all the compiler knows, change the `Vec`'s own pointer and
+//! length, so it reloaded both (and redid the bounds checks) after every store.
 //!
-//! Measured slower on this CPU (Zen 1) and dropped (BENCHMARKS.md): plain two-edge fans
+//! Measured slower on a Zen 1 CPU and dropped (BENCHMARKS.md): plain two-edge fans
 //! written branch-free at a running count (records 0.80 -> 1.12 ms on `dense`), numbering
 //! in branch-free passes with a scatter (0.89 ms), both `Incident` slots rewritten per
-//! edge (1.0 ms), `push_fan` inlined (0.88 ms). A store whose address waits on a recent
-//! load is the likely common cost.
+//! edge (1.0 ms). A store whose address waits on a recent load is the likely common cost.
+//! `push_fan` inlined was slower there too (0.81 -> 0.88 ms), before the loops went
+//! through slices; with them it is 2.6 % fewer instructions and about as many mispredicts,
+//! and it is inlined now (measured on an Intel Xeon only).
 //!
 //! # Draw
 //! Per caster, one draw of `6 * edges` vertices (smoothie_edges.vert) and one of
@@ -238,7 +243,9 @@ impl SmoothieRecords {
     /// overlapped the caller's work (`records_1core/dense` 0.81 -> 0.93 ms). Most fans
     /// (two-edge corners) have one or two segments: two words are written, else all 16
     /// possible ones, and the length is set after, so that no loop runs n times (a trip
-    /// count the branch predictor cannot guess).
+    /// count the branch predictor cannot guess). Inlined into both callers: 2.6 % fewer
+    /// instructions per light on `dense` than the call (BENCHMARKS.md).
+    #[inline(always)]
     fn push_fan(&mut self, centre: u32, from: Vec2, sweep: f32, n: u32) {
         debug_assert_eq!(n, segment_count(sweep));
         let fan = self.fans.len();
@@ -390,37 +397,49 @@ fn build_with(
     }
     welded.clear();
     welded.resize(2 * sil.len(), 0);
-    let mut numbered = 0usize;
     ends.clear();
-    for e in sil {
-        let mut number = |v: u32| {
-            let old = slot[v as usize];
-            let new = old == UNNUMBERED;
-            welded[numbered] = v;
-            let id = if new { numbered as u32 } else { old };
-            slot[v as usize] = id;
-            numbered += usize::from(new);
-            id
-        };
-        let a = number(e.a);
-        ends.push([a, number(e.b)]);
+    ends.resize(sil.len(), [0; 2]);
+    let mut numbered = 0usize;
+    {
+        // Through slices, not the `Vec`s: for all the compiler knows, a store into a
+        // `Vec`'s buffer may overwrite that `Vec`'s own pointer and length (both live in
+        // `scratch`), so it reloaded them and redid the bounds checks after every store:
+        // ~60 instructions per edge, 34 with slices (BENCHMARKS.md). The same holds in
+        // the loops below.
+        let (slot, uses) = (&mut slot[..], &mut welded[..]);
+        for (e, end) in sil.iter().zip(ends.iter_mut()) {
+            let mut number = |v: u32| {
+                let old = slot[v as usize];
+                let new = old == UNNUMBERED;
+                uses[numbered] = v;
+                let id = if new { numbered as u32 } else { old };
+                slot[v as usize] = id;
+                numbered += usize::from(new);
+                id
+            };
+            *end = [number(e.a), number(e.b)];
+        }
     }
     welded.truncate(numbered);
     // Clip coordinates per silhouette vertex: linear in the world point, so an edge's
     // midpoint needs no projection of its own.
     // The later loops read only these two arrays per vertex (32 bytes): the world point
     // is recomputed where the rare fallbacks need it (`edge_dir`, hairpins).
+    // `LightView::project` and `Projector::project`, operation for operation. Each array
+    // by an `extend` of a mapped slice iterator, whose length is known: one reservation
+    // and plain stores, no capacity test or length update per element.
     clips.clear();
-    rec.vertices.reserve(welded.len());
-    for &v in welded.iter() {
-        let p = pr.world(adj.positions[v as usize]);
-        // `LightView::project` and `Projector::project`, operation for operation.
-        let c = light.view_proj * p.extend(1.0);
+    clips.extend(
+        welded
+            .iter()
+            .map(|&v| light.view_proj * pr.world(adj.positions[v as usize]).extend(1.0)),
+    );
+    rec.vertices.extend(clips.iter().map(|&c| {
         // x / w, y / w and 1 / w in one division (each lane rounds as its own would).
         let q = Vec4::new(c.x, c.y, 1.0, 1.0) / c.w;
         let (s, z) = (q.xy() * 0.5 + Vec2::splat(0.5), c.w);
         let ok = z > light.near && s.is_finite() && z.is_finite();
-        rec.vertices.push(if ok {
+        if ok {
             VertexRecord {
                 uv: s.to_array(),
                 inv_depth: q.z,
@@ -428,9 +447,8 @@ fn build_with(
             }
         } else {
             VertexRecord::default()
-        });
-        clips.push(c);
-    }
+        }
+    }));
 
     // Edges, in silhouette order. Per silhouette vertex, the number of kept incident edges
     // (saturating) and the first two of them in silhouette order: all a corner needs.
@@ -439,21 +457,27 @@ fn build_with(
     // Every kept incident edge past a vertex's second, chained per vertex from
     // `Incident::spill`.
     spill.clear();
-    rec.edges.reserve(sil.len());
-    for (i, (e, &[a, b])) in sil.iter().zip(ends.iter()).enumerate() {
-        let ends = [&rec.vertices[a as usize], &rec.vertices[b as usize]];
-        let clip = [clips[a as usize], clips[b as usize]];
-        if let Some(d) = edge_dir(adj, &pr, normals.clip(adj, &pr, e), e, ends, clip) {
-            rec.edges.push(EdgeRecord {
-                a,
-                b,
-                dir: d.to_array(),
-            });
-            for c in [a, b] {
-                incident[c as usize].add(i as u32, d, spill);
+    // Pushed into a local `Vec` (one that only this loop can reach, unlike `rec.edges`),
+    // reading the other arrays through slices.
+    let mut edges = Vec::with_capacity(sil.len());
+    {
+        let (vertices, clips, incident) = (&rec.vertices[..], &clips[..], &mut incident[..]);
+        for (i, (e, &[a, b])) in sil.iter().zip(ends.iter()).enumerate() {
+            let ends = [&vertices[a as usize], &vertices[b as usize]];
+            let clip = [clips[a as usize], clips[b as usize]];
+            if let Some(d) = edge_dir(adj, &pr, normals.clip(adj, &pr, e), e, ends, clip) {
+                edges.push(EdgeRecord {
+                    a,
+                    b,
+                    dir: d.to_array(),
+                });
+                for c in [a, b] {
+                    incident[c as usize].add(i as u32, d, spill);
+                }
             }
         }
     }
+    rec.edges = edges;
     rec.skipped_edges = sil.len() - rec.edges.len();
 
     // Corners in silhouette-vertex order (the order of first use), so that every per-vertex

@@ -58,9 +58,10 @@
 //! special vertex with up to 5 edges (`Corner::special_fixed`) keeps its spokes in 6 fixed
 //! lanes: the angles of all lanes at once, a stable sort by ranks, no loop whose trip count
 //! is the spoke count but the last; n_t's angle is taken before its normalisation. The
-//! working arrays live per thread between calls (`Scratch`). The loops read and write
-//! them through slices or `extend`, not through `Vec` pushes and indexing: a store into
-//! a `Vec`'s buffer may, for all the compiler knows, change the `Vec`'s own pointer and
+//! working arrays live per thread between calls (`Scratch`). The numbering, projection
+//! and edge loops reach them through slices, `extend` or a local `Vec`, not by pushing
+//! into and indexing the fields of `Scratch` or of the records being built: a store into
+//! a `Vec`'s buffer may, for all the compiler knows, change that `Vec`'s own pointer and
 //! length, so it reloaded both (and redid the bounds checks) after every store.
 //!
 //! Measured slower on a Zen 1 CPU and dropped (BENCHMARKS.md): plain two-edge fans

@@ -246,11 +246,10 @@ impl SmoothieRecords {
     /// Appends a fan of sweep `sweep` and its `n` (= `segment_count(sweep)`) segment words.
     /// The caller computes n: when this was an out-of-line call that computed n itself,
     /// the count's chain no longer overlapped the caller's work (`records_1core/dense`
-    /// 0.81 -> 0.93 ms). Most fans
-    /// (two-edge corners) have one or two segments: two words are written, else all 16
-    /// possible ones, and the length is set after, so that no loop runs n times (a trip
-    /// count the branch predictor cannot guess). Inlined into both callers: 2.6 % fewer
-    /// instructions per light on `dense` than the call (BENCHMARKS.md).
+    /// 0.81 -> 0.93 ms). Most fans (two-edge corners) have one or two segments: two words
+    /// are written, else all 16 possible ones, and the length is set after, so that no loop
+    /// runs n times (a trip count the branch predictor cannot guess). Inlined into both
+    /// callers: 2.6 % fewer instructions per light on `dense` than the call (BENCHMARKS.md).
     #[inline(always)]
     fn push_fan(&mut self, centre: u32, from: Vec2, sweep: f32, n: u32) {
         debug_assert_eq!(n, segment_count(sweep));

@@ -1,14 +1,16 @@
 //! Silhouette benchmarks: adjacency build once per mesh, then per light `extract` (parallel
 //! and serial) and `build_smoothies`, on procedural meshes built here (a UV sphere of ~10k
-//! and ~50k triangles, a torus of ~50k; a ~1M-triangle sphere for the adjacency build) so the bench does not depend on the scene module's
-//! primitives. Sample sizes are small so the whole bench finishes in well under a minute.
+//! and ~50k triangles, a torus of ~50k; a ~1M-triangle sphere for the adjacency build) so
+//! the bench does not depend on the scene module's primitives. Sample sizes are small so
+//! the whole bench finishes in well under a minute.
 //!
 //! The `scenes` group runs the same CPU work on every built-in scene (`Scene::load`), all
 //! casters of the scene for its light (fitted as the renderer fits it, smoothie width
-//! calibrated from the scene's radius): `extract` (rayon), `extract_serial`,
-//! `build_smoothies`, and `total` (extract + smoothies, what one frame of `smoothies`
-//! does per light) on all cores and on one core (a one-thread rayon pool). The goal for
-//! `dense` is `total_1core` <= 1 ms per light.
+//! calibrated from the scene's radius; one adjacency per distinct mesh, shared by the
+//! objects that instance it, from `caster_adjacency` as the techniques build it):
+//! `extract` (rayon), `extract_serial`, `build_smoothies`, and `total` (extract +
+//! smoothies, what one frame of `smoothies` does per light) on all cores and on one core
+//! (a one-thread rayon pool). The goal for `dense` is `total_1core` <= 1 ms per light.
 //!
 //! The `scenes_cpu` group times the same one-core work by the CPU time of the thread that
 //! runs it (`CLOCK_THREAD_CPUTIME_ID`) instead of wall time: on the shared 2-core machine
@@ -36,12 +38,15 @@ use softshadow::silhouette::penumbra::build_penumbra;
 use softshadow::silhouette::smoothie::records::build_records;
 use softshadow::silhouette::smoothie::Width;
 use softshadow::silhouette::SilhouetteEdge;
-use softshadow::silhouette::{build_smoothies, extract, extract_serial, Adjacency};
+use softshadow::silhouette::{
+    build_smoothies, caster_adjacency, extract, extract_serial, Adjacency,
+};
 use softshadow::technique::penumbra_map::cone_base_depth;
 use softshadow::technique::plateaus::{find_planar_receiver, PlaneFrame, PlateauBuilder};
 use softshadow::technique::smoothies::smoothie_width;
 use std::f32::consts::{PI, TAU};
 use std::hint::black_box;
+use std::sync::Arc;
 use std::time::Duration;
 
 /// Mesh from a (rows + 1) x cols grid of points, wrapped in u; `wrap_v` also wraps rows.
@@ -153,9 +158,9 @@ fn bench(c: &mut Criterion) {
     g.finish();
 }
 
-/// One built-in scene's casters: (object to world, adjacency).
+/// One built-in scene's casters: (object to world, adjacency shared per mesh).
 struct Casters {
-    objects: Vec<(Mat4, Adjacency)>,
+    objects: Vec<(Mat4, Arc<Adjacency>)>,
     light: LightView,
     t: f32,
     /// The scene's light radius (penumbra-map's Lr).
@@ -171,11 +176,16 @@ impl Casters {
             .ok()?;
         let light = fit_light(&scene);
         let t = smoothie_width(None, &scene, &light, scene.light.radius);
+        // As the techniques build them: one adjacency per distinct mesh, shared by the
+        // objects that instance it.
+        let adjacency = caster_adjacency(&scene, |_| true)
+            .map_err(|e| eprintln!("{name}: {e:#}"))
+            .ok()?;
         let objects = scene
             .objects
             .iter()
-            .filter(|o| o.role.casts())
-            .filter_map(|o| Adjacency::build(&o.mesh).ok().map(|a| (o.transform, a)))
+            .zip(adjacency)
+            .filter_map(|(o, a)| a.map(|a| (o.transform, a)))
             .collect();
         let plane = find_planar_receiver(&scene)
             .ok()

@@ -382,7 +382,7 @@ impl<K: PartialEq + Copy + Send + Sync, T: Send> CasterCacheOf<K, T> {
     pub fn update(
         &mut self,
         objects: &[crate::scene::Object],
-        adjacency: &[Option<crate::silhouette::Adjacency>],
+        adjacency: &[Option<std::sync::Arc<crate::silhouette::Adjacency>>],
         key: K,
         force: bool,
         build: impl Fn(&crate::silhouette::Adjacency, Mat4) -> T + Sync,

@@ -83,6 +83,7 @@ use crate::vk::{
 use anyhow::{Context as _, Result};
 use bytemuck::{Pod, Zeroable};
 use glam::{Mat3, Mat4};
+use std::sync::Arc;
 
 /// Slots per welded vertex in `incident` (MAX_INCIDENT in glsl/silhouette/silhouette.glsl).
 const MAX_INCIDENT: u64 = 16;
@@ -242,7 +243,7 @@ impl GpuSilhouettes {
         ctx: &Context,
         ubo: &Buffer,
         objects: &[Object],
-        adjacency: &[Option<Adjacency>],
+        adjacency: &[Option<Arc<Adjacency>>],
         light: &LightView,
         width: Width,
     ) -> Result<Option<Self>> {
@@ -268,7 +269,7 @@ impl GpuSilhouettes {
         ctx: &Context,
         ubo: &Buffer,
         objects: &[Object],
-        adjacency: &[Option<Adjacency>],
+        adjacency: &[Option<Arc<Adjacency>>],
         light: &LightView,
         radius: f32,
         z_far: f32,
@@ -287,7 +288,7 @@ impl GpuSilhouettes {
         ctx: &Context,
         ubo: &Buffer,
         objects: &[Object],
-        adjacency: &[Option<Adjacency>],
+        adjacency: &[Option<Arc<Adjacency>>],
         emitter: Emitter,
         estimate: impl Fn(&Adjacency, &Object) -> usize,
     ) -> Result<Option<Self>> {

@@ -101,6 +101,7 @@ use crate::vk::{
     ImageLayout, ImageUsageFlags, Pipeline, PrimitiveTopology, Recorder, Resource, Sampler,
 };
 use anyhow::{Context as _, Result};
+use std::sync::Arc;
 
 pub const INFO: TechniqueInfo = TechniqueInfo {
     name: "penumbra-map",
@@ -134,7 +135,7 @@ pub struct PenumbraMap {
     final_set: DescriptorSet,
     _nearest: Sampler,
     /// Edge adjacency per object (None for non-casters), built once.
-    adjacency: Vec<Option<Adjacency>>,
+    adjacency: Vec<Option<Arc<Adjacency>>>,
     /// CPU path: per caster, its cones and sheets and what they were built for: a moved
     /// caster rebuilds only its own.
     cache: CasterCache<PenumbraKey, PenumbraVertex>,

@@ -119,6 +119,7 @@ use crate::vk::{
 use anyhow::{anyhow, Result};
 use bytemuck::{Pod, Zeroable};
 use glam::{Mat4, Vec2, Vec3, Vec4};
+use std::sync::Arc;
 
 pub const INFO: TechniqueInfo = TechniqueInfo {
     name: "plateaus",
@@ -597,7 +598,7 @@ pub struct Plateaus {
     _nearest: Sampler,
     _linear: Sampler,
     /// Edge adjacency per object (None for non-casters and the plane), built once.
-    adjacency: Vec<Option<Adjacency>>,
+    adjacency: Vec<Option<Arc<Adjacency>>>,
     /// Casters (objects with an adjacency).
     casters: usize,
     /// Per caster, its cones and sheets and the plane frame and radius they were built for:

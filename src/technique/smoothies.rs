@@ -93,6 +93,7 @@ use crate::vk::{
     ImageLayout, ImageUsageFlags, Pipeline, PrimitiveTopology, Recorder, Resource, Sampler,
 };
 use anyhow::Result;
+use std::sync::Arc;
 
 pub const INFO: TechniqueInfo = TechniqueInfo {
     name: "smoothies",
@@ -160,7 +161,7 @@ pub struct Smoothies {
     _nearest: Sampler,
     _linear: Sampler,
     /// Edge adjacency per object (None for non-casters), built once.
-    adjacency: Vec<Option<Adjacency>>,
+    adjacency: Vec<Option<Arc<Adjacency>>>,
     path: SilhouettePath,
     /// CPU path: per object, the geometry and what it was built for (model, light key), so
     /// that a frame rebuilds only the casters that moved.

@@ -134,7 +134,8 @@ pub struct PenumbraMap {
     final_pass: FinalPass,
     final_set: DescriptorSet,
     _nearest: Sampler,
-    /// Edge adjacency per object (None for non-casters), built once.
+    /// Edge adjacency per object (None for non-casters), built once per mesh and shared
+    /// by the objects that instance it (`silhouette::caster_adjacency`).
     adjacency: Vec<Option<Arc<Adjacency>>>,
     /// CPU path: per caster, its cones and sheets and what they were built for: a moved
     /// caster rebuilds only its own.

@@ -597,7 +597,8 @@ pub struct Plateaus {
     _falloff: Image,
     _nearest: Sampler,
     _linear: Sampler,
-    /// Edge adjacency per object (None for non-casters and the plane), built once.
+    /// Edge adjacency per object (None for non-casters and the plane), built once per mesh
+    /// and shared by the objects that instance it (`silhouette::caster_adjacency`).
     adjacency: Vec<Option<Arc<Adjacency>>>,
     /// Casters (objects with an adjacency).
     casters: usize,

@@ -160,7 +160,8 @@ pub struct Smoothies {
     _falloff: Image,
     _nearest: Sampler,
     _linear: Sampler,
-    /// Edge adjacency per object (None for non-casters), built once.
+    /// Edge adjacency per object (None for non-casters), built once per mesh and shared
+    /// by the objects that instance it (`silhouette::caster_adjacency`).
     adjacency: Vec<Option<Arc<Adjacency>>>,
     path: SilhouettePath,
     /// CPU path: per object, the geometry and what it was built for (model, light key), so

@@ -63,6 +63,10 @@
 //! into and indexing the fields of `Scratch` or of the records being built: a store into
 //! a `Vec`'s buffer may, for all the compiler knows, change that `Vec`'s own pointer and
 //! length, so it reloaded both (and redid the bounds checks) after every store.
+//! Special vertices are about one silhouette vertex in eight on `dense` and about a fifth
+//! of its time per light (~5 fans each); moving them into passes of their own (spokes of
+//! all, then one flat angle loop, then the sorts and fans) and sorting by a network
+//! instead of ranks did not change it (measured in pairs, BENCHMARKS.md).
 //!
 //! Measured slower on a Zen 1 CPU and dropped (BENCHMARKS.md): plain two-edge fans
 //! written branch-free at a running count (records 0.80 -> 1.12 ms on `dense`), numbering

@@ -711,7 +711,7 @@ pub fn extract_serial(adj: &Adjacency, model: Mat4, light_pos_world: Vec3) -> Ve
 /// per technique; `None` for the others, so the result zips with `scene.objects`. Objects
 /// that instance one mesh (the same `Arc<Mesh>`) share one adjacency: it depends on the
 /// mesh alone. On `dense` (36 rocks, 6 meshes) the per-light extraction and records then
-/// stream ~0.5 MB of adjacency instead of ~3 MB, which stays in a 2 MB L2: 7-13 % less CPU
+/// stream ~0.6 MB of adjacency instead of ~3.5 MB, which stays in a 2 MB L2: 7-13 % less CPU
 /// time per light (BENCHMARKS.md), and 6 builds instead of 36.
 pub fn caster_adjacency(
     scene: &crate::scene::Scene,

@@ -31,6 +31,11 @@ void main() {
     vec2 q = uv - v_anchor;
     // Edges: distance from the silhouette edge along the outward normal; corners: radial.
     float alpha = v_kind < 0.5 ? dot(q, v_dir) : length(q);
+    // At or past the smoothie's outer side (alpha >= 1) it adds no shadow: not written, so
+    // that its b does not MIN-blend into a texel that another smoothie shades. A corner's
+    // polygon overshoots its disc of radius t (chords at t / cos(phi / 2)); without this the
+    // overshoot's depths showed, and the image depended on how a corner is split into fans.
+    if (alpha >= t) discard;
     alpha = clamp(alpha / t, 0.0, 1.0);
     float denom = 1.0 - f;
     // Eq. 1: alpha' = alpha / (1 - b/r), clamped to [0, 1].

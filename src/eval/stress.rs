@@ -1164,10 +1164,11 @@ pub mod guards {
     pub const SMOOTHIE_REMAP_EPS: f32 = 1e-4;
 
     /// glsl/smoothies/smoothie.frag, Eq. 1: alpha' = alpha / (1 - b/r), clamped; `None`
-    /// where the fragment is discarded (b > r). Case `near-contact` (b/r -> 1).
+    /// where the fragment is discarded (b > r, or at or past the smoothie's outer side,
+    /// `alpha_raw >= t`). Case `near-contact` (b/r -> 1).
     pub fn smoothie_alpha(alpha_raw: f32, t: f32, b: f32, r: f32) -> Option<f32> {
         let f = b / r;
-        if f > 1.0 {
+        if f > 1.0 || alpha_raw >= t {
             return None;
         }
         let alpha = (alpha_raw / t).clamp(0.0, 1.0);
@@ -1247,11 +1248,18 @@ mod tests {
                             "b {b} r {r} raw {raw}: {a}"
                         );
                     } else {
-                        assert!(b > r, "only b > r is discarded");
+                        assert!(
+                            b > r || raw >= 0.02,
+                            "only b > r or alpha >= 1 is discarded"
+                        );
                     }
                 }
             }
         }
+        // At the smoothie's outer side (alpha = 1) and past it: discarded; just inside: kept.
+        assert_eq!(smoothie_alpha(0.02, 0.02, 0.5, 1.0), None);
+        assert_eq!(smoothie_alpha(0.03, 0.02, 0.5, 1.0), None);
+        assert!(smoothie_alpha(next_down(0.02), 0.02, 0.5, 1.0).is_some());
         // Far from contact the remap is Eq. 1 unclamped.
         let a = smoothie_alpha(0.01, 0.02, 0.5, 1.0).unwrap();
         assert!((a - 1.0).abs() < 1e-6);

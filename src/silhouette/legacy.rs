@@ -535,7 +535,7 @@ mod equivalence {
     /// same edges bit for bit (same counts, same quads: `expand` does `build_edge`'s
     /// arithmetic on the same inputs); two-edge corners as fans around the same anchors in
     /// the same order, each vertex within `FAN_TOL` (plus the old sweep's acos error) of the
-    /// old one. Special vertices (full discs, the n_t spoke ~1e-3 rad off), and any fan whose
+    /// old one. Special vertices (full discs: one fan here, several there), and any fan whose
     /// segmentation differs (an arc within 2e-6 rad of a 30-degree step minus the padding),
     /// are compared by coverage: points of the disc of radius t on a polar grid are inside
     /// the old triangles exactly when inside the new ones (away from the old sector sides by
@@ -555,9 +555,8 @@ mod equivalence {
         // Per group, the acos error of the old sweep (`angle_to` = acos(d1 . d2) for a
         // two-edge corner): about 2.5e-7 / sin(sweep) rad, up to 6e-4 rad for the smallest
         // corners (`fast_atan2` of the cross and dot products has no such loss).
-        // Special vertices (full discs: several fans, or one of more than a half turn) are
-        // compared by coverage only: their spoke at the projected vertex normal comes from
-        // the projection's derivative, not a finite difference (about 1e-3 rad apart).
+        // Special vertices (full discs: one fan of a full turn here, a fan per gap between
+        // spokes there) are compared by coverage only.
         let mut acos_err: Vec<(f32, bool)> = Vec::new();
         let mut last: Option<[f32; 2]> = None;
         for f in &records.fans {

@@ -10,8 +10,10 @@
 //! - this module's expanded list (`build_smoothies_width`): the readable construction that
 //!   the rules below describe, the GPU compute path's model (glsl/silhouette/, and its
 //!   buffer-size estimate) and the tests' reference; bit-identical to the pre-rewrite code
-//!   (`legacy.rs`). The records give the same edges bit for bit and the same corners
-//!   (fan vertices within 1e-5 t of these; a special vertex's n_t spoke within ~1e-3 rad).
+//!   (`legacy.rs`). The records give the same edges bit for bit, the same two-edge corners
+//!   (fan vertices within 1e-5 t of these) and the same discs at special vertices, as one
+//!   fan instead of this list's fans split at every spoke: the smoothie pass discards
+//!   alpha >= 1, where the two differ, so both draw the same texels (records.rs).
 //!
 //! # Spaces and units
 //! Everything is built in light-screen uv (`LightView::project`: uv = ndc * 0.5 + 0.5, x
@@ -53,7 +55,9 @@
 //!   spokes), so it covers the paper's area plus the gaps between edges. Wedges pointing into
 //!   the blocker are not skipped: there the receiver is the blocker itself, b ~ r, and the
 //!   alpha correction alpha / (1 - b/r) saturates to 1 (no extra shadow); min blending makes
-//!   the overdraw harmless.
+//!   the overdraw harmless. The spokes place only the polygon's overshoot beyond radius t,
+//!   which the smoothie pass discards (alpha >= 1); the records path draws the same disc
+//!   as one fan.
 //!
 //! Corner vertices have `kind = 1`, `anchor = s` (vertex uv), `dir = [0, 0]`:
 //! alpha = |uv - s| / t.

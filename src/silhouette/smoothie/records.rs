@@ -22,15 +22,14 @@
 //!   of the first spoke and the signed sweep in radians (> 0: counter-clockwise in uv).
 //!   Two-edge corner: one fan from d1 (the first incident edge in silhouette order) over
 //!   the shorter arc to d2, or the hairpin half turn (+-PI), decided as `build_corner`
-//!   decides. Special vertex (one, or three and more, kept edges): the full disc split at
-//!   every d_i and at the projected vertex normal n_t, one fan per gap, as `build_corner`
-//!   (n_t by the projection's derivative, see `Corner::normal`; of spokes within 1e-6 rad
-//!   of each other, the last one in angle order starts the fan). One full-disc fan from d1
-//!   would cover the same disc of radius t, but its polygon's overshoot (t to
-//!   t / cos(15 deg), alpha clamped to 1) lies elsewhere, and those fragments still
-//!   MIN-blend their depth b into the smoothie buffer: on `bunny` that moved a receiver
-//!   between two smoothie depths into a penumbra (visibility off by 0.047 against the GPU
-//!   path, tests/gpu_silhouettes.rs), so the spokes stay where they were.
+//!   decides. Special vertex (one, or three and more, kept edges): one fan over the full
+//!   disc from d1 (sweep 2 PI, 13 segments). `build_corner` splits the same disc at every
+//!   d_i and at the projected vertex normal n_t, one fan per gap (the paper's triangles
+//!   (s, s + t d_i, s + n_t) lie inside it). The two polygons differ only in where they
+//!   overshoot the disc of radius t (out to t / cos(phi / 2)), and there alpha >= 1, which
+//!   glsl/smoothies/smoothie.frag discards: both draw the same smoothie texels. Before
+//!   that discard the overshoot's depths MIN-blended into the buffer, and splitting the
+//!   disc at n_t here too was what kept the two paths' images equal (tests/gpu_silhouettes.rs).
 //! - one `u32` per fan segment: `fan << 8 | n << 4 | k` (segment k of the fan's n;
 //!   n <= 13, 4 bits each; fewer than 2^24 fans per caster), four to a unit, the last unit
 //!   padded with zeros. Expands to 3 vertices: the centre, spoke k, spoke k + 1.
@@ -46,27 +45,21 @@
 //! # Cost (per light, one core; BENCHMARKS.md)
 //! No libm: a two-edge corner's arc is [`fast_atan2`] of the cross and dot products (a
 //! degree-11 odd polynomial, |error| < 2e-6 rad: the last spoke moves by 2e-6 t, far below
-//! a texel), as are a special vertex's spoke angles (sorted by them); n is a ceil by
-//! truncation and one compare. The Volokh normal test takes the projection's derivative
-//! instead of three projections (see `edge_dir`), with the clip-space normal matrix
-//! precomputed for rigid and uniformly scaled models; so does n_t. Every silhouette vertex
-//! is numbered in one loop and projected in the next; a corner needs only its first two
-//! incident edges and a count, gathered while the edges are built (later ones, at special
-//! vertices, go into a chain per vertex). The two-edge arcs are computed for every vertex
-//! in a loop of their own, with no pushes or branches (consecutive vertices' divisions and
-//! polynomials overlap; it does not vectorise), before the loop that writes the fans. A
-//! special vertex with up to 5 edges (`Corner::special_fixed`) keeps its spokes in 6 fixed
-//! lanes: the angles of all lanes at once, a stable sort by ranks, no loop whose trip count
-//! is the spoke count but the last; n_t's angle is taken before its normalisation. The
-//! working arrays live per thread between calls (`Scratch`). The numbering, projection
+//! a texel); n is a ceil by truncation and one compare. The Volokh normal test takes the
+//! projection's derivative instead of three projections (see `edge_dir`), with the
+//! clip-space normal matrix precomputed for rigid and uniformly scaled models. Every
+//! silhouette vertex is numbered in one loop and projected in the next; a corner needs only
+//! its first two incident edges and a count, gathered while the edges are built. The
+//! two-edge arcs are computed for every vertex in a loop of their own, with no pushes or
+//! branches (consecutive vertices' divisions and polynomials overlap; it does not
+//! vectorise), before the loop that writes the fans. A special vertex is one fan from its
+//! first edge: no spoke angles, no sort, no n_t. On `dense` (one silhouette vertex in
+//! eight is special) the split disc took about a fifth of the time per light, which one
+//! fan saves (BENCHMARKS.md). The working arrays live per thread between calls (`Scratch`). The numbering, projection
 //! and edge loops reach them through slices, `extend` or a local `Vec`, not by pushing
 //! into and indexing the fields of `Scratch` or of the records being built: a store into
 //! a `Vec`'s buffer may, for all the compiler knows, change that `Vec`'s own pointer and
 //! length, so it reloaded both (and redid the bounds checks) after every store.
-//! Special vertices are about one silhouette vertex in eight on `dense` and about a fifth
-//! of its time per light (~5 fans each); moving them into passes of their own (spokes of
-//! all, then one flat angle loop, then the sorts and fans) and sorting by a network
-//! instead of ranks did not change it (measured in pairs, BENCHMARKS.md).
 //!
 //! Measured slower on a Zen 1 CPU and dropped (BENCHMARKS.md): plain two-edge fans
 //! written branch-free at a running count (records 0.80 -> 1.12 ms on `dense`), numbering
@@ -126,28 +119,6 @@ impl VertexRecord {
     fn projected(&self) -> bool {
         self.inv_depth > 0.0
     }
-}
-
-/// Spokes (kept edges and n_t) a special vertex may have for `Corner::special_fixed`.
-/// Every lane costs every special vertex (the rank sort compares all pairs of lanes). On
-/// `dense`, 1,185 of the 1,231 special vertices per light have 4 edges and the rest 6.
-/// With 6 lanes (vertices of 6 edges and more take `special_general`), the records take
-/// 3 % fewer instructions than with the 8 lanes they replaced (BENCHMARKS.md).
-const SPOKES: usize = 6;
-
-#[cfg(test)]
-thread_local! {
-    /// Whether special vertices take `special_fixed` (a test turns it off to compare).
-    static FIXED_SPOKES: std::cell::Cell<bool> = const { std::cell::Cell::new(true) };
-}
-
-/// Whether special vertices with few spokes take `Corner::special_fixed`: always, outside
-/// the test that compares it with `Corner::special_general`.
-fn fixed_spokes() -> bool {
-    #[cfg(test)]
-    return FIXED_SPOKES.with(|f| f.get());
-    #[cfg(not(test))]
-    true
 }
 
 /// Largest fan index a segment word can hold (24 bits).
@@ -329,7 +300,7 @@ impl SmoothieRecords {
 
 /// Smoothie records of one object (`model`: object -> world) for `light` from its
 /// silhouette `sil` (as returned by `extract`): the same edges and directions, and corners
-/// covering the same areas, as `build_smoothies_width`; serial (cheap enough for one
+/// covering the same discs, as `build_smoothies_width`; serial (cheap enough for one
 /// thread).
 pub fn build_records(
     adj: &Adjacency,
@@ -357,9 +328,7 @@ struct Scratch {
     ends: Vec<[u32; 2]>,
     clips: Vec<Vec4>,
     incident: Vec<Incident>,
-    spill: Vec<Spill>,
     arcs: Vec<f32>,
-    spokes: Vec<(f32, Vec2)>,
 }
 
 thread_local! {
@@ -381,13 +350,10 @@ fn build_with(
         ends,
         clips,
         incident,
-        spill,
         arcs,
-        spokes,
     } = scratch;
     let pr = Projector::new(model, light);
     let normals = NormalProjector::new(&pr);
-    let vpn = light.view_proj * Mat4::from_mat3(pr.normal_matrix);
     let mut rec = SmoothieRecords::default();
 
     // Silhouette vertices numbered in order of first use (as `build_impl`): `slot[v]` is
@@ -463,9 +429,6 @@ fn build_with(
     // (saturating) and the first two of them in silhouette order: all a corner needs.
     incident.clear();
     incident.resize(welded.len(), Incident::default());
-    // Every kept incident edge past a vertex's second, chained per vertex from
-    // `Incident::spill`.
-    spill.clear();
     // Pushed into a local `Vec` (one that only this loop can reach, unlike `rec.edges`),
     // reading the other arrays through slices.
     let mut edges = Vec::with_capacity(sil.len());
@@ -481,7 +444,7 @@ fn build_with(
                     dir: d.to_array(),
                 });
                 for c in [a, b] {
-                    incident[c as usize].add(i as u32, d, spill);
+                    incident[c as usize].add(i as u32, d);
                 }
             }
         }
@@ -501,9 +464,9 @@ fn build_with(
         let [(_, d1), (_, d2)] = inc.edges;
         fast_atan2(d1.perp_dot(d2), d1.dot(d2).clamp(-1.0, 1.0))
     }));
-    // About 1.5 fans per vertex on `dense` (special vertices have ~5), and the 16 words a
-    // fan's segments may write past the end.
-    rec.fans.reserve(2 * welded.len());
+    // One fan per vertex at most, and the 16 words a fan's segments may write past the
+    // end (13 for a special vertex's).
+    rec.fans.reserve(welded.len());
     rec.segments.reserve(4 * welded.len() + 16);
     let per_vertex = welded
         .iter()
@@ -519,9 +482,8 @@ fn build_with(
             clip,
             inc,
             arc,
-            vpn: &vpn,
         };
-        if let Some(special) = corner.build(adj, &pr, sil, spill, spokes, &mut rec) {
+        if let Some(special) = corner.build(adj, &pr, sil, &mut rec) {
             rec.corners += 1;
             rec.special_vertices += usize::from(special);
         }
@@ -533,51 +495,19 @@ fn build_with(
     rec
 }
 
-/// A silhouette vertex's kept incident edges: how many (saturating at 3), the first two
-/// (silhouette index, outward direction) in silhouette order, and the head of the chain of
-/// the others in the spill list (newest first), or [`NO_SPILL`].
-#[derive(Clone, Copy)]
+/// A silhouette vertex's kept incident edges: how many (saturating at 3) and the first two
+/// (silhouette index, outward direction) in silhouette order.
+#[derive(Clone, Copy, Default)]
 struct Incident {
     count: u8,
-    spill: u32,
     edges: [(u32, Vec2); 2],
 }
 
-impl Default for Incident {
-    fn default() -> Self {
-        Self {
-            count: 0,
-            spill: NO_SPILL,
-            edges: Default::default(),
-        }
-    }
-}
-
-/// A third or later kept edge at a vertex: the next one of the same vertex (or
-/// [`NO_SPILL`]), the edge's silhouette index and outward direction. A chain per vertex,
-/// not a list sorted by vertex: no sort, and a special vertex walks only its own.
-#[derive(Clone, Copy)]
-struct Spill {
-    next: u32,
-    edge: u32,
-    d: Vec2,
-}
-
-const NO_SPILL: u32 = u32::MAX;
-
 impl Incident {
-    /// Counts the edge: one of the first two is kept here, a later one goes to the head of
-    /// this vertex's chain in `spill`.
-    fn add(&mut self, edge: u32, d: Vec2, spill: &mut Vec<Spill>) {
+    /// Counts the edge and keeps it when it is one of the first two.
+    fn add(&mut self, edge: u32, d: Vec2) {
         if let Some(slot) = self.edges.get_mut(self.count as usize) {
             *slot = (edge, d);
-        } else {
-            spill.push(Spill {
-                next: self.spill,
-                edge,
-                d,
-            });
-            self.spill = (spill.len() - 1) as u32;
         }
         self.count = (self.count + 1).min(3);
     }
@@ -677,21 +607,6 @@ impl NormalProjector {
     }
 }
 
-/// Insertion sort by angle: a special vertex has about five spokes (four edges and n_t on
-/// `dense`), where the library's stable sort costs more in its set-up than in its
-/// comparisons. The angles are finite: every spoke is a finite unit vector.
-fn sort_by_angle(s: &mut [(f32, Vec2)]) {
-    for i in 1..s.len() {
-        let x = s[i];
-        let mut j = i;
-        while j > 0 && s[j - 1].0 > x.0 {
-            s[j] = s[j - 1];
-            j -= 1;
-        }
-        s[j] = x;
-    }
-}
-
 /// One silhouette vertex's corner: record index `c`, welded vertex `v`, its clip
 /// coordinates and its kept incident edges.
 struct Corner<'a> {
@@ -701,8 +616,6 @@ struct Corner<'a> {
     inc: &'a Incident,
     /// `fast_atan2` of the cross and dot products of the first two edges' directions.
     arc: f32,
-    /// VP N: an object-space normal to clip space.
-    vpn: &'a Mat4,
 }
 
 impl Corner<'_> {
@@ -722,176 +635,41 @@ impl Corner<'_> {
         }
     }
 
-    /// The corner's fans as `build_corner` decides them; whether it is special, or `None`
-    /// when it needs no corner. Two edges: the shorter arc from d1 to d2, or the hairpin
-    /// half turn; none when d1 == d2. One edge, or three and more (the paper's special
-    /// case): the full disc split at every d_i and at the projected vertex normal n_t, one
-    /// fan per gap (`spill` holds the third and later edges; `spokes` is scratch).
+    /// The corner's fan; whether it is special, or `None` when it needs no corner. Two
+    /// edges: the shorter arc from d1 to d2, or the hairpin half turn, as `build_corner`
+    /// decides; none when d1 == d2. One edge, or three and more (the paper's special
+    /// case): the full disc, one fan from d1 (see the module header).
     fn build(
         &self,
         adj: &Adjacency,
         pr: &Projector,
         sil: &[SilhouetteEdge],
-        spill: &[Spill],
-        spokes: &mut Vec<(f32, Vec2)>,
         rec: &mut SmoothieRecords,
     ) -> Option<bool> {
         // A kept edge has both ends projected (`edge_dir`), so a vertex with one is too.
         let [(i1, d1), (i2, d2)] = self.inc.edges;
-        if self.inc.count == 2 {
-            let cos = d1.dot(d2).clamp(-1.0, 1.0);
-            // The exact thresholds of `build_corner` (no corner below MIN_CORNER_ANGLE,
-            // the hairpin above PI - MIN_CORNER_ANGLE): cos == +-1.
-            if cos >= 1.0 {
-                return None;
-            }
-            let sweep = if cos <= -1.0 {
-                let edges = [&sil[i1 as usize], &sil[i2 as usize]];
-                if hairpin_ccw(adj, pr, &self.vertex(adj, pr, rec), edges.into_iter(), d1) {
-                    PI
-                } else {
-                    -PI
-                }
+        if self.inc.count != 2 {
+            rec.push_fan(self.c, d1, TAU, segment_count(TAU));
+            return Some(true);
+        }
+        let cos = d1.dot(d2).clamp(-1.0, 1.0);
+        // The exact thresholds of `build_corner` (no corner below MIN_CORNER_ANGLE, the
+        // hairpin above PI - MIN_CORNER_ANGLE): cos == +-1.
+        if cos >= 1.0 {
+            return None;
+        }
+        let sweep = if cos <= -1.0 {
+            let edges = [&sil[i1 as usize], &sil[i2 as usize]];
+            if hairpin_ccw(adj, pr, &self.vertex(adj, pr, rec), edges.into_iter(), d1) {
+                PI
             } else {
-                self.arc
-            };
-            rec.push_fan(self.c, d1, sweep, segment_count(sweep));
-            return Some(false);
-        }
-        // Special vertex.
-        if !fixed_spokes() || !self.special_fixed(adj, pr, sil, spill, rec) {
-            self.special_general(adj, pr, sil, spill, spokes, rec);
-        }
-        Some(true)
-    }
-
-    /// The vertex's kept edges (silhouette index, outward direction): the first two in
-    /// silhouette order, then the spill chain. Both special paths gather (and sum the
-    /// normals) in this order, so that they agree bit for bit.
-    fn kept_edges<'s>(&'s self, spill: &'s [Spill]) -> impl Iterator<Item = (u32, Vec2)> + 's {
-        let count = usize::from(self.inc.count).min(2);
-        let chain = std::iter::successors(spill.get(self.inc.spill as usize), |s| {
-            spill.get(s.next as usize)
-        });
-        self.inc.edges[..count]
-            .iter()
-            .copied()
-            .chain(chain.map(|s| (s.edge, s.d)))
-    }
-
-    /// A special vertex with at most `SPOKES` spokes (its kept edges and n_t), in fixed-size
-    /// arrays: the angles of all lanes at once, a stable sort by ranks and the gaps in
-    /// loops of fixed length, so that the spoke count is no branch. The same fans, bit for
-    /// bit, as `special_general`; `false` (nothing written) when the vertex has more spokes.
-    fn special_fixed(
-        &self,
-        adj: &Adjacency,
-        pr: &Projector,
-        sil: &[SilhouetteEdge],
-        spill: &[Spill],
-        rec: &mut SmoothieRecords,
-    ) -> bool {
-        // (x, y): the direction the angle is taken of; (ux, uy): the unit spoke.
-        let (mut x, mut y) = ([0f32; SPOKES], [0f32; SPOKES]);
-        let (mut ux, mut uy) = ([0f32; SPOKES], [0f32; SPOKES]);
-        let mut len = 0usize;
-        let mut n = glam::Vec3::ZERO;
-        for (i, d) in self.kept_edges(spill) {
-            // One lane stays free for n_t.
-            if len == SPOKES - 1 {
-                return false;
+                -PI
             }
-            (x[len], y[len], ux[len], uy[len]) = (d.x, d.y, d.x, d.y);
-            len += 1;
-            n += adj.edge_normals[sil[i as usize].edge as usize];
-        }
-        if let Some((v, u)) = self.normal(pr, n) {
-            (x[len], y[len], ux[len], uy[len]) = (v.x, v.y, u.x, u.y);
-            len += 1;
-        }
-        // Unused lanes sort last (and, being equal, keep their order).
-        let a: [f32; SPOKES] = std::array::from_fn(|k| {
-            let a = fast_atan2(y[k], x[k]);
-            if k < len {
-                a
-            } else {
-                f32::INFINITY
-            }
-        });
-        // Stable: ties keep their gathering order, as the insertion sort.
-        let (mut sa, mut sx, mut sy) = ([0f32; SPOKES + 1], [0f32; SPOKES], [0f32; SPOKES]);
-        for i in 0..SPOKES {
-            let rank: usize = (0..SPOKES)
-                .map(|j| usize::from(a[j] < a[i] || (j < i && a[j] == a[i])))
-                .sum();
-            let r = rank % SPOKES;
-            (sa[r], sx[r], sy[r]) = (a[i], ux[i], uy[i]);
-        }
-        sa[len] = sa[0] + TAU;
-        // Unused lanes' gaps (infinite or NaN) are zeroed, not counted.
-        let gaps: [f32; SPOKES] =
-            std::array::from_fn(|k| if k < len { sa[k + 1] - sa[k] } else { 0.0 });
-        for k in 0..len {
-            if gaps[k] > 1e-6 {
-                rec.push_fan(
-                    self.c,
-                    Vec2::new(sx[k], sy[k]),
-                    gaps[k],
-                    segment_count(gaps[k]),
-                );
-            }
-        }
-        true
-    }
-
-    /// A special vertex's fans, any number of spokes: a fan from every spoke to the next
-    /// one counter-clockwise, where they are more than 1e-6 rad apart (of coinciding
-    /// spokes, the last one's fan spans the gap).
-    fn special_general(
-        &self,
-        adj: &Adjacency,
-        pr: &Projector,
-        sil: &[SilhouetteEdge],
-        spill: &[Spill],
-        spokes: &mut Vec<(f32, Vec2)>,
-        rec: &mut SmoothieRecords,
-    ) {
-        // Spokes at every d_i, and the sum of the incident edges' faces' normals.
-        spokes.clear();
-        let mut n = glam::Vec3::ZERO;
-        for (i, d) in self.kept_edges(spill) {
-            spokes.push((fast_atan2(d.y, d.x), d));
-            n += adj.edge_normals[sil[i as usize].edge as usize];
-        }
-        if let Some((v, u)) = self.normal(pr, n) {
-            spokes.push((fast_atan2(v.y, v.x), u));
-        }
-        sort_by_angle(spokes);
-        for i in 0..spokes.len() {
-            let (a, from) = spokes[i];
-            let next = spokes.get(i + 1).map_or(spokes[0].0 + TAU, |x| x.0);
-            let gap = next - a;
-            if gap > 1e-6 {
-                rec.push_fan(self.c, from, gap, segment_count(gap));
-            }
-        }
-    }
-
-    /// n_t, `vertex_normal_screen` by the projection's derivative (as `edge_dir`): `n` is
-    /// the sum of the incident edges' faces' normals, w = N n its world direction, and
-    /// J w = 0.5 (cn.xy c.w - c.xy cn.w) / c.w^2 (cn = VP (w, 0)). Returns v = J w up to a
-    /// positive factor (what the spoke's angle is taken of: no root or division on the way
-    /// to the sort) and v's unit vector; `None` where |J (w / |w|)| <= 1e-9 uv per unit
-    /// length, compared squared.
-    fn normal(&self, pr: &Projector, n: glam::Vec3) -> Option<(Vec2, Vec2)> {
-        let c = self.clip;
-        let cn = *self.vpn * n.extend(0.0);
-        let v = cn.xy() * c.w - c.xy() * cn.w;
-        let w2 = (pr.normal_matrix * n).length_squared();
-        let l2 = v.length_squared();
-        let ww = c.w * c.w;
-        let ok = w2 > 0.0 && l2.is_finite() && 0.25 * l2 > 1e-18 * (ww * ww) * w2;
-        ok.then(|| (v, v / l2.sqrt()))
+        } else {
+            self.arc
+        };
+        rec.push_fan(self.c, d1, sweep, segment_count(sweep));
+        Some(false)
     }
 }
 
@@ -899,15 +677,38 @@ impl Corner<'_> {
 mod tests {
     use super::*;
 
-    /// The fixed-size special-vertex path writes the general path's fans, bit for bit, on
-    /// every built-in scene, and a vertex with more edges than its lanes hold falls back to
-    /// the general path with nothing written twice.
+    /// A special vertex (one, or three and more, kept edges) gets one fan over the full disc
+    /// from its first kept edge's direction, in 13 segments; every other corner one fan of
+    /// at most a half turn. On a vertex where ten edges meet and on every built-in scene.
     #[test]
-    fn fixed_spokes_match_the_general_path() {
+    fn special_vertices_get_one_full_disc_fan() {
         use crate::render::fit_light;
         use crate::scene::{Light, LightView, Mesh, Scene, BUILTIN_SCENES};
+        let check = |r: &SmoothieRecords, name: &str| {
+            assert_eq!(r.fans.len(), r.corners, "{name}: one fan per corner");
+            let mut segments = vec![0u32; r.fans.len()];
+            for &w in &r.segments {
+                let (fan, n) = ((w >> 8) as usize, (w >> 4) & 15);
+                assert_eq!(n, segment_count(r.fans[fan].sweep), "{name}");
+                segments[fan] += 1;
+            }
+            let mut full = 0;
+            for (f, &n) in r.fans.iter().zip(&segments) {
+                assert_eq!(n, segment_count(f.sweep), "{name}");
+                if f.sweep == TAU {
+                    full += 1;
+                    assert_eq!(n, 13, "{name}");
+                    let first = r.edges.iter().find(|e| e.a == f.centre || e.b == f.centre);
+                    assert_eq!(first.map(|e| e.dir), Some(f.from), "{name}: from d1");
+                } else {
+                    assert!(f.sweep.abs() <= PI, "{name}: sweep {}", f.sweep);
+                }
+            }
+            assert_eq!(full, r.special_vertices, "{name}");
+            full
+        };
         // Five separate triangles around one vertex: ten boundary edges (all silhouette
-        // edges) meet there, more than `SPOKES - 1`.
+        // edges) meet there.
         let mut star = Mesh::default();
         star.positions.push(glam::Vec3::ZERO);
         star.normals.push(glam::Vec3::Z);
@@ -934,21 +735,18 @@ mod tests {
         let sil = crate::silhouette::extract(&adj, Mat4::IDENTITY, light.position);
         // Every edge is a boundary edge: 15, ten of them at the centre.
         assert_eq!(sil.len(), 15);
-        let width = Width::Fixed(0.02);
-        let fixed = build_records(&adj, &sil, Mat4::IDENTITY, &light, width);
-        FIXED_SPOKES.with(|f| f.set(false));
-        let general = build_records(&adj, &sil, Mat4::IDENTITY, &light, width);
-        FIXED_SPOKES.with(|f| f.set(true));
-        assert_eq!(fixed, general, "star");
+        let rec = build_records(&adj, &sil, Mat4::IDENTITY, &light, Width::Fixed(0.02));
+        check(&rec, "star");
         let centre_uv = light.project(glam::Vec3::ZERO).0;
-        let at_centre = |f: &&FanRecord| {
-            (Vec2::from(fixed.vertices[f.centre as usize].uv) - centre_uv).length() < 1e-6
-        };
-        let centre_fans = fixed.fans.iter().filter(at_centre).count();
-        assert!(
-            centre_fans >= 10,
-            "centre split at its ten edges: {centre_fans} fans"
-        );
+        let at_centre: Vec<_> = rec
+            .fans
+            .iter()
+            .filter(|f| {
+                (Vec2::from(rec.vertices[f.centre as usize].uv) - centre_uv).length() < 1e-6
+            })
+            .collect();
+        assert_eq!(at_centre.len(), 1, "one fan at the centre");
+        assert_eq!(at_centre[0].sweep, TAU);
         let mut specials = 0;
         for &name in BUILTIN_SCENES.iter().filter(|&&n| n != "dense-1m") {
             let scene = Scene::load(name).expect("built-in scene");
@@ -956,13 +754,8 @@ mod tests {
             for o in scene.objects.iter().filter(|o| o.role.casts()) {
                 let adj = Adjacency::build(&o.mesh).expect("adjacency");
                 let sil = crate::silhouette::extract(&adj, o.transform, light.position);
-                let width = Width::Fixed(0.02);
-                let fixed = build_records(&adj, &sil, o.transform, &light, width);
-                FIXED_SPOKES.with(|f| f.set(false));
-                let general = build_records(&adj, &sil, o.transform, &light, width);
-                FIXED_SPOKES.with(|f| f.set(true));
-                assert_eq!(fixed, general, "{name}");
-                specials += fixed.special_vertices;
+                let rec = build_records(&adj, &sil, o.transform, &light, Width::Fixed(0.02));
+                specials += check(&rec, name);
             }
         }
         assert!(specials > 1000, "{specials} special vertices");

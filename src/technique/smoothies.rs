@@ -47,13 +47,14 @@
 //!    location 1 = remapped alpha, R16_SFLOAT, clear 1.0, blend MIN (the paper's "minimum
 //!    blending" of overlapping smoothies, Sec. 3.1; the min depth keeps the nearest smoothie).
 //!    `glsl/smoothies/smoothie.frag` reads the shadow map's g at its own texel for the
-//!    receiver depth r, discards when b/r > 1 (smoothie behind a blocker), computes the linear alpha
-//!    (edge: distance from the edge along the outward normal / t; corner: radial / t),
-//!    discards where it is >= 1 (past the smoothie's outer side it casts nothing, and its b
-//!    must not MIN-blend into a texel another smoothie shades; a corner's polygon overshoots
-//!    its disc of radius t, so this also makes the image independent of how a corner is
-//!    split into fans) and remaps it with Eq. 1, alpha' = clamp(alpha / (1 - b/r)), with alpha' = 1 when
-//!    1 - b/r < 1e-4 (Volokh 3.5: no NaN, no Inf, no speckles where b ~ r).
+//!    receiver depth r, discards when b/r > 1 (smoothie behind a blocker), computes the
+//!    linear alpha (edge: distance from the edge along the outward normal / t; corner:
+//!    radial / t), discards where it is >= 1 (past the smoothie's outer side it casts
+//!    nothing, and its b must not MIN-blend into a texel another smoothie shades; a corner's
+//!    polygon overshoots its disc of radius t, so this also makes the image independent of
+//!    how a corner is split into fans) and remaps it with Eq. 1,
+//!    alpha' = clamp(alpha / (1 - b/r)), with alpha' = 1 when 1 - b/r < 1e-4 (Volokh 3.5:
+//!    no NaN, no Inf, no speckles where b ~ r).
 //! 3. `smoothies/final` — from the camera (`FinalPass`), `glsl/smoothies/final.frag`: at
 //!    each of the 4 nearest texels v = 0 behind the blocker, else alpha behind the smoothie,
 //!    else 1 (Sec. 3 step 5); bilinear weights (the 2x2 tent of the paper's hardware PCF);

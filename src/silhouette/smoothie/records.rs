@@ -55,11 +55,12 @@
 //! vectorise), before the loop that writes the fans. A special vertex is one fan from its
 //! first edge: no spoke angles, no sort, no n_t. On `dense` (one silhouette vertex in
 //! eight is special) the split disc took about a fifth of the time per light, which one
-//! fan saves (BENCHMARKS.md). The working arrays live per thread between calls (`Scratch`). The numbering, projection
-//! and edge loops reach them through slices, `extend` or a local `Vec`, not by pushing
-//! into and indexing the fields of `Scratch` or of the records being built: a store into
-//! a `Vec`'s buffer may, for all the compiler knows, change that `Vec`'s own pointer and
-//! length, so it reloaded both (and redid the bounds checks) after every store.
+//! fan saves (BENCHMARKS.md). The working arrays live per thread between calls
+//! (`Scratch`). The numbering, projection and edge loops reach them through slices,
+//! `extend` or a local `Vec`, not by pushing into and indexing the fields of `Scratch` or
+//! of the records being built: a store into a `Vec`'s buffer may, for all the compiler
+//! knows, change that `Vec`'s own pointer and length, so it reloaded both (and redid the
+//! bounds checks) after every store.
 //!
 //! Measured slower on a Zen 1 CPU and dropped (BENCHMARKS.md): plain two-edge fans
 //! written branch-free at a running count (records 0.80 -> 1.12 ms on `dense`), numbering

@@ -1,4 +1,4 @@
-//! Wall time of the ray-cast reference (DESIGN.md's ground truth), uncached, at a scene's
+//! Wall time of the ray-cast reference (docs/DESIGN.md's ground truth), uncached, at a scene's
 //! camera pixels: `cargo bench --bench reference [-- SCENE SIZE SAMPLES]` (default
 //! `bunny 512 256`, the benchmark issue's speed goal: under 60 s on 2 cores). The pixels'
 //! positions and normals come from one `hard` frame on the default device.

@@ -13,7 +13,7 @@
 //! SSIM map, dark where they differ) next to `tests/golden/NAME.png` and names them.
 //! `SOFTSHADOW_BLESS=1 cargo test --test golden` rewrites the goldens.
 //!
-//! The reference at 128^2 uses the DESIGN.md minimum of 256 rays per pixel (its CPU time
+//! The reference at 128^2 uses the docs/DESIGN.md minimum of 256 rays per pixel (its CPU time
 //! is printed; about a second per scene on 2 cores).
 
 mod common;

@@ -208,7 +208,7 @@ fn fp16_accumulation_breaks_at_512_not_at_128() {
     assert!(e512 > 4.0 * e128, "error 128^2 {e128}, 512^2 {e512}");
 }
 
-/// Exact visibility of the scene's disk light (DESIGN.md: disk of radius R centred at the
+/// Exact visibility of the scene's disk light (docs/DESIGN.md: disk of radius R centred at the
 /// light, facing p, uniform area) at ground point `p`, by brute-force ray casting against
 /// the casters' triangles (8 x 8 stratified polar samples; an AABB test first).
 struct RayCaster {
@@ -287,7 +287,7 @@ impl RayCaster {
     }
 }
 
-/// DESIGN.md `mae_shadow` over ground pixels: mean |v - v_ref| where either is below 0.999.
+/// docs/DESIGN.md `mae_shadow` over ground pixels: mean |v - v_ref| where either is below 0.999.
 fn ground_mae_shadow(img: &FrameImages, reference: &[(usize, f32)]) -> f64 {
     let (sum, n) = reference
         .iter()

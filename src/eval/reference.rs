@@ -1,4 +1,4 @@
-//! The exact ground truth of DESIGN.md: the fraction of the spherical light's disc — centre
+//! The exact ground truth of docs/DESIGN.md: the fraction of the spherical light's disc — centre
 //! L, radius R, facing the shaded point p — that p sees unoccluded, by ray casting against
 //! the casters' exact world-space triangles at exactly the surface points of the camera
 //! pixels (the `position` AOV).
@@ -49,7 +49,7 @@ use std::hash::Hasher;
 use std::io::Write as _;
 use std::path::{Path, PathBuf};
 
-/// Fewest samples per pixel DESIGN.md allows for the reference.
+/// Fewest samples per pixel docs/DESIGN.md allows for the reference.
 pub const MIN_SAMPLES: u32 = 256;
 /// Most samples per pixel (65536 = 256 x 256 strata).
 pub const MAX_SAMPLES: u32 = 65536;
@@ -85,7 +85,7 @@ impl ReferenceParams {
     pub fn validate(&self) -> Result<()> {
         if !(MIN_SAMPLES..=MAX_SAMPLES).contains(&self.samples) {
             bail!(
-                "reference sample count {} is out of range: allowed {MIN_SAMPLES}..={MAX_SAMPLES} per pixel (DESIGN.md asks for at least {MIN_SAMPLES})",
+                "reference sample count {} is out of range: allowed {MIN_SAMPLES}..={MAX_SAMPLES} per pixel (docs/DESIGN.md asks for at least {MIN_SAMPLES})",
                 self.samples
             );
         }
@@ -249,7 +249,7 @@ pub fn receiving_pixels(scene: &Scene, positions: &[[f32; 4]]) -> Vec<bool> {
         .collect()
 }
 
-/// Exact visibility of the DESIGN.md disc light (centre `scene.light.position`, radius
+/// Exact visibility of the docs/DESIGN.md disc light (centre `scene.light.position`, radius
 /// `radius`, facing each point) at each covered pixel (`positions[i][3] > 0.5`). Background
 /// pixels and pixels of non-receiving objects get 1. Rays are cast against the casters'
 /// triangles only. `normals` are the AOV's (any length; zero falls back to the light

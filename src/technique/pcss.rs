@@ -2,7 +2,7 @@
 //!
 //! A hard shadow map filtered by PCF whose kernel size follows the blocker-to-receiver
 //! distance, so penumbrae are hard where a caster touches its receiver and widen away from
-//! it (contact hardening). The light is DESIGN.md's disc of radius R (the same R as the
+//! it (contact hardening). The light is docs/DESIGN.md's disc of radius R (the same R as the
 //! `reference`, `FrameInput::light_radius`) at the light frustum's apex, facing along it.
 //!
 //! ## Equations (light view space, linear depths d along the light axis)

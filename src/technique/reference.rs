@@ -1,6 +1,6 @@
 //! # reference — ray-cast ground truth at the camera's pixels
 //!
-//! DESIGN.md's exact visibility: the fraction of the spherical light's disc (centre L,
+//! docs/DESIGN.md's exact visibility: the fraction of the spherical light's disc (centre L,
 //! radius R, facing the shaded point) that the point sees, by stratified shadow rays (at least
 //! 256 per pixel, deterministic seed) against the casters' exact triangles on the CPU
 //! (`eval::reference`, obvhs BVH, rayon), at exactly the surface points the camera pixels

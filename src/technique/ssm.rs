@@ -11,7 +11,7 @@
 //! two with max.
 //!
 //! ## The light
-//! The paper's light is a rectangle parallel to the occluder map's image plane; DESIGN.md's
+//! The paper's light is a rectangle parallel to the occluder map's image plane; docs/DESIGN.md's
 //! light is a disk of radius R. Here: the axis-aligned **square of the same area**, side
 //! L = R sqrt(pi), centred at the light position, in the light's view plane (axes = the
 //! occluder map's axes). R = 0 is a point light: each micro-patch hides the light

@@ -63,7 +63,7 @@ impl FrameTimings {
             .unwrap_or_default()
     }
 
-    /// The `--timings` block of DESIGN.md.
+    /// The `--timings` block of docs/DESIGN.md.
     pub fn report(&self) -> String {
         let mut s = String::new();
         let width = self

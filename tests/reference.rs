@@ -83,7 +83,7 @@ fn cross_check(scene_name: &str) {
     let mask = facing_the_light(&scene, &hh, radius);
     let params = ReferenceParams::default();
     let v_ref = visibility_at(&scene, radius, &hh.position, &hh.normal, &params).unwrap();
-    let e = errors(&hh.visibility, &v_ref, &mask);
+    let e = errors(&hh.visibility, &v_ref, &mask, &mask);
     // SOFTSHADOW_DUMP=DIR writes both estimates and their false-colour difference as PNGs.
     if let Ok(dir) = std::env::var("SOFTSHADOW_DUMP") {
         let w = hh.width;
@@ -126,7 +126,7 @@ fn cross_check(scene_name: &str) {
     );
 
     let wrong = visibility_at(&scene, radius * 2.0, &hh.position, &hh.normal, &params).unwrap();
-    let w = errors(&hh.visibility, &wrong, &mask);
+    let w = errors(&hh.visibility, &wrong, &mask, &mask);
     println!("{scene_name}: H&H vs reference at 2R {w:?}");
     assert!(
         w.mae_shadow > 0.02 || w.p99 > 0.12,

@@ -841,7 +841,8 @@ pub fn run(ctx: &Context, plan: Plan) -> Result<Outcome> {
         let (v_ref, reference_image) = &refs[&key];
 
         let covered: Vec<bool> = images.position.iter().map(|p| p[3] > 0.5).collect();
-        let errors = metrics::errors(&images.visibility, v_ref, &covered);
+        let facing = metrics::faces_light(&images.position, &images.normal, base.light.position);
+        let errors = metrics::errors(&images.visibility, v_ref, &covered, &facing);
         let stem = format!(
             "images/{}_{}_s{}_r{}_{}",
             slug(&base.name),

@@ -1,5 +1,11 @@
 //! Error of a technique's visibility against the reference, exactly as DESIGN.md defines it,
 //! over the camera pixels that hit a surface (`covered`, position alpha 1):
+//! - `mae_lit` (the headline): mean |v - v_ref| over the shadow-and-penumbra region restricted
+//!   to the pixels whose surface faces the light, n·l >= `LIT_COS` (`faces_light`: n the AOV
+//!   normal, which faces the camera, l the unit vector from the AOV position to the light's
+//!   centre). Terminators and back faces are left out: every shadow map disagrees with the
+//!   exact disc there, and the shading multiplies visibility by n·l ~ 0, so no viewer sees it;
+//! - `p99_lit`: the 99th percentile of |v - v_ref| over the same pixels;
 //! - `mae_shadow`: mean |v - v_ref| over the shadow-and-penumbra region, the covered pixels
 //!   where v_ref < 0.999 or v < 0.999 (Atty et al. Sec. 5.2.1);
 //! - `rmse`: root mean square of v - v_ref over all covered pixels;
@@ -12,13 +18,20 @@
 
 /// Where a pixel counts as shadow or penumbra (DESIGN.md: v < 0.999).
 pub const SHADOW_THRESHOLD: f32 = 0.999;
+/// Smallest n·l of a pixel counted by `mae_lit` and `p99_lit` (DESIGN.md: n·l >= 0.2).
+pub const LIT_COS: f32 = 0.2;
 
 #[derive(Clone, Copy, Debug, serde::Serialize, PartialEq)]
 pub struct Errors {
+    /// The headline error: the shadow region on surfaces facing the light.
+    pub mae_lit: f64,
+    pub p99_lit: f64,
     pub mae_shadow: f64,
     pub rmse: f64,
     pub p99: f64,
     pub max: f64,
+    /// Pixels of the shadow-and-penumbra region that face the light (`mae_lit`'s pixels).
+    pub lit_pixels: usize,
     /// Pixels of the shadow-and-penumbra region.
     pub shadow_pixels: usize,
     /// Pixels that hit a surface.
@@ -48,23 +61,55 @@ pub fn percentile(values: &mut [f64], q: f64) -> f64 {
     values[rank.clamp(1, values.len()) - 1]
 }
 
-/// The DESIGN.md errors of `v` against `v_ref` over the pixels where `covered` holds.
+/// Per pixel, whether its surface faces the light: covered (position alpha > 0.5) and
+/// n·l >= `LIT_COS`, with n the normalised AOV normal (the side the camera sees, as the final
+/// pass writes it) and l the unit vector from the AOV position to `light` (the light's
+/// centre). A zero or non-finite normal or position does not face the light.
 ///
 /// # Panics
-/// When the three slices differ in length (one value per pixel is the caller's contract).
-pub fn errors(v: &[f32], v_ref: &[f32], covered: &[bool]) -> Errors {
+/// When the slices differ in length.
+pub fn faces_light(position: &[[f32; 4]], normal: &[[f32; 3]], light: glam::Vec3) -> Vec<bool> {
+    assert_eq!(
+        position.len(),
+        normal.len(),
+        "faces_light: {} positions, {} normals",
+        position.len(),
+        normal.len()
+    );
+    position
+        .iter()
+        .zip(normal)
+        .map(|(p, n)| {
+            if p[3] <= 0.5 {
+                return false;
+            }
+            let n = glam::Vec3::from(*n).normalize_or_zero();
+            let l = (light - glam::Vec3::new(p[0], p[1], p[2])).normalize_or_zero();
+            n.dot(l) >= LIT_COS
+        })
+        .collect()
+}
+
+/// The DESIGN.md errors of `v` against `v_ref` over the pixels where `covered` holds;
+/// `mae_lit` and `p99_lit` over those where `facing` holds too (`faces_light`).
+///
+/// # Panics
+/// When the slices differ in length (one value per pixel is the caller's contract).
+pub fn errors(v: &[f32], v_ref: &[f32], covered: &[bool], facing: &[bool]) -> Errors {
     assert!(
-        v.len() == v_ref.len() && v.len() == covered.len(),
-        "errors: {} values, {} reference values, {} coverage flags",
+        v.len() == v_ref.len() && v.len() == covered.len() && v.len() == facing.len(),
+        "errors: {} values, {} reference values, {} coverage flags, {} facing flags",
         v.len(),
         v_ref.len(),
-        covered.len()
+        covered.len(),
+        facing.len()
     );
     let mut shadow = Vec::new();
+    let mut lit = Vec::new();
     let mut sum_sq = 0.0;
     let mut max = 0.0f64;
     let mut covered_pixels = 0;
-    for ((&a, &r), &c) in v.iter().zip(v_ref).zip(covered) {
+    for (((&a, &r), &c), &f) in v.iter().zip(v_ref).zip(covered).zip(facing) {
         if !c {
             continue;
         }
@@ -74,27 +119,90 @@ pub fn errors(v: &[f32], v_ref: &[f32], covered: &[bool]) -> Errors {
         max = max.max(d);
         if in_shadow(a, r) {
             shadow.push(d);
+            if f {
+                lit.push(d);
+            }
         }
     }
-    let shadow_pixels = shadow.len();
-    let mae_shadow = if shadow.is_empty() {
-        0.0
-    } else {
-        shadow.iter().sum::<f64>() / shadow.len() as f64
+    let mean = |x: &[f64]| {
+        if x.is_empty() {
+            0.0
+        } else {
+            x.iter().sum::<f64>() / x.len() as f64
+        }
     };
+    let (shadow_pixels, lit_pixels) = (shadow.len(), lit.len());
+    let (mae_shadow, mae_lit) = (mean(&shadow), mean(&lit));
     let rmse = if covered_pixels == 0 {
         0.0
     } else {
         (sum_sq / covered_pixels as f64).sqrt()
     };
     Errors {
+        mae_lit,
+        p99_lit: percentile(&mut lit, 0.99),
         mae_shadow,
         rmse,
         p99: percentile(&mut shadow, 0.99),
         max,
+        lit_pixels,
         shadow_pixels,
         covered_pixels,
     }
+}
+
+/// `errors` with the coverage (position alpha > 0.5) and the facing flags (`faces_light`)
+/// taken from a frame's position and normal AOVs and the light's centre.
+pub fn errors_at(
+    v: &[f32],
+    v_ref: &[f32],
+    position: &[[f32; 4]],
+    normal: &[[f32; 3]],
+    light: glam::Vec3,
+) -> Errors {
+    let covered: Vec<bool> = position.iter().map(|p| p[3] > 0.5).collect();
+    errors(v, v_ref, &covered, &faces_light(position, normal, light))
+}
+
+/// The mean ꟻLIP error of an image against a reference and its error map.
+pub struct Flip {
+    /// Mean of the per-pixel ꟻLIP error in [0, 1] over the whole image.
+    pub mean: f64,
+    /// The error map through ꟻLIP's magma colour map (black = no visible difference), RGB8.
+    pub map: Vec<[u8; 3]>,
+}
+
+/// NVIDIA ꟻLIP (Andersson et al. 2020, the `nv-flip` crate) of the LDR sRGB image `test`
+/// against `reference` (RGBA8, alpha ignored, row order), at the default pixels per degree
+/// (`nv_flip::DEFAULT_PIXELS_PER_DEGREE`, 67: a 0.7 m wide 4K monitor seen from 0.7 m).
+pub fn flip(
+    test: &[[u8; 4]],
+    reference: &[[u8; 4]],
+    width: u32,
+    height: u32,
+) -> anyhow::Result<Flip> {
+    let n = width as usize * height as usize;
+    if n == 0 || test.len() != n || reference.len() != n {
+        anyhow::bail!(
+            "flip: {} test and {} reference pixels for a {width}x{height} image",
+            test.len(),
+            reference.len()
+        );
+    }
+    let rgb =
+        |img: &[[u8; 4]]| -> Vec<u8> { img.iter().flat_map(|p| [p[0], p[1], p[2]]).collect() };
+    let map = nv_flip::flip(
+        nv_flip::FlipImageRgb8::with_data(width, height, &rgb(reference)),
+        nv_flip::FlipImageRgb8::with_data(width, height, &rgb(test)),
+        nv_flip::DEFAULT_PIXELS_PER_DEGREE,
+    );
+    let values = map.to_vec();
+    let mean = values.iter().map(|&x| x as f64).sum::<f64>() / values.len() as f64;
+    let colour = map.apply_color_lut(&nv_flip::magma_lut()).to_vec();
+    Ok(Flip {
+        mean,
+        map: colour.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect(),
+    })
 }
 
 /// Background of `error_image`.
@@ -150,6 +258,14 @@ pub fn error_image(v: &[f32], v_ref: &[f32], covered: &[bool], scale: f32) -> Ve
 mod tests {
     use super::*;
 
+    /// `errors` with every pixel facing the light: the lit figures equal the shadow ones.
+    fn facing_all(v: &[f32], r: &[f32], covered: &[bool]) -> Errors {
+        let e = errors(v, r, covered, &vec![true; covered.len()]);
+        assert_eq!((e.mae_lit, e.p99_lit), (e.mae_shadow, e.p99), "{e:?}");
+        assert_eq!(e.lit_pixels, e.shadow_pixels);
+        e
+    }
+
     /// Inputs are f32, so answers hold to f32 rounding.
     fn close(a: f64, b: f64) -> bool {
         (a - b).abs() < 1e-6
@@ -158,7 +274,7 @@ mod tests {
     #[test]
     fn identical_images_have_no_error() {
         let v = [0.0, 0.5, 1.0, 0.25];
-        let e = errors(&v, &v, &[true; 4]);
+        let e = facing_all(&v, &v, &[true; 4]);
         assert_eq!((e.mae_shadow, e.rmse, e.p99, e.max), (0.0, 0.0, 0.0, 0.0));
         assert_eq!((e.shadow_pixels, e.covered_pixels), (3, 4));
     }
@@ -169,7 +285,7 @@ mod tests {
         let v = [1.0f32, 0.5, 0.0, 1.0, 0.9995, 0.0];
         let r = [1.0f32, 0.25, 0.5, 0.5, 1.0, 1.0];
         let covered = [true, true, true, true, true, false];
-        let e = errors(&v, &r, &covered);
+        let e = facing_all(&v, &r, &covered);
         // Shadow region: pixels 1, 2, 3 (pixel 4: both >= 0.999; pixel 5: not covered).
         assert_eq!(e.shadow_pixels, 3);
         assert_eq!(e.covered_pixels, 5);
@@ -186,7 +302,7 @@ mod tests {
         let n = 200;
         let v: Vec<f32> = (1..=n).map(|k| 1.0 - k as f32 / n as f32).collect();
         let r = vec![1.0f32; n];
-        let e = errors(&v, &r, &vec![true; n]);
+        let e = facing_all(&v, &r, &vec![true; n]);
         // Every pixel is in the shadow region: k >= 1 gives v <= 0.995.
         assert_eq!(e.shadow_pixels, n);
         assert!((e.p99 - 0.99).abs() < 1e-6, "{e:?}");
@@ -202,7 +318,7 @@ mod tests {
     #[test]
     fn region_takes_either_side_below_the_threshold() {
         // Technique says shadow where the reference is lit, and the other way round.
-        let e = errors(&[0.2, 1.0, 1.0], &[1.0, 0.2, 1.0], &[true; 3]);
+        let e = facing_all(&[0.2, 1.0, 1.0], &[1.0, 0.2, 1.0], &[true; 3]);
         assert_eq!(e.shadow_pixels, 2);
         assert!(close(e.mae_shadow, 0.8));
         assert!((e.rmse - (2.0 * 0.64f64 / 3.0).sqrt()).abs() < 1e-6);
@@ -210,7 +326,7 @@ mod tests {
 
     #[test]
     fn nan_counts_as_the_worst_error() {
-        let e = errors(&[f32::NAN, 1.0], &[1.0, 1.0], &[true, true]);
+        let e = facing_all(&[f32::NAN, 1.0], &[1.0, 1.0], &[true, true]);
         assert_eq!(e.shadow_pixels, 1);
         assert!(close(e.mae_shadow, 1.0) && close(e.max, 1.0) && close(e.p99, 1.0));
         assert!(close(e.rmse, (0.5f64).sqrt()));
@@ -218,14 +334,17 @@ mod tests {
 
     #[test]
     fn empty_coverage_gives_zeros() {
-        let e = errors(&[0.0], &[1.0], &[false]);
+        let e = facing_all(&[0.0], &[1.0], &[false]);
         assert_eq!(
             e,
             Errors {
+                mae_lit: 0.0,
+                p99_lit: 0.0,
                 mae_shadow: 0.0,
                 rmse: 0.0,
                 p99: 0.0,
                 max: 0.0,
+                lit_pixels: 0,
                 shadow_pixels: 0,
                 covered_pixels: 0
             }
@@ -247,5 +366,124 @@ mod tests {
         assert_eq!(img[4], ERROR_NAN);
         // A fifth of the scale is pure blue.
         assert_eq!(error_color(0.04, 0.2), [0, 0, 255, 255]);
+    }
+
+    /// A floor at y = 0 seen from above, the light's centre straight above the origin at
+    /// height 1: n·l at x is 1 / sqrt(1 + x^2).
+    fn floor_pixels(xs: &[f32]) -> (Vec<[f32; 4]>, Vec<[f32; 3]>) {
+        let pos = xs.iter().map(|&x| [x, 0.0, 0.0, 1.0]).collect();
+        (pos, vec![[0.0, 1.0, 0.0]; xs.len()])
+    }
+
+    #[test]
+    fn faces_light_keeps_lit_faces_and_drops_back_faces_and_grazing_ones() {
+        let light = glam::Vec3::new(0.0, 1.0, 0.0);
+        // n·l: 1, 1/sqrt(2) = 0.71, 1/sqrt(17) = 0.243, 1/sqrt(26) = 0.196, 0.
+        let (mut pos, mut nrm) = floor_pixels(&[0.0, 1.0, 4.0, 5.0, 0.0]);
+        // Pixel 4 faces down, away from the light (a back face the camera sees).
+        nrm[4] = [0.0, -1.0, 0.0];
+        // Pixel 5: not covered; pixel 6: an unnormalised normal of a lit face; pixel 7: zero normal.
+        pos.push([0.0, 0.0, 0.0, 0.0]);
+        nrm.push([0.0, 1.0, 0.0]);
+        pos.push([0.0, 0.0, 0.0, 1.0]);
+        nrm.push([0.0, 3.0, 0.0]);
+        pos.push([0.0, 0.0, 0.0, 1.0]);
+        nrm.push([0.0, 0.0, 0.0]);
+        assert_eq!(
+            faces_light(&pos, &nrm, light),
+            [true, true, true, false, false, false, true, false]
+        );
+    }
+
+    #[test]
+    fn back_facing_and_grazing_pixels_count_in_mae_shadow_but_not_in_mae_lit() {
+        let light = glam::Vec3::new(0.0, 1.0, 0.0);
+        // Pixel 0 faces the light head-on, pixel 1 grazes it (n·l = 0.196 < 0.2), pixel 2 is
+        // a back face; all three are in shadow with different errors.
+        let (pos, mut nrm) = floor_pixels(&[0.0, 5.0, 0.0]);
+        nrm[2] = [0.0, -1.0, 0.0];
+        let v = [0.5f32, 0.0, 1.0];
+        let r = [0.4f32, 0.9, 0.0];
+        let e = errors_at(&v, &r, &pos, &nrm, light);
+        assert_eq!((e.shadow_pixels, e.lit_pixels), (3, 1), "{e:?}");
+        assert!(close(e.mae_lit, 0.1), "{e:?}");
+        assert!(close(e.p99_lit, 0.1), "{e:?}");
+        assert!(close(e.mae_shadow, (0.1 + 0.9 + 1.0) / 3.0), "{e:?}");
+        assert!(close(e.p99, 1.0), "{e:?}");
+        // A lit pixel (both >= 0.999) facing the light stays out of both regions.
+        let (pos, nrm) = floor_pixels(&[0.0, 0.0]);
+        let e = errors_at(&[1.0, 0.3], &[1.0, 0.5], &pos, &nrm, light);
+        assert_eq!((e.shadow_pixels, e.lit_pixels), (1, 1), "{e:?}");
+        assert!(close(e.mae_lit, 0.2), "{e:?}");
+    }
+
+    #[test]
+    fn p99_lit_is_the_nearest_rank_percentile_of_the_lit_pixels() {
+        // 200 lit pixels with errors 0.005 .. 1.0 and 50 back-facing ones with error 1: the
+        // back faces move p99 and mae_shadow but not p99_lit or mae_lit.
+        let light = glam::Vec3::new(0.0, 1.0, 0.0);
+        let n = 200;
+        let (pos, mut nrm) = floor_pixels(&vec![0.0; n + 50]);
+        let mut v: Vec<f32> = (1..=n).map(|k| 1.0 - k as f32 / n as f32).collect();
+        v.extend(std::iter::repeat_n(0.0, 50));
+        for m in &mut nrm[n..] {
+            *m = [0.0, -1.0, 0.0];
+        }
+        let e = errors_at(&v, &vec![1.0; n + 50], &pos, &nrm, light);
+        assert_eq!((e.lit_pixels, e.shadow_pixels), (n, n + 50));
+        assert!((e.p99_lit - 0.99).abs() < 1e-6, "{e:?}");
+        assert!(
+            (e.mae_lit - (n as f64 + 1.0) / (2.0 * n as f64)).abs() < 1e-6,
+            "{e:?}"
+        );
+        assert!(
+            close(e.p99, 1.0) && e.mae_shadow > e.mae_lit + 0.09,
+            "{e:?}"
+        );
+    }
+
+    #[test]
+    fn flip_of_identical_images_is_zero_and_of_a_changed_one_is_not() {
+        let (w, h) = (64u32, 48u32);
+        let img: Vec<[u8; 4]> = (0..w * h)
+            .map(|i| {
+                let (x, y) = (i % w, i / w);
+                [(x * 4) as u8, (y * 5) as u8, 128, 255]
+            })
+            .collect();
+        let same = flip(&img, &img, w, h).unwrap();
+        assert_eq!(same.mean, 0.0);
+        assert_eq!(same.map.len(), (w * h) as usize);
+        // A dark square (a shadow) where the reference is lit.
+        let mut shadowed = img.clone();
+        for y in 10..30 {
+            for x in 10..30 {
+                shadowed[(y * w + x) as usize] = [20, 20, 20, 255];
+            }
+        }
+        let changed = flip(&shadowed, &img, w, h).unwrap();
+        assert!(changed.mean > 0.01, "{}", changed.mean);
+        // The map is bright inside the changed square and black far from it.
+        let lum = |p: [u8; 3]| p.iter().map(|&c| c as u32).sum::<u32>();
+        assert!(
+            lum(changed.map[(20 * w + 20) as usize]) > lum(changed.map[(45 * w + 60) as usize])
+        );
+        assert_eq!(changed.map[(45 * w + 60) as usize], same.map[0]);
+        // A larger change is a larger error.
+        for y in 10..40 {
+            for x in 10..60 {
+                shadowed[(y * w + x) as usize] = [20, 20, 20, 255];
+            }
+        }
+        assert!(flip(&shadowed, &img, w, h).unwrap().mean > changed.mean);
+    }
+
+    #[test]
+    fn flip_refuses_mismatched_sizes() {
+        let e = flip(&[[0; 4]; 4], &[[0; 4]; 6], 2, 2)
+            .err()
+            .unwrap()
+            .to_string();
+        assert!(e.contains("2x2"), "{e}");
     }
 }

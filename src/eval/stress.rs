@@ -16,7 +16,7 @@
 //! `--quick` shrinks images, buffers, frame counts and the largest mesh so the whole suite
 //! runs in CI on lavapipe in under two minutes; the full suite uses larger sizes.
 
-use crate::eval::metrics::{errors, Errors};
+use crate::eval::metrics::{errors, faces_light, Errors};
 use crate::eval::reference::{visibility_cached, ReferenceParams};
 use crate::render::{AccumFormat, FrameImages, Renderer, Settings};
 use crate::scene::builtin::{builtin, rig};
@@ -1025,7 +1025,8 @@ fn run_one(
                 render_frames(ctx, &case.scene, technique, settings, 1, &|_| light)?.remove(0);
             row.count(&img.visibility);
             if let Some((r, cov)) = reference {
-                let e = errors(&img.visibility, r, cov);
+                let facing = faces_light(&img.position, &img.normal, light.position);
+                let e = errors(&img.visibility, r, cov, &facing);
                 if e.mae_shadow > limit {
                     row.fail(format!("mae_shadow {:.3} > {limit}", e.mae_shadow));
                 }
@@ -1061,7 +1062,8 @@ fn run_one(
             for v in &vis {
                 row.count(v);
             }
-            let e = errors(&vis[0], &refs[0], cov);
+            let facing = faces_light(&imgs[0].position, &imgs[0].normal, light.position);
+            let e = errors(&vis[0], &refs[0], cov, &facing);
             if e.mae_shadow > limit {
                 row.fail(format!("mae_shadow {:.3} > {limit}", e.mae_shadow));
             }

@@ -4,8 +4,12 @@
 //! writes `shaders.rs`: one `pub const NAME: &[u8]` per shader, included by `src/shaders.rs`.
 //!
 //! Stages come from the file extension (.vert, .frag, .comp, ...); `.glsl` files are
-//! includes, watched but not compiled. Every failing shader is listed with the compiler's
-//! own output (glslangValidator prints its errors on stdout, so both streams are shown).
+//! includes, watched but not compiled. A shader that includes `common/final.glsl` (every
+//! technique's final pass) is compiled twice: `NAME` writes the shaded colour only (the
+//! timed pass) and `NAME_AOV`, built with `-DAOV`, also the AOVs; a hand-tuned `.spvasm`
+//! final pass marks the lines of each variant with `;@color` / `;@aov`. Every failing shader
+//! is listed with the compiler's own output (glslangValidator prints its errors on stdout, so
+//! both streams are shown).
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -47,60 +51,60 @@ fn run() -> Result<(), String> {
         let ext = file.extension().and_then(|e| e.to_str()).unwrap_or("");
         let rel = file.strip_prefix(&glsl).map_err(|e| e.to_string())?;
         let ident = const_name(rel);
-        let spv = out.join(format!("{ident}.spv"));
         if STAGES.contains(&ext) {
-            let raw = out.join(format!("{ident}.raw.spv"));
-            let result = Command::new(&glslang)
-                .arg("-V")
-                .arg("--target-env")
-                .arg("vulkan1.3")
-                .arg(format!("-I{}", glsl.display()))
-                .arg("-o")
-                .arg(&raw)
-                .arg(file)
-                .output();
-            match result {
-                Ok(o) if o.status.success() => {}
-                Ok(o) => {
-                    failures.push(format!(
-                        "{}:\n{}{}",
-                        file.display(),
-                        String::from_utf8_lossy(&o.stdout),
-                        String::from_utf8_lossy(&o.stderr)
-                    ));
-                    continue;
+            let source =
+                std::fs::read_to_string(file).map_err(|e| format!("{}: {e}", file.display()))?;
+            // A final-pass shader is built twice from one source, so that the timed pass
+            // (colour only) and the untimed AOV pass (colour, visibility, position, normal)
+            // run the same visibility code: `IDENT` without the define, `IDENT_AOV` with
+            // `-DAOV`. A define rather than a specialization constant because the two differ
+            // in their output interface, which a constant cannot remove (an output with no
+            // attachment is a validation warning, and the AOV writes would still cost).
+            let variants: &[(&str, Option<&str>)] =
+                if source.contains("#include \"common/final.glsl\"") {
+                    &[("", None), ("_AOV", Some("AOV"))]
+                } else {
+                    &[("", None)]
+                };
+            for &(suffix, define) in variants {
+                let ident = format!("{ident}{suffix}");
+                match compile_glsl(
+                    &glslang,
+                    spirv_opt.as_deref(),
+                    &glsl,
+                    file,
+                    define,
+                    &out,
+                    &ident,
+                )? {
+                    Err(failure) => failures.push(failure),
+                    Ok(optimised) => {
+                        let (spv, raw) = (
+                            out.join(format!("{ident}.spv")),
+                            out.join(format!("{ident}.raw.spv")),
+                        );
+                        let _ = writeln!(
+                            consts,
+                            "pub const {ident}: &[u8] = include_bytes!(r\"{}\");",
+                            spv.display()
+                        );
+                        // The unoptimised module is kept too: the bench compares instruction counts.
+                        let _ = writeln!(
+                            consts,
+                            "pub const {ident}_RAW: &[u8] = include_bytes!(r\"{}\");",
+                            raw.display()
+                        );
+                        // The cost table lists what the timed frames run: the first variant.
+                        if suffix.is_empty() {
+                            let _ = writeln!(
+                                table,
+                                "    Shader {{ path: r\"{}\", stage: \"{ext}\", spirv: {ident}, raw: Some({ident}_RAW), optimised: {optimised}, hand_tuned: false }},",
+                                rel.display()
+                            );
+                        }
+                    }
                 }
-                Err(e) => return Err(format!("running glslangValidator: {e}")),
             }
-            // spirv-opt is optional: its absence only costs speed, so keep the raw module.
-            let optimised = spirv_opt.as_ref().is_some_and(|opt| {
-                Command::new(opt)
-                    .arg("-O")
-                    .arg(&raw)
-                    .arg("-o")
-                    .arg(&spv)
-                    .status()
-                    .is_ok_and(|s| s.success())
-            });
-            if !optimised {
-                std::fs::copy(&raw, &spv).map_err(|e| format!("{}: {e}", spv.display()))?;
-            }
-            // The unoptimised module is kept too: the bench compares instruction counts.
-            let _ = writeln!(
-                consts,
-                "pub const {ident}: &[u8] = include_bytes!(r\"{}\");",
-                spv.display()
-            );
-            let _ = writeln!(
-                consts,
-                "pub const {ident}_RAW: &[u8] = include_bytes!(r\"{}\");",
-                raw.display()
-            );
-            let _ = writeln!(
-                table,
-                "    Shader {{ path: r\"{}\", stage: \"{ext}\", spirv: {ident}, raw: Some({ident}_RAW), optimised: {optimised}, hand_tuned: false }},",
-                rel.display()
-            );
         } else if ext == "spvasm" {
             let Some(asm) = spirv_as.as_ref() else {
                 return Err(format!(
@@ -108,56 +112,43 @@ fn run() -> Result<(), String> {
                     file.display()
                 ));
             };
-            match Command::new(asm)
-                .arg("--target-env")
-                .arg("vulkan1.3")
-                .arg("-o")
-                .arg(&spv)
-                .arg(file)
-                .output()
-            {
-                Ok(o) if o.status.success() => {}
-                Ok(o) => {
-                    failures.push(format!(
-                        "{}:\n{}{}",
-                        file.display(),
-                        String::from_utf8_lossy(&o.stdout),
-                        String::from_utf8_lossy(&o.stderr)
-                    ));
-                    continue;
+            let source =
+                std::fs::read_to_string(file).map_err(|e| format!("{}: {e}", file.display()))?;
+            // Hand-tuned final passes mark the lines of each variant (see `spvasm_variant`).
+            let variants: &[(&str, bool)] = if source.contains(AOV_MARK) {
+                &[("", false), ("_AOV", true)]
+            } else {
+                &[("", false)]
+            };
+            for &(suffix, aov) in variants {
+                let ident = format!("{ident}{suffix}");
+                let spv = out.join(format!("{ident}.spv"));
+                let text = out.join(format!("{ident}.spvasm"));
+                std::fs::write(&text, spvasm_variant(&source, aov))
+                    .map_err(|e| format!("{}: {e}", text.display()))?;
+                match assemble(asm, spirv_val.as_deref(), &text, &spv)? {
+                    Err(failure) => {
+                        failures.push(format!("{}{suffix}: {failure}", file.display()));
+                        continue;
+                    }
+                    Ok(()) => {}
                 }
-                Err(e) => return Err(format!("running spirv-as: {e}")),
-            }
-            if let Some(val) = spirv_val.as_ref() {
-                let o = Command::new(val)
-                    .arg("--target-env")
-                    .arg("vulkan1.3")
-                    .arg(&spv)
-                    .output()
-                    .map_err(|e| format!("running spirv-val: {e}"))?;
-                if !o.status.success() {
-                    failures.push(format!(
-                        "{} (spirv-val):\n{}{}",
-                        file.display(),
-                        String::from_utf8_lossy(&o.stdout),
-                        String::from_utf8_lossy(&o.stderr)
-                    ));
-                    continue;
+                let _ = writeln!(
+                    consts,
+                    "pub const {ident}: &[u8] = include_bytes!(r\"{}\");",
+                    spv.display()
+                );
+                if suffix.is_empty() {
+                    // `smoothies/final.frag.spvasm`: the stage is the extension before `.spvasm`.
+                    let stem = Path::new(rel.file_stem().unwrap_or_default());
+                    let stage = stem.extension().and_then(|e| e.to_str()).unwrap_or("");
+                    let _ = writeln!(
+                        table,
+                        "    Shader {{ path: r\"{}\", stage: \"{stage}\", spirv: {ident}, raw: None, optimised: false, hand_tuned: true }},",
+                        rel.display()
+                    );
                 }
             }
-            let _ = writeln!(
-                consts,
-                "pub const {ident}: &[u8] = include_bytes!(r\"{}\");",
-                spv.display()
-            );
-            // `smoothies/final.frag.spvasm`: the stage is the extension before `.spvasm`.
-            let stem = Path::new(rel.file_stem().unwrap_or_default());
-            let stage = stem.extension().and_then(|e| e.to_str()).unwrap_or("");
-            let _ = writeln!(
-                table,
-                "    Shader {{ path: r\"{}\", stage: \"{stage}\", spirv: {ident}, raw: None, optimised: false, hand_tuned: true }},",
-                rel.display()
-            );
         }
     }
     let _ = writeln!(consts, "pub const ALL: &[Shader] = &[\n{table}];");
@@ -170,6 +161,116 @@ fn run() -> Result<(), String> {
     }
     std::fs::write(out.join("shaders.rs"), consts).map_err(|e| e.to_string())?;
     Ok(())
+}
+
+/// Marks a line of a hand-tuned `.spvasm` final pass that only the AOV variant keeps.
+const AOV_MARK: &str = ";@aov";
+/// Marks a line that only the colour-only (timed) variant keeps.
+const COLOR_MARK: &str = ";@color";
+
+/// The `.spvasm` text of one variant: the other variant's marked lines dropped.
+fn spvasm_variant(source: &str, aov: bool) -> String {
+    let drop = if aov { COLOR_MARK } else { AOV_MARK };
+    source
+        .lines()
+        .filter(|l| !l.contains(drop))
+        .map(|l| format!("{l}\n"))
+        .collect()
+}
+
+/// glslangValidator (with `-D{define}` if any) into `{ident}.raw.spv`, then spirv-opt -O into
+/// `{ident}.spv` when spirv-opt is there (else a copy). Ok(Err(..)): the shader failed with the
+/// compiler's output; Ok(Ok(optimised)) otherwise.
+fn compile_glsl(
+    glslang: &Path,
+    spirv_opt: Option<&Path>,
+    glsl: &Path,
+    file: &Path,
+    define: Option<&str>,
+    out: &Path,
+    ident: &str,
+) -> Result<Result<bool, String>, String> {
+    let spv = out.join(format!("{ident}.spv"));
+    let raw = out.join(format!("{ident}.raw.spv"));
+    let mut cmd = Command::new(glslang);
+    cmd.arg("-V")
+        .arg("--target-env")
+        .arg("vulkan1.3")
+        .arg(format!("-I{}", glsl.display()));
+    if let Some(d) = define {
+        cmd.arg(format!("-D{d}"));
+    }
+    match cmd.arg("-o").arg(&raw).arg(file).output() {
+        Ok(o) if o.status.success() => {}
+        Ok(o) => {
+            return Ok(Err(format!(
+                "{}{}:\n{}{}",
+                file.display(),
+                define.map(|d| format!(" (-D{d})")).unwrap_or_default(),
+                String::from_utf8_lossy(&o.stdout),
+                String::from_utf8_lossy(&o.stderr)
+            )))
+        }
+        Err(e) => return Err(format!("running glslangValidator: {e}")),
+    }
+    // spirv-opt is optional: its absence only costs speed, so keep the raw module.
+    let optimised = spirv_opt.is_some_and(|opt| {
+        Command::new(opt)
+            .arg("-O")
+            .arg(&raw)
+            .arg("-o")
+            .arg(&spv)
+            .status()
+            .is_ok_and(|s| s.success())
+    });
+    if !optimised {
+        std::fs::copy(&raw, &spv).map_err(|e| format!("{}: {e}", spv.display()))?;
+    }
+    Ok(Ok(optimised))
+}
+
+/// spirv-as `text` into `spv`, checked with spirv-val when present. Ok(Err(..)): the tools'
+/// output on failure.
+fn assemble(
+    asm: &Path,
+    val: Option<&Path>,
+    text: &Path,
+    spv: &Path,
+) -> Result<Result<(), String>, String> {
+    match Command::new(asm)
+        .arg("--target-env")
+        .arg("vulkan1.3")
+        .arg("-o")
+        .arg(spv)
+        .arg(text)
+        .output()
+    {
+        Ok(o) if o.status.success() => {}
+        Ok(o) => {
+            return Ok(Err(format!(
+                "\n{}{}",
+                String::from_utf8_lossy(&o.stdout),
+                String::from_utf8_lossy(&o.stderr)
+            )))
+        }
+        Err(e) => return Err(format!("running spirv-as: {e}")),
+    }
+    if let Some(val) = val {
+        let o = Command::new(val)
+            .arg("--target-env")
+            .arg("vulkan1.3")
+            .arg(spv)
+            .output()
+            .map_err(|e| format!("running spirv-val: {e}"))?;
+        if !o.status.success() {
+            return Ok(Err(format!(
+                "(spirv-val):\n{}{}",
+                String::from_utf8_lossy(&o.stdout),
+                String::from_utf8_lossy(&o.stderr)
+            )));
+        }
+    }
+    Ok(Ok(()))
 }
 
 fn collect(dir: &Path, files: &mut Vec<PathBuf>) -> Result<(), String> {

@@ -353,3 +353,52 @@ fn zero_light_radius_gives_the_hard_result() {
         );
     }
 }
+
+/// The timed final pass writes the shaded colour only; `read_back` then runs the AOV pass
+/// (same geometry, same shader source built with -DAOV) for visibility, position and
+/// normal. Its colour must equal the timed pass's bit for bit, for every technique and both
+/// SPIR-V builds of smoothies: the visibility it writes is the one the timed frame shaded.
+#[test]
+fn the_aov_pass_shades_bit_for_bit_as_the_timed_pass() {
+    use softshadow::render::{Renderer, SpirvChoice};
+    let gpu = Gpu::new();
+    let mut runs: Vec<(&str, SpirvChoice)> = softshadow::technique::TECHNIQUES
+        .iter()
+        .map(|t| (t.name, SpirvChoice::Glslang))
+        .collect();
+    runs.push(("smoothies", SpirvChoice::Tuned));
+    for (name, spirv) in runs {
+        let scene = Scene::load("overlap").unwrap();
+        let settings = Settings {
+            spirv,
+            ..small(96, 256)
+        };
+        let mut r = Renderer::new(&gpu.ctx, scene, name, settings).unwrap();
+        let timings = r.render().unwrap();
+        // The timed frame holds no AOV pass.
+        assert!(
+            timings.passes.iter().all(|p| !p.name.ends_with("/aov")),
+            "{name}: an AOV pass in the timed frame"
+        );
+        let img = r.read_back().unwrap();
+        let aov_color = r.read_color().unwrap();
+        let differing = img
+            .color
+            .iter()
+            .zip(&aov_color)
+            .filter(|(a, b)| a != b)
+            .count();
+        assert_eq!(
+            differing, 0,
+            "{name} ({spirv}): {differing} pixels of the timed colour differ from the AOV pass's"
+        );
+        // Not a vacuous comparison: the frame has lit and shadowed surfaces.
+        let cov = covered(&img);
+        let shadowed = cov.iter().filter(|&&i| img.visibility[i] < 0.5).count();
+        let lit = cov.iter().filter(|&&i| img.visibility[i] > 0.99).count();
+        assert!(
+            shadowed > 50 && lit > 50,
+            "{name}: {shadowed} shadowed and {lit} lit pixels"
+        );
+    }
+}

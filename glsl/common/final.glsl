@@ -1,14 +1,18 @@
 // The final pass from the camera, shared by every technique: the technique's fragment
 // shader defines `float visibility(vec3 p, vec3 n)` and includes this file. Writes the
-// shaded colour and the AOVs (visibility, world position, world normal).
+// shaded colour; built with AOV defined (build.rs compiles both), also the AOVs
+// (visibility, world position, world normal) for the untimed AOV pass. The timed pass
+// writes colour only, as an engine's frame would.
 #include "common/frame.glsl"
 
 layout(location = 0) in vec3 v_world;
 layout(location = 1) in vec3 v_normal;
 layout(location = 0) out vec4 o_color;
+#ifdef AOV
 layout(location = 1) out float o_visibility;
 layout(location = 2) out vec4 o_position;
 layout(location = 3) out vec4 o_normal;
+#endif
 
 float visibility(vec3 p, vec3 n);
 
@@ -26,7 +30,9 @@ void main() {
     float spot = c.w > 0.0 ? 1.0 - smoothstep(0.85, 1.0, max(abs(ndc.x), abs(ndc.y))) : 0.0;
     vec3 color = draw.albedo_receives.rgb * (0.12 + 0.88 * ndl * vis * spot);
     o_color = vec4(pow(clamp(color, 0.0, 1.0), vec3(1.0 / 2.2)), 1.0);
+#ifdef AOV
     o_visibility = vis;
     o_position = vec4(v_world, 1.0);
     o_normal = vec4(n, 0.0);
+#endif
 }

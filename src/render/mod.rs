@@ -75,7 +75,7 @@ impl SpirvChoice {
     }
 
     /// Picks the module for this choice: `tuned` where one exists, else `glslang`.
-    pub fn pick(self, glslang: &'static [u8], tuned: &'static [u8]) -> &'static [u8] {
+    pub fn pick<T>(self, glslang: T, tuned: T) -> T {
         match self {
             SpirvChoice::Glslang => glslang,
             SpirvChoice::Tuned => tuned,
@@ -585,6 +585,7 @@ impl<'c> Renderer<'c> {
             settings: &self.settings,
             targets: &self.targets,
             light_radius: self.light_radius(),
+            aov: false,
         };
         let u = frame_uniforms(&input, self.technique.uniforms(&input));
         self.ubo.write(0, bytemuck::bytes_of(&u))?;
@@ -613,10 +614,14 @@ impl<'c> Renderer<'c> {
         Ok(timings)
     }
 
-    /// Reads the image and AOVs of the last frame back to the host.
+    /// Reads the image of the last frame back to the host, then runs the AOV pass (the
+    /// technique's final pass again, untimed, same geometry and visibility code, writing
+    /// visibility, position and normal too) and reads those. The timed frame writes colour
+    /// only, as an engine's would; the AOV pass's colour is bit-identical (tests/core.rs).
     pub fn read_back(&mut self) -> Result<FrameImages> {
+        let color = self.read_color()?;
+        self.render_aov()?;
         let t = &self.targets;
-        let color = read_image::<[u8; 4]>(self.ctx, &mut self.runner, &t.color)?;
         let visibility = read_image::<f32>(self.ctx, &mut self.runner, &t.visibility)?;
         let position = read_image::<[f32; 4]>(self.ctx, &mut self.runner, &t.position)?;
         let normal16 = read_image::<[u16; 4]>(self.ctx, &mut self.runner, &t.normal)?;
@@ -632,6 +637,30 @@ impl<'c> Renderer<'c> {
             position,
             normal,
         })
+    }
+
+    /// The colour target as the last pass left it (RGBA8, row 0 at the top).
+    pub fn read_color(&mut self) -> Result<Vec<[u8; 4]>> {
+        read_image::<[u8; 4]>(self.ctx, &mut self.runner, &self.targets.color)
+    }
+
+    /// The technique's final pass with the AOV targets, after the last `render` (its light
+    /// passes' buffers and frame constants are reused as they are).
+    fn render_aov(&mut self) -> Result<()> {
+        let input = FrameInput {
+            scene: &self.scene,
+            gpu: &self.gpu,
+            light: &self.light,
+            settings: &self.settings,
+            targets: &self.targets,
+            light_radius: self.settings.radius_for(&self.scene),
+            aov: true,
+        };
+        let (ctx, technique) = (self.ctx, &mut self.technique);
+        self.runner
+            .run(|rec| technique.record_final(ctx, rec, &input))
+            .context("rendering the AOV pass")?;
+        Ok(())
     }
 
     /// The silhouette edges the GPU found in the last build, per caster (object index,

@@ -95,7 +95,8 @@ impl ShadowMap {
     }
 }
 
-/// What the final camera pass writes, at the camera's resolution.
+/// What the final camera passes write, at the camera's resolution: the timed pass the colour
+/// (and depth), the AOV pass all of them.
 pub struct CameraTargets {
     /// RGBA8 UNORM, gamma-encoded shaded colour (the PNG).
     pub color: Image,
@@ -159,82 +160,124 @@ impl CameraTargets {
         })
     }
 
-    pub const FORMATS: [(Format, Blend); 4] = [
+    /// The AOV pass's attachments, in the order of glsl/common/final.glsl's outputs; the
+    /// timed pass has the first (colour) only.
+    pub const AOV_FORMATS: [(Format, Blend); 4] = [
         (Format::R8G8B8A8_UNORM, Blend::None),
         (Format::R32_SFLOAT, Blend::None),
         (Format::R32G32B32A32_SFLOAT, Blend::None),
         (Format::R16G16B16A16_SFLOAT, Blend::None),
     ];
+
+    /// Clear colour of the shaded image (the background).
+    pub const BACKGROUND: [f32; 4] = [0.05, 0.05, 0.06, 1.0];
+}
+
+/// A final pass's fragment shader in its two builds from one source (build.rs compiles every
+/// shader that includes glsl/common/final.glsl with and without `-DAOV`).
+#[derive(Clone, Copy)]
+pub struct FinalShader {
+    /// Writes the shaded colour only: the timed pass.
+    pub color: &'static [u8],
+    /// Also writes visibility, position and normal: the untimed AOV pass.
+    pub aov: &'static [u8],
 }
 
 /// The final pass from the camera: the scene's surfaces with a technique's fragment shader
 /// (which defines `visibility()` and includes glsl/common/final.glsl).
 ///
-/// Attachments: colour RGBA8 (clear dark grey), visibility R32F (clear 1), position RGBA32F
-/// (clear 0), normal RGBA16F (clear 0), depth D32 (clear 1, LESS); no blending.
+/// Timed pass `T/final`: colour RGBA8 (clear dark grey) and depth D32 (clear 1, LESS), no
+/// blending: what an engine's frame writes. The AOV pass `T/aov` (`FrameInput::aov`, run by
+/// `Renderer::read_back`, untimed) draws the same geometry with the same shader source built
+/// with `-DAOV`, so its colour and visibility are bit-identical to the timed pass's, into
+/// colour, visibility R32F (clear 1), position RGBA32F (clear 0), normal RGBA16F (clear 0).
 pub struct FinalPass {
     pipeline: Pipeline,
+    aov: Pipeline,
 }
 
 impl FinalPass {
-    pub fn new(ctx: &Context, name: &str, fragment: &[u8], set: &DescriptorSet) -> Result<Self> {
-        let pipeline = Pipeline::graphics(
-            ctx,
-            &GraphicsPipelineDesc {
-                name,
-                vertex: shaders::COMMON_SCENE_VERT,
-                fragment: Some(fragment),
-                vertex_stride: SCENE_VERTEX_STRIDE,
-                attributes: SCENE_ATTRIBUTES,
-                topology: PrimitiveTopology::TRIANGLE_LIST,
-                cull: CullModeFlags::NONE,
-                colors: &CameraTargets::FORMATS,
-                depth: Some(DepthState {
-                    format: Format::D32_SFLOAT,
-                    test: true,
-                    write: true,
-                    compare: CompareOp::LESS,
-                }),
-                push_constant_bytes: DRAW_PUSH_BYTES,
-                sets: &[set],
-            },
-        )?;
-        Ok(Self { pipeline })
+    pub fn new(
+        ctx: &Context,
+        name: &str,
+        fragment: FinalShader,
+        set: &DescriptorSet,
+    ) -> Result<Self> {
+        let desc = |name: &str, fragment: &[u8], colors: &[(Format, Blend)]| {
+            Pipeline::graphics(
+                ctx,
+                &GraphicsPipelineDesc {
+                    name,
+                    vertex: shaders::COMMON_SCENE_VERT,
+                    fragment: Some(fragment),
+                    vertex_stride: SCENE_VERTEX_STRIDE,
+                    attributes: SCENE_ATTRIBUTES,
+                    topology: PrimitiveTopology::TRIANGLE_LIST,
+                    cull: CullModeFlags::NONE,
+                    colors,
+                    depth: Some(DepthState {
+                        format: Format::D32_SFLOAT,
+                        test: true,
+                        write: true,
+                        compare: CompareOp::LESS,
+                    }),
+                    push_constant_bytes: DRAW_PUSH_BYTES,
+                    sets: &[set],
+                },
+            )
+        };
+        let pipeline = desc(name, fragment.color, &CameraTargets::AOV_FORMATS[..1])?;
+        let aov_name = match name.strip_suffix("/final") {
+            Some(technique) => format!("{technique}/aov"),
+            None => format!("{name}/aov"),
+        };
+        let aov = desc(&aov_name, fragment.aov, &CameraTargets::AOV_FORMATS)?;
+        Ok(Self { pipeline, aov })
     }
 
-    /// `record` as one timed pass named as the pipeline (the name given to `new`).
+    /// `record` as one pass named as the pipeline: `T/final` (timed), or `T/aov` when
+    /// `frame.aov`.
     pub fn pass(
         &self,
         rec: &mut Recorder<'_>,
-        targets: &CameraTargets,
-        scene: &GpuScene,
+        frame: &crate::technique::FrameInput<'_>,
         set: &DescriptorSet,
     ) -> Result<()> {
-        rec.pass(&self.pipeline.name, |rec| {
-            self.record(rec, targets, scene, set);
+        let pipeline = if frame.aov { &self.aov } else { &self.pipeline };
+        rec.pass(&pipeline.name, |rec| {
+            self.record(rec, frame.targets, frame.gpu, set, frame.aov);
             Ok(())
         })
     }
 
+    /// Draws the camera view: colour only, or with `aov` the colour and the AOVs.
     pub fn record(
         &self,
         rec: &mut Recorder<'_>,
-        targets: &CameraTargets,
+        t: &CameraTargets,
         scene: &GpuScene,
         set: &DescriptorSet,
+        aov: bool,
     ) {
-        rec.begin_rendering(
-            &[
-                (&targets.color, Some([0.05, 0.05, 0.06, 1.0])),
-                (&targets.visibility, Some([1.0; 4])),
-                (&targets.position, Some([0.0; 4])),
-                (&targets.normal, Some([0.0; 4])),
-            ],
-            Some((&targets.depth, Some(1.0))),
-        );
-        rec.bind_pipeline(&self.pipeline);
-        rec.bind_sets(&self.pipeline, &[set]);
-        scene.draw_camera(rec, &self.pipeline);
+        let depth = Some((&t.depth, Some(1.0)));
+        let pipeline = if aov {
+            rec.begin_rendering(
+                &[
+                    (&t.color, Some(CameraTargets::BACKGROUND)),
+                    (&t.visibility, Some([1.0; 4])),
+                    (&t.position, Some([0.0; 4])),
+                    (&t.normal, Some([0.0; 4])),
+                ],
+                depth,
+            );
+            &self.aov
+        } else {
+            rec.begin_rendering(&[(&t.color, Some(CameraTargets::BACKGROUND))], depth);
+            &self.pipeline
+        };
+        rec.bind_pipeline(pipeline);
+        rec.bind_sets(pipeline, &[set]);
+        scene.draw_camera(rec, pipeline);
         rec.end_rendering();
     }
 }

@@ -21,7 +21,7 @@
 //! filter); no penumbra at any light radius.
 
 use super::{FrameInput, Technique, TechniqueInfo, TechniqueInit};
-use crate::render::passes::{FinalPass, ShadowMap};
+use crate::render::passes::{FinalPass, FinalShader, ShadowMap};
 use crate::shaders;
 use crate::vk::{Context, DescriptorSet, Filter, Image, Recorder, Resource, Sampler};
 use anyhow::Result;
@@ -53,7 +53,15 @@ impl Hard {
             ],
             "hard/final",
         )?;
-        let final_pass = FinalPass::new(ctx, "hard/final", shaders::HARD_FINAL_FRAG, &final_set)?;
+        let final_pass = FinalPass::new(
+            ctx,
+            "hard/final",
+            FinalShader {
+                color: shaders::HARD_FINAL_FRAG,
+                aov: shaders::HARD_FINAL_FRAG_AOV,
+            },
+            &final_set,
+        )?;
         Ok(Box::new(Self {
             shadow,
             final_pass,
@@ -88,8 +96,7 @@ impl Technique for Hard {
         rec: &mut Recorder<'_>,
         frame: &FrameInput<'_>,
     ) -> Result<()> {
-        self.final_pass
-            .pass(rec, frame.targets, frame.gpu, &self.final_set)
+        self.final_pass.pass(rec, frame, &self.final_set)
     }
 
     fn debug_image(&self, name: &str) -> Option<&Image> {

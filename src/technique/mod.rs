@@ -34,6 +34,9 @@ pub struct FrameInput<'a> {
     pub targets: &'a CameraTargets,
     /// Light radius R in effect (settings override or the scene's).
     pub light_radius: f32,
+    /// The untimed AOV pass (`Renderer::read_back`): the final pass also writes visibility,
+    /// position and normal (`render::passes::FinalPass`). False in timed frames.
+    pub aov: bool,
 }
 
 pub trait Technique {
@@ -58,7 +61,8 @@ pub trait Technique {
     /// The names of the passes `record_light` records, for the `skipped` lines.
     fn light_passes(&self) -> Vec<String>;
 
-    /// The final camera pass into `frame.targets` (and any work that depends on the camera).
+    /// The final camera pass into `frame.targets` (and any work that depends on the camera);
+    /// run again with `frame.aov` set, after the frame, for the AOVs.
     fn record_final(
         &mut self,
         ctx: &Context,

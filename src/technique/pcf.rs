@@ -50,7 +50,7 @@
 //! of the final pass.
 
 use super::{FrameInput, Technique, TechniqueInfo, TechniqueInit};
-use crate::render::passes::{FinalPass, ShadowMap};
+use crate::render::passes::{FinalPass, FinalShader, ShadowMap};
 use crate::render::PcfKernel;
 use crate::shaders;
 use crate::vk::{Context, DescriptorSet, Filter, Image, Recorder, Resource, Sampler};
@@ -103,8 +103,16 @@ impl Pcf {
             "pcf/final",
         )
         .context("pcf final descriptor set")?;
-        let final_pass = FinalPass::new(ctx, "pcf/final", shaders::PCF_FINAL_FRAG, &final_set)
-            .context("pcf final pass")?;
+        let final_pass = FinalPass::new(
+            ctx,
+            "pcf/final",
+            FinalShader {
+                color: shaders::PCF_FINAL_FRAG,
+                aov: shaders::PCF_FINAL_FRAG_AOV,
+            },
+            &final_set,
+        )
+        .context("pcf final pass")?;
         Ok(Box::new(Self {
             shadow,
             final_pass,
@@ -144,8 +152,7 @@ impl Technique for Pcf {
         rec: &mut Recorder<'_>,
         frame: &FrameInput<'_>,
     ) -> Result<()> {
-        self.final_pass
-            .pass(rec, frame.targets, frame.gpu, &self.final_set)
+        self.final_pass.pass(rec, frame, &self.final_set)
     }
 
     fn debug_image(&self, name: &str) -> Option<&Image> {

@@ -72,7 +72,7 @@
 //! blocked" for most pixels), which needs mip-level image views in `src/vk`.
 
 use super::{FrameInput, Technique, TechniqueInfo, TechniqueInit};
-use crate::render::passes::{FinalPass, ShadowMap};
+use crate::render::passes::{FinalPass, FinalShader, ShadowMap};
 use crate::render::PcfKernel;
 use crate::shaders;
 use crate::vk::{Context, DescriptorSet, Filter, Image, Recorder, Resource, Sampler};
@@ -128,8 +128,16 @@ impl Pcss {
             "pcss/final",
         )
         .context("pcss final descriptor set")?;
-        let final_pass = FinalPass::new(ctx, "pcss/final", shaders::PCSS_FINAL_FRAG, &final_set)
-            .context("pcss final pass")?;
+        let final_pass = FinalPass::new(
+            ctx,
+            "pcss/final",
+            FinalShader {
+                color: shaders::PCSS_FINAL_FRAG,
+                aov: shaders::PCSS_FINAL_FRAG_AOV,
+            },
+            &final_set,
+        )
+        .context("pcss final pass")?;
         Ok(Box::new(Self {
             shadow,
             final_pass,
@@ -180,8 +188,7 @@ impl Technique for Pcss {
         rec: &mut Recorder<'_>,
         frame: &FrameInput<'_>,
     ) -> Result<()> {
-        self.final_pass
-            .pass(rec, frame.targets, frame.gpu, &self.final_set)
+        self.final_pass.pass(rec, frame, &self.final_set)
     }
 
     fn debug_image(&self, name: &str) -> Option<&Image> {

@@ -89,7 +89,7 @@
 //! from the light) hides the penumbra of whatever lies behind it.
 
 use super::{FrameInput, Technique, TechniqueInfo, TechniqueInit};
-use crate::render::passes::{CasterCache, DynamicVertices, FinalPass, ShadowMap};
+use crate::render::passes::{CasterCache, DynamicVertices, FinalPass, FinalShader, ShadowMap};
 use crate::render::{fit_light, SilhouettePath};
 use crate::scene::LightView;
 use crate::shaders;
@@ -206,7 +206,10 @@ impl PenumbraMap {
         let final_pass = FinalPass::new(
             ctx,
             "penumbra-map/final",
-            shaders::PENUMBRA_MAP_FINAL_FRAG,
+            FinalShader {
+                color: shaders::PENUMBRA_MAP_FINAL_FRAG,
+                aov: shaders::PENUMBRA_MAP_FINAL_FRAG_AOV,
+            },
             &final_set,
         )?;
         let adjacency = silhouette::caster_adjacency(init.scene, |_| true)?;
@@ -352,8 +355,7 @@ impl Technique for PenumbraMap {
         rec: &mut Recorder<'_>,
         frame: &FrameInput<'_>,
     ) -> Result<()> {
-        self.final_pass
-            .pass(rec, frame.targets, frame.gpu, &self.final_set)
+        self.final_pass.pass(rec, frame, &self.final_set)
     }
 
     fn debug_image(&self, name: &str) -> Option<&Image> {

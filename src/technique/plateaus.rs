@@ -107,7 +107,9 @@
 
 use super::{FrameInput, Technique, TechniqueInfo, TechniqueInit};
 use crate::render::gpu_scene::{GpuObject, DRAW_PUSH_BYTES, SCENE_ATTRIBUTES, SCENE_VERTEX_STRIDE};
-use crate::render::passes::{falloff_lut, CasterCache, DynamicVertices, FinalPass, ShadowMap};
+use crate::render::passes::{
+    falloff_lut, CasterCache, DynamicVertices, FinalPass, FinalShader, ShadowMap,
+};
 use crate::scene::{normal_matrix, Aabb, LightView, Mesh, Scene};
 use crate::shaders;
 use crate::silhouette::{self, Adjacency, SilhouetteEdge};
@@ -705,7 +707,10 @@ impl Plateaus {
         let final_pass = FinalPass::new(
             ctx,
             "plateaus/final",
-            shaders::PLATEAUS_FINAL_FRAG,
+            FinalShader {
+                color: shaders::PLATEAUS_FINAL_FRAG,
+                aov: shaders::PLATEAUS_FINAL_FRAG_AOV,
+            },
             &final_set,
         )?;
         let adjacency = // The plane is never a caster of its own plateaus.
@@ -853,8 +858,7 @@ impl Technique for Plateaus {
         rec: &mut Recorder<'_>,
         frame: &FrameInput<'_>,
     ) -> Result<()> {
-        self.final_pass
-            .pass(rec, frame.targets, frame.gpu, &self.final_set)
+        self.final_pass.pass(rec, frame, &self.final_set)
     }
 
     fn debug_image(&self, name: &str) -> Option<&Image> {

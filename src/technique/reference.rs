@@ -34,7 +34,7 @@
 use super::{FrameInput, Technique, TechniqueInfo, TechniqueInit};
 use crate::eval::reference::{visibility_cached, ReferenceParams, DEFAULT_SEED};
 use crate::render::half_to_f32;
-use crate::render::passes::FinalPass;
+use crate::render::passes::{FinalPass, FinalShader};
 use crate::scene::{Camera, Light};
 use crate::shaders;
 use crate::vk::{
@@ -118,7 +118,10 @@ impl Reference {
         let final_pass = FinalPass::new(
             ctx,
             "reference/final",
-            shaders::REFERENCE_FINAL_FRAG,
+            FinalShader {
+                color: shaders::REFERENCE_FINAL_FRAG,
+                aov: shaders::REFERENCE_FINAL_FRAG_AOV,
+            },
             &final_set,
         )
         .context("creating the reference final pass")?;
@@ -154,7 +157,7 @@ impl Reference {
         let (pass, set) = (&self.final_pass, &self.final_set);
         self.runner
             .run(|rec| {
-                pass.record(rec, frame.targets, frame.gpu, set);
+                pass.record(rec, frame.targets, frame.gpu, set, true);
                 Ok(())
             })
             .context("rendering the reference's camera positions")?;
@@ -219,8 +222,7 @@ impl Technique for Reference {
             rec.cpu("reference/upload", || self.upload(&vis))?;
             self.last = Some(key);
         }
-        self.final_pass
-            .pass(rec, frame.targets, frame.gpu, &self.final_set)
+        self.final_pass.pass(rec, frame, &self.final_set)
     }
 
     fn debug_image(&self, name: &str) -> Option<&Image> {

@@ -83,7 +83,7 @@
 
 use super::{FrameInput, Technique, TechniqueInfo, TechniqueInit};
 use crate::render::passes::{
-    falloff_lut, CasterCacheOf, DynamicVertices, FinalPass, ShadowMap, FAR_DEPTH,
+    falloff_lut, CasterCacheOf, DynamicVertices, FinalPass, FinalShader, ShadowMap, FAR_DEPTH,
 };
 use crate::render::{fit_light, SilhouettePath};
 use crate::scene::{LightView, Scene};
@@ -283,8 +283,14 @@ impl Smoothies {
             ctx,
             "smoothies/final",
             init.settings.spirv.pick(
-                shaders::SMOOTHIES_FINAL_FRAG,
-                shaders::SMOOTHIES_FINAL_FRAG_SPVASM,
+                FinalShader {
+                    color: shaders::SMOOTHIES_FINAL_FRAG,
+                    aov: shaders::SMOOTHIES_FINAL_FRAG_AOV,
+                },
+                FinalShader {
+                    color: shaders::SMOOTHIES_FINAL_FRAG_SPVASM,
+                    aov: shaders::SMOOTHIES_FINAL_FRAG_SPVASM_AOV,
+                },
             ),
             &final_set,
         )?;
@@ -493,8 +499,7 @@ impl Technique for Smoothies {
         rec: &mut Recorder<'_>,
         frame: &FrameInput<'_>,
     ) -> Result<()> {
-        self.final_pass
-            .pass(rec, frame.targets, frame.gpu, &self.final_set)
+        self.final_pass.pass(rec, frame, &self.final_set)
     }
 
     fn debug_image(&self, name: &str) -> Option<&Image> {

@@ -100,7 +100,7 @@
 //! - Cost grows with the penumbra extents: N^2 patches times (2h+1)^2 texels each (Sec. 6).
 
 use super::{FrameInput, Technique, TechniqueInfo, TechniqueInit};
-use crate::render::passes::{FinalPass, ShadowMap, FAR_DEPTH};
+use crate::render::passes::{FinalPass, FinalShader, ShadowMap, FAR_DEPTH};
 use crate::render::{AccumFormat, GpuScene};
 use crate::scene::Role;
 use crate::shaders;
@@ -364,9 +364,15 @@ impl Ssm {
         let final_name = if two_sided { "ssm2/final" } else { "ssm/final" };
         let final_set = DescriptorSet::new(ctx, &final_resources, final_name)?;
         let fragment = if two_sided {
-            shaders::SSM2_FINAL_FRAG
+            FinalShader {
+                color: shaders::SSM2_FINAL_FRAG,
+                aov: shaders::SSM2_FINAL_FRAG_AOV,
+            }
         } else {
-            shaders::SSM_FINAL_FRAG
+            FinalShader {
+                color: shaders::SSM_FINAL_FRAG,
+                aov: shaders::SSM_FINAL_FRAG_AOV,
+            }
         };
         let final_pass =
             FinalPass::new(ctx, final_name, fragment, &final_set).context("ssm final pass")?;
@@ -598,8 +604,7 @@ impl Technique for Ssm {
         rec: &mut Recorder<'_>,
         frame: &FrameInput<'_>,
     ) -> Result<()> {
-        self.final_pass
-            .pass(rec, frame.targets, frame.gpu, &self.final_set)
+        self.final_pass.pass(rec, frame, &self.final_set)
     }
 
     fn debug_image(&self, name: &str) -> Option<&Image> {

@@ -14,7 +14,8 @@
 //!    Fragment `glsl/hard/final.frag` reads the shadow map with `textureGather` at the
 //!    normal-offset point's light uv, compares each of the 4 texels with the point's linear
 //!    depth (relative bias `frame.light_frustum.w`), and weights the 4 results bilinearly.
-//!    Writes colour RGBA8, visibility R32F, position RGBA32F, normal RGBA16F.
+//!    Writes colour RGBA8 (the untimed AOV pass `hard/aov` also visibility R32F, position
+//!    RGBA32F, normal RGBA16F: `FinalPass`).
 //!
 //! ## Known artefacts
 //! Aliasing (staircase edges one shadow-map texel wide, softened over one texel by the 2x2

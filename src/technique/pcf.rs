@@ -35,7 +35,8 @@
 //!    normal-offset point's light uv, compares each texel with the point's linear depth
 //!    (relative bias `frame.light_frustum.w`) and filters with the kernel above.
 //!    Inputs: `frame.technique` = (kind: 0 box / 1 Poisson, N, Poisson radius in texels, 0).
-//!    Writes colour RGBA8, visibility R32F, position RGBA32F, normal RGBA16F (no blending).
+//!    Writes colour RGBA8, no blending (the untimed AOV pass `pcf/aov` also visibility R32F,
+//!    position RGBA32F, normal RGBA16F: `FinalPass`).
 //!
 //! ## Known artefacts
 //! Penumbra of constant width in texels (too wide at contacts, too narrow far from them);

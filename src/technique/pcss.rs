@@ -42,8 +42,8 @@
 //!
 //!    Inputs: `frame.technique` = (Eq. 2 light_uv, R / (2 tan(fov/2)), MAX_RADIUS_TEXELS,
 //!    filter samples), `frame.technique2.x` = search samples; near and the shadow-map size
-//!    from `frame.light_params`. Writes colour RGBA8, visibility R32F, position RGBA32F,
-//!    normal RGBA16F (no blending).
+//!    from `frame.light_params`. Writes colour RGBA8, no blending (the untimed AOV pass
+//!    `pcss/aov` also visibility R32F, position RGBA32F, normal RGBA16F: `FinalPass`).
 //!
 //! ## Sample counts
 //! `--pcf-kernel poissonN` sets both the search and the filter to N samples. A box kernel

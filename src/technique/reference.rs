@@ -9,9 +9,9 @@
 //!
 //! ## Steps, in order
 //! 1. `reference/positions` (CPU timer; GPU work on the technique's own command buffer,
-//!    before the frame's): the final pass below draws every object from the camera into the
-//!    camera targets to get the `position` (RGBA32F) and `normal` (RGBA16F) AOVs, which are
-//!    read back. Steps 1 to 3 are skipped (`--timings` prints `reference/ray_cast skipped`)
+//!    before the frame's): the AOV build of the final pass below draws every object from the
+//!    camera into the camera targets to get the `position` (RGBA32F) and `normal` (RGBA16F)
+//!    AOVs, which are read back. Steps 1 to 3 are skipped (`--timings` prints `reference/ray_cast skipped`)
 //!    when the camera, the light, R, the object transforms and the size are those of the
 //!    last computed frame.
 //! 2. `reference/ray_cast` (CPU): `eval::reference::visibility_cached` at those points
@@ -21,8 +21,9 @@
 //!    SHADER_READ_ONLY_OPTIMAL (filled with 1 at creation so it is never undefined).
 //! 4. `reference/final` — every object from the camera (`render::passes::FinalPass`).
 //!    Fragment `glsl/reference/final.frag` reads the image with `texelFetch` at
-//!    `gl_FragCoord` (no filtering: one value per pixel). Writes colour RGBA8, visibility R32F,
-//!    position RGBA32F, normal RGBA16F (clear values and depth test of `FinalPass`).
+//!    `gl_FragCoord` (no filtering: one value per pixel). Writes colour RGBA8 (and, in the
+//!    untimed AOV pass `reference/aov`, visibility R32F, position RGBA32F, normal RGBA16F;
+//!    clear values and depth test of `FinalPass`).
 //!
 //! Step 1 and step 4 rasterise the same triangles with the same matrices, so each pixel of
 //! step 4 reads the value computed at its own surface point.

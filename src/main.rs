@@ -1,6 +1,6 @@
 //! The `softshadow` command line (DESIGN.md "CLI contract").
 
-use anyhow::{bail, Context as _, Result};
+use anyhow::{bail, Result};
 use clap::{Args, Parser, Subcommand};
 use softshadow::eval::bench;
 use softshadow::render::{Renderer, Settings};
@@ -63,12 +63,12 @@ struct RenderArgs {
     scene: String,
     #[arg(long, default_value = "smoothies")]
     technique: String,
-    #[arg(long, default_value_t = 1024)]
+    #[arg(long, default_value_t = 1024, allow_negative_numbers = true)]
     width: u32,
-    #[arg(long, default_value_t = 1024)]
+    #[arg(long, default_value_t = 1024, allow_negative_numbers = true)]
     height: u32,
     /// Side of the light-space buffers (shadow map, smoothie buffer, ...).
-    #[arg(long, default_value_t = 1024)]
+    #[arg(long, default_value_t = 1024, allow_negative_numbers = true)]
     shadow_res: u32,
     /// Light radius R (default: the scene's).
     #[arg(long, allow_negative_numbers = true)]
@@ -91,13 +91,13 @@ struct RenderArgs {
     #[arg(long, default_value = "box3")]
     pcf_kernel: softshadow::render::PcfKernel,
     /// Occluder map side of the soft shadow maps (ssm, ssm2).
-    #[arg(long, default_value_t = 256)]
+    #[arg(long, default_value_t = 256, allow_negative_numbers = true)]
     occluder_res: u32,
     /// Soft shadow map accumulation format: r32f or r16f.
     #[arg(long, default_value = "r32f")]
     accum_format: softshadow::render::AccumFormat,
     /// Shadow rays per pixel of the `reference` technique (at least 256).
-    #[arg(long, default_value_t = 256)]
+    #[arg(long, default_value_t = 256, allow_negative_numbers = true)]
     reference_samples: u32,
     #[arg(long, default_value = "softshadow.png")]
     out: PathBuf,
@@ -124,9 +124,9 @@ struct ExportArgs {
     #[arg(long)]
     obj: PathBuf,
     /// Image size recorded with the camera.
-    #[arg(long, default_value_t = 1024)]
+    #[arg(long, default_value_t = 1024, allow_negative_numbers = true)]
     width: u32,
-    #[arg(long, default_value_t = 1024)]
+    #[arg(long, default_value_t = 1024, allow_negative_numbers = true)]
     height: u32,
 }
 
@@ -143,32 +143,32 @@ struct BenchArgs {
     #[arg(long, default_value = "bench-out")]
     out: PathBuf,
     /// Timed frames per sweep point [default: 5; --full: 20].
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     frames: Option<u32>,
     /// Untimed warm-up frames before them.
-    #[arg(long, default_value_t = bench::DEFAULT_WARMUP)]
+    #[arg(long, default_value_t = bench::DEFAULT_WARMUP, allow_negative_numbers = true)]
     warmup: u32,
     /// What moves while the frames are timed: static, camera, light, object (comma-separated).
     #[arg(long, value_delimiter = ',')]
     motion: Option<Vec<String>>,
     /// Light-space buffer sides [default: 512,1024; --full: 256,512,1024,2048].
-    #[arg(long, value_delimiter = ',')]
+    #[arg(long, value_delimiter = ',', allow_negative_numbers = true)]
     resolutions: Option<Vec<u32>>,
     /// Light radii: 'scene', a multiple like '0.5x', or world units [default: scene;
     /// --full: 0,0.5x,scene,2x].
     #[arg(long, value_delimiter = ',', allow_negative_numbers = true)]
     radii: Option<Vec<String>>,
     /// Image width [default: 512; --full: 1024].
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     width: Option<u32>,
     /// Image height [default: 512; --full: 1024].
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     height: Option<u32>,
     /// Reference samples per pixel.
-    #[arg(long, default_value_t = bench::DEFAULT_SAMPLES)]
+    #[arg(long, default_value_t = bench::DEFAULT_SAMPLES, allow_negative_numbers = true)]
     samples: u32,
     /// Reference sampling seed.
-    #[arg(long, default_value_t = bench::DEFAULT_SEED)]
+    #[arg(long, default_value_t = bench::DEFAULT_SEED, allow_negative_numbers = true)]
     seed: u64,
     /// Fixed smoothie widths reported beside the calibrated `smoothies` row.
     #[arg(
@@ -199,22 +199,68 @@ fn main() -> ExitCode {
     let cli = match Cli::try_parse() {
         Ok(c) => c,
         Err(e) => {
-            // clap prints help/version itself and formats its own errors.
-            let _ = e.print();
-            return if e.use_stderr() {
-                ExitCode::from(2)
-            } else {
-                ExitCode::SUCCESS
-            };
+            if !e.use_stderr() {
+                // Help and version.
+                let _ = e.print();
+                return ExitCode::SUCCESS;
+            }
+            // clap's own error format, with a pasted-in giant value clipped.
+            eprint!("{}", clip_long_words(&e.render().to_string()));
+            return ExitCode::from(2);
         }
     };
     match run(cli) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
-            eprintln!("error: {e:#}");
+            eprintln!("error: {}", error_line(&e));
             ExitCode::FAILURE
         }
     }
+}
+
+/// The error and its causes on one line, each cause once: some libraries' errors repeat
+/// their source's text in their own message.
+fn error_line(e: &anyhow::Error) -> String {
+    let mut line = String::new();
+    for cause in e.chain() {
+        let text = cause.to_string();
+        if text.is_empty() || line.contains(&text) {
+            continue;
+        }
+        if !line.is_empty() {
+            line.push_str(": ");
+        }
+        line.push_str(&text);
+    }
+    clip_long_words(&line)
+}
+
+/// Quoted input is clipped to its first 100 characters, so that a pasted 50 MB token is not
+/// echoed whole.
+fn clip_long_words(text: &str) -> String {
+    const MAX: usize = 100;
+    let mut out = String::with_capacity(text.len().min(4096));
+    let mut word = String::new();
+    let flush = |word: &mut String, out: &mut String| {
+        let n = word.chars().count();
+        if n > MAX {
+            out.extend(word.chars().take(MAX));
+            out.push_str(&format!("... ({} more characters)", n - MAX));
+        } else {
+            out.push_str(word);
+        }
+        word.clear();
+    };
+    for c in text.chars() {
+        if c.is_whitespace() {
+            flush(&mut word, &mut out);
+            out.push(c);
+        } else {
+            word.push(c);
+        }
+    }
+    flush(&mut word, &mut out);
+    out
 }
 
 fn open_device(cli: &Cli) -> Result<Context> {
@@ -237,6 +283,7 @@ fn run(cli: Cli) -> Result<()> {
             if a.width == 0 || a.height == 0 {
                 bail!("--width and --height must be at least 1");
             }
+            softshadow::scene::export::check_paths(&a.obj)?;
             let scene = Scene::load(&a.scene)?;
             softshadow::scene::export::export_obj(&scene, &a.obj, a.width, a.height)?;
             println!(
@@ -258,7 +305,14 @@ fn render(cli: &Cli, a: &RenderArgs) -> Result<()> {
     }
     .check_reference_samples()?;
     let scene = Scene::load(&a.scene)?;
-    check_writable(&a.out)?;
+    softshadow::output::check_file(&a.out, "--out")?;
+    softshadow::output::check_png_name(&a.out, "--out")?;
+    if let Some(dir) = &a.aov {
+        softshadow::output::check_dir(dir, "--aov")?;
+    }
+    if let Some(dir) = &a.buffers {
+        softshadow::output::check_dir(dir, "--buffers")?;
+    }
     let ctx = open_device(cli)?;
     if let Some(note) = a.spirv.fallback_note(&a.technique) {
         eprintln!("{note}");
@@ -289,14 +343,15 @@ fn render(cli: &Cli, a: &RenderArgs) -> Result<()> {
         all.push(r.render()?);
     }
     let images = r.read_back()?;
-    softshadow::output::write_png(&a.out, &images)?;
-    println!("wrote {}", a.out.display());
+    // Every output is staged first and published together: a failure leaves none of them.
+    let mut publish = softshadow::output::Publish::new();
+    publish.stage(&a.out, |t| softshadow::output::encode_png(t, &images))?;
     if let Some(dir) = &a.aov {
-        softshadow::output::write_aovs(dir, &images)?;
-        println!("wrote {}/{{visibility,position,normal}}.exr", dir.display());
+        softshadow::output::stage_aovs(&mut publish, dir, &images)?;
     }
+    let mut buffer_paths = Vec::new();
     if let Some(dir) = &a.buffers {
-        std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+        publish.create_dir(dir)?;
         for name in r.technique_buffer_names() {
             let b = r.read_technique_buffer(name)?;
             let path = dir.join(format!("{name}.exr"));
@@ -305,9 +360,19 @@ fn render(cli: &Cli, a: &RenderArgs) -> Result<()> {
             } else {
                 &["Y"]
             };
-            softshadow::output::write_exr(&path, b.width, b.height, names, b.channels)?;
-            println!("wrote {}", path.display());
+            publish.stage(&path, |t| {
+                softshadow::output::encode_exr(t, b.width, b.height, names, b.channels)
+            })?;
+            buffer_paths.push(path);
         }
+    }
+    publish.commit()?;
+    println!("wrote {}", a.out.display());
+    if let Some(dir) = &a.aov {
+        println!("wrote {}/{{visibility,position,normal}}.exr", dir.display());
+    }
+    for path in buffer_paths {
+        println!("wrote {}", path.display());
     }
     if a.timings {
         // Median per pass over the frames after two warm-up frames.
@@ -416,6 +481,8 @@ fn stress(cli: &Cli, a: &StressArgs) -> Result<()> {
         image_dir: Some(a.out.clone()),
     };
     opts.check()?;
+    // Checked before the sweep, which takes minutes.
+    softshadow::output::check_dir(&a.out, "--out")?;
     let ctx = open_device(cli)?;
     let report = stress::run(&ctx, &opts, &mut |r| {
         println!(
@@ -457,26 +524,26 @@ fn stress(cli: &Cli, a: &StressArgs) -> Result<()> {
     Ok(())
 }
 
-/// Fails early, before any rendering, when the output cannot be created.
-fn check_writable(path: &std::path::Path) -> Result<()> {
-    let dir = match path.parent() {
-        Some(d) if !d.as_os_str().is_empty() => d,
-        _ => std::path::Path::new("."),
-    };
-    if !dir.is_dir() {
-        bail!(
-            "cannot write {}: folder {} does not exist",
-            path.display(),
-            dir.display()
-        );
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// An I/O error wrapped by a library that repeats it in its own message is said once.
+    #[test]
+    fn error_causes_are_said_once() {
+        let io = std::io::Error::from_raw_os_error(28);
+        let text = io.to_string();
+        let e = anyhow::Error::new(image::ImageError::IoError(io)).context("cannot write out.png");
+        let line = error_line(&e);
+        assert_eq!(line.matches(&text).count(), 1, "{line}");
+        assert!(line.starts_with("cannot write out.png: "), "{line}");
     }
-    let md = std::fs::metadata(dir).with_context(|| format!("checking {}", dir.display()))?;
-    if md.permissions().readonly() {
-        bail!(
-            "cannot write {}: folder {} is read-only",
-            path.display(),
-            dir.display()
-        );
+
+    #[test]
+    fn long_words_are_clipped() {
+        let long = "7".repeat(50_000);
+        let s = clip_long_words(&format!("invalid value '{long}' for '--width'"));
+        assert!(s.len() < 200 && s.ends_with("for '--width'"), "{s}");
+        assert_eq!(clip_long_words("a b  c\nd"), "a b  c\nd");
     }
-    Ok(())
 }

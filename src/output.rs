@@ -1,49 +1,273 @@
-//! Writing results: the PNG and the `--aov` EXRs of DESIGN.md. Every file is written to a
-//! temporary name in its folder and renamed, so a failure never leaves half a file.
+//! Writing results: the PNG and the `--aov` EXRs of DESIGN.md, and the checks and staging that
+//! keep every command's outputs all-or-nothing.
+//!
+//! A command checks each output path before any work ([`check_file`], [`check_dir`]): a path
+//! that exists as something other than a regular file (a folder, a device node, a FIFO) is
+//! refused, as is a missing or read-only parent folder. Its files are then written to hidden
+//! temporary names beside their final ones ([`Publish::stage`]) and renamed into place
+//! together by [`Publish::commit`]; a failure while staging removes every temporary file and
+//! every folder the command created, and a failure while renaming puts back what was there.
 
 use crate::render::FrameImages;
-use anyhow::{Context as _, Result};
+use anyhow::{anyhow, bail, Context as _, Result};
 use exr::prelude::{
     AnyChannel, AnyChannels, Encoding, FlatSamples, Image, Layer, LayerAttributes, WritableImage,
 };
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
-fn temp_path(path: &Path) -> std::path::PathBuf {
-    let mut name = path
-        .file_name()
-        .map(|n| n.to_os_string())
-        .unwrap_or_default();
-    name.push(".partial");
-    path.with_file_name(name)
+/// The folder a file path lands in (`.` for a bare name).
+fn parent_of(path: &Path) -> &Path {
+    match path.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d,
+        _ => Path::new("."),
+    }
 }
 
-/// Writes through a temporary file renamed into place.
-fn atomic_write(path: &Path, write: impl FnOnce(&Path) -> Result<()>) -> Result<()> {
-    let tmp = temp_path(path);
-    match write(&tmp) {
-        Ok(()) => {
-            std::fs::rename(&tmp, path).with_context(|| format!("renaming into {}", path.display()))
+/// Whether files can be created in `dir`: creates and removes a probe file, which answers for
+/// permissions, read-only mounts and ACLs alike.
+fn probe_writable(dir: &Path) -> std::io::Result<()> {
+    let probe = dir.join(format!(".softshadow-probe-{}", std::process::id()));
+    std::fs::OpenOptions::new()
+        .write(true)
+        .create_new(true)
+        .open(&probe)?;
+    std::fs::remove_file(&probe)
+}
+
+/// Refuses `path` unless it is absent or a regular file (following symlinks): renaming over a
+/// device node or a FIFO would replace it.
+fn check_not_special(path: &Path, flag: &str) -> Result<()> {
+    match std::fs::metadata(path) {
+        Ok(md) if md.is_dir() => bail!("{flag} {}: it is a folder, not a file", path.display()),
+        Ok(md) if !md.is_file() => bail!(
+            "{flag} {}: it exists and is not a regular file (a device, FIFO or socket); refusing to replace it",
+            path.display()
+        ),
+        _ => Ok(()),
+    }
+}
+
+/// Checks, before any work, that `path` can be written as a file: it is absent or a regular
+/// file, its folder exists and is writable. `flag` names the option in the error.
+pub fn check_file(path: &Path, flag: &str) -> Result<()> {
+    check_not_special(path, flag)?;
+    let dir = parent_of(path);
+    if !dir.is_dir() {
+        bail!(
+            "{flag} {}: folder {} does not exist",
+            path.display(),
+            dir.display()
+        );
+    }
+    probe_writable(dir).map_err(|e| {
+        anyhow!(
+            "{flag} {}: cannot write into folder {}: {e}",
+            path.display(),
+            dir.display()
+        )
+    })
+}
+
+/// Checks, before any work, that `dir` can hold output files: it is a folder, or it does not
+/// exist and its nearest existing ancestor is a writable folder (it is created on commit).
+pub fn check_dir(dir: &Path, flag: &str) -> Result<()> {
+    let mut at = dir.to_path_buf();
+    loop {
+        match std::fs::metadata(&at) {
+            Ok(md) if md.is_dir() => break,
+            Ok(_) if at == dir => bail!("{flag} {}: it exists and is not a folder", dir.display()),
+            Ok(_) => bail!(
+                "{flag} {}: cannot create output folder: {} is not a folder",
+                dir.display(),
+                at.display()
+            ),
+            Err(_) => {
+                at = match at.parent() {
+                    Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
+                    _ => PathBuf::from("."),
+                };
+            }
         }
-        Err(e) => {
-            let _ = std::fs::remove_file(&tmp);
-            Err(e)
+    }
+    probe_writable(&at).map_err(|e| {
+        anyhow!(
+            "{flag} {}: cannot write into folder {}: {e}",
+            dir.display(),
+            at.display()
+        )
+    })
+}
+
+/// A hidden sibling of `path` with `tag` and the process id, in the same folder so that a
+/// rename into place is atomic.
+fn sibling(path: &Path, tag: &str) -> PathBuf {
+    let file = path
+        .file_name()
+        .map(|f| f.to_string_lossy().into_owned())
+        .unwrap_or_else(|| "output".into());
+    path.with_file_name(format!(".{file}.{tag}-{}", std::process::id()))
+}
+
+/// The files of one command, staged under temporary names and published together (see the
+/// module docs). Dropped without [`Publish::commit`], it removes what it staged and the
+/// folders it created.
+#[derive(Default)]
+pub struct Publish {
+    /// (temporary, final) pairs in staging order.
+    staged: Vec<(PathBuf, PathBuf)>,
+    /// Folders this command created, outermost first.
+    created: Vec<PathBuf>,
+}
+
+impl Publish {
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// Creates `dir` (and missing ancestors), remembering what it created so a failure can
+    /// remove it again.
+    pub fn create_dir(&mut self, dir: &Path) -> Result<()> {
+        let mut missing = Vec::new();
+        let mut at = dir.to_path_buf();
+        while !at.as_os_str().is_empty() && std::fs::symlink_metadata(&at).is_err() {
+            missing.push(at.clone());
+            at = at.parent().map(Path::to_path_buf).unwrap_or_default();
+        }
+        for d in missing.into_iter().rev() {
+            std::fs::create_dir(&d)
+                .with_context(|| format!("cannot create folder {}", d.display()))?;
+            self.created.push(d);
+        }
+        if !dir.is_dir() {
+            bail!("{}: it exists and is not a folder", dir.display());
+        }
+        Ok(())
+    }
+
+    /// Writes `path`'s content through `write` into a temporary file beside it.
+    pub fn stage(&mut self, path: &Path, write: impl FnOnce(&Path) -> Result<()>) -> Result<()> {
+        check_not_special(path, "output")?;
+        let tmp = sibling(path, "partial");
+        // Registered first so that a failing write's leftovers are removed too.
+        self.staged.push((tmp.clone(), path.to_path_buf()));
+        write(&tmp).with_context(|| format!("cannot write {}", path.display()))
+    }
+
+    /// Renames every staged file into place; on a failure, puts back every file it replaced.
+    pub fn commit(mut self) -> Result<()> {
+        let staged = std::mem::take(&mut self.staged);
+        // Refused before anything moves: something may have appeared since the first check.
+        for (_, to) in &staged {
+            check_not_special(to, "output")?;
+        }
+        // (final, its backup if one existed) for every file renamed so far.
+        let mut done: Vec<(PathBuf, Option<PathBuf>)> = Vec::new();
+        let mut pending = staged.iter();
+        let result = (|| -> Result<()> {
+            for (tmp, to) in pending.by_ref() {
+                let backup = if to.exists() {
+                    let b = sibling(to, "previous");
+                    std::fs::rename(to, &b)
+                        .with_context(|| format!("cannot replace {}", to.display()))?;
+                    Some(b)
+                } else {
+                    None
+                };
+                let moved = std::fs::rename(tmp, to);
+                done.push((to.clone(), backup));
+                moved.with_context(|| format!("cannot write {}", to.display()))?;
+            }
+            Ok(())
+        })();
+        match result {
+            Ok(()) => {
+                for (_, backup) in done {
+                    if let Some(b) = backup {
+                        let _ = std::fs::remove_file(b);
+                    }
+                }
+                self.created.clear();
+                Ok(())
+            }
+            Err(e) => {
+                for (to, backup) in done.into_iter().rev() {
+                    match backup {
+                        Some(b) => {
+                            let _ = std::fs::rename(b, &to);
+                        }
+                        None => {
+                            let _ = std::fs::remove_file(&to);
+                        }
+                    }
+                }
+                // What was not renamed is removed by drop.
+                self.staged = staged;
+                Err(e)
+            }
         }
     }
 }
 
-/// The shaded image as an 8-bit RGBA PNG.
-pub fn write_png(path: &Path, frame: &FrameImages) -> Result<()> {
+impl Drop for Publish {
+    fn drop(&mut self) {
+        for (tmp, _) in &self.staged {
+            let _ = std::fs::remove_file(tmp);
+        }
+        for d in self.created.iter().rev() {
+            // Only succeeds when empty: never removes anything but our own folder.
+            let _ = std::fs::remove_dir(d);
+        }
+    }
+}
+
+/// Writes one file through a temporary name renamed into place.
+fn write_one(path: &Path, write: impl FnOnce(&Path) -> Result<()>) -> Result<()> {
+    let mut p = Publish::new();
+    p.stage(path, write)?;
+    p.commit()
+}
+
+/// Which image format a file name asks for: only `.png` is written.
+pub fn check_png_name(path: &Path, flag: &str) -> Result<()> {
+    match path.extension().and_then(|e| e.to_str()) {
+        Some(e) if e.eq_ignore_ascii_case("png") => Ok(()),
+        Some(e) => bail!(
+            "{flag} {}: .{e} is not supported, only PNG is written (name the file .png)",
+            path.display()
+        ),
+        None => bail!(
+            "{flag} {}: no extension, only PNG is written (name the file .png)",
+            path.display()
+        ),
+    }
+}
+
+/// The image crate wraps I/O errors and returns the same error as its source, so `{:#}`
+/// would print the cause twice; unwrapped here.
+fn image_error(e: image::ImageError) -> anyhow::Error {
+    match e {
+        image::ImageError::IoError(io) => io.into(),
+        other => anyhow!("{other}"),
+    }
+}
+
+/// Encodes the shaded image as an 8-bit RGBA PNG into `path` (no staging).
+pub fn encode_png(path: &Path, frame: &FrameImages) -> Result<()> {
     let bytes: Vec<u8> = frame.color.iter().flatten().copied().collect();
     let img = image::RgbaImage::from_raw(frame.width, frame.height, bytes)
         .context("image size does not match its pixels")?;
-    atomic_write(path, |tmp| {
-        img.save_with_format(tmp, image::ImageFormat::Png)
-            .with_context(|| format!("writing {}", path.display()))
-    })
+    img.save_with_format(path, image::ImageFormat::Png)
+        .map_err(image_error)
 }
 
-/// An EXR of 32-bit float channels named `names`, `channels[c][pixel]`.
-pub fn write_exr(
+/// The shaded image as an 8-bit RGBA PNG, through a temporary file.
+pub fn write_png(path: &Path, frame: &FrameImages) -> Result<()> {
+    write_one(path, |tmp| encode_png(tmp, frame))
+}
+
+/// Encodes an EXR of 32-bit float channels named `names`, `channels[c][pixel]` into `path`
+/// (no staging).
+pub fn encode_exr(
     path: &Path,
     width: u32,
     height: u32,
@@ -62,33 +286,48 @@ pub fn write_exr(
         AnyChannels::sort(list.into()),
     );
     let image = Image::from_layer(layer);
-    atomic_write(path, |tmp| {
-        image
-            .write()
-            .to_file(tmp)
-            .with_context(|| format!("writing {}", path.display()))
+    image.write().to_file(path).map_err(|e| match e {
+        exr::error::Error::Io(io) => anyhow::Error::from(io),
+        other => anyhow!("{other}"),
     })
 }
 
-/// `DIR/visibility.exr` (one channel `Y`), `DIR/position.exr` (RGBA), `DIR/normal.exr` (RGB).
-pub fn write_aovs(dir: &Path, frame: &FrameImages) -> Result<()> {
-    std::fs::create_dir_all(dir)
-        .with_context(|| format!("creating AOV folder {}", dir.display()))?;
+/// An EXR of 32-bit float channels, through a temporary file.
+pub fn write_exr(
+    path: &Path,
+    width: u32,
+    height: u32,
+    names: &[&str],
+    channels: Vec<Vec<f32>>,
+) -> Result<()> {
+    write_one(path, |tmp| encode_exr(tmp, width, height, names, channels))
+}
+
+/// Stages `DIR/visibility.exr` (one channel `Y`), `DIR/position.exr` (RGBA) and
+/// `DIR/normal.exr` (RGB) into `publish`.
+pub fn stage_aovs(publish: &mut Publish, dir: &Path, frame: &FrameImages) -> Result<()> {
+    publish.create_dir(dir)?;
     let (w, h) = (frame.width, frame.height);
-    write_exr(
-        &dir.join("visibility.exr"),
-        w,
-        h,
-        &["Y"],
-        vec![frame.visibility.clone()],
-    )?;
+    publish.stage(&dir.join("visibility.exr"), |t| {
+        encode_exr(t, w, h, &["Y"], vec![frame.visibility.clone()])
+    })?;
     let pos: Vec<Vec<f32>> = (0..4)
         .map(|c| frame.position.iter().map(|p| p[c]).collect())
         .collect();
-    write_exr(&dir.join("position.exr"), w, h, &["R", "G", "B", "A"], pos)?;
+    publish.stage(&dir.join("position.exr"), |t| {
+        encode_exr(t, w, h, &["R", "G", "B", "A"], pos)
+    })?;
     let nrm: Vec<Vec<f32>> = (0..3)
         .map(|c| frame.normal.iter().map(|p| p[c]).collect())
         .collect();
-    write_exr(&dir.join("normal.exr"), w, h, &["R", "G", "B"], nrm)?;
-    Ok(())
+    publish.stage(&dir.join("normal.exr"), |t| {
+        encode_exr(t, w, h, &["R", "G", "B"], nrm)
+    })
+}
+
+/// `DIR/visibility.exr`, `DIR/position.exr` and `DIR/normal.exr`, published together.
+pub fn write_aovs(dir: &Path, frame: &FrameImages) -> Result<()> {
+    let mut p = Publish::new();
+    stage_aovs(&mut p, dir, frame)?;
+    p.commit()
 }

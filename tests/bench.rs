@@ -248,7 +248,7 @@ fn bad_input_is_one_line_and_leaves_nothing() {
             "--resolutions",
             "1000000",
         ],
-        "--shadow-res 1000000",
+        "--resolutions 1000000",
     );
 
     // An output folder that cannot be created: under a regular file.

@@ -8,7 +8,8 @@ use common::{small, Gpu};
 use softshadow::eval::accumulate::heckbert_herf;
 use softshadow::eval::metrics::errors;
 use softshadow::eval::reference::{
-    cache_key, cache_path, visibility_at, visibility_cached, ReferenceParams,
+    cache_key, cache_path, encode_cache, read_cache, visibility_at, visibility_cached, CacheEntry,
+    ReferenceParams,
 };
 use softshadow::render::{fit_light, FrameImages};
 use softshadow::scene::Scene;
@@ -274,16 +275,41 @@ fn cached_reference_is_reused() {
         a.iter().any(|&v| v < 0.5),
         "the grid should reach the boxes' shadow"
     );
-    // Overwrite the first value with a marker: a reuse returns it.
-    let mut bytes = std::fs::read(&path).unwrap();
-    bytes[16..20].copy_from_slice(&0.125f32.to_le_bytes());
-    std::fs::write(&path, &bytes).unwrap();
+    // A valid entry holding a marker: a reuse returns it.
+    let mut marked = a.clone();
+    marked[0] = 0.125;
+    std::fs::write(&path, encode_cache(&marked)).unwrap();
     let c = visibility_cached(&scene, 0.3, &positions, &normals, &params).unwrap();
     assert_eq!(
         c[0], 0.125,
         "the second call recomputed instead of reading the cache"
     );
     assert_eq!(&c[1..], &a[1..]);
+    // Values overwritten behind a kept header (the checksum no longer matches): recomputed,
+    // and the entry rewritten valid.
+    let mut bytes = std::fs::read(&path).unwrap();
+    let n = bytes.len();
+    for b in &mut bytes[n - 400..] {
+        *b = 0x3f;
+    }
+    std::fs::write(&path, &bytes).unwrap();
+    assert!(matches!(
+        read_cache(&path, positions.len()),
+        CacheEntry::Bad(_)
+    ));
+    let d = visibility_cached(&scene, 0.3, &positions, &normals, &params).unwrap();
+    assert_eq!(d, b, "a corrupted entry was trusted");
+    assert!(matches!(
+        read_cache(&path, positions.len()),
+        CacheEntry::Valid(v) if v == b
+    ));
+    // An entry of another format version (the previous header layout) is recomputed.
+    let mut old = b"SSREF001".to_vec();
+    old.extend_from_slice(&(positions.len() as u64).to_le_bytes());
+    old.extend(marked.iter().flat_map(|x| x.to_le_bytes()));
+    std::fs::write(&path, &old).unwrap();
+    let e = visibility_cached(&scene, 0.3, &positions, &normals, &params).unwrap();
+    assert_eq!(e, b);
     // Another sample count is another key.
     let other = ReferenceParams {
         samples: 324,

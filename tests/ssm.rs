@@ -332,10 +332,14 @@ fn two_sided_error_is_not_larger_than_one_sided_on_bunny() {
 }
 
 #[test]
-fn occluder_map_larger_than_the_device_allows_is_a_clear_error() {
+fn occluder_map_out_of_range_is_a_clear_error() {
     let gpu = Gpu::new();
-    let max = gpu.ctx.limits.max_image_dimension2_d;
-    for bad in [0, max + 1] {
+    let max = gpu
+        .ctx
+        .limits
+        .max_image_dimension2_d
+        .min(softshadow::render::MAX_OCCLUDER_RES);
+    for bad in [0, max + 1, 4096, 16384] {
         let set = Settings {
             occluder_res: bad,
             ..small(64, 64)

@@ -554,18 +554,60 @@ struct Staging {
     committed: bool,
 }
 
+/// The fixed files of a sweep; `images/` holds the rest.
+const TOP_FILES: [&str; 5] = [
+    "results.csv",
+    "results.json",
+    "time_vs_error.png",
+    "report.md",
+    ERROR_SCALE_IMAGE,
+];
+
+const STAGING_PREFIX: &str = ".bench-partial-";
+
+/// Removes the staging folders of sweeps whose process is gone (killed, Ctrl-C), found by
+/// the process id in their name; a live process's folder is left alone.
+fn remove_stale_staging(out: &Path) {
+    // Without /proc there is no way to tell a dead process from a live one: keep everything.
+    if !Path::new("/proc/self").exists() {
+        return;
+    }
+    let Ok(entries) = std::fs::read_dir(out) else {
+        return;
+    };
+    for e in entries.flatten() {
+        let name = e.file_name().to_string_lossy().into_owned();
+        let Some(pid) = name.strip_prefix(STAGING_PREFIX) else {
+            continue;
+        };
+        let Ok(pid) = pid.parse::<u32>() else {
+            continue;
+        };
+        let ours = pid == std::process::id();
+        if ours || !Path::new(&format!("/proc/{pid}")).exists() {
+            let _ = std::fs::remove_dir_all(e.path());
+        }
+    }
+}
+
 impl Staging {
     fn new(out: &Path) -> Result<Self> {
-        if out.exists() && !out.is_dir() {
-            bail!(
-                "cannot write to {}: it exists and is not a folder",
-                out.display()
-            );
+        crate::output::check_dir(out, "--out")?;
+        for f in TOP_FILES {
+            let p = out.join(f);
+            if p.exists() && !std::fs::metadata(&p).is_ok_and(|m| m.is_file()) {
+                bail!(
+                    "--out {}: {} exists and is not a regular file; refusing to replace it",
+                    out.display(),
+                    p.display()
+                );
+            }
         }
         let created_out = !out.exists();
         std::fs::create_dir_all(out)
             .map_err(|e| anyhow::anyhow!("cannot create output folder {}: {e}", out.display()))?;
-        let dir = out.join(format!(".bench-partial-{}", std::process::id()));
+        remove_stale_staging(out);
+        let dir = out.join(format!("{STAGING_PREFIX}{}", std::process::id()));
         let staging = Self {
             out: out.to_path_buf(),
             dir,
@@ -582,14 +624,58 @@ impl Staging {
         self.dir.join(rel)
     }
 
-    /// Moves `files` (relative paths) into `out`.
+    /// Moves `files` (relative paths) into `out`, all or none: a file it would replace is
+    /// kept aside until every move succeeded, and put back when one fails.
     fn commit(mut self, files: &[String]) -> Result<()> {
-        std::fs::create_dir_all(self.out.join("images"))
-            .with_context(|| format!("creating {}/images", self.out.display()))?;
         for f in files {
-            let (from, to) = (self.dir.join(f), self.out.join(f));
-            std::fs::rename(&from, &to)
-                .with_context(|| format!("moving {f} into {}", self.out.display()))?;
+            let to = self.out.join(f);
+            if to.exists() && !std::fs::metadata(&to).is_ok_and(|m| m.is_file()) {
+                bail!(
+                    "{} exists and is not a regular file; refusing to replace it",
+                    to.display()
+                );
+            }
+        }
+        let images = self.out.join("images");
+        let made_images = !images.exists();
+        std::fs::create_dir_all(&images)
+            .with_context(|| format!("creating {}", images.display()))?;
+        let aside = self.dir.join("previous");
+        let mut done: Vec<(PathBuf, Option<PathBuf>)> = Vec::new();
+        let result = (|| -> Result<()> {
+            for (i, f) in files.iter().enumerate() {
+                let (from, to) = (self.dir.join(f), self.out.join(f));
+                let backup = if to.exists() {
+                    std::fs::create_dir_all(&aside)
+                        .with_context(|| format!("creating {}", aside.display()))?;
+                    let b = aside.join(i.to_string());
+                    std::fs::rename(&to, &b)
+                        .with_context(|| format!("cannot replace {}", to.display()))?;
+                    Some(b)
+                } else {
+                    None
+                };
+                let moved = std::fs::rename(&from, &to);
+                done.push((to, backup));
+                moved.with_context(|| format!("moving {f} into {}", self.out.display()))?;
+            }
+            Ok(())
+        })();
+        if let Err(e) = result {
+            for (to, backup) in done.into_iter().rev() {
+                match backup {
+                    Some(b) => {
+                        let _ = std::fs::rename(b, &to);
+                    }
+                    None => {
+                        let _ = std::fs::remove_file(&to);
+                    }
+                }
+            }
+            if made_images {
+                let _ = std::fs::remove_dir(&images);
+            }
+            return Err(e);
         }
         self.committed = true;
         std::fs::remove_dir_all(&self.dir)
@@ -742,7 +828,13 @@ pub fn slug(s: &str) -> String {
 pub fn run(ctx: &Context, plan: Plan) -> Result<Outcome> {
     // Device limits are the last thing checked before the first frame.
     for c in &plan.cases {
-        plan.settings(c).validate(ctx)?;
+        // The buffer side of a sweep point comes from --resolutions.
+        plan.settings(c).validate(ctx).map_err(|e| {
+            anyhow::anyhow!(
+                "{}",
+                format!("{e:#}").replace("--shadow-res", "--resolutions")
+            )
+        })?;
     }
     let cfg = &plan.config;
     let costs = spirv::cost_table(crate::shaders::ALL)?;
@@ -952,13 +1044,7 @@ pub fn run(ctx: &Context, plan: Plan) -> Result<Outcome> {
     plot::time_vs_error(&st.path("time_vs_error.png"), &results)?;
     report::write_markdown(&st.path("report.md"), &results)?;
     write_error_scale(&st.path(ERROR_SCALE_IMAGE))?;
-    for f in [
-        "results.csv",
-        "results.json",
-        "time_vs_error.png",
-        "report.md",
-        ERROR_SCALE_IMAGE,
-    ] {
+    for f in TOP_FILES {
         files.push(f.into());
     }
     let out = cfg.out.clone();

@@ -34,6 +34,8 @@
 //! `visibility_cached` keys a file under `cache_dir()` by an FNV-1a 64 hash of every world
 //! triangle and role, the light, R, the camera position, every pixel's position and normal,
 //! the sample count and the seed, so a bench re-run reads it instead of ray casting again.
+//! A file carries its format version, value count and an FNV-1a 64 checksum of the values; one
+//! that fails a check (or holds a value outside [0, 1]) is recomputed with a `warning:` line.
 
 use crate::scene::Scene;
 use anyhow::{bail, Context as _, Result};
@@ -60,7 +62,8 @@ pub const DEFAULT_SEED: u64 = 0x5EED_50F7_5AD0;
 pub const EPS_REL: f32 = 1e-4;
 /// Bumped whenever the estimator changes, so stale cache files are never read.
 const CACHE_VERSION: &[u8] = b"softshadow-reference-v1";
-const CACHE_MAGIC: &[u8; 8] = b"SSREF001";
+/// The cache file format (see `CACHE_HEADER`).
+const CACHE_MAGIC: &[u8; 8] = b"SSREF002";
 
 /// How the reference samples the light.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -364,8 +367,9 @@ pub fn cache_path(key: u64) -> PathBuf {
     cache_dir().join(format!("reference-{key:016x}.bin"))
 }
 
-/// `visibility_at`, read from `cache_dir()` when a file for the same inputs exists, else
-/// computed and written there (a failure to write is reported on stderr, not fatal).
+/// `visibility_at`, read from `cache_dir()` when a valid file for the same inputs exists,
+/// else computed and written there (a failure to write is reported on stderr, not fatal). A
+/// file that exists but fails its checks is reported with one `warning:` line and replaced.
 pub fn visibility_cached(
     scene: &Scene,
     radius: f32,
@@ -375,8 +379,13 @@ pub fn visibility_cached(
 ) -> Result<Vec<f32>> {
     params.validate()?;
     let path = cache_path(cache_key(scene, radius, positions, normals, params));
-    if let Some(v) = read_cache(&path, positions.len()) {
-        return Ok(v);
+    match read_cache(&path, positions.len()) {
+        CacheEntry::Valid(v) => return Ok(v),
+        CacheEntry::Missing => {}
+        CacheEntry::Bad(why) => eprintln!(
+            "warning: reference cache entry {} is invalid ({why}); recomputing it",
+            path.display()
+        ),
     }
     let v = visibility_at(scene, radius, positions, normals, params)?;
     if let Err(e) = write_cache(&path, &v) {
@@ -385,24 +394,67 @@ pub fn visibility_cached(
     Ok(v)
 }
 
-/// The cached values, or `None` when missing, truncated or of another size.
-fn read_cache(path: &Path, len: usize) -> Option<Vec<f32>> {
-    let bytes = std::fs::read(path).ok()?;
-    let (head, body) = bytes.split_at_checked(16)?;
+/// What a cache file holds.
+pub enum CacheEntry {
+    Missing,
+    /// Present but unusable: the reason.
+    Bad(String),
+    Valid(Vec<f32>),
+}
+
+/// Bytes of the cache header: magic (format version), value count, FNV-1a 64 of the values.
+const CACHE_HEADER: usize = 24;
+
+fn checksum(body: &[u8]) -> u64 {
+    let mut h = fnv::FnvHasher::default();
+    h.write(body);
+    h.finish()
+}
+
+/// A cache file's bytes for `v` (see `CACHE_HEADER`).
+pub fn encode_cache(v: &[f32]) -> Vec<u8> {
+    let body: Vec<u8> = v.iter().flat_map(|x| x.to_le_bytes()).collect();
+    let mut bytes = Vec::with_capacity(CACHE_HEADER + body.len());
+    bytes.extend_from_slice(CACHE_MAGIC);
+    bytes.extend_from_slice(&(v.len() as u64).to_le_bytes());
+    bytes.extend_from_slice(&checksum(&body).to_le_bytes());
+    bytes.extend_from_slice(&body);
+    bytes
+}
+
+/// Reads and checks a cache file of `len` values: format version, size, checksum, range.
+pub fn read_cache(path: &Path, len: usize) -> CacheEntry {
+    let bytes = match std::fs::read(path) {
+        Ok(b) => b,
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return CacheEntry::Missing,
+        Err(e) => return CacheEntry::Bad(format!("unreadable: {e}")),
+    };
+    let Some((head, body)) = bytes.split_at_checked(CACHE_HEADER) else {
+        return CacheEntry::Bad("truncated header".into());
+    };
     if &head[..8] != CACHE_MAGIC {
-        return None;
+        return CacheEntry::Bad("another format version".into());
     }
-    let n = u64::from_le_bytes(head[8..16].try_into().ok()?) as usize;
-    if n != len || body.len() != n * 4 {
-        return None;
+    let word = |i: usize| u64::from_le_bytes(head[i..i + 8].try_into().unwrap_or_default());
+    let n = word(8) as usize;
+    if n != len || body.len() != n.saturating_mul(4) {
+        return CacheEntry::Bad(format!(
+            "{} bytes of values for {n}, {len} expected",
+            body.len()
+        ));
+    }
+    if checksum(body) != word(16) {
+        return CacheEntry::Bad("checksum mismatch".into());
     }
     let v: Vec<f32> = body
         .chunks_exact(4)
         .map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]]))
         .collect();
-    v.iter()
-        .all(|x| x.is_finite() && (0.0..=1.0).contains(x))
-        .then_some(v)
+    if v.iter().all(|x| x.is_finite() && (0.0..=1.0).contains(x)) {
+        CacheEntry::Valid(v)
+    } else {
+        CacheEntry::Bad("a value outside [0, 1]".into())
+    }
 }
 
 /// Writes through a temporary name renamed into place, so a reader never sees half a file.
@@ -411,13 +463,7 @@ fn write_cache(path: &Path, v: &[f32]) -> Result<()> {
     let result = (|| {
         let mut f =
             std::fs::File::create(&tmp).with_context(|| format!("creating {}", tmp.display()))?;
-        let mut bytes = Vec::with_capacity(16 + v.len() * 4);
-        bytes.extend_from_slice(CACHE_MAGIC);
-        bytes.extend_from_slice(&(v.len() as u64).to_le_bytes());
-        for x in v {
-            bytes.extend_from_slice(&x.to_le_bytes());
-        }
-        f.write_all(&bytes)
+        f.write_all(&encode_cache(v))
             .with_context(|| format!("writing {}", tmp.display()))?;
         std::fs::rename(&tmp, path).with_context(|| format!("renaming into {}", path.display()))
     })();

@@ -287,15 +287,16 @@ impl Report {
     }
 
     /// Writes `dir/stress.md` and `dir/stress.json`.
+    /// `stress.md` and `stress.json`, published together (`crate::output::Publish`).
     pub fn write(&self, dir: &Path) -> Result<()> {
-        std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
-        let md = dir.join("stress.md");
-        std::fs::write(&md, self.markdown())
-            .with_context(|| format!("writing {}", md.display()))?;
-        let json = dir.join("stress.json");
         let text = serde_json::to_string_pretty(self).context("serialising the stress report")?;
-        std::fs::write(&json, text).with_context(|| format!("writing {}", json.display()))?;
-        Ok(())
+        let mut publish = crate::output::Publish::new();
+        publish.create_dir(dir)?;
+        publish.stage(&dir.join("stress.md"), |t| {
+            Ok(std::fs::write(t, self.markdown())?)
+        })?;
+        publish.stage(&dir.join("stress.json"), |t| Ok(std::fs::write(t, text)?))?;
+        publish.commit()
     }
 }
 

@@ -211,6 +211,11 @@ impl std::str::FromStr for AccumFormat {
     }
 }
 
+/// Largest occluder map of the soft shadow maps: their micro-patch pass draws one patch per
+/// texel, so its cost grows with the square of the side (on lavapipe, 2 cores: 2048^2 about
+/// 25 s a frame, 4096^2 about 380 s).
+pub const MAX_OCCLUDER_RES: u32 = 2048;
+
 impl Default for Settings {
     fn default() -> Self {
         Self {
@@ -261,9 +266,10 @@ impl Settings {
                 bail!("--{name} {v} is out of range: allowed 1..={max} on this device");
             }
         }
-        if self.occluder_res == 0 || self.occluder_res > max {
+        let max_occ = max.min(MAX_OCCLUDER_RES);
+        if self.occluder_res == 0 || self.occluder_res > max_occ {
             bail!(
-                "--occluder-res {} is out of range: allowed 1..={max} on this device",
+                "--occluder-res {} is out of range: allowed 1..={max_occ} (above {MAX_OCCLUDER_RES} the micro-patch pass, one patch per texel, runs minutes a frame on lavapipe)",
                 self.occluder_res
             );
         }

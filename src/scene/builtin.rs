@@ -413,6 +413,9 @@ fn dense_1m() -> Scene {
     asteroids("dense-1m", 10, 10, 100, 50, 0.12, 8)
 }
 
+/// The name of the ground plane `framed` adds.
+pub(crate) const FRAMED_GROUND: &str = "ground";
+
 /// Puts `casters` on a ground plane (at their lowest point, four times their footprint)
 /// under a default light above and to the side, with a camera that sees them and their
 /// shadows. Used for the bunny and for any bare OBJ.
@@ -426,7 +429,7 @@ fn framed(name: &str, casters: Vec<Object>) -> Scene {
     let plane = prim::plane(Vec2::splat(size * 4.0), 8);
     let mut objects = casters;
     objects.push(Object::new(
-        "ground",
+        FRAMED_GROUND,
         Arc::new(plane),
         at(Vec3::new(c.x, ground_y, c.z)),
         Role::Receiver,

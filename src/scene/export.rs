@@ -2,11 +2,11 @@
 //! in world space (after transforms and tessellation), one `o NAME` group per object, with
 //! world normals; `FILE.json` beside it holds the lights and the camera (DESIGN.md).
 //!
-//! Both files are written to temporary names in the same folder and renamed at the end,
-//! so a failure never leaves a half-written pair that a checker could mistake for output.
+//! Both files are staged under temporary names in the same folder and published together
+//! (`crate::output::Publish`), so a failure never leaves one without the other or half a file.
 
 use super::{normal_matrix, Scene};
-use anyhow::{Context, Result};
+use anyhow::Result;
 use serde::Serialize;
 use std::fs::File;
 use std::io::{BufWriter, Write};
@@ -59,34 +59,26 @@ pub fn json_path(obj_path: &Path) -> PathBuf {
 /// are the camera's image size, recorded so an outside tool can rebuild its rays.
 pub fn export_obj(scene: &Scene, obj_path: &Path, width: u32, height: u32) -> Result<()> {
     let json_final = json_path(obj_path);
-    let obj_tmp = temp_name(obj_path);
-    let json_tmp = temp_name(&json_final);
-    let result = (|| -> Result<()> {
-        write_obj(scene, &obj_tmp)
-            .with_context(|| format!("{}: cannot write", obj_path.display()))?;
-        write_json(scene, obj_path, &json_tmp, width, height)
-            .with_context(|| format!("{}: cannot write", json_final.display()))?;
-        std::fs::rename(&obj_tmp, obj_path)
-            .with_context(|| format!("{}: cannot write", obj_path.display()))?;
-        std::fs::rename(&json_tmp, &json_final)
-            .with_context(|| format!("{}: cannot write", json_final.display()))?;
-        Ok(())
-    })();
-    if result.is_err() {
-        // Best effort: the temp files are ours and useless after a failure.
-        let _ = std::fs::remove_file(&obj_tmp);
-        let _ = std::fs::remove_file(&json_tmp);
-    }
-    result
+    check_paths(obj_path)?;
+    let mut publish = crate::output::Publish::new();
+    publish.stage(obj_path, |t| write_obj(scene, t))?;
+    publish.stage(&json_final, |t| {
+        write_json(scene, obj_path, t, width, height)
+    })?;
+    publish.commit()
 }
 
-/// A hidden sibling name, in the same folder so the final rename is atomic.
-fn temp_name(path: &Path) -> PathBuf {
-    let file = path
-        .file_name()
-        .map(|f| f.to_string_lossy().into_owned())
-        .unwrap_or_else(|| "export".into());
-    path.with_file_name(format!(".{file}.tmp{}", std::process::id()))
+/// Checks, before any work, that `obj_path` and its `.json` can be written (see
+/// `crate::output::check_file`).
+pub fn check_paths(obj_path: &Path) -> Result<()> {
+    if json_path(obj_path) == obj_path {
+        anyhow::bail!(
+            "--obj {}: the JSON sidecar would overwrite it; name the file .obj",
+            obj_path.display()
+        );
+    }
+    crate::output::check_file(obj_path, "--obj")?;
+    crate::output::check_file(&json_path(obj_path), "--obj's JSON")
 }
 
 fn write_obj(scene: &Scene, path: &Path) -> Result<()> {

@@ -427,7 +427,22 @@ impl Scene {
                 ),
             }
         };
-        scene.validate()?;
+        let bare_obj = builtin::builtin(spec)?.is_none()
+            && Path::new(spec)
+                .extension()
+                .is_some_and(|e| e.eq_ignore_ascii_case("obj"));
+        if let Err(e) = scene.validate() {
+            // The loader added the ground under a bare OBJ: the user never named it.
+            let ground = format!("object '{}'", builtin::FRAMED_GROUND);
+            let text = format!("{e:#}");
+            if bare_obj && text.contains(&ground) {
+                bail!(
+                    "{spec}: the ground plane the loader adds under a bare OBJ (sized from the mesh's bounds) is invalid: {}",
+                    text.replace(&format!("scene '{}', {ground}: ", scene.name), "")
+                );
+            }
+            return Err(e);
+        }
         Ok(scene)
     }
 

@@ -23,31 +23,175 @@ pub fn load_obj(path: &Path) -> Result<Mesh> {
     parse_obj(&text, &name)
 }
 
-/// Parses OBJ text; `name` labels errors (usually the file name).
-pub fn parse_obj(text: &str, name: &str) -> Result<Mesh> {
-    // tobj parses "nan" and "inf" happily and reports positions only after reindexing;
-    // a pre-scan names the vertex as numbered in the file and its line.
-    let mut vertex = 0usize;
+/// At most this many characters of the input are quoted in an error.
+const QUOTE_MAX: usize = 60;
+
+/// `w`, clipped to `QUOTE_MAX` characters.
+fn quote(w: &str) -> String {
+    if w.chars().count() <= QUOTE_MAX {
+        w.to_string()
+    } else {
+        let head: String = w.chars().take(QUOTE_MAX).collect();
+        format!("{head}...")
+    }
+}
+
+/// Statements of the OBJ specification that carry no triangle geometry: accepted and ignored
+/// (free-form curves and surfaces, grouping, display and rendering attributes).
+const IGNORED: &[&str] = &[
+    "vp",
+    "l",
+    "p",
+    "o",
+    "g",
+    "s",
+    "mg",
+    "mtllib",
+    "usemtl",
+    "usemap",
+    "maplib",
+    "lod",
+    "shadow_obj",
+    "trace_obj",
+    "bevel",
+    "c_interp",
+    "d_interp",
+    "cstype",
+    "deg",
+    "bmat",
+    "step",
+    "curv",
+    "curv2",
+    "surf",
+    "parm",
+    "trim",
+    "hole",
+    "scrv",
+    "sp",
+    "end",
+    "con",
+    "ctech",
+    "stech",
+    "call",
+    "csh",
+];
+
+/// Checks every line before tobj sees the text, which accepts junk, short vertices and faces,
+/// out-of-range texture and normal indices, and non-finite numbers, or reports them without a
+/// line number. Indices may refer to vertices defined later in the file.
+fn check_lines(text: &str, name: &str) -> Result<()> {
+    let (mut nv, mut nt, mut nn) = (0usize, 0usize, 0usize);
+    // First pass: counts, and the numbers of every v, vt and vn.
     for (line_no, line) in text.lines().enumerate() {
+        let at = || format!("{name}: line {}", line_no + 1);
         let mut words = line.split_whitespace();
-        if words.next() != Some("v") {
+        let Some(kw) = words.next() else { continue };
+        if kw.starts_with('#') {
             continue;
         }
-        vertex += 1;
-        for w in words.take(3) {
+        let (what, min, max, count) = match kw {
+            "v" => ("vertex", 3, 7, &mut nv),
+            "vt" => ("texture coordinate", 1, 3, &mut nt),
+            "vn" => ("normal", 3, 3, &mut nn),
+            "f" | "fo" => continue,
+            k if IGNORED.contains(&k) => continue,
+            k => bail!(
+                "{}: unknown statement '{}' (malformed line)",
+                at(),
+                quote(k)
+            ),
+        };
+        *count += 1;
+        let k = *count;
+        let nums: Vec<&str> = words.collect();
+        if nums.len() < min || nums.len() > max {
+            bail!(
+                "{}: {what} {k} has {} numbers, {} expected",
+                at(),
+                nums.len(),
+                if min == max {
+                    min.to_string()
+                } else {
+                    format!("{min} to {max}")
+                }
+            );
+        }
+        for w in nums {
             match w.parse::<f32>() {
                 Ok(x) if !x.is_finite() => bail!(
-                    "{name}: line {}: vertex {vertex} has a non-finite coordinate ({w})",
-                    line_no + 1
+                    "{}: {what} {k} has a non-finite coordinate ({})",
+                    at(),
+                    quote(w)
                 ),
                 Ok(_) => {}
                 Err(_) => bail!(
-                    "{name}: line {}: vertex {vertex} has a malformed coordinate '{w}'",
-                    line_no + 1
+                    "{}: {what} {k} has a malformed coordinate '{}'",
+                    at(),
+                    quote(w)
                 ),
             }
         }
     }
+    // Second pass: faces, against the counts of the whole file.
+    let (mut sv, mut st, mut sn) = (0usize, 0usize, 0usize);
+    for (line_no, line) in text.lines().enumerate() {
+        let at = || format!("{name}: line {}", line_no + 1);
+        let mut words = line.split_whitespace();
+        match words.next() {
+            Some("v") => sv += 1,
+            Some("vt") => st += 1,
+            Some("vn") => sn += 1,
+            Some("f") | Some("fo") => {
+                let corners: Vec<&str> = words.collect();
+                if corners.len() < 3 {
+                    bail!(
+                        "{}: face has {} vertices, at least 3 expected",
+                        at(),
+                        corners.len()
+                    );
+                }
+                for c in corners {
+                    let parts: Vec<&str> = c.split('/').collect();
+                    if parts.len() > 3 || parts[0].is_empty() {
+                        bail!("{}: malformed face vertex '{}'", at(), quote(c));
+                    }
+                    // (index text, count seen so far for relative indices, total, kind)
+                    let kinds = [
+                        (sv, nv, "vertex"),
+                        (st, nt, "texture coordinate"),
+                        (sn, nn, "normal"),
+                    ];
+                    for (part, &(seen, total, kind)) in parts.iter().zip(&kinds) {
+                        if part.is_empty() {
+                            continue;
+                        }
+                        let Ok(i) = part.parse::<i64>() else {
+                            bail!("{}: malformed face vertex '{}'", at(), quote(c));
+                        };
+                        let ok = match i {
+                            0 => false,
+                            i if i > 0 => i as u64 <= total as u64,
+                            i => i.unsigned_abs() <= seen as u64,
+                        };
+                        if !ok {
+                            bail!(
+                                "{}: face {kind} index {i} is out of range (the file has {total} {kind}s{})",
+                                at(),
+                                if i < 0 { format!(", {seen} before this line") } else { String::new() }
+                            );
+                        }
+                    }
+                }
+            }
+            _ => {}
+        }
+    }
+    Ok(())
+}
+
+/// Parses OBJ text; `name` labels errors (usually the file name).
+pub fn parse_obj(text: &str, name: &str) -> Result<Mesh> {
+    check_lines(text, name)?;
 
     let opts = tobj::LoadOptions {
         triangulate: true,
@@ -157,6 +301,64 @@ mod tests {
             e.contains("malformed coordinate") && !e.contains('\n'),
             "{e}"
         );
+    }
+
+    /// Lines tobj accepts or reports without a line number (issue 25): each is one error
+    /// naming its line.
+    #[test]
+    fn malformed_lines_name_their_line() {
+        let tri = "v 0 0 0\nv 1 0 0\nv 0 1 0\n";
+        let cases: &[(&str, &str)] = &[
+            (
+                "v 0 0 0\nv 1 2\nv 0 1 0\nf 1 2 3\n",
+                "line 2: vertex 2 has 2 numbers",
+            ),
+            (
+                "v 0 0 0\nv 1 0 0\nv 0 1 0\nhello world\nf 1 2 3\n",
+                "line 4: unknown statement 'hello'",
+            ),
+            (
+                "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2\n",
+                "line 4: face has 2 vertices",
+            ),
+            (
+                "v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nvn 0 0 1\nf 1/2/3 2/9/9 3\n",
+                "line 6: face texture coordinate index 2 is out of range",
+            ),
+            (
+                "v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nf 1/1/1 2/1 3\n",
+                "line 5: face normal index 1 is out of range",
+            ),
+            (
+                "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 4\n",
+                "line 4: face vertex index 4 is out of range",
+            ),
+            (
+                "v 0 0 0\nv 1 0 0\nv 0 1 0\nf -1 -2 -4\n",
+                "line 4: face vertex index -4",
+            ),
+            (
+                "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 0 3\n",
+                "line 4: face vertex index 0",
+            ),
+            (
+                "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2/x 3\n",
+                "line 4: malformed face vertex '2/x'",
+            ),
+            ("v 0 0 0\nvn 1 0\n", "line 2: normal 1 has 2 numbers"),
+        ];
+        for (text, expect) in cases {
+            let e = err(text);
+            assert!(e.contains(expect) && e.contains("t.obj"), "{text:?}: {e}");
+            assert!(!e.contains('\n'), "{e}");
+        }
+        // Relative indices, comments, groups and texture/normal references that exist pass.
+        let ok = format!("# c\no a\ng b\ns 1\n{tri}vt 0 0\nvn 0 0 1\nf -3/1/1 -2/1/1 -1/1/1\n");
+        assert_eq!(parse_obj(&ok, "t.obj").unwrap().triangle_count(), 1);
+        // A giant token is quoted clipped.
+        let long = format!("v 0 0 {}\n", "9".repeat(100_000) + "x");
+        let e = err(&long);
+        assert!(e.len() < 200, "{} characters", e.len());
     }
 
     #[test]

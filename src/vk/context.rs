@@ -180,8 +180,7 @@ impl Context {
             create = create.push_next(&mut messenger_info);
         }
         // SAFETY: all pointers in `create` reference locals that outlive the call.
-        let instance = unsafe { entry.create_instance(&create, None) }
-            .context("creating the Vulkan instance (is a Vulkan 1.3 driver installed? Debian: mesa-vulkan-drivers)")?;
+        let instance = unsafe { entry.create_instance(&create, None) }.map_err(instance_error)?;
 
         let messenger = if opts.validation {
             let loader = ash::ext::debug_utils::Instance::new(&entry, &instance);
@@ -405,5 +404,25 @@ fn pick_physical_device(
                 names.join(", ")
             )),
         },
+    }
+}
+
+/// vkCreateInstance's failure in words. The loader answers a driver manifest (ICD JSON) it
+/// cannot parse with VK_ERROR_OUT_OF_HOST_MEMORY, which would read as a memory problem.
+fn instance_error(e: vk::Result) -> anyhow::Error {
+    let icd = ["VK_DRIVER_FILES", "VK_ICD_FILENAMES"]
+        .iter()
+        .find_map(|v| std::env::var(v).ok().map(|f| format!(" ({v}={f})")))
+        .unwrap_or_default();
+    match e {
+        vk::Result::ERROR_OUT_OF_HOST_MEMORY | vk::Result::ERROR_INITIALIZATION_FAILED => anyhow!(
+            "the Vulkan driver failed to load{icd}: its manifest (ICD JSON) or library is broken ({e})"
+        ),
+        vk::Result::ERROR_INCOMPATIBLE_DRIVER => anyhow!(
+            "no Vulkan driver could be loaded{icd}: is a Vulkan 1.3 driver installed? Debian: mesa-vulkan-drivers ({e})"
+        ),
+        e => anyhow!(
+            "creating the Vulkan instance{icd} (is a Vulkan 1.3 driver installed? Debian: mesa-vulkan-drivers): {e}"
+        ),
     }
 }

@@ -1,0 +1,392 @@
+//! Hostile input (issue 25): outputs that are device nodes, FIFOs, folders or unwritable are
+//! refused before any work and left untouched; a failure at any point leaves the output
+//! folder exactly as it was; OBJ and flag mistakes are one `error:` line naming the line or
+//! the flag.
+
+use softshadow::output::Publish;
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn softshadow(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_softshadow"))
+        .args(args)
+        .arg("--validation")
+        .env_remove("SOFTSHADOW_DEVICE")
+        .output()
+        .expect("running softshadow")
+}
+
+/// A fresh folder of its own per test.
+fn scratch(name: &str) -> PathBuf {
+    let dir =
+        std::env::temp_dir().join(format!("softshadow-hostile-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+/// Every entry under `dir` (hidden ones too), with a file's bytes or the kind of entry.
+fn snapshot(dir: &Path) -> BTreeMap<PathBuf, Vec<u8>> {
+    let mut out = BTreeMap::new();
+    let mut stack = vec![dir.to_path_buf()];
+    while let Some(d) = stack.pop() {
+        for e in std::fs::read_dir(&d).unwrap().flatten() {
+            let p = e.path();
+            let ft = e.file_type().unwrap();
+            let v = if ft.is_dir() {
+                stack.push(p.clone());
+                b"<dir>".to_vec()
+            } else if ft.is_file() {
+                std::fs::read(&p).unwrap()
+            } else if ft.is_symlink() {
+                format!("<link {}>", std::fs::read_link(&p).unwrap().display()).into_bytes()
+            } else {
+                b"<special>".to_vec()
+            };
+            out.insert(p.strip_prefix(dir).unwrap().to_path_buf(), v);
+        }
+    }
+    out
+}
+
+/// A failed command: non-zero exit, exactly one `error:` line containing `expect`, no panic,
+/// no validation message.
+fn assert_one_error(o: &Output, args: &[&str], expect: &str) {
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success(), "{args:?} succeeded:\n{stderr}");
+    assert!(!stderr.contains("panicked"), "{args:?} panicked:\n{stderr}");
+    assert!(
+        !stderr.to_lowercase().contains("validation message"),
+        "{args:?}: {stderr}"
+    );
+    let errors: Vec<&str> = stderr.lines().filter(|l| l.starts_with("error")).collect();
+    assert_eq!(
+        errors.len(),
+        1,
+        "{args:?}: one error line expected:\n{stderr}"
+    );
+    assert!(
+        errors[0].contains(expect),
+        "{args:?}: '{}' does not say '{expect}'",
+        errors[0]
+    );
+}
+
+/// Runs `args` in `dir` expecting a failure saying `expect`, and checks that `dir` is as it was.
+fn fails_untouched(dir: &Path, args: &[&str], expect: &str) {
+    let before = snapshot(dir);
+    let o = Command::new(env!("CARGO_BIN_EXE_softshadow"))
+        .args(args)
+        .arg("--validation")
+        .current_dir(dir)
+        .env_remove("SOFTSHADOW_DEVICE")
+        .output()
+        .expect("running softshadow");
+    assert_one_error(&o, args, expect);
+    assert_eq!(snapshot(dir), before, "{args:?} changed {}", dir.display());
+}
+
+fn mkfifo(path: &Path) {
+    let ok = Command::new("mkfifo").arg(path).status().unwrap().success();
+    assert!(ok, "mkfifo {}", path.display());
+}
+
+const SMALL: [&str; 8] = [
+    "render",
+    "--width",
+    "24",
+    "--height",
+    "24",
+    "--shadow-res",
+    "64",
+    "--technique=hard",
+];
+
+fn small(extra: &[&str]) -> Vec<String> {
+    SMALL.iter().chain(extra).map(|s| s.to_string()).collect()
+}
+
+/// A device node (through a link, as `--out` must name a .png) and a FIFO are refused before
+/// any work and stay what they were; so is a folder, a missing folder and a .jpg name.
+#[test]
+fn special_outputs_are_refused_and_untouched() {
+    let dir = scratch("special");
+    std::os::unix::fs::symlink("/dev/full", dir.join("full.png")).unwrap();
+    mkfifo(&dir.join("fifo.png"));
+    mkfifo(&dir.join("fifo.obj"));
+    mkfifo(&dir.join("pair.json"));
+    std::fs::write(dir.join("pair.obj"), b"keep").unwrap();
+    std::fs::create_dir(dir.join("adir.png")).unwrap();
+    std::fs::write(dir.join("afile"), b"keep").unwrap();
+    let cases: &[(&[&str], &str)] = &[
+        (&["--out", "full.png"], "not a regular file"),
+        (&["--out", "fifo.png"], "not a regular file"),
+        (&["--out", "adir.png"], "is a folder"),
+        (&["--out", "nowhere/x.png"], "does not exist"),
+        (&["--out", "x.jpg"], ".jpg is not supported"),
+        (&["--out", "/dev/full"], "not a regular file"),
+        (
+            &["--out", "x.png", "--aov", "afile"],
+            "--aov afile: it exists and is not a folder",
+        ),
+        (
+            &["--out", "x.png", "--buffers", "afile/sub"],
+            "afile is not a folder",
+        ),
+        (&["--out", "x.png", "--aov", "fifo.png"], "not a folder"),
+    ];
+    for (extra, expect) in cases {
+        let args = small(extra);
+        let args: Vec<&str> = args.iter().map(String::as_str).collect();
+        fails_untouched(&dir, &args, expect);
+    }
+    for (args, expect) in [
+        (&["export", "--obj", "fifo.obj"][..], "not a regular file"),
+        (&["export", "--obj", "pair.obj"][..], "not a regular file"),
+        (&["export", "--obj", "/dev/full"][..], "not a regular file"),
+        (&["stress", "--quick", "--out", "afile"][..], "not a folder"),
+        (&["bench", "--out", "fifo.png"][..], "not a folder"),
+    ] {
+        fails_untouched(&dir, args, expect);
+    }
+    use std::os::unix::fs::FileTypeExt;
+    assert!(std::fs::metadata("/dev/full")
+        .unwrap()
+        .file_type()
+        .is_char_device());
+    assert!(std::fs::symlink_metadata(dir.join("fifo.png"))
+        .unwrap()
+        .file_type()
+        .is_fifo());
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// `render --out --aov --buffers` publishes every file or none; a second render replaces them.
+#[test]
+fn render_outputs_are_published_together() {
+    let dir = scratch("together");
+    let args = small(&["--out", "o.png", "--aov", "aov", "--buffers", "buf"]);
+    let args: Vec<&str> = args.iter().map(String::as_str).collect();
+    let o = Command::new(env!("CARGO_BIN_EXE_softshadow"))
+        .args(&args)
+        .arg("--validation")
+        .current_dir(&dir)
+        .env_remove("SOFTSHADOW_DEVICE")
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let names: Vec<String> = snapshot(&dir)
+        .keys()
+        .map(|p| p.display().to_string())
+        .collect();
+    assert_eq!(
+        names,
+        [
+            "aov",
+            "aov/normal.exr",
+            "aov/position.exr",
+            "aov/visibility.exr",
+            "buf",
+            "buf/shadow_map.exr",
+            "o.png"
+        ],
+        "no temporary file left"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// A write that fails half way, and a rename that fails after others succeeded, both leave the
+/// folders exactly as they were: the first new files and folders removed, replaced files back.
+#[test]
+fn a_late_failure_leaves_the_folder_as_it_was() {
+    let dir = scratch("late");
+    std::fs::write(dir.join("a.txt"), b"old a").unwrap();
+    std::fs::create_dir(dir.join("keep")).unwrap();
+    std::fs::write(dir.join("keep/b.txt"), b"old b").unwrap();
+    let before = snapshot(&dir);
+
+    // The third of three writes fails (as a full disk would) after writing some bytes.
+    let mut p = Publish::new();
+    p.stage(&dir.join("a.txt"), |t| Ok(std::fs::write(t, b"new a")?))
+        .unwrap();
+    p.create_dir(&dir.join("new/deeper")).unwrap();
+    p.stage(&dir.join("new/deeper/c.txt"), |t| {
+        Ok(std::fs::write(t, b"c")?)
+    })
+    .unwrap();
+    let e = p
+        .stage(&dir.join("keep/b.txt"), |t| {
+            std::fs::write(t, b"half")?;
+            Err(std::io::Error::from_raw_os_error(28).into())
+        })
+        .unwrap_err();
+    assert!(format!("{e:#}").contains("keep/b.txt"), "{e:#}");
+    drop(p);
+    assert_eq!(snapshot(&dir), before, "after a failed write");
+
+    // Every write succeeds but the last rename fails (its staged file vanished): the files
+    // already renamed are put back.
+    let mut p = Publish::new();
+    p.stage(&dir.join("a.txt"), |t| Ok(std::fs::write(t, b"new a")?))
+        .unwrap();
+    p.create_dir(&dir.join("fresh")).unwrap();
+    p.stage(&dir.join("fresh/d.txt"), |t| Ok(std::fs::write(t, b"d")?))
+        .unwrap();
+    p.stage(&dir.join("keep/b.txt"), |t| {
+        std::fs::write(t, b"new b")?;
+        // Removed behind Publish's back: its rename into place fails.
+        std::fs::remove_file(t)?;
+        Ok(())
+    })
+    .unwrap();
+    assert!(p.commit().is_err());
+    assert_eq!(snapshot(&dir), before, "after a failed rename");
+
+    // And a commit that works replaces both.
+    let mut p = Publish::new();
+    p.stage(&dir.join("a.txt"), |t| Ok(std::fs::write(t, b"new a")?))
+        .unwrap();
+    p.stage(&dir.join("keep/b.txt"), |t| {
+        Ok(std::fs::write(t, b"new b")?)
+    })
+    .unwrap();
+    p.commit().unwrap();
+    assert_eq!(std::fs::read(dir.join("a.txt")).unwrap(), b"new a");
+    assert_eq!(std::fs::read(dir.join("keep/b.txt")).unwrap(), b"new b");
+    assert_eq!(snapshot(&dir).len(), before.len(), "no temporary file left");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// A sweep killed before it finished left `.bench-partial-PID/`; the next bench run into the
+/// same folder removes it (its process is gone) and leaves everything else alone, even when
+/// it fails itself.
+#[test]
+fn stale_bench_staging_is_removed() {
+    let dir = scratch("stale");
+    let out = dir.join("out");
+    // Above the kernel's pid_max (4194304): no live process has it.
+    let stale = out.join(".bench-partial-999999999");
+    std::fs::create_dir_all(stale.join("images")).unwrap();
+    std::fs::write(stale.join("results.csv"), b"half").unwrap();
+    std::fs::write(out.join("results.csv"), b"earlier run").unwrap();
+    let mine = out.join(format!(".bench-partial-{}", std::process::id()));
+    std::fs::create_dir_all(&mine).unwrap();
+    let args = [
+        "bench",
+        "--out",
+        out.to_str().unwrap(),
+        "--scenes",
+        "cylinder",
+        "--techniques",
+        "hard",
+        "--resolutions",
+        "99999",
+    ];
+    let o = softshadow(&args);
+    // The buffer side is past the device limit: named by the flag the user gave.
+    assert_one_error(&o, &args, "--resolutions 99999");
+    assert!(!stale.exists(), "the dead sweep's staging is still there");
+    assert!(mine.exists(), "a live process's staging was removed");
+    assert_eq!(
+        std::fs::read(out.join("results.csv")).unwrap(),
+        b"earlier run"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// OBJ mistakes name their line; the ground a bare OBJ gets is named as the loader's.
+#[test]
+fn obj_errors_name_the_line() {
+    let dir = scratch("obj");
+    let cases: &[(&str, &str)] = &[
+        (
+            "v 0 0 0\nv 1 2\nv 0 1 0\nf 1 2 3\n",
+            "line 2: vertex 2 has 2 numbers",
+        ),
+        (
+            "v 0 0 0\nv 1 0 0\nv 0 1 0\njunk here\nf 1 2 3\n",
+            "line 4: unknown statement 'junk'",
+        ),
+        (
+            "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2\n",
+            "line 4: face has 2 vertices",
+        ),
+        (
+            "v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nvn 0 1 0\nf 1/1/1 2/9/9 3\n",
+            "line 6: face texture coordinate index 9",
+        ),
+        // Far enough out that the ground, four times the mesh's size, overflows.
+        (
+            "v -1e38 0 0\nv 1e38 0 0\nv 0 0 1e38\nf 1 2 3\n",
+            "the ground plane the loader adds",
+        ),
+    ];
+    for (i, (text, expect)) in cases.iter().enumerate() {
+        let path = dir.join(format!("m{i}.obj"));
+        std::fs::write(&path, text).unwrap();
+        let out = dir.join("o.png");
+        let args = small(&[
+            "--scene",
+            path.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+        ]);
+        let args: Vec<&str> = args.iter().map(String::as_str).collect();
+        assert_one_error(&softshadow(&args), &args, expect);
+        assert!(!out.exists());
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// Flag values: negative sizes say the value is invalid, a giant token is echoed clipped, the
+/// occluder map is capped, a broken driver manifest says the driver failed to load.
+#[test]
+fn flag_values_get_one_clear_line() {
+    let dir = scratch("flags");
+    let huge = "9".repeat(100_000);
+    let cases: Vec<(Vec<&str>, &str)> = vec![
+        (
+            vec!["render", "--width", "-1"],
+            "invalid value '-1' for '--width",
+        ),
+        (
+            vec!["render", "--shadow-res", "-3"],
+            "invalid value '-3' for '--shadow-res",
+        ),
+        (
+            vec!["bench", "--resolutions", "-1"],
+            "invalid value '-1' for '--resolutions",
+        ),
+        (vec!["render", "--width", &huge], "for '--width"),
+        (
+            vec![
+                "render",
+                "--technique",
+                "ssm",
+                "--occluder-res",
+                "4096",
+                "--out",
+                "o.png",
+            ],
+            "--occluder-res 4096 is out of range: allowed 1..=2048",
+        ),
+    ];
+    for (args, expect) in &cases {
+        fails_untouched(&dir, args, expect);
+    }
+    let o = softshadow(&["render", "--width", &huge]);
+    assert!(o.stderr.len() < 1000, "{} bytes of stderr", o.stderr.len());
+
+    let icd = dir.join("broken_icd.json");
+    std::fs::write(&icd, b"{ not json").unwrap();
+    let o = Command::new(env!("CARGO_BIN_EXE_softshadow"))
+        .args(["render", "--out", dir.join("o.png").to_str().unwrap()])
+        .env("VK_ICD_FILENAMES", &icd)
+        .env("VK_DRIVER_FILES", &icd)
+        .env_remove("SOFTSHADOW_DEVICE")
+        .output()
+        .unwrap();
+    assert_one_error(&o, &["broken ICD"], "driver failed to load");
+    let _ = std::fs::remove_dir_all(&dir);
+}

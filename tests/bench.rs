@@ -92,11 +92,13 @@ fn tiny_sweep_writes_every_output_and_each_parses() {
         assert!(frame > 0.0 && frame.is_finite(), "frame ms {frame}");
         let ratio: f64 = r[col("ratio_to_hard")].parse().expect("ratio");
         assert!(ratio > 0.0 && ratio.is_finite());
-        for c in ["mae_shadow", "rmse", "p99"] {
+        for c in ["mae_lit", "p99_lit", "flip", "mae_shadow", "rmse", "p99"] {
             let e: f64 = r[col(c)].parse().expect(c);
             assert!((0.0..=1.0).contains(&e), "{c} = {e}");
         }
         assert!(r[col("covered_pixels")].parse::<usize>().unwrap() > 0);
+        let lit: usize = r[col("lit_pixels")].parse().unwrap();
+        assert!(lit <= r[col("shadow_pixels")].parse::<usize>().unwrap());
     }
     assert_eq!(
         &rows[0][col("ratio_to_hard")],
@@ -162,6 +164,8 @@ fn tiny_sweep_writes_every_output_and_each_parses() {
         "| smoothies |",
         "| smoothies t=0.02 |",
         "| smoothies/final.frag | frag |",
+        "| mae_lit | p99_lit | flip | mae_shadow |",
+        "Pareto front on (× hard, mae_lit): ",
     ] {
         assert!(md.contains(t), "report.md lacks {t}");
     }
@@ -172,7 +176,13 @@ fn tiny_sweep_writes_every_output_and_each_parses() {
     let first = plot.get_pixel(0, 0);
     assert!(plot.pixels().any(|p| p != first), "the plot is blank");
     for r in results {
-        for key in ["image", "error_image", "reference_image"] {
+        for key in [
+            "image",
+            "error_image",
+            "flip_image",
+            "reference_image",
+            "reference_shaded_image",
+        ] {
             let img = decode_png(&out.join(r[key].as_str().unwrap()));
             assert_eq!(
                 (img.width(), img.height()),
@@ -190,6 +200,59 @@ fn tiny_sweep_writes_every_output_and_each_parses() {
         .filter(|n| n.starts_with('.'))
         .collect();
     assert!(leftovers.is_empty(), "staging left behind: {leftovers:?}");
+    let _ = std::fs::remove_dir_all(&out);
+}
+
+/// The reference benched against itself has no error and no ꟻLIP difference: the bench's
+/// v_ref and FLIP image are the `reference` technique's frame, pixel for pixel. `hard` on the
+/// same frame has both.
+#[test]
+fn the_reference_scores_zero_against_itself() {
+    let out = scratch("self");
+    let o = softshadow(&[
+        "bench",
+        "--scenes",
+        "cylinder",
+        "--techniques",
+        "hard,reference",
+        "--resolutions",
+        "256",
+        "--width",
+        "64",
+        "--height",
+        "64",
+        "--frames",
+        "1",
+        "--warmup",
+        "0",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(
+        o.status.success(),
+        "{}\n{}",
+        text(&o.stdout),
+        text(&o.stderr)
+    );
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("results.json")).unwrap()).unwrap();
+    let rows = json["results"].as_array().unwrap();
+    let row = |t: &str| rows.iter().find(|r| r["technique"] == t).unwrap();
+    let (hard, reference) = (row("hard"), row("reference"));
+    for k in ["mae_lit", "p99_lit", "mae_shadow", "max"] {
+        assert_eq!(reference["errors"][k].as_f64(), Some(0.0), "{reference}");
+    }
+    assert_eq!(reference["flip"].as_f64(), Some(0.0), "{reference}");
+    assert!(reference["errors"]["lit_pixels"].as_u64().unwrap() > 50);
+    let (e, flip) = (&hard["errors"], hard["flip"].as_f64().unwrap());
+    assert!(e["mae_lit"].as_f64().unwrap() > 0.01, "{hard}");
+    assert!(flip > 0.0 && flip < 1.0, "{hard}");
+    // The FLIP map is black (magma's 0) where the images agree: all of it for the reference.
+    let map = decode_png(&out.join(reference["flip_image"].as_str().unwrap())).to_rgb8();
+    let first = *map.get_pixel(0, 0);
+    assert!(map.pixels().all(|p| *p == first));
+    let map = decode_png(&out.join(hard["flip_image"].as_str().unwrap())).to_rgb8();
+    assert!(map.pixels().any(|p| *p != first));
     let _ = std::fs::remove_dir_all(&out);
 }
 

@@ -4,9 +4,12 @@
 //!
 //! Per sweep point: a fresh `Renderer`, `warmup` untimed frames, `frames` timed frames
 //! (per pass GPU ms and named CPU ms each frame; figures are median, min and max over the
-//! timed frames), one `read_back` for the image and the AOVs, the reference visibility at
-//! exactly those pixels (`reference::visibility_cached`, computed once per scene, image size
-//! and radius), and the errors over the covered pixels (position alpha > 0.5).
+//! timed frames), one `read_back` for the image and the AOVs, and the errors against the
+//! `reference` technique's frame (rendered once per scene, image size and radius, its ray
+//! cast read from the on-disk cache of `reference::visibility_cached` when computed before):
+//! `metrics::errors` over the covered pixels (position alpha > 0.5), with `mae_lit` and
+//! `p99_lit` over those facing the light (`metrics::faces_light`, the scene's light centre),
+//! and `metrics::flip` of the shaded image against the reference's shaded image.
 //! Frame time is the sum of the passes that ran (`FrameTimings::gpu_total_ms`); the ratio to
 //! `hard` divides by hard's median on the same scene, image size, buffer resolution, radius
 //! and motion in the same run, which is why `hard` is always swept even when not listed.
@@ -44,7 +47,6 @@ use anyhow::{bail, Context as _, Result};
 use glam::{Mat4, Vec3};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use serde::Serialize;
-use std::collections::hash_map::Entry;
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 use std::time::Duration;
@@ -779,10 +781,42 @@ pub struct Record {
     pub passes: Vec<PassStat>,
     pub cpu: Vec<CpuStat>,
     pub errors: Errors,
-    /// Paths relative to the output folder.
+    /// Mean ꟻLIP error of the shaded image against the reference technique's (`metrics::flip`).
+    pub flip: f64,
+    /// Paths relative to the output folder: the shaded image, its false-colour |v - v_ref|,
+    /// its ꟻLIP error map, the reference visibility (grey) and the reference's shaded image.
     pub image: String,
     pub error_image: String,
+    pub flip_image: String,
     pub reference_image: String,
+    pub reference_shaded_image: String,
+}
+
+/// The reference of the sweep points being run (one scene and radius).
+struct LiveReference {
+    key: (usize, usize),
+    images: FrameImages,
+    visibility_image: String,
+    color_image: String,
+}
+
+/// The `reference` technique's frame of `scene` at rest with the sweep point's settings and
+/// the bench's sample count and seed: its visibility is `v_ref`, its shaded colour the
+/// image ꟻLIP compares against (read from the on-disk cache when computed before).
+fn render_reference(
+    ctx: &Context,
+    scene: &Scene,
+    settings: &Settings,
+    cfg: &BenchConfig,
+) -> Result<FrameImages> {
+    let settings = Settings {
+        reference_samples: cfg.samples,
+        reference_seed: cfg.seed,
+        ..settings.clone()
+    };
+    let mut r = Renderer::new(ctx, scene.clone(), "reference", settings)?;
+    r.render()?;
+    r.read_back()
 }
 
 /// What a finished sweep wrote.
@@ -856,7 +890,7 @@ pub fn run(ctx: &Context, plan: Plan) -> Result<Outcome> {
 
     let mut records = Vec::new();
     let mut files = Vec::new();
-    let mut refs: HashMap<(usize, usize), (Vec<f32>, String)> = HashMap::new();
+    let mut reference: Option<LiveReference> = None;
     let params = ReferenceParams {
         samples: cfg.samples,
         seed: cfg.seed,
@@ -900,41 +934,71 @@ pub fn run(ctx: &Context, plan: Plan) -> Result<Outcome> {
         drop(r);
 
         let key = (case.scene, case.radius);
-        if let Entry::Vacant(slot) = refs.entry(key) {
+        if reference.as_ref().map(|r| r.key) != Some(key) {
+            // Sweep points are ordered by scene and radius, so one reference is live at a time.
+            drop(reference.take());
             bar.set_message(format!(
-                "{}: reference visibility, {}x{}, R {radius:.4}, {} samples",
+                "{}: reference, {}x{}, R {radius:.4}, {} samples",
                 base.name, cfg.width, cfg.height, cfg.samples
             ));
-            let v = reference::visibility_cached(
-                base,
-                radius,
-                &images.position,
-                &images.normal,
-                &params,
-            )
-            .with_context(|| format!("reference visibility of {} at R {radius}", base.name))?;
-            if v.len() != images.visibility.len() {
-                bail!(
-                    "reference visibility of {} has {} pixels, the image {}",
-                    base.name,
-                    v.len(),
-                    images.visibility.len()
-                );
-            }
-            let name = format!(
-                "images/{}_r{}_reference.png",
+            let r = render_reference(ctx, base, &settings, cfg)
+                .with_context(|| format!("reference of {} at R {radius}", base.name))?;
+            let stem = format!(
+                "images/{}_r{}_reference",
                 slug(&base.name),
                 slug(&cfg.radii[case.radius].to_string())
             );
-            write_gray(&plan.staging.path(&name), cfg.width, cfg.height, &v)?;
-            files.push(name.clone());
-            slot.insert((v, name));
+            let (vis_name, color_name) = (format!("{stem}.png"), format!("{stem}_shaded.png"));
+            write_gray(
+                &plan.staging.path(&vis_name),
+                cfg.width,
+                cfg.height,
+                &r.visibility,
+            )?;
+            write_rgba(&plan.staging.path(&color_name), &r, &r.color)?;
+            files.push(vis_name.clone());
+            files.push(color_name.clone());
+            reference = Some(LiveReference {
+                key,
+                images: r,
+                visibility_image: vis_name,
+                color_image: color_name,
+            });
         }
-        let (v_ref, reference_image) = &refs[&key];
+        let Some(live) = reference.as_ref() else {
+            bail!("no reference for {what}");
+        };
+        // The reference's own camera pass gives the same surface points as every technique's;
+        // should one differ, its reference is ray cast at its own points.
+        let own;
+        let v_ref =
+            if images.position == live.images.position && images.normal == live.images.normal {
+                &live.images.visibility
+            } else {
+                own = reference::visibility_cached(
+                    base,
+                    radius,
+                    &images.position,
+                    &images.normal,
+                    &params,
+                )
+                .with_context(|| format!("reference visibility of {} at R {radius}", base.name))?;
+                &own
+            };
+        if v_ref.len() != images.visibility.len() {
+            bail!(
+                "reference visibility of {} has {} pixels, the image {}",
+                base.name,
+                v_ref.len(),
+                images.visibility.len()
+            );
+        }
 
         let covered: Vec<bool> = images.position.iter().map(|p| p[3] > 0.5).collect();
         let facing = metrics::faces_light(&images.position, &images.normal, base.light.position);
         let errors = metrics::errors(&images.visibility, v_ref, &covered, &facing);
+        let flip = metrics::flip(&images.color, &live.images.color, cfg.width, cfg.height)
+            .with_context(|| format!("FLIP of {what}"))?;
         let stem = format!(
             "images/{}_{}_s{}_r{}_{}",
             slug(&base.name),
@@ -945,11 +1009,14 @@ pub fn run(ctx: &Context, plan: Plan) -> Result<Outcome> {
         );
         let image = format!("{stem}.png");
         let error_image = format!("{stem}_error.png");
+        let flip_image = format!("{stem}_flip.png");
         write_rgba(&plan.staging.path(&image), &images, &images.color)?;
         let err = metrics::error_image(&images.visibility, v_ref, &covered, ERROR_SCALE);
         write_rgba(&plan.staging.path(&error_image), &images, &err)?;
+        write_rgb(&plan.staging.path(&flip_image), &images, &flip.map)?;
         files.push(image.clone());
         files.push(error_image.clone());
+        files.push(flip_image.clone());
 
         let timing = summarise(&timed);
         let record = Record {
@@ -973,17 +1040,21 @@ pub fn run(ctx: &Context, plan: Plan) -> Result<Outcome> {
             passes: timing.passes,
             cpu: timing.cpu,
             errors,
+            flip: flip.mean,
             image,
             error_image,
-            reference_image: reference_image.clone(),
+            flip_image,
+            reference_image: live.visibility_image.clone(),
+            reference_shaded_image: live.color_image.clone(),
         };
         if lines {
             eprintln!(
-                "[{}/{}] {what}: {:.3} ms, mae_shadow {:.4}",
+                "[{}/{}] {what}: {:.3} ms, mae_lit {:.4}, flip {:.4}",
                 i + 1,
                 plan.cases.len(),
                 record.frame_ms.median,
-                record.errors.mae_shadow
+                record.errors.mae_lit,
+                record.flip
             );
         }
         records.push(record);
@@ -1179,6 +1250,14 @@ fn write_error_scale(path: &Path) -> Result<()> {
             ERROR_SCALE,
         ))
     });
+    img.save_with_format(path, image::ImageFormat::Png)
+        .with_context(|| format!("writing {}", path.display()))
+}
+
+fn write_rgb(path: &Path, frame: &FrameImages, pixels: &[[u8; 3]]) -> Result<()> {
+    let bytes: Vec<u8> = pixels.iter().flatten().copied().collect();
+    let img = image::RgbImage::from_raw(frame.width, frame.height, bytes)
+        .context("image size does not match its pixels")?;
     img.save_with_format(path, image::ImageFormat::Png)
         .with_context(|| format!("writing {}", path.display()))
 }

@@ -1,4 +1,4 @@
-//! `time_vs_error.png`: per scene, frame time as a ratio to `hard` against `mae_shadow`,
+//! `time_vs_error.png`: per scene, frame time as a ratio to `hard` against `mae_lit`,
 //! one colour per technique, the Pareto front drawn. Rendered with plotters' bitmap
 //! backend into memory and saved with `image`; text uses DejaVu Sans compiled in
 //! (assets/fonts, via plotters' `ab_glyph` feature), so no system font is needed.
@@ -96,7 +96,7 @@ pub fn time_vs_error(path: &Path, res: &Results<'_>) -> Result<()> {
         let (header, body) = root.split_vertically(HEADER);
         header
             .draw_text(
-                "Frame time (ratio to hard) against mae_shadow",
+                "Frame time (ratio to hard) against mae_lit",
                 &("sans-serif", 20).into_font().color(&BLACK),
                 (10, 6),
             )
@@ -143,7 +143,7 @@ pub fn time_vs_error(path: &Path, res: &Results<'_>) -> Result<()> {
                 .results
                 .iter()
                 .filter(|r| r.scene == scene && r.radius_spec == radius && r.motion == motion)
-                .filter_map(|r| r.ratio_to_hard.map(|x| (r, x, r.errors.mae_shadow)))
+                .filter_map(|r| r.ratio_to_hard.map(|x| (r, x, r.errors.mae_lit)))
                 .filter(|(_, x, y)| x.is_finite() && y.is_finite())
                 .collect();
             let x_max = pts.iter().map(|p| p.1).fold(1.0f64, f64::max) * 1.15;
@@ -165,7 +165,7 @@ pub fn time_vs_error(path: &Path, res: &Results<'_>) -> Result<()> {
             chart
                 .configure_mesh()
                 .x_desc(format!("frame time / {BASELINE}"))
-                .y_desc("mae_shadow")
+                .y_desc("mae_lit")
                 .label_style(("sans-serif", 12))
                 .axis_desc_style(("sans-serif", 14))
                 .draw()

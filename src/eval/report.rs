@@ -31,16 +31,21 @@ struct CsvRow<'a> {
     frame_ms_max: f64,
     ratio_to_hard: Option<f64>,
     cpu_ms_median: f64,
+    mae_lit: f64,
+    p99_lit: f64,
+    flip: f64,
     mae_shadow: f64,
     rmse: f64,
     p99: f64,
     max_error: f64,
+    lit_pixels: usize,
     shadow_pixels: usize,
     covered_pixels: usize,
     /// `pass=median_ms` joined by `;` (skipped passes: `pass=skipped`).
     passes: String,
     image: &'a str,
     error_image: &'a str,
+    flip_image: &'a str,
 }
 
 fn pass_list(r: &Record) -> String {
@@ -84,15 +89,20 @@ pub fn write_csv(path: &Path, res: &Results<'_>) -> Result<()> {
             frame_ms_max: r.frame_ms.max,
             ratio_to_hard: r.ratio_to_hard,
             cpu_ms_median: r.cpu_ms.median,
+            mae_lit: r.errors.mae_lit,
+            p99_lit: r.errors.p99_lit,
+            flip: r.flip,
             mae_shadow: r.errors.mae_shadow,
             rmse: r.errors.rmse,
             p99: r.errors.p99,
             max_error: r.errors.max,
+            lit_pixels: r.errors.lit_pixels,
             shadow_pixels: r.errors.shadow_pixels,
             covered_pixels: r.errors.covered_pixels,
             passes,
             image: &r.image,
             error_image: &r.error_image,
+            flip_image: &r.flip_image,
         })
         .with_context(|| format!("writing {}", path.display()))?;
     }
@@ -168,7 +178,7 @@ pub fn markdown(res: &Results<'_>) -> String {
     );
     let _ = writeln!(
         s,
-        "- errors against the ray-cast reference ({} samples per pixel, seed {:#x}): `mae_shadow` over the shadow-and-penumbra pixels, `rmse` over all covered pixels, `p99` of the shadow-and-penumbra pixels (DESIGN.md)",
+        "- errors against the ray-cast reference ({} samples per pixel, seed {:#x}; DESIGN.md): `mae_lit` (the headline) and `p99_lit`, the mean and 99th percentile of |v − v_ref| over the shadow-and-penumbra pixels whose surface faces the light (n·l ≥ 0.2); `flip`, the mean NVIDIA ꟻLIP error of the shaded image against the reference's shaded image (ambient 0.12 + 0.88·n·l·v·spot, gamma 2.2; 67 pixels per degree); `mae_shadow` over every shadow-and-penumbra pixel (Atty et al. Sec. 5.2.1); `rmse` over all covered pixels; `p99` and `max` of the shadow-and-penumbra pixels",
         res.reference_samples, res.reference_seed
     );
     for n in &res.notes {
@@ -192,11 +202,11 @@ pub fn markdown(res: &Results<'_>) -> String {
         let motion_a = if moving { ":---|" } else { "" };
         let _ = writeln!(
             s,
-            "| technique | buffer | R |{motion_h} smoothie t | frame ms (min–max) | × {BASELINE} | CPU ms | mae_shadow | rmse | p99 | max |"
+            "| technique | buffer | R |{motion_h} smoothie t | frame ms (min–max) | × {BASELINE} | CPU ms | mae_lit | p99_lit | flip | mae_shadow | rmse | p99 | max |"
         );
         let _ = writeln!(
             s,
-            "|:---|---:|---:|{motion_a}:---|---:|---:|---:|---:|---:|---:|---:|"
+            "|:---|---:|---:|{motion_a}:---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"
         );
         for r in &rows {
             let motion = if moving {
@@ -206,7 +216,7 @@ pub fn markdown(res: &Results<'_>) -> String {
             };
             let _ = writeln!(
                 s,
-                "| {} | {} | {} |{motion} {} | {} ({}–{}) | {} | {} | {:.4} | {:.4} | {:.4} | {:.3} |",
+                "| {} | {} | {} |{motion} {} | {} ({}–{}) | {} | {} | {:.4} | {:.3} | {:.4} | {:.4} | {:.4} | {:.4} | {:.3} |",
                 r.technique,
                 r.shadow_res,
                 radius_cell(r),
@@ -216,12 +226,16 @@ pub fn markdown(res: &Results<'_>) -> String {
                 ms(r.frame_ms.max),
                 r.ratio_to_hard.map_or("–".into(), |x| format!("{x:.2}")),
                 if r.cpu.is_empty() { "–".into() } else { ms(r.cpu_ms.median) },
+                r.errors.mae_lit,
+                r.errors.p99_lit,
+                r.flip,
                 r.errors.mae_shadow,
                 r.errors.rmse,
                 r.errors.p99,
                 r.errors.max,
             );
         }
+        ranking(&mut s, &rows);
         let _ = writeln!(s, "\nPer pass, median GPU ms (CPU work marked `cpu`):\n");
         let _ = writeln!(s, "| technique | buffer | R |{motion_h} passes |");
         let _ = writeln!(s, "|:---|---:|---:|{motion_a}:---|");
@@ -275,18 +289,20 @@ pub fn markdown(res: &Results<'_>) -> String {
                 .collect();
             let _ = writeln!(
                 s,
-                "\nImages at buffer {res_max}, R {}: the rendered image and |v − v_ref| ![colour scale]({ERROR_SCALE_IMAGE}) black 0, blue, cyan, green, yellow, red at {} and above; grey: background (every sweep point's pair is in `images/`). Reference visibility: ![reference]({})\n",
+                "\nImages at buffer {res_max}, R {}: the rendered image, |v − v_ref| ![colour scale]({ERROR_SCALE_IMAGE}) black 0, blue, cyan, green, yellow, red at {} and above (grey: background), and the ꟻLIP error map against the reference's image (magma: black no visible difference, yellow-white the largest); every sweep point's images are in `images/`. The reference: ![reference image]({}) ![reference visibility]({})\n",
                 radius_cell(first),
                 res.error_image_scale,
+                first.reference_shaded_image,
                 first.reference_image
             );
-            let _ = writeln!(s, "| technique | image | abs(v − v_ref) |");
-            let _ = writeln!(s, "|:---|:---:|:---:|");
+            let _ = writeln!(s, "| technique | image | abs(v − v_ref) | ꟻLIP |");
+            let _ = writeln!(s, "|:---|:---:|:---:|:---:|");
             for r in shown {
+                let t = &r.technique;
                 let _ = writeln!(
                     s,
-                    "| {} | ![{} image]({}) | ![{} error]({}) |",
-                    r.technique, r.technique, r.image, r.technique, r.error_image
+                    "| {t} | ![{t} image]({}) | ![{t} error]({}) | ![{t} flip]({}) |",
+                    r.image, r.error_image, r.flip_image
                 );
             }
         }
@@ -296,7 +312,7 @@ pub fn markdown(res: &Results<'_>) -> String {
     let _ = writeln!(s, "## Time against error\n");
     let _ = writeln!(
         s,
-        "Per scene: x = frame time as a ratio to `{BASELINE}`, y = `mae_shadow`; the line is the Pareto front (no other point is both faster and more accurate).\n"
+        "Per scene: x = frame time as a ratio to `{BASELINE}`, y = `mae_lit`; the line is the Pareto front (no other point is both faster and more accurate on lit surfaces).\n"
     );
     let _ = writeln!(s, "![time against error](time_vs_error.png)\n");
 
@@ -344,6 +360,46 @@ pub fn markdown(res: &Results<'_>) -> String {
         "- full sweep: `softshadow bench --full --out DIR` = every built-in scene; 1024x1024 image; buffers 256, 512, 1024, 2048; radii 0, 0.5x, scene, 2x; 20 timed frames (any flag given overrides the preset's value)"
     );
     s
+}
+
+/// One line per group of comparable rows (same buffer, radius and motion): the Pareto front
+/// on (× hard, mae_lit), fastest first, then every row from the most to the least accurate.
+fn ranking(s: &mut String, rows: &[&Record]) {
+    let mut groups: Vec<(u32, &str, Motion)> = Vec::new();
+    for r in rows {
+        let k = (r.shadow_res, r.radius_spec.as_str(), r.motion);
+        if !groups.contains(&k) {
+            groups.push(k);
+        }
+    }
+    for (res, radius, motion) in &groups {
+        let g: Vec<&Record> = rows
+            .iter()
+            .copied()
+            .filter(|r| r.shadow_res == *res && r.radius_spec == *radius && r.motion == *motion)
+            .collect();
+        let pts: Vec<(f64, f64)> = g
+            .iter()
+            .map(|r| (r.ratio_to_hard.unwrap_or(f64::NAN), r.errors.mae_lit))
+            .collect();
+        let front: Vec<String> = super::plot::pareto_front(&pts)
+            .into_iter()
+            .map(|i| format!("{} ({:.2}×, {:.4})", g[i].technique, pts[i].0, pts[i].1))
+            .collect();
+        let mut by_error = g.clone();
+        by_error.sort_by(|a, b| a.errors.mae_lit.total_cmp(&b.errors.mae_lit));
+        let order: Vec<&str> = by_error.iter().map(|r| r.technique.as_str()).collect();
+        let mut at = format!("buffer {res}, R {radius}");
+        if *motion != Motion::Static {
+            at += &format!(", {}", motion.name());
+        }
+        let _ = writeln!(
+            s,
+            "\n{at}: Pareto front on (× {BASELINE}, mae_lit): {}. By mae_lit, best first: {}.",
+            front.join(" → "),
+            order.join(", ")
+        );
+    }
 }
 
 fn shipped_is(c: &ShaderCost) -> &'static str {

@@ -49,6 +49,8 @@ pub struct Settings {
     pub accum_format: AccumFormat,
     /// Shadow rays per pixel of the `reference` technique (DESIGN.md: at least 256).
     pub reference_samples: u32,
+    /// Jitter seed of the `reference` technique's samples (`bench --seed`).
+    pub reference_seed: u64,
     /// Where smoothies and penumbra-map find silhouettes and build their geometry.
     pub silhouettes: SilhouettePath,
     /// Which SPIR-V the technique runs where a hand-tuned module exists (`--spirv`).
@@ -232,6 +234,7 @@ impl Default for Settings {
             cache_light_passes: true,
             culling: true,
             reference_samples: crate::eval::reference::MIN_SAMPLES,
+            reference_seed: crate::eval::reference::DEFAULT_SEED,
             silhouettes: SilhouettePath::Auto,
             spirv: SpirvChoice::Glslang,
         }

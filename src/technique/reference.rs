@@ -33,7 +33,7 @@
 //! in penumbrae); seconds to minutes per new view on a CPU (cached afterwards).
 
 use super::{FrameInput, Technique, TechniqueInfo, TechniqueInit};
-use crate::eval::reference::{visibility_cached, ReferenceParams, DEFAULT_SEED};
+use crate::eval::reference::{visibility_cached, ReferenceParams};
 use crate::render::half_to_f32;
 use crate::render::passes::{FinalPass, FinalShader};
 use crate::scene::{Camera, Light};
@@ -83,7 +83,7 @@ impl Reference {
         let s = init.settings;
         let params = ReferenceParams {
             samples: s.reference_samples,
-            seed: DEFAULT_SEED,
+            seed: s.reference_seed,
         };
         params.validate()?;
         let visibility = Image::new_2d(

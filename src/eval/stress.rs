@@ -2,12 +2,13 @@
 //! against the ray-cast reference (`eval::reference`) with the DESIGN.md metrics.
 //!
 //! Per case and technique a [`Row`]: counts of NaN, Inf and out-of-\[0,1\] visibility pixels,
-//! `mae_shadow` / `p99` / `max` against the reference, the temporal flicker where the case
+//! `mae_lit` / `p99_lit` / `mae_shadow` / `p99` / `max` against the reference (DESIGN.md;
+//! `mae_lit` over the shadow pixels whose surface faces the light), the temporal flicker where the case
 //! animates, the scale-invariance or FP16 figure where the case has one, any validation
 //! message, and pass/fail with the threshold used. A row fails when
 //! - any pixel is NaN, Inf or outside \[0,1\], or the technique fails to build or render,
 //!   or a validation message appears (always);
-//! - `mae_shadow` exceeds the case's limit (`Case::mae_limit`, or the technique's
+//! - `mae_lit` exceeds the case's limit (`Case::mae_limit`, or the technique's
 //!   documented allowance in `allowance`);
 //! - scale cases: the mean |v(scaled) - v(unscaled)| exceeds [`SCALE_TOLERANCE`];
 //! - moving light: the flicker figure exceeds [`FLICKER_LIMIT`].
@@ -41,10 +42,10 @@ pub const SCALE_TOLERANCE: f64 = 0.005;
 /// moving light. 0.01 is an edge pixel in every hundred flipping fully each frame.
 pub const FLICKER_LIMIT: f64 = 0.01;
 
-/// Default `mae_shadow` limit against the reference: a technique that misses a shadow or
-/// shadows a lit area wholesale scores near 1 over the shadow region; the fakes on the
-/// standard scenes score 0.02 to 0.15. 0.3 catches breakage without flagging the known
-/// approximation errors.
+/// Default `mae_lit` limit against the reference: a technique that misses a shadow or
+/// shadows a lit area wholesale scores near 1 over the shadow region; on the standard scenes
+/// the techniques score 0.01 to 0.13 (tests/acceptance.rs) and on the stress cases up to 0.28
+/// (STRESS.md). 0.3 catches breakage without flagging the known approximation errors.
 pub const MAE_LIMIT: f64 = 0.3;
 
 /// The named cases in the order the report lists them, with one line each.
@@ -142,7 +143,7 @@ pub struct Row {
     pub case: String,
     pub technique: String,
     pub pass: bool,
-    /// What was checked, with the limits (e.g. `finite, in [0,1], mae_shadow <= 0.3`).
+    /// What was checked, with the limits (e.g. `finite, in [0,1], mae_lit <= 0.3`).
     pub threshold: String,
     pub nan: usize,
     pub inf: usize,
@@ -246,13 +247,19 @@ impl Report {
                 s.push_str(&format!("- `{name}`: {what}\n"));
             }
         }
-        s.push_str("\n| case | technique | result | NaN | Inf | out of [0,1] | mae_shadow | p99 | max | flicker (snapped) | metric | threshold | notes |\n");
-        s.push_str("|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
+        s.push_str("\n| case | technique | result | NaN | Inf | out of [0,1] | mae_lit (lit px) | p99_lit | mae_shadow | p99 | max | flicker (snapped) | metric | threshold | notes |\n");
+        s.push_str("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
         let f = |x: Option<f64>| x.map_or("-".to_string(), |x| format!("{x:.4}"));
         for r in &self.rows {
-            let (mae, p99, max) = match &r.errors {
-                Some(e) => (f(Some(e.mae_shadow)), f(Some(e.p99)), f(Some(e.max))),
-                None => ("-".into(), "-".into(), "-".into()),
+            let (lit, p99_lit, mae, p99, max) = match &r.errors {
+                Some(e) => (
+                    format!("{:.4} ({})", e.mae_lit, e.lit_pixels),
+                    f(Some(e.p99_lit)),
+                    f(Some(e.mae_shadow)),
+                    f(Some(e.p99)),
+                    f(Some(e.max)),
+                ),
+                None => ("-".into(), "-".into(), "-".into(), "-".into(), "-".into()),
             };
             let flicker = match (r.flicker, r.flicker_snapped) {
                 (Some(a), Some(b)) => format!("{a:.4} ({b:.4})"),
@@ -267,13 +274,15 @@ impl Report {
                 notes = format!("validation: {}; {notes}", r.validation.join(" / "));
             }
             s.push_str(&format!(
-                "| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |\n",
+                "| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |\n",
                 r.case,
                 r.technique,
                 if r.pass { "pass" } else { "**FAIL**" },
                 r.nan,
                 r.inf,
                 r.out_of_range,
+                lit,
+                p99_lit,
                 mae,
                 p99,
                 max,
@@ -368,27 +377,36 @@ struct Case {
 /// The documented per-technique allowance over `MAE_LIMIT` for a case: known limits of the
 /// method, not bugs (each says why). `None`: the case's limit holds.
 fn allowance(case: &str, technique: &str) -> Option<(f64, &'static str)> {
+    // Limits measured as mae_lit (STRESS.md: quick and full suites), with room for the
+    // other suite's sizes.
     match (case, technique) {
-        // A light larger than the scene: every fake assumes a penumbra narrow against the
-        // blocker (smoothies and penumbra maps only ever widen outward from the hard edge, PCSS
-        // clamps its kernel), so the umbra they keep is far too dark. Allowed, reported.
-        ("radius-huge", "smoothies" | "penumbra-map" | "plateaus") => Some((
-            1.0,
-            "method limit: outer-penumbra-only / clamped kernel with R > scene",
-        )),
+        // A light larger than the scene: plateaus' cones and sheets only ever widen outward
+        // from the hard edge and its drop shadow keeps the full umbra, so the umbra is far
+        // too dark (0.75 measured). Allowed, reported.
+        ("radius-huge", "plateaus") => {
+            Some((1.0, "method limit: outer-penumbra-only with R > scene"))
+        }
         // A blocker far smaller than the light casts no umbra, only a faint wide dimming;
         // smoothies grow a full 0-to-1 penumbra outward from the hard shadow whatever the
-        // blocker's size. Method limit. (penumbra-map bounds its penumbra by the blocker's
-        // size, glsl/penumbra_map/penumbra.frag, and passes the default limit.)
+        // blocker's size (0.47 measured). (penumbra-map bounds its penumbra by the
+        // blocker's size, glsl/penumbra_map/penumbra.frag, and passes the default limit.)
         ("blocker-near-light", "smoothies") => Some((
-            0.5,
+            0.6,
             "method limit: a blocker smaller than the light gets a full-strength outer penumbra",
         )),
-        // Light 4 degrees above the ground: the smoothie of the box's far edge spans the
-        // (foreshortened) box top, which the reference sees lit. Method limit of
-        // smoothies' screen-space width at grazing angles.
+        // The same plate: the reference sees the light past it almost everywhere, a shadow
+        // map draws its hard umbra. hard, pcf (a 3x3 kernel) and plateaus (whose drop shadow
+        // is that umbra) measure 0.28 to 0.31: hard shadow mapping's own error.
+        ("blocker-near-light", "hard" | "pcf" | "plateaus") => Some((
+            0.4,
+            "method limit: the hard umbra of a blocker smaller than the light",
+        )),
+        // Light 4 degrees above the ground: judged on mae_shadow (no shadow pixel faces the
+        // light, see `judge`). The smoothie of the box's far edge spans the (foreshortened)
+        // box top, which the reference sees lit (0.59 measured). Method limit of smoothies'
+        // screen-space width at grazing angles.
         ("grazing-light", "smoothies") => Some((
-            0.6,
+            0.7,
             "method limit: smoothie width at a grazing light darkens the lit top",
         )),
         _ => None,
@@ -959,7 +977,7 @@ pub fn run(ctx: &Context, opts: &StressOptions, progress: &mut dyn FnMut(&Row)) 
             let before = ctx.validation_messages().len();
             let mut row = Row::new(case_name, &technique);
             let (limit, why) = allowance(case_name, &technique).unwrap_or((case.mae_limit, ""));
-            row.threshold = format!("finite, in [0,1], mae_shadow <= {limit}");
+            row.threshold = format!("finite, in [0,1], mae_lit <= {limit}");
             if !why.is_empty() {
                 row.note = why.to_string();
             }
@@ -1028,9 +1046,7 @@ fn run_one(
             if let Some((r, cov)) = reference {
                 let facing = faces_light(&img.position, &img.normal, light.position);
                 let e = errors(&img.visibility, r, cov, &facing);
-                if e.mae_shadow > limit {
-                    row.fail(format!("mae_shadow {:.3} > {limit}", e.mae_shadow));
-                }
+                judge(row, &e, limit);
                 row.errors = Some(e);
                 if !row.pass || row.nan + row.inf + row.out_of_range > 0 {
                     if let Some(dir) = image_dir {
@@ -1065,9 +1081,7 @@ fn run_one(
             }
             let facing = faces_light(&imgs[0].position, &imgs[0].normal, light.position);
             let e = errors(&vis[0], &refs[0], cov, &facing);
-            if e.mae_shadow > limit {
-                row.fail(format!("mae_shadow {:.3} > {limit}", e.mae_shadow));
-            }
+            judge(row, &e, limit);
             row.errors = Some(e);
             let f = flicker(&vis, refs, cov);
             row.flicker = Some(f);
@@ -1138,6 +1152,24 @@ fn run_one(
         }
     }
     Ok(())
+}
+
+/// The error rule: `mae_lit <= limit`. A frame where no shadow pixel faces the light
+/// (`grazing-light`: the light 4 degrees above the ground gives n·l <= 0.07 wherever a shadow
+/// falls) has no `mae_lit` to judge; it is judged on `mae_shadow` instead, so the case still
+/// catches a technique that shadows the scene wholesale.
+fn judge(row: &mut Row, e: &Errors, limit: f64) {
+    let (name, value) = if e.lit_pixels > 0 {
+        ("mae_lit", e.mae_lit)
+    } else {
+        row.threshold = row
+            .threshold
+            .replace("mae_lit", "mae_shadow (no shadow pixel faces the light)");
+        ("mae_shadow", e.mae_shadow)
+    };
+    if value > limit {
+        row.fail(format!("{name} {value:.3} > {limit}"));
+    }
 }
 
 /// The colour image and the false-colour error image (0 black .. 0.5 red) of a failing row.
@@ -1232,6 +1264,45 @@ pub mod guards {
 mod tests {
     use super::guards::*;
     use super::*;
+
+    fn errs(mae_lit: f64, lit_pixels: usize, mae_shadow: f64) -> Errors {
+        Errors {
+            mae_lit,
+            p99_lit: mae_lit,
+            mae_shadow,
+            rmse: 0.0,
+            p99: mae_shadow,
+            max: 1.0,
+            lit_pixels,
+            shadow_pixels: lit_pixels + 10,
+            covered_pixels: 1000,
+        }
+    }
+
+    #[test]
+    fn rows_are_judged_on_mae_lit_and_on_mae_shadow_only_without_lit_pixels() {
+        let judged = |e: Errors| {
+            let mut row = Row::new("c", "t");
+            row.threshold = "finite, in [0,1], mae_lit <= 0.3".into();
+            judge(&mut row, &e, 0.3);
+            row
+        };
+        // Bad back faces (mae_shadow) do not fail a row whose lit surfaces are right.
+        let r = judged(errs(0.1, 50, 0.9));
+        assert!(r.pass && r.threshold.ends_with("mae_lit <= 0.3"), "{r:?}");
+        let r = judged(errs(0.31, 50, 0.1));
+        assert!(!r.pass && r.note.contains("mae_lit 0.310 > 0.3"), "{r:?}");
+        // No lit shadow pixel: mae_shadow decides, and the threshold says so.
+        let r = judged(errs(0.0, 0, 0.5));
+        assert!(
+            !r.pass && r.note.contains("mae_shadow 0.500 > 0.3"),
+            "{r:?}"
+        );
+        assert!(r
+            .threshold
+            .contains("mae_shadow (no shadow pixel faces the light) <= 0.3"));
+        assert!(judged(errs(0.0, 0, 0.2)).pass);
+    }
 
     fn next_up(x: f32) -> f32 {
         f32::from_bits(x.to_bits() + 1)

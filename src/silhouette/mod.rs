@@ -51,8 +51,6 @@ use std::hash::{BuildHasherDefault, Hasher};
 use std::sync::Arc;
 
 pub mod gpu;
-#[cfg(test)]
-mod legacy;
 pub mod penumbra;
 pub mod smoothie;
 
@@ -702,9 +700,31 @@ pub fn extract(adj: &Adjacency, model: Mat4, light_pos_world: Vec3) -> Vec<Silho
     extract_impl(adj, model, light_pos_world, true, PAR_CHUNK)
 }
 
-/// Same result as [`extract`] on the calling thread only (for benchmarks and as a reference).
+/// Same result as [`extract`] on the calling thread only (for benchmarks).
 pub fn extract_serial(adj: &Adjacency, model: Mat4, light_pos_world: Vec3) -> Vec<SilhouetteEdge> {
     extract_impl(adj, model, light_pos_world, false, PAR_CHUNK)
+}
+
+/// The reference extraction, the rule of the module header edge by edge with nothing
+/// else: the facing test per face, then every edge by its face list. [`extract`] and the
+/// GPU path (glsl/silhouette/silhouette.glsl) are optimisations of it that must return
+/// exactly this list (`smoothie::equivalence` compares `extract` with it, and
+/// tests/gpu_silhouettes.rs the GPU path with `extract`). A port can start here.
+pub fn extract_reference(
+    adj: &Adjacency,
+    model: Mat4,
+    light_pos_world: Vec3,
+) -> Vec<SilhouetteEdge> {
+    let (l, mirror) = light_in_object(model, light_pos_world);
+    let facings: Vec<u8> = (0..adj.num_faces())
+        .map(|f| {
+            let p = adj.positions[adj.triangles[f][0] as usize];
+            u8::from(adj.face_normals[f].dot(l - p) > 0.0)
+        })
+        .collect();
+    (0..adj.edges.len())
+        .filter_map(|e| classify(adj, e, &facings, mirror))
+        .collect()
 }
 
 /// Edge adjacency of every object that casts and passes `keep` (index, object), built once

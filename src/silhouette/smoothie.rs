@@ -1,19 +1,24 @@
-//! CPU smoothie geometry (Chan & Durand 2003, Sec. 3 step 3 and Sec. 3.1; Volokh, Sec. 3.1):
-//! screen-space quads outside each silhouette edge and fans around silhouette vertices,
-//! emitted as one triangle list of [`SmoothieVertex`] for the smoothie passes.
+//! The reference smoothie construction (Chan & Durand 2003, Sec. 3 step 3 and Sec. 3.1;
+//! Volokh, Sec. 3.1): screen-space quads outside each silhouette edge and fans around
+//! silhouette vertices, emitted as one triangle list of [`SmoothieVertex`] for the smoothie
+//! pass. **This is the construction to port**: [`build_smoothies_width`] follows the rules
+//! below one by one and its output is the geometry the smoothie pass is specified to draw.
 //!
-//! Two forms of the same geometry:
-//! - [`records`] (`build_records`): what the renderer's CPU path draws. Compact records
-//!   (a vertex record per silhouette vertex, an edge record per quad, a fan record per
-//!   corner, a word per fan segment) that glsl/smoothies/smoothie_{edges,fans}.vert expand into
-//!   exactly these triangles; no trigonometry and no 36-byte vertices on the CPU.
-//! - this module's expanded list (`build_smoothies_width`): the readable construction that
-//!   the rules below describe, the GPU compute path's model (glsl/silhouette/, and its
-//!   buffer-size estimate) and the tests' reference; bit-identical to the pre-rewrite code
-//!   (`legacy.rs`). The records give the same edges bit for bit, the same two-edge corners
-//!   (fan vertices within 1e-5 t of these) and the same discs at special vertices, as one
-//!   fan instead of this list's fans split at every spoke: the smoothie pass discards
-//!   alpha >= 1, where the two differ, so both draw the same texels (records.rs).
+//! The renderer draws two optimisations of it, each held to it by a test:
+//! - CPU path, [`records`] (`build_records`): compact records (a vertex record per
+//!   silhouette vertex, an edge record per quad, a fan record per corner, a word per fan
+//!   segment) that glsl/smoothies/smoothie_{edges,fans}.vert expand on the GPU; no
+//!   trigonometry and no 36-byte vertices on the CPU. The same edge quads bit for bit, the
+//!   same two-edge corners (fan vertices within 1e-5 t), and the same discs at special
+//!   vertices drawn as one fan instead of one per gap between spokes; the smoothie pass
+//!   discards alpha >= 1, where the two differ, so both draw the same texels. Test:
+//!   `silhouette::smoothie::equivalence` (`cargo test --lib equivalence`), which also holds
+//!   this module's parallel split and [`super::extract`] to the serial references.
+//! - GPU path, glsl/silhouette/{edges,corners}.comp (`silhouette::gpu`): these rules, rule
+//!   for rule, one thread per edge and per welded vertex, writing expanded `SmoothieVertex`es
+//!   (this module also sizes their buffer). Tests: tests/gpu_silhouettes.rs
+//!   (`gpu_finds_exactly_the_cpu_silhouette_edges`, `gpu_and_cpu_paths_render_the_same_image`:
+//!   the same edges, the same image as the records within one 8-bit level).
 //!
 //! # Spaces and units
 //! Everything is built in light-screen uv (`LightView::project`: uv = ndc * 0.5 + 0.5, x
@@ -45,7 +50,8 @@
 //!   about 180 degrees): the half turn away from the two edges (which leave the vertex in
 //!   nearly the same direction); the projected vertex normal decides only if that is
 //!   ambiguous, because a light-facing face's projected normal need not point outward.
-//!   Nearly equal (< 1 degree): no corner, the two quads already meet.
+//!   Equal (closer than `MIN_CORNER_ANGLE`, i.e. a cosine of 1 in f32): no corner, the two
+//!   quads already meet.
 //! - one edge (chain end, e.g. the next edge was behind the light) or three and more (the
 //!   paper's special case): n = sum of the adjacent faces' normals (faces of the incident
 //!   silhouette edges), projected into screen space and scaled to length t. The paper draws
@@ -72,9 +78,9 @@
 //! it); incidences are grouped through arrays over the welded vertices instead of a sort;
 //! output goes into one preallocated vector; silhouettes below `PAR_CHUNK` edges (every
 //! object of the built-in scenes) run on the calling thread. What is left is mostly libm:
-//! one atan2 per corner (cached per edge), one cos per fan and one sin/cos per fan spoke,
-//! kept as they are so that the geometry stays bit-identical to the pre-rewrite code (tests
-//! in `legacy.rs`); the two acos comparisons became exact comparisons of the cosine.
+//! one atan2 per corner (cached per edge), one cos per fan and one sin/cos per fan spoke.
+//! The corner thresholds compare the cosine with +-1 rather than acos with
+//! `MIN_CORNER_ANGLE`: the same decision for every float (`acos_thresholds_are_exact`).
 //!
 //! # Robustness
 //! An edge with a vertex at linear depth <= near (behind or too close to the light) or with
@@ -82,6 +88,8 @@
 //! ends project to the same uv (Volokh: "A and B at the same position"). No vertex is ever
 //! NaN or infinite.
 
+#[cfg(test)]
+mod equivalence;
 pub mod records;
 
 use super::{Adjacency, EdgeKind, SilhouetteEdge};
@@ -188,7 +196,7 @@ pub(crate) const MAX_SEGMENT: f32 = std::f32::consts::PI / 6.0;
 /// Below this angle between d1 and d2 the two quads' outer sides coincide. Anything larger
 /// needs a corner: even a 1-degree wedge is almost a texel wide at the outer side of a
 /// 50-texel smoothie, and an uncovered texel reads as alpha 1 (a lit speckle in the penumbra).
-// Only the tests and the pre-rewrite reference read it: `build_corner` compares the cosine.
+// Only the tests read it: `build_corner` compares the cosine (`acos_thresholds_are_exact`).
 #[cfg_attr(not(test), allow(dead_code))]
 pub(crate) const MIN_CORNER_ANGLE: f32 = 1e-3 * std::f32::consts::PI / 180.0;
 /// Relative size of the normal probe (of the point's linear depth).

@@ -1,7 +1,10 @@
 //! Compact smoothie records, expanded into triangles by the vertex shaders
 //! (glsl/smoothies/smoothie_edges.vert and smoothie_fans.vert, vertex pulling): what the
-//! renderer's CPU path (`--silhouettes cpu`) builds and draws. The GPU path (`silhouette::gpu`) still writes
-//! expanded [`SmoothieVertex`]es and draws them with glsl/smoothies/smoothie.vert.
+//! renderer's CPU path (`--silhouettes cpu`) builds and draws. An optimisation of the
+//! reference construction in smoothie.rs ([`super::build_smoothies_width`]), held to it by
+//! `silhouette::smoothie::equivalence` (what agrees how: below and there). The GPU path
+//! (`silhouette::gpu`) writes expanded [`SmoothieVertex`]es and draws them with
+//! glsl/smoothies/smoothie.vert.
 //!
 //! The expanded triangle list of [`super::build_smoothies_width`] costs, per light on
 //! `dense`, 145k 36-byte vertices (5.2 MB) and ~57k libm calls (atan2 per corner, cos per
@@ -27,9 +30,8 @@
 //!   d_i and at the projected vertex normal n_t, one fan per gap (the paper's triangles
 //!   (s, s + t d_i, s + n_t) lie inside it). The two polygons differ only in where they
 //!   overshoot the disc of radius t (out to t / cos(phi / 2)), and there alpha >= 1, which
-//!   glsl/smoothies/smoothie.frag discards: both draw the same smoothie texels. Before
-//!   that discard the overshoot's depths MIN-blended into the buffer, and splitting the
-//!   disc at n_t here too was what kept the two paths' images equal (tests/gpu_silhouettes.rs).
+//!   glsl/smoothies/smoothie.frag discards: both draw the same smoothie texels
+//!   (tests/gpu_silhouettes.rs renders both paths and compares the images).
 //! - one `u32` per fan segment: `fan << 8 | n << 4 | k` (segment k of the fan's n;
 //!   n <= 13, 4 bits each; fewer than 2^24 fans per caster), four to a unit, the last unit
 //!   padded with zeros. Expands to 3 vertices: the centre, spoke k, spoke k + 1.
@@ -179,8 +181,9 @@ fn pad_of(sweep: f32) -> f32 {
 pub fn segment_count(sweep: f32) -> u32 {
     // A multiply by the rounded reciprocal, not a division (half the corner loop's latency
     // chain): q can differ from the quotient in its last bit, so the count differs from the
-    // legacy ceil only for a sweep within ~1e-7 rad of a segment boundary, where either
-    // count covers the arc (the legacy tests compare such fans by coverage).
+    // reference's ceil (smoothie.rs `fan`) only for a sweep within ~1e-7 rad of a segment
+    // boundary, where either count covers the arc (`equivalence` compares such fans by
+    // coverage).
     // |sweep + 2 pad| = |sweep| + 2 FAN_OVERLAP exactly (pad has the sweep's sign, and
     // rounding is symmetric): no select.
     let q = (sweep.abs() + 2.0 * FAN_OVERLAP) * (1.0 / MAX_SEGMENT);
@@ -523,7 +526,7 @@ impl Incident {
 /// product per edge instead of three projections: the finite differences (a probe of 1e-3
 /// of the depth) agree to about 1e-3 relative, so the decision can differ only where
 /// |d . avg| / |avg| is within 1e-3 relative of the 1e-2 threshold, and there the
-/// third-vertex test decides instead (the legacy tests compare every edge).
+/// third-vertex test decides instead (`equivalence` compares every edge with the reference).
 fn edge_dir(
     adj: &Adjacency,
     pr: &Projector,
@@ -801,12 +804,13 @@ mod tests {
     }
 
     #[test]
-    fn segment_counts_match_the_legacy_ceil() {
+    fn segment_counts_match_the_reference_ceil() {
         for i in -4000..=4000 {
             let sweep = TAU * i as f32 / 4000.0;
+            // smoothie.rs `fan`'s count.
             let padded = sweep + 2.0 * FAN_OVERLAP.copysign(sweep);
-            let legacy = ((padded.abs() / MAX_SEGMENT).ceil() as u32).max(1);
-            assert_eq!(segment_count(sweep), legacy, "{sweep}");
+            let reference = ((padded.abs() / MAX_SEGMENT).ceil() as u32).max(1);
+            assert_eq!(segment_count(sweep), reference, "{sweep}");
         }
         assert_eq!(segment_count(TAU), 13);
         assert_eq!(segment_count(PI), 7);

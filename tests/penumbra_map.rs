@@ -244,9 +244,9 @@ fn hard_lit_ground(gpu: &Gpu, scene: &Scene, s: &Settings) -> Vec<usize> {
 #[test]
 fn tiny_caster_near_the_light_darkens_nothing_around_its_hard_shadow() {
     // A plate 1e-3 of the light distance wide at 1 % of it hides ~1e-4 of the light from the
-    // ground. Before the blocker-size bound its cones (radius ~ Lr / Zv x depth, wider than
-    // the map) gave Eq. 1 intensities ~1e-6 over the whole ground, shown through the old
-    // own-surface window as rings of 0.4..0.8.
+    // ground. Without the blocker-size bound its cones (radius ~ Lr / Zv x depth, wider than
+    // the map) give Eq. 1 intensities ~1e-6 over the whole ground, which a single
+    // own-surface window shows as rings of 0.4..0.8.
     let gpu = Gpu::new();
     let s = small(128, 256);
     let plate = with_near_light_plate(1e-3);
@@ -270,9 +270,9 @@ fn tiny_caster_near_the_light_darkens_nothing_around_its_hard_shadow() {
 fn wide_penumbra_on_a_sloped_receiver_is_smooth() {
     // A plate three light radii wide at 10 % of the light distance, just outside the light's
     // frustum: no hard shadow, but its cones sweep over much of the ground, where the
-    // penumbra map is dark and smooth. The old own-surface window (1 % of the point's depth
-    // for all four texels of the footprint) misread ground texels one texel away on this
-    // receiver (~0.5-0.8 % of depth a texel at 256^2) as background and showed the map only
+    // penumbra map is dark and smooth. A single own-surface window (1 % of the point's depth
+    // for all four texels of the footprint) misreads ground texels one texel away on this
+    // receiver (~0.5-0.8 % of depth a texel at 256^2) as background and shows the map only
     // on the others: a moire of rings (stress cases `blocker-near-light`, `near-far-1e-4`).
     // Count neighbouring ground pixels whose visibility jumps.
     let gpu = Gpu::new();

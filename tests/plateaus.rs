@@ -221,8 +221,8 @@ fn scene_without_planar_receiver_is_refused() {
 #[test]
 fn caster_lying_in_the_plane_is_lit() {
     // Stress case `caster-on-receiver`: a flat sheet exactly in the ground plane (it IS the
-    // receiver surface there) beside a box resting on the ground. Before the fix its drop
-    // shadow was drawn at height 0 and the sheet read as its own umbra.
+    // receiver surface there) beside a box resting on the ground. A drop shadow drawn at
+    // height 0 would make the sheet its own umbra.
     let gpu = Gpu::new();
     let obj = |name: &str, mesh, at: Vec3| {
         Object::new(

@@ -7,7 +7,9 @@
 // frame.technique2: x = blocker-search samples.
 #include "pcf/filter.glsl"
 
-layout(set = 0, binding = 1) uniform sampler2D shadow_map;   // R32F linear depth
+// RG32F, MIN-blended, no depth attachment (render::passes::ShadowMap): r = nearest caster's
+// linear depth, the one searched and compared here.
+layout(set = 0, binding = 1) uniform sampler2D shadow_map;
 
 float visibility(vec3 p, vec3 n) {
     LightSample s = light_sample(p, n);

@@ -22,10 +22,10 @@ const float SAME_SURFACE = 0.01;
 const float MAX_PLANE_WINDOW = 0.05;
 
 // Linear light depth, at the centre of texel `t` (uv), of the plane through p with normal n.
-// Case `blocker-near-light` / `near-far-1e-4`: the old window (1 % of the point's own depth
-// for all four texels) misclassified ground texels one texel away on a receiver whose depth
-// changes by ~0.8 % a texel; wherever the penumbra map is dark over a large area (the cones of
-// a caster at the near plane span the whole map) the misclassified texels read 1 and the
+// Case `blocker-near-light` / `near-far-1e-4`: one window for all four texels (1 % of the
+// point's own depth) misclassifies ground texels one texel away on a receiver whose depth
+// changes by ~0.8 % a texel; wherever the penumbra map is dark over a large area (the cones
+// of a caster at the near plane span the whole map) the misclassified texels read 1 and the
 // others the map, in a moire of rings over the whole region. Comparing each texel's stored
 // depth with this plane's depth AT THAT TEXEL removes the slope from the test.
 float plane_depth(vec3 p, vec3 n, vec2 t, float fallback) {

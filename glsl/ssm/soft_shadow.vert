@@ -9,7 +9,9 @@
 #include "common/frame.glsl"
 #include "ssm/ssm.glsl"
 
-layout(set = 0, binding = 1) uniform sampler2D occluder_map;   // R32F casters' linear depth
+// r = the casters' linear depth: the RG32F MIN-blended shared shadow map (front surfaces),
+// or ssm2's R32F back occluder map (farthest surfaces, GREATER depth test).
+layout(set = 0, binding = 1) uniform sampler2D occluder_map;
 layout(set = 0, binding = 4, std430) readonly buffer Bound { uint zmax_bits; } bound;
 
 layout(location = 0) flat out vec3 v_patch;   // patch texel (i, j) and its depth z_O

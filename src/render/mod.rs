@@ -828,7 +828,7 @@ mod tests {
         let before = fit_light(&scene);
         let mut far_away = scene.objects[0].clone();
         far_away.name = "far away".into();
-        // Far behind the light: the old scene-bounds fit would push `far` out to it.
+        // Far behind the light: a fit to the whole scene's bounds would push `far` out to it.
         let back = (scene.light.position - scene.light.target).normalize() * 1000.0;
         far_away.transform = Mat4::from_translation(scene.light.position + back);
         scene.objects.push(far_away);

@@ -623,9 +623,8 @@ fn extract_impl(
 }
 
 thread_local! {
-    /// The per-light facing table, kept per thread: an earlier session's fresh 2^16-entry
-    /// table per caster (calloc and its memset) cost more than the 16-bit face numbers
-    /// saved (BENCHMARKS.md).
+    /// The per-light facing table, kept per thread: a fresh 2^16-entry table per caster
+    /// (calloc and its memset) costs more than the 16-bit face numbers save (BENCHMARKS.md).
     static FACINGS: std::cell::RefCell<Vec<u8>> = const { std::cell::RefCell::new(Vec::new()) };
 }
 

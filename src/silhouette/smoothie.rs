@@ -138,6 +138,9 @@ pub enum Width {
 
 impl Width {
     /// t at linear depth `depth`. The calibrated width is clamped to `MAX_CALIBRATED_T`.
+    /// The one width formula: the CPU paths call it per silhouette vertex, reports take it
+    /// at the casters' centre (`technique::smoothies::smoothie_width`), and the GPU path's
+    /// `width_at` (glsl/silhouette/silhouette.glsl) is its transcription.
     pub fn at(self, depth: f32) -> f32 {
         match self {
             Width::Fixed(t) => t,

@@ -61,10 +61,9 @@
 //! wider than MAX_RADIUS_TEXELS are clamped; the disc without rotation bands wide penumbrae
 //! into visible rings (`cylinder`, far end of the shadow).
 //!
-//! ## Cost, against the 2x-`hard` goal (missed on lavapipe)
-//! lavapipe, 2 busy cores, 1024^2 image and map, `primitives`, one run: frame 1.6-1.9 s
-//! against `hard`'s 0.27-0.37 s (5-6x); poisson8 (8 + 8 samples) 1.08 s (3x), poisson32
-//! 2.55 s. The shadow-map pass is the same as `hard`'s (20-30 ms); the final pass
+//! ## Cost
+//! Several times `hard`'s frame on lavapipe, over the goal of 2x (BENCHMARKS.md has the
+//! measured ratios). The shadow-map pass is the same as `hard`'s; the final pass
 //! dominates, and in it the blocker search: every lit pixel inside the light frustum pays
 //! SEARCH_SAMPLES gathers before it can exit, and on lavapipe one gather costs about as much
 //! as all of `hard`'s final pass. The fix that would meet the goal is a hierarchical search

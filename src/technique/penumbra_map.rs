@@ -67,7 +67,7 @@
 //!    [depth, 1.05 depth]) counts as intensity 1: it holds the penumbra of a background
 //!    surface (the ground just outside a caster's silhouette), which the bilinear footprint
 //!    would otherwise smear over grazing caster faces only a texel or two wide. (A single
-//!    window at the point's depth misread sloped receivers: moire, stress case
+//!    window at the point's depth misreads sloped receivers: moire, stress case
 //!    `blocker-near-light`.) Writes the standard camera targets.
 //!
 //! ## Equations

@@ -85,8 +85,9 @@
 //!    writes its own depth as colour (Sec. 3: "use the Z-buffer depth values directly as
 //!    grayscale"), so colour and depth test agree exactly. Only the OUTER penumbra is drawn:
 //!    inside the drop shadow, depth 0 always wins (Sec. 2).
-//! 3. `plateaus/shadow_map` — the shared `ShadowMap` (R32F linear depth, clear 1e30; D32 LESS),
-//!    for receivers other than the plane.
+//! 3. `plateaus/shadow_map` — the shared `ShadowMap`: R32G32_SFLOAT, clear 1e30, blend MIN,
+//!    no depth attachment (r = nearest caster's linear depth, g = nearest surface's), for
+//!    receivers other than the plane.
 //! 4. `plateaus/final` — `FinalPass` with `glsl/plateaus/final.frag`: a point ON the plane
 //!    (|height| <= `ON_PLANE_TOLERANCE` x the plane's diagonal and its normal within ~11 deg
 //!    of the plane's) takes the bilinear filter of the 4 nearest texels of the fraction f and

@@ -82,8 +82,11 @@
 //! penumbra of R (r - b) / b in world units, i.e. (1 - b/r) R / (2 b tan(fov/2)) uv at the
 //! receiver. The two agree for every r when t = R / (2 b tan(fov/2)) with b the silhouette
 //! vertex's own depth (`silhouette::smoothie::Width::Calibrated`): each vertex carries its t
-//! and the fragment shader divides by the interpolated one. R = 0 gives t = 0 and exactly
-//! the hard result.
+//! and the fragment shader divides by the interpolated one, capped at 0.2 (the paper's
+//! largest t, `MAX_CALIBRATED_T`: a blocker near the light would ask for up to the whole map,
+//! and a map-wide smoothie darkens everything). R = 0 gives t = 0 and exactly the hard
+//! result. `Width::at` is the one formula; reports print it at the casters' centre
+//! (`smoothie_width`).
 //!
 //! ## Known artefacts
 //! Penumbrae only grow outward (no inner penumbra: umbrae are too large for big lights);
@@ -144,17 +147,17 @@ pub fn smoothie_widths(fixed: Option<f32>, light: &LightView, radius: f32) -> Wi
 }
 
 /// A representative smoothie width t in light-uv units, for reports: the fixed knob when
-/// given, else the calibrated width at the depth of the casters' bounds centre.
+/// given, else the width the renderer draws (`Width::at`, capped at `MAX_CALIBRATED_T`) at
+/// the depth of the casters' bounds centre.
 pub fn smoothie_width(fixed: Option<f32>, scene: &Scene, light: &LightView, radius: f32) -> f32 {
-    if let Some(t) = fixed {
+    let width = smoothie_widths(fixed, light, radius);
+    if let Width::Fixed(t) = width {
         return t;
     }
     let Some(b) = scene.caster_bounds() else {
         return 0.0;
     };
-    let depth = light.linear_depth((b.min + b.max) * 0.5).max(light.near);
-    let tan_half = (light.fov_deg.to_radians() * 0.5).tan();
-    (radius / (2.0 * depth * tan_half)).clamp(0.0, 1.0)
+    width.at(light.linear_depth((b.min + b.max) * 0.5).max(light.near))
 }
 
 pub struct Smoothies {
@@ -527,5 +530,30 @@ impl Technique for Smoothies {
 
     fn debug_image_names(&self) -> &'static [&'static str] {
         &["shadow_map", "smoothie_depth", "smoothie_alpha"]
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::silhouette::smoothie::MAX_CALIBRATED_T;
+
+    /// The reported t is the drawn one: `Width::at` at the casters' centre, capped where
+    /// the renderer caps it, for small and huge lights alike.
+    #[test]
+    fn reported_width_is_the_rendered_width() {
+        let scene = Scene::load("cylinder").unwrap();
+        let light = fit_light(&scene);
+        let b = scene.caster_bounds().unwrap();
+        let depth = light.linear_depth((b.min + b.max) * 0.5);
+        for radius in [0.0, 0.01, scene.light.radius, 5.0, 1e3] {
+            let t = smoothie_width(None, &scene, &light, radius);
+            let drawn = smoothie_widths(None, &light, radius).at(depth);
+            assert_eq!(t, drawn, "R {radius}");
+            assert!((0.0..=MAX_CALIBRATED_T).contains(&t), "R {radius}: t {t}");
+        }
+        assert_eq!(smoothie_width(None, &scene, &light, 1e3), MAX_CALIBRATED_T);
+        assert_eq!(smoothie_width(None, &scene, &light, 0.0), 0.0);
+        assert_eq!(smoothie_width(Some(0.02), &scene, &light, 1e3), 0.02);
     }
 }

@@ -78,11 +78,11 @@
 //! ## Frame constants
 //! `frame.technique` = (L, N = occluder_res, 1/N, self-occlusion guard in texels).
 //!
-//! ## Cost (lavapipe, 2 shared cores, `primitives`, 1024^2 image, occluder_res 256)
-//! Frame: hard 322-407 ms, ssm 432-440 ms (1.1-1.35x hard), ssm2 546-711 ms (1.3-2.2x hard,
-//! 1.25-1.65x ssm; the paper: 1.6-1.8x). The camera `final` pass dominates (~75%); the
-//! micro-patch pass `soft_shadow` is 72-77 ms (~17%); occluder, receiver and bound passes
-//! take a few ms each.
+//! ## Cost
+//! Linear in occluder-map texels (one micro-patch each) in `soft_shadow`; the camera
+//! `final` pass dominates the frame, `soft_shadow` comes next, the occluder, receiver and
+//! bound passes are small. ssm2 adds a second occluder map and micro-patch pass (the paper
+//! measures 1.6-1.8x ssm). Measured ratios to `hard`: BENCHMARKS.md.
 //!
 //! ## Known artefacts
 //! - Only what the light centre sees of the occluders is discretised (Sec. 5.1.1): parts of

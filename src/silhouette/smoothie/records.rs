@@ -64,13 +64,10 @@
 //! knows, change that `Vec`'s own pointer and length, so it reloaded both (and redid the
 //! bounds checks) after every store.
 //!
-//! Measured slower on a Zen 1 CPU and dropped (BENCHMARKS.md): plain two-edge fans
-//! written branch-free at a running count (records 0.80 -> 1.12 ms on `dense`), numbering
-//! in branch-free passes with a scatter (0.89 ms), both `Incident` slots rewritten per
-//! edge (1.0 ms). A store whose address waits on a recent load is the likely common cost.
-//! `push_fan` inlined was slower there too (0.81 -> 0.88 ms), before the loops went
-//! through slices; with them it is 2.6 % fewer instructions and about as many mispredicts,
-//! and it is inlined now (measured on an Intel Xeon only).
+//! Not done, because measured slower (BENCHMARKS.md): plain two-edge fans written
+//! branch-free at a running count, numbering in branch-free passes with a scatter, both
+//! `Incident` slots written per edge. Each adds a store whose address waits on a recent
+//! load.
 //!
 //! # Draw
 //! Per caster, one draw of `6 * edges` vertices (smoothie_edges.vert) and one of
@@ -223,12 +220,11 @@ impl SmoothieRecords {
     }
 
     /// Appends a fan of sweep `sweep` and its `n` (= `segment_count(sweep)`) segment words.
-    /// The caller computes n: when this was an out-of-line call that computed n itself,
-    /// the count's chain no longer overlapped the caller's work (`records_1core/dense`
-    /// 0.81 -> 0.93 ms). Most fans (two-edge corners) have one or two segments: two words
-    /// are written, else all 16 possible ones, and the length is set after, so that no loop
-    /// runs n times (a trip count the branch predictor cannot guess). Inlined into both
-    /// callers: 2.6 % fewer instructions per light on `dense` than the call (BENCHMARKS.md).
+    /// The caller computes n, so that the count's latency chain overlaps the caller's own
+    /// work. Most fans (two-edge corners) have one or two segments: two words are written,
+    /// else all 16 possible ones, and the length is set after, so that no loop runs n times
+    /// (a trip count the branch predictor cannot guess). Inlined into both callers: fewer
+    /// instructions per light than the call (BENCHMARKS.md).
     #[inline(always)]
     fn push_fan(&mut self, centre: u32, from: Vec2, sweep: f32, n: u32) {
         debug_assert_eq!(n, segment_count(sweep));

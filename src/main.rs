@@ -351,19 +351,17 @@ fn render(cli: &Cli, a: &RenderArgs) -> Result<()> {
     }
     let mut buffer_paths = Vec::new();
     if let Some(dir) = &a.buffers {
-        publish.create_dir(dir)?;
-        for name in r.technique_buffer_names() {
+        let names = r.technique_buffer_names();
+        if !names.is_empty() {
+            publish.create_dir(dir)?;
+        }
+        for name in names {
             let b = r.read_technique_buffer(name)?;
             let path = dir.join(format!("{name}.exr"));
-            let names: &[&str] = if b.channels.len() == 2 {
-                &["R", "G"]
-            } else {
-                &["Y"]
-            };
             publish.stage(&path, |t| {
-                softshadow::output::encode_exr(t, b.width, b.height, names, b.channels)
+                softshadow::output::encode_exr(t, b.width, b.height, b.channel_names, b.channels)
             })?;
-            buffer_paths.push(path);
+            buffer_paths.push((path, b.channel_names));
         }
     }
     publish.commit()?;
@@ -371,8 +369,17 @@ fn render(cli: &Cli, a: &RenderArgs) -> Result<()> {
     if let Some(dir) = &a.aov {
         println!("wrote {}/{{visibility,position,normal}}.exr", dir.display());
     }
-    for path in buffer_paths {
-        println!("wrote {}", path.display());
+    if let Some(dir) = &a.buffers {
+        if buffer_paths.is_empty() {
+            println!(
+                "{} renders no light-space buffers: nothing written to {}",
+                a.technique,
+                dir.display()
+            );
+        }
+    }
+    for (path, channels) in buffer_paths {
+        println!("wrote {} ({})", path.display(), channels.join(", "));
     }
     if a.timings {
         // Median per pass over the frames after two warm-up frames.

@@ -703,20 +703,32 @@ impl<'c> Renderer<'c> {
         self.technique.gpu_silhouettes().map(|g| g.rebuilt())
     }
 
-    /// Names of the technique's light-space buffers (`read_technique_buffer`).
-    pub fn technique_buffer_names(&self) -> &'static [&'static str] {
-        self.technique.debug_image_names()
+    /// Names of the technique's light-space buffers (`read_technique_buffer`), in the
+    /// order the technique lists them; empty when it has none.
+    pub fn technique_buffer_names(&self) -> Vec<&'static str> {
+        self.technique
+            .light_buffers()
+            .iter()
+            .map(|b| b.name)
+            .collect()
     }
 
     /// Reads a technique buffer by name (`technique_buffer_names`), one Vec per channel
-    /// (the shadow map has two: nearest caster, nearest surface).
+    /// with the channel names (the shadow map has two: caster_depth, surface_depth).
     pub fn read_technique_buffer(&mut self, name: &str) -> Result<TechniqueBuffer> {
-        let Some(img) = self.technique.debug_image(name) else {
+        let buffers = self.technique.light_buffers();
+        let Some(buffer) = buffers.iter().find(|b| b.name == name) else {
             bail!(
-                "technique {} has no buffer named '{name}'",
-                self.technique.name()
+                "technique {} has no buffer named '{name}' (it has: {})",
+                self.technique.name(),
+                buffers
+                    .iter()
+                    .map(|b| b.name)
+                    .collect::<Vec<_>>()
+                    .join(", ")
             );
         };
+        let img = buffer.image;
         let (width, height) = (img.extent.width, img.extent.height);
         let channels = match img.format {
             crate::vk::Format::R16_SFLOAT => {
@@ -731,16 +743,24 @@ impl<'c> Renderer<'c> {
                     .map(|c| texels.iter().map(|t| t[c]).collect())
                     .collect()
             }
-            crate::vk::Format::R32_SFLOAT => {
+            crate::vk::Format::R32_SFLOAT | crate::vk::Format::D32_SFLOAT => {
                 vec![read_image::<f32>(self.ctx, &mut self.runner, img)?]
             }
             f => bail!(
                 "buffer '{name}' has format {f:?}, which read_technique_buffer does not decode"
             ),
         };
+        if channels.len() != buffer.channels.len() {
+            bail!(
+                "buffer '{name}' has {} channels but names {:?}",
+                channels.len(),
+                buffer.channels
+            );
+        }
         Ok(TechniqueBuffer {
             width,
             height,
+            channel_names: buffer.channels,
             channels,
         })
     }
@@ -750,6 +770,8 @@ impl<'c> Renderer<'c> {
 pub struct TechniqueBuffer {
     pub width: u32,
     pub height: u32,
+    /// What each channel holds (`LightBuffer::channels`): the EXR's channel names.
+    pub channel_names: &'static [&'static str],
     /// One Vec per channel, row-major.
     pub channels: Vec<Vec<f32>>,
 }

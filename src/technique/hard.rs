@@ -21,10 +21,10 @@
 //! Aliasing (staircase edges one shadow-map texel wide, softened over one texel by the 2x2
 //! filter); no penumbra at any light radius.
 
-use super::{FrameInput, Technique, TechniqueInfo, TechniqueInit};
+use super::{shadow_map_buffer, FrameInput, LightBuffer, Technique, TechniqueInfo, TechniqueInit};
 use crate::render::passes::{FinalPass, FinalShader, ShadowMap};
 use crate::shaders;
-use crate::vk::{Context, DescriptorSet, Filter, Image, Recorder, Resource, Sampler};
+use crate::vk::{Context, DescriptorSet, Filter, Recorder, Resource, Sampler};
 use anyhow::Result;
 
 pub const INFO: TechniqueInfo = TechniqueInfo {
@@ -100,11 +100,7 @@ impl Technique for Hard {
         self.final_pass.pass(rec, frame, &self.final_set)
     }
 
-    fn debug_image(&self, name: &str) -> Option<&Image> {
-        (name == "shadow_map").then_some(&self.shadow.depth)
-    }
-
-    fn debug_image_names(&self) -> &'static [&'static str] {
-        &["shadow_map"]
+    fn light_buffers(&self) -> Vec<LightBuffer<'_>> {
+        vec![shadow_map_buffer("shadow_map", &self.shadow)]
     }
 }

@@ -10,6 +10,7 @@ pub mod reference;
 pub mod smoothies;
 pub mod ssm;
 
+use crate::render::passes::ShadowMap;
 use crate::render::{CameraTargets, GpuScene, Settings};
 use crate::scene::{LightView, Scene};
 use crate::vk::{Buffer, Context, Image, Recorder};
@@ -70,9 +71,11 @@ pub trait Technique {
         frame: &FrameInput<'_>,
     ) -> Result<()>;
 
-    /// A light-space buffer by name, for tests and debugging (`shadow_map`, ...).
-    fn debug_image(&self, _name: &str) -> Option<&Image> {
-        None
+    /// Every light-space buffer the technique renders, for debugging a port (`render
+    /// --buffers DIR` writes each as `DIR/NAME.exr`) and for tests. Empty when it renders
+    /// none (`reference`).
+    fn light_buffers(&self) -> Vec<LightBuffer<'_>> {
+        Vec::new()
     }
 
     /// The GPU silhouette passes' state, for the CPU-vs-GPU tests (smoothies and penumbra-map on
@@ -80,10 +83,25 @@ pub trait Technique {
     fn gpu_silhouettes(&self) -> Option<&crate::silhouette::gpu::GpuSilhouettes> {
         None
     }
+}
 
-    /// The names `debug_image` answers to (`render --buffers DIR` writes each as EXR).
-    fn debug_image_names(&self) -> &'static [&'static str] {
-        &[]
+/// One light-space buffer of a technique.
+pub struct LightBuffer<'a> {
+    /// File name and `Renderer::read_technique_buffer` name: `shadow_map`, `smoothie_alpha`...
+    pub name: &'static str,
+    pub image: &'a Image,
+    /// What each channel of `image` holds, in channel order: the EXR's channel names.
+    pub channels: &'static [&'static str],
+}
+
+/// The shared shadow map (`render::passes::ShadowMap`) as a light buffer named `name`:
+/// r = the nearest caster's linear depth, g = the nearest surface's of any role (1e30 where
+/// nothing was drawn).
+pub fn shadow_map_buffer<'a>(name: &'static str, map: &'a ShadowMap) -> LightBuffer<'a> {
+    LightBuffer {
+        name,
+        image: &map.depth,
+        channels: &["caster_depth", "surface_depth"],
     }
 }
 

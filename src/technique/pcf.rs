@@ -50,11 +50,11 @@
 //! (9 gathers), poisson16 about 3.5x: on lavapipe a gather costs about as much as the rest
 //! of the final pass.
 
-use super::{FrameInput, Technique, TechniqueInfo, TechniqueInit};
+use super::{shadow_map_buffer, FrameInput, LightBuffer, Technique, TechniqueInfo, TechniqueInit};
 use crate::render::passes::{FinalPass, FinalShader, ShadowMap};
 use crate::render::PcfKernel;
 use crate::shaders;
-use crate::vk::{Context, DescriptorSet, Filter, Image, Recorder, Resource, Sampler};
+use crate::vk::{Context, DescriptorSet, Filter, Recorder, Resource, Sampler};
 use anyhow::{Context as _, Result};
 
 pub const INFO: TechniqueInfo = TechniqueInfo {
@@ -156,7 +156,7 @@ impl Technique for Pcf {
         self.final_pass.pass(rec, frame, &self.final_set)
     }
 
-    fn debug_image(&self, name: &str) -> Option<&Image> {
-        (name == "shadow_map").then_some(&self.shadow.depth)
+    fn light_buffers(&self) -> Vec<LightBuffer<'_>> {
+        vec![shadow_map_buffer("shadow_map", &self.shadow)]
     }
 }

@@ -88,7 +88,7 @@
 //! light motion. One surface per texel: a receive-only object in front of a caster (seen
 //! from the light) hides the penumbra of whatever lies behind it.
 
-use super::{FrameInput, Technique, TechniqueInfo, TechniqueInit};
+use super::{shadow_map_buffer, FrameInput, LightBuffer, Technique, TechniqueInfo, TechniqueInit};
 use crate::render::passes::{CasterCache, DynamicVertices, FinalPass, FinalShader, ShadowMap};
 use crate::render::{fit_light, SilhouettePath};
 use crate::scene::LightView;
@@ -358,12 +358,16 @@ impl Technique for PenumbraMap {
         self.final_pass.pass(rec, frame, &self.final_set)
     }
 
-    fn debug_image(&self, name: &str) -> Option<&Image> {
-        match name {
-            "shadow_map" => Some(&self.shadow.depth),
-            "penumbra_map" => Some(&self.penumbra),
-            _ => None,
-        }
+    fn light_buffers(&self) -> Vec<LightBuffer<'_>> {
+        vec![
+            shadow_map_buffer("shadow_map", &self.shadow),
+            // Eq. 1's intensity, darkest (MIN) of the cones and sheets; 1 = lit.
+            LightBuffer {
+                name: "penumbra_map",
+                image: &self.penumbra,
+                channels: &["intensity"],
+            },
+        ]
     }
 
     fn gpu_silhouettes(&self) -> Option<&GpuSilhouettes> {

@@ -106,7 +106,7 @@
 //! plane (a table top) gets them too. R = 0 gives the drop shadow alone, which matches `hard`
 //! on the plane up to each method's one-texel edge aliasing (the texel grids differ).
 
-use super::{FrameInput, Technique, TechniqueInfo, TechniqueInit};
+use super::{shadow_map_buffer, FrameInput, LightBuffer, Technique, TechniqueInfo, TechniqueInit};
 use crate::render::gpu_scene::{GpuObject, DRAW_PUSH_BYTES, SCENE_ATTRIBUTES, SCENE_VERTEX_STRIDE};
 use crate::render::passes::{
     falloff_lut, CasterCache, DynamicVertices, FinalPass, FinalShader, ShadowMap,
@@ -862,12 +862,16 @@ impl Technique for Plateaus {
         self.final_pass.pass(rec, frame, &self.final_set)
     }
 
-    fn debug_image(&self, name: &str) -> Option<&Image> {
-        match name {
-            "plateaus" => Some(&self.texture),
-            "shadow_map" => Some(&self.shadow.depth),
-            _ => None,
-        }
+    fn light_buffers(&self) -> Vec<LightBuffer<'_>> {
+        vec![
+            // The top-down plateau texture: penumbra fraction f, 0 in the drop shadow, 1 lit.
+            LightBuffer {
+                name: "plateaus",
+                image: &self.texture,
+                channels: &["fraction"],
+            },
+            shadow_map_buffer("shadow_map", &self.shadow),
+        ]
     }
 }
 

@@ -225,8 +225,4 @@ impl Technique for Reference {
         }
         self.final_pass.pass(rec, frame, &self.final_set)
     }
-
-    fn debug_image(&self, name: &str) -> Option<&Image> {
-        (name == "reference_visibility").then_some(&self.visibility)
-    }
 }

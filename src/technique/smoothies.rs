@@ -94,7 +94,7 @@
 //! of a coarse mesh changes under a moving light (Volokh Sec. 7); a depth bias that detaches
 //! the shadow also detaches the smoothie (Volokh Fig. 8), hence normal offset.
 
-use super::{FrameInput, Technique, TechniqueInfo, TechniqueInit};
+use super::{shadow_map_buffer, FrameInput, LightBuffer, Technique, TechniqueInfo, TechniqueInit};
 use crate::render::passes::{
     falloff_lut, CasterCacheOf, DynamicVertices, FinalPass, FinalShader, ShadowMap, FAR_DEPTH,
 };
@@ -515,21 +515,26 @@ impl Technique for Smoothies {
         self.final_pass.pass(rec, frame, &self.final_set)
     }
 
-    fn debug_image(&self, name: &str) -> Option<&Image> {
-        match name {
-            "shadow_map" => Some(&self.shadow.depth),
-            "smoothie_depth" => Some(&self.smoothie_depth),
-            "smoothie_alpha" => Some(&self.smoothie_alpha),
-            _ => None,
-        }
+    fn light_buffers(&self) -> Vec<LightBuffer<'_>> {
+        vec![
+            shadow_map_buffer("shadow_map", &self.shadow),
+            // The nearest smoothie's linear depth b (1e30: no smoothie).
+            LightBuffer {
+                name: "smoothie_depth",
+                image: &self.smoothie_depth,
+                channels: &["depth"],
+            },
+            // The remapped alpha alpha / (1 - b/r), MIN over smoothies (1: none).
+            LightBuffer {
+                name: "smoothie_alpha",
+                image: &self.smoothie_alpha,
+                channels: &["alpha"],
+            },
+        ]
     }
 
     fn gpu_silhouettes(&self) -> Option<&GpuSilhouettes> {
         self.gpu_silhouettes.as_ref()
-    }
-
-    fn debug_image_names(&self) -> &'static [&'static str] {
-        &["shadow_map", "smoothie_depth", "smoothie_alpha"]
     }
 }
 

@@ -99,7 +99,7 @@
 //!   caster's own surface deeper than the guard count as occluders of itself.
 //! - Cost grows with the penumbra extents: N^2 patches times (2h+1)^2 texels each (Sec. 6).
 
-use super::{FrameInput, Technique, TechniqueInfo, TechniqueInit};
+use super::{shadow_map_buffer, FrameInput, LightBuffer, Technique, TechniqueInfo, TechniqueInit};
 use crate::render::passes::{FinalPass, FinalShader, ShadowMap, FAR_DEPTH};
 use crate::render::{AccumFormat, GpuScene};
 use crate::scene::Role;
@@ -607,17 +607,44 @@ impl Technique for Ssm {
         self.final_pass.pass(rec, frame, &self.final_set)
     }
 
-    fn debug_image(&self, name: &str) -> Option<&Image> {
-        match name {
-            "occluder_map" | "shadow_map" => Some(&self.occluder.depth),
-            "back_occluder_map" => self.back.as_ref().map(|b| &b.depth),
-            "receiver_map" => Some(&self.receiver_layers[0]),
-            "receiver_map_pure" => Some(&self.receiver_layers[1]),
-            "soft_shadow" => Some(&self.front.layers[0]),
-            "soft_shadow_pure" => Some(&self.front.layers[1]),
-            "soft_shadow_back" => self.back_soft.as_ref().map(|b| &b.layers[0]),
-            "soft_shadow_back_pure" => self.back_soft.as_ref().map(|b| &b.layers[1]),
-            _ => None,
+    fn light_buffers(&self) -> Vec<LightBuffer<'_>> {
+        let buffer = |name, image, channels| LightBuffer {
+            name,
+            image,
+            channels,
+        };
+        // Receiver layer 0: the nearest receiving surface; layer 1: the nearest pure receiver.
+        let mut out = vec![
+            shadow_map_buffer("occluder_map", &self.occluder),
+            buffer(
+                "receiver_map",
+                &self.receiver_layers[0],
+                &["receiver_depth"],
+            ),
+            buffer(
+                "receiver_map_pure",
+                &self.receiver_layers[1],
+                &["pure_receiver_depth"],
+            ),
+            // Summed micro-patch occlusion of the light, per receiver layer (>= 0, unclamped).
+            buffer("soft_shadow", &self.front.layers[0], &["occlusion"]),
+            buffer("soft_shadow_pure", &self.front.layers[1], &["occlusion"]),
+        ];
+        if let Some(b) = &self.back {
+            out.push(buffer(
+                "back_occluder_map",
+                &b.depth,
+                &["farthest_caster_depth"],
+            ));
         }
+        if let Some(b) = &self.back_soft {
+            out.push(buffer("soft_shadow_back", &b.layers[0], &["occlusion"]));
+            out.push(buffer(
+                "soft_shadow_back_pure",
+                &b.layers[1],
+                &["occlusion"],
+            ));
+        }
+        out
     }
 }

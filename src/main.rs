@@ -1,4 +1,4 @@
-//! The `softshadow` command line (DESIGN.md "CLI contract").
+//! The `softshadow` command line (docs/DESIGN.md "Command line").
 
 use anyhow::{bail, Result};
 use clap::{Args, Parser, Subcommand};

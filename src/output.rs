@@ -1,4 +1,4 @@
-//! Writing results: the PNG and the `--aov` EXRs of DESIGN.md, and the checks and staging that
+//! Writing results: the PNG and the `--aov` EXRs of docs/DESIGN.md, and the checks and staging that
 //! keep every command's outputs all-or-nothing.
 //!
 //! A command checks each output path before any work ([`check_file`], [`check_dir`]): a path

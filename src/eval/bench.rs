@@ -1,6 +1,6 @@
 //! `softshadow bench`: sweeps techniques x scenes x light-buffer resolutions x light radii
 //! (x motions), times every pass, and measures each technique's error against the
-//! ray-cast reference (DESIGN.md "Timing protocol" and "What visibility and error mean").
+//! ray-cast reference (docs/DESIGN.md "Timing protocol", "Visibility" and "Error metrics").
 //!
 //! Per sweep point: a fresh `Renderer`, `warmup` untimed frames, `frames` timed frames
 //! (per pass GPU ms and named CPU ms each frame; figures are median, min and max over the
@@ -69,7 +69,7 @@ pub const FULL_FRAMES: u32 = 20;
 pub const DEFAULT_SMOOTHIE_T: f32 = 0.02;
 pub const DEFAULT_FRAMES: u32 = 5;
 pub const DEFAULT_WARMUP: u32 = 2;
-/// DESIGN.md: the reference uses at least 256 samples per pixel.
+/// docs/DESIGN.md: the reference uses at least 256 samples per pixel.
 pub const DEFAULT_SAMPLES: u32 = reference::MIN_SAMPLES;
 pub const DEFAULT_SEED: u64 = reference::DEFAULT_SEED;
 /// |v - v_ref| shown at full colour (red) in the error images.
@@ -465,7 +465,7 @@ pub fn prepare(config: BenchConfig) -> Result<Plan> {
     let c = &config;
     if !(reference::MIN_SAMPLES..=reference::MAX_SAMPLES).contains(&c.samples) {
         bail!(
-            "--samples {} is out of range: allowed {}..={} reference samples per pixel (DESIGN.md asks for at least {})",
+            "--samples {} is out of range: allowed {}..={} reference samples per pixel (docs/DESIGN.md asks for at least {})",
             c.samples,
             reference::MIN_SAMPLES,
             reference::MAX_SAMPLES,

@@ -1,4 +1,4 @@
-//! Error of a technique's visibility against the reference, exactly as DESIGN.md defines it,
+//! Error of a technique's visibility against the reference, exactly as docs/DESIGN.md defines it,
 //! over the camera pixels that hit a surface (`covered`, position alpha 1):
 //! - `mae_lit` (the headline): mean |v - v_ref| over the shadow-and-penumbra region restricted
 //!   to the pixels whose surface faces the light, n·l >= `LIT_COS` (`faces_light`: n the AOV
@@ -16,9 +16,9 @@
 //! An empty set gives 0 for its statistics. A non-finite `v` counts as the worst error, 1,
 //! and belongs to the shadow region: a NaN must never make a technique look better.
 
-/// Where a pixel counts as shadow or penumbra (DESIGN.md: v < 0.999).
+/// Where a pixel counts as shadow or penumbra (docs/DESIGN.md: v < 0.999).
 pub const SHADOW_THRESHOLD: f32 = 0.999;
-/// Smallest n·l of a pixel counted by `mae_lit` and `p99_lit` (DESIGN.md: n·l >= 0.2).
+/// Smallest n·l of a pixel counted by `mae_lit` and `p99_lit` (docs/DESIGN.md: n·l >= 0.2).
 pub const LIT_COS: f32 = 0.2;
 
 #[derive(Clone, Copy, Debug, serde::Serialize, PartialEq)]
@@ -90,7 +90,7 @@ pub fn faces_light(position: &[[f32; 4]], normal: &[[f32; 3]], light: glam::Vec3
         .collect()
 }
 
-/// The DESIGN.md errors of `v` against `v_ref` over the pixels where `covered` holds;
+/// The docs/DESIGN.md errors of `v` against `v_ref` over the pixels where `covered` holds;
 /// `mae_lit` and `p99_lit` over those where `facing` holds too (`faces_light`).
 ///
 /// # Panics

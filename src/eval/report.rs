@@ -178,7 +178,7 @@ pub fn markdown(res: &Results<'_>) -> String {
     );
     let _ = writeln!(
         s,
-        "- errors against the ray-cast reference ({} samples per pixel, seed {:#x}; DESIGN.md): `mae_lit` (the headline) and `p99_lit`, the mean and 99th percentile of |v − v_ref| over the shadow-and-penumbra pixels whose surface faces the light (n·l ≥ 0.2); `flip`, the mean NVIDIA ꟻLIP error of the shaded image against the reference's shaded image (ambient 0.12 + 0.88·n·l·v·spot, gamma 2.2; 67 pixels per degree); `mae_shadow` over every shadow-and-penumbra pixel (Atty et al. Sec. 5.2.1); `rmse` over all covered pixels; `p99` and `max` of the shadow-and-penumbra pixels",
+        "- errors against the ray-cast reference ({} samples per pixel, seed {:#x}; docs/DESIGN.md): `mae_lit` (the headline) and `p99_lit`, the mean and 99th percentile of |v − v_ref| over the shadow-and-penumbra pixels whose surface faces the light (n·l ≥ 0.2); `flip`, the mean NVIDIA ꟻLIP error of the shaded image against the reference's shaded image (ambient 0.12 + 0.88·n·l·v·spot, gamma 2.2; 67 pixels per degree); `mae_shadow` over every shadow-and-penumbra pixel (Atty et al. Sec. 5.2.1); `rmse` over all covered pixels; `p99` and `max` of the shadow-and-penumbra pixels",
         res.reference_samples, res.reference_seed
     );
     for n in &res.notes {

@@ -1,8 +1,8 @@
 //! `softshadow stress`: a fixed list of named edge cases, every technique on each, checked
-//! against the ray-cast reference (`eval::reference`) with the DESIGN.md metrics.
+//! against the ray-cast reference (`eval::reference`) with the docs/DESIGN.md metrics.
 //!
 //! Per case and technique a [`Row`]: counts of NaN, Inf and out-of-\[0,1\] visibility pixels,
-//! `mae_lit` / `p99_lit` / `mae_shadow` / `p99` / `max` against the reference (DESIGN.md;
+//! `mae_lit` / `p99_lit` / `mae_shadow` / `p99` / `max` against the reference (docs/DESIGN.md;
 //! `mae_lit` over the shadow pixels whose surface faces the light), the temporal flicker where the case
 //! animates, the scale-invariance or FP16 figure where the case has one, any validation
 //! message, and pass/fail with the threshold used. A row fails when

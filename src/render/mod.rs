@@ -47,7 +47,7 @@ pub struct Settings {
     pub culling: bool,
     /// Accumulation format of the soft shadow map (Atty et al. Appendix A: R16F breaks above ~256^2).
     pub accum_format: AccumFormat,
-    /// Shadow rays per pixel of the `reference` technique (DESIGN.md: at least 256).
+    /// Shadow rays per pixel of the `reference` technique (docs/DESIGN.md: at least 256).
     pub reference_samples: u32,
     /// Jitter seed of the `reference` technique's samples (`bench --seed`).
     pub reference_seed: u64,
@@ -252,7 +252,7 @@ impl Settings {
         use crate::eval::reference::{MAX_SAMPLES, MIN_SAMPLES};
         let n = self.reference_samples;
         if !(MIN_SAMPLES..=MAX_SAMPLES).contains(&n) {
-            bail!("--reference-samples {n} is out of range: allowed {MIN_SAMPLES}..={MAX_SAMPLES} rays per pixel (DESIGN.md asks for at least {MIN_SAMPLES})");
+            bail!("--reference-samples {n} is out of range: allowed {MIN_SAMPLES}..={MAX_SAMPLES} rays per pixel (docs/DESIGN.md asks for at least {MIN_SAMPLES})");
         }
         Ok(())
     }

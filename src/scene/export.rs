@@ -1,6 +1,6 @@
 //! `softshadow export`: the scene as outside tools see it. `FILE.obj` holds every triangle
 //! in world space (after transforms and tessellation), one `o NAME` group per object, with
-//! world normals; `FILE.json` beside it holds the lights and the camera (DESIGN.md).
+//! world normals; `FILE.json` beside it holds the lights and the camera (docs/DESIGN.md).
 //!
 //! Both files are staged under temporary names in the same folder and published together
 //! (`crate::output::Publish`), so a failure never leaves one without the other or half a file.

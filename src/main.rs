@@ -30,7 +30,8 @@ struct Cli {
 enum Command {
     /// Render one scene with one technique to a PNG (and AOVs, and per-pass timings).
     Render(RenderArgs),
-    /// Write the scene's triangles in world space as OBJ, and lights and camera as JSON.
+    /// Write the scene as OBJ (world space) with its light and camera as JSON, or as one
+    /// glTF file with its light (KHR_lights_punctual spot, radius in extras) and camera.
     Export(ExportArgs),
     /// Time every technique per pass and measure its error against the reference, over
     /// scenes x buffer resolutions x light radii; writes results.csv, results.json,
@@ -121,8 +122,11 @@ struct ExportArgs {
     #[arg(long, default_value = "cylinder")]
     scene: String,
     /// OBJ file to write; the JSON goes beside it.
+    #[arg(long, required_unless_present = "gltf")]
+    obj: Option<PathBuf>,
+    /// glTF file to write: FILE.glb (one file) or FILE.gltf (with FILE.bin beside it).
     #[arg(long)]
-    obj: PathBuf,
+    gltf: Option<PathBuf>,
     /// Image size recorded with the camera.
     #[arg(long, default_value_t = 1024, allow_negative_numbers = true)]
     width: u32,
@@ -283,14 +287,29 @@ fn run(cli: Cli) -> Result<()> {
             if a.width == 0 || a.height == 0 {
                 bail!("--width and --height must be at least 1");
             }
-            softshadow::scene::export::check_paths(&a.obj)?;
+            if let Some(obj) = &a.obj {
+                softshadow::scene::export::check_paths(obj)?;
+            }
+            if let Some(gltf) = &a.gltf {
+                softshadow::scene::gltf_io::check_paths(gltf)?;
+            }
             let scene = Scene::load(&a.scene)?;
-            softshadow::scene::export::export_obj(&scene, &a.obj, a.width, a.height)?;
-            println!(
-                "wrote {} ({} triangles) and its .json",
-                a.obj.display(),
-                scene.triangle_count()
-            );
+            if let Some(obj) = &a.obj {
+                softshadow::scene::export::export_obj(&scene, obj, a.width, a.height)?;
+                println!(
+                    "wrote {} ({} triangles) and its .json",
+                    obj.display(),
+                    scene.triangle_count()
+                );
+            }
+            if let Some(gltf) = &a.gltf {
+                softshadow::scene::export_gltf(&scene, gltf, a.width, a.height)?;
+                println!(
+                    "wrote {} ({} triangles, light and camera)",
+                    gltf.display(),
+                    scene.triangle_count()
+                );
+            }
             Ok(())
         }
     }

@@ -1,6 +1,7 @@
 //! Scenes: meshes (OBJ through tobj, built-in primitives), objects with a role, one
-//! spotlight with a radius, one camera. Built-in scenes by name, TOML scene files, bare
-//! OBJ files framed on a ground plane. `export` writes the scene back out for outside tools.
+//! spotlight with a radius, one camera. Built-in scenes by name, TOML scene files, glTF
+//! scenes, bare OBJ files framed on a ground plane. `export` writes the scene back out for
+//! outside tools (OBJ + JSON, or glTF).
 
 use anyhow::{bail, Result};
 use glam::{Mat3, Mat4, Vec3};
@@ -10,11 +11,13 @@ use std::sync::Arc;
 pub mod builtin;
 pub mod export;
 pub mod file;
+pub mod gltf_io;
 pub mod obj;
 pub mod primitives;
 
 pub use builtin::BUILTIN_SCENES;
 pub use export::export_obj;
+pub use gltf_io::export_gltf;
 
 /// A triangle list. `normals` has one entry per position (computed where the source had none).
 /// Positions may be split (flat shading): silhouette code welds them by value.
@@ -404,8 +407,8 @@ impl Aabb {
 
 impl Scene {
     /// Loads a scene by spec: a built-in name (see [`BUILTIN_SCENES`]), else a `.toml`
-    /// scene file, else a `.obj` file framed on a ground plane under a default light and
-    /// camera. The result is validated.
+    /// scene file, a `.gltf`/`.glb` scene, or a `.obj` file framed on a ground plane under a
+    /// default light and camera. The result is validated.
     pub fn load(spec: &str) -> Result<Scene> {
         let scene = if let Some(s) = builtin::builtin(spec)? {
             s
@@ -417,12 +420,13 @@ impl Scene {
                 .map(|e| e.to_ascii_lowercase());
             match ext.as_deref() {
                 Some("toml") => file::load_toml(path)?,
+                Some("gltf") | Some("glb") => gltf_io::load_gltf(path)?,
                 Some("obj") => builtin::framed_obj(path)?,
                 _ if path.is_file() => {
-                    bail!("{spec}: not a scene file (expected a .toml scene or a .obj mesh)")
+                    bail!("{spec}: not a scene file (expected a .toml or .gltf/.glb scene or a .obj mesh)")
                 }
                 _ => bail!(
-                    "unknown scene '{spec}': not a built-in ({}) nor a .toml/.obj file",
+                    "unknown scene '{spec}': not a built-in ({}) nor a .toml/.gltf/.glb/.obj file",
                     BUILTIN_SCENES.join(", ")
                 ),
             }

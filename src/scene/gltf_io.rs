@@ -1,0 +1,868 @@
+//! glTF 2.0 scenes (`.gltf`, `.glb`) in and out, through the `gltf` crate. The mapping,
+//! documented for users in docs/SCENES.md:
+//!
+//! - every triangle primitive of every mesh reached from the scene's nodes is one object,
+//!   placed by the node's world transform (the product of its ancestors' transforms);
+//! - roles come from node extras `{"softshadow": {"role": "caster"|"receiver"|"both"}}`, a
+//!   node without one takes its nearest ancestor's, the default is `both`;
+//! - the albedo is the material's `baseColorFactor` (RGB), 0.8 grey without a material;
+//! - the light is the first KHR_lights_punctual spot light met depth first: its node's world
+//!   position, its -Z axis, a field of view of twice `outerConeAngle`, and the radius from
+//!   the light's extras `{"softshadow": {"radius": R}}`, else the scene-size default
+//!   (`--light-radius` overrides both); without a spot light, the first point light gives
+//!   the position and the aim and cone are fitted; without either, the default light;
+//! - the camera is the first perspective camera met depth first (`yfov`, the node's -Z
+//!   axis, its +Y as up); without one, the default framing.
+//!
+//! Refused with one error line: skins, morph targets, sparse accessors, point and line
+//! primitives, positions that are not float VEC3, a required extension the `gltf` crate
+//! does not know (Draco, meshopt, quantization). Textures and every material field but
+//! the base colour factor are ignored: shadows need only geometry.
+//!
+//! Export writes the scene back as glTF: one node per object (its transform as `matrix`,
+//! its role in extras), a mesh per distinct mesh and albedo, the light as a KHR spot light
+//! with its radius in extras, and the camera. `.glb` is one file; `.gltf` writes its buffer
+//! to a `.bin` beside it.
+
+use super::{builtin, Aabb, Camera, Light, Mesh, Object, Role, Scene};
+use anyhow::{anyhow, bail, Context, Result};
+use glam::{Mat3, Mat4, Quat, Vec3};
+use serde_json::{json, Value};
+use std::collections::HashMap;
+use std::path::Path;
+use std::sync::Arc;
+
+/// The extras key under which softshadow keeps its own fields.
+const EXTRAS_KEY: &str = "softshadow";
+
+/// Spot cones wider than this are narrowed to it: a shadow map's perspective frustum
+/// cannot reach 180 degrees.
+const MAX_SPOT_FOV_DEG: f32 = 170.0;
+
+/// Loads a `.gltf` or `.glb` file (see the module docs); external buffers are resolved
+/// against the file's folder.
+pub fn load_gltf(path: &Path) -> Result<Scene> {
+    let name = path.display().to_string();
+    let bytes = std::fs::read(path).with_context(|| format!("{name}: cannot read the file"))?;
+    let stem = path
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_else(|| "scene".into());
+    let dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
+    parse_gltf(&bytes, &name, &stem, Some(&dir))
+}
+
+/// Parses glTF or GLB bytes. `file` labels errors, `stem` is the default scene name and
+/// `dir` the folder external buffers are read from (`None`: data URIs and the GLB blob only).
+pub fn parse_gltf(bytes: &[u8], file: &str, stem: &str, dir: Option<&Path>) -> Result<Scene> {
+    // The gltf crate is fed untrusted bytes: a panic inside it must become an error.
+    let parsed = std::panic::catch_unwind(|| parse_unwinding(bytes, file, stem, dir));
+    match parsed {
+        Ok(r) => r,
+        Err(_) => bail!("{file}: malformed glTF (the parser failed)"),
+    }
+}
+
+fn parse_unwinding(bytes: &[u8], file: &str, stem: &str, dir: Option<&Path>) -> Result<Scene> {
+    let gltf::Gltf { document, blob } = gltf::Gltf::from_slice_without_validation(bytes)
+        .map_err(|e| anyhow!("{file}: not a valid glTF file: {}", one_line(&e)))?;
+    let mut root = document.into_json();
+    // Named here: the crate's validation only says "unsupported". Extensions that change
+    // only the look of materials do not matter to shadows and are dropped.
+    root.extensions_required.retain(|e| !appearance_only(e));
+    if let Some(ext) = root
+        .extensions_required
+        .iter()
+        .find(|e| !gltf::json::extensions::ENABLED_EXTENSIONS.contains(&e.as_str()))
+    {
+        bail!("{file}: requires the glTF extension {ext}, which softshadow does not support");
+    }
+    let doc = gltf::Document::from_json(root).map_err(|e| anyhow!("{file}: {}", one_line(&e)))?;
+    let doc = &doc;
+    let buffers = gltf::import_buffers(doc, dir, blob)
+        .map_err(|e| anyhow!("{file}: cannot load its buffers: {}", one_line(&e)))?;
+
+    let scene = doc
+        .default_scene()
+        .or_else(|| doc.scenes().next())
+        .ok_or_else(|| anyhow!("{file}: has no scene"))?;
+
+    let mut walk = Walk {
+        file,
+        buffers: &buffers,
+        meshes: HashMap::new(),
+        objects: Vec::new(),
+        spot: None,
+        point: None,
+        camera: None,
+        node_count: doc.nodes().len(),
+    };
+    for node in scene.nodes() {
+        walk.node(&node, Mat4::IDENTITY, Role::Both, 0)?;
+    }
+    let Walk {
+        objects,
+        spot,
+        point,
+        camera,
+        ..
+    } = walk;
+    if objects.is_empty() {
+        bail!("{file}: the scene has no triangle meshes");
+    }
+
+    // Defaults as for TOML files and bare OBJs: fitted to the casters and their shadow.
+    let bounds = objects
+        .iter()
+        .fold(Aabb::EMPTY, |b, o| b.union(o.world_bounds()));
+    let ground_y = bounds.min.y;
+    let size = bounds.extent().max_element().max(1e-3);
+    let centre = bounds.center();
+    let light_pos = match (&spot, &point) {
+        (Some(s), _) => s.position,
+        (None, Some(p)) => *p,
+        (None, None) => centre + Vec3::new(-1.2, 2.5, 0.8) * size,
+    };
+    let (auto_light, auto_camera) = builtin::rig(
+        &objects,
+        light_pos,
+        ground_y,
+        0.04,
+        Vec3::new(0.4, 0.6, 1.0),
+    );
+    let light = match spot {
+        Some(s) => Light {
+            position: s.position,
+            target: s.position + s.direction * aim_distance(s.position, s.direction, centre, size),
+            fov_deg: s.fov_deg,
+            radius: s.radius.unwrap_or(auto_light.radius),
+        },
+        None => auto_light,
+    };
+    let camera = match camera {
+        Some(c) => Camera {
+            position: c.position,
+            target: c.position + c.forward * aim_distance(c.position, c.forward, centre, size),
+            up: c.up,
+            fov_deg: c.fov_deg,
+        },
+        None => auto_camera,
+    };
+    let scene = Scene {
+        name: scene
+            .name()
+            .map(str::to_owned)
+            .unwrap_or_else(|| stem.into()),
+        objects,
+        light,
+        camera,
+    };
+    scene
+        .validate()
+        .with_context(|| format!("{file}: invalid scene"))?;
+    Ok(scene)
+}
+
+/// How far along `dir` from `from` to put a target: the scene centre's depth along it,
+/// at least a tenth of the scene's size so the target never sits on the eye.
+fn aim_distance(from: Vec3, dir: Vec3, centre: Vec3, size: f32) -> f32 {
+    (centre - from).dot(dir).max(size * 0.1)
+}
+
+/// Required extensions that change only how materials look, which shadows ignore.
+fn appearance_only(ext: &str) -> bool {
+    ext.starts_with("KHR_materials_")
+        || matches!(
+            ext,
+            "KHR_texture_transform"
+                | "KHR_texture_basisu"
+                | "EXT_texture_webp"
+                | "EXT_texture_avif"
+        )
+}
+
+/// A library error on one line (the crate's messages may span several).
+fn one_line(e: &dyn std::fmt::Display) -> String {
+    e.to_string().replace('\n', " ").trim().to_owned()
+}
+
+struct Spot {
+    position: Vec3,
+    direction: Vec3,
+    fov_deg: f32,
+    radius: Option<f32>,
+}
+
+struct Eye {
+    position: Vec3,
+    forward: Vec3,
+    up: Vec3,
+    fov_deg: f32,
+}
+
+/// The depth-first walk over a scene's node tree.
+struct Walk<'a> {
+    file: &'a str,
+    buffers: &'a [gltf::buffer::Data],
+    /// One mesh per (glTF mesh, primitive), shared by every node that instances it.
+    meshes: HashMap<(usize, usize), Arc<Mesh>>,
+    objects: Vec<Object>,
+    spot: Option<Spot>,
+    point: Option<Vec3>,
+    camera: Option<Eye>,
+    /// A depth beyond the node count means a cycle, which would otherwise never end.
+    node_count: usize,
+}
+
+impl Walk<'_> {
+    fn node(
+        &mut self,
+        node: &gltf::Node,
+        parent: Mat4,
+        parent_role: Role,
+        depth: usize,
+    ) -> Result<()> {
+        let file = self.file;
+        let label = node_label(node);
+        if depth > self.node_count {
+            bail!("{file}: {label}: the node hierarchy has a cycle");
+        }
+        let world = parent * local_transform(node).with_context(|| format!("{file}: {label}"))?;
+        let role = match role_extra(node.extras()).with_context(|| format!("{file}: {label}"))? {
+            Some(r) => r,
+            None => parent_role,
+        };
+        if node.skin().is_some() {
+            bail!("{file}: {label}: skinned meshes are not supported (apply the skin first)");
+        }
+        if let Some(mesh) = node.mesh() {
+            self.mesh(node, &mesh, world, role, &label)?;
+        }
+        if let Some(light) = node.light() {
+            let position = world.transform_point3(Vec3::ZERO);
+            let direction = world.transform_vector3(Vec3::NEG_Z).normalize_or_zero();
+            match light.kind() {
+                gltf::khr_lights_punctual::Kind::Spot {
+                    outer_cone_angle, ..
+                } if self.spot.is_none() => {
+                    if direction == Vec3::ZERO || !direction.is_finite() {
+                        bail!("{file}: {label}: the spot light's node transform has no direction");
+                    }
+                    let fov_deg = (outer_cone_angle.to_degrees() * 2.0).min(MAX_SPOT_FOV_DEG);
+                    if fov_deg.is_nan() || fov_deg <= 0.0 {
+                        bail!(
+                            "{file}: {label}: spot light outerConeAngle {outer_cone_angle} must be > 0"
+                        );
+                    }
+                    let radius = light_radius_extra(light.extras())
+                        .with_context(|| format!("{file}: {label}: light"))?;
+                    self.spot = Some(Spot {
+                        position,
+                        direction,
+                        fov_deg,
+                        radius,
+                    });
+                }
+                gltf::khr_lights_punctual::Kind::Point if self.point.is_none() => {
+                    self.point = Some(position);
+                }
+                _ => {}
+            }
+        }
+        if let (Some(cam), None) = (node.camera(), &self.camera) {
+            if let gltf::camera::Projection::Perspective(p) = cam.projection() {
+                let forward = world.transform_vector3(Vec3::NEG_Z).normalize_or_zero();
+                let up = world.transform_vector3(Vec3::Y).normalize_or_zero();
+                if forward == Vec3::ZERO || up == Vec3::ZERO {
+                    bail!("{file}: {label}: the camera's node transform has no direction");
+                }
+                self.camera = Some(Eye {
+                    position: world.transform_point3(Vec3::ZERO),
+                    forward,
+                    up,
+                    fov_deg: p.yfov().to_degrees(),
+                });
+            }
+        }
+        for child in node.children() {
+            self.node(&child, world, role, depth + 1)?;
+        }
+        Ok(())
+    }
+
+    fn mesh(
+        &mut self,
+        node: &gltf::Node,
+        mesh: &gltf::Mesh,
+        world: Mat4,
+        role: Role,
+        label: &str,
+    ) -> Result<()> {
+        let file = self.file;
+        let mesh_label = match mesh.name() {
+            Some(n) => format!("mesh {} ('{n}')", mesh.index()),
+            None => format!("mesh {}", mesh.index()),
+        };
+        let base_name = node
+            .name()
+            .or(mesh.name())
+            .map(str::to_owned)
+            .unwrap_or_else(|| format!("node{}", node.index()));
+        let count = mesh.primitives().len();
+        for prim in mesh.primitives() {
+            let what = format!("{file}: {label}, {mesh_label}, primitive {}", prim.index());
+            let m = match self.meshes.get(&(mesh.index(), prim.index())) {
+                Some(m) => m.clone(),
+                None => {
+                    let m = Arc::new(read_primitive(&prim, self.buffers, &what)?);
+                    self.meshes.insert((mesh.index(), prim.index()), m.clone());
+                    m
+                }
+            };
+            let albedo = prim.material().pbr_metallic_roughness().base_color_factor();
+            let albedo = if prim.material().index().is_some() {
+                Vec3::new(albedo[0], albedo[1], albedo[2])
+            } else {
+                Vec3::splat(0.8)
+            };
+            let name = if count == 1 {
+                base_name.clone()
+            } else {
+                format!("{base_name}.{}", prim.index())
+            };
+            self.objects.push(Object::new(name, m, world, role, albedo));
+        }
+        Ok(())
+    }
+}
+
+fn node_label(node: &gltf::Node) -> String {
+    match node.name() {
+        Some(n) => format!("node {} ('{n}')", node.index()),
+        None => format!("node {}", node.index()),
+    }
+}
+
+/// The node's own transform: its `matrix`, or translation · rotation · scale.
+fn local_transform(node: &gltf::Node) -> Result<Mat4> {
+    let m = match node.transform() {
+        gltf::scene::Transform::Matrix { matrix } => Mat4::from_cols_array_2d(&matrix),
+        gltf::scene::Transform::Decomposed {
+            translation,
+            rotation,
+            scale,
+        } => {
+            let q = Quat::from_array(rotation);
+            if !q.is_finite() || q.length_squared() < 1e-12 {
+                bail!("rotation {rotation:?} is not a unit quaternion");
+            }
+            Mat4::from_scale_rotation_translation(
+                Vec3::from(scale),
+                q.normalize(),
+                Vec3::from(translation),
+            )
+        }
+    };
+    if !m.is_finite() {
+        bail!("transform is not finite");
+    }
+    Ok(m)
+}
+
+/// `extras.softshadow` as a JSON object, `None` when absent.
+fn softshadow_extras(
+    extras: &gltf::json::Extras,
+) -> Result<Option<serde_json::Map<String, Value>>> {
+    let Some(raw) = extras else {
+        return Ok(None);
+    };
+    let v: Value = serde_json::from_str(raw.get()).context("extras are not valid JSON")?;
+    match v.get(EXTRAS_KEY) {
+        None => Ok(None),
+        Some(Value::Object(m)) => Ok(Some(m.clone())),
+        Some(other) => bail!("extras.{EXTRAS_KEY} must be an object, not {other}"),
+    }
+}
+
+fn role_extra(extras: &gltf::json::Extras) -> Result<Option<Role>> {
+    let Some(m) = softshadow_extras(extras)? else {
+        return Ok(None);
+    };
+    match m.get("role") {
+        None => Ok(None),
+        Some(Value::String(s)) => match s.as_str() {
+            "caster" => Ok(Some(Role::Caster)),
+            "receiver" => Ok(Some(Role::Receiver)),
+            "both" => Ok(Some(Role::Both)),
+            _ => bail!("extras.{EXTRAS_KEY}.role '{s}' must be caster, receiver or both"),
+        },
+        Some(v) => bail!("extras.{EXTRAS_KEY}.role must be a string, not {v}"),
+    }
+}
+
+fn light_radius_extra(extras: &gltf::json::Extras) -> Result<Option<f32>> {
+    let Some(m) = softshadow_extras(extras)? else {
+        return Ok(None);
+    };
+    match m.get("radius") {
+        None => Ok(None),
+        Some(v) => match v.as_f64() {
+            Some(r) if r.is_finite() && r >= 0.0 => Ok(Some(r as f32)),
+            _ => bail!("extras.{EXTRAS_KEY}.radius {v} must be a number >= 0"),
+        },
+    }
+}
+
+/// One triangle primitive as a mesh in its node's space.
+fn read_primitive(
+    prim: &gltf::Primitive,
+    buffers: &[gltf::buffer::Data],
+    what: &str,
+) -> Result<Mesh> {
+    use gltf::accessor::{DataType, Dimensions};
+    use gltf::mesh::Mode;
+    if prim.morph_targets().len() > 0 {
+        bail!("{what}: morph targets are not supported (bake them into the mesh first)");
+    }
+    let mode = prim.mode();
+    if !matches!(
+        mode,
+        Mode::Triangles | Mode::TriangleStrip | Mode::TriangleFan
+    ) {
+        bail!("{what}: mode {mode:?} is not supported (only triangles, strips and fans have a surface)");
+    }
+    let pos = prim
+        .get(&gltf::Semantic::Positions)
+        .ok_or_else(|| anyhow!("{what}: has no POSITION attribute"))?;
+    let mut used = vec![("POSITION", pos.clone())];
+    if let Some(n) = prim.get(&gltf::Semantic::Normals) {
+        used.push(("NORMAL", n));
+    }
+    if let Some(i) = prim.indices() {
+        used.push(("indices", i));
+    }
+    for (attr, a) in &used {
+        if a.sparse().is_some() {
+            bail!("{what}: {attr} uses a sparse accessor, which is not supported");
+        }
+        if a.view().is_none() {
+            bail!("{what}: {attr} accessor {} has no buffer view", a.index());
+        }
+        if a.count() == 0 {
+            bail!("{what}: {attr} accessor {} is empty", a.index());
+        }
+        let ok = match *attr {
+            "indices" => {
+                a.dimensions() == Dimensions::Scalar
+                    && matches!(a.data_type(), DataType::U8 | DataType::U16 | DataType::U32)
+            }
+            _ => a.dimensions() == Dimensions::Vec3 && a.data_type() == DataType::F32,
+        };
+        if !ok {
+            bail!(
+                "{what}: {attr} accessor {} is {:?} {:?}, expected {}",
+                a.index(),
+                a.dimensions(),
+                a.data_type(),
+                if *attr == "indices" {
+                    "unsigned integer scalars"
+                } else {
+                    "float VEC3"
+                }
+            );
+        }
+    }
+    let reader = prim.reader(|b| buffers.get(b.index()).map(|d| &d.0[..]));
+    let out_of_range = |attr: &str| anyhow!("{what}: {attr} reaches past the end of its buffer");
+    let positions: Vec<Vec3> = reader
+        .read_positions()
+        .ok_or_else(|| out_of_range("POSITION"))?
+        .map(Vec3::from)
+        .collect();
+    if let Some(i) = positions.iter().position(|p| !p.is_finite()) {
+        bail!(
+            "{what}: vertex {i} has a non-finite coordinate ({})",
+            positions[i]
+        );
+    }
+    let normals: Option<Vec<Vec3>> = match reader.read_normals() {
+        Some(n) => Some(n.map(Vec3::from).collect()),
+        None if prim.get(&gltf::Semantic::Normals).is_some() => return Err(out_of_range("NORMAL")),
+        None => None,
+    };
+    let raw: Vec<u32> = match reader.read_indices() {
+        Some(i) => i.into_u32().collect(),
+        None if prim.indices().is_some() => return Err(out_of_range("indices")),
+        None => (0..positions.len() as u32).collect(),
+    };
+    if let Some(&i) = raw.iter().find(|&&i| i as usize >= positions.len()) {
+        bail!(
+            "{what}: index {i} is out of range ({} vertices)",
+            positions.len()
+        );
+    }
+    let indices = triangle_list(mode, &raw);
+    if indices.is_empty() {
+        bail!("{what}: no triangles");
+    }
+    let mut m = Mesh {
+        positions,
+        normals: Vec::new(),
+        indices,
+    };
+    match normals {
+        Some(n) if n.len() == m.positions.len() => {
+            m.normals = n.into_iter().map(|n| n.normalize_or_zero()).collect();
+            // A zero or non-finite normal is as good as none.
+            if m.normals.iter().any(|n| *n == Vec3::ZERO || !n.is_finite()) {
+                m.compute_normals();
+            }
+        }
+        Some(n) => bail!(
+            "{what}: {} normals for {} positions",
+            n.len(),
+            m.positions.len()
+        ),
+        // glTF asks for flat normals when a primitive has none: one vertex per corner.
+        None => m = flat(&m),
+    }
+    m.validate(what)?;
+    Ok(m)
+}
+
+/// Triangle-list indices for a triangles, strip or fan index sequence. Strips alternate
+/// winding so every triangle keeps the first one's orientation.
+fn triangle_list(mode: gltf::mesh::Mode, raw: &[u32]) -> Vec<u32> {
+    use gltf::mesh::Mode;
+    match mode {
+        Mode::TriangleStrip => (0..raw.len().saturating_sub(2))
+            .flat_map(|k| {
+                if k % 2 == 0 {
+                    [raw[k], raw[k + 1], raw[k + 2]]
+                } else {
+                    [raw[k + 1], raw[k], raw[k + 2]]
+                }
+            })
+            .collect(),
+        Mode::TriangleFan => (1..raw.len().saturating_sub(1))
+            .flat_map(|k| [raw[0], raw[k], raw[k + 1]])
+            .collect(),
+        _ => raw[..raw.len() / 3 * 3].to_vec(),
+    }
+}
+
+/// The mesh with one vertex per triangle corner and the face normal on each.
+fn flat(m: &Mesh) -> Mesh {
+    let mut out = Mesh::default();
+    for t in m.indices.chunks_exact(3) {
+        let [a, b, c] = [0, 1, 2].map(|k| m.positions[t[k] as usize]);
+        let n = (b - a).cross(c - a).normalize_or(Vec3::Y);
+        let base = out.positions.len() as u32;
+        out.positions.extend([a, b, c]);
+        out.normals.extend([n; 3]);
+        out.indices.extend([base, base + 1, base + 2]);
+    }
+    out
+}
+
+// ---------------------------------------------------------------------------------------
+// Export
+// ---------------------------------------------------------------------------------------
+
+/// Whether `path` ends in `.glb` (one file) or `.gltf` (JSON plus `FILE.bin`).
+fn is_glb(path: &Path) -> Result<bool> {
+    let ext = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(str::to_ascii_lowercase);
+    match ext.as_deref() {
+        Some("glb") => Ok(true),
+        Some("gltf") => Ok(false),
+        _ => bail!(
+            "--gltf {}: a glTF export must end in .glb or .gltf",
+            path.display()
+        ),
+    }
+}
+
+/// Checks, before any work, that `path` (and for `.gltf` its `.bin`) can be written (see
+/// `crate::output::check_file`).
+pub fn check_paths(path: &Path) -> Result<()> {
+    if !is_glb(path)? {
+        crate::output::check_file(&path.with_extension("bin"), "--gltf's buffer")?;
+    }
+    crate::output::check_file(path, "--gltf")
+}
+
+/// Writes `scene` as glTF to `path` (`.glb`: one file; `.gltf`: JSON plus `FILE.bin`),
+/// staged and published together (`crate::output::Publish`). `width`/`height` set the
+/// camera's aspect ratio.
+pub fn export_gltf(scene: &Scene, path: &Path, width: u32, height: u32) -> Result<()> {
+    check_paths(path)?;
+    let glb = is_glb(path)?;
+    let bin_path = path.with_extension("bin");
+    let bin_uri = bin_path
+        .file_name()
+        .map(|f| f.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    let (doc, bin) = build_document(scene, width, height, (!glb).then_some(bin_uri.as_str()));
+    let json_bytes = serde_json::to_vec(&doc)?;
+    let mut publish = crate::output::Publish::new();
+    if glb {
+        let bytes = glb_bytes(&json_bytes, &bin);
+        publish.stage(path, |t| write_bytes(t, &bytes))?;
+    } else {
+        publish.stage(&bin_path, |t| write_bytes(t, &bin))?;
+        publish.stage(path, |t| write_bytes(t, &json_bytes))?;
+    }
+    publish.commit()
+}
+
+fn write_bytes(path: &Path, bytes: &[u8]) -> Result<()> {
+    use std::io::Write;
+    let mut f = std::fs::File::create(path)?;
+    f.write_all(bytes)?;
+    f.sync_all()?;
+    Ok(())
+}
+
+/// A GLB container: 12-byte header, a JSON chunk padded with spaces and a BIN chunk padded
+/// with zeros, each to 4 bytes (glTF 2.0 spec, "Binary glTF Layout").
+fn glb_bytes(json: &[u8], bin: &[u8]) -> Vec<u8> {
+    let pad = |n: usize| (4 - n % 4) % 4;
+    let json_len = json.len() + pad(json.len());
+    let bin_len = bin.len() + pad(bin.len());
+    let total = 12 + 8 + json_len + 8 + bin_len;
+    let mut out = Vec::with_capacity(total);
+    out.extend_from_slice(b"glTF");
+    out.extend_from_slice(&2u32.to_le_bytes());
+    out.extend_from_slice(&(total as u32).to_le_bytes());
+    out.extend_from_slice(&(json_len as u32).to_le_bytes());
+    out.extend_from_slice(b"JSON");
+    out.extend_from_slice(json);
+    out.extend(std::iter::repeat_n(b' ', pad(json.len())));
+    out.extend_from_slice(&(bin_len as u32).to_le_bytes());
+    out.extend_from_slice(b"BIN\0");
+    out.extend_from_slice(bin);
+    out.extend(std::iter::repeat_n(0u8, pad(bin.len())));
+    out
+}
+
+fn role_name(r: Role) -> &'static str {
+    match r {
+        Role::Caster => "caster",
+        Role::Receiver => "receiver",
+        Role::Both => "both",
+    }
+}
+
+/// The rotation that turns a node's -Z towards `forward` with its +Y towards `up` (the
+/// glTF convention for cameras and spot lights).
+fn look_rotation(forward: Vec3, up: Vec3) -> Quat {
+    let f = forward.normalize();
+    let up = if up.cross(f).length_squared() > 1e-12 {
+        up
+    } else {
+        f.any_orthonormal_vector()
+    };
+    let right = f.cross(up).normalize();
+    let true_up = right.cross(f);
+    Quat::from_mat3(&Mat3::from_cols(right, true_up, -f)).normalize()
+}
+
+/// The glTF JSON and its binary buffer. `bin_uri` names an external buffer (`.gltf`);
+/// `None` leaves the buffer as the GLB blob.
+fn build_document(
+    scene: &Scene,
+    width: u32,
+    height: u32,
+    bin_uri: Option<&str>,
+) -> (Value, Vec<u8>) {
+    let mut bin: Vec<u8> = Vec::new();
+    let mut views: Vec<Value> = Vec::new();
+    let mut accessors: Vec<Value> = Vec::new();
+    let mut push_view = |bin: &mut Vec<u8>, bytes: &[u8], target: u32| -> usize {
+        while !bin.len().is_multiple_of(4) {
+            bin.push(0);
+        }
+        views.push(json!({
+            "buffer": 0, "byteOffset": bin.len(), "byteLength": bytes.len(), "target": target
+        }));
+        bin.extend_from_slice(bytes);
+        views.len() - 1
+    };
+    const ARRAY_BUFFER: u32 = 34962;
+    const ELEMENT_ARRAY_BUFFER: u32 = 34963;
+    const FLOAT: u32 = 5126;
+    const UNSIGNED_INT: u32 = 5125;
+
+    // Accessors once per distinct mesh; a glTF mesh per (mesh, albedo), since the
+    // material belongs to the primitive.
+    let mut mesh_accessors: HashMap<*const Mesh, (usize, usize, usize)> = HashMap::new();
+    let mut materials: Vec<Value> = Vec::new();
+    let mut material_of: HashMap<[u32; 3], usize> = HashMap::new();
+    let mut meshes: Vec<Value> = Vec::new();
+    let mut mesh_of: HashMap<(*const Mesh, usize), usize> = HashMap::new();
+    let mut nodes: Vec<Value> = Vec::new();
+    for o in &scene.objects {
+        let key = Arc::as_ptr(&o.mesh);
+        let (pa, na, ia) = *mesh_accessors.entry(key).or_insert_with(|| {
+            let m = &o.mesh;
+            let b = m.bounds();
+            let pv = push_view(&mut bin, bytemuck::cast_slice(&m.positions), ARRAY_BUFFER);
+            accessors.push(json!({
+                "bufferView": pv, "componentType": FLOAT, "count": m.positions.len(),
+                "type": "VEC3", "min": b.min.to_array(), "max": b.max.to_array()
+            }));
+            let nv = push_view(&mut bin, bytemuck::cast_slice(&m.normals), ARRAY_BUFFER);
+            accessors.push(json!({
+                "bufferView": nv, "componentType": FLOAT, "count": m.normals.len(), "type": "VEC3"
+            }));
+            let iv = push_view(
+                &mut bin,
+                bytemuck::cast_slice(&m.indices),
+                ELEMENT_ARRAY_BUFFER,
+            );
+            accessors.push(json!({
+                "bufferView": iv, "componentType": UNSIGNED_INT, "count": m.indices.len(),
+                "type": "SCALAR"
+            }));
+            let n = accessors.len();
+            (n - 3, n - 2, n - 1)
+        });
+        let albedo_key = o.albedo.to_array().map(f32::to_bits);
+        let material = *material_of.entry(albedo_key).or_insert_with(|| {
+            materials.push(json!({
+                "pbrMetallicRoughness": {
+                    "baseColorFactor": [o.albedo.x, o.albedo.y, o.albedo.z, 1.0],
+                    "metallicFactor": 0.0,
+                    "roughnessFactor": 1.0
+                }
+            }));
+            materials.len() - 1
+        });
+        let mesh = *mesh_of.entry((key, material)).or_insert_with(|| {
+            meshes.push(json!({
+                "name": o.name,
+                "primitives": [{
+                    "attributes": { "POSITION": pa, "NORMAL": na },
+                    "indices": ia,
+                    "material": material,
+                    "mode": 4
+                }]
+            }));
+            meshes.len() - 1
+        });
+        nodes.push(json!({
+            "name": o.name,
+            "mesh": mesh,
+            "matrix": o.transform.to_cols_array(),
+            "extras": { EXTRAS_KEY: { "role": role_name(o.role) } }
+        }));
+    }
+
+    let l = &scene.light;
+    let ldir = (l.target - l.position).normalize_or(Vec3::NEG_Y);
+    let lrot = look_rotation(ldir, Vec3::Y);
+    nodes.push(json!({
+        "name": "light",
+        "translation": l.position.to_array(),
+        "rotation": lrot.to_array(),
+        "extensions": { "KHR_lights_punctual": { "light": 0 } }
+    }));
+    let c = &scene.camera;
+    let crot = look_rotation(c.target - c.position, c.up);
+    let size = scene.bounds().radius().max(1e-3);
+    nodes.push(json!({
+        "name": "camera",
+        "translation": c.position.to_array(),
+        "rotation": crot.to_array(),
+        "camera": 0
+    }));
+    let mut buffer = json!({ "byteLength": bin.len() });
+    if let Some(uri) = bin_uri {
+        buffer["uri"] = json!(uri);
+    }
+    let doc = json!({
+        "asset": {
+            "version": "2.0",
+            "generator": concat!("softshadow ", env!("CARGO_PKG_VERSION"))
+        },
+        "extensionsUsed": ["KHR_lights_punctual"],
+        "extensions": {
+            "KHR_lights_punctual": {
+                "lights": [{
+                    "name": "light",
+                    "type": "spot",
+                    "color": [1.0, 1.0, 1.0],
+                    "intensity": 1.0,
+                    "spot": {
+                        "innerConeAngle": 0.0,
+                        "outerConeAngle": (l.fov_deg * 0.5).to_radians()
+                    },
+                    "extras": { EXTRAS_KEY: { "radius": l.radius } }
+                }]
+            }
+        },
+        "scene": 0,
+        "scenes": [{ "name": scene.name, "nodes": (0..nodes.len()).collect::<Vec<_>>() }],
+        "nodes": nodes,
+        "meshes": meshes,
+        "materials": materials,
+        "cameras": [{
+            "type": "perspective",
+            "perspective": {
+                "yfov": c.fov_deg.to_radians(),
+                "aspectRatio": width as f32 / height.max(1) as f32,
+                "znear": size * 1e-3
+            }
+        }],
+        "accessors": accessors,
+        "bufferViews": views,
+        "buffers": [buffer]
+    });
+    (doc, bin)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use gltf::mesh::Mode;
+
+    #[test]
+    fn strips_and_fans_become_lists_with_one_winding() {
+        assert_eq!(
+            triangle_list(Mode::TriangleStrip, &[0, 1, 2, 3]),
+            vec![0, 1, 2, 2, 1, 3]
+        );
+        assert_eq!(
+            triangle_list(Mode::TriangleFan, &[0, 1, 2, 3]),
+            vec![0, 1, 2, 0, 2, 3]
+        );
+        assert!(triangle_list(Mode::TriangleStrip, &[0, 1]).is_empty());
+    }
+
+    #[test]
+    fn look_rotation_points_minus_z_along_forward() {
+        let f = Vec3::new(0.3, -0.8, 0.2).normalize();
+        let q = look_rotation(f, Vec3::Y);
+        assert!((q * Vec3::NEG_Z - f).length() < 1e-6);
+        assert!((q * Vec3::Y).dot(Vec3::Y) > 0.0, "up stays up");
+        // Straight down: any roll, still -Z along forward.
+        let q = look_rotation(Vec3::NEG_Y, Vec3::Y);
+        assert!((q * Vec3::NEG_Z - Vec3::NEG_Y).length() < 1e-6);
+    }
+
+    #[test]
+    fn glb_chunks_are_padded_and_sized() {
+        let b = glb_bytes(b"{}", &[1, 2, 3, 4, 5]);
+        assert_eq!(&b[0..4], b"glTF");
+        assert_eq!(b.len() % 4, 0);
+        assert_eq!(
+            u32::from_le_bytes(b[8..12].try_into().unwrap()) as usize,
+            b.len()
+        );
+        assert_eq!(&b[16..20], b"JSON");
+        assert_eq!(&b[20..24], b"{}  ");
+    }
+}

@@ -1,0 +1,430 @@
+//! glTF scenes: a file written here (a box above a plane, a spot light and a camera, nodes
+//! with rotations under a parent transform) renders like the same scene in TOML, as
+//! `.gltf` + `.bin` and as `.glb`; broken and unsupported files give one clear error; a
+//! built-in scene exported to `.glb` loads back and renders the same visibility.
+
+mod common;
+
+use common::{small, softshadow, Gpu};
+use glam::{Mat3, Quat, Vec3};
+use serde_json::{json, Value};
+use softshadow::scene::{export_gltf, primitives, Mesh, Role, Scene};
+use std::path::{Path, PathBuf};
+
+fn tmp_dir(tag: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("softshadow-gltf-{tag}-{}", std::process::id()));
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+const LIGHT_POS: Vec3 = Vec3::new(-2.5, 6.0, 1.5);
+const LIGHT_TARGET: Vec3 = Vec3::new(0.3, 0.5, -0.2);
+const LIGHT_FOV: f32 = 60.0;
+const LIGHT_RADIUS: f32 = 0.3;
+const CAM_POS: Vec3 = Vec3::new(3.0, 5.0, 7.0);
+const CAM_TARGET: Vec3 = Vec3::new(0.0, 0.5, 0.0);
+const CAM_FOV: f32 = 45.0;
+
+/// -Z towards `forward`, +Y as close to world up as it gets (glTF's camera and spot
+/// convention), built independently of the exporter's helper.
+fn facing(forward: Vec3) -> Quat {
+    let f = forward.normalize();
+    let r = f.cross(Vec3::Y).normalize();
+    let u = r.cross(f);
+    Quat::from_mat3(&Mat3::from_cols(r, u, -f))
+}
+
+fn box_mesh() -> Mesh {
+    primitives::cuboid(Vec3::new(1.2, 0.6, 0.8))
+}
+
+fn ground_mesh() -> Mesh {
+    primitives::plane(glam::Vec2::splat(8.0), 4)
+}
+
+/// The scene as TOML: the box at (0, 1.5, 0) turned 30 degrees about Y.
+fn toml_scene() -> String {
+    format!(
+        "name = \"pair\"\n\
+         [[object]]\nname = \"ground\"\nprimitive = \"plane\"\nsize = [8, 8]\nsegments = 4\nrole = \"receiver\"\n\
+         [[object]]\nname = \"box\"\nprimitive = \"box\"\nsize = [1.2, 0.6, 0.8]\n\
+         translate = [0, 1.5, 0]\nrotate_deg = [0, 30, 0]\nrole = \"caster\"\n\
+         [light]\nposition = {:?}\ntarget = {:?}\nfov_deg = {LIGHT_FOV}\nradius = {LIGHT_RADIUS}\n\
+         [camera]\nposition = {:?}\ntarget = {:?}\nfov_deg = {CAM_FOV}\n",
+        LIGHT_POS.to_array(),
+        LIGHT_TARGET.to_array(),
+        CAM_POS.to_array(),
+        CAM_TARGET.to_array()
+    )
+}
+
+/// Appends `mesh` to `bin` and returns its (POSITION, NORMAL, indices) accessors.
+fn add_mesh(
+    bin: &mut Vec<u8>,
+    views: &mut Vec<Value>,
+    accs: &mut Vec<Value>,
+    m: &Mesh,
+) -> [usize; 3] {
+    let mut view = |bin: &mut Vec<u8>, bytes: &[u8]| {
+        views.push(json!({"buffer": 0, "byteOffset": bin.len(), "byteLength": bytes.len()}));
+        bin.extend_from_slice(bytes);
+        views.len() - 1
+    };
+    let b = m.bounds();
+    let pv = view(bin, bytemuck::cast_slice(&m.positions));
+    let nv = view(bin, bytemuck::cast_slice(&m.normals));
+    let iv = view(bin, bytemuck::cast_slice(&m.indices));
+    let n = accs.len();
+    accs.push(
+        json!({"bufferView": pv, "componentType": 5126, "count": m.positions.len(), "type": "VEC3",
+                     "min": b.min.to_array(), "max": b.max.to_array()}),
+    );
+    accs.push(
+        json!({"bufferView": nv, "componentType": 5126, "count": m.normals.len(), "type": "VEC3"}),
+    );
+    accs.push(json!({"bufferView": iv, "componentType": 5125, "count": m.indices.len(), "type": "SCALAR"}));
+    [n, n + 1, n + 2]
+}
+
+/// The same scene as glTF JSON and its buffer. The box sits under a parent node that
+/// lifts it by 1 and turns it 20 degrees; the box node adds 0.5 and 10 degrees. The light
+/// node hangs under a parent translated by (0, 1, 0). `uri`: external buffer name.
+fn gltf_scene(uri: Option<&str>) -> (Value, Vec<u8>) {
+    let mut bin = Vec::new();
+    let (mut views, mut accs) = (Vec::new(), Vec::new());
+    let [bp, bn, bi] = add_mesh(&mut bin, &mut views, &mut accs, &box_mesh());
+    let [gp, gn, gi] = add_mesh(&mut bin, &mut views, &mut accs, &ground_mesh());
+    let rot_y = |deg: f32| Quat::from_rotation_y(deg.to_radians()).to_array();
+    let lrot = facing(LIGHT_TARGET - LIGHT_POS);
+    let crot = facing(CAM_TARGET - CAM_POS);
+    let mut buffer = json!({"byteLength": bin.len()});
+    if let Some(u) = uri {
+        buffer["uri"] = json!(u);
+    }
+    let doc = json!({
+        "asset": {"version": "2.0"},
+        "extensionsUsed": ["KHR_lights_punctual"],
+        "extensions": {"KHR_lights_punctual": {"lights": [
+            {"type": "point", "name": "fill"},
+            {"type": "spot", "spot": {"outerConeAngle": (LIGHT_FOV * 0.5).to_radians()},
+             "extras": {"softshadow": {"radius": LIGHT_RADIUS}}}
+        ]}},
+        "scene": 0,
+        "scenes": [{"name": "pair", "nodes": [0, 2, 3, 5]}],
+        "nodes": [
+            {"name": "rig", "translation": [0.0, 1.0, 0.0], "rotation": rot_y(20.0), "children": [1],
+             "extras": {"softshadow": {"role": "caster"}}},
+            {"name": "box", "mesh": 0, "translation": [0.0, 0.5, 0.0], "rotation": rot_y(10.0)},
+            {"name": "ground", "mesh": 1, "extras": {"softshadow": {"role": "receiver"}}},
+            {"name": "lamp", "translation": [0.0, 1.0, 0.0], "children": [4]},
+            {"name": "spot", "translation": (LIGHT_POS - Vec3::Y).to_array(), "rotation": lrot.to_array(),
+             "extensions": {"KHR_lights_punctual": {"light": 1}}},
+            {"name": "eye", "translation": CAM_POS.to_array(), "rotation": crot.to_array(), "camera": 0}
+        ],
+        "cameras": [{"type": "perspective", "perspective": {"yfov": CAM_FOV.to_radians(), "znear": 0.05}}],
+        "meshes": [
+            {"name": "box", "primitives": [{"attributes": {"POSITION": bp, "NORMAL": bn}, "indices": bi}]},
+            {"name": "ground", "primitives": [{"attributes": {"POSITION": gp, "NORMAL": gn}, "indices": gi}]}
+        ],
+        "accessors": accs,
+        "bufferViews": views,
+        "buffers": [buffer]
+    });
+    (doc, bin)
+}
+
+fn glb(doc: &Value, bin: &[u8]) -> Vec<u8> {
+    let mut json = serde_json::to_vec(doc).unwrap();
+    while !json.len().is_multiple_of(4) {
+        json.push(b' ');
+    }
+    let mut bin = bin.to_vec();
+    while !bin.len().is_multiple_of(4) {
+        bin.push(0);
+    }
+    let total = 12 + 8 + json.len() + 8 + bin.len();
+    let mut out = Vec::new();
+    out.extend_from_slice(b"glTF");
+    out.extend_from_slice(&2u32.to_le_bytes());
+    out.extend_from_slice(&(total as u32).to_le_bytes());
+    out.extend_from_slice(&(json.len() as u32).to_le_bytes());
+    out.extend_from_slice(b"JSON");
+    out.extend_from_slice(&json);
+    out.extend_from_slice(&(bin.len() as u32).to_le_bytes());
+    out.extend_from_slice(b"BIN\0");
+    out.extend_from_slice(&bin);
+    out
+}
+
+fn write_gltf(dir: &Path) -> PathBuf {
+    let (doc, bin) = gltf_scene(Some("pair.bin"));
+    std::fs::write(dir.join("pair.bin"), &bin).unwrap();
+    let p = dir.join("pair.gltf");
+    std::fs::write(&p, serde_json::to_vec_pretty(&doc).unwrap()).unwrap();
+    p
+}
+
+fn load(p: &Path) -> Scene {
+    Scene::load(p.to_str().unwrap()).unwrap_or_else(|e| panic!("{e:#}"))
+}
+
+fn load_err(p: &Path) -> String {
+    let e = format!("{:#}", Scene::load(p.to_str().unwrap()).unwrap_err());
+    assert!(!e.contains('\n'), "one line: {e}");
+    e
+}
+
+fn dir_of(a: Vec3, b: Vec3) -> Vec3 {
+    (b - a).normalize()
+}
+
+/// Objects, transforms, roles, light and camera agree with the TOML scene.
+fn assert_same_scene(g: &Scene, t: &Scene) {
+    assert_eq!(g.name, t.name);
+    assert_eq!(g.objects.len(), t.objects.len());
+    for to in &t.objects {
+        let go = g
+            .objects
+            .iter()
+            .find(|o| o.name == to.name)
+            .unwrap_or_else(|| panic!("no object '{}' in the glTF scene", to.name));
+        assert_eq!(go.role, to.role, "{}", to.name);
+        assert_eq!(go.mesh.positions, to.mesh.positions, "{}", to.name);
+        assert_eq!(go.mesh.indices, to.mesh.indices, "{}", to.name);
+        assert!(
+            go.transform.abs_diff_eq(to.transform, 1e-5),
+            "{}: {} vs {}",
+            to.name,
+            go.transform,
+            to.transform
+        );
+    }
+    let (gl, tl) = (&g.light, &t.light);
+    assert!((gl.position - tl.position).length() < 1e-5, "{gl:?} {tl:?}");
+    assert!(dir_of(gl.position, gl.target).dot(dir_of(tl.position, tl.target)) > 1.0 - 1e-6);
+    assert!((gl.fov_deg - tl.fov_deg).abs() < 1e-3, "{gl:?} {tl:?}");
+    assert_eq!(gl.radius, tl.radius);
+    let (gc, tc) = (&g.camera, &t.camera);
+    assert!((gc.position - tc.position).length() < 1e-5);
+    assert!(dir_of(gc.position, gc.target).dot(dir_of(tc.position, tc.target)) > 1.0 - 1e-6);
+    assert!((gc.fov_deg - tc.fov_deg).abs() < 1e-3);
+}
+
+/// Mean and max |a - b| over pixels, and the share that differ by more than 0.05.
+fn diff(a: &[f32], b: &[f32]) -> (f32, f32, f32) {
+    assert_eq!(a.len(), b.len());
+    let d: Vec<f32> = a.iter().zip(b).map(|(x, y)| (x - y).abs()).collect();
+    let mean = d.iter().sum::<f32>() / d.len() as f32;
+    let max = d.iter().copied().fold(0.0, f32::max);
+    let off = d.iter().filter(|&&x| x > 0.05).count() as f32 / d.len() as f32;
+    (mean, max, off)
+}
+
+#[test]
+fn gltf_and_glb_render_like_the_toml_scene() {
+    let d = tmp_dir("pair");
+    let toml = d.join("pair.toml");
+    std::fs::write(&toml, toml_scene()).unwrap();
+    let t = load(&toml);
+    let g = load(&write_gltf(&d));
+    assert_same_scene(&g, &t);
+    assert_eq!(
+        g.objects.iter().find(|o| o.name == "box").unwrap().role,
+        Role::Caster,
+        "the box inherits its parent's role"
+    );
+
+    let (doc, bin) = gltf_scene(None);
+    let glb_path = d.join("pair.glb");
+    std::fs::write(&glb_path, glb(&doc, &bin)).unwrap();
+    let b = load(&glb_path);
+    assert_same_scene(&b, &t);
+
+    let gpu = Gpu::new();
+    let render = |s: Scene| gpu.render_frames(s, "pcss", small(128, 512), 1).0;
+    let vt = render(t);
+    let vg = render(g);
+    let vb = render(b);
+    // The shadow is there: some covered pixels in umbra, some lit.
+    let dark = vt.visibility.iter().filter(|&&v| v < 0.1).count();
+    let lit = vt.visibility.iter().filter(|&&v| v > 0.99).count();
+    assert!(dark > 200 && lit > 2000, "dark {dark}, lit {lit}");
+    for (what, v) in [("gltf", &vg), ("glb", &vb)] {
+        let (mean, max, off) = diff(&v.visibility, &vt.visibility);
+        assert!(
+            // Measured: mean 2e-8, max 2e-5 (float rounding of the node rotations).
+            mean < 1e-5 && max < 1e-3 && off == 0.0,
+            "{what} vs toml: mean {mean}, max {max}, {off} off by > 0.05"
+        );
+    }
+    std::fs::remove_dir_all(&d).ok();
+}
+
+#[test]
+fn light_radius_and_camera_defaults() {
+    let d = tmp_dir("defaults");
+    // Without the spot light (only the point light) and without a camera: the point light
+    // gives the position; the aim, cone, radius and camera are fitted.
+    let (mut doc, bin) = gltf_scene(Some("pair.bin"));
+    std::fs::write(d.join("pair.bin"), &bin).unwrap();
+    doc["nodes"][4]["extensions"]["KHR_lights_punctual"]["light"] = json!(0);
+    doc["nodes"][5].as_object_mut().unwrap().remove("camera");
+    let p = d.join("fitted.gltf");
+    std::fs::write(&p, serde_json::to_vec(&doc).unwrap()).unwrap();
+    let s = load(&p);
+    assert!((s.light.position - LIGHT_POS).length() < 1e-5);
+    assert!(s.light.radius > 0.0 && s.light.radius != LIGHT_RADIUS);
+    assert_eq!(s.camera.fov_deg, 45.0);
+    assert!(
+        (s.camera.position - CAM_POS).length() > 0.1,
+        "fitted, not the node's"
+    );
+    std::fs::remove_dir_all(&d).ok();
+}
+
+#[test]
+fn broken_and_unsupported_files_give_one_clear_error() {
+    let d = tmp_dir("bad");
+    let write = |name: &str, bytes: &[u8]| {
+        let p = d.join(name);
+        std::fs::write(&p, bytes).unwrap();
+        p
+    };
+    let (doc, bin) = gltf_scene(None);
+    let good = glb(&doc, &bin);
+
+    let e = load_err(&write("cut.glb", &good[..good.len() / 2]));
+    assert!(
+        e.contains("cut.glb") && e.contains("not a valid glTF"),
+        "{e}"
+    );
+    let e = load_err(&write(
+        "syntax.gltf",
+        b"{\"asset\": {\"version\": \"2.0\"}, \"nodes\": [}",
+    ));
+    assert!(
+        e.contains("syntax.gltf") && e.contains("not a valid glTF"),
+        "{e}"
+    );
+
+    // A buffer shorter than its views: the reader would run past its end.
+    let mut short = doc.clone();
+    short["bufferViews"][1]["byteOffset"] = json!(bin.len());
+    let e = load_err(&write("short.glb", &glb(&short, &bin)));
+    assert!(e.contains("short.glb") && e.contains("NORMAL"), "{e}");
+
+    let mut nan_bin = bin.clone();
+    nan_bin[0..4].copy_from_slice(&f32::NAN.to_le_bytes());
+    let e = load_err(&write("nan.glb", &glb(&doc, &nan_bin)));
+    assert!(e.contains("non-finite") && e.contains("vertex 0"), "{e}");
+
+    let mut lines = doc.clone();
+    lines["meshes"][0]["primitives"][0]["mode"] = json!(1);
+    let e = load_err(&write("lines.glb", &glb(&lines, &bin)));
+    assert!(
+        e.contains("lines.glb") && e.contains("mode Lines") && e.contains("mesh 0"),
+        "{e}"
+    );
+
+    let mut morph = doc.clone();
+    morph["meshes"][0]["primitives"][0]["targets"] = json!([{"POSITION": 0}]);
+    let e = load_err(&write("morph.glb", &glb(&morph, &bin)));
+    assert!(e.contains("morph targets are not supported"), "{e}");
+
+    let mut skin = doc.clone();
+    skin["skins"] = json!([{"joints": [2]}]);
+    skin["nodes"][1]["skin"] = json!(0);
+    let e = load_err(&write("skin.glb", &glb(&skin, &bin)));
+    assert!(
+        e.contains("node 1 ('box')") && e.contains("skinned meshes are not supported"),
+        "{e}"
+    );
+
+    let mut draco = doc.clone();
+    draco["extensionsRequired"] = json!(["KHR_draco_mesh_compression"]);
+    let e = load_err(&write("draco.glb", &glb(&draco, &bin)));
+    assert!(
+        e.contains("KHR_draco_mesh_compression") && e.contains("does not support"),
+        "{e}"
+    );
+
+    let mut role = doc.clone();
+    role["nodes"][2]["extras"] = json!({"softshadow": {"role": "shadow"}});
+    let e = load_err(&write("role.glb", &glb(&role, &bin)));
+    assert!(
+        e.contains("node 2 ('ground')") && e.contains("'shadow'"),
+        "{e}"
+    );
+
+    // The command line: one `error:` line, a failure status, nothing rendered.
+    let out_png = d.join("out.png");
+    let o = softshadow(&[
+        "render",
+        "--scene",
+        d.join("skin.glb").to_str().unwrap(),
+        "--out",
+        out_png.to_str().unwrap(),
+    ]);
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success());
+    assert_eq!(
+        stderr.lines().filter(|l| l.starts_with("error:")).count(),
+        1,
+        "{stderr}"
+    );
+    assert!(stderr.contains("skinned"), "{stderr}");
+    assert!(!stderr.contains("panicked"), "{stderr}");
+    assert!(!out_png.exists());
+    std::fs::remove_dir_all(&d).ok();
+}
+
+#[test]
+fn exported_glb_loads_back_and_renders_the_same_visibility() {
+    let d = tmp_dir("roundtrip");
+    let gpu = Gpu::new();
+    for name in ["boxes", "cylinder"] {
+        let s = Scene::load(name).unwrap();
+        let p = d.join(format!("{name}.glb"));
+        export_gltf(&s, &p, 128, 128).unwrap();
+        let back = load(&p);
+        assert_eq!(back.name, s.name);
+        assert_eq!(back.objects.len(), s.objects.len());
+        for (a, b) in back.objects.iter().zip(&s.objects) {
+            assert_eq!(a.name, b.name);
+            assert_eq!(a.role, b.role);
+            assert_eq!(a.albedo, b.albedo);
+            assert_eq!(a.transform, b.transform, "{}", a.name);
+            assert_eq!(a.mesh.positions, b.mesh.positions);
+            assert_eq!(a.mesh.indices, b.mesh.indices);
+        }
+        assert_eq!(back.light.position, s.light.position);
+        assert_eq!(back.light.radius, s.light.radius);
+        assert_same_scene(&back, &s);
+
+        let va = gpu.render_frames(s, "smoothies", small(128, 512), 1).0;
+        let vb = gpu.render_frames(back, "smoothies", small(128, 512), 1).0;
+        let (mean, max, off) = diff(&va.visibility, &vb.visibility);
+        assert!(
+            // Measured: mean 3e-7, max 2e-4 (light and camera directions through quaternions).
+            mean < 1e-5 && max < 2e-3 && off == 0.0,
+            "{name}: mean {mean}, max {max}, {off} off by > 0.05"
+        );
+    }
+
+    // The .gltf form (JSON + .bin) and the command line.
+    let p = d.join("boxes.gltf");
+    let o = softshadow(&["export", "--scene", "boxes", "--gltf", p.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(d.join("boxes.bin").is_file());
+    assert_same_scene(&load(&p), &Scene::load("boxes").unwrap());
+    let o = softshadow(&[
+        "export",
+        "--scene",
+        "boxes",
+        "--gltf",
+        d.join("x.fbx").to_str().unwrap(),
+    ]);
+    assert!(!o.status.success());
+    assert!(String::from_utf8_lossy(&o.stderr).contains(".glb or .gltf"));
+    std::fs::remove_dir_all(&d).ok();
+}

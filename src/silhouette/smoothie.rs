@@ -653,20 +653,26 @@ fn corners_into(
     st
 }
 
-pub(super) fn build_impl(
-    adj: &Adjacency,
-    sil: &[SilhouetteEdge],
-    model: Mat4,
-    light: &LightView,
-    width: Width,
-    chunk: usize,
-) -> SmoothieGeometry {
-    let pr = Projector::new(model, light);
-    let parallel = sil.len() >= chunk;
+/// Silhouette vertices, numbered compactly in order of first use and each transformed and
+/// projected once for all its edges and its corner.
+struct Numbering {
+    /// Welded vertex v's number, when bit v of `used` is set.
+    slot: Vec<u32>,
+    /// One bit per welded vertex: it is a silhouette vertex. Lists them in welded order.
+    used: Vec<u64>,
+    verts: Vec<SilVertex>,
+    /// Per silhouette edge, the numbers of its ends a, b.
+    ends: Vec<[u32; 2]>,
+}
 
-    // Silhouette vertices, numbered compactly in order of first use: `slot[v]` is welded
-    // vertex v's number when bit v of `used` is set. Dense arrays over the welded vertices
-    // group the incidences without sorting, and `used` lists them in welded order.
+/// Numbers the ends of `sil`. Dense arrays over the welded vertices group the incidences
+/// without sorting.
+fn number_vertices(
+    adj: &Adjacency,
+    pr: &Projector,
+    sil: &[SilhouetteEdge],
+    width: Width,
+) -> Numbering {
     let nv = adj.positions.len();
     let mut slot = vec![0u32; nv];
     let mut used = vec![0u64; nv.div_ceil(64)];
@@ -691,10 +697,26 @@ pub(super) fn build_impl(
         };
         ends.push([number(e.a), number(e.b)]);
     }
+    Numbering {
+        slot,
+        used,
+        verts,
+        ends,
+    }
+}
 
-    // Edge quads, in silhouette order.
-    let mut geo = SmoothieGeometry::default();
-    let mut dirs: Vec<Option<Vec2>> = Vec::with_capacity(sil.len());
+/// Appends the edge quads of `sil` to `out` in silhouette order, over rayon in chunks of
+/// `chunk` edges when `parallel`; returns each edge's outward direction (`None`: skipped).
+fn edge_quads(
+    adj: &Adjacency,
+    pr: &Projector,
+    sil: &[SilhouetteEdge],
+    numbering: &Numbering,
+    parallel: bool,
+    chunk: usize,
+    out: &mut Vec<SmoothieVertex>,
+) -> Vec<Option<Vec2>> {
+    let verts = &numbering.verts;
     let quads = |sil: &[SilhouetteEdge],
                  ends: &[[u32; 2]],
                  out: &mut Vec<SmoothieVertex>,
@@ -702,7 +724,7 @@ pub(super) fn build_impl(
         for (e, &[a, b]) in sil.iter().zip(ends) {
             dirs.push(build_edge(
                 adj,
-                &pr,
+                pr,
                 e,
                 &verts[a as usize],
                 &verts[b as usize],
@@ -710,44 +732,47 @@ pub(super) fn build_impl(
             ));
         }
     };
+    let mut dirs: Vec<Option<Vec2>> = Vec::with_capacity(sil.len());
     if parallel {
         let parts: Vec<(Vec<SmoothieVertex>, Vec<Option<Vec2>>)> = sil
             .par_chunks(chunk)
-            .zip(ends.par_chunks(chunk))
+            .zip(numbering.ends.par_chunks(chunk))
             .map(|(s, e)| {
                 let (mut out, mut d) = (Vec::with_capacity(6 * s.len()), Vec::new());
                 quads(s, e, &mut out, &mut d);
                 (out, d)
             })
             .collect();
-        geo.vertices.reserve(parts.iter().map(|p| p.0.len()).sum());
-        for (out, d) in parts {
-            geo.vertices.extend_from_slice(&out);
+        out.reserve(parts.iter().map(|p| p.0.len()).sum());
+        for (o, d) in parts {
+            out.extend_from_slice(&o);
             dirs.extend_from_slice(&d);
         }
     } else {
         // One allocation for the quads and (usually) the corners, about three fan segments
         // per silhouette vertex: growing it later copies megabytes on big silhouettes.
-        geo.vertices.reserve(6 * sil.len() + 10 * verts.len());
-        quads(sil, &ends, &mut geo.vertices, &mut dirs);
+        out.reserve(6 * sil.len() + 10 * verts.len());
+        quads(sil, &numbering.ends, out, &mut dirs);
     }
-    geo.edges = geo.vertices.len() / 6;
-    geo.skipped_edges = sil.len() - geo.edges;
+    dirs
+}
 
-    // Kept incident edges per silhouette vertex (CSR, ascending silhouette index).
-    let mut inc_start = vec![0u32; verts.len() + 1];
-    for (&[a, b], d) in ends.iter().zip(&dirs) {
+/// The kept incident edges of each of the `n` silhouette vertices, as CSR: vertex c's are
+/// `inc[start[c]..start[c + 1]]`, in ascending silhouette index.
+fn incidences(ends: &[[u32; 2]], dirs: &[Option<Vec2>], n: usize) -> (Vec<u32>, Vec<u32>) {
+    let mut start = vec![0u32; n + 1];
+    for (&[a, b], d) in ends.iter().zip(dirs) {
         if d.is_some() {
-            inc_start[a as usize + 1] += 1;
-            inc_start[b as usize + 1] += 1;
+            start[a as usize + 1] += 1;
+            start[b as usize + 1] += 1;
         }
     }
-    for c in 0..verts.len() {
-        inc_start[c + 1] += inc_start[c];
+    for c in 0..n {
+        start[c + 1] += start[c];
     }
-    let mut inc = vec![0u32; inc_start[verts.len()] as usize];
-    let mut fill = inc_start.clone();
-    for (i, (&[a, b], d)) in ends.iter().zip(&dirs).enumerate() {
+    let mut inc = vec![0u32; start[n] as usize];
+    let mut fill = start.clone();
+    for (i, (&[a, b], d)) in ends.iter().zip(dirs).enumerate() {
         if d.is_some() {
             for c in [a, b] {
                 inc[fill[c as usize] as usize] = i as u32;
@@ -755,22 +780,61 @@ pub(super) fn build_impl(
             }
         }
     }
-    // Corners by welded vertex index, only where a kept edge ends.
-    let mut order: Vec<u32> = Vec::with_capacity(verts.len());
-    for (w, &bits) in used.iter().enumerate() {
+    (start, inc)
+}
+
+/// The silhouette vertices where a kept edge ends, by welded vertex index: the order of
+/// the corners in the output.
+fn corner_order(numbering: &Numbering, inc_start: &[u32]) -> Vec<u32> {
+    let mut order: Vec<u32> = Vec::with_capacity(numbering.verts.len());
+    for (w, &bits) in numbering.used.iter().enumerate() {
         let mut bits = bits;
         while bits != 0 {
             let v = w * 64 + bits.trailing_zeros() as usize;
             bits &= bits - 1;
-            let c = slot[v];
+            let c = numbering.slot[v];
             if inc_start[c as usize + 1] > inc_start[c as usize] {
                 order.push(c);
             }
         }
     }
+    order
+}
+
+/// The construction, in four steps: number and project the silhouette vertices, build the
+/// edge quads, group the kept edges by vertex, build the corners. Silhouettes of `chunk`
+/// edges or more run the quads and the corners over rayon; the output is the same.
+pub(super) fn build_impl(
+    adj: &Adjacency,
+    sil: &[SilhouetteEdge],
+    model: Mat4,
+    light: &LightView,
+    width: Width,
+    chunk: usize,
+) -> SmoothieGeometry {
+    let pr = Projector::new(model, light);
+    let parallel = sil.len() >= chunk;
+    let numbering = number_vertices(adj, &pr, sil, width);
+
+    let mut geo = SmoothieGeometry::default();
+    let dirs = edge_quads(
+        adj,
+        &pr,
+        sil,
+        &numbering,
+        parallel,
+        chunk,
+        &mut geo.vertices,
+    );
+    geo.edges = geo.vertices.len() / 6;
+    geo.skipped_edges = sil.len() - geo.edges;
+
+    let verts = &numbering.verts;
+    let (inc_start, inc) = incidences(&numbering.ends, &dirs, verts.len());
+    let order = corner_order(&numbering, &inc_start);
     let quad_vertices = geo.vertices.len();
     let corners = |order: &[u32], out: &mut Vec<SmoothieVertex>| {
-        corners_into(adj, &pr, sil, &dirs, &verts, &inc_start, &inc, order, out)
+        corners_into(adj, &pr, sil, &dirs, verts, &inc_start, &inc, order, out)
     };
     let mut stats = Vec::new();
     if parallel {

@@ -714,7 +714,8 @@ impl<'c> Renderer<'c> {
     }
 
     /// Reads a technique buffer by name (`technique_buffer_names`), one Vec per channel
-    /// with the channel names (the shadow map has two: caster_depth, surface_depth).
+    /// with the channel names (the linear shadow map has two: caster_depth, surface_depth;
+    /// `hard`'s D32 map one, the light's z/w of the nearest caster).
     pub fn read_technique_buffer(&mut self, name: &str) -> Result<TechniqueBuffer> {
         let buffers = self.technique.light_buffers();
         let Some(buffer) = buffers.iter().find(|b| b.name == name) else {
@@ -743,6 +744,7 @@ impl<'c> Renderer<'c> {
                     .map(|c| texels.iter().map(|t| t[c]).collect())
                     .collect()
             }
+            // D32: `hard`'s depth map, the light's z/w in [0, 1] as the rasterizer stored it.
             crate::vk::Format::R32_SFLOAT | crate::vk::Format::D32_SFLOAT => {
                 vec![read_image::<f32>(self.ctx, &mut self.runner, img)?]
             }

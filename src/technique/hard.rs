@@ -1,31 +1,45 @@
-//! # hard — shadow map with a 2x2 filtered comparison
+//! # hard — depth map with the hardware's 2x2 filtered comparison
 //!
 //! The baseline of the smoothie paper's Fig. 7 (Williams 1978 with the 2x2 bilinear
-//! "percentage closer" filter that shadow hardware gives for free). Every other technique's
-//! cost is reported as a ratio to this one.
+//! "percentage closer" filter that shadow hardware gives for free), built as an engine
+//! builds it: a depth-only pass and a comparison sampler. Every other technique's cost is
+//! reported as a ratio to this one.
 //!
 //! ## Passes, in order
-//! 1. `hard/shadow_map` — every object from the light (`render::passes::ShadowMap`).
-//!    Attachment: R32G32_SFLOAT (clear 1e30, blend MIN), no depth attachment: r = linear
-//!    depth of the nearest caster, g = of the nearest surface of any role. Vertex:
-//!    `glsl/common/shadow_depth.vert` (clip w = linear depth); fragment:
-//!    `glsl/common/shadow_depth.frag`.
+//! 1. `hard/shadow_map` — every caster from the light (receivers are not drawn: only the
+//!    nearest caster is compared against). Attachment: depth `D32_SFLOAT`, clear 1.0, depth
+//!    test LESS, depth write on; no colour attachment, no fragment shader, no rasterizer
+//!    depth bias, two-sided (open meshes and planes cast from both sides). Vertex:
+//!    `glsl/hard/shadow_map.vert` (the light's view-projection: the buffer holds
+//!    z = f / (f - n) * (1 - n / d) of linear depth d, near n and far f of the light).
+//!    Left in SHADER_READ_ONLY_OPTIMAL.
 //! 2. `hard/final` — every object from the camera (`render::passes::FinalPass`).
-//!    Fragment `glsl/hard/final.frag` reads the shadow map with `textureGather` at the
-//!    normal-offset point's light uv, compares each of the 4 texels with the point's linear
-//!    depth (relative bias `frame.light_frustum.w`), and weights the 4 results bilinearly.
-//!    Writes colour RGBA8 (the untimed AOV pass `hard/aov` also visibility R32F, position
-//!    RGBA32F, normal RGBA16F: `FinalPass`).
+//!    Fragment `glsl/hard/final.frag` samples the map through a `sampler2DShadow`
+//!    (compare LESS_OR_EQUAL, linear filter, clamp to edge) at the normal-offset point's
+//!    light uv (`common/shadow.glsl`: 2 texels along the normal, scaled by the light's
+//!    slope), with the reference depth d / (1 + b) mapped to z as above (b the relative bias
+//!    `frame.light_frustum.w`, 5e-4): 1 where the point is at or in front of the stored
+//!    caster, each of the 2x2 texels compared and the results weighted bilinearly by the
+//!    sampler. Writes colour RGBA8 (the untimed AOV pass `hard/aov` also visibility R32F,
+//!    position RGBA32F, normal RGBA16F: `FinalPass`).
+//!
+//! Bias: the normal offset keeps lit surfaces off their own texel (no acne) without a large
+//! constant offset that would detach contact shadows; the small relative bias absorbs the
+//! float rounding of depth. A slope-scaled rasterizer bias is not needed on top.
 //!
 //! ## Known artefacts
 //! Aliasing (staircase edges one shadow-map texel wide, softened over one texel by the 2x2
 //! filter); no penumbra at any light radius.
 
-use super::{shadow_map_buffer, FrameInput, LightBuffer, Technique, TechniqueInfo, TechniqueInit};
-use crate::render::passes::{FinalPass, FinalShader, ShadowMap};
+use super::{FrameInput, LightBuffer, Technique, TechniqueInfo, TechniqueInit};
+use crate::render::gpu_scene::{DRAW_PUSH_BYTES, SCENE_ATTRIBUTES, SCENE_VERTEX_STRIDE};
+use crate::render::passes::{FinalPass, FinalShader};
 use crate::shaders;
-use crate::vk::{Context, DescriptorSet, Filter, Recorder, Resource, Sampler};
-use anyhow::Result;
+use crate::vk::{
+    CompareOp, Context, CullModeFlags, DepthState, DescriptorSet, Format, GraphicsPipelineDesc,
+    Image, ImageLayout, ImageUsageFlags, Pipeline, PrimitiveTopology, Recorder, Resource, Sampler,
+};
+use anyhow::{Context as _, Result};
 
 pub const INFO: TechniqueInfo = TechniqueInfo {
     name: "hard",
@@ -34,7 +48,9 @@ pub const INFO: TechniqueInfo = TechniqueInfo {
 };
 
 pub struct Hard {
-    shadow: ShadowMap,
+    map: Image,
+    map_pipeline: Pipeline,
+    map_set: DescriptorSet,
     final_pass: FinalPass,
     final_set: DescriptorSet,
     _sampler: Sampler,
@@ -43,14 +59,49 @@ pub struct Hard {
 impl Hard {
     fn create(init: &TechniqueInit<'_>) -> Result<Box<dyn Technique>> {
         let ctx = init.ctx;
-        let shadow = ShadowMap::new(ctx, init.ubo, init.settings.shadow_res, "hard/shadow_map")?;
-        // Nearest: textureGather ignores filtering, and no path may blend depths.
-        let sampler = Sampler::new(ctx, Filter::Nearest)?;
+        let res = init.settings.shadow_res;
+        let map = Image::new_2d(
+            ctx,
+            res,
+            res,
+            Format::D32_SFLOAT,
+            ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT
+                | ImageUsageFlags::SAMPLED
+                | ImageUsageFlags::TRANSFER_SRC,
+            "hard/shadow_map depth",
+        )?;
+        let map_set = DescriptorSet::new(ctx, &[Resource::Uniform(init.ubo)], "hard/shadow_map")?;
+        let map_pipeline = Pipeline::graphics(
+            ctx,
+            &GraphicsPipelineDesc {
+                name: "hard/shadow_map",
+                vertex: shaders::HARD_SHADOW_MAP_VERT,
+                fragment: None,
+                vertex_stride: SCENE_VERTEX_STRIDE,
+                attributes: &SCENE_ATTRIBUTES[..1],
+                topology: PrimitiveTopology::TRIANGLE_LIST,
+                // Open meshes and planes cast from both sides.
+                cull: CullModeFlags::NONE,
+                colors: &[],
+                depth: Some(DepthState {
+                    format: Format::D32_SFLOAT,
+                    test: true,
+                    write: true,
+                    compare: CompareOp::LESS,
+                }),
+                push_constant_bytes: DRAW_PUSH_BYTES,
+                sets: &[&map_set],
+            },
+        )
+        .context("creating the hard shadow-map pipeline")?;
+        // Compare LESS_OR_EQUAL: lit where the point's reference depth is at or in front of
+        // the stored caster; linear: the 2x2 bilinear filter of the results.
+        let sampler = Sampler::compare(ctx, CompareOp::LESS_OR_EQUAL)?;
         let final_set = DescriptorSet::new(
             ctx,
             &[
                 Resource::Uniform(init.ubo),
-                Resource::Sampled(&shadow.depth, &sampler),
+                Resource::Sampled(&map, &sampler),
             ],
             "hard/final",
         )?;
@@ -64,7 +115,9 @@ impl Hard {
             &final_set,
         )?;
         Ok(Box::new(Self {
-            shadow,
+            map,
+            map_pipeline,
+            map_set,
             final_pass,
             final_set,
             _sampler: sampler,
@@ -83,8 +136,16 @@ impl Technique for Hard {
         rec: &mut Recorder<'_>,
         frame: &FrameInput<'_>,
     ) -> Result<()> {
-        self.shadow.pass(rec, frame.gpu)?;
-        Ok(())
+        let (map, pipeline, set) = (&self.map, &self.map_pipeline, &self.map_set);
+        rec.pass("hard/shadow_map", |rec| {
+            rec.begin_rendering(&[], Some((map, Some(1.0))));
+            rec.bind_pipeline(pipeline);
+            rec.bind_sets(pipeline, &[set]);
+            frame.gpu.draw(rec, pipeline, |o| o.role.casts());
+            rec.end_rendering();
+            rec.transition(map, ImageLayout::SHADER_READ_ONLY_OPTIMAL);
+            Ok(())
+        })
     }
 
     fn light_passes(&self) -> Vec<String> {
@@ -101,6 +162,11 @@ impl Technique for Hard {
     }
 
     fn light_buffers(&self) -> Vec<LightBuffer<'_>> {
-        vec![shadow_map_buffer("shadow_map", &self.shadow)]
+        vec![LightBuffer {
+            name: "shadow_map",
+            image: &self.map,
+            // The depth buffer as stored: z/w of the light's projection, 1 where no caster.
+            channels: &["caster_z"],
+        }]
     }
 }

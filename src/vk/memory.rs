@@ -333,11 +333,22 @@ pub struct Sampler {
 impl Sampler {
     /// Clamp-to-edge sampler, no mipmaps.
     pub fn new(ctx: &Context, filter: Filter) -> Result<Self> {
+        Self::create(ctx, filter, None)
+    }
+
+    /// Clamp-to-edge depth-comparison sampler (`sampler2DShadow`), bilinear: each of the 2x2
+    /// texels is compared as `reference OP texel` and the four 0/1 results are weighted
+    /// bilinearly (the hardware "percentage closer" filter).
+    pub fn compare(ctx: &Context, op: vk::CompareOp) -> Result<Self> {
+        Self::create(ctx, Filter::Linear, Some(op))
+    }
+
+    fn create(ctx: &Context, filter: Filter, compare: Option<vk::CompareOp>) -> Result<Self> {
         let f = match filter {
             Filter::Nearest => vk::Filter::NEAREST,
             Filter::Linear => vk::Filter::LINEAR,
         };
-        let info = vk::SamplerCreateInfo::default()
+        let mut info = vk::SamplerCreateInfo::default()
             .mag_filter(f)
             .min_filter(f)
             .mipmap_mode(vk::SamplerMipmapMode::NEAREST)
@@ -345,6 +356,9 @@ impl Sampler {
             .address_mode_v(vk::SamplerAddressMode::CLAMP_TO_EDGE)
             .address_mode_w(vk::SamplerAddressMode::CLAMP_TO_EDGE)
             .max_lod(0.0);
+        if let Some(op) = compare {
+            info = info.compare_enable(true).compare_op(op);
+        }
         // SAFETY: valid create info; destroyed in Drop.
         let raw =
             unsafe { ctx.device().create_sampler(&info, None) }.context("creating sampler")?;

@@ -126,12 +126,9 @@ fn run() -> Result<(), String> {
                 let text = out.join(format!("{ident}.spvasm"));
                 std::fs::write(&text, spvasm_variant(&source, aov))
                     .map_err(|e| format!("{}: {e}", text.display()))?;
-                match assemble(asm, spirv_val.as_deref(), &text, &spv)? {
-                    Err(failure) => {
-                        failures.push(format!("{}{suffix}: {failure}", file.display()));
-                        continue;
-                    }
-                    Ok(()) => {}
+                if let Err(failure) = assemble(asm, spirv_val.as_deref(), &text, &spv)? {
+                    failures.push(format!("{}{suffix}: {failure}", file.display()));
+                    continue;
                 }
                 let _ = writeln!(
                     consts,

@@ -227,55 +227,20 @@ impl Smoothies {
             ],
             "smoothies/smoothie",
         )?;
-        let smoothie_pipeline = Pipeline::graphics(
-            ctx,
-            &GraphicsPipelineDesc {
-                name: "smoothies/smoothie",
-                vertex: shaders::SMOOTHIES_SMOOTHIE_VERT,
-                fragment: Some(init.settings.spirv.pick(
-                    shaders::SMOOTHIES_SMOOTHIE_FRAG,
-                    shaders::SMOOTHIES_SMOOTHIE_FRAG_SPVASM,
-                )),
-                vertex_stride: SMOOTHIE_VERTEX_BYTES,
-                attributes: SMOOTHIE_ATTRIBUTES,
-                topology: PrimitiveTopology::TRIANGLE_LIST,
-                // Smoothie quads and fans are built in 2-D with either winding.
-                cull: CullModeFlags::NONE,
-                colors: &[
-                    (Format::R32_SFLOAT, Blend::Min),
-                    (Format::R16_SFLOAT, Blend::Min),
-                ],
-                depth: None,
-                push_constant_bytes: 0,
-                sets: &[&smoothie_set],
-            },
+        // GPU path: expanded `SmoothieVertex`es as vertex input.
+        let smoothie_pipeline = Self::smoothie_pipeline(
+            init,
+            shaders::SMOOTHIES_SMOOTHIE_VERT,
+            (SMOOTHIE_VERTEX_BYTES, SMOOTHIE_ATTRIBUTES),
+            0,
+            &[&smoothie_set],
         )?;
+        // CPU path: vertex pulling from the records, no vertex input.
         let records = DynamicVertices::storage(ctx, "smoothie records")?;
         let records_set = Self::records_set(ctx, &records)?;
         let records_pipeline = |vertex: &[u8]| {
-            Pipeline::graphics(
-                ctx,
-                &GraphicsPipelineDesc {
-                    name: "smoothies/smoothie",
-                    vertex,
-                    fragment: Some(init.settings.spirv.pick(
-                        shaders::SMOOTHIES_SMOOTHIE_FRAG,
-                        shaders::SMOOTHIES_SMOOTHIE_FRAG_SPVASM,
-                    )),
-                    // Vertex pulling: no vertex input.
-                    vertex_stride: 0,
-                    attributes: &[],
-                    topology: PrimitiveTopology::TRIANGLE_LIST,
-                    cull: CullModeFlags::NONE,
-                    colors: &[
-                        (Format::R32_SFLOAT, Blend::Min),
-                        (Format::R16_SFLOAT, Blend::Min),
-                    ],
-                    depth: None,
-                    push_constant_bytes: RECORDS_PUSH_BYTES,
-                    sets: &[&smoothie_set, &records_set],
-                },
-            )
+            let sets = [&smoothie_set, &records_set];
+            Self::smoothie_pipeline(init, vertex, (0, &[]), RECORDS_PUSH_BYTES, &sets)
         };
         let records_pipelines = [
             records_pipeline(shaders::SMOOTHIES_SMOOTHIE_EDGES_VERT)?,
@@ -311,20 +276,7 @@ impl Smoothies {
         let path = init.settings.silhouettes.resolve(ctx);
         let gpu_silhouettes = match path {
             SilhouettePath::Cpu | SilhouettePath::Auto => None,
-            SilhouettePath::Gpu => {
-                // Sized for the scene's own light; `prepare` grows it when a frame needs more.
-                let light = fit_light(init.scene);
-                let radius = init.settings.radius_for(init.scene);
-                let width = smoothie_widths(init.settings.smoothie_t, &light, radius);
-                GpuSilhouettes::new(
-                    ctx,
-                    init.ubo,
-                    &init.scene.objects,
-                    &adjacency,
-                    &light,
-                    width,
-                )?
-            }
+            SilhouettePath::Gpu => Self::gpu_silhouettes(init, &adjacency)?,
         };
         Ok(Box::new(Self {
             shadow,
@@ -347,6 +299,60 @@ impl Smoothies {
             gpu_silhouettes,
             draw_smoothies: false,
         }))
+    }
+
+    /// A `smoothies/smoothie` pipeline: `vertex` (with its vertex stride and attributes)
+    /// and the shared fragment shader into the two MIN-blended attachments, depth R32F and
+    /// alpha R16F; no depth attachment.
+    fn smoothie_pipeline(
+        init: &TechniqueInit<'_>,
+        vertex: &[u8],
+        (vertex_stride, attributes): (u32, &[crate::vk::Attribute]),
+        push_constant_bytes: u32,
+        sets: &[&DescriptorSet],
+    ) -> Result<Pipeline> {
+        Pipeline::graphics(
+            init.ctx,
+            &GraphicsPipelineDesc {
+                name: "smoothies/smoothie",
+                vertex,
+                fragment: Some(init.settings.spirv.pick(
+                    shaders::SMOOTHIES_SMOOTHIE_FRAG,
+                    shaders::SMOOTHIES_SMOOTHIE_FRAG_SPVASM,
+                )),
+                vertex_stride,
+                attributes,
+                topology: PrimitiveTopology::TRIANGLE_LIST,
+                // Smoothie quads and fans are built in 2-D with either winding.
+                cull: CullModeFlags::NONE,
+                colors: &[
+                    (Format::R32_SFLOAT, Blend::Min),
+                    (Format::R16_SFLOAT, Blend::Min),
+                ],
+                depth: None,
+                push_constant_bytes,
+                sets,
+            },
+        )
+    }
+
+    /// The GPU path's compute passes and buffers, sized for the scene's own light (`prepare`
+    /// grows them when a frame needs more).
+    fn gpu_silhouettes(
+        init: &TechniqueInit<'_>,
+        adjacency: &[Option<Arc<Adjacency>>],
+    ) -> Result<Option<GpuSilhouettes>> {
+        let light = fit_light(init.scene);
+        let radius = init.settings.radius_for(init.scene);
+        let width = smoothie_widths(init.settings.smoothie_t, &light, radius);
+        GpuSilhouettes::new(
+            init.ctx,
+            init.ubo,
+            &init.scene.objects,
+            adjacency,
+            &light,
+            width,
+        )
     }
 
     /// Set 1 of the records pipeline: the records (set 0 is `smoothie_set`, shared with

@@ -37,10 +37,7 @@ fn check_channel(what: &str, name: &str, values: &[f32]) {
     } else if name.ends_with("_z") {
         // A depth buffer as stored (`hard`'s D32 map): z/w of the light's projection in
         // [0, 1], 1 (the clear) where nothing was drawn, something drawn on `cylinder`.
-        assert!(
-            min >= 0.0 && max <= 1.0,
-            "{what}: depths in {min}..{max}"
-        );
+        assert!(min >= 0.0 && max <= 1.0, "{what}: depths in {min}..{max}");
         assert!(min < 1.0, "{what}: nothing drawn");
     } else if ["alpha", "intensity", "fraction"].contains(&name) {
         // Fractions of the light, 1 = lit: the cylinder's shadow makes some of it darker.

@@ -2,7 +2,8 @@
 #extension GL_GOOGLE_include_directive : require
 // plateaus final pass: points on the plane read the plateau texture (bilinear over its 4
 // nearest texels, then the sine falloff, Haines Sec. 3 / Fig. 5); every other receiver gets
-// the hard shadow map's 2x2 filtered comparison (as glsl/hard/final.frag).
+// the shadow map's 2x2 bilinear comparison (the filter `hard` gets from its comparison
+// sampler).
 #include "common/shadow.glsl"
 #include "plateaus/plane.glsl"
 

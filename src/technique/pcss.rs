@@ -63,7 +63,7 @@
 //!
 //! ## Cost
 //! Several times `hard`'s frame on lavapipe, over the goal of 2x (BENCHMARKS.md has the
-//! measured ratios). The shadow-map pass is the same as `hard`'s; the final pass
+//! measured ratios). The shadow-map pass is the shared `ShadowMap` (as `pcf`'s); the final pass
 //! dominates, and in it the blocker search: every lit pixel inside the light frustum pays
 //! SEARCH_SAMPLES gathers before it can exit, and on lavapipe one gather costs about as much
 //! as all of `hard`'s final pass. The fix that would meet the goal is a hierarchical search

@@ -93,8 +93,10 @@
 //!    of the plane's) takes the bilinear filter of the 4 nearest texels of the fraction f and
 //!    returns the sine falloff 0.5 - 0.5 cos(pi f) from the 256-texel 1-D LUT (Sec. 3, Fig. 5);
 //!    (P4) v = falloff(f). Every other point (other receivers, and on-plane points outside
-//!    the texture's square, e.g. a coplanar second ground tile) gets `hard`'s 2x2 filtered
-//!    shadow-map test. Points outside the light frustum get 1, as in `hard`.
+//!    the texture's square, e.g. a coplanar second ground tile) gets the 2x2 bilinear
+//!    comparison of the shadow map's r (`textureGather`, `lit_test`, `bilinear` of
+//!    glsl/common/shadow.glsl: the filter `hard` gets from its comparison sampler). Points
+//!    outside the light frustum get 1, as in `hard`.
 //!
 //! ## Known artefacts
 //! Umbrae are the full hard shadow at any light size: no inner penumbra, shadows too dark and

@@ -41,9 +41,10 @@
 //!
 //!    Both find the same edges (tests/gpu_silhouettes.rs) and keep each caster's geometry
 //!    until its model or the light changes: a moved caster rebuilds only its own smoothies.
-//! 1. `smoothies/shadow_map` — as `hard`: R32G32_SFLOAT, clear 1e30, blend MIN; r = nearest
-//!    caster's linear depth (the umbra test), g = nearest surface of any role (the receiver
-//!    depth r of Eq. 1). Linear depth, not the depth buffer's, because Eq. 1 needs b/r.
+//! 1. `smoothies/shadow_map` — `render::passes::ShadowMap`: R32G32_SFLOAT, clear 1e30,
+//!    blend MIN, no depth attachment; r = nearest caster's linear depth (the umbra test),
+//!    g = nearest surface of any role (the receiver depth r of Eq. 1). Linear depth, not
+//!    the depth buffer's, because Eq. 1 needs b/r.
 //! 2. `smoothies/smoothie` — ONE pass, two colour attachments, no depth attachment.
 //!    Pipelines of that name per path, all with the same fragment shader:
 //!    GPU path: glsl/smoothies/smoothie.vert reads `SmoothieVertex` attributes (stride 36:

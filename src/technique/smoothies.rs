@@ -7,15 +7,24 @@
 //! With the implementation lessons of Volokh's report (extrusion direction from averaged
 //! screen-space normals, corner construction, the b ~ r guard, linear R32F depths).
 //!
+//! At a glance (each pass in full below):
+//! - `smoothies/silhouettes` (CPU, or compute on the GPU path): silhouette edges, then
+//!   smoothie quads and corner fans in light uv;
+//! - `smoothies/shadow_map`: R32G32_SFLOAT (clear 1e30, blend MIN), no depth attachment;
+//! - `smoothies/smoothie`: R32_SFLOAT smoothie depth (clear 1e30, MIN) + R16_SFLOAT alpha
+//!   (clear 1.0, MIN), no depth attachment, culling off;
+//! - `smoothies/final`: the camera pass; reads the three buffers and a falloff LUT, writes
+//!   the colour target (RGBA8).
+//!
 //! **What to port**: the passes below, with pass 0's geometry from the reference
 //! construction, `src/silhouette/smoothie.rs` (`build_smoothies_width`, after the reference
 //! extraction `silhouette::extract_reference`), whose header gives every rule (edge quads,
-//! corner fans, special vertices, widths). The
-//! renderer draws two optimisations of it, interchangeable: the CPU path's compact records
-//! (`silhouette/smoothie/records.rs`, expanded by glsl/smoothies/smoothie_{edges,fans}.vert)
-//! and the GPU path's compute passes (glsl/silhouette/). `silhouette::smoothie::equivalence`
-//! holds the records to the reference (edges bit for bit, corners within 1e-5 t) and
-//! tests/gpu_silhouettes.rs the compute passes to the records (same edges, same image).
+//! corner fans, special vertices, widths). The renderer draws two optimisations of it,
+//! interchangeable: the CPU path's compact records (`silhouette/smoothie/records.rs`,
+//! expanded by glsl/smoothies/smoothie_{edges,fans}.vert) and the GPU path's compute passes
+//! (glsl/silhouette/). `silhouette::smoothie::equivalence` holds the records to the
+//! reference (edges bit for bit, corners within 1e-5 t) and tests/gpu_silhouettes.rs the
+//! compute passes to the records (same edges, same image).
 //!
 //! ## Passes, in order
 //! 0. `smoothies/silhouettes` — per caster, per light: brute-force silhouette edges over

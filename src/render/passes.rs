@@ -5,8 +5,8 @@ use super::gpu_scene::{GpuScene, DRAW_PUSH_BYTES, SCENE_ATTRIBUTES, SCENE_VERTEX
 use crate::shaders;
 use crate::vk::{
     Blend, Buffer, BufferUsageFlags, CompareOp, Context, CullModeFlags, DepthState, DescriptorSet,
-    Format, FrameRunner, GraphicsPipelineDesc, Image, ImageLayout, ImageUsageFlags, Pipeline,
-    PrimitiveTopology, Recorder, Resource,
+    Format, FrameRunner, GraphicsPipelineDesc, Image, ImageUsageFlags, Pipeline, PrimitiveTopology,
+    Recorder, Resource,
 };
 use anyhow::Result;
 use glam::Mat4;
@@ -84,14 +84,13 @@ impl ShadowMap {
         })
     }
 
-    /// Draws every object from the light and leaves `depth` readable by shaders.
+    /// Draws every object from the light into `depth`.
     pub fn record(&self, rec: &mut Recorder<'_>, scene: &GpuScene) {
         rec.begin_rendering(&[(&self.depth, Some([FAR_DEPTH; 4]))], None);
         rec.bind_pipeline(&self.pipeline);
         rec.bind_sets(&self.pipeline, &[&self.set]);
         scene.draw(rec, &self.pipeline, |_| true);
         rec.end_rendering();
-        rec.transition(&self.depth, ImageLayout::SHADER_READ_ONLY_OPTIMAL);
     }
 }
 

@@ -77,8 +77,7 @@ use super::{extract, light_in_object, Adjacency};
 use crate::scene::{LightView, Object};
 use crate::shaders;
 use crate::vk::{
-    AccessFlags2, Buffer, BufferUsageFlags, Context, DescriptorSet, MemoryLocation, Pipeline,
-    PipelineStageFlags2, Recorder, Resource,
+    Buffer, BufferUsageFlags, Context, DescriptorSet, MemoryLocation, Pipeline, Recorder, Resource,
 };
 use anyhow::{Context as _, Result};
 use bytemuck::{Pod, Zeroable};
@@ -636,12 +635,6 @@ impl GpuSilhouettes {
         if self.emitter == Emitter::Penumbra {
             rec.fill_buffer(&self.reach_state, 0);
         }
-        rec.memory_barrier(
-            PipelineStageFlags2::CLEAR,
-            AccessFlags2::TRANSFER_WRITE,
-            PipelineStageFlags2::COMPUTE_SHADER,
-            AccessFlags2::SHADER_STORAGE_READ | AccessFlags2::SHADER_STORAGE_WRITE,
-        );
         let push = CountsPush {
             counts: [
                 self.edges,
@@ -650,15 +643,7 @@ impl GpuSilhouettes {
                 0,
             ],
         };
-        for (k, (pipeline, threads)) in self.stages.iter().enumerate() {
-            if k > 0 {
-                rec.memory_barrier(
-                    PipelineStageFlags2::COMPUTE_SHADER,
-                    AccessFlags2::SHADER_STORAGE_WRITE,
-                    PipelineStageFlags2::COMPUTE_SHADER,
-                    AccessFlags2::SHADER_STORAGE_READ | AccessFlags2::SHADER_STORAGE_WRITE,
-                );
-            }
+        for (pipeline, threads) in &self.stages {
             let threads = match threads {
                 Threads::Edges => self.edges,
                 Threads::Vertices => self.welded_vertices,
@@ -677,18 +662,6 @@ impl GpuSilhouettes {
             };
             rec.dispatch(x, y, 1);
         }
-        rec.memory_barrier(
-            PipelineStageFlags2::COMPUTE_SHADER,
-            AccessFlags2::SHADER_STORAGE_WRITE,
-            PipelineStageFlags2::DRAW_INDIRECT
-                | PipelineStageFlags2::VERTEX_ATTRIBUTE_INPUT
-                | PipelineStageFlags2::COPY
-                | PipelineStageFlags2::HOST,
-            AccessFlags2::INDIRECT_COMMAND_READ
-                | AccessFlags2::VERTEX_ATTRIBUTE_READ
-                | AccessFlags2::TRANSFER_READ
-                | AccessFlags2::HOST_READ,
-        );
         for c in &mut self.casters {
             c.built_for = Some((key, objects[c.object].transform));
         }

@@ -37,7 +37,7 @@ use crate::render::passes::{FinalPass, FinalShader};
 use crate::shaders;
 use crate::vk::{
     CompareOp, Context, CullModeFlags, DepthState, DescriptorSet, Format, GraphicsPipelineDesc,
-    Image, ImageLayout, ImageUsageFlags, Pipeline, PrimitiveTopology, Recorder, Resource, Sampler,
+    Image, ImageUsageFlags, Pipeline, PrimitiveTopology, Recorder, Resource, Sampler,
 };
 use anyhow::{Context as _, Result};
 
@@ -143,7 +143,6 @@ impl Technique for Hard {
             rec.bind_sets(pipeline, &[set]);
             frame.gpu.draw(rec, pipeline, |o| o.role.casts());
             rec.end_rendering();
-            rec.transition(map, ImageLayout::SHADER_READ_ONLY_OPTIMAL);
             Ok(())
         })
     }

@@ -98,7 +98,7 @@ use crate::silhouette::penumbra::{build_penumbra, PenumbraKey, PenumbraVertex};
 use crate::silhouette::{self, Adjacency};
 use crate::vk::{
     Blend, Context, CullModeFlags, DescriptorSet, Filter, Format, GraphicsPipelineDesc, Image,
-    ImageLayout, ImageUsageFlags, Pipeline, PrimitiveTopology, Recorder, Resource, Sampler,
+    ImageUsageFlags, Pipeline, PrimitiveTopology, Recorder, Resource, Sampler,
 };
 use anyhow::{Context as _, Result};
 use std::sync::Arc;
@@ -335,7 +335,6 @@ impl Technique for PenumbraMap {
                 }
             }
             rec.end_rendering();
-            rec.transition(&self.penumbra, ImageLayout::SHADER_READ_ONLY_OPTIMAL);
             Ok(())
         })?;
         Ok(())

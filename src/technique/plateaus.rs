@@ -118,8 +118,8 @@ use crate::shaders;
 use crate::silhouette::{self, Adjacency, SilhouetteEdge};
 use crate::vk::{
     Blend, Buffer, BufferUsageFlags, CompareOp, Context, CullModeFlags, DepthState, DescriptorSet,
-    Filter, Format, GraphicsPipelineDesc, Image, ImageLayout, ImageUsageFlags, MemoryLocation,
-    Pipeline, PrimitiveTopology, Recorder, Resource, Sampler,
+    Filter, Format, GraphicsPipelineDesc, Image, ImageUsageFlags, MemoryLocation, Pipeline,
+    PrimitiveTopology, Recorder, Resource, Sampler,
 };
 use anyhow::{anyhow, Result};
 use bytemuck::{Pod, Zeroable};
@@ -840,7 +840,6 @@ impl Technique for Plateaus {
             _ if !soft => rec.skip("plateaus/plateaus", "point light (R = 0)"),
             _ => rec.skip("plateaus/plateaus", "no silhouette edge"),
         }
-        rec.transition(&self.texture, ImageLayout::SHADER_READ_ONLY_OPTIMAL);
         self.shadow.pass(rec, frame.gpu)?;
         Ok(())
     }

@@ -117,7 +117,7 @@ use crate::silhouette::smoothie::{GeometryKey, SmoothieVertex, Width};
 use crate::silhouette::{self, Adjacency};
 use crate::vk::{
     Blend, Context, CullModeFlags, DescriptorSet, Filter, Format, GraphicsPipelineDesc, Image,
-    ImageLayout, ImageUsageFlags, Pipeline, PrimitiveTopology, Recorder, Resource, Sampler,
+    ImageUsageFlags, Pipeline, PrimitiveTopology, Recorder, Resource, Sampler,
 };
 use anyhow::Result;
 use std::sync::Arc;
@@ -507,8 +507,6 @@ impl Technique for Smoothies {
                 }
             }
             rec.end_rendering();
-            rec.transition(&self.smoothie_depth, ImageLayout::SHADER_READ_ONLY_OPTIMAL);
-            rec.transition(&self.smoothie_alpha, ImageLayout::SHADER_READ_ONLY_OPTIMAL);
             Ok(())
         })?;
         Ok(())

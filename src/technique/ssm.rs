@@ -105,9 +105,9 @@ use crate::render::{AccumFormat, GpuScene};
 use crate::scene::Role;
 use crate::shaders;
 use crate::vk::{
-    AccessFlags2, Blend, Buffer, BufferUsageFlags, CompareOp, Context, CullModeFlags, DepthState,
-    DescriptorSet, Filter, Format, GraphicsPipelineDesc, Image, ImageLayout, ImageUsageFlags,
-    MemoryLocation, Pipeline, PipelineStageFlags2, PrimitiveTopology, Recorder, Resource, Sampler,
+    Blend, Buffer, BufferUsageFlags, CompareOp, Context, CullModeFlags, DepthState, DescriptorSet,
+    Filter, Format, GraphicsPipelineDesc, Image, ImageUsageFlags, MemoryLocation, Pipeline,
+    PrimitiveTopology, Recorder, Resource, Sampler,
 };
 use anyhow::{bail, Context as _, Result};
 
@@ -416,29 +416,14 @@ impl Ssm {
         rec.bind_sets(&self.receiver_only, &[&self.receiver_set]);
         gpu.draw(rec, &self.receiver_only, |o| o.role == Role::Receiver);
         rec.end_rendering();
-        for l in &self.receiver_layers {
-            rec.transition(l, ImageLayout::SHADER_READ_ONLY_OPTIMAL);
-        }
     }
 
     fn record_bound(&self, rec: &mut Recorder<'_>) {
         rec.fill_buffer(&self.bound, 0);
-        rec.memory_barrier(
-            PipelineStageFlags2::CLEAR,
-            AccessFlags2::TRANSFER_WRITE,
-            PipelineStageFlags2::COMPUTE_SHADER,
-            AccessFlags2::SHADER_STORAGE_READ | AccessFlags2::SHADER_STORAGE_WRITE,
-        );
         rec.bind_pipeline(&self.bound_pipeline);
         rec.bind_sets(&self.bound_pipeline, &[&self.bound_set]);
         let groups = self.res.div_ceil(BOUND_GROUP);
         rec.dispatch(groups, groups, 1);
-        rec.memory_barrier(
-            PipelineStageFlags2::COMPUTE_SHADER,
-            AccessFlags2::SHADER_STORAGE_WRITE,
-            PipelineStageFlags2::VERTEX_SHADER | PipelineStageFlags2::FRAGMENT_SHADER,
-            AccessFlags2::SHADER_STORAGE_READ,
-        );
     }
 
     fn record_soft(&self, rec: &mut Recorder<'_>, soft: &SoftShadow) {
@@ -453,9 +438,6 @@ impl Ssm {
         rec.bind_sets(&self.soft_pipeline, &[&soft.set]);
         rec.draw(4, self.res * self.res);
         rec.end_rendering();
-        for l in &soft.layers {
-            rec.transition(l, ImageLayout::SHADER_READ_ONLY_OPTIMAL);
-        }
     }
 }
 
@@ -521,7 +503,6 @@ impl BackOccluderMap {
         rec.bind_sets(&self.pipeline, &[&self.set]);
         scene.draw(rec, &self.pipeline, |o| o.role.casts());
         rec.end_rendering();
-        rec.transition(&self.depth, ImageLayout::SHADER_READ_ONLY_OPTIMAL);
     }
 }
 

@@ -4,8 +4,9 @@
 //! same name (the name `--timings` prints).
 
 use super::context::{Context, Shared};
-use super::memory::{subresource, Buffer, Image};
-use super::pipeline::{DescriptorSet, Pipeline};
+use super::memory::{Buffer, Image};
+use super::pipeline::{BindingKind, DescriptorSet, Pipeline};
+use super::sync::{Batch, BindingUse, Target, Use};
 use anyhow::{bail, Context as _, Result};
 use ash::vk;
 use std::ffi::CString;
@@ -189,8 +190,20 @@ impl FrameRunner {
             passes: Vec::new(),
             cpu: Vec::new(),
             rebuilt: Vec::new(),
+            graphics: Bound::default(),
+            compute: Bound::default(),
+            vertex_buffer: None,
+            index_buffer: None,
+            scope: None,
+            error: None,
         };
-        let recorded = f(&mut rec);
+        let mut recorded = f(&mut rec);
+        if recorded.is_ok() && rec.scope.is_some() {
+            recorded = Err(anyhow::anyhow!("a rendering scope was left open"));
+        }
+        if let (Ok(()), Some(e)) = (&recorded, rec.error.take()) {
+            recorded = Err(e.context("recording the frame"));
+        }
         let passes = std::mem::take(&mut rec.passes);
         let cpu = std::mem::take(&mut rec.cpu);
         let rebuilt = std::mem::take(&mut rec.rebuilt);
@@ -269,7 +282,8 @@ struct RecordedPass {
     skipped: Option<String>,
 }
 
-/// Records commands into the frame's command buffer.
+/// Records commands into the frame's command buffer, with the barriers they need (module
+/// header of `vk`: how barriers are decided).
 pub struct Recorder<'a> {
     shared: &'a Shared,
     cmd: vk::CommandBuffer,
@@ -279,29 +293,58 @@ pub struct Recorder<'a> {
     passes: Vec<RecordedPass>,
     cpu: Vec<(String, f64)>,
     rebuilt: Vec<CasterRebuilds>,
+    graphics: Bound,
+    compute: Bound,
+    vertex_buffer: Option<Target>,
+    index_buffer: Option<Target>,
+    scope: Option<RenderScope>,
+    /// The first misuse met (a command outside or inside a rendering scope where it cannot
+    /// be, a hazard within one scope); `FrameRunner::run` returns it.
+    error: Option<anyhow::Error>,
 }
 
-fn layout_sync(layout: vk::ImageLayout) -> (vk::PipelineStageFlags2, vk::AccessFlags2) {
-    use vk::{AccessFlags2 as A, ImageLayout as L, PipelineStageFlags2 as S};
-    match layout {
-        L::UNDEFINED => (S::NONE, A::NONE),
-        L::COLOR_ATTACHMENT_OPTIMAL => (
-            S::COLOR_ATTACHMENT_OUTPUT,
-            A::COLOR_ATTACHMENT_READ | A::COLOR_ATTACHMENT_WRITE,
-        ),
-        L::DEPTH_ATTACHMENT_OPTIMAL => (
-            S::EARLY_FRAGMENT_TESTS | S::LATE_FRAGMENT_TESTS,
-            A::DEPTH_STENCIL_ATTACHMENT_READ | A::DEPTH_STENCIL_ATTACHMENT_WRITE,
-        ),
-        L::SHADER_READ_ONLY_OPTIMAL => (
-            S::VERTEX_SHADER | S::FRAGMENT_SHADER | S::COMPUTE_SHADER,
-            A::SHADER_SAMPLED_READ,
-        ),
-        L::TRANSFER_SRC_OPTIMAL => (S::COPY, A::TRANSFER_READ),
-        L::TRANSFER_DST_OPTIMAL => (S::COPY | S::CLEAR, A::TRANSFER_WRITE),
-        _ => (S::ALL_COMMANDS, A::MEMORY_READ | A::MEMORY_WRITE),
-    }
+/// What is bound at one bind point: the pipeline's binding uses and the sets by index.
+#[derive(Default)]
+struct Bound {
+    uses: Option<Arc<[BindingUse]>>,
+    vertex_input: bool,
+    sets: Vec<Arc<[(BindingKind, Target)]>>,
 }
+
+/// A rendering scope between `begin_rendering` and `end_rendering`. No barrier may go
+/// inside one, so its commands wait here until `end_rendering` knows every access of the
+/// scope and can put the barriers for all of them in front.
+struct RenderScope {
+    colors: Vec<(Target, vk::ImageView, Clear)>,
+    depth: Option<(Target, vk::ImageView, Option<f32>)>,
+    extent: vk::Extent2D,
+    ops: Vec<Op>,
+    uses: Vec<Use>,
+}
+
+/// A command recorded inside a rendering scope, replayed by `end_rendering`.
+enum Op {
+    BindPipeline(vk::PipelineBindPoint, vk::Pipeline),
+    BindSets(
+        vk::PipelineBindPoint,
+        vk::PipelineLayout,
+        Vec<vk::DescriptorSet>,
+    ),
+    Push(vk::PipelineLayout, Vec<u8>),
+    BindVertexBuffer(vk::Buffer),
+    BindIndexBuffer(vk::Buffer),
+    Draw(u32, u32),
+    DrawIndexed(u32),
+    DrawIndirect(vk::Buffer, u64),
+}
+
+/// Where vkCmdFillBuffer writes. The specification lists it among the clear commands
+/// (CLEAR); validation layers before 1.3.278 (Debian 12 ships 1.3.239) and some drivers
+/// treat it as a copy (COPY). Naming both keeps a barrier right under either reading and
+/// still waits on transfers only.
+const FILL_STAGES: vk::PipelineStageFlags2 = vk::PipelineStageFlags2::from_raw(
+    vk::PipelineStageFlags2::COPY.as_raw() | vk::PipelineStageFlags2::CLEAR.as_raw(),
+);
 
 /// A clear value for an attachment at the start of a rendering scope, or `None` to load.
 pub type Clear = Option<[f32; 4]>;
@@ -311,11 +354,118 @@ impl Recorder<'_> {
         &self.shared.device
     }
 
+    fn fail(&mut self, e: anyhow::Error) {
+        if self.error.is_none() {
+            self.error = Some(e);
+        }
+    }
+
+    /// Whether a command that must be outside rendering may be recorded (else the misuse
+    /// is kept for `FrameRunner::run`).
+    fn outside_rendering(&mut self, what: &str) -> bool {
+        if self.scope.is_some() {
+            self.fail(anyhow::anyhow!("{what} inside a rendering scope"));
+            return false;
+        }
+        true
+    }
+
+    /// Records the barriers that order `uses` (the accesses of the next command) after
+    /// everything before them.
+    fn barriers(&mut self, uses: &[Use]) {
+        let mut batch = Batch::default();
+        for u in uses {
+            if let Err(e) = batch.add(u) {
+                self.fail(e);
+            }
+        }
+        if !batch.is_empty() {
+            // SAFETY: recording outside rendering; every barrier names a live resource.
+            unsafe {
+                self.device()
+                    .cmd_pipeline_barrier2(self.cmd, &batch.dependency())
+            };
+        }
+    }
+
+    /// The descriptor accesses of a draw or dispatch at `bound`: each binding the pipeline's
+    /// shaders use, in the stages that use it.
+    fn shader_uses(bound: &Bound, out: &mut Vec<Use>) {
+        use vk::{AccessFlags2 as A, ImageLayout as L};
+        let Some(uses) = &bound.uses else { return };
+        for u in uses.iter() {
+            let Some((kind, target)) = bound
+                .sets
+                .get(u.set as usize)
+                .and_then(|s| s.get(u.binding as usize))
+            else {
+                continue;
+            };
+            let target = target.clone();
+            let storage = if u.writes {
+                A::SHADER_STORAGE_READ | A::SHADER_STORAGE_WRITE
+            } else {
+                A::SHADER_STORAGE_READ
+            };
+            out.push(match kind {
+                BindingKind::UniformBuffer => Use::buffer(target, u.stage, A::UNIFORM_READ),
+                BindingKind::StorageBuffer => Use::buffer(target, u.stage, storage),
+                BindingKind::SampledImage => Use::image(
+                    target,
+                    u.stage,
+                    A::SHADER_SAMPLED_READ,
+                    L::SHADER_READ_ONLY_OPTIMAL,
+                ),
+                BindingKind::StorageImage => Use::image(target, u.stage, storage, L::GENERAL),
+            });
+        }
+    }
+
+    /// Runs `op` now, or inside a rendering scope keeps it for `end_rendering`.
+    fn op(&mut self, op: Op) {
+        match &mut self.scope {
+            Some(s) => s.ops.push(op),
+            None => self.exec(&op),
+        }
+    }
+
+    fn exec(&self, op: &Op) {
+        let d = self.device();
+        // SAFETY: recording; every handle belongs to a live wrapper (pipelines, sets and
+        // buffers outlive the frame by the caller's contract, as for any command), draws run
+        // inside the rendering scope `end_rendering` began, with the state bound before them.
+        unsafe {
+            match op {
+                Op::BindPipeline(point, p) => d.cmd_bind_pipeline(self.cmd, *point, *p),
+                Op::BindSets(point, layout, sets) => {
+                    d.cmd_bind_descriptor_sets(self.cmd, *point, *layout, 0, sets, &[])
+                }
+                Op::Push(layout, bytes) => d.cmd_push_constants(
+                    self.cmd,
+                    *layout,
+                    vk::ShaderStageFlags::ALL_GRAPHICS | vk::ShaderStageFlags::COMPUTE,
+                    0,
+                    bytes,
+                ),
+                Op::BindVertexBuffer(b) => d.cmd_bind_vertex_buffers(self.cmd, 0, &[*b], &[0]),
+                Op::BindIndexBuffer(b) => {
+                    d.cmd_bind_index_buffer(self.cmd, *b, 0, vk::IndexType::UINT32)
+                }
+                Op::Draw(v, i) => d.cmd_draw(self.cmd, *v, *i, 0, 0),
+                Op::DrawIndexed(n) => d.cmd_draw_indexed(self.cmd, *n, 1, 0, 0, 0),
+                Op::DrawIndirect(b, offset) => d.cmd_draw_indirect(self.cmd, *b, *offset, 1, 0),
+            }
+        }
+    }
+
     /// Records `f` as the pass `name`: timestamps before and after, and a debug label.
     pub fn pass<F>(&mut self, name: &str, f: F) -> Result<()>
     where
         F: FnOnce(&mut Self) -> Result<()>,
     {
+        if !self.outside_rendering(&format!("pass {name}")) {
+            bail!("pass {name} begun inside a rendering scope");
+        }
         if self.next_query + 2 > self.max_queries {
             bail!(
                 "more passes than the timestamp pool holds ({})",
@@ -341,6 +491,10 @@ impl Recorder<'_> {
             }
         }
         let result = f(self);
+        if self.scope.is_some() {
+            self.scope = None;
+            self.fail(anyhow::anyhow!("pass {name} left a rendering scope open"));
+        }
         // SAFETY: as above; the label is closed even when `f` failed.
         unsafe {
             if let Some(du) = &self.shared.debug_utils {
@@ -389,74 +543,74 @@ impl Recorder<'_> {
         });
     }
 
-    /// Moves `image` to `layout`, with the stages and accesses that layout implies. A
-    /// read-only layout already held needs no barrier.
-    pub fn transition(&mut self, image: &Image, layout: vk::ImageLayout) {
-        let old = image.layout.get();
-        if old == layout && layout == vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL {
-            return;
-        }
-        let (src_stage, src_access) = layout_sync(old);
-        let (dst_stage, dst_access) = layout_sync(layout);
-        let barrier = [vk::ImageMemoryBarrier2::default()
-            .src_stage_mask(src_stage)
-            .src_access_mask(src_access)
-            .dst_stage_mask(dst_stage)
-            .dst_access_mask(dst_access)
-            .old_layout(old)
-            .new_layout(layout)
-            .src_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
-            .dst_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
-            .image(image.raw)
-            .subresource_range(subresource(image.aspect))];
-        let dep = vk::DependencyInfo::default().image_memory_barriers(&barrier);
-        // SAFETY: recording; the image is alive for the frame.
-        unsafe { self.device().cmd_pipeline_barrier2(self.cmd, &dep) };
-        image.layout.set(layout);
-    }
-
-    /// A global memory barrier, e.g. compute writes -> vertex/indirect reads.
-    pub fn memory_barrier(
-        &mut self,
-        src_stage: vk::PipelineStageFlags2,
-        src_access: vk::AccessFlags2,
-        dst_stage: vk::PipelineStageFlags2,
-        dst_access: vk::AccessFlags2,
-    ) {
-        let barrier = [vk::MemoryBarrier2::default()
-            .src_stage_mask(src_stage)
-            .src_access_mask(src_access)
-            .dst_stage_mask(dst_stage)
-            .dst_access_mask(dst_access)];
-        let dep = vk::DependencyInfo::default().memory_barriers(&barrier);
-        // SAFETY: recording.
-        unsafe { self.device().cmd_pipeline_barrier2(self.cmd, &dep) };
-    }
-
     /// Begins dynamic rendering into `colors` (and `depth`), each cleared or loaded, with a
-    /// full-target viewport and scissor. Moves the targets to attachment layouts first.
+    /// full-target viewport and scissor. The scope's commands are recorded at
+    /// `end_rendering`, behind the barriers (layout transitions included) they all need.
     pub fn begin_rendering(
         &mut self,
         colors: &[(&Image, Clear)],
         depth: Option<(&Image, Option<f32>)>,
     ) {
+        if !self.outside_rendering("begin_rendering") {
+            return;
+        }
         let extent = colors
             .first()
             .map(|c| c.0.extent)
             .or(depth.map(|d| d.0.extent))
             .unwrap_or_default();
-        for (img, _) in colors {
-            self.transition(img, vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL);
+        self.scope = Some(RenderScope {
+            colors: colors
+                .iter()
+                .map(|(img, clear)| (img.target(), img.view, *clear))
+                .collect(),
+            depth: depth.map(|(img, clear)| (img.target(), img.view, clear)),
+            extent,
+            ops: Vec::new(),
+            uses: Vec::new(),
+        });
+    }
+
+    /// Ends the rendering scope: records its barriers, then the scope itself.
+    pub fn end_rendering(&mut self) {
+        use vk::{AccessFlags2 as A, ImageLayout as L, PipelineStageFlags2 as S};
+        let Some(scope) = self.scope.take() else {
+            self.fail(anyhow::anyhow!("end_rendering without begin_rendering"));
+            return;
+        };
+        // Attachments first: blending and LOAD read them, every draw may write them; a clear
+        // overwrites every texel, so their old contents may go.
+        let mut uses = Vec::with_capacity(scope.uses.len() + scope.colors.len() + 1);
+        for (target, _, clear) in &scope.colors {
+            let mut u = Use::image(
+                target.clone(),
+                S::COLOR_ATTACHMENT_OUTPUT,
+                A::COLOR_ATTACHMENT_READ | A::COLOR_ATTACHMENT_WRITE,
+                L::COLOR_ATTACHMENT_OPTIMAL,
+            );
+            u.discard = clear.is_some();
+            uses.push(u);
         }
-        if let Some((img, _)) = depth {
-            self.transition(img, vk::ImageLayout::DEPTH_ATTACHMENT_OPTIMAL);
+        if let Some((target, _, clear)) = &scope.depth {
+            let mut u = Use::image(
+                target.clone(),
+                S::EARLY_FRAGMENT_TESTS | S::LATE_FRAGMENT_TESTS,
+                A::DEPTH_STENCIL_ATTACHMENT_READ | A::DEPTH_STENCIL_ATTACHMENT_WRITE,
+                L::DEPTH_ATTACHMENT_OPTIMAL,
+            );
+            u.discard = clear.is_some();
+            uses.push(u);
         }
-        let color_infos: Vec<_> = colors
+        uses.extend(scope.uses.iter().cloned());
+        self.barriers(&uses);
+
+        let color_infos: Vec<_> = scope
+            .colors
             .iter()
-            .map(|(img, clear)| {
+            .map(|(_, view, clear)| {
                 let info = vk::RenderingAttachmentInfo::default()
-                    .image_view(img.view)
-                    .image_layout(vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL)
+                    .image_view(*view)
+                    .image_layout(L::COLOR_ATTACHMENT_OPTIMAL)
                     .store_op(vk::AttachmentStoreOp::STORE);
                 match clear {
                     Some(c) => {
@@ -469,23 +623,24 @@ impl Recorder<'_> {
                 }
             })
             .collect();
-        let depth_info = depth.map(|(img, clear)| {
+        let depth_info = scope.depth.as_ref().map(|(_, view, clear)| {
             let info = vk::RenderingAttachmentInfo::default()
-                .image_view(img.view)
-                .image_layout(vk::ImageLayout::DEPTH_ATTACHMENT_OPTIMAL)
+                .image_view(*view)
+                .image_layout(L::DEPTH_ATTACHMENT_OPTIMAL)
                 .store_op(vk::AttachmentStoreOp::STORE);
             match clear {
                 Some(d) => info
                     .load_op(vk::AttachmentLoadOp::CLEAR)
                     .clear_value(vk::ClearValue {
                         depth_stencil: vk::ClearDepthStencilValue {
-                            depth: d,
+                            depth: *d,
                             stencil: 0,
                         },
                     }),
                 None => info.load_op(vk::AttachmentLoadOp::LOAD),
             }
         });
+        let extent = scope.extent;
         let mut info = vk::RenderingInfo::default()
             .render_area(vk::Rect2D {
                 offset: vk::Offset2D::default(),
@@ -508,95 +663,125 @@ impl Recorder<'_> {
             offset: vk::Offset2D::default(),
             extent,
         }];
-        // SAFETY: recording; attachments are alive and in attachment layouts.
+        // SAFETY: recording; the attachments are alive and were moved to attachment
+        // layouts by the barriers above.
         unsafe {
             self.device().cmd_begin_rendering(self.cmd, &info);
             self.device().cmd_set_viewport(self.cmd, 0, &viewport);
             self.device().cmd_set_scissor(self.cmd, 0, &scissor);
         }
-    }
-
-    pub fn end_rendering(&mut self) {
-        // SAFETY: matches a begin_rendering.
+        for op in &scope.ops {
+            self.exec(op);
+        }
+        // SAFETY: ends the scope begun above.
         unsafe { self.device().cmd_end_rendering(self.cmd) };
     }
 
     pub fn bind_pipeline(&mut self, p: &Pipeline) {
-        // SAFETY: recording; pipeline alive.
-        unsafe {
-            self.device()
-                .cmd_bind_pipeline(self.cmd, p.bind_point, p.raw)
+        let bound = if p.bind_point == vk::PipelineBindPoint::COMPUTE {
+            &mut self.compute
+        } else {
+            &mut self.graphics
         };
+        bound.uses = Some(p.uses.clone());
+        bound.vertex_input = p.vertex_input;
+        self.op(Op::BindPipeline(p.bind_point, p.raw));
     }
 
     /// Binds `sets` at set indices 0.. for pipeline `p`.
     pub fn bind_sets(&mut self, p: &Pipeline, sets: &[&DescriptorSet]) {
-        let raw: Vec<_> = sets.iter().map(|s| s.set).collect();
-        // SAFETY: recording; sets are compatible with the pipeline's layout by construction.
-        unsafe {
-            self.device()
-                .cmd_bind_descriptor_sets(self.cmd, p.bind_point, p.layout, 0, &raw, &[])
+        let bound = if p.bind_point == vk::PipelineBindPoint::COMPUTE {
+            &mut self.compute
+        } else {
+            &mut self.graphics
         };
+        bound.sets = sets.iter().map(|s| s.bindings.clone()).collect();
+        let raw = sets.iter().map(|s| s.set).collect();
+        self.op(Op::BindSets(p.bind_point, p.layout, raw));
     }
 
     pub fn push_constants(&mut self, p: &Pipeline, bytes: &[u8]) {
-        // SAFETY: recording; the layout declares a range covering all stages from offset 0.
-        unsafe {
-            self.device().cmd_push_constants(
-                self.cmd,
-                p.layout,
-                vk::ShaderStageFlags::ALL_GRAPHICS | vk::ShaderStageFlags::COMPUTE,
-                0,
-                bytes,
-            )
-        };
+        self.op(Op::Push(p.layout, bytes.to_vec()));
     }
 
     pub fn bind_vertex_buffer(&mut self, b: &Buffer) {
-        // SAFETY: recording; buffer alive with VERTEX_BUFFER usage.
-        unsafe {
-            self.device()
-                .cmd_bind_vertex_buffers(self.cmd, 0, &[b.raw], &[0])
-        };
+        self.vertex_buffer = Some(b.target());
+        self.op(Op::BindVertexBuffer(b.raw));
     }
 
     pub fn bind_index_buffer(&mut self, b: &Buffer) {
-        // SAFETY: recording; buffer alive with INDEX_BUFFER usage.
-        unsafe {
-            self.device()
-                .cmd_bind_index_buffer(self.cmd, b.raw, 0, vk::IndexType::UINT32)
+        self.index_buffer = Some(b.target());
+        self.op(Op::BindIndexBuffer(b.raw));
+    }
+
+    /// Keeps the accesses of a draw (descriptors, vertex input, `extra`) for the scope's
+    /// barriers, and the draw itself for `end_rendering`.
+    fn draw_op(&mut self, op: Op, index: bool, extra: Option<Use>) {
+        use vk::{AccessFlags2 as A, PipelineStageFlags2 as S};
+        let Some(scope) = self.scope.as_mut() else {
+            self.fail(anyhow::anyhow!("a draw outside a rendering scope"));
+            return;
         };
+        Self::shader_uses(&self.graphics, &mut scope.uses);
+        if self.graphics.vertex_input {
+            if let Some(vb) = &self.vertex_buffer {
+                scope.uses.push(Use::buffer(
+                    vb.clone(),
+                    S::VERTEX_ATTRIBUTE_INPUT,
+                    A::VERTEX_ATTRIBUTE_READ,
+                ));
+            }
+        }
+        if index {
+            if let Some(ib) = &self.index_buffer {
+                scope
+                    .uses
+                    .push(Use::buffer(ib.clone(), S::INDEX_INPUT, A::INDEX_READ));
+            }
+        }
+        scope.uses.extend(extra);
+        scope.ops.push(op);
     }
 
     pub fn draw(&mut self, vertices: u32, instances: u32) {
-        // SAFETY: recording inside a rendering scope with a bound pipeline.
-        unsafe { self.device().cmd_draw(self.cmd, vertices, instances, 0, 0) };
+        self.draw_op(Op::Draw(vertices, instances), false, None);
     }
 
     pub fn draw_indexed(&mut self, indices: u32) {
-        // SAFETY: recording inside a rendering scope with bound pipeline and buffers.
-        unsafe {
-            self.device()
-                .cmd_draw_indexed(self.cmd, indices, 1, 0, 0, 0)
-        };
+        self.draw_op(Op::DrawIndexed(indices), true, None);
     }
 
     /// One indirect draw whose `VkDrawIndirectCommand` sits at `offset` in `args`.
     pub fn draw_indirect(&mut self, args: &Buffer, offset: u64) {
-        // SAFETY: recording; `args` has INDIRECT_BUFFER usage and holds a command at offset.
-        unsafe {
-            self.device()
-                .cmd_draw_indirect(self.cmd, args.raw, offset, 1, 0)
-        };
+        let extra = Use::buffer(
+            args.target(),
+            vk::PipelineStageFlags2::DRAW_INDIRECT,
+            vk::AccessFlags2::INDIRECT_COMMAND_READ,
+        );
+        self.draw_op(Op::DrawIndirect(args.raw, offset), false, Some(extra));
     }
 
     pub fn dispatch(&mut self, x: u32, y: u32, z: u32) {
+        if !self.outside_rendering("dispatch") {
+            return;
+        }
+        let mut uses = Vec::new();
+        Self::shader_uses(&self.compute, &mut uses);
+        self.barriers(&uses);
         // SAFETY: recording outside rendering with a bound compute pipeline.
         unsafe { self.device().cmd_dispatch(self.cmd, x, y, z) };
     }
 
     /// Fills `b` with the 32-bit word `value`.
     pub fn fill_buffer(&mut self, b: &Buffer, value: u32) {
+        if !self.outside_rendering("fill_buffer") {
+            return;
+        }
+        self.barriers(&[Use::buffer(
+            b.target(),
+            FILL_STAGES,
+            vk::AccessFlags2::TRANSFER_WRITE,
+        )]);
         // SAFETY: recording outside rendering; buffer has TRANSFER_DST usage.
         unsafe {
             self.device()
@@ -604,9 +789,34 @@ impl Recorder<'_> {
         };
     }
 
-    /// Copies the whole image into `dst` (tightly packed rows).
+    /// Makes what the GPU wrote into `b` visible to the host once the frame's fence
+    /// signalled (a fence alone orders execution but makes nothing host-visible).
+    pub fn host_read(&mut self, b: &Buffer) {
+        if !self.outside_rendering("host_read") {
+            return;
+        }
+        self.barriers(&[Use::buffer(
+            b.target(),
+            vk::PipelineStageFlags2::HOST,
+            vk::AccessFlags2::HOST_READ,
+        )]);
+    }
+
+    /// Copies the whole image into `dst` (tightly packed rows) and makes it host-visible.
     pub fn copy_image_to_buffer(&mut self, image: &Image, dst: &Buffer) {
-        self.transition(image, vk::ImageLayout::TRANSFER_SRC_OPTIMAL);
+        use vk::{AccessFlags2 as A, PipelineStageFlags2 as S};
+        if !self.outside_rendering("copy_image_to_buffer") {
+            return;
+        }
+        self.barriers(&[
+            Use::image(
+                image.target(),
+                S::COPY,
+                A::TRANSFER_READ,
+                vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
+            ),
+            Use::buffer(dst.target(), S::COPY, A::TRANSFER_WRITE),
+        ]);
         let region = [vk::BufferImageCopy::default()
             .image_subresource(
                 vk::ImageSubresourceLayers::default()
@@ -621,7 +831,7 @@ impl Recorder<'_> {
                 depth: 1,
             })];
         // SAFETY: recording outside rendering; the buffer is large enough (caller's contract,
-        // checked by `Readback`).
+        // checked by `Readback`); the barrier above moved the image to TRANSFER_SRC_OPTIMAL.
         unsafe {
             self.device().cmd_copy_image_to_buffer(
                 self.cmd,
@@ -631,17 +841,24 @@ impl Recorder<'_> {
                 &region,
             )
         };
-        self.memory_barrier(
-            vk::PipelineStageFlags2::COPY,
-            vk::AccessFlags2::TRANSFER_WRITE,
-            vk::PipelineStageFlags2::HOST,
-            vk::AccessFlags2::HOST_READ,
-        );
+        self.host_read(dst);
     }
 
-    /// Copies tightly packed texels from `src` into the whole image, leaving it readable by shaders.
+    /// Copies tightly packed texels from `src` into the whole image (shaders that sample
+    /// it later get it through the barrier their first use derives).
     pub fn copy_buffer_to_image(&mut self, src: &Buffer, image: &Image) {
-        self.transition(image, vk::ImageLayout::TRANSFER_DST_OPTIMAL);
+        use vk::{AccessFlags2 as A, PipelineStageFlags2 as S};
+        if !self.outside_rendering("copy_buffer_to_image") {
+            return;
+        }
+        let mut dst = Use::image(
+            image.target(),
+            S::COPY,
+            A::TRANSFER_WRITE,
+            vk::ImageLayout::TRANSFER_DST_OPTIMAL,
+        );
+        dst.discard = true;
+        self.barriers(&[Use::buffer(src.target(), S::COPY, A::TRANSFER_READ), dst]);
         let region = [vk::BufferImageCopy::default()
             .image_subresource(
                 vk::ImageSubresourceLayers::default()
@@ -655,7 +872,8 @@ impl Recorder<'_> {
                 height: image.extent.height,
                 depth: 1,
             })];
-        // SAFETY: recording outside rendering; `src` holds width*height texels.
+        // SAFETY: recording outside rendering; `src` holds width*height texels; the barrier
+        // above moved the image to TRANSFER_DST_OPTIMAL.
         unsafe {
             self.device().cmd_copy_buffer_to_image(
                 self.cmd,
@@ -665,11 +883,18 @@ impl Recorder<'_> {
                 &region,
             )
         };
-        self.transition(image, vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL);
     }
 
     /// Copies `src` into `dst` (whole of `src`).
     pub fn copy_buffer(&mut self, src: &Buffer, dst: &Buffer) {
+        use vk::{AccessFlags2 as A, PipelineStageFlags2 as S};
+        if !self.outside_rendering("copy_buffer") {
+            return;
+        }
+        self.barriers(&[
+            Use::buffer(src.target(), S::COPY, A::TRANSFER_READ),
+            Use::buffer(dst.target(), S::COPY, A::TRANSFER_WRITE),
+        ]);
         let region = [vk::BufferCopy::default().size(src.size.min(dst.size))];
         // SAFETY: recording outside rendering; sizes checked above.
         unsafe {
@@ -717,14 +942,62 @@ pub fn read_buffer<T: bytemuck::Pod>(
     )?;
     runner.run(|rec| {
         rec.copy_buffer(src, &buf);
-        rec.memory_barrier(
-            vk::PipelineStageFlags2::COPY,
-            vk::AccessFlags2::TRANSFER_WRITE,
-            vk::PipelineStageFlags2::HOST,
-            vk::AccessFlags2::HOST_READ,
-        );
+        rec.host_read(&buf);
         Ok(())
     })?;
     let bytes = &buf.read()?[..src.size as usize];
     Ok(bytemuck::pod_collect_to_vec(bytes))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::vk::ContextOptions;
+
+    /// The negative control of tests/sync.rs: with validation on, the layer's
+    /// synchronization validation sees a missing barrier, and the wrappers leave none out.
+    #[test]
+    fn synchronization_validation_reports_a_missing_barrier() {
+        let device = std::env::var("SOFTSHADOW_DEVICE").unwrap_or_else(|_| "llvmpipe".into());
+        let ctx = Context::new(&ContextOptions {
+            device: Some(device),
+            validation: true,
+        })
+        .expect("no Vulkan device for the tests");
+        let mut runner = FrameRunner::new(&ctx, 1).unwrap();
+        let buf = Buffer::new(
+            &ctx,
+            256,
+            vk::BufferUsageFlags::TRANSFER_DST,
+            gpu_allocator::MemoryLocation::GpuOnly,
+            "twice filled",
+        )
+        .unwrap();
+        runner
+            .run(|rec| {
+                rec.fill_buffer(&buf, 1);
+                rec.fill_buffer(&buf, 2);
+                Ok(())
+            })
+            .unwrap();
+        assert_eq!(ctx.validation_messages(), Vec::<String>::new());
+        runner
+            .run(|rec| {
+                // SAFETY: recording outside rendering; the buffer is alive and has
+                // TRANSFER_DST usage. The second fill has no barrier on purpose.
+                unsafe {
+                    let d = rec.device();
+                    d.cmd_fill_buffer(rec.cmd, buf.raw, 0, vk::WHOLE_SIZE, 1);
+                    d.cmd_fill_buffer(rec.cmd, buf.raw, 0, vk::WHOLE_SIZE, 2);
+                }
+                Ok(())
+            })
+            .unwrap();
+        let msgs = ctx.validation_messages();
+        assert!(
+            msgs.iter()
+                .any(|m| m.contains("SYNC-HAZARD-WRITE-AFTER-WRITE")),
+            "no hazard reported: {msgs:?}"
+        );
+    }
 }

@@ -15,7 +15,9 @@ const VALIDATION_LAYER: &CStr = c"VK_LAYER_KHRONOS_validation";
 pub struct ContextOptions {
     /// Case-insensitive substring of the device name; `None` picks a real GPU, else lavapipe.
     pub device: Option<String>,
-    /// Enable VK_LAYER_KHRONOS_validation and route its messages through a debug messenger.
+    /// Enable VK_LAYER_KHRONOS_validation, with its synchronization validation, and route
+    /// its messages through a debug messenger. `SOFTSHADOW_BEST_PRACTICES=1` in the
+    /// environment adds the layer's best-practices checks.
     pub validation: bool,
 }
 
@@ -143,8 +145,20 @@ impl Context {
             if !found {
                 bail!("validation was asked for but VK_LAYER_KHRONOS_validation is missing: install the Debian package vulkan-validationlayers");
             }
+            // SAFETY: plain enumeration on a loaded entry.
+            let layer_extensions =
+                unsafe { entry.enumerate_instance_extension_properties(Some(VALIDATION_LAYER)) }
+                    .context("enumerating the validation layer's extensions")?;
+            let features = layer_extensions.iter().any(|e| {
+                e.extension_name_as_c_str()
+                    .is_ok_and(|n| n == ash::ext::validation_features::NAME)
+            });
+            if !features {
+                bail!("the installed VK_LAYER_KHRONOS_validation lacks VK_EXT_validation_features, which synchronization validation needs: install a newer vulkan-validationlayers");
+            }
             layers.push(VALIDATION_LAYER.as_ptr());
             extensions.push(ash::ext::debug_utils::NAME.as_ptr());
+            extensions.push(ash::ext::validation_features::NAME.as_ptr());
         } else if instance_has_extension(&entry, ash::ext::debug_utils::NAME) {
             // Debug labels (pass names) for capture tools, when the loader offers them.
             extensions.push(ash::ext::debug_utils::NAME.as_ptr());
@@ -171,13 +185,23 @@ impl Context {
             )
             .pfn_user_callback(Some(debug_callback))
             .user_data(&mut *log as *mut ValidationLog as *mut c_void);
+        // Synchronization validation finds missing barriers, which the rest of the layer
+        // does not look for.
+        let mut enables = vec![vk::ValidationFeatureEnableEXT::SYNCHRONIZATION_VALIDATION];
+        if std::env::var("SOFTSHADOW_BEST_PRACTICES").is_ok_and(|v| !v.is_empty() && v != "0") {
+            enables.push(vk::ValidationFeatureEnableEXT::BEST_PRACTICES);
+        }
+        let mut validation_features =
+            vk::ValidationFeaturesEXT::default().enabled_validation_features(&enables);
         let mut create = vk::InstanceCreateInfo::default()
             .application_info(&app)
             .enabled_layer_names(&layers)
             .enabled_extension_names(&extensions);
         if opts.validation {
             // Also catches messages from vkCreateInstance/vkDestroyInstance themselves.
-            create = create.push_next(&mut messenger_info);
+            create = create
+                .push_next(&mut messenger_info)
+                .push_next(&mut validation_features);
         }
         // SAFETY: all pointers in `create` reference locals that outlive the call.
         let instance = unsafe { entry.create_instance(&create, None) }.map_err(instance_error)?;

@@ -2,11 +2,11 @@
 //! allocation and freeing both in `Drop`.
 
 use super::context::{Context, Shared};
+use super::sync::{Target, Tracked};
 use anyhow::{bail, Context as _, Result};
 use ash::vk;
 use gpu_allocator::vulkan::{Allocation, AllocationCreateDesc, AllocationScheme};
 use gpu_allocator::MemoryLocation;
-use std::cell::Cell;
 use std::sync::Arc;
 
 pub struct Buffer {
@@ -14,6 +14,7 @@ pub struct Buffer {
     pub(crate) raw: vk::Buffer,
     allocation: Option<Allocation>,
     pub size: u64,
+    sync: Arc<Tracked>,
 }
 
 impl Buffer {
@@ -66,6 +67,7 @@ impl Buffer {
             raw,
             allocation: Some(allocation),
             size,
+            sync: Tracked::new(),
         })
     }
 
@@ -110,6 +112,14 @@ impl Buffer {
         Ok(())
     }
 
+    /// The buffer as barriers name it.
+    pub(crate) fn target(&self) -> Target {
+        Target::Buffer {
+            raw: self.raw,
+            sync: self.sync.clone(),
+        }
+    }
+
     /// The mapped bytes of a host-visible buffer (readback after the GPU finished).
     pub fn read(&self) -> Result<&[u8]> {
         self.allocation
@@ -132,9 +142,8 @@ impl Drop for Buffer {
     }
 }
 
-/// A 1-D or 2-D image with one view, tracking its current layout so barriers can be derived
-/// from the layout it moves to (recording order is execution order: one queue, one command
-/// buffer at a time).
+/// A 1-D or 2-D image with one view. Its layout and last accesses are tracked with it, so
+/// that the `Recorder` derives every barrier and layout transition it needs.
 pub struct Image {
     shared: Arc<Shared>,
     pub(crate) raw: vk::Image,
@@ -143,7 +152,7 @@ pub struct Image {
     pub format: vk::Format,
     pub extent: vk::Extent2D,
     pub(crate) aspect: vk::ImageAspectFlags,
-    pub(crate) layout: Cell<vk::ImageLayout>,
+    sync: Arc<Tracked>,
     pub name: String,
 }
 
@@ -275,9 +284,19 @@ impl Image {
             format,
             extent: vk::Extent2D { width, height },
             aspect,
-            layout: Cell::new(vk::ImageLayout::UNDEFINED),
+            sync: Tracked::new(),
             name: name.to_string(),
         })
+    }
+
+    /// The image as barriers name it.
+    pub(crate) fn target(&self) -> Target {
+        Target::Image {
+            raw: self.raw,
+            aspect: self.aspect,
+            sync: self.sync.clone(),
+            name: self.name.clone(),
+        }
     }
 
     /// Bytes per texel of the formats this crate reads back.

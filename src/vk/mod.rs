@@ -1,10 +1,45 @@
 //! Every `unsafe` Vulkan call of the crate lives here, behind small safe wrappers that own
 //! their handles and destroy them in `Drop`.
+//!
+//! # How barriers are decided
+//!
+//! Technique code never writes a barrier or a layout transition: each `Recorder` command
+//! declares what it touches, and the recorder derives the barriers from that.
+//!
+//! - Every `Buffer` and `Image` carries its access state (sync.rs): the stage and access of
+//!   its last write, the stage/access pairs that write is already visible to, the stages
+//!   that read it since, and for an image its layout. The state outlives the frame: a
+//!   barrier's first scope reaches back over earlier submissions to the queue.
+//! - What a command touches: a draw or dispatch, every descriptor binding its pipeline's
+//!   shaders use (read from their SPIR-V when the pipeline is made: the stages that refer
+//!   to the binding, and whether a store, atomic or image write goes through it), plus the
+//!   bound vertex buffer (if the pipeline has vertex input), the index buffer of an
+//!   indexed draw and the argument buffer of an indirect draw; a rendering scope, its
+//!   attachments (a clear load op lets the old contents go: old layout UNDEFINED); fills,
+//!   copies and host readback, their source and destination.
+//! - For each access: a read waits for the last write only if that write is not yet
+//!   visible to the reading stage (source: the writing stage and access; destination: the
+//!   reading stage and access); a write or a layout change waits for the last write and
+//!   every read since (reads by execution only). A layout transition counts as a write
+//!   ordered before the stages it was made for; a later reader chains from those stages.
+//! - Barriers are `VkBufferMemoryBarrier2` / `VkImageMemoryBarrier2` on the one resource,
+//!   with exactly those stages and accesses, batched into one `vkCmdPipelineBarrier2` in
+//!   front of each command. No barrier may go inside a rendering scope, so the recorder
+//!   keeps a scope's commands until `end_rendering`, then records the barriers for all of
+//!   the scope's accesses, and the scope behind them. A resource written and accessed again
+//!   within one scope (or one command) is a hazard no barrier can fix: the frame fails.
+//! - Host writes to mapped buffers happen before the frame is submitted (submission makes
+//!   them visible) and after its fence signalled; host reads get a barrier to HOST
+//!   (`Recorder::host_read`, which `read_image` and `read_buffer` call).
+//!
+//! With `--validation` (and in every test) the Khronos layer's synchronization validation
+//! checks the result; `SOFTSHADOW_BEST_PRACTICES=1` adds its best-practices checks.
 
 mod cmd;
 mod context;
 mod memory;
 mod pipeline;
+mod sync;
 
 pub use ash::vk::{
     AccessFlags2, BufferUsageFlags, CompareOp, CullModeFlags, Format, ImageLayout, ImageUsageFlags,

@@ -4,13 +4,21 @@
 
 use super::context::{Context, Shared};
 use super::memory::{Buffer, Image, Sampler};
+use super::sync::{reflect, BindingUse, Target};
 use anyhow::{Context as _, Result};
 use ash::vk;
 use std::sync::Arc;
 
-fn shader_module(ctx: &Context, spirv: &[u8], name: &str) -> Result<vk::ShaderModule> {
+/// Creates the module and adds the bindings it uses to `uses` (what barriers derive from).
+fn shader_module(
+    ctx: &Context,
+    spirv: &[u8],
+    name: &str,
+    uses: &mut Vec<BindingUse>,
+) -> Result<vk::ShaderModule> {
     let words = ash::util::read_spv(&mut std::io::Cursor::new(spirv))
         .with_context(|| format!("reading SPIR-V of {name}"))?;
+    reflect(&words, uses).with_context(|| format!("reflecting the SPIR-V of {name}"))?;
     let info = vk::ShaderModuleCreateInfo::default().code(&words);
     // SAFETY: `words` is SPIR-V produced and validated by build.rs.
     unsafe { ctx.device().create_shader_module(&info, None) }
@@ -65,6 +73,8 @@ pub struct DescriptorSet {
     pub(crate) layout: vk::DescriptorSetLayout,
     pool: vk::DescriptorPool,
     pub(crate) set: vk::DescriptorSet,
+    /// What each binding holds, in binding order, for the barriers of the commands using it.
+    pub(crate) bindings: Arc<[(BindingKind, Target)]>,
 }
 
 impl DescriptorSet {
@@ -112,6 +122,16 @@ impl DescriptorSet {
             layout,
             pool,
             set: vk::DescriptorSet::null(),
+            bindings: resources
+                .iter()
+                .map(|r| {
+                    let target = match r {
+                        Resource::Uniform(b) | Resource::Storage(b) => b.target(),
+                        Resource::Sampled(img, _) | Resource::StorageImage(img) => img.target(),
+                    };
+                    (r.kind(), target)
+                })
+                .collect(),
         };
         let layouts = [layout];
         let alloc = vk::DescriptorSetAllocateInfo::default()
@@ -224,6 +244,10 @@ pub struct Pipeline {
     pub(crate) raw: vk::Pipeline,
     pub(crate) layout: vk::PipelineLayout,
     pub(crate) bind_point: vk::PipelineBindPoint,
+    /// The descriptor bindings its shaders use, by stage (from their SPIR-V).
+    pub(crate) uses: Arc<[BindingUse]>,
+    /// Whether it reads vertex buffer 0 (a pipeline pulling vertices from storage does not).
+    pub(crate) vertex_input: bool,
     pub name: String,
 }
 
@@ -251,10 +275,28 @@ impl Pipeline {
     pub fn graphics(ctx: &Context, d: &GraphicsPipelineDesc<'_>) -> Result<Self> {
         let device = ctx.device();
         let layout = pipeline_layout(ctx, d.sets, d.push_constant_bytes, d.name)?;
-        let vs = shader_module(ctx, d.vertex, &format!("{} (vertex)", d.name))?;
-        let fs = match d.fragment {
-            Some(f) => Some(shader_module(ctx, f, &format!("{} (fragment)", d.name))?),
-            None => None,
+        let mut uses = Vec::new();
+        let made = shader_module(ctx, d.vertex, &format!("{} (vertex)", d.name), &mut uses)
+            .and_then(|vs| match d.fragment {
+                Some(f) => {
+                    match shader_module(ctx, f, &format!("{} (fragment)", d.name), &mut uses) {
+                        Ok(fs) => Ok((vs, Some(fs))),
+                        Err(e) => {
+                            // SAFETY: the module is unused.
+                            unsafe { device.destroy_shader_module(vs, None) };
+                            Err(e)
+                        }
+                    }
+                }
+                None => Ok((vs, None)),
+            });
+        let (vs, fs) = match made {
+            Ok(m) => m,
+            Err(e) => {
+                // SAFETY: unused layout.
+                unsafe { device.destroy_pipeline_layout(layout, None) };
+                return Err(e);
+            }
         };
         let mut stages = vec![vk::PipelineShaderStageCreateInfo::default()
             .stage(vk::ShaderStageFlags::VERTEX)
@@ -372,6 +414,8 @@ impl Pipeline {
             raw,
             layout,
             bind_point: vk::PipelineBindPoint::GRAPHICS,
+            uses: uses.into(),
+            vertex_input: d.vertex_stride > 0,
             name: d.name.to_string(),
         })
     }
@@ -385,7 +429,15 @@ impl Pipeline {
     ) -> Result<Self> {
         let device = ctx.device();
         let layout = pipeline_layout(ctx, sets, push_constant_bytes, name)?;
-        let module = shader_module(ctx, spirv, name)?;
+        let mut uses = Vec::new();
+        let module = match shader_module(ctx, spirv, name, &mut uses) {
+            Ok(m) => m,
+            Err(e) => {
+                // SAFETY: unused layout.
+                unsafe { device.destroy_pipeline_layout(layout, None) };
+                return Err(e);
+            }
+        };
         let stage = vk::PipelineShaderStageCreateInfo::default()
             .stage(vk::ShaderStageFlags::COMPUTE)
             .module(module)
@@ -411,6 +463,8 @@ impl Pipeline {
             raw,
             layout,
             bind_point: vk::PipelineBindPoint::COMPUTE,
+            uses: uses.into(),
+            vertex_input: false,
             name: name.to_string(),
         })
     }

@@ -8,13 +8,11 @@
 //! layer's best-practices checks too; the findings left on purpose (README, "Validation")
 //! are the only messages it lets through.
 
-mod common;
-
-use common::Gpu;
 use softshadow::eval::bench::Motion;
 use softshadow::render::{AccumFormat, Renderer, Settings, SilhouettePath, SpirvChoice};
 use softshadow::scene::Scene;
 use softshadow::technique::TECHNIQUES;
+use softshadow::vk::{Context, ContextOptions};
 
 /// Best-practices findings left on purpose, each explained in the README's "Validation".
 const KNOWN_BEST_PRACTICES: &[&str] = &[
@@ -27,10 +25,22 @@ fn best_practices() -> bool {
     std::env::var("SOFTSHADOW_BEST_PRACTICES").is_ok_and(|v| !v.is_empty() && v != "0")
 }
 
-/// The messages of `gpu` after `seen`, less the known best-practices findings when those
+/// lavapipe (or SOFTSHADOW_DEVICE) with validation on, as tests/common's `Gpu`, but every
+/// case here checks its own messages (so that best-practices findings known to stay can
+/// be let through).
+fn context() -> Context {
+    let device = std::env::var("SOFTSHADOW_DEVICE").unwrap_or_else(|_| "llvmpipe".into());
+    Context::new(&ContextOptions {
+        device: Some(device),
+        validation: true,
+    })
+    .unwrap_or_else(|e| panic!("no Vulkan device for the tests: {e:#}"))
+}
+
+/// The messages of `ctx` after `seen`, less the known best-practices findings when those
 /// checks are on.
-fn new_messages(gpu: &Gpu, seen: &mut usize) -> Vec<String> {
-    let all = gpu.ctx.validation_messages();
+fn new_messages(ctx: &Context, seen: &mut usize) -> Vec<String> {
+    let all = ctx.validation_messages();
     let fresh = all[*seen..].to_vec();
     *seen = all.len();
     let bp = best_practices();
@@ -55,7 +65,7 @@ fn tiny() -> Settings {
 /// every technique buffer and the GPU-built geometry, and fails on any new validation
 /// message. Returns the visibility of the last frame.
 fn run(
-    gpu: &Gpu,
+    ctx: &Context,
     seen: &mut usize,
     technique: &str,
     settings: Settings,
@@ -63,7 +73,7 @@ fn run(
     label: &str,
 ) -> Vec<f32> {
     let base = Scene::load("cylinder").unwrap();
-    let mut r = Renderer::new(&gpu.ctx, base.clone(), technique, settings)
+    let mut r = Renderer::new(ctx, base.clone(), technique, settings)
         .unwrap_or_else(|e| panic!("{label}: {e:#}"));
     for f in 0..3 {
         r.scene = motion.apply(&base, f);
@@ -83,7 +93,7 @@ fn run(
     r.read_gpu_geometry()
         .unwrap_or_else(|e| panic!("{label}, GPU geometry: {e:#}"));
     drop(r);
-    let msgs = new_messages(gpu, seen);
+    let msgs = new_messages(ctx, seen);
     assert!(
         msgs.is_empty(),
         "{label}: {} validation message(s):\n{}",
@@ -106,8 +116,9 @@ fn assert_shadowed(v: &[f32], label: &str) {
 
 #[test]
 fn every_technique_and_variant_is_race_free() {
-    let gpu = Gpu::new();
-    let mut seen = gpu.ctx.validation_messages().len();
+    let ctx = context();
+    let mut seen = 0;
+    assert_eq!(new_messages(&ctx, &mut seen), Vec::<String>::new());
     for t in TECHNIQUES {
         let mut variants = vec![(t.name.to_string(), tiny())];
         if matches!(t.name, "smoothies" | "penumbra-map") {
@@ -137,7 +148,7 @@ fn every_technique_and_variant_is_race_free() {
             variants.push((format!("{} accum=r16f", t.name), s));
         }
         for (label, settings) in variants {
-            let v = run(&gpu, &mut seen, t.name, settings, Motion::Static, &label);
+            let v = run(&ctx, &mut seen, t.name, settings, Motion::Static, &label);
             assert_shadowed(&v, &label);
         }
     }
@@ -145,8 +156,9 @@ fn every_technique_and_variant_is_race_free() {
 
 #[test]
 fn bench_motions_are_race_free() {
-    let gpu = Gpu::new();
-    let mut seen = gpu.ctx.validation_messages().len();
+    let ctx = context();
+    let mut seen = 0;
+    assert_eq!(new_messages(&ctx, &mut seen), Vec::<String>::new());
     let motions = [
         Motion::Static,
         Motion::Camera,
@@ -172,7 +184,7 @@ fn bench_motions_are_race_free() {
                         path.name(),
                         motion.name()
                     );
-                    let v = run(&gpu, &mut seen, t.name, settings, motion, &label);
+                    let v = run(&ctx, &mut seen, t.name, settings, motion, &label);
                     assert_shadowed(&v, &label);
                 }
             }

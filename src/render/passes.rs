@@ -274,6 +274,8 @@ impl FinalPass {
             rec.begin_rendering(&[(&t.color, Some(CameraTargets::BACKGROUND))], depth);
             &self.pipeline
         };
+        // The depth buffer only serves this scope's depth test.
+        rec.discard_after(&t.depth);
         rec.bind_pipeline(pipeline);
         rec.bind_sets(pipeline, &[set]);
         scene.draw_camera(rec, pipeline);

@@ -568,7 +568,8 @@ impl GpuSilhouettes {
     }
 
     /// Records the smoothie passes for the casters whose model or light changed since their
-    /// region was built (all of them when `force`), then the barrier to the draws.
+    /// region was built (all of them when `force`); the recorder puts the barriers between
+    /// the dispatches and before the draws.
     pub fn record(
         &mut self,
         rec: &mut Recorder<'_>,

@@ -831,6 +831,7 @@ impl Technique for Plateaus {
             false => rec.pass("plateaus/plateaus", |rec| {
                 // Load: the drop shadow's colour and depth stay in place under the plateaus.
                 rec.begin_rendering(&[(&self.texture, None)], Some((&self.zbuffer, None)));
+                rec.discard_after(&self.zbuffer);
                 rec.bind_pipeline(&self.plateau_pipeline);
                 self.vertices.draw(rec);
                 rec.end_rendering();

@@ -499,6 +499,7 @@ impl BackOccluderMap {
             &[(&self.depth, Some([FAR_DEPTH; 4]))],
             Some((&self.zbuffer, Some(0.0))),
         );
+        rec.discard_after(&self.zbuffer);
         rec.bind_pipeline(&self.pipeline);
         rec.bind_sets(&self.pipeline, &[&self.set]);
         scene.draw(rec, &self.pipeline, |o| o.role.casts());

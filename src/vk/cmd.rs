@@ -117,9 +117,11 @@ pub struct FrameRunner {
 impl FrameRunner {
     pub fn new(ctx: &Context, max_passes: u32) -> Result<Self> {
         let device = ctx.device();
+        // One command buffer per pool: resetting the pool resets it, without the
+        // per-buffer reset flag that makes drivers track buffers one by one.
         let pool_info = vk::CommandPoolCreateInfo::default()
             .queue_family_index(ctx.queue_family)
-            .flags(vk::CommandPoolCreateFlags::RESET_COMMAND_BUFFER);
+            .flags(vk::CommandPoolCreateFlags::empty());
         // SAFETY: valid create info; destroyed in Drop.
         let pool = unsafe { device.create_command_pool(&pool_info, None) }
             .context("creating command pool")?;
@@ -170,8 +172,8 @@ impl FrameRunner {
         // buffer and the queries may be reset.
         unsafe {
             device
-                .reset_command_buffer(self.cmd, vk::CommandBufferResetFlags::empty())
-                .context("resetting command buffer")?;
+                .reset_command_pool(self.pool, vk::CommandPoolResetFlags::empty())
+                .context("resetting command pool")?;
             device.reset_query_pool(self.queries, 0, self.max_queries);
             device
                 .begin_command_buffer(
@@ -315,11 +317,46 @@ struct Bound {
 /// inside one, so its commands wait here until `end_rendering` knows every access of the
 /// scope and can put the barriers for all of them in front.
 struct RenderScope {
-    colors: Vec<(Target, vk::ImageView, Clear)>,
-    depth: Option<(Target, vk::ImageView, Option<f32>)>,
+    colors: Vec<Attachment>,
+    depth: Option<Attachment>,
     extent: vk::Extent2D,
     ops: Vec<Op>,
     uses: Vec<Use>,
+}
+
+struct Attachment {
+    target: Target,
+    view: vk::ImageView,
+    /// The load op's clear value, or `None` to load.
+    clear: Option<vk::ClearValue>,
+    /// Store op STORE, or DONT_CARE after `Recorder::discard_after`.
+    store: bool,
+}
+
+impl Attachment {
+    fn new(image: &Image, clear: Option<vk::ClearValue>) -> Self {
+        Self {
+            target: image.target(),
+            view: image.view,
+            clear,
+            store: true,
+        }
+    }
+
+    fn info(&self, layout: vk::ImageLayout) -> vk::RenderingAttachmentInfo<'static> {
+        let info = vk::RenderingAttachmentInfo::default()
+            .image_view(self.view)
+            .image_layout(layout)
+            .store_op(if self.store {
+                vk::AttachmentStoreOp::STORE
+            } else {
+                vk::AttachmentStoreOp::DONT_CARE
+            });
+        match self.clear {
+            Some(c) => info.load_op(vk::AttachmentLoadOp::CLEAR).clear_value(c),
+            None => info.load_op(vk::AttachmentLoadOp::LOAD),
+        }
+    }
 }
 
 /// A command recorded inside a rendering scope, replayed by `end_rendering`.
@@ -562,13 +599,51 @@ impl Recorder<'_> {
         self.scope = Some(RenderScope {
             colors: colors
                 .iter()
-                .map(|(img, clear)| (img.target(), img.view, *clear))
+                .map(|(img, clear)| {
+                    let clear = clear.map(|c| vk::ClearValue {
+                        color: vk::ClearColorValue { float32: c },
+                    });
+                    Attachment::new(img, clear)
+                })
                 .collect(),
-            depth: depth.map(|(img, clear)| (img.target(), img.view, clear)),
+            depth: depth.map(|(img, clear)| {
+                let clear = clear.map(|d| vk::ClearValue {
+                    depth_stencil: vk::ClearDepthStencilValue {
+                        depth: d,
+                        stencil: 0,
+                    },
+                });
+                Attachment::new(img, clear)
+            }),
             extent,
             ops: Vec::new(),
             uses: Vec::new(),
         });
+    }
+
+    /// Says that `image`, an attachment of the open rendering scope, is not read after the
+    /// scope (a depth buffer only the scope tests against): its store op becomes DONT_CARE,
+    /// so a tiled GPU never writes it back to memory.
+    pub fn discard_after(&mut self, image: &Image) {
+        let Some(scope) = self.scope.as_mut() else {
+            self.fail(anyhow::anyhow!(
+                "discard_after('{}') outside a rendering scope",
+                image.name
+            ));
+            return;
+        };
+        match scope
+            .colors
+            .iter_mut()
+            .chain(scope.depth.as_mut())
+            .find(|a| a.view == image.view)
+        {
+            Some(a) => a.store = false,
+            None => self.fail(anyhow::anyhow!(
+                "discard_after('{}'): not an attachment of the rendering scope",
+                image.name
+            )),
+        }
     }
 
     /// Ends the rendering scope: records its barriers, then the scope itself.
@@ -581,24 +656,24 @@ impl Recorder<'_> {
         // Attachments first: blending and LOAD read them, every draw may write them; a clear
         // overwrites every texel, so their old contents may go.
         let mut uses = Vec::with_capacity(scope.uses.len() + scope.colors.len() + 1);
-        for (target, _, clear) in &scope.colors {
+        for a in &scope.colors {
             let mut u = Use::image(
-                target.clone(),
+                a.target.clone(),
                 S::COLOR_ATTACHMENT_OUTPUT,
                 A::COLOR_ATTACHMENT_READ | A::COLOR_ATTACHMENT_WRITE,
                 L::COLOR_ATTACHMENT_OPTIMAL,
             );
-            u.discard = clear.is_some();
+            u.discard = a.clear.is_some();
             uses.push(u);
         }
-        if let Some((target, _, clear)) = &scope.depth {
+        if let Some(a) = &scope.depth {
             let mut u = Use::image(
-                target.clone(),
+                a.target.clone(),
                 S::EARLY_FRAGMENT_TESTS | S::LATE_FRAGMENT_TESTS,
                 A::DEPTH_STENCIL_ATTACHMENT_READ | A::DEPTH_STENCIL_ATTACHMENT_WRITE,
                 L::DEPTH_ATTACHMENT_OPTIMAL,
             );
-            u.discard = clear.is_some();
+            u.discard = a.clear.is_some();
             uses.push(u);
         }
         uses.extend(scope.uses.iter().cloned());
@@ -607,39 +682,12 @@ impl Recorder<'_> {
         let color_infos: Vec<_> = scope
             .colors
             .iter()
-            .map(|(_, view, clear)| {
-                let info = vk::RenderingAttachmentInfo::default()
-                    .image_view(*view)
-                    .image_layout(L::COLOR_ATTACHMENT_OPTIMAL)
-                    .store_op(vk::AttachmentStoreOp::STORE);
-                match clear {
-                    Some(c) => {
-                        info.load_op(vk::AttachmentLoadOp::CLEAR)
-                            .clear_value(vk::ClearValue {
-                                color: vk::ClearColorValue { float32: *c },
-                            })
-                    }
-                    None => info.load_op(vk::AttachmentLoadOp::LOAD),
-                }
-            })
+            .map(|a| a.info(L::COLOR_ATTACHMENT_OPTIMAL))
             .collect();
-        let depth_info = scope.depth.as_ref().map(|(_, view, clear)| {
-            let info = vk::RenderingAttachmentInfo::default()
-                .image_view(*view)
-                .image_layout(L::DEPTH_ATTACHMENT_OPTIMAL)
-                .store_op(vk::AttachmentStoreOp::STORE);
-            match clear {
-                Some(d) => info
-                    .load_op(vk::AttachmentLoadOp::CLEAR)
-                    .clear_value(vk::ClearValue {
-                        depth_stencil: vk::ClearDepthStencilValue {
-                            depth: *d,
-                            stencil: 0,
-                        },
-                    }),
-                None => info.load_op(vk::AttachmentLoadOp::LOAD),
-            }
-        });
+        let depth_info = scope
+            .depth
+            .as_ref()
+            .map(|a| a.info(L::DEPTH_ATTACHMENT_OPTIMAL));
         let extent = scope.extent;
         let mut info = vk::RenderingInfo::default()
             .render_area(vk::Rect2D {

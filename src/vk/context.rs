@@ -368,6 +368,22 @@ fn instance_has_extension(entry: &ash::Entry, name: &CStr) -> bool {
         .unwrap_or(false)
 }
 
+/// Whether `pd` offers every feature `Context::new` enables (asked before creating the
+/// device, so a device without one is passed over rather than failing to open).
+fn has_required_features(instance: &ash::Instance, pd: vk::PhysicalDevice) -> bool {
+    let mut f13 = vk::PhysicalDeviceVulkan13Features::default();
+    let mut f12 = vk::PhysicalDeviceVulkan12Features::default();
+    let mut features = vk::PhysicalDeviceFeatures2::default()
+        .push_next(&mut f13)
+        .push_next(&mut f12);
+    // SAFETY: `pd` came from this instance; the chain points at locals.
+    unsafe { instance.get_physical_device_features2(pd, &mut features) };
+    f13.dynamic_rendering == vk::TRUE
+        && f13.synchronization2 == vk::TRUE
+        && f13.maintenance4 == vk::TRUE
+        && f12.host_query_reset == vk::TRUE
+}
+
 /// A real GPU when there is one, else a CPU device (lavapipe); `filter` picks by name.
 fn pick_physical_device(
     instance: &ash::Instance,
@@ -397,6 +413,9 @@ fn pick_physical_device(
         if props.api_version < vk::API_VERSION_1_3 {
             continue;
         }
+        if !has_required_features(instance, pd) {
+            continue;
+        }
         // SAFETY: as above.
         let families = unsafe { instance.get_physical_device_queue_family_properties(pd) };
         let Some(family) = families.iter().position(|q| {
@@ -424,7 +443,7 @@ fn pick_physical_device(
                 names.join(", ")
             )),
             None => Err(anyhow!(
-                "no Vulkan 1.3 device with a graphics queue and timestamps (devices: {}): install the Debian package mesa-vulkan-drivers",
+                "no Vulkan 1.3 device with a graphics queue, timestamps, dynamic rendering, synchronization2, maintenance4 and host query reset (devices: {}): install the Debian package mesa-vulkan-drivers",
                 names.join(", ")
             )),
         },

@@ -374,7 +374,8 @@ impl Sampler {
             .address_mode_u(vk::SamplerAddressMode::CLAMP_TO_EDGE)
             .address_mode_v(vk::SamplerAddressMode::CLAMP_TO_EDGE)
             .address_mode_w(vk::SamplerAddressMode::CLAMP_TO_EDGE)
-            .max_lod(0.0);
+            // Every image has one level; an LOD clamp would only cost (Arm's best practices).
+            .max_lod(vk::LOD_CLAMP_NONE);
         if let Some(op) = compare {
             info = info.compare_enable(true).compare_op(op);
         }

@@ -85,7 +85,8 @@ struct RenderArgs {
     /// Normal offset of shadow lookups, in shadow-map texels.
     #[arg(long, default_value_t = 2.0)]
     normal_offset: f32,
-    /// Relative depth bias of shadow comparisons (fraction of the depth).
+    /// Relative depth bias of shadow comparisons (fraction of the depth, at most 4x this
+    /// fraction of the depth span the light sees).
     #[arg(long, default_value_t = 5e-4)]
     depth_bias: f32,
     /// PCF kernel: boxN (N odd) or poissonN.
@@ -355,6 +356,9 @@ fn render(cli: &Cli, a: &RenderArgs) -> Result<()> {
         cache_light_passes: !a.timings,
         ..Settings::default()
     };
+    if let Some(w) = softshadow::render::check_radius(&scene, settings.radius_for(&scene))? {
+        eprintln!("{w}");
+    }
     let mut r = Renderer::new(&ctx, scene, &a.technique, settings)?;
     let frames = if a.timings { 7 } else { 1 };
     let mut all = Vec::new();

@@ -107,6 +107,15 @@ fn small(extra: &[&str]) -> Vec<String> {
     SMALL.iter().chain(extra).map(|s| s.to_string()).collect()
 }
 
+/// `SMALL` without its shadow map side and technique.
+fn tiny(extra: &[&str]) -> Vec<String> {
+    SMALL[..5]
+        .iter()
+        .chain(extra)
+        .map(|s| s.to_string())
+        .collect()
+}
+
 /// A device node (through a link, as `--out` must name a .png) and a FIFO are refused before
 /// any work and stay what they were; so is a folder, a missing folder and a .jpg name.
 #[test]
@@ -369,7 +378,7 @@ fn flag_values_get_one_clear_line() {
                 "--out",
                 "o.png",
             ],
-            "--occluder-res 4096 is out of range: allowed 1..=2048",
+            "--occluder-res 4096 is out of range: allowed 32..=2048",
         ),
     ];
     for (args, expect) in &cases {
@@ -389,4 +398,153 @@ fn flag_values_get_one_clear_line() {
         .unwrap();
     assert_one_error(&o, &["broken ICD"], "driver failed to load");
     let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// A TOML scene: a ground and a box under a light, with `light` and `extra` spliced in.
+fn toml_scene(dir: &Path, name: &str, light: &str, box_line: &str) -> PathBuf {
+    let path = dir.join(format!("{name}.toml"));
+    let text = format!(
+        "name = \"{name}\"\n[[object]]\nprimitive = \"plane\"\nsize = [12, 12]\nrole = \"receiver\"\n\
+         [[object]]\nprimitive = \"box\"\nsize = [1, 1, 1]\ntranslate = [0, 0.5, 0]\n{box_line}\n\
+         [light]\nposition = [-3, 7, 2]\ntarget = [0, 0, 0]\nradius = 0.2\n{light}\n\
+         [camera]\nposition = [6, 5, 8]\ntarget = [0, 0, 0]\nfov_deg = 50\n"
+    );
+    std::fs::write(&path, text).unwrap();
+    path
+}
+
+/// The edges of the numeric range (README "Numeric range") that are refused: one `error:` line
+/// naming the limit, nothing written.
+#[test]
+fn out_of_range_numbers_are_refused_with_the_limit() {
+    let dir = scratch("range");
+    let wide = toml_scene(&dir, "wide", "fov_deg = 178", "");
+    let huge = toml_scene(&dir, "huge", "fov_deg = 60", "scale = 1e8");
+    let flat = dir.join("flat.obj");
+    // Collinear corners: zero area.
+    std::fs::write(&flat, "v 0 0 0\nv 1 0 0\nv 2 0 0\nf 1 2 3\n").unwrap();
+    let specks = dir.join("tiny.obj");
+    std::fs::write(&specks, "v 0 0 0\nv 1e-40 0 0\nv 0 1e-40 0\nf 1 2 3\n").unwrap();
+    let scene = |p: &Path| p.to_str().unwrap().to_string();
+    let cases: Vec<(Vec<String>, String)> = vec![
+        (
+            tiny(&["--shadow-res", "1"]),
+            "--shadow-res 1 is out of range: allowed 64..=".into(),
+        ),
+        (
+            tiny(&["--shadow-res", "3"]),
+            "--shadow-res 3 is out of range: allowed 64..=".into(),
+        ),
+        (
+            tiny(&["--technique", "ssm", "--occluder-res", "1"]),
+            "--occluder-res 1 is out of range: allowed 32..=2048".into(),
+        ),
+        (
+            tiny(&["--technique", "ssm", "--occluder-res", "3"]),
+            "--occluder-res 3 is out of range: allowed 32..=2048".into(),
+        ),
+        (
+            small(&["--scene", &scene(&wide)]),
+            "light fov_deg 178 is out of range: allowed (0, 120]".into(),
+        ),
+        (
+            small(&["--scene", &scene(&huge)]),
+            "bounding radius 8.66".into(),
+        ),
+        (
+            small(&["--scene", &scene(&flat)]),
+            "every triangle is degenerate".into(),
+        ),
+        (
+            small(&["--scene", &scene(&specks)]),
+            "every triangle is degenerate".into(),
+        ),
+        (
+            small(&["--light-radius", "1e30"]),
+            "is out of range: allowed 0..=".into(),
+        ),
+    ];
+    for (args, expect) in &cases {
+        let mut args: Vec<&str> = args.iter().map(String::as_str).collect();
+        args.extend(["--out", "o.png"]);
+        fails_untouched(&dir, &args, expect);
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// A light sphere that reaches a caster renders, with one `warning:` line saying what will
+/// differ.
+#[test]
+fn a_light_reaching_a_caster_renders_with_one_warning() {
+    let dir = scratch("warn");
+    let out = dir.join("o.png");
+    let args = small(&["--light-radius", "20", "--out", out.to_str().unwrap()]);
+    let args: Vec<&str> = args.iter().map(String::as_str).collect();
+    let o = softshadow(&args);
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{stderr}");
+    let warnings: Vec<&str> = stderr
+        .lines()
+        .filter(|l| l.starts_with("warning:"))
+        .collect();
+    assert_eq!(warnings.len(), 1, "{stderr}");
+    assert!(warnings[0].contains("reaches a caster"), "{stderr}");
+    assert!(out.is_file());
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// The numeric-range cases of `stress` at the documented edges (scale 1e-6 and 1e6, a caster
+/// 1e6 away, a light 1e3 scene sizes away, the widest cone, the smallest maps) pass their
+/// tolerance on every technique.
+#[test]
+fn numeric_range_edges_render_within_tolerance() {
+    use softshadow::eval::stress::{self, StressOptions};
+    let ctx = softshadow::vk::Context::new(&softshadow::vk::ContextOptions {
+        device: Some("llvmpipe".into()),
+        validation: true,
+    })
+    .unwrap();
+    let cases = [
+        "scale-1e-6",
+        "scale-1e6",
+        "far-caster",
+        "far-light",
+        "fov-limit",
+        "shadow-res-min",
+        "occluder-res-min",
+    ];
+    let opts = StressOptions {
+        quick: true,
+        cases: cases.iter().map(|c| c.to_string()).collect(),
+        ..Default::default()
+    };
+    let report = stress::run(&ctx, &opts, &mut |_| {}).unwrap();
+    let failed: Vec<String> = report
+        .failed()
+        .iter()
+        .map(|r| format!("{} / {}: {} {:?}", r.case, r.technique, r.note, r.error))
+        .collect();
+    assert!(failed.is_empty(), "failed rows:\n{}", failed.join("\n"));
+    assert_eq!(
+        report.rows.len(),
+        cases.len() * stress::technique_names().len()
+    );
+    for r in &report.rows {
+        if r.case.starts_with("scale-") {
+            assert!(
+                r.metric.is_some(),
+                "{} / {}: no scale figure",
+                r.case,
+                r.technique
+            );
+        } else {
+            assert!(
+                r.errors.is_some(),
+                "{} / {}: no error figure",
+                r.case,
+                r.technique
+            );
+        }
+    }
+    assert!(ctx.validation_messages().is_empty());
 }

@@ -339,7 +339,8 @@ fn occluder_map_out_of_range_is_a_clear_error() {
         .limits
         .max_image_dimension2_d
         .min(softshadow::render::MAX_OCCLUDER_RES);
-    for bad in [0, max + 1, 4096, 16384] {
+    let min = softshadow::render::MIN_OCCLUDER_RES;
+    for bad in [0, 1, 3, min - 1, max + 1, 4096, 16384] {
         let set = Settings {
             occluder_res: bad,
             ..small(64, 64)
@@ -349,7 +350,7 @@ fn occluder_map_out_of_range_is_a_clear_error() {
             Err(e) => format!("{e:#}"),
         };
         assert!(
-            err.contains("--occluder-res") && err.contains(&format!("1..={max}")),
+            err.contains("--occluder-res") && err.contains(&format!("{min}..={max}")),
             "unclear error: {err}"
         );
     }

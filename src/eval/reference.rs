@@ -17,7 +17,8 @@
 //! ## Rays
 //! Through an obvhs compressed wide BVH (PLOC build, 8-wide SIMD node tests). Self-hit
 //! guard: the origin is moved along the pixel's normal (the AOV's, which faces the camera)
-//! by `EPS_REL` times the scene's bounding radius, and hits closer than that distance are
+//! by `EPS_REL` times the bounding radius of the objects in the light's cone
+//! (`render::light_seen_bounds`), and hits closer than that distance are
 //! ignored. Rasterised positions are off their triangle's plane by about 1e-6 of their
 //! magnitude, so 1e-4 of the scene size clears them while staying far below any contact
 //! gap a shadow-map technique could resolve. Points on a surface's side facing away from the
@@ -61,7 +62,7 @@ pub const DEFAULT_SEED: u64 = 0x5EED_50F7_5AD0;
 /// of the scene's bounding radius.
 pub const EPS_REL: f32 = 1e-4;
 /// Bumped whenever the estimator changes, so stale cache files are never read.
-const CACHE_VERSION: &[u8] = b"softshadow-reference-v1";
+const CACHE_VERSION: &[u8] = b"softshadow-reference-v2";
 /// The cache file format (see `CACHE_HEADER`).
 const CACHE_MAGIC: &[u8; 8] = b"SSREF002";
 
@@ -281,7 +282,9 @@ pub fn visibility_at(
     let Some(bvh) = TriangleBvh::new(&casters, &ids) else {
         return Ok(vec![1.0; positions.len()]);
     };
-    let eps = EPS_REL * scene.bounds().radius().max(1e-6);
+    // The size of what the light sees, not of the whole scene: one object far away would
+    // otherwise push the guard past every contact gap.
+    let eps = EPS_REL * crate::render::light_seen_bounds(scene).radius().max(1e-30);
     let light = scene.light.position;
     let (rows, cols) = params.grid();
     let n = rows * cols;

@@ -68,6 +68,14 @@ pub const CASES: &[(&str, &str)] = &[
     ("mesh-1m", "a bumpy sphere of about 1e6 triangles (--quick: 1e5)"),
     ("moving-light", "the light sliding slowly over 120 frames (--quick: 12): flicker against the reference's change"),
     ("ssm-r16f", "ssm/ssm2 in R16F vs R32F at occluder maps 128^2 ... 1024^2 against Eq. 4's growth"),
+    // The documented numeric range (README "Numeric range"), each at its edge.
+    ("scale-1e-6", "the cylinder scene and its light scaled by 1e-6: visibility must not change"),
+    ("scale-1e6", "the cylinder scene and its light scaled by 1e6: visibility must not change"),
+    ("far-caster", "cylinder plus a box 1e6 away from the origin, outside the light and the view"),
+    ("far-light", "cylinder with the light 1e3 scene sizes away, its cone narrowed to the scene"),
+    ("fov-limit", "cylinder under a light cone of the widest allowed fov"),
+    ("shadow-res-min", "cylinder with the smallest allowed shadow map"),
+    ("occluder-res-min", "cylinder with the smallest allowed occluder map (ssm, ssm2)"),
 ];
 
 /// The case names, for error messages and `--cases`.
@@ -372,6 +380,8 @@ struct Case {
     /// Light radius override (`None`: the scene's).
     radius: Option<f32>,
     mae_limit: f64,
+    /// Shadow-map and occluder-map sides instead of the run's (`None`: the run's).
+    res: Option<(u32, u32)>,
 }
 
 /// The documented per-technique allowance over `MAE_LIMIT` for a case: known limits of the
@@ -408,6 +418,13 @@ fn allowance(case: &str, technique: &str) -> Option<(f64, &'static str)> {
         ("grazing-light", "smoothies") => Some((
             0.7,
             "method limit: smoothie width at a grazing light darkens the lit top",
+        )),
+        // The light's cone fitted tightly to the scene puts it on the whole occluder map; at
+        // --quick's 128^2 the micro-patches are coarse enough to widen the umbra (0.34 measured;
+        // the full run's 256^2 passes at 0.3). Sampling limit, reported.
+        ("far-light", "ssm" | "ssm2") => Some((
+            0.4,
+            "sampling limit: a coarse occluder map over a cone fitted to the scene",
         )),
         _ => None,
     }
@@ -485,6 +502,7 @@ fn build(name: &str, sizes: &Sizes) -> Result<Case> {
         kind: Kind::Static,
         radius: None,
         mae_limit: MAE_LIMIT,
+        res: None,
     };
     let slab = |w: f32, t: f32| prim::cuboid(Vec3::new(w, t, w));
     Ok(match name {
@@ -587,14 +605,61 @@ fn build(name: &str, sizes: &Sizes) -> Result<Case> {
                 ..stat(s)
             }
         }
-        "scale-1e-3" | "scale-1e3" => {
-            let k = if name == "scale-1e-3" { 1e-3 } else { 1e3 };
-            let s = builtin_scene("cylinder")?;
+        "scale-1e-3" | "scale-1e3" | "scale-1e-6" | "scale-1e6" => {
+            let k = match name {
+                "scale-1e-3" => 1e-3,
+                "scale-1e3" => 1e3,
+                "scale-1e-6" => 1e-6,
+                _ => 1e6,
+            };
             Case {
-                scene: s,
                 kind: Kind::Scale(k),
-                radius: None,
-                mae_limit: MAE_LIMIT,
+                ..stat(builtin_scene("cylinder")?)
+            }
+        }
+        "far-caster" => {
+            let mut s = builtin_scene("cylinder")?;
+            add(
+                &mut s.objects,
+                "far-box",
+                prim::cuboid(Vec3::splat(1.0)),
+                Mat4::from_translation(Vec3::new(1e6, 0.5, 0.0)),
+                Role::Both,
+            );
+            s.name = name.into();
+            stat(s)
+        }
+        "far-light" => {
+            let mut s = builtin_scene("cylinder")?;
+            let size = s.bounds().radius();
+            let centre = s.bounds().center();
+            let l = &mut s.light;
+            let dir = (l.position - l.target).normalize();
+            let dist = 1e3 * 2.0 * size;
+            // Aimed at the scene's centre, the cone just holding its bounding sphere.
+            l.target = centre;
+            l.position = centre + dir * dist;
+            l.fov_deg = (2.0 * (1.1 * size / dist).asin()).to_degrees();
+            s.name = name.into();
+            stat(s)
+        }
+        "fov-limit" => {
+            let mut s = builtin_scene("cylinder")?;
+            s.light.fov_deg = crate::scene::MAX_LIGHT_FOV_DEG;
+            s.name = name.into();
+            stat(s)
+        }
+        "shadow-res-min" | "occluder-res-min" => {
+            let mut s = builtin_scene("cylinder")?;
+            s.name = name.into();
+            let res = if name == "shadow-res-min" {
+                (crate::render::MIN_SHADOW_RES, sizes.occluder_res)
+            } else {
+                (sizes.shadow_res, crate::render::MIN_OCCLUDER_RES)
+            };
+            Case {
+                res: Some(res),
+                ..stat(s)
             }
         }
         "near-far-1e-4" => {
@@ -925,8 +990,11 @@ pub fn run(ctx: &Context, opts: &StressOptions, progress: &mut dyn FnMut(&Row)) 
         case.scene
             .validate()
             .with_context(|| format!("stress case {case_name}"))?;
+        let (shadow_res, occluder_res) = case.res.unwrap_or((base.shadow_res, base.occluder_res));
         let settings = Settings {
             light_radius: case.radius,
+            shadow_res,
+            occluder_res,
             ..base.clone()
         };
         let radius = case.radius.unwrap_or(case.scene.light.radius);

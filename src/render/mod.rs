@@ -217,6 +217,10 @@ impl std::str::FromStr for AccumFormat {
 /// texel, so its cost grows with the square of the side (on lavapipe, 2 cores: 2048^2 about
 /// 25 s a frame, 4096^2 about 380 s).
 pub const MAX_OCCLUDER_RES: u32 = 2048;
+/// Smallest occluder map side (README "Numeric range": measured with `stress`).
+pub const MIN_OCCLUDER_RES: u32 = 32;
+/// Smallest shadow map side (README "Numeric range": measured with `stress`).
+pub const MIN_SHADOW_RES: u32 = 64;
 
 impl Default for Settings {
     fn default() -> Self {
@@ -260,19 +264,21 @@ impl Settings {
     /// Checks ranges against the device; one clear line per problem.
     pub fn validate(&self, ctx: &Context) -> Result<()> {
         let max = ctx.limits.max_image_dimension2_d;
-        for (name, v) in [
-            ("width", self.width),
-            ("height", self.height),
-            ("shadow-res", self.shadow_res),
-        ] {
+        for (name, v) in [("width", self.width), ("height", self.height)] {
             if v == 0 || v > max {
                 bail!("--{name} {v} is out of range: allowed 1..={max} on this device");
             }
         }
-        let max_occ = max.min(MAX_OCCLUDER_RES);
-        if self.occluder_res == 0 || self.occluder_res > max_occ {
+        if self.shadow_res < MIN_SHADOW_RES || self.shadow_res > max {
             bail!(
-                "--occluder-res {} is out of range: allowed 1..={max_occ} (above {MAX_OCCLUDER_RES} the micro-patch pass, one patch per texel, runs minutes a frame on lavapipe)",
+                "--shadow-res {} is out of range: allowed {MIN_SHADOW_RES}..={max} on this device (a smaller map has too few texels for any caster's shadow)",
+                self.shadow_res
+            );
+        }
+        let max_occ = max.min(MAX_OCCLUDER_RES);
+        if self.occluder_res < MIN_OCCLUDER_RES || self.occluder_res > max_occ {
+            bail!(
+                "--occluder-res {} is out of range: allowed {MIN_OCCLUDER_RES}..={max_occ} (fewer texels miss the casters; above {MAX_OCCLUDER_RES} the micro-patch pass, one patch per texel, runs minutes a frame on lavapipe)",
                 self.occluder_res
             );
         }
@@ -331,8 +337,23 @@ pub fn camera_view_proj(scene: &Scene, width: u32, height: u32) -> Mat4 {
     let b = scene.bounds();
     let radius = (b.max - b.min).length() * 0.5;
     let dist = (cam.position - (b.min + b.max) * 0.5).length();
-    let far = (dist + radius) * 1.05;
-    let near = (dist - radius).max(far * 1e-4);
+    let mut far = (dist + radius) * 1.05;
+    let mut near = (dist - radius).max(far * 1e-4);
+    // The bounding sphere's range clips what the camera sees when the scene is far larger
+    // than the view (one object far away): then fit to the objects inside the view pyramid.
+    let aspect = width as f32 / height as f32;
+    let tan_v = (cam.fov_deg.to_radians() * 0.5).tan();
+    let seen = scene
+        .objects
+        .iter()
+        .filter_map(|o| clipped_depth_range(&o.world_bounds(), view, Some(tan_v * aspect.max(1.0))))
+        .reduce(|(a, b), (c, d)| (a.min(c), b.max(d)));
+    if let Some((lo, hi)) = seen {
+        if lo * 0.99 < near || hi * 1.01 > far {
+            far = hi * 1.01;
+            near = (lo * 0.99).max(far * 1e-5);
+        }
+    }
     let mut proj = Mat4::perspective_rh(
         cam.fov_deg.to_radians(),
         width as f32 / height as f32,
@@ -381,7 +402,27 @@ pub fn fit_light(scene: &Scene) -> LightView {
     });
     let far = (hi * 1.01).max(1e-6);
     let near = (lo * 0.99).max(far * 1e-4);
-    LightView::new(&scene.light, near, far)
+    let mut view = LightView::new(&scene.light, near, far);
+    view.depth_span = (hi - lo).clamp(0.0, far - near);
+    view
+}
+
+/// World bounds of the objects inside the light's cone (the whole scene's when none is): the
+/// scale of what the light's shadows are made of.
+pub fn light_seen_bounds(scene: &Scene) -> crate::scene::Aabb {
+    let probe = LightView::new(&scene.light, 1.0, 2.0);
+    let tan_half = (scene.light.fov_deg.to_radians() * 0.5).tan();
+    let seen = scene
+        .objects
+        .iter()
+        .map(|o| o.world_bounds())
+        .filter(|b| !b.is_empty() && clipped_depth_range(b, probe.view, Some(tan_half)).is_some())
+        .fold(crate::scene::Aabb::EMPTY, |a, b| a.union(b));
+    if seen.is_empty() {
+        scene.bounds()
+    } else {
+        seen
+    }
 }
 
 /// Linear-depth range of the part of box `b` inside the infinite light pyramid
@@ -456,6 +497,44 @@ fn clipped_depth_range(
     range.filter(|&(_, hi)| hi > 0.0)
 }
 
+/// Largest light radius, in bounding radii of the scene (README "Numeric range").
+pub const MAX_RADIUS_SCENES: f32 = 100.0;
+
+/// Refuses a light radius above `MAX_RADIUS_SCENES` scene radii: such a light sees every
+/// receiver alike and the f32 penumbra estimates of the techniques overflow their clamps. The
+/// `Ok` value is a warning for a light sphere that reaches a caster, which no fake technique
+/// models (they assume the casters are outside the light).
+pub fn check_radius(scene: &Scene, radius: f32) -> Result<Option<String>> {
+    let size = scene.bounds().radius();
+    let max = MAX_RADIUS_SCENES * size;
+    if radius > max {
+        bail!("light radius {radius} is out of range: allowed 0..={max} ({MAX_RADIUS_SCENES} x the scene's bounding radius {size})");
+    }
+    let p = scene.light.position;
+    let nearest = scene
+        .objects
+        .iter()
+        .filter(|o| o.role.casts())
+        .map(|o| {
+            let b = o.world_bounds();
+            (p.clamp(b.min, b.max) - p).length()
+        })
+        .fold(f32::INFINITY, f32::min);
+    Ok((radius > nearest).then(|| {
+        format!("warning: light radius {radius} reaches a caster ({nearest} from the light): the fake techniques assume casters outside the light and will differ from the reference")
+    }))
+}
+
+/// The relative depth bias the shaders apply (`stored * (1 + bias)`): `depth_bias` of the
+/// depth, but at most `depth_bias` x 4 x the depth span the light sees (`LightView::depth_span`)
+/// at the far plane. A light far from a compact scene (span << far) would otherwise get an
+/// absolute bias larger than the scene's contact gaps and objects. Never below 8 ulps, the
+/// rounding of a stored depth.
+pub fn effective_depth_bias(depth_bias: f32, depth_span: f32, far: f32) -> f32 {
+    let span = (depth_span / far.max(f32::MIN_POSITIVE)).clamp(0.0, 1.0);
+    (depth_bias * (4.0 * span).min(1.0)).max(8.0 * f32::EPSILON)
+}
+
 fn frame_uniforms(f: &FrameInput<'_>, technique: [[f32; 4]; 2]) -> FrameUniforms {
     let s = f.settings;
     let l = f.light;
@@ -476,7 +555,7 @@ fn frame_uniforms(f: &FrameInput<'_>, technique: [[f32; 4]; 2]) -> FrameUniforms
             tan_half,
             2.0 * tan_half / s.shadow_res as f32,
             s.normal_offset_texels,
-            s.depth_bias,
+            effective_depth_bias(s.depth_bias, l.depth_span, l.far),
         ],
         technique: technique[0],
         technique2: technique[1],
@@ -527,6 +606,7 @@ impl<'c> Renderer<'c> {
     ) -> Result<Self> {
         settings.validate(ctx)?;
         scene.validate()?;
+        check_radius(&scene, settings.radius_for(&scene))?;
         let info = technique::find(technique_name)?;
         let gpu = GpuScene::new(ctx, &scene).context("uploading the scene")?;
         let ubo = Buffer::new(

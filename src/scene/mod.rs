@@ -146,6 +146,9 @@ pub struct LightView {
     pub near: f32,
     pub far: f32,
     pub fov_deg: f32,
+    /// Depth extent of what the light sees, before the near/far headroom (`far - near` unless
+    /// fitted by `render::fit_light`): the scale of the depth bias.
+    pub depth_span: f32,
 }
 
 impl LightView {
@@ -153,7 +156,9 @@ impl LightView {
         let dir = (light.target - light.position).normalize_or(Vec3::NEG_Z);
         // Any up that is not parallel to the view direction.
         let up = if dir.y.abs() > 0.99 { Vec3::Z } else { Vec3::Y };
-        let view = Mat4::look_at_rh(light.position, light.position + dir, up);
+        // look_to, not look_at(position + dir): far from the origin, position + dir rounds
+        // the unit direction by ulp(|position|), more than a narrow cone's width.
+        let view = Mat4::look_to_rh(light.position, dir, up);
         let proj = Mat4::perspective_rh(light.fov_deg.to_radians(), 1.0, near, far);
         Self {
             position: light.position,
@@ -163,6 +168,7 @@ impl LightView {
             near,
             far,
             fov_deg: light.fov_deg,
+            depth_span: far - near,
         }
     }
 
@@ -405,6 +411,14 @@ impl Aabb {
     }
 }
 
+/// Smallest scene bounding radius (README "Numeric range": stress `scale-1e-6`).
+pub const MIN_SCENE_RADIUS: f32 = 1e-5;
+/// Largest scene bounding radius (README "Numeric range": stress `scale-1e6`).
+pub const MAX_SCENE_RADIUS: f32 = 2e7;
+
+/// Widest light cone (README "Numeric range": measured with `stress`).
+pub const MAX_LIGHT_FOV_DEG: f32 = 120.0;
+
 impl Scene {
     /// Loads a scene by spec: a built-in name (see [`BUILTIN_SCENES`]), else a `.toml`
     /// scene file, a `.gltf`/`.glb` scene, or a `.obj` file framed on a ground plane under a
@@ -500,9 +514,20 @@ impl Scene {
             if o.transform.determinant().abs() <= f32::MIN_POSITIVE {
                 bail!("{what}: transform is singular (a scale of 0?)");
             }
+            if !o.world_triangles().any(|t| !degenerate(&t)) {
+                bail!(
+                    "{what}: every triangle is degenerate (zero area, or under 1e-30 across, in world space): it can neither cast nor receive a shadow"
+                );
+            }
             if !o.albedo.is_finite() || o.albedo.min_element() < 0.0 {
                 bail!("{what}: albedo {} must be finite and >= 0", o.albedo);
             }
+        }
+        let size = self.bounds().radius();
+        if !(MIN_SCENE_RADIUS..=MAX_SCENE_RADIUS).contains(&size) {
+            bail!(
+                "scene '{name}': its bounding radius {size:e} is out of range: allowed {MIN_SCENE_RADIUS:e} ..= {MAX_SCENE_RADIUS:e} world units (f32 depth and ray precision; see the README's numeric range)"
+            );
         }
         if !self.objects.iter().any(|o| o.role.casts()) {
             bail!("scene '{name}': no object casts shadows (role caster or both)");
@@ -512,6 +537,12 @@ impl Scene {
         }
         let l = &self.light;
         check_view(name, "light", l.position, l.target, l.fov_deg)?;
+        if l.fov_deg > MAX_LIGHT_FOV_DEG {
+            bail!(
+                "scene '{name}': light fov_deg {} is out of range: allowed (0, {MAX_LIGHT_FOV_DEG}] (a wider cone spreads the shadow map over so much that casters get too few texels)",
+                l.fov_deg
+            );
+        }
         if !l.radius.is_finite() || l.radius < 0.0 {
             bail!(
                 "scene '{name}': light radius {} must be finite and >= 0",
@@ -528,6 +559,15 @@ impl Scene {
         }
         Ok(())
     }
+}
+
+/// Whether a world triangle has no usable area at f32 precision: an edge under 1e-30 (denormal
+/// territory, where rasterisers and the ray caster's epsilons give up) or a cross product that
+/// vanishes against its longest edge (collinear corners).
+pub fn degenerate(t: &[Vec3; 3]) -> bool {
+    let [a, b, c] = t.map(|p| p.as_dvec3());
+    let longest = (b - a).length().max((c - a).length()).max((c - b).length());
+    longest < 1e-30 || (b - a).cross(c - a).length() <= 1e-9 * longest * longest
 }
 
 fn check_view(scene: &str, what: &str, position: Vec3, target: Vec3, fov_deg: f32) -> Result<()> {

@@ -1,0 +1,254 @@
+#!/usr/bin/env python3
+"""Hostile-input sweep: a few hundred bad or extreme command lines against the softshadow
+binary, each checked for a non-zero exit, exactly one `error:` line, no panic, no signal, no
+validation message, and an output folder left exactly as it was.
+
+    scripts/hostile-sweep.py [BINARY]     (default target/release/softshadow, else debug)
+
+Prints one line per failed input and the counts; exits non-zero when any input failed.
+Every command runs in its own scratch folder under $TMPDIR with lavapipe and --validation.
+"""
+
+import hashlib
+import os
+import shutil
+import subprocess
+import sys
+import tempfile
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+SMALL = ["--width", "24", "--height", "24"]
+TECHNIQUES = ["hard", "pcf", "pcss", "smoothies", "penumbra-map", "plateaus", "ssm", "ssm2"]
+
+
+def binary():
+    if len(sys.argv) > 1:
+        return os.path.abspath(sys.argv[1])
+    for kind in ("release", "debug"):
+        path = os.path.join(ROOT, "target", kind, "softshadow")
+        if os.path.exists(path):
+            return path
+    sys.exit("no softshadow binary: cargo build --release first")
+
+
+def snapshot(folder):
+    """Every entry under `folder` with a hash of its bytes or its kind."""
+    out = {}
+    for base, dirs, files in os.walk(folder):
+        for d in dirs:
+            out[os.path.relpath(os.path.join(base, d), folder)] = "<dir>"
+        for f in files:
+            p = os.path.join(base, f)
+            rel = os.path.relpath(p, folder)
+            if os.path.islink(p):
+                out[rel] = "<link>" + os.readlink(p)
+            elif os.path.isfile(p):
+                with open(p, "rb") as fh:
+                    out[rel] = hashlib.sha1(fh.read()).hexdigest()
+            else:
+                out[rel] = "<special>"
+    return out
+
+
+def obj(lines):
+    return "\n".join(lines) + "\n"
+
+
+TRI = ["v 0 0 0", "v 1 0 0", "v 0 1 0"]
+
+# (file name, content): inputs written into each scratch folder before a command runs.
+FILES = {
+    "junk.obj": obj(TRI + ["hello world", "f 1 2 3"]),
+    "short_v.obj": obj(["v 0 0 0", "v 1 2", "v 0 1 0", "f 1 2 3"]),
+    "two_f.obj": obj(TRI + ["f 1 2"]),
+    "vt_range.obj": obj(TRI + ["vt 0 0", "vn 0 0 1", "f 1/2/3 2/9/9 3"]),
+    "vn_range.obj": obj(TRI + ["vt 0 0", "f 1/1/1 2/1/1 3/1/1"]),
+    "v_range.obj": obj(TRI + ["f 1 2 9"]),
+    "neg_range.obj": obj(TRI + ["f -1 -2 -9"]),
+    "zero_idx.obj": obj(TRI + ["f 0 1 2"]),
+    "nan.obj": obj(["v 0 nan 0", "v 1 0 0", "v 0 1 0", "f 1 2 3"]),
+    "inf.obj": obj(["v 0 inf 0", "v 1 0 0", "v 0 1 0", "f 1 2 3"]),
+    "word.obj": obj(["v 0 zero 0", "v 1 0 0", "v 0 1 0", "f 1 2 3"]),
+    "empty.obj": "",
+    "nofaces.obj": obj(TRI),
+    "collinear.obj": obj(["v 0 0 0", "v 1 0 0", "v 2 0 0", "f 1 2 3"]),
+    "specks.obj": obj(["v 0 0 0", "v 1e-40 0 0", "v 0 1e-40 0", "f 1 2 3"]),
+    "huge.obj": obj(["v -1e38 0 0", "v 1e38 0 0", "v 0 0 1e38", "f 1 2 3"]),
+    "longtoken.obj": obj(["v 0 0 " + "9" * 200000 + "x", "v 1 0 0", "v 0 1 0", "f 1 2 3"]),
+    "binary.obj": "\x00\xff\xfe garbage",
+    "face_word.obj": obj(TRI + ["f 1 x 3"]),
+    "bad.toml": "this is = = not toml\n",
+    "unknown_key.toml": "[[object]]\nprimitive = \"box\"\nradus = 1\n",
+    "fov178.toml": "[[object]]\nprimitive = \"box\"\n[[object]]\nprimitive = \"plane\"\nrole = \"receiver\"\n[light]\nfov_deg = 178\n",
+    "fov0.toml": "[[object]]\nprimitive = \"box\"\n[light]\nfov_deg = 0\n",
+    "scale0.toml": "[[object]]\nprimitive = \"box\"\nscale = 0\n",
+    "scale1e8.toml": "[[object]]\nprimitive = \"box\"\nscale = 1e8\n[[object]]\nprimitive = \"plane\"\nrole = \"receiver\"\n",
+    "scale1e-9.toml": "[[object]]\nprimitive = \"box\"\nscale = 1e-9\n[[object]]\nprimitive = \"plane\"\nrole = \"receiver\"\nscale = 1e-9\n",
+    "noreceiver.toml": "[[object]]\nprimitive = \"box\"\nrole = \"caster\"\n",
+    "nocaster.toml": "[[object]]\nprimitive = \"plane\"\nrole = \"receiver\"\n",
+    "negradius.toml": "[[object]]\nprimitive = \"box\"\n[light]\nradius = -1\n",
+    "nanpos.toml": "[[object]]\nprimitive = \"box\"\ntranslate = [0, nan, 0]\n",
+    "missingmesh.toml": "[[object]]\nmesh = \"nope.obj\"\n",
+    "both.toml": "[[object]]\nmesh = \"junk.obj\"\nprimitive = \"box\"\n",
+    "neither.toml": "[[object]]\nrole = \"both\"\n",
+    "badprim.toml": "[[object]]\nprimitive = \"teapot\"\n",
+    "badrole.toml": "[[object]]\nprimitive = \"box\"\nrole = \"shiny\"\n",
+    "junkmesh.toml": "[[object]]\nmesh = \"junk.obj\"\n[[object]]\nprimitive = \"plane\"\nrole = \"receiver\"\n",
+    "notascene.txt": "hello\n",
+    "bad_icd.json": "{ not json",
+    "afile": "keep",
+}
+
+
+def cases():
+    """(label, args, env) for every bad input."""
+    out = []
+    r = ["render"] + SMALL
+
+    def add(label, args, env=None):
+        out.append((label, args, env or {}))
+
+    # Outputs that are not regular files or cannot be written.
+    for t in ("hard", "smoothies"):
+        for target, what in [
+            ("/dev/full", "device node"),
+            ("/dev/null", "device node"),
+            ("fifo.png", "fifo"),
+            ("full.png", "link to a device"),
+            ("adir.png", "folder"),
+            ("nowhere/x.png", "missing folder"),
+            ("x.jpg", "jpg"),
+            ("x", "no extension"),
+            ("afile/x.png", "under a file"),
+        ]:
+            add(f"render --out {what} ({t})", r + ["--technique", t, "--out", target])
+        for flag in ("--aov", "--buffers"):
+            for target in ("afile", "fifo.png", "afile/sub", "full.png"):
+                add(f"render {flag} {target} ({t})", r + ["--technique", t, "--out", "o.png", flag, target])
+    for target in ("/dev/full", "fifo.png", "fifo_pair.obj", "adir.png", "nowhere/x.obj", "full.png"):
+        add(f"export --obj {target}", ["export", "--obj", target])
+    for target in ("afile", "fifo.png", "afile/sub", "full.png"):
+        add(f"bench --out {target}", ["bench", "--out", target])
+        add(f"stress --out {target}", ["stress", "--quick", "--out", target])
+    # Scenes.
+    for f in sorted(FILES):
+        if f.endswith((".obj", ".toml", ".txt")):
+            add(f"render --scene {f}", r + ["--technique", "hard", "--scene", f, "--out", "o.png"])
+            add(f"export --scene {f}", ["export", "--scene", f, "--obj", "o.obj"])
+    for f in ("junk.obj", "short_v.obj", "fov178.toml", "scale1e8.toml", "specks.obj"):
+        add(f"bench --scenes {f}", ["bench", "--scenes", f, "--techniques", "hard", "--out", "b"])
+    add("render --scene no-such", r + ["--scene", "no-such", "--out", "o.png"])
+    add("render --scene missing.obj", r + ["--scene", "missing.obj", "--out", "o.png"])
+    # Numbers, per technique where the technique reads them.
+    bad_sizes = ["0", "-1", "1e3", "abc", "", "99999999999", "9" * 100000, "nan"]
+    for flag in ("--width", "--height"):
+        for v in bad_sizes:
+            add(f"render {flag} {v[:12]}", ["render", flag, v, "--out", "o.png"])
+    for t in TECHNIQUES:
+        for v in ["0", "1", "3", "63", "-1", "999999", "1.5"]:
+            add(f"render {t} --shadow-res {v}", r + ["--technique", t, "--shadow-res", v, "--out", "o.png"])
+        for v in ["-1", "nan", "inf", "1e30", "-inf"]:
+            add(f"render {t} --light-radius {v}", r + ["--technique", t, "--light-radius", v, "--out", "o.png"])
+    for t in ("ssm", "ssm2"):
+        for v in ["0", "1", "3", "31", "4096", "16384", "-5"]:
+            add(f"render {t} --occluder-res {v}", r + ["--technique", t, "--occluder-res", v, "--out", "o.png"])
+        add(f"render {t} --accum-format r8", r + ["--technique", t, "--accum-format", "r8", "--out", "o.png"])
+    for v in ["-0.1", "2", "nan"]:
+        add(f"render --smoothie-t {v}", r + ["--smoothie-t", v, "--out", "o.png"])
+    for v in ["box2", "box99", "poisson0", "poisson100", "gauss3", ""]:
+        add(f"render --pcf-kernel {v}", r + ["--technique", "pcf", "--pcf-kernel", v, "--out", "o.png"])
+    for v in ["-1", "100", "nan"]:
+        add(f"render --normal-offset {v}", r + ["--normal-offset", v, "--out", "o.png"])
+        add(f"render --depth-bias {v}", r + ["--depth-bias", v, "--out", "o.png"])
+    for v in ["0", "255", "70000"]:
+        add(f"render --reference-samples {v}", r + ["--technique", "reference", "--reference-samples", v, "--out", "o.png"])
+    for flag, v in [("--technique", "nope"), ("--spirv", "fast"), ("--silhouettes", "tpu"), ("--device", "NoSuchGpu")]:
+        add(f"render {flag} {v}", r + [flag, v, "--out", "o.png"])
+    b = ["bench", "--out", "b", "--techniques", "hard", "--scenes", "cylinder"]
+    for flag, v in [
+        ("--resolutions", "0"), ("--resolutions", "3"), ("--resolutions", "99999"), ("--resolutions", "-1"),
+        ("--resolutions", ""), ("--radii", "-1"), ("--radii", "nanx"), ("--radii", "banana"),
+        ("--frames", "0"), ("--frames", "-2"), ("--samples", "1"), ("--samples", "1000000"),
+        ("--smoothie-t", "0"), ("--smoothie-t", "7"), ("--motion", "spin"), ("--width", "0"),
+        ("--techniques", "nope"), ("--scenes", "nope"), ("--spirv", "fast"), ("--silhouettes", "tpu"),
+    ]:
+        add(f"bench {flag} {v[:12]}", b + [flag, v])
+    for flag, v in [("--cases", "nope"), ("--techniques", "nope"), ("--techniques", "reference,nope")]:
+        add(f"stress {flag} {v}", ["stress", "--quick", "--out", "s", flag, v])
+    add("export --width 0", ["export", "--obj", "o.obj", "--width", "0"])
+    add("export --scene nope", ["export", "--obj", "o.obj", "--scene", "nope"])
+    # Drivers.
+    for env in [
+        {"VK_ICD_FILENAMES": "/nonexistent.json"},
+        {"VK_ICD_FILENAMES": "bad_icd.json", "VK_DRIVER_FILES": "bad_icd.json"},
+        {"VK_ICD_FILENAMES": "afile", "VK_DRIVER_FILES": "afile"},
+    ]:
+        add(f"render with {list(env.values())[0]}", r + ["--out", "o.png"], env)
+    add("unknown subcommand", ["paint"])
+    add("unknown flag", ["render", "--colour", "red"])
+    return out
+
+
+def prepare(folder):
+    for name, text in FILES.items():
+        with open(os.path.join(folder, name), "w", encoding="latin-1") as fh:
+            fh.write(text)
+    os.mkfifo(os.path.join(folder, "fifo.png"))
+    os.mkfifo(os.path.join(folder, "fifo_pair.json"))
+    os.symlink("/dev/full", os.path.join(folder, "full.png"))
+    os.mkdir(os.path.join(folder, "adir.png"))
+
+
+def main():
+    exe = binary()
+    base = tempfile.mkdtemp(prefix="softshadow-hostile-")
+    all_cases = cases()
+    counts = {"inputs": len(all_cases), "clean": 0, "exit 0": 0, "error lines != 1": 0,
+              "panic or signal": 0, "validation": 0, "left files": 0, "timeout": 0}
+    failures = []
+    for i, (label, args, env) in enumerate(all_cases):
+        folder = os.path.join(base, str(i))
+        os.mkdir(folder)
+        prepare(folder)
+        before = snapshot(folder)
+        full_env = dict(os.environ)
+        full_env.pop("SOFTSHADOW_DEVICE", None)
+        full_env.update({k: os.path.join(folder, v) if not v.startswith("/") else v for k, v in env.items()})
+        full_env["SOFTSHADOW_CACHE"] = os.path.join(base, "cache")
+        try:
+            p = subprocess.run([exe] + args + ["--validation"], cwd=folder, env=full_env,
+                               capture_output=True, timeout=300)
+        except subprocess.TimeoutExpired:
+            counts["timeout"] += 1
+            failures.append((label, "timeout"))
+            continue
+        stderr = p.stderr.decode("utf-8", "replace")
+        problems = []
+        if p.returncode == 0:
+            problems.append("exit 0")
+        if p.returncode < 0 or "panicked" in stderr:
+            problems.append("panic or signal")
+        if "validation" in stderr.lower() and "VUID" in stderr:
+            problems.append("validation")
+        if sum(1 for line in stderr.splitlines() if line.startswith("error")) != 1:
+            problems.append("error lines != 1")
+        if snapshot(folder) != before:
+            problems.append("left files")
+        if len(stderr) > 4000:
+            problems.append("error lines != 1")
+        for pr in set(problems):
+            counts[pr] += 1
+        if problems:
+            first = next((l for l in stderr.splitlines() if l.startswith("error")), stderr[:200])
+            failures.append((label, ", ".join(sorted(set(problems))) + ": " + first[:200]))
+        else:
+            counts["clean"] += 1
+    shutil.rmtree(base, ignore_errors=True)
+    for label, why in failures:
+        print(f"FAIL {label}: {why}")
+    print(" ".join(f"{k}={v}" for k, v in counts.items()))
+    return 1 if failures else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

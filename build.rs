@@ -10,6 +10,9 @@
 //! final pass marks the lines of each variant with `;@color` / `;@aov`. Every failing shader
 //! is listed with the compiler's own output (glslangValidator prints its errors on stdout, so
 //! both streams are shown).
+//!
+//! It also records the git commit the crate is built from (`SOFTSHADOW_GIT_COMMIT`, read by
+//! `softshadow::GIT_COMMIT` for bench results), "unknown" outside a git checkout.
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -30,6 +33,7 @@ fn run() -> Result<(), String> {
     let out = PathBuf::from(std::env::var("OUT_DIR").map_err(|e| e.to_string())?);
     let glsl = root.join("glsl");
     println!("cargo:rerun-if-changed=glsl");
+    git_commit(&root);
 
     let mut files = Vec::new();
     collect(&glsl, &mut files)?;
@@ -303,4 +307,35 @@ fn find_tool(name: &str) -> Option<PathBuf> {
     std::env::split_paths(&path)
         .map(|dir| dir.join(name))
         .find(|p| p.is_file())
+}
+
+/// Sets `SOFTSHADOW_GIT_COMMIT` to `git rev-parse HEAD` of `root` ("unknown" without git or
+/// outside a checkout) and reruns when HEAD or the branch it names moves.
+fn git_commit(root: &Path) {
+    let git = |args: &[&str]| -> Option<String> {
+        let out = Command::new("git")
+            .args(args)
+            .current_dir(root)
+            .output()
+            .ok()?;
+        let s = String::from_utf8(out.stdout).ok()?.trim().to_string();
+        (out.status.success() && !s.is_empty()).then_some(s)
+    };
+    let commit = git(&["rev-parse", "HEAD"])
+        .filter(|c| c.len() >= 40 && c.chars().all(|ch| ch.is_ascii_hexdigit()))
+        .unwrap_or_else(|| "unknown".into());
+    println!("cargo:rustc-env=SOFTSHADOW_GIT_COMMIT={commit}");
+    // Paths may be relative to `root` (`--git-path` answers relative to the current folder).
+    let mut watch = vec!["HEAD".to_string(), "packed-refs".to_string()];
+    if let Some(r) = git(&["symbolic-ref", "-q", "HEAD"]) {
+        watch.push(r);
+    }
+    for w in watch {
+        if let Some(p) = git(&["rev-parse", "--git-path", &w]) {
+            let p = root.join(p);
+            if p.exists() {
+                println!("cargo:rerun-if-changed={}", p.display());
+            }
+        }
+    }
 }

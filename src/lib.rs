@@ -8,6 +8,12 @@
 //! and the registry table; `eval` holds the ray-cast reference, its GPU cross-check and the
 //! error metrics; `output` writes PNGs and EXR AOVs.
 
+/// The crate version (Cargo.toml), recorded in bench results.
+pub const VERSION: &str = env!("CARGO_PKG_VERSION");
+/// The git commit this build was made from (`git rev-parse HEAD` at build time, by
+/// build.rs), "unknown" when built outside a git checkout.
+pub const GIT_COMMIT: &str = env!("SOFTSHADOW_GIT_COMMIT");
+
 pub mod eval;
 pub mod output;
 pub mod render;

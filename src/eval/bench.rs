@@ -39,7 +39,9 @@
 use super::metrics::{self, Errors};
 use super::reference::{self, ReferenceParams};
 use super::{plot, report, spirv};
-use crate::render::{FrameImages, Renderer, Settings, SilhouettePath, SpirvChoice};
+use crate::render::{
+    AccumFormat, FrameImages, PcfKernel, Renderer, Settings, SilhouettePath, SpirvChoice,
+};
 use crate::scene::{Scene, BUILTIN_SCENES};
 use crate::technique::{self, smoothies::smoothie_width};
 use crate::vk::{Context, FrameTimings};
@@ -770,6 +772,9 @@ pub struct Record {
     pub smoothie_t_fixed: bool,
     /// The SPIR-V the row ran (`tuned` only for techniques with hand-tuned modules).
     pub spirv: SpirvChoice,
+    /// Where silhouettes were found (`cpu` or `gpu`, `auto` resolved for the device); only
+    /// smoothies and penumbra-map have silhouette work.
+    pub silhouettes: &'static str,
     pub frames: u32,
     pub warmup: u32,
     /// Sum of the passes per frame.
@@ -827,9 +832,86 @@ pub struct Outcome {
     pub files: Vec<String>,
 }
 
-/// The whole results document (`results.json`).
+/// The layout version of results.json and results.csv (docs/RESULTS.md): raised when a
+/// field is renamed or removed or changes meaning, not when one is added.
+pub const RESULTS_SCHEMA_VERSION: u32 = 1;
+
+/// Every setting of a sweep: what was asked for and the renderer settings every point
+/// shares (`results.json` `settings`).
+#[derive(Serialize)]
+pub struct SweepSettings {
+    pub scenes: Vec<String>,
+    /// As asked (`--techniques`); `hard` is swept even when missing, and the rows are in
+    /// `results`.
+    pub techniques: Vec<String>,
+    pub resolutions: Vec<u32>,
+    pub radii: Vec<String>,
+    pub smoothie_t: Vec<f32>,
+    pub spirv: Vec<SpirvChoice>,
+    /// As asked (`auto` included); each row has the resolved path.
+    pub silhouettes: Vec<&'static str>,
+    pub motions: Vec<Motion>,
+    pub width: u32,
+    pub height: u32,
+    pub frames: u32,
+    pub warmup: u32,
+    pub reference_samples: u32,
+    pub reference_seed: u64,
+    pub reuse_light_passes: bool,
+    pub normal_offset_texels: f32,
+    pub depth_bias: f32,
+    pub pcf_kernel: String,
+    pub occluder_res: u32,
+    pub accum_format: &'static str,
+    pub culling: bool,
+}
+
+impl SweepSettings {
+    fn new(plan: &Plan) -> Self {
+        let cfg = &plan.config;
+        // The per-point settings differ only in what the sweep varies (size, radius, row).
+        let s = Settings::default();
+        SweepSettings {
+            scenes: cfg.scenes.clone(),
+            techniques: cfg.techniques.clone(),
+            resolutions: cfg.resolutions.clone(),
+            radii: cfg.radii.iter().map(Radius::to_string).collect(),
+            smoothie_t: cfg.smoothie_t.clone(),
+            spirv: cfg.spirv.clone(),
+            silhouettes: cfg.silhouettes.iter().map(|p| p.name()).collect(),
+            motions: cfg.motions.clone(),
+            width: cfg.width,
+            height: cfg.height,
+            frames: cfg.frames,
+            warmup: cfg.warmup,
+            reference_samples: cfg.samples,
+            reference_seed: cfg.seed,
+            reuse_light_passes: cfg.reuse_light_passes,
+            normal_offset_texels: s.normal_offset_texels,
+            depth_bias: s.depth_bias,
+            pcf_kernel: match s.pcf_kernel {
+                PcfKernel::Box(n) => format!("box{n}"),
+                PcfKernel::Poisson(n) => format!("poisson{n}"),
+            },
+            occluder_res: s.occluder_res,
+            accum_format: match s.accum_format {
+                AccumFormat::R32F => "r32f",
+                AccumFormat::R16F => "r16f",
+            },
+            culling: s.culling,
+        }
+    }
+}
+
+/// The whole results document (`results.json`, documented field by field in
+/// docs/RESULTS.md).
 #[derive(Serialize)]
 pub struct Results<'a> {
+    pub schema_version: u32,
+    pub softshadow_version: &'static str,
+    pub git_commit: &'static str,
+    /// When the sweep finished, UTC, RFC 3339 (`2026-12-02T04:30:00Z`).
+    pub date: String,
     pub device: String,
     pub driver: String,
     pub device_line: String,
@@ -841,6 +923,7 @@ pub struct Results<'a> {
     pub reference_seed: u64,
     pub error_image_scale: f32,
     pub notes: Vec<String>,
+    pub settings: SweepSettings,
     pub results: &'a [Record],
     pub spirv: &'a [spirv::ShaderCost],
 }
@@ -1032,6 +1115,7 @@ pub fn run(ctx: &Context, plan: Plan) -> Result<Outcome> {
             smoothie_t,
             smoothie_t_fixed: variant.smoothie_t.is_some(),
             spirv: variant.spirv,
+            silhouettes: variant.silhouettes.resolve(ctx).name(),
             frames: cfg.frames,
             warmup: cfg.warmup,
             frame_ms: timing.frame_ms,
@@ -1095,6 +1179,10 @@ pub fn run(ctx: &Context, plan: Plan) -> Result<Outcome> {
     }
 
     let results = Results {
+        schema_version: RESULTS_SCHEMA_VERSION,
+        softshadow_version: crate::VERSION,
+        git_commit: crate::GIT_COMMIT,
+        date: humantime::format_rfc3339_seconds(std::time::SystemTime::now()).to_string(),
         device: ctx.device_name.clone(),
         driver: format!("{} {}", ctx.driver_name, ctx.driver_info),
         device_line: ctx.describe(),
@@ -1106,6 +1194,7 @@ pub fn run(ctx: &Context, plan: Plan) -> Result<Outcome> {
         reference_seed: cfg.seed,
         error_image_scale: ERROR_SCALE,
         notes,
+        settings: SweepSettings::new(&plan),
         results: &records,
         spirv: &costs,
     };

@@ -1,110 +1,151 @@
-//! The bench's text outputs: `results.csv` (one flat row per sweep point), `results.json`
-//! (everything, per pass), and `report.md` (a table per scene, the images, the SPIR-V cost
+//! The bench's text outputs: `results.csv` (one flat row per sweep point, a column per
+//! pass), `results.json` (everything, per pass; both documented in docs/RESULTS.md), and
+//! `report.md` (a table per scene, the images, the SPIR-V cost
 //! table; written to be pasted into BENCHMARKS.md). Every one names the device and driver.
 
 use super::bench::{Motion, Record, Results, BASELINE, ERROR_SCALE_IMAGE};
 use super::spirv::{Counts, ShaderCost};
 use anyhow::{Context as _, Result};
-use serde::Serialize;
 use std::fmt::Write as _;
 use std::path::Path;
 
-/// One line of results.csv.
-#[derive(Serialize)]
-struct CsvRow<'a> {
-    device: &'a str,
-    driver: &'a str,
-    scene: &'a str,
-    technique: &'a str,
-    technique_name: &'a str,
-    width: u32,
-    height: u32,
-    shadow_res: u32,
-    radius_spec: &'a str,
-    light_radius: f32,
-    motion: &'static str,
-    smoothie_t: Option<f32>,
-    smoothie_t_fixed: bool,
-    frames: u32,
-    frame_ms_median: f64,
-    frame_ms_min: f64,
-    frame_ms_max: f64,
-    ratio_to_hard: Option<f64>,
-    cpu_ms_median: f64,
-    mae_lit: f64,
-    p99_lit: f64,
-    flip: f64,
-    mae_shadow: f64,
-    rmse: f64,
-    p99: f64,
-    max_error: f64,
-    lit_pixels: usize,
-    shadow_pixels: usize,
-    covered_pixels: usize,
-    /// `pass=median_ms` joined by `;` (skipped passes: `pass=skipped`).
-    passes: String,
-    image: &'a str,
-    error_image: &'a str,
-    flip_image: &'a str,
+/// The fixed columns of results.csv, in order (documented in docs/RESULTS.md). After them
+/// come one `pass:NAME` column per GPU pass and one `cpu:NAME` column per named CPU work
+/// seen anywhere in the run, in first-seen order: the median ms, empty where a row has no
+/// such pass or every timed frame skipped it.
+pub const CSV_COLUMNS: &[&str] = &[
+    "device",
+    "driver",
+    "scene",
+    "technique",
+    "technique_name",
+    "width",
+    "height",
+    "shadow_res",
+    "radius_spec",
+    "light_radius",
+    "motion",
+    "smoothie_t",
+    "smoothie_t_fixed",
+    "spirv",
+    "silhouettes",
+    "frames",
+    "warmup",
+    "frame_ms_median",
+    "frame_ms_min",
+    "frame_ms_max",
+    "ratio_to_hard",
+    "cpu_ms_median",
+    "mae_lit",
+    "p99_lit",
+    "flip",
+    "mae_shadow",
+    "rmse",
+    "p99",
+    "max_error",
+    "lit_pixels",
+    "shadow_pixels",
+    "covered_pixels",
+    "image",
+    "error_image",
+    "flip_image",
+];
+
+/// A float as a CSV cell: the shortest text that reads back to the same value, always
+/// with a decimal point so that readers type the column as floating point.
+fn num(v: impl Into<f64> + std::fmt::Display + Copy) -> String {
+    let s = v.to_string();
+    if v.into().is_finite() && !s.contains('.') {
+        s + ".0"
+    } else {
+        s
+    }
 }
 
-fn pass_list(r: &Record) -> String {
-    r.passes
-        .iter()
-        .map(|p| match &p.gpu_ms {
-            Some(s) => format!("{}={:.4}", p.name, s.median),
-            None => format!("{}=skipped", p.name),
-        })
-        .chain(
-            r.cpu
-                .iter()
-                .map(|c| format!("cpu:{}={:.4}", c.name, c.ms.median)),
-        )
-        .collect::<Vec<_>>()
-        .join(";")
+fn opt_num<T: Into<f64> + std::fmt::Display + Copy>(v: Option<T>) -> String {
+    v.map(num).unwrap_or_default()
+}
+
+/// The fixed cells of a row, in `CSV_COLUMNS` order.
+fn csv_cells(res: &Results<'_>, r: &Record) -> Vec<String> {
+    let e = &r.errors;
+    vec![
+        res.device.clone(),
+        res.driver.clone(),
+        r.scene.clone(),
+        r.technique.clone(),
+        r.technique_name.clone(),
+        r.width.to_string(),
+        r.height.to_string(),
+        r.shadow_res.to_string(),
+        r.radius_spec.clone(),
+        num(r.light_radius),
+        r.motion.name().into(),
+        opt_num(r.smoothie_t),
+        r.smoothie_t_fixed.to_string(),
+        r.spirv.name().into(),
+        r.silhouettes.into(),
+        r.frames.to_string(),
+        r.warmup.to_string(),
+        num(r.frame_ms.median),
+        num(r.frame_ms.min),
+        num(r.frame_ms.max),
+        opt_num(r.ratio_to_hard),
+        num(r.cpu_ms.median),
+        num(e.mae_lit),
+        num(e.p99_lit),
+        num(r.flip),
+        num(e.mae_shadow),
+        num(e.rmse),
+        num(e.p99),
+        num(e.max),
+        e.lit_pixels.to_string(),
+        e.shadow_pixels.to_string(),
+        e.covered_pixels.to_string(),
+        r.image.clone(),
+        r.error_image.clone(),
+        r.flip_image.clone(),
+    ]
 }
 
 pub fn write_csv(path: &Path, res: &Results<'_>) -> Result<()> {
+    let mut passes: Vec<&str> = Vec::new();
+    let mut cpu: Vec<&str> = Vec::new();
+    for r in res.results {
+        for p in &r.passes {
+            if !passes.contains(&p.name.as_str()) {
+                passes.push(&p.name);
+            }
+        }
+        for c in &r.cpu {
+            if !cpu.contains(&c.name.as_str()) {
+                cpu.push(&c.name);
+            }
+        }
+    }
+    let header: Vec<String> = CSV_COLUMNS
+        .iter()
+        .map(|c| c.to_string())
+        .chain(passes.iter().map(|p| format!("pass:{p}")))
+        .chain(cpu.iter().map(|c| format!("cpu:{c}")))
+        .collect();
     let mut w =
         csv::Writer::from_path(path).with_context(|| format!("writing {}", path.display()))?;
-    for r in res.results {
-        let passes = pass_list(r);
-        w.serialize(CsvRow {
-            device: &res.device,
-            driver: &res.driver,
-            scene: &r.scene,
-            technique: &r.technique,
-            technique_name: &r.technique_name,
-            width: r.width,
-            height: r.height,
-            shadow_res: r.shadow_res,
-            radius_spec: &r.radius_spec,
-            light_radius: r.light_radius,
-            motion: r.motion.name(),
-            smoothie_t: r.smoothie_t,
-            smoothie_t_fixed: r.smoothie_t_fixed,
-            frames: r.frames,
-            frame_ms_median: r.frame_ms.median,
-            frame_ms_min: r.frame_ms.min,
-            frame_ms_max: r.frame_ms.max,
-            ratio_to_hard: r.ratio_to_hard,
-            cpu_ms_median: r.cpu_ms.median,
-            mae_lit: r.errors.mae_lit,
-            p99_lit: r.errors.p99_lit,
-            flip: r.flip,
-            mae_shadow: r.errors.mae_shadow,
-            rmse: r.errors.rmse,
-            p99: r.errors.p99,
-            max_error: r.errors.max,
-            lit_pixels: r.errors.lit_pixels,
-            shadow_pixels: r.errors.shadow_pixels,
-            covered_pixels: r.errors.covered_pixels,
-            passes,
-            image: &r.image,
-            error_image: &r.error_image,
-            flip_image: &r.flip_image,
-        })
+    w.write_record(&header)
         .with_context(|| format!("writing {}", path.display()))?;
+    for r in res.results {
+        let mut cells = csv_cells(res, r);
+        debug_assert_eq!(cells.len(), CSV_COLUMNS.len());
+        cells.extend(passes.iter().map(|name| {
+            let p = r.passes.iter().find(|p| p.name == *name);
+            opt_num(p.and_then(|p| p.gpu_ms).map(|s| s.median))
+        }));
+        cells.extend(cpu.iter().map(|name| {
+            let c = r.cpu.iter().find(|c| c.name == *name);
+            opt_num(c.map(|c| c.ms.median))
+        }));
+        w.write_record(&cells)
+            .with_context(|| format!("writing {}", path.display()))?;
     }
     w.flush()
         .with_context(|| format!("writing {}", path.display()))

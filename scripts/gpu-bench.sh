@@ -12,7 +12,7 @@
 #    to each step's report.md, time_vs_error.png and results.csv.
 #
 # Aimed at under 8 minutes on an H100/H200 host (16 cores for the CPU ray-cast reference,
-# which dominates on dense-1m; it is cached under target/softshadow-cache for re-runs).
+# which dominates on dense-1m; it is cached under ~/.cache/softshadow for re-runs).
 # `--quick` runs the same steps at 64x64 with 128^2 buffers, 1 warm-up + 1 timed frame, on
 # `cylinder` and `overlap` (main) and `dense` (silhouettes), validation layers on: CI runs it
 # on lavapipe (.ci/run, about 15 s after the build) so that the script cannot rot. Without --bin, the full run builds and uses the

@@ -108,13 +108,17 @@ impl ReferenceParams {
     }
 }
 
-/// Where cached references live: `$SOFTSHADOW_CACHE`, else `./target/softshadow-cache`
-/// (created when missing; a failure to create it shows when a file is written there).
+/// Where cached references live: `$SOFTSHADOW_CACHE`, else the user's cache folder
+/// (`$XDG_CACHE_HOME/softshadow`, else `~/.cache/softshadow` on Linux; the platform's
+/// equivalent elsewhere, through `dirs`), else `softshadow-cache` in the temporary folder.
+/// Never the current directory: the same reference serves every checkout and run. Created
+/// when missing; a failure to create it shows when a file is written there.
 pub fn cache_dir() -> PathBuf {
     let dir = std::env::var_os("SOFTSHADOW_CACHE")
         .filter(|d| !d.is_empty())
         .map(PathBuf::from)
-        .unwrap_or_else(|| PathBuf::from("target").join("softshadow-cache"));
+        .or_else(|| dirs::cache_dir().map(|d| d.join("softshadow")))
+        .unwrap_or_else(|| std::env::temp_dir().join("softshadow-cache"));
     let _ = std::fs::create_dir_all(&dir);
     dir
 }

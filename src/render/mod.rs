@@ -11,6 +11,7 @@ use anyhow::{bail, Context as _, Result};
 use bytemuck::{Pod, Zeroable};
 use glam::{Mat4, Vec3};
 pub use gpu_scene::GpuScene;
+use half::f16;
 pub use passes::CameraTargets;
 
 /// Largest number of timed passes in one frame.
@@ -713,10 +714,10 @@ impl<'c> Renderer<'c> {
         let t = &self.targets;
         let visibility = read_image::<f32>(self.ctx, &mut self.runner, &t.visibility)?;
         let position = read_image::<[f32; 4]>(self.ctx, &mut self.runner, &t.position)?;
-        let normal16 = read_image::<[u16; 4]>(self.ctx, &mut self.runner, &t.normal)?;
+        let normal16 = read_image::<[f16; 4]>(self.ctx, &mut self.runner, &t.normal)?;
         let normal = normal16
             .iter()
-            .map(|n| [half_to_f32(n[0]), half_to_f32(n[1]), half_to_f32(n[2])])
+            .map(|n| [n[0].to_f32(), n[1].to_f32(), n[2].to_f32()])
             .collect();
         Ok(FrameImages {
             width: t.width,
@@ -813,9 +814,9 @@ impl<'c> Renderer<'c> {
         let (width, height) = (img.extent.width, img.extent.height);
         let channels = match img.format {
             crate::vk::Format::R16_SFLOAT => {
-                vec![read_image::<u16>(self.ctx, &mut self.runner, img)?
+                vec![read_image::<f16>(self.ctx, &mut self.runner, img)?
                     .into_iter()
-                    .map(half_to_f32)
+                    .map(f16::to_f32)
                     .collect()]
             }
             crate::vk::Format::R32G32_SFLOAT => {
@@ -856,24 +857,6 @@ pub struct TechniqueBuffer {
     pub channel_names: &'static [&'static str],
     /// One Vec per channel, row-major.
     pub channels: Vec<Vec<f32>>,
-}
-
-/// IEEE binary16 to f32 (the normal AOV and R16F buffers).
-pub fn half_to_f32(h: u16) -> f32 {
-    let sign = if h & 0x8000 != 0 { -1.0 } else { 1.0 };
-    let exp = ((h >> 10) & 0x1f) as i32;
-    let frac = (h & 0x3ff) as f32;
-    match exp {
-        0 => sign * frac * 2f32.powi(-24),
-        31 => {
-            if frac == 0.0 {
-                sign * f32::INFINITY
-            } else {
-                f32::NAN
-            }
-        }
-        _ => sign * (1.0 + frac / 1024.0) * 2f32.powi(exp - 15),
-    }
 }
 
 #[cfg(test)]

@@ -34,7 +34,6 @@
 
 use super::{FrameInput, Technique, TechniqueInfo, TechniqueInit};
 use crate::eval::reference::{visibility_cached, ReferenceParams};
-use crate::render::half_to_f32;
 use crate::render::passes::{FinalPass, FinalShader};
 use crate::scene::{Camera, Light};
 use crate::shaders;
@@ -163,9 +162,9 @@ impl Reference {
             })
             .context("rendering the reference's camera positions")?;
         let positions = read_image::<[f32; 4]>(ctx, &mut self.runner, &frame.targets.position)?;
-        let normals = read_image::<[u16; 4]>(ctx, &mut self.runner, &frame.targets.normal)?
+        let normals = read_image::<[half::f16; 4]>(ctx, &mut self.runner, &frame.targets.normal)?
             .into_iter()
-            .map(|n| [half_to_f32(n[0]), half_to_f32(n[1]), half_to_f32(n[2])])
+            .map(|n| [n[0].to_f32(), n[1].to_f32(), n[2].to_f32()])
             .collect();
         Ok((positions, normals))
     }

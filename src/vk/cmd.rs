@@ -376,9 +376,9 @@ enum Op {
 }
 
 /// Where vkCmdFillBuffer writes. The specification lists it among the clear commands
-/// (CLEAR); validation layers before 1.3.278 (Debian 12 ships 1.3.239) and some drivers
-/// treat it as a copy (COPY). Naming both keeps a barrier right under either reading and
-/// still waits on transfers only.
+/// (CLEAR); validation layers older than Vulkan-ValidationLayers PR 7543 (February 2024;
+/// Debian 12 ships 1.3.239) treat it as a copy (COPY). Naming both keeps a barrier right
+/// under either reading and still waits on transfers only.
 const FILL_STAGES: vk::PipelineStageFlags2 = vk::PipelineStageFlags2::from_raw(
     vk::PipelineStageFlags2::COPY.as_raw() | vk::PipelineStageFlags2::CLEAR.as_raw(),
 );

@@ -28,8 +28,11 @@ void main() {
     vec4 c = frame.light_view_proj * vec4(v_world, 1.0);
     vec2 ndc = c.xy / max(c.w, 1e-30);
     float spot = c.w > 0.0 ? 1.0 - smoothstep(0.85, 1.0, max(abs(ndc.x), abs(ndc.y))) : 0.0;
-    vec3 color = draw.albedo_receives.rgb * (0.12 + 0.88 * ndl * vis * spot);
-    o_color = vec4(pow(clamp(color, 0.0, 1.0), vec3(1.0 / 2.2)), 1.0);
+    float k = 0.12 + 0.88 * ndl * vis * spot;
+    // pow(min(albedo * k, 1), 1/2.2) as min(albedo^(1/2.2) * k^(1/2.2), 1): equal for
+    // albedo, k >= 0, with albedo^(1/2.2) per draw from the CPU (draw.flags.yzw). One scalar
+    // pow a pixel instead of three: llvmpipe runs each as exp2(log2(x) y) on every lane.
+    o_color = vec4(min(draw.flags.yzw * pow(k, 1.0 / 2.2), vec3(1.0)), 1.0);
 #ifdef AOV
     o_visibility = vis;
     o_position = vec4(v_world, 1.0);

@@ -20,7 +20,7 @@ layout(set = 0, binding = 0, std140) uniform Frame {
 layout(push_constant, std430) uniform Draw {
     mat4 model;
     vec4 albedo_receives;    // rgb: albedo, w: 1 if the object receives shadows
-    vec4 flags;              // x: 1 if the object casts shadows
+    vec4 flags;              // x: 1 if the object casts shadows, yzw: albedo^(1/2.2)
 } draw;
 #endif
 

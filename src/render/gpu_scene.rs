@@ -58,7 +58,14 @@ impl GpuObject {
                 self.albedo.z,
                 if self.role.receives() { 1.0 } else { 0.0 },
             ],
-            flags: [if self.role.casts() { 1.0 } else { 0.0 }, 0.0, 0.0, 0.0],
+            // yzw: albedo^(1/2.2), so that the final pass gamma-encodes with one scalar pow a
+            // pixel (glsl/common/final.glsl).
+            flags: [
+                if self.role.casts() { 1.0 } else { 0.0 },
+                self.albedo.x.powf(1.0 / 2.2),
+                self.albedo.y.powf(1.0 / 2.2),
+                self.albedo.z.powf(1.0 / 2.2),
+            ],
         }
     }
 }

@@ -206,6 +206,7 @@ fn overlapping_penumbrae_use_minimum_blending() {
             .all(|o| o.position[i][3] > 0.5 && (pos(o, i) - pos(&both, i)).length() < 1e-4)
     };
     let mut overlap = 0;
+    let mut differ = 0;
     let mut compared = 0;
     for i in covered(&both).into_iter().filter(|&i| same_point(i)) {
         compared += 1;
@@ -234,14 +235,30 @@ fn overlapping_penumbrae_use_minimum_blending() {
             "pixel {i}: {} is darker than both single-blocker images ({darker})",
             both.visibility[i]
         );
-        if a.visibility[i] < 0.98 && b.visibility[i] < 0.98 && a.visibility[i] > 0.02 {
+        // A filter of per-texel minima is at most the minimum of the filtered images: MAX
+        // blending, or the last blocker drawn winning, shows the lighter of the two here.
+        let (va, vb) = (a.visibility[i], b.visibility[i]);
+        assert!(
+            both.visibility[i] <= va.min(vb) + 0.01,
+            "pixel {i}: {} is lighter than the darker single-blocker image ({va}, {vb})",
+            both.visibility[i]
+        );
+        if va < 0.98 && vb < 0.98 && va > 0.02 {
             overlap += 1;
+        }
+        if (va - vb).abs() > 0.1 {
+            differ += 1;
         }
     }
     assert!(compared > 1000, "only {compared} pixels comparable");
     assert!(
         overlap > 20,
         "the two penumbrae should overlap somewhere ({overlap} pixels)"
+    );
+    // Where the two single-blocker images differ, only the minimum passes both bounds.
+    assert!(
+        differ > 100,
+        "only {differ} pixels where the blockers' shadows differ by more than 0.1"
     );
 }
 

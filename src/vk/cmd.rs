@@ -293,35 +293,6 @@ fn ticks_between(start: u64, end: u64, valid_bits: u32) -> Option<u64> {
     (ticks <= mask / 2).then_some(ticks)
 }
 
-#[cfg(test)]
-mod tests {
-    use super::ticks_between;
-
-    #[test]
-    fn stamps_in_order_give_their_difference() {
-        assert_eq!(ticks_between(100, 350, 64), Some(250));
-        assert_eq!(ticks_between(7, 7, 64), Some(0));
-        assert_eq!(ticks_between(100, 350, 36), Some(250));
-    }
-
-    #[test]
-    fn a_counter_that_wraps_between_stamps_still_gives_the_difference() {
-        let top = (1u64 << 36) - 1;
-        assert_eq!(ticks_between(top - 9, 20, 36), Some(30));
-        // Bits above the valid ones are garbage the driver may leave set.
-        assert_eq!(ticks_between((5 << 40) | (top - 9), 20, 36), Some(30));
-    }
-
-    #[test]
-    fn out_of_order_stamps_are_none_not_a_huge_duration() {
-        assert_eq!(ticks_between(350, 100, 64), None);
-        assert_eq!(ticks_between(350, 100, 36), None);
-        assert_eq!(ticks_between(u64::MAX, 0, 64), Some(1));
-        assert_eq!(ticks_between(1, 0, 64), None);
-        assert_eq!(ticks_between(1, 2, 0), None);
-    }
-}
-
 impl Drop for FrameRunner {
     fn drop(&mut self) {
         // SAFETY: `run` always waits for its submission, so nothing is pending.
@@ -1103,5 +1074,29 @@ mod tests {
                 .any(|m| m.contains("SYNC-HAZARD-WRITE-AFTER-WRITE")),
             "no hazard reported: {msgs:?}"
         );
+    }
+
+    #[test]
+    fn stamps_in_order_give_their_difference() {
+        assert_eq!(ticks_between(100, 350, 64), Some(250));
+        assert_eq!(ticks_between(7, 7, 64), Some(0));
+        assert_eq!(ticks_between(100, 350, 36), Some(250));
+    }
+
+    #[test]
+    fn a_counter_that_wraps_between_stamps_still_gives_the_difference() {
+        let top = (1u64 << 36) - 1;
+        assert_eq!(ticks_between(top - 9, 20, 36), Some(30));
+        // Bits above the valid ones are garbage the driver may leave set.
+        assert_eq!(ticks_between((5 << 40) | (top - 9), 20, 36), Some(30));
+    }
+
+    #[test]
+    fn out_of_order_stamps_are_none_not_a_huge_duration() {
+        assert_eq!(ticks_between(350, 100, 64), None);
+        assert_eq!(ticks_between(350, 100, 36), None);
+        assert_eq!(ticks_between(u64::MAX, 0, 64), Some(1));
+        assert_eq!(ticks_between(1, 0, 64), None);
+        assert_eq!(ticks_between(1, 2, 0), None);
     }
 }

@@ -283,25 +283,18 @@ fn rows_agree(rows: &[csv::StringRecord], headers: &csv::StringRecord, json: &se
                 }
                 "cpu_ms_median" => r["cpu_ms"]["median"].clone(),
                 "max_error" => r["errors"]["max"].clone(),
-                "passes" => {
-                    let mut list: Vec<String> = r["passes"]
-                        .as_array()
-                        .unwrap()
-                        .iter()
-                        .map(|p| match p["gpu_ms"]["median"].as_f64() {
-                            Some(ms) => format!("{}={ms:.4}", p["name"].as_str().unwrap()),
-                            None => format!("{}=skipped", p["name"].as_str().unwrap()),
-                        })
-                        .collect();
-                    list.extend(r["cpu"].as_array().unwrap().iter().map(|c| {
-                        format!(
-                            "cpu:{}={:.4}",
-                            c["name"].as_str().unwrap(),
-                            c["ms"]["median"].as_f64().unwrap()
-                        )
-                    }));
-                    serde_json::Value::String(list.join(";"))
-                }
+                _ if h.starts_with("pass:") => r["passes"]
+                    .as_array()
+                    .unwrap()
+                    .iter()
+                    .find(|p| p["name"] == h["pass:".len()..])
+                    .map_or(serde_json::Value::Null, |p| p["gpu_ms"]["median"].clone()),
+                _ if h.starts_with("cpu:") => r["cpu"]
+                    .as_array()
+                    .unwrap()
+                    .iter()
+                    .find(|c| c["name"] == h["cpu:".len()..])
+                    .map_or(serde_json::Value::Null, |c| c["ms"]["median"].clone()),
                 _ if !r[h].is_null() || r["errors"][h].is_null() => r[h].clone(),
                 _ => r["errors"][h].clone(),
             };

@@ -3,8 +3,12 @@
 //! built from (SPIR-V counting, Pareto front, medians, rows, flag parsing).
 
 use softshadow::eval::bench::{self, Motion, Radius, Stat};
+use softshadow::eval::metrics;
 use softshadow::eval::plot::pareto_front;
+use softshadow::eval::reference::{self, ReferenceParams};
 use softshadow::eval::spirv;
+use softshadow::render::Settings;
+use softshadow::scene::Scene;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
@@ -140,7 +144,7 @@ fn tiny_sweep_writes_every_output_and_each_parses() {
             st["median"].as_f64().unwrap(),
             st["max"].as_f64().unwrap(),
         );
-        assert!(lo <= med && med <= hi && lo >= 0.0, "{p}");
+        assert!(lo <= med && med <= hi && lo > 0.0, "{p}");
     }
     assert_eq!(smoothies["cpu"][0]["name"], "smoothies/silhouettes");
     let spirv = json["spirv"].as_array().expect("spirv table");
@@ -192,6 +196,9 @@ fn tiny_sweep_writes_every_output_and_each_parses() {
             );
         }
     }
+    rows_agree(&rows, &headers, &json);
+    images_are_of_their_rows(&out, results, &rows, &col("mae_shadow"));
+
     let scale = decode_png(&out.join("images/error_scale.png"));
     assert!(scale.width() > scale.height());
     let leftovers: Vec<_> = std::fs::read_dir(&out)
@@ -254,6 +261,150 @@ fn the_reference_scores_zero_against_itself() {
     let map = decode_png(&out.join(hard["flip_image"].as_str().unwrap())).to_rgb8();
     assert!(map.pixels().any(|p| *p != first));
     let _ = std::fs::remove_dir_all(&out);
+}
+
+/// results.csv and results.json say the same of every row; every pass of every row was
+/// timed (minimum > 0) and every row has its ratio to `hard`.
+fn rows_agree(rows: &[csv::StringRecord], headers: &csv::StringRecord, json: &serde_json::Value) {
+    let results = json["results"].as_array().unwrap();
+    assert_eq!(rows.len(), results.len(), "csv and json row counts");
+    let hard = results
+        .iter()
+        .find(|r| r["technique"] == "hard")
+        .expect("hard row");
+    let hard_ms = hard["frame_ms"]["median"].as_f64().unwrap();
+    for (row, r) in rows.iter().zip(results) {
+        let what = r["technique"].to_string();
+        for (h, cell) in headers.iter().zip(row.iter()) {
+            let value = match h {
+                "device" | "driver" => json[h].clone(),
+                "frame_ms_median" | "frame_ms_min" | "frame_ms_max" => {
+                    r["frame_ms"][&h["frame_ms_".len()..]].clone()
+                }
+                "cpu_ms_median" => r["cpu_ms"]["median"].clone(),
+                "max_error" => r["errors"]["max"].clone(),
+                _ if h.starts_with("pass:") => r["passes"]
+                    .as_array()
+                    .unwrap()
+                    .iter()
+                    .find(|p| p["name"] == h["pass:".len()..])
+                    .map_or(serde_json::Value::Null, |p| p["gpu_ms"]["median"].clone()),
+                _ if h.starts_with("cpu:") => r["cpu"]
+                    .as_array()
+                    .unwrap()
+                    .iter()
+                    .find(|c| c["name"] == h["cpu:".len()..])
+                    .map_or(serde_json::Value::Null, |c| c["ms"]["median"].clone()),
+                _ if !r[h].is_null() || r["errors"][h].is_null() => r[h].clone(),
+                _ => r["errors"][h].clone(),
+            };
+            let same = match &value {
+                serde_json::Value::Null => cell.is_empty(),
+                serde_json::Value::String(s) => s == cell,
+                serde_json::Value::Bool(b) => b.to_string() == cell,
+                serde_json::Value::Number(n) => {
+                    let (a, b) = (n.as_f64().unwrap(), cell.parse::<f64>().unwrap_or(f64::NAN));
+                    // f32 fields print shorter in the CSV than as f64 in the JSON.
+                    (a - b).abs() <= 1e-6 * a.abs().max(1e-30)
+                }
+                other => panic!("{what}: column {h} is {other} in the json"),
+            };
+            assert!(same, "{what}: csv {h} = {cell:?}, json {value}");
+        }
+        let ms = r["frame_ms"]["median"].as_f64().unwrap();
+        let ratio = r["ratio_to_hard"]
+            .as_f64()
+            .unwrap_or_else(|| panic!("{what}: no ratio_to_hard"));
+        assert!(
+            (ratio - ms / hard_ms).abs() <= 1e-12 * ratio,
+            "{what}: ratio_to_hard {ratio}, frame {ms} ms, hard {hard_ms} ms"
+        );
+        assert!(r["frame_ms"]["min"].as_f64().unwrap() > 0.0, "{what}");
+        for p in r["passes"].as_array().unwrap() {
+            let min = p["gpu_ms"]["min"].as_f64();
+            assert!(
+                min.is_some_and(|m| m > 0.0),
+                "{what}: pass {} has minimum {min:?}",
+                p["name"]
+            );
+        }
+    }
+}
+
+/// Every row's error image is the colour map of |v - v_ref| of that row's own render and the
+/// reference, its reference image is v_ref and its mae_shadow theirs: each row re-rendered
+/// here at the row's settings (the tiny sweep's: 64x48, buffer 128, the scene's radius).
+fn images_are_of_their_rows(
+    out: &Path,
+    results: &[serde_json::Value],
+    rows: &[csv::StringRecord],
+    mae_col: &usize,
+) {
+    let gpu = common::Gpu::new();
+    let scene = Scene::load("cylinder").unwrap();
+    let params = ReferenceParams {
+        samples: 256,
+        seed: bench::DEFAULT_SEED,
+    };
+    for (r, row) in results.iter().zip(rows) {
+        let what = r["technique"].to_string();
+        let settings = Settings {
+            width: 64,
+            height: 48,
+            shadow_res: 128,
+            light_radius: Some(scene.light.radius),
+            smoothie_t: r["smoothie_t_fixed"]
+                .as_bool()
+                .unwrap()
+                .then(|| r["smoothie_t"].as_f64().unwrap() as f32),
+            cache_light_passes: false,
+            ..Settings::default()
+        };
+        let technique = r["technique_name"].as_str().unwrap();
+        let (img, _) = gpu.render_frames(scene.clone(), technique, settings, 1);
+        let v_ref = reference::visibility_cached(
+            &scene,
+            scene.light.radius,
+            &img.position,
+            &img.normal,
+            &params,
+        )
+        .unwrap();
+        let covered: Vec<bool> = img.position.iter().map(|p| p[3] > 0.5).collect();
+        let want = metrics::error_image(&img.visibility, &v_ref, &covered, bench::ERROR_SCALE);
+        let coloured = want
+            .iter()
+            .filter(|&&c| c != metrics::ERROR_BACKGROUND && c != metrics::error_color(0.0, 1.0))
+            .count();
+        assert!(
+            coloured > 20,
+            "{what}: only {coloured} pixels with an error"
+        );
+        let got = decode_png(&out.join(r["error_image"].as_str().unwrap())).to_rgba8();
+        let off = got.pixels().zip(&want).filter(|(g, w)| g.0 != **w).count();
+        assert_eq!(
+            off, 0,
+            "{what}: {off} error-image pixels differ from |v - v_ref|"
+        );
+        let got = decode_png(&out.join(r["reference_image"].as_str().unwrap())).to_luma8();
+        let off = got
+            .pixels()
+            .zip(&v_ref)
+            .filter(|(g, v)| g.0[0] != (v.clamp(0.0, 1.0) * 255.0).round() as u8)
+            .count();
+        assert_eq!(
+            off, 0,
+            "{what}: {off} reference-image pixels differ from v_ref"
+        );
+        let facing = metrics::faces_light(&img.position, &img.normal, scene.light.position);
+        let e = metrics::errors(&img.visibility, &v_ref, &covered, &facing);
+        let mae: f64 = row[*mae_col].parse().unwrap();
+        assert!(
+            (mae - e.mae_shadow).abs() <= 1e-9,
+            "{what}: csv mae_shadow {mae}, re-rendered {}",
+            e.mae_shadow
+        );
+    }
 }
 
 /// Fails with exit != 0 and a single line on stderr, and leaves no `out` behind.

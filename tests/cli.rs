@@ -21,12 +21,13 @@ fn tmp(name: &str) -> PathBuf {
     dir.join(name)
 }
 
-/// Runs a command that must fail: one `error:` line naming `expect`, exit != 0, no panic,
+/// Runs a command that must fail: one `error:` line naming `expect`, exit 1, no panic,
 /// no validation message, and `out` not written.
 fn assert_fails(args: &[&str], envs: &[(&str, &str)], expect: &str, out: &Path) {
     let o = softshadow(args, envs);
     let stderr = String::from_utf8_lossy(&o.stderr);
-    assert!(!o.status.success(), "{args:?} succeeded");
+    // 1: a runtime error (bad input the arguments' syntax allows); 2 is a usage error.
+    assert_eq!(o.status.code(), Some(1), "{args:?}: exit status\n{stderr}");
     assert!(!stderr.contains("panicked"), "{args:?} panicked:\n{stderr}");
     assert!(
         !stderr.contains("validation"),
@@ -50,6 +51,7 @@ fn assert_fails(args: &[&str], envs: &[(&str, &str)], expect: &str, out: &Path) 
 fn render_writes_png_aovs_and_timings() {
     let out = tmp("ok.png");
     let aov = tmp("aov");
+    let buffers = tmp("buffers");
     let o = softshadow(
         &[
             "render",
@@ -65,6 +67,8 @@ fn render_writes_png_aovs_and_timings() {
             out.to_str().unwrap(),
             "--aov",
             aov.to_str().unwrap(),
+            "--buffers",
+            buffers.to_str().unwrap(),
             "--timings",
         ],
         &[("SOFTSHADOW_DEVICE", "llvmpipe")],
@@ -108,6 +112,71 @@ fn render_writes_png_aovs_and_timings() {
         .into_rgba32f();
     assert!(pos.pixels().any(|p| p[3] == 1.0) && pos.pixels().any(|p| p[3] == 0.0));
     image::open(aov.join("normal.exr")).unwrap();
+    // --buffers: smoothies' light-space buffers at the shadow resolution, the shadow map's two
+    // channels (nearest caster, nearest surface) ordered, the smoothie alpha in [0, 1].
+    let channels = |name: &str| -> Vec<(String, Vec<f32>)> {
+        let path = buffers.join(format!("{name}.exr"));
+        let img = exr::prelude::read_first_flat_layer_from_file(&path)
+            .unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+        let layer = &img.layer_data;
+        assert_eq!(
+            (layer.size.width(), layer.size.height()),
+            (256, 256),
+            "{name}"
+        );
+        layer
+            .channel_data
+            .list
+            .iter()
+            .map(|c| (c.name.to_string(), c.sample_data.values_as_f32().collect()))
+            .collect()
+    };
+    let shadow = channels("shadow_map");
+    let channel = |list: &[(String, Vec<f32>)], name: &str| -> Vec<f32> {
+        list.iter()
+            .find(|(n, _)| n == name)
+            .unwrap_or_else(|| panic!("no channel {name}"))
+            .1
+            .clone()
+    };
+    let (surface, caster) = (
+        channel(&shadow, "surface_depth"),
+        channel(&shadow, "caster_depth"),
+    );
+    assert!(surface.iter().zip(&caster).all(|(s, c)| s <= c));
+    assert!(
+        surface.iter().zip(&caster).any(|(s, c)| s < c),
+        "receivers nearer than casters"
+    );
+    let alpha = channel(&channels("smoothie_alpha"), "alpha");
+    assert!(alpha.iter().all(|a| (0.0..=1.0).contains(a)));
+    assert!(alpha.iter().any(|&a| a < 0.5), "no smoothie drawn");
+    channels("smoothie_depth");
+}
+
+/// Exit status by value: 0 for help, 2 for a usage error (the arguments' syntax), 1 for a
+/// runtime error (covered case by case in `bad_input_gets_one_clear_line`).
+#[test]
+fn exit_status_tells_usage_from_runtime_errors() {
+    let out = tmp("usage.png");
+    let o = out.to_str().unwrap();
+    for args in [
+        vec!["render", "--no-such-flag", "--out", o],
+        vec!["render", "--width", "wide", "--out", o],
+        vec!["no-such-command"],
+        vec!["bench", "--frames", "-3", "--out", o],
+    ] {
+        let r = softshadow(&args, &[]);
+        let stderr = String::from_utf8_lossy(&r.stderr);
+        assert_eq!(r.status.code(), Some(2), "{args:?}\n{stderr}");
+        assert!(stderr.starts_with("error:"), "{args:?}: {stderr}");
+        assert!(!out.exists());
+    }
+    let r = softshadow(&["render", "--scene", "nosuchscene", "--out", o], &[]);
+    assert_eq!(r.status.code(), Some(1));
+    let r = softshadow(&["--help"], &[]);
+    assert_eq!(r.status.code(), Some(0));
+    assert!(String::from_utf8_lossy(&r.stdout).contains("render"));
 }
 
 #[test]

@@ -206,6 +206,7 @@ fn overlapping_penumbrae_use_minimum_blending() {
             .all(|o| o.position[i][3] > 0.5 && (pos(o, i) - pos(&both, i)).length() < 1e-4)
     };
     let mut overlap = 0;
+    let mut differ = 0;
     let mut compared = 0;
     for i in covered(&both).into_iter().filter(|&i| same_point(i)) {
         compared += 1;
@@ -234,14 +235,30 @@ fn overlapping_penumbrae_use_minimum_blending() {
             "pixel {i}: {} is darker than both single-blocker images ({darker})",
             both.visibility[i]
         );
-        if a.visibility[i] < 0.98 && b.visibility[i] < 0.98 && a.visibility[i] > 0.02 {
+        // A filter of per-texel minima is at most the minimum of the filtered images: MAX
+        // blending, or the last blocker drawn winning, shows the lighter of the two here.
+        let (va, vb) = (a.visibility[i], b.visibility[i]);
+        assert!(
+            both.visibility[i] <= va.min(vb) + 0.01,
+            "pixel {i}: {} is lighter than the darker single-blocker image ({va}, {vb})",
+            both.visibility[i]
+        );
+        if va < 0.98 && vb < 0.98 && va > 0.02 {
             overlap += 1;
+        }
+        if (va - vb).abs() > 0.1 {
+            differ += 1;
         }
     }
     assert!(compared > 1000, "only {compared} pixels comparable");
     assert!(
         overlap > 20,
         "the two penumbrae should overlap somewhere ({overlap} pixels)"
+    );
+    // Where the two single-blocker images differ, only the minimum passes both bounds.
+    assert!(
+        differ > 100,
+        "only {differ} pixels where the blockers' shadows differ by more than 0.1"
     );
 }
 
@@ -300,32 +317,74 @@ fn smoothie_pass_writes_depth_and_alpha() {
 }
 
 #[test]
-fn every_pass_of_every_technique_has_a_positive_duration() {
+fn every_pass_of_every_technique_is_timed_in_order_within_the_frame() {
     let gpu = Gpu::new();
     for info in softshadow::technique::TECHNIQUES {
         if info.name == "reference" {
-            continue; // CPU ray casting; its GPU passes are covered by its own tests.
+            continue; // CPU ray casting, no light passes; its GPU passes have their own tests.
         }
+        let name = info.name;
         let scene = Scene::load("cylinder").unwrap();
-        let (_, timings) = gpu.render_frames(scene, info.name, small(96, 256), 2);
-        let last = timings.last().unwrap();
-        assert!(!last.passes.is_empty(), "{}: no passes", info.name);
-        for p in &last.passes {
-            match (p.gpu_ms, &p.skipped) {
-                (Some(ms), None) => {
-                    assert!(ms > 0.0, "{}: pass {} took {ms} ms", info.name, p.name)
-                }
-                (None, Some(_)) => {}
-                _ => panic!(
-                    "{}: pass {} has neither a time nor a skip reason",
-                    info.name, p.name
-                ),
-            }
+        let mut r =
+            softshadow::render::Renderer::new(&gpu.ctx, scene, name, small(96, 256)).unwrap();
+        r.render().unwrap();
+        // The light moves: this frame rebuilds every light pass.
+        r.scene.light.position += Vec3::new(0.05, 0.0, 0.0);
+        let moved = r.render().unwrap();
+        // Nothing moves: this frame skips the light passes, which names them.
+        let still = r.render().unwrap();
+        let light: Vec<&str> = still
+            .passes
+            .iter()
+            .filter(|p| p.skipped.is_some())
+            .map(|p| p.name.as_str())
+            .collect();
+        assert!(!light.is_empty(), "{name}: a static frame skipped no pass");
+        let mut end = 0.0;
+        let mut sum = 0.0;
+        for p in &moved.passes {
             assert!(
-                p.name.starts_with(info.name),
-                "pass {} is not named {}/...",
-                p.name,
-                info.name
+                p.name.starts_with(name),
+                "pass {} is not named {name}/...",
+                p.name
+            );
+            let (Some(ms), Some(start), None) = (p.gpu_ms, p.gpu_start_ms, &p.skipped) else {
+                panic!(
+                    "{name}: pass {} was not timed in a frame that moved the light: {p:?}",
+                    p.name
+                )
+            };
+            assert!(ms > 0.0, "{name}: pass {} took {ms} ms", p.name);
+            // Each pass begins after the previous one ended (f64 rounding aside).
+            assert!(
+                start >= end - 1e-9,
+                "{name}: pass {} starts at {start} ms, before the previous pass ended ({end} ms)",
+                p.name
+            );
+            end = start + ms;
+            sum += ms;
+        }
+        for l in &light {
+            assert!(
+                moved.pass_ms(l).is_some(),
+                "{name}: light pass {l} not timed in the frame that rebuilt it"
+            );
+        }
+        assert!(
+            moved.passes.len() > light.len(),
+            "{name}: no final pass besides the light passes {light:?}"
+        );
+        let frame = moved.gpu_frame_ms.expect("frame span");
+        assert!(
+            sum <= frame + 1e-9 && end <= frame + 1e-9,
+            "{name}: passes sum to {sum} ms, end at {end} ms, in a frame of {frame} ms"
+        );
+        // The static frame times its final pass the same way.
+        for p in still.passes.iter().filter(|p| p.skipped.is_none()) {
+            assert!(
+                p.gpu_ms.is_some_and(|ms| ms > 0.0),
+                "{name}: pass {} of the static frame: {p:?}",
+                p.name
             );
         }
     }

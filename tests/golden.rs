@@ -2,12 +2,21 @@
 //! 128x128 on lavapipe, compared with the committed PNG under tests/golden/ by SSIM
 //! (image-compare's MSSIM on the luma of the shaded image).
 //!
-//! Tolerance: `MIN_SSIM`. Two runs on the same lavapipe give bit-identical images (SSIM 1.0,
-//! measured over repeated runs); a visible change of one image scores just below 1 because
-//! SSIM averages over the whole frame: on `overlap` with smoothies, the light radius +10 %
-//! gives 0.9983 and +25 % 0.9925, a 256^2 instead of 512^2 shadow map 0.9996 (printed by `golden_tolerance_sees_a_small_change`,
-//! which asserts +25 % fails). 0.999 leaves about a tenth of the +10 % change's drop for
-//! another Mesa/LLVM version's rounding at shadow-map edges (a few pixels of 128^2).
+//! Tolerance: `MIN_SSIM` and a per-pixel gate beside it. Two runs on the same lavapipe give
+//! bit-identical images (SSIM 1.0, asserted by `golden_tolerance_sees_a_small_change`). SSIM
+//! averages over the whole frame, so a change confined to a few edge pixels scores just
+//! below 1: measured (luma, 128^2), SSIM / pixels off by more than 8 of 255 / largest:
+//!
+//! | change                          | overlap, smoothies  | cylinder, pcss      |
+//! |---------------------------------|---------------------|---------------------|
+//! | light radius +10 %              | 0.99683 / 131 / 10  | 0.99655 / 10 / 12   |
+//! | light radius +25 %              | 0.98759 / 367 / 23  | 0.98835 / 111 / 16  |
+//! | shadow map 256^2 (not 512^2)    | 0.99916 / 33 / 64   | 0.99085 / 55 / 33   |
+//!
+//! The 256^2 shadow map on `overlap` passes SSIM 0.999; the per-pixel gate (at most 16
+//! pixels off by more than 8) fails it. Today's goldens: lowest SSIM 0.99989, at most 12
+//! pixels off by more than 8 (bunny-penumbra-map), so another Mesa/LLVM version's rounding at
+//! shadow-map edges has a few pixels of room under both gates.
 //!
 //! On a mismatch the test writes `NAME.actual.png` (this render) and `NAME.diff.png` (the
 //! SSIM map, dark where they differ) next to `tests/golden/NAME.png` and names them.
@@ -35,6 +44,10 @@ const SCENES: &[&str] = &[
 const SIZE: u32 = 128;
 /// See the module header.
 const MIN_SSIM: f64 = 0.999;
+/// Per-pixel gate beside SSIM (module header): at most `MAX_PIXELS_OFF` pixels may differ
+/// from the golden by more than `PIXEL_DELTA` of 255 in luma.
+const PIXEL_DELTA: u8 = 8;
+const MAX_PIXELS_OFF: usize = 16;
 
 fn settings() -> Settings {
     Settings {
@@ -68,14 +81,14 @@ fn ssim(a: &image::GrayImage, b: &image::GrayImage) -> image_compare::Similarity
 }
 
 /// Compares one render with its golden; `Err` names the files written.
-fn check(name: &str, img: &FrameImages, bless: bool) -> Result<f64, String> {
+fn check(name: &str, img: &FrameImages, bless: bool) -> Result<(f64, usize), String> {
     let dir = golden_dir();
     let golden = dir.join(format!("{name}.png"));
     let actual = luma(img);
     if bless {
         std::fs::create_dir_all(&dir).unwrap();
         softshadow::output::write_png(&golden, img).unwrap();
-        return Ok(1.0);
+        return Ok((1.0, 0));
     }
     let want = match image::open(&golden) {
         Ok(g) => g.to_luma8(),
@@ -94,15 +107,16 @@ fn check(name: &str, img: &FrameImages, bless: bool) -> Result<f64, String> {
         ));
     }
     let sim = ssim(&want, &actual);
-    if sim.score >= MIN_SSIM {
-        return Ok(sim.score);
+    let (off, max) = pixels_off(&want, &actual);
+    if sim.score >= MIN_SSIM && off <= MAX_PIXELS_OFF {
+        return Ok((sim.score, off));
     }
     let a = dir.join(format!("{name}.actual.png"));
     let d = dir.join(format!("{name}.diff.png"));
     softshadow::output::write_png(&a, img).unwrap();
     sim.image.to_color_map().save(&d).unwrap();
     Err(format!(
-        "{name}: SSIM {:.4} < {MIN_SSIM}: wrote {} and {} next to {}",
+        "{name}: SSIM {:.4} (at least {MIN_SSIM}), {off} pixels off by more than {PIXEL_DELTA} (at most {MAX_PIXELS_OFF}; largest {max}): wrote {} and {} next to {}",
         sim.score,
         a.display(),
         d.display(),
@@ -116,6 +130,7 @@ fn every_technique_on_every_scene_matches_its_golden() {
     let gpu = Gpu::new();
     let mut failures = Vec::new();
     let mut worst = (1.0f64, String::new());
+    let mut most_off = (0, String::new());
     for scene_name in SCENES {
         let scene = Scene::load(scene_name).unwrap();
         for t in TECHNIQUES {
@@ -127,14 +142,25 @@ fn every_technique_on_every_scene_matches_its_golden() {
                     start.elapsed().as_secs_f64()
                 );
             }
-            match check(&format!("{scene_name}-{}", t.name), &img, bless) {
-                Ok(s) if s < worst.0 => worst = (s, format!("{scene_name}-{}", t.name)),
-                Ok(_) => {}
+            let name = format!("{scene_name}-{}", t.name);
+            match check(&name, &img, bless) {
+                Ok((s, off)) => {
+                    if s < worst.0 {
+                        worst = (s, name.clone());
+                    }
+                    if off > most_off.0 {
+                        most_off = (off, name);
+                    }
+                }
                 Err(e) => failures.push(e),
             }
         }
     }
     println!("lowest SSIM {:.5} ({})", worst.0, worst.1);
+    println!(
+        "most pixels off by more than {PIXEL_DELTA}: {} ({})",
+        most_off.0, most_off.1
+    );
     assert!(
         failures.is_empty(),
         "{} golden mismatch(es):\n{}",
@@ -143,50 +169,65 @@ fn every_technique_on_every_scene_matches_its_golden() {
     );
 }
 
-/// The tolerance can fail: a 10 % larger light on `overlap` (smoothies) scores below it.
+/// Pixels whose luma differs by more than `PIXEL_DELTA` (of 255), and the largest difference.
+fn pixels_off(a: &image::GrayImage, b: &image::GrayImage) -> (usize, u8) {
+    let d = a
+        .pixels()
+        .zip(b.pixels())
+        .map(|(p, q)| p.0[0].abs_diff(q.0[0]));
+    let off = d.clone().filter(|&d| d > PIXEL_DELTA).count();
+    (off, d.max().unwrap_or(0))
+}
+
+/// The tolerance can fail: each change below, the smallest of them a 10 % larger light,
+/// fails the SSIM gate or the per-pixel one.
 #[test]
 fn golden_tolerance_sees_a_small_change() {
     let gpu = Gpu::new();
-    let scene = Scene::load("overlap").unwrap();
-    let r = scene.light.radius;
-    let (a, _) = gpu.render_frames(scene.clone(), "smoothies", settings(), 1);
-    let (b, _) = gpu.render_frames(scene.clone(), "smoothies", settings(), 1);
-    let same = ssim(&luma(&a), &luma(&b)).score;
-    println!("SSIM run-to-run {same:.5}");
-    assert!(
-        same >= MIN_SSIM,
-        "run-to-run noise {same} above the tolerance"
-    );
-    for (what, s) in [
-        (
-            "light radius +10 %",
-            Settings {
-                light_radius: Some(r * 1.1),
-                ..settings()
-            },
-        ),
-        (
-            "light radius +25 %",
-            Settings {
-                light_radius: Some(r * 1.25),
-                ..settings()
-            },
-        ),
-        (
-            "shadow map 256^2",
-            Settings {
-                shadow_res: 256,
-                ..settings()
-            },
-        ),
-    ] {
-        let (c, _) = gpu.render_frames(scene.clone(), "smoothies", s, 1);
-        let changed = ssim(&luma(&a), &luma(&c)).score;
-        println!("SSIM {what}: {changed:.5}");
-        if what.contains("+25") {
+    for (scene_name, technique) in [("overlap", "smoothies"), ("cylinder", "pcss")] {
+        let scene = Scene::load(scene_name).unwrap();
+        let r = scene.light.radius;
+        let render = |s: Settings| luma(&gpu.render_frames(scene.clone(), technique, s, 1).0);
+        let a = render(settings());
+        let b = render(settings());
+        let same = ssim(&a, &b).score;
+        assert_eq!(
+            (same, pixels_off(&a, &b)),
+            (1.0, (0, 0)),
+            "{scene_name} {technique}: two runs differ"
+        );
+        for (what, s) in [
+            (
+                "light radius +10 %",
+                Settings {
+                    light_radius: Some(r * 1.1),
+                    ..settings()
+                },
+            ),
+            (
+                "light radius +25 %",
+                Settings {
+                    light_radius: Some(r * 1.25),
+                    ..settings()
+                },
+            ),
+            (
+                "shadow map 256^2",
+                Settings {
+                    shadow_res: 256,
+                    ..settings()
+                },
+            ),
+        ] {
+            let c = render(s);
+            let score = ssim(&a, &c).score;
+            let (off, max) = pixels_off(&a, &c);
+            println!(
+                "{scene_name} {technique} {what}: SSIM {score:.5}, {off} pixels off by more than {PIXEL_DELTA}, largest {max}"
+            );
             assert!(
-                changed < MIN_SSIM,
-                "{what} ({changed}) passes the tolerance"
+                score < MIN_SSIM || off > MAX_PIXELS_OFF,
+                "{scene_name} {technique} {what} passes the tolerance: SSIM {score}, {off} pixels off"
             );
         }
     }

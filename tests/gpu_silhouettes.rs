@@ -238,22 +238,43 @@ fn a_moved_caster_rebuilds_only_its_own_smoothies() {
 #[test]
 fn penumbra_map_keeps_unmoved_casters_and_matches_a_fresh_render() {
     // penumbra-map caches each caster's cones and sheets like the smoothies' CPU path: after
-    // one caster moves, the cached others plus the rebuilt one must be what a fresh
-    // renderer builds.
+    // one caster moves only it is rebuilt, and the cached others plus the rebuilt one must be
+    // what a fresh renderer builds: the same penumbra buffer (the geometry's raster), texel
+    // for texel, and the same image.
     let gpu = Gpu::new();
     let scene = Scene::load("boxes").unwrap();
+    let casters = scene.objects.iter().filter(|o| o.role.casts()).count();
+    assert_eq!(casters, 2, "boxes: two boxes on a receive-only ground");
     let lower = scene.objects.iter().position(|o| o.role.casts()).unwrap();
+    let rebuilt = |t: &FrameTimings| {
+        t.rebuilt_by("penumbra-map/silhouettes")
+            .map(|r| (r.rebuilt, r.casters))
+    };
     let mut r = Renderer::new(&gpu.ctx, scene, "penumbra-map", small(128, 512)).unwrap();
-    r.render().unwrap();
+    let first = r.render().unwrap();
+    assert_eq!(
+        rebuilt(&first),
+        Some((2, 2)),
+        "first frame builds every caster"
+    );
     let before = r.read_back().unwrap();
+    let near = fit_light(&r.scene).near;
     r.scene.objects[lower].transform =
         Mat4::from_translation(Vec3::new(0.3, 0.0, -0.2)) * r.scene.objects[lower].transform;
-    r.render().unwrap();
+    assert_eq!(fit_light(&r.scene).near, near, "the light's frame stays");
+    let moved = r.render().unwrap();
+    assert_eq!(rebuilt(&moved), Some((1, 2)), "only the moved caster");
     let partial = r.read_back().unwrap();
     assert_ne!(before.visibility, partial.visibility, "the box did move");
-    let fresh = gpu
-        .render_frames(r.scene.clone(), "penumbra-map", small(128, 512), 1)
-        .0;
+    let penumbra = r.read_technique_buffer("penumbra_map").unwrap().channels;
+    let mut f = Renderer::new(&gpu.ctx, r.scene.clone(), "penumbra-map", small(128, 512)).unwrap();
+    f.render().unwrap();
+    let fresh = f.read_back().unwrap();
+    assert_eq!(
+        penumbra,
+        f.read_technique_buffer("penumbra_map").unwrap().channels,
+        "penumbra buffer of cached + rebuilt geometry vs a fresh build"
+    );
     assert_eq!(partial.visibility, fresh.visibility);
 }
 

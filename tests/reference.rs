@@ -8,8 +8,8 @@ use common::{small, Gpu};
 use softshadow::eval::accumulate::heckbert_herf;
 use softshadow::eval::metrics::errors;
 use softshadow::eval::reference::{
-    cache_key, cache_path, encode_cache, read_cache, visibility_at, visibility_cached, CacheEntry,
-    ReferenceParams,
+    cache_key, cache_key_of_code, cache_path, encode_cache, read_cache, visibility_at,
+    visibility_cached, CacheEntry, ReferenceParams,
 };
 use softshadow::render::{fit_light, FrameImages};
 use softshadow::scene::Scene;
@@ -319,6 +319,132 @@ fn cached_reference_is_reused() {
         cache_key(&scene, 0.3, &positions, &normals, &other),
         cache_key(&scene, 0.3, &positions, &normals, &params)
     );
+    std::fs::remove_file(&path).unwrap();
+}
+
+/// Synthetic pixels for the cache tests: a grid on `boxes`' ground under the boxes.
+fn ground_grid() -> (Vec<[f32; 4]>, Vec<[f32; 3]>) {
+    let positions: Vec<[f32; 4]> = (0..400)
+        .map(|k| {
+            [
+                (k % 20) as f32 * 0.2 - 2.0,
+                0.0,
+                (k / 20) as f32 * 0.2 - 2.0,
+                1.0,
+            ]
+        })
+        .collect();
+    let normals = vec![[0.0, 1.0, 0.0]; positions.len()];
+    (positions, normals)
+}
+
+/// Every input of the reference is in its cache key: a change to any one is another file.
+#[test]
+fn cache_key_changes_with_every_input() {
+    let scene = load("boxes");
+    let (positions, normals) = ground_grid();
+    let params = ReferenceParams {
+        samples: 256,
+        seed: 7,
+    };
+    let key = |scene: &Scene, radius: f32, p: &[[f32; 4]], n: &[[f32; 3]], q: &ReferenceParams| {
+        cache_key(scene, radius, p, n, q)
+    };
+    let base = key(&scene, 0.3, &positions, &normals, &params);
+    assert_eq!(
+        base,
+        key(&scene.clone(), 0.3, &positions, &normals, &params)
+    );
+    let mut changed = Vec::new();
+    changed.push(("radius", key(&scene, 0.31, &positions, &normals, &params)));
+    let mut s = scene.clone();
+    s.light.position.x += 0.01;
+    changed.push(("light", key(&s, 0.3, &positions, &normals, &params)));
+    let mut s = scene.clone();
+    let caster = s.objects.iter().position(|o| o.role.casts()).unwrap();
+    s.objects[caster].transform =
+        glam::Mat4::from_translation(glam::Vec3::new(0.0, 0.0, 0.01)) * s.objects[caster].transform;
+    changed.push(("moved object", key(&s, 0.3, &positions, &normals, &params)));
+    let mut s = scene.clone();
+    s.camera.position.y += 0.01;
+    changed.push(("camera", key(&s, 0.3, &positions, &normals, &params)));
+    let mut n = normals.clone();
+    n[123] = [0.0, 0.0, 1.0];
+    changed.push(("one normal", key(&scene, 0.3, &positions, &n, &params)));
+    let mut p = positions.clone();
+    p[200][2] += 1e-3;
+    changed.push(("one position", key(&scene, 0.3, &p, &normals, &params)));
+    let seed = ReferenceParams { seed: 8, ..params };
+    changed.push(("seed", key(&scene, 0.3, &positions, &normals, &seed)));
+    // The ray caster's code: the key is of this source, and one edit to it is another key.
+    let mut source = include_bytes!("../src/eval/reference.rs").to_vec();
+    let of_code = |code: &[u8]| cache_key_of_code(code, &scene, 0.3, &positions, &normals, &params);
+    assert_eq!(
+        of_code(&source),
+        base,
+        "the key is not of the ray caster's source"
+    );
+    let at = source.len() / 2;
+    source[at] ^= 1;
+    changed.push(("ray caster code", of_code(&source)));
+    for (what, k) in &changed {
+        assert_ne!(*k, base, "{what}: same cache key");
+    }
+}
+
+/// A cache file that is truncated, of another format, or holds values no visibility can
+/// take is not read: the reference is ray cast again and the file rewritten.
+#[test]
+fn damaged_cache_files_are_recomputed() {
+    let scene = load("boxes");
+    let (positions, normals) = ground_grid();
+    let params = ReferenceParams {
+        samples: 256,
+        seed: 41,
+    };
+    let path = cache_path(cache_key(&scene, 0.3, &positions, &normals, &params));
+    let exact = visibility_at(&scene, 0.3, &positions, &normals, &params).unwrap();
+    let _ = std::fs::remove_file(&path);
+    visibility_cached(&scene, 0.3, &positions, &normals, &params).unwrap();
+    let good = std::fs::read(&path).unwrap();
+    assert_eq!(
+        good,
+        encode_cache(&exact),
+        "the file is not the encoding of the values"
+    );
+    let n = good.len();
+    let mut high = exact.clone();
+    high[3] = 2.0;
+    type Damage = Box<dyn Fn(&mut Vec<u8>)>;
+    let damage: [(&str, Damage); 6] = [
+        ("truncated", Box::new(|b| b.truncate(b.len() - 4))),
+        ("empty", Box::new(|b| b.clear())),
+        (
+            "foreign magic",
+            Box::new(|b| b[..8].copy_from_slice(b"PNG\r\n\x1a\n\0")),
+        ),
+        // A value changed within [0, 1]: only the checksum tells.
+        (
+            "corrupted value",
+            Box::new(move |b| b[n - 4..].copy_from_slice(&0.3f32.to_le_bytes())),
+        ),
+        (
+            "value 2.0, checksum right",
+            Box::new(move |b| *b = encode_cache(&high)),
+        ),
+        (
+            "one more value",
+            Box::new(|b| b.extend_from_slice(&0.5f32.to_le_bytes())),
+        ),
+    ];
+    for (what, f) in damage {
+        let mut bytes = good.clone();
+        f(&mut bytes);
+        std::fs::write(&path, &bytes).unwrap();
+        let v = visibility_cached(&scene, 0.3, &positions, &normals, &params).unwrap();
+        assert_eq!(v, exact, "{what}: the damaged file was read");
+        assert_eq!(std::fs::read(&path).unwrap(), good, "{what}: not rewritten");
+    }
     std::fs::remove_file(&path).unwrap();
 }
 

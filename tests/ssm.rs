@@ -4,7 +4,7 @@
 
 mod common;
 
-use common::{covered, pixel_at, small, Gpu};
+use common::{covered, off_edges, pixel_at, small, Gpu};
 use glam::{Vec2, Vec3};
 use softshadow::render::{AccumFormat, FrameImages, Renderer, Settings};
 use softshadow::scene::Scene;
@@ -85,19 +85,33 @@ fn zero_radius_matches_hard() {
             let hard = gpu.render(name, "hard", set.clone());
             let soft = gpu.render(name, t, set);
             let px = covered(&hard);
-            let differ = px
-                .iter()
-                .filter(|&&i| (hard.visibility[i] - soft.visibility[i]).abs() > 0.5)
-                .count();
-            let frac = differ as f64 / px.len() as f64;
+            let calm = off_edges(&hard, 2);
+            let off = |px: &[usize], tol: f32| {
+                px.iter()
+                    .filter(|&&i| (hard.visibility[i] - soft.visibility[i]).abs() > tol)
+                    .count()
+            };
+            let shadowed = calm.iter().filter(|&&i| hard.visibility[i] < 0.5).count();
             println!(
-                "{t} {name}: {differ} of {} pixels differ from hard",
+                "{t} {name}: of {} pixels {} differ from hard by more than 0.5, {} by more than 0.001; of {} off the edges ({shadowed} in shadow) {} by more than 0.001, {} by more than 0.02",
+                px.len(), off(&px, 0.5), off(&px, 0.001), calm.len(), off(&calm, 0.001), off(&calm, 0.02)
+            );
+            // The scene's shadow is in view, so the comparison covers umbra and lit pixels.
+            assert!(shadowed > 200, "{t} {name}: {shadowed} shadowed pixels");
+            // On shadow edges the two maps alias differently: at most 1 % of the pixels.
+            assert!(
+                off(&px, 0.5) * 100 <= px.len(),
+                "{t} {name}: {} of {} pixels differ from hard at R = 0",
+                off(&px, 0.5),
                 px.len()
             );
-            // Away from shadow-map aliasing: only pixels on shadow edges may differ.
+            // Two pixels off the edges, R = 0 is hard but for a few pixels where the
+            // occluder map's coarser texels reach (measured: 3 of 10966 on cylinder).
             assert!(
-                frac < 0.01,
-                "{t} {name}: {frac} of pixels differ from hard at R = 0"
+                off(&calm, 0.02) * 1000 <= calm.len(),
+                "{t} {name}: {} of {} pixels off the edges differ from hard by more than 0.02 at R = 0",
+                off(&calm, 0.02),
+                calm.len()
             );
         }
     }

@@ -173,6 +173,9 @@ proptest! {
         let scene = triangle_scene(tri, [lx, ly, lz], radius);
         prop_assume!(scene.validate().is_ok());
         let (hard0, _) = gpu.render_frames(scene.clone(), "hard", settings(0.0), 1);
+        // Only triangles whose shadow the camera sees test anything.
+        let shadowed = common::covered(&hard0).into_iter().filter(|&i| hard0.visibility[i] < 0.5).count();
+        prop_assume!(shadowed >= 50, "the triangle's shadow covers too few pixels");
         // Pixels away from hard-shadow edges: covered, and their 3x3 neighbourhood on the
         // same side of 0.5 in the hard image (edges alias differently in each technique's map).
         let w = hard0.width as i64;
@@ -195,8 +198,10 @@ proptest! {
             }
             // R = 0: the hard result away from shadow-map aliasing (1 % slack).
             let (img0, _) = gpu.render_frames(scene.clone(), t, settings(0.0), 1);
-            let differ = cov.iter().filter(|&&i| (img0.visibility[i] - hard0.visibility[i]).abs() > 0.5).count();
-            prop_assert!(differ * 100 <= cov.len().max(1), "{t} at R = 0: {differ} of {} pixels differ from hard", cov.len());
+            let off = |tol: f32| cov.iter().filter(|&&i| (img0.visibility[i] - hard0.visibility[i]).abs() > tol).count();
+            let differ = off(0.02);
+            eprintln!("{t} at R = 0: {differ} of {} pixels off by more than 0.02, {} by more than 0.5", cov.len(), off(0.5));
+            prop_assert!(differ * 100 <= cov.len().max(1), "{t} at R = 0: {differ} of {} pixels differ from hard by more than 0.02", cov.len());
         }
     }
 }

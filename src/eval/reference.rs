@@ -32,9 +32,10 @@
 //! alpha 0) get 1. Scenes where everything receives skip this step.
 //!
 //! ## Cache
-//! `visibility_cached` keys a file under `cache_dir()` by an FNV-1a 64 hash of every world
-//! triangle and role, the light, R, the camera position, every pixel's position and normal,
-//! the sample count and the seed, so a bench re-run reads it instead of ray casting again.
+//! `visibility_cached` keys a file under `cache_dir()` by an FNV-1a 64 hash of this file's
+//! source (the ray caster's code), every world triangle and role, the light, R, the camera
+//! position, every pixel's position and normal, the sample count and the seed, so a bench
+//! re-run reads it instead of ray casting again.
 //! A file carries its format version, value count and an FNV-1a 64 checksum of the values; one
 //! that fails a check (or holds a value outside [0, 1]) is recomputed with a `warning:` line.
 
@@ -339,6 +340,11 @@ pub fn visibility_at(
     Ok(out)
 }
 
+/// The ray caster's code, part of every cache key: an edit to this file invalidates the files
+/// written before it (the goldens and the bench's errors read the cache, so a change to the
+/// ray caster shows there instead of hiding behind old files).
+const RAY_CASTER_SOURCE: &str = include_str!("reference.rs");
+
 /// The cache key of a reference (see the module header).
 pub fn cache_key(
     scene: &Scene,
@@ -347,8 +353,29 @@ pub fn cache_key(
     normals: &[[f32; 3]],
     params: &ReferenceParams,
 ) -> u64 {
+    cache_key_of_code(
+        RAY_CASTER_SOURCE.as_bytes(),
+        scene,
+        radius,
+        positions,
+        normals,
+        params,
+    )
+}
+
+/// `cache_key` had the ray caster's source been `code`.
+pub fn cache_key_of_code(
+    code: &[u8],
+    scene: &Scene,
+    radius: f32,
+    positions: &[[f32; 4]],
+    normals: &[[f32; 3]],
+    params: &ReferenceParams,
+) -> u64 {
     let mut h = fnv::FnvHasher::default();
     h.write(CACHE_VERSION);
+    h.write_u64(code.len() as u64);
+    h.write(code);
     for o in &scene.objects {
         h.write(&[o.role.casts() as u8, o.role.receives() as u8]);
         for t in o.world_triangles() {

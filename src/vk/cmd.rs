@@ -17,7 +17,10 @@ use std::time::Instant;
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]
 pub struct PassTiming {
     pub name: String,
+    /// `None` when the pass was skipped, or when its stamps were missing or out of order.
     pub gpu_ms: Option<f64>,
+    /// When the pass began, in milliseconds after the frame's first stamp.
+    pub gpu_start_ms: Option<f64>,
     pub skipped: Option<String>,
 }
 
@@ -37,6 +40,9 @@ pub struct FrameTimings {
     pub cpu: Vec<(String, f64)>,
     /// Partial rebuilds, printed after the `cpu` line of the same name.
     pub rebuilt: Vec<CasterRebuilds>,
+    /// GPU milliseconds from the frame's first stamp to its last: the passes that ran lie
+    /// inside it, one after another, so their sum never exceeds it.
+    pub gpu_frame_ms: Option<f64>,
 }
 
 impl FrameTimings {
@@ -228,42 +234,63 @@ impl FrameRunner {
                 .reset_fences(&[self.fence])
                 .context("resetting fence")?;
         }
-        let mut stamps = vec![0u64; used as usize];
+        // (value, availability) pairs: a query the frame never wrote reads as unavailable
+        // rather than as whatever the pool held.
+        let mut stamps = vec![[0u64; 2]; used as usize];
         if used > 0 {
-            // SAFETY: the queries [0, used) were written by the finished submission.
-            unsafe {
+            // SAFETY: the queries [0, used) were reset this frame; the submission finished.
+            let read = unsafe {
                 device.get_query_pool_results(
                     self.queries,
                     0,
                     &mut stamps,
-                    vk::QueryResultFlags::TYPE_64 | vk::QueryResultFlags::WAIT,
+                    vk::QueryResultFlags::TYPE_64 | vk::QueryResultFlags::WITH_AVAILABILITY,
                 )
+            };
+            match read {
+                // NOT_READY: some stamp is missing; its availability word says which.
+                Ok(()) | Err(vk::Result::NOT_READY) => {}
+                Err(e) => return Err(e).context("reading timestamps"),
             }
-            .context("reading timestamps")?;
         }
-        let mask = if self.valid_bits >= 64 {
-            u64::MAX
-        } else {
-            (1u64 << self.valid_bits) - 1
+        let stamp = |q: u32| stamps.get(q as usize).filter(|s| s[1] != 0).map(|s| s[0]);
+        let ms = |ticks: u64| ticks as f64 * self.period_ns * 1e-6;
+        let between = |a: u32, b: u32| {
+            let (a, b) = (stamp(a)?, stamp(b)?);
+            ticks_between(a, b, self.valid_bits).map(ms)
         };
         let passes = passes
             .into_iter()
             .map(|p| PassTiming {
-                gpu_ms: p.queries.map(|(a, b)| {
-                    let ticks =
-                        (stamps[b as usize] & mask).wrapping_sub(stamps[a as usize] & mask) & mask;
-                    ticks as f64 * self.period_ns * 1e-6
-                }),
+                gpu_ms: p.queries.and_then(|(a, b)| between(a, b)),
+                gpu_start_ms: p.queries.and_then(|(a, _)| between(0, a)),
                 name: p.name,
                 skipped: p.skipped,
             })
             .collect();
+        let gpu_frame_ms = used.checked_sub(1).and_then(|last| between(0, last));
         Ok(FrameTimings {
             passes,
             cpu,
             rebuilt,
+            gpu_frame_ms,
         })
     }
+}
+
+/// Ticks from the stamp `start` to the later stamp `end` of a counter with `valid_bits`
+/// bits, or `None` when `end` precedes `start`. The counter may wrap between the two, so the
+/// difference is taken modulo its range; a difference over half the range is read as `end`
+/// before `start` (no frame lasts that long: 2^35 ticks is half a minute at 1 ns).
+fn ticks_between(start: u64, end: u64, valid_bits: u32) -> Option<u64> {
+    let mask = match valid_bits {
+        // A queue without timestamps.
+        0 => return None,
+        64.. => u64::MAX,
+        bits => (1u64 << bits) - 1,
+    };
+    let ticks = (end & mask).wrapping_sub(start & mask) & mask;
+    (ticks <= mask / 2).then_some(ticks)
 }
 
 impl Drop for FrameRunner {
@@ -1047,5 +1074,29 @@ mod tests {
                 .any(|m| m.contains("SYNC-HAZARD-WRITE-AFTER-WRITE")),
             "no hazard reported: {msgs:?}"
         );
+    }
+
+    #[test]
+    fn stamps_in_order_give_their_difference() {
+        assert_eq!(ticks_between(100, 350, 64), Some(250));
+        assert_eq!(ticks_between(7, 7, 64), Some(0));
+        assert_eq!(ticks_between(100, 350, 36), Some(250));
+    }
+
+    #[test]
+    fn a_counter_that_wraps_between_stamps_still_gives_the_difference() {
+        let top = (1u64 << 36) - 1;
+        assert_eq!(ticks_between(top - 9, 20, 36), Some(30));
+        // Bits above the valid ones are garbage the driver may leave set.
+        assert_eq!(ticks_between((5 << 40) | (top - 9), 20, 36), Some(30));
+    }
+
+    #[test]
+    fn out_of_order_stamps_are_none_not_a_huge_duration() {
+        assert_eq!(ticks_between(350, 100, 64), None);
+        assert_eq!(ticks_between(350, 100, 36), None);
+        assert_eq!(ticks_between(u64::MAX, 0, 64), Some(1));
+        assert_eq!(ticks_between(1, 0, 64), None);
+        assert_eq!(ticks_between(1, 2, 0), None);
     }
 }

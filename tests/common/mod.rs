@@ -147,3 +147,23 @@ pub fn bowl() -> softshadow::scene::Mesh {
     m.compute_normals();
     m
 }
+
+/// Covered pixels of `img` at least `r` pixels from a shadow edge: their (2r+1)^2
+/// neighbourhood lies on one side of visibility 0.5 (edges alias differently in each
+/// technique's map, so comparisons with `hard` leave them out).
+pub fn off_edges(img: &FrameImages, r: i64) -> Vec<usize> {
+    let (w, h) = (img.width as i64, img.height as i64);
+    let lit = |i: i64| img.visibility[i as usize] > 0.5;
+    covered(img)
+        .into_iter()
+        .filter(|&i| {
+            let (x, y) = (i as i64 % w, i as i64 / w);
+            (-r..=r).all(|dy| {
+                (-r..=r).all(|dx| {
+                    let (nx, ny) = (x + dx, y + dy);
+                    nx < 0 || ny < 0 || nx >= w || ny >= h || lit(ny * w + nx) == lit(i as i64)
+                })
+            })
+        })
+        .collect()
+}

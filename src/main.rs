@@ -1,13 +1,26 @@
 //! The `softshadow` command line (docs/DESIGN.md "Command line").
 
 use anyhow::{bail, Result};
+use clap::builder::PossibleValuesParser;
+use clap::error::{ContextKind, ContextValue, ErrorKind};
 use clap::{Args, Parser, Subcommand};
 use softshadow::eval::bench;
-use softshadow::render::{Renderer, Settings};
+use softshadow::render::{AccumFormat, PcfKernel, Renderer, Settings, SilhouettePath, SpirvChoice};
 use softshadow::scene::Scene;
 use softshadow::vk::{Context, ContextOptions};
 use std::path::PathBuf;
 use std::process::ExitCode;
+
+/// Scene of `render` and `export` when none is named.
+const DEFAULT_SCENE: &str = "cylinder";
+/// Technique of `render` when none is named.
+const DEFAULT_TECHNIQUE: &str = "smoothies";
+
+/// Technique names as clap values, from the registry, so that `--help` lists them and a
+/// misspelt one is a usage error naming the allowed ones.
+fn technique_name() -> PossibleValuesParser {
+    PossibleValuesParser::new(softshadow::technique::names())
+}
 
 #[derive(Parser)]
 #[command(
@@ -47,7 +60,7 @@ struct StressArgs {
     #[arg(long, default_value = "stress-out")]
     out: PathBuf,
     /// Techniques to test, comma-separated (default: all but reference).
-    #[arg(long, value_delimiter = ',')]
+    #[arg(long, value_delimiter = ',', value_parser = technique_name())]
     techniques: Vec<String>,
     /// Cases to run, comma-separated (default: all).
     #[arg(long, value_delimiter = ',')]
@@ -59,17 +72,20 @@ struct StressArgs {
 
 #[derive(Args)]
 struct RenderArgs {
-    /// Built-in scene name or a .toml / .obj file.
-    #[arg(long, default_value = "cylinder")]
+    /// Built-in scene name or a .toml / .obj / .gltf / .glb file.
+    #[arg(long, default_value = DEFAULT_SCENE)]
     scene: String,
-    #[arg(long, default_value = "smoothies")]
+    /// Shadow technique to render with.
+    #[arg(long, default_value = DEFAULT_TECHNIQUE, value_parser = technique_name())]
     technique: String,
-    #[arg(long, default_value_t = 1024, allow_negative_numbers = true)]
+    /// Image width in pixels.
+    #[arg(long, default_value_t = Settings::default().width, allow_negative_numbers = true)]
     width: u32,
-    #[arg(long, default_value_t = 1024, allow_negative_numbers = true)]
+    /// Image height in pixels.
+    #[arg(long, default_value_t = Settings::default().height, allow_negative_numbers = true)]
     height: u32,
     /// Side of the light-space buffers (shadow map, smoothie buffer, ...).
-    #[arg(long, default_value_t = 1024, allow_negative_numbers = true)]
+    #[arg(long, default_value_t = Settings::default().shadow_res, allow_negative_numbers = true)]
     shadow_res: u32,
     /// Light radius R (default: the scene's).
     #[arg(long, allow_negative_numbers = true)]
@@ -80,27 +96,28 @@ struct RenderArgs {
     /// Where smoothies and penumbra-map find silhouettes and build their geometry: gpu
     /// (compute passes and indirect draws), cpu (rayon, then an upload), or auto (gpu on a
     /// GPU, cpu on lavapipe).
-    #[arg(long, default_value = "auto")]
-    silhouettes: softshadow::render::SilhouettePath,
+    #[arg(long, value_enum, ignore_case = true, default_value_t = Settings::default().silhouettes)]
+    silhouettes: SilhouettePath,
     /// Normal offset of shadow lookups, in shadow-map texels.
-    #[arg(long, default_value_t = 2.0)]
+    #[arg(long, default_value_t = Settings::default().normal_offset_texels)]
     normal_offset: f32,
     /// Relative depth bias of shadow comparisons (fraction of the depth, at most 4x this
     /// fraction of the depth span the light sees).
-    #[arg(long, default_value_t = 5e-4)]
+    #[arg(long, default_value_t = Settings::default().depth_bias)]
     depth_bias: f32,
-    /// PCF kernel: boxN (N odd) or poissonN.
-    #[arg(long, default_value = "box3")]
-    pcf_kernel: softshadow::render::PcfKernel,
+    /// PCF kernel: boxN (N odd, 1..=15) or poissonN (N in 1..=64).
+    #[arg(long, default_value_t = Settings::default().pcf_kernel)]
+    pcf_kernel: PcfKernel,
     /// Occluder map side of the soft shadow maps (ssm, ssm2).
-    #[arg(long, default_value_t = 256, allow_negative_numbers = true)]
+    #[arg(long, default_value_t = Settings::default().occluder_res, allow_negative_numbers = true)]
     occluder_res: u32,
-    /// Soft shadow map accumulation format: r32f or r16f.
-    #[arg(long, default_value = "r32f")]
-    accum_format: softshadow::render::AccumFormat,
-    /// Shadow rays per pixel of the `reference` technique (at least 256).
-    #[arg(long, default_value_t = 256, allow_negative_numbers = true)]
+    /// Soft shadow map accumulation format (r16f loses precision above ~256^2 occluder texels).
+    #[arg(long, value_enum, ignore_case = true, default_value_t = Settings::default().accum_format)]
+    accum_format: AccumFormat,
+    /// Shadow rays per pixel of the `reference` technique.
+    #[arg(long, default_value_t = Settings::default().reference_samples, allow_negative_numbers = true)]
     reference_samples: u32,
+    /// PNG file to write the image to.
     #[arg(long, default_value = "softshadow.png")]
     out: PathBuf,
     /// Write visibility.exr, position.exr and normal.exr into this folder.
@@ -114,13 +131,14 @@ struct RenderArgs {
     timings: bool,
     /// Which SPIR-V to run: glslang (glslangValidator + spirv-opt -O) or tuned (the
     /// hand-tuned modules under glsl/; techniques without one fall back to glslang's).
-    #[arg(long, default_value = "glslang")]
-    spirv: softshadow::render::SpirvChoice,
+    #[arg(long, value_enum, ignore_case = true, default_value_t = Settings::default().spirv)]
+    spirv: SpirvChoice,
 }
 
 #[derive(Args)]
 struct ExportArgs {
-    #[arg(long, default_value = "cylinder")]
+    /// Built-in scene name or a .toml / .obj / .gltf / .glb file.
+    #[arg(long, default_value = DEFAULT_SCENE)]
     scene: String,
     /// OBJ file to write; the JSON goes beside it.
     #[arg(long, required_unless_present = "gltf")]
@@ -128,10 +146,11 @@ struct ExportArgs {
     /// glTF file to write: FILE.glb (one file) or FILE.gltf (with FILE.bin beside it).
     #[arg(long)]
     gltf: Option<PathBuf>,
-    /// Image size recorded with the camera.
-    #[arg(long, default_value_t = 1024, allow_negative_numbers = true)]
+    /// Image width recorded with the camera.
+    #[arg(long, default_value_t = Settings::default().width, allow_negative_numbers = true)]
     width: u32,
-    #[arg(long, default_value_t = 1024, allow_negative_numbers = true)]
+    /// Image height recorded with the camera.
+    #[arg(long, default_value_t = Settings::default().height, allow_negative_numbers = true)]
     height: u32,
 }
 
@@ -142,7 +161,7 @@ struct BenchArgs {
     #[arg(long, value_delimiter = ',')]
     scenes: Option<Vec<String>>,
     /// Techniques, comma-separated [default: all but reference]; hard is always added.
-    #[arg(long, value_delimiter = ',')]
+    #[arg(long, value_delimiter = ',', value_parser = technique_name())]
     techniques: Option<Vec<String>>,
     /// Output folder (created; files in it are replaced only when the sweep succeeds).
     #[arg(long, default_value = "bench-out")]
@@ -153,9 +172,9 @@ struct BenchArgs {
     /// Untimed warm-up frames before them.
     #[arg(long, default_value_t = bench::DEFAULT_WARMUP, allow_negative_numbers = true)]
     warmup: u32,
-    /// What moves while the frames are timed: static, camera, light, object (comma-separated).
-    #[arg(long, value_delimiter = ',')]
-    motion: Option<Vec<String>>,
+    /// What moves while the frames are timed, comma-separated [default: static].
+    #[arg(long, value_enum, ignore_case = true, value_delimiter = ',')]
+    motion: Option<Vec<bench::Motion>>,
     /// Light-space buffer sides [default: 512,1024; --full: 256,512,1024,2048].
     #[arg(long, value_delimiter = ',', allow_negative_numbers = true)]
     resolutions: Option<Vec<u32>>,
@@ -179,18 +198,20 @@ struct BenchArgs {
     #[arg(
         long,
         value_delimiter = ',',
-        default_value = "0.02",
+        default_values_t = bench::BenchConfig::default().smoothie_t,
         allow_negative_numbers = true
     )]
     smoothie_t: Vec<f32>,
-    /// SPIR-V to time, comma-separated: glslang, tuned. Techniques with hand-tuned modules
-    /// get a row per choice (`smoothies spirv=tuned`); the others run glslang's.
-    #[arg(long, value_delimiter = ',', default_value = "glslang")]
-    spirv: Vec<softshadow::render::SpirvChoice>,
-    /// Silhouette paths for smoothies and penumbra-map, comma-separated: auto, cpu, gpu. More
-    /// than one gives a row each (`smoothies sil=cpu`, `smoothies sil=gpu`).
-    #[arg(long, value_delimiter = ',', default_value = "auto")]
-    silhouettes: Vec<softshadow::render::SilhouettePath>,
+    /// SPIR-V to time, comma-separated. Techniques with hand-tuned modules get a row per
+    /// choice (`smoothies spirv=tuned`); the others run glslang's.
+    #[arg(long, value_enum, ignore_case = true, value_delimiter = ',',
+          default_values_t = bench::BenchConfig::default().spirv)]
+    spirv: Vec<SpirvChoice>,
+    /// Silhouette paths for smoothies and penumbra-map, comma-separated. More than one gives
+    /// a row each (`smoothies sil=cpu`, `smoothies sil=gpu`).
+    #[arg(long, value_enum, ignore_case = true, value_delimiter = ',',
+          default_values_t = bench::BenchConfig::default().silhouettes)]
+    silhouettes: Vec<SilhouettePath>,
     /// Reuse light-space passes while the light and objects stay put (default: every timed
     /// frame runs every pass).
     #[arg(long)]
@@ -209,8 +230,9 @@ fn main() -> ExitCode {
                 let _ = e.print();
                 return ExitCode::SUCCESS;
             }
-            // clap's own error format, with a pasted-in giant value clipped.
-            eprint!("{}", clip_long_words(&e.render().to_string()));
+            // clap's own error format, with a pasted-in giant value clipped; exit 2 is clap's
+            // usage-error status.
+            eprint!("{}", clip_long_words(&usage_error(&e)));
             return ExitCode::from(2);
         }
     };
@@ -221,6 +243,40 @@ fn main() -> ExitCode {
             ExitCode::FAILURE
         }
     }
+}
+
+/// clap's rendering of a usage error, except that a value outside a fixed list is said on
+/// one `error:` line together with the allowed values (clap puts them on a line of their
+/// own and adds a `--help` hint), so that it reads like every other bad value: one line that
+/// alone tells what to type.
+fn usage_error(e: &clap::Error) -> String {
+    let rendered = e.render().to_string();
+    if e.kind() != ErrorKind::InvalidValue {
+        return rendered;
+    }
+    let (
+        Some(ContextValue::String(arg)),
+        Some(ContextValue::String(value)),
+        Some(ContextValue::Strings(valid)),
+    ) = (
+        e.get(ContextKind::InvalidArg),
+        e.get(ContextKind::InvalidValue),
+        e.get(ContextKind::ValidValue),
+    )
+    else {
+        return rendered;
+    };
+    // `--technique <TECHNIQUE>` -> `--technique`.
+    let flag = arg.split_whitespace().next().unwrap_or(arg);
+    let mut line = format!(
+        "error: invalid value '{value}' for '{flag}': allowed {}",
+        valid.join(", ")
+    );
+    if let Some(ContextValue::String(similar)) = e.get(ContextKind::SuggestedValue) {
+        line.push_str(&format!(" (did you mean '{similar}'?)"));
+    }
+    line.push('\n');
+    line
 }
 
 /// The error and its causes on one line, each cause once: some libraries' errors repeat
@@ -440,13 +496,7 @@ fn run_bench(cli: &Cli, a: &BenchArgs) -> Result<()> {
             .collect::<Result<Vec<bench::Radius>>>()?,
         None => preset.radii,
     };
-    let motions = match &a.motion {
-        Some(v) => v
-            .iter()
-            .map(|m| m.parse())
-            .collect::<Result<Vec<bench::Motion>>>()?,
-        None => preset.motions,
-    };
+    let motions = a.motion.clone().unwrap_or(preset.motions);
     let config = bench::BenchConfig {
         scenes: a.scenes.clone().unwrap_or(preset.scenes),
         techniques: a.techniques.clone().unwrap_or(preset.techniques),
@@ -474,14 +524,12 @@ fn run_bench(cli: &Cli, a: &BenchArgs) -> Result<()> {
         println!("note: hard added to the sweep (every ratio is to hard)");
     }
     // Once per technique that has no tuned module, not once per row or frame.
-    if a.spirv.contains(&softshadow::render::SpirvChoice::Tuned) {
+    if a.spirv.contains(&SpirvChoice::Tuned) {
         let mut seen: Vec<&str> = Vec::new();
         for v in &plan.variants {
             if v.technique != bench::BASELINE && !seen.contains(&v.technique) {
                 seen.push(v.technique);
-                if let Some(note) =
-                    softshadow::render::SpirvChoice::Tuned.fallback_note(v.technique)
-                {
+                if let Some(note) = SpirvChoice::Tuned.fallback_note(v.technique) {
                     eprintln!("{note}");
                 }
             }

@@ -445,7 +445,10 @@ fn bad_input_is_one_line_and_leaves_nothing() {
         let args: Vec<&str> = args.iter().map(|s| s.as_str()).collect();
         assert_clean_failure(&args, &out, expect);
     };
-    run(&["--techniques", "hard,nope"], "unknown technique 'nope'");
+    run(
+        &["--techniques", "hard,nope"],
+        "invalid value 'nope' for '--techniques'",
+    );
     run(&["--scenes", "cylinder,nowhere"], "unknown scene 'nowhere'");
     run(&["--samples", "0"], "--samples 0 is out of range");
     run(&["--samples", "255"], "--samples 255 is out of range");

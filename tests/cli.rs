@@ -220,7 +220,7 @@ fn bad_input_gets_one_clear_line() {
         (
             vec!["render", "--technique", "nosuch", "--out", o],
             &lavapipe,
-            "unknown technique",
+            "invalid value 'nosuch' for '--technique'",
         ),
         (
             vec!["render", "--scene", bad_toml.to_str().unwrap(), "--out", o],

@@ -76,7 +76,7 @@ fn unknown_case_or_technique_is_a_clear_error() {
     assert!(!out.status.success());
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(
-        err.contains("unknown technique 'nope'")
+        err.contains("invalid value 'nope' for '--techniques'")
             && err.contains("smoothies")
             && err.contains("ssm2"),
         "{err}"

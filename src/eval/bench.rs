@@ -135,7 +135,7 @@ impl Radius {
 }
 
 /// What moves from frame to frame while the frames are timed.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, clap::ValueEnum)]
 #[serde(rename_all = "lowercase")]
 pub enum Motion {
     Static,

@@ -61,7 +61,7 @@ pub struct Settings {
 /// glslang's SPIR-V (glslangValidator + spirv-opt -O) or the hand-tuned `.spvasm` modules
 /// under glsl/ (`shaders::has_tuned` says which techniques have them; the others run
 /// glslang's either way).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, serde::Serialize)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, serde::Serialize, clap::ValueEnum)]
 #[serde(rename_all = "lowercase")]
 pub enum SpirvChoice {
     #[default]
@@ -112,7 +112,7 @@ impl std::fmt::Display for SpirvChoice {
 
 /// Where the silhouette edges and the smoothie / penumbra-map geometry are computed each
 /// frame.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
 pub enum SilhouettePath {
     /// `Gpu` on a GPU, `Cpu` on a CPU driver (lavapipe), where the compute passes run on
     /// the same cores as the CPU path, several times slower (BENCHMARKS.md).
@@ -182,6 +182,15 @@ impl std::str::FromStr for PcfKernel {
     }
 }
 
+impl std::fmt::Display for PcfKernel {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            PcfKernel::Box(n) => write!(f, "box{n}"),
+            PcfKernel::Poisson(n) => write!(f, "poisson{n}"),
+        }
+    }
+}
+
 impl PcfKernel {
     pub fn check(self) -> Result<()> {
         match self {
@@ -197,9 +206,11 @@ impl PcfKernel {
 }
 
 /// Accumulation format of additive soft-shadow-map blending.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
 pub enum AccumFormat {
+    #[value(name = "r32f")]
     R32F,
+    #[value(name = "r16f")]
     R16F,
 }
 

@@ -52,6 +52,45 @@ enum Command {
     Bench(BenchArgs),
     /// Run the named edge cases over every technique against the reference (stress.md/json).
     Stress(StressArgs),
+    /// Compare a port's visibility.exr with ours or the reference's: mae_lit, p99_lit,
+    /// mae_shadow, the share off by > 0.1, ꟻLIP of two shaded images; a difference PNG.
+    Compare(CompareArgs),
+}
+
+#[derive(Args)]
+struct CompareArgs {
+    /// Reference visibility: a visibility.exr or the folder of `render --aov`.
+    #[arg(long)]
+    reference: PathBuf,
+    /// The port's visibility: a visibility.exr or a folder holding one.
+    #[arg(long)]
+    test: PathBuf,
+    /// Folder of position.exr and normal.exr (default: the reference's folder, else the test's).
+    #[arg(long)]
+    aov: Option<PathBuf>,
+    /// The scene rendered (built-in name or file): its light's centre gives the lit-surface mask.
+    #[arg(long, required_unless_present = "light", conflicts_with = "light")]
+    scene: Option<String>,
+    /// The light's centre X,Y,Z instead of --scene.
+    #[arg(
+        long,
+        value_delimiter = ',',
+        num_args = 3,
+        allow_negative_numbers = true
+    )]
+    light: Option<Vec<f32>>,
+    /// Our shaded PNG, for ꟻLIP (with --test-image).
+    #[arg(long, requires = "test_image")]
+    reference_image: Option<PathBuf>,
+    /// The port's shaded PNG, for ꟻLIP (with --reference-image).
+    #[arg(long, requires = "reference_image")]
+    test_image: Option<PathBuf>,
+    /// The false-colour |v - v_ref| image (black 0, red at 0.25 and above, grey background).
+    #[arg(long, default_value = "compare.png")]
+    out: PathBuf,
+    /// Exit non-zero when mae_lit is above this.
+    #[arg(long)]
+    max_mae_lit: Option<f64>,
 }
 
 #[derive(Args)]
@@ -340,6 +379,7 @@ fn run(cli: Cli) -> Result<()> {
         Command::Render(a) => render(&cli, a),
         Command::Bench(a) => run_bench(&cli, a),
         Command::Stress(a) => stress(&cli, a),
+        Command::Compare(a) => compare(a),
         Command::Export(a) => {
             if a.width == 0 || a.height == 0 {
                 bail!("--width and --height must be at least 1");
@@ -547,6 +587,39 @@ fn run_bench(cli: &Cli, a: &BenchArgs) -> Result<()> {
         outcome.files.len(),
         outcome.out.display()
     );
+    Ok(())
+}
+
+fn compare(a: &CompareArgs) -> Result<()> {
+    use softshadow::eval::compare;
+    softshadow::output::check_png_name(&a.out, "--out")?;
+    softshadow::output::check_file(&a.out, "--out")?;
+    if let Some(m) = a.max_mae_lit {
+        if !(m.is_finite() && m >= 0.0) {
+            bail!("--max-mae-lit {m} must be a number >= 0");
+        }
+    }
+    let light = match (&a.light, &a.scene) {
+        (Some(l), _) => glam::Vec3::new(l[0], l[1], l[2]),
+        (None, Some(s)) => Scene::load(s)?.light.position,
+        (None, None) => bail!("give --scene or --light: the lit-surface mask needs the light"),
+    };
+    let c = compare::compare(&compare::CompareInputs {
+        reference: a.reference.clone(),
+        test: a.test.clone(),
+        aov: a.aov.clone(),
+        light,
+        reference_image: a.reference_image.clone(),
+        test_image: a.test_image.clone(),
+    })?;
+    print!("{}", c.report());
+    compare::write_diff(&a.out, &c)?;
+    println!("wrote {}", a.out.display());
+    if let Some(m) = a.max_mae_lit {
+        if c.errors.mae_lit > m {
+            bail!("mae_lit {:.6} is above --max-mae-lit {m}", c.errors.mae_lit);
+        }
+    }
     Ok(())
 }
 

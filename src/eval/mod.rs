@@ -9,6 +9,7 @@ pub mod metrics;
 pub mod reference;
 
 pub mod bench;
+pub mod compare;
 pub mod plot;
 pub mod report;
 pub mod spirv;

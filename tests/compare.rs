@@ -1,0 +1,223 @@
+//! `softshadow compare` on EXRs written here: identical inputs give 0, a known perturbation
+//! gives the numbers worked out by hand, `--max-mae-lit` sets the exit status, bad inputs
+//! are one error line. No Vulkan device is involved.
+
+use softshadow::output::write_exr;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+const W: u32 = 10;
+const H: u32 = 10;
+
+fn scratch(tag: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("softshadow-compare-{tag}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+fn compare(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_softshadow"))
+        .arg("compare")
+        .args(args)
+        .output()
+        .expect("running softshadow")
+}
+
+fn text(o: &Output) -> (String, String) {
+    (
+        String::from_utf8_lossy(&o.stdout).into_owned(),
+        String::from_utf8_lossy(&o.stderr).into_owned(),
+    )
+}
+
+/// The figure printed on the line that starts with `name`.
+fn figure(stdout: &str, name: &str) -> f64 {
+    stdout
+        .lines()
+        .find(|l| l.split_whitespace().next() == Some(name))
+        .and_then(|l| l.split_whitespace().nth(1))
+        .unwrap_or_else(|| panic!("no {name} line in\n{stdout}"))
+        .parse()
+        .unwrap()
+}
+
+/// A 10x10 frame of the plane y = 0 seen from above: row 0 is background, rows 1..=9 are
+/// covered; normals +Y except row 9, which faces away from the light (at (0, 10, 0)). The
+/// reference visibility is 0.5 in columns 0..5 (shadow) and 1 elsewhere.
+fn write_aovs(dir: &Path) -> Vec<f32> {
+    let n = (W * H) as usize;
+    let (mut pos, mut nrm, mut vis) = (vec![vec![0.0; n]; 4], vec![vec![0.0; n]; 3], vec![1.0; n]);
+    for y in 0..H as usize {
+        for x in 0..W as usize {
+            let i = y * W as usize + x;
+            if y == 0 {
+                continue;
+            }
+            pos[0][i] = x as f32 * 0.1;
+            pos[2][i] = y as f32 * 0.1;
+            pos[3][i] = 1.0;
+            nrm[1][i] = if y == 9 { -1.0 } else { 1.0 };
+            if x < 5 {
+                vis[i] = 0.5;
+            }
+        }
+    }
+    std::fs::create_dir_all(dir).unwrap();
+    write_exr(&dir.join("visibility.exr"), W, H, &["Y"], vec![vis.clone()]).unwrap();
+    write_exr(&dir.join("position.exr"), W, H, &["R", "G", "B", "A"], pos).unwrap();
+    write_exr(&dir.join("normal.exr"), W, H, &["R", "G", "B"], nrm).unwrap();
+    vis
+}
+
+fn write_vis(path: &Path, v: Vec<f32>) {
+    std::fs::create_dir_all(path.parent().unwrap()).unwrap();
+    write_exr(path, W, H, &["Y"], vec![v]).unwrap();
+}
+
+#[test]
+fn identical_inputs_give_zero_and_a_perturbation_gives_the_expected_numbers() {
+    let d = scratch("numbers");
+    let ours = d.join("ours");
+    let v_ref = write_aovs(&ours);
+    let port = d.join("port/visibility.exr");
+    write_vis(&port, v_ref.clone());
+    let png = d.join("diff.png");
+    let o = compare(&[
+        "--reference",
+        ours.to_str().unwrap(),
+        "--test",
+        port.to_str().unwrap(),
+        "--light",
+        "0,10,0",
+        "--out",
+        png.to_str().unwrap(),
+    ]);
+    let (out, err) = text(&o);
+    assert!(o.status.success(), "{out}{err}");
+    for m in ["mae_lit", "p99_lit", "mae_shadow", "off_0.1"] {
+        assert_eq!(figure(&out, m), 0.0, "{m}\n{out}");
+    }
+    // 90 covered pixels, 45 in shadow, 40 of them facing the light (row 9 faces away).
+    assert!(
+        out.contains("90 covered pixels, 45 in the shadow region, 40 of them facing"),
+        "{out}"
+    );
+    let img = image::open(&png).unwrap().to_rgba8();
+    assert_eq!(img.dimensions(), (W, H));
+    assert_eq!(
+        img.get_pixel(3, 3).0,
+        [0, 0, 0, 255],
+        "no difference is black"
+    );
+    assert_eq!(
+        img.get_pixel(3, 0).0,
+        [96, 96, 96, 255],
+        "background is grey"
+    );
+
+    // The port is 0.2 too dark in the shadow of rows 1 and 2 (10 pixels facing the light)
+    // and 0.3 too dark in row 9's shadow (5 pixels facing away): mae_lit = 10 * 0.2 / 40,
+    // mae_shadow = (10 * 0.2 + 5 * 0.3) / 45, p99_lit = 0.2 (the 40th of 40 values), and 15
+    // of the 90 covered pixels are off by more than 0.1.
+    let mut v = v_ref.clone();
+    for y in [1usize, 2, 9] {
+        for x in 0..5 {
+            v[y * W as usize + x] -= if y == 9 { 0.3 } else { 0.2 };
+        }
+    }
+    write_vis(&port, v);
+    let o = compare(&[
+        "--reference",
+        ours.to_str().unwrap(),
+        "--test",
+        d.join("port").to_str().unwrap(),
+        "--light",
+        "0,10,0",
+        "--out",
+        png.to_str().unwrap(),
+    ]);
+    let (out, err) = text(&o);
+    assert!(o.status.success(), "{out}{err}");
+    let close = |a: f64, b: f64| (a - b).abs() < 1e-5;
+    assert!(close(figure(&out, "mae_lit"), 0.05), "{out}");
+    assert!(close(figure(&out, "p99_lit"), 0.2), "{out}");
+    assert!(close(figure(&out, "mae_shadow"), 3.5 / 45.0), "{out}");
+    assert!(close(figure(&out, "off_0.1"), 15.0 / 90.0), "{out}");
+    let img = image::open(&png).unwrap().to_rgba8();
+    assert_ne!(
+        img.get_pixel(0, 1).0,
+        [0, 0, 0, 255],
+        "a difference is coloured"
+    );
+    assert_eq!(img.get_pixel(0, 3).0, [0, 0, 0, 255]);
+
+    // --max-mae-lit: above the threshold fails after printing and writing the image.
+    let base = [
+        "--reference",
+        ours.to_str().unwrap(),
+        "--test",
+        port.to_str().unwrap(),
+        "--light",
+        "0,10,0",
+        "--out",
+        png.to_str().unwrap(),
+    ];
+    let o = compare(&[&base[..], &["--max-mae-lit", "0.06"]].concat());
+    assert!(o.status.success(), "{:?}", text(&o));
+    let o = compare(&[&base[..], &["--max-mae-lit", "0.04"]].concat());
+    let (out, err) = text(&o);
+    assert_eq!(o.status.code(), Some(1), "{out}{err}");
+    assert!(out.contains("mae_lit"), "the figures are printed: {out}");
+    assert!(
+        err.lines().filter(|l| l.starts_with("error:")).count() == 1
+            && err.contains("--max-mae-lit"),
+        "{err}"
+    );
+    let _ = std::fs::remove_dir_all(&d);
+}
+
+#[test]
+fn bad_inputs_are_one_clear_error() {
+    let d = scratch("bad");
+    let ours = d.join("ours");
+    let v_ref = write_aovs(&ours);
+    let check = |test: &Path, expect: &str| {
+        let png = d.join("never.png");
+        let o = compare(&[
+            "--reference",
+            ours.to_str().unwrap(),
+            "--test",
+            test.to_str().unwrap(),
+            "--light",
+            "0,10,0",
+            "--out",
+            png.to_str().unwrap(),
+        ]);
+        let (out, err) = text(&o);
+        assert!(!o.status.success(), "{out}");
+        assert_eq!(err.lines().count(), 1, "one line: {err}");
+        assert!(
+            err.starts_with("error:") && err.contains(expect),
+            "{expect}: {err}"
+        );
+        assert!(!png.exists(), "nothing written");
+    };
+    let small = d.join("small.exr");
+    write_exr(&small, 5, 5, &["Y"], vec![vec![1.0; 25]]).unwrap();
+    check(&small, "5x5 but");
+    let rgb = d.join("rgb.exr");
+    let n = (W * H) as usize;
+    write_exr(&rgb, W, H, &["R", "G", "B"], vec![vec![1.0; n]; 3]).unwrap();
+    check(&rgb, "one channel (Y), this one has B, G, R");
+    let nan = d.join("nan.exr");
+    let mut v = v_ref;
+    v[37] = f32::NAN;
+    write_exr(&nan, W, H, &["Y"], vec![v]).unwrap();
+    check(&nan, "1 non-finite value(s), the first at value 37");
+    let junk = d.join("junk.exr");
+    std::fs::write(&junk, b"not an exr").unwrap();
+    check(&junk, "not a readable EXR");
+    check(&d.join("missing.exr"), "no such file");
+    let _ = std::fs::remove_dir_all(&d);
+}

@@ -72,13 +72,8 @@ struct CompareArgs {
     #[arg(long, required_unless_present = "light", conflicts_with = "light")]
     scene: Option<String>,
     /// The light's centre X,Y,Z instead of --scene.
-    #[arg(
-        long,
-        value_delimiter = ',',
-        num_args = 3,
-        allow_negative_numbers = true
-    )]
-    light: Option<Vec<f32>>,
+    #[arg(long, value_name = "X,Y,Z", value_parser = parse_point, allow_hyphen_values = true)]
+    light: Option<[f32; 3]>,
     /// Our shaded PNG, for ꟻLIP (with --test-image).
     #[arg(long, requires = "test_image")]
     reference_image: Option<PathBuf>,
@@ -590,6 +585,19 @@ fn run_bench(cli: &Cli, a: &BenchArgs) -> Result<()> {
     Ok(())
 }
 
+/// `X,Y,Z`: three finite numbers.
+fn parse_point(s: &str) -> std::result::Result<[f32; 3], String> {
+    let v: Vec<f32> = s
+        .split(',')
+        .map(|c| c.trim().parse::<f32>())
+        .collect::<std::result::Result<_, _>>()
+        .map_err(|_| format!("'{s}' is not three numbers X,Y,Z"))?;
+    match v[..] {
+        [x, y, z] if v.iter().all(|c| c.is_finite()) => Ok([x, y, z]),
+        _ => Err(format!("'{s}' is not three finite numbers X,Y,Z")),
+    }
+}
+
 fn compare(a: &CompareArgs) -> Result<()> {
     use softshadow::eval::compare;
     softshadow::output::check_png_name(&a.out, "--out")?;
@@ -600,7 +608,7 @@ fn compare(a: &CompareArgs) -> Result<()> {
         }
     }
     let light = match (&a.light, &a.scene) {
-        (Some(l), _) => glam::Vec3::new(l[0], l[1], l[2]),
+        (Some(l), _) => glam::Vec3::from_array(*l),
         (None, Some(s)) => Scene::load(s)?.light.position,
         (None, None) => bail!("give --scene or --light: the lit-surface mask needs the light"),
     };
@@ -629,7 +637,7 @@ fn stress(cli: &Cli, a: &StressArgs) -> Result<()> {
         quick: a.quick,
         techniques: a.techniques.clone(),
         cases: a.cases.clone(),
-        image_dir: Some(a.out.clone()),
+        keep_images: true,
     };
     opts.check()?;
     // Checked before the sweep, which takes minutes.

@@ -244,7 +244,7 @@ pub fn check_png_name(path: &Path, flag: &str) -> Result<()> {
 
 /// The image crate wraps I/O errors and returns the same error as its source, so `{:#}`
 /// would print the cause twice; unwrapped here.
-fn image_error(e: image::ImageError) -> anyhow::Error {
+pub fn image_error(e: image::ImageError) -> anyhow::Error {
     match e {
         image::ImageError::IoError(io) => io.into(),
         other => anyhow!("{other}"),

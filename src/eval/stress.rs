@@ -100,8 +100,9 @@ pub struct StressOptions {
     pub techniques: Vec<String>,
     /// Empty: all cases.
     pub cases: Vec<String>,
-    /// Where a failing static row writes `CASE-TECHNIQUE.png` and `CASE-TECHNIQUE-error.png`.
-    pub image_dir: Option<std::path::PathBuf>,
+    /// Keep a failing static row's images (`CASE-TECHNIQUE.png` and
+    /// `CASE-TECHNIQUE-error.png`) in the report, which publishes them with `stress.md`.
+    pub keep_images: bool,
 }
 
 impl StressOptions {
@@ -222,6 +223,10 @@ pub struct Report {
     pub reference_samples: u32,
     pub rows: Vec<Row>,
     pub seconds: f64,
+    /// The failing rows' images (file name, RGBA8), written by `write` with the report:
+    /// held in memory so that a run that fails half way leaves no image behind.
+    #[serde(skip)]
+    pub images: Vec<(String, image::RgbaImage)>,
 }
 
 impl Report {
@@ -303,12 +308,18 @@ impl Report {
         s
     }
 
-    /// Writes `dir/stress.md` and `dir/stress.json`.
-    /// `stress.md` and `stress.json`, published together (`crate::output::Publish`).
+    /// Writes `dir/stress.md`, `dir/stress.json` and the failing rows' images, published
+    /// together (`crate::output::Publish`): all of them or none.
     pub fn write(&self, dir: &Path) -> Result<()> {
         let text = serde_json::to_string_pretty(self).context("serialising the stress report")?;
         let mut publish = crate::output::Publish::new();
         publish.create_dir(dir)?;
+        for (name, img) in &self.images {
+            publish.stage(&dir.join(name), |t| {
+                img.save_with_format(t, image::ImageFormat::Png)
+                    .map_err(crate::output::image_error)
+            })?;
+        }
         publish.stage(&dir.join("stress.md"), |t| {
             Ok(std::fs::write(t, self.markdown())?)
         })?;
@@ -985,6 +996,7 @@ pub fn run(ctx: &Context, opts: &StressOptions, progress: &mut dyn FnMut(&Row)) 
     let base = sizes.settings();
     let samples = base.reference_samples;
     let mut rows = Vec::new();
+    let mut images = Vec::new();
     for case_name in opts.cases() {
         let case = build(case_name, &sizes)?;
         case.scene
@@ -1059,7 +1071,7 @@ pub fn run(ctx: &Context, opts: &StressOptions, progress: &mut dyn FnMut(&Row)) 
                 &moving_ref,
                 &mut row,
                 limit,
-                opts.image_dir.as_deref(),
+                opts.keep_images.then_some(&mut images),
             );
             if let Err(e) = result {
                 row.error = Some(format!("{e:#}"));
@@ -1089,6 +1101,7 @@ pub fn run(ctx: &Context, opts: &StressOptions, progress: &mut dyn FnMut(&Row)) 
         reference_samples: samples,
         rows,
         seconds: start.elapsed().as_secs_f64(),
+        images,
     })
 }
 
@@ -1103,7 +1116,7 @@ fn run_one(
     moving_ref: &std::result::Result<(Vec<Vec<f32>>, Vec<bool>), String>,
     row: &mut Row,
     limit: f64,
-    image_dir: Option<&Path>,
+    images: Option<&mut Vec<(String, image::RgbaImage)>>,
 ) -> Result<()> {
     let light = case.scene.light;
     match case.kind {
@@ -1117,8 +1130,8 @@ fn run_one(
                 judge(row, &e, limit);
                 row.errors = Some(e);
                 if !row.pass || row.nan + row.inf + row.out_of_range > 0 {
-                    if let Some(dir) = image_dir {
-                        write_images(dir, &row.case, technique, &img, r, cov)?;
+                    if let Some(images) = images {
+                        images.extend(failure_images(&row.case, technique, &img, r, cov)?);
                     }
                 }
             }
@@ -1240,24 +1253,25 @@ fn judge(row: &mut Row, e: &Errors, limit: f64) {
     }
 }
 
-/// The colour image and the false-colour error image (0 black .. 0.5 red) of a failing row.
-fn write_images(
-    dir: &Path,
+/// The colour image and the false-colour error image (0 black .. 0.5 red) of a failing row,
+/// named `CASE-TECHNIQUE.png` and `CASE-TECHNIQUE-error.png`.
+fn failure_images(
     case: &str,
     technique: &str,
     img: &FrameImages,
     r: &[f32],
     cov: &[bool],
-) -> Result<()> {
-    std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
-    crate::output::write_png(&dir.join(format!("{case}-{technique}.png")), img)?;
+) -> Result<[(String, image::RgbaImage); 2]> {
+    let colour: Vec<u8> = img.color.iter().flatten().copied().collect();
+    let colour =
+        image::RgbaImage::from_raw(img.width, img.height, colour).context("colour image size")?;
     let err = crate::eval::metrics::error_image(&img.visibility, r, cov, 0.5);
-    let bytes: Vec<u8> = err.iter().flatten().copied().collect();
-    let path = dir.join(format!("{case}-{technique}-error.png"));
-    image::RgbaImage::from_raw(img.width, img.height, bytes)
-        .context("error image size")?
-        .save(&path)
-        .with_context(|| format!("writing {}", path.display()))
+    let err: Vec<u8> = err.iter().flatten().copied().collect();
+    let err = image::RgbaImage::from_raw(img.width, img.height, err).context("error image size")?;
+    Ok([
+        (format!("{case}-{technique}.png"), colour),
+        (format!("{case}-{technique}-error.png"), err),
+    ])
 }
 
 /// Rust mirrors of the shaders' guards, so each can be unit-tested at its edge (the
@@ -1534,5 +1548,43 @@ mod tests {
         let t = scaled(&s, 1e3);
         assert!((t.bounds().radius() / s.bounds().radius() - 1e3).abs() < 1.0);
         assert_eq!(t.light.radius, s.light.radius * 1e3);
+    }
+
+    fn report_with_image(name: &str) -> Report {
+        Report {
+            device: "test".into(),
+            quick: true,
+            image: 2,
+            shadow_res: 64,
+            reference_samples: 1,
+            rows: Vec::new(),
+            seconds: 0.0,
+            images: vec![(name.into(), image::RgbaImage::new(2, 2))],
+        }
+    }
+
+    /// A failing row's images land with stress.md and stress.json, and a failure while
+    /// publishing leaves none of the three.
+    #[test]
+    fn failure_images_are_published_with_the_report() {
+        let dir =
+            std::env::temp_dir().join(format!("softshadow-stress-pub-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).unwrap();
+        report_with_image("case-hard.png").write(&dir).unwrap();
+        let mut names: Vec<String> = std::fs::read_dir(&dir)
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .collect();
+        names.sort();
+        assert_eq!(names, ["case-hard.png", "stress.json", "stress.md"]);
+        assert_eq!(image::open(dir.join("case-hard.png")).unwrap().width(), 2);
+
+        let bad = dir.join("bad");
+        std::fs::create_dir_all(bad.join("case-hard.png")).unwrap();
+        assert!(report_with_image("case-hard.png").write(&bad).is_err());
+        let left: Vec<_> = std::fs::read_dir(&bad).unwrap().collect();
+        assert_eq!(left.len(), 1, "only the folder in the way is left");
+        std::fs::remove_dir_all(&dir).unwrap();
     }
 }

@@ -3,9 +3,10 @@
 //! `bunny 512 256`, the benchmark issue's speed goal: under 60 s on 2 cores). The pixels'
 //! positions and normals come from one `hard` frame on the default device.
 
-use softshadow::eval::reference::{visibility_at, ReferenceParams, DEFAULT_SEED};
-use softshadow::render::{Renderer, Settings};
+use softshadow::reference::{visibility_at, ReferenceParams, DEFAULT_SEED};
+use softshadow::render::Renderer;
 use softshadow::scene::Scene;
+use softshadow::settings::Settings;
 use softshadow::vk::{Context, ContextOptions};
 use std::time::Instant;
 

@@ -32,7 +32,7 @@
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion};
 use glam::{Mat4, Vec3};
-use softshadow::render::fit_light;
+use softshadow::frustum::fit_light;
 use softshadow::scene::{Light, LightView, Mesh, Scene, BUILTIN_SCENES};
 use softshadow::silhouette::penumbra::build_penumbra;
 use softshadow::silhouette::smoothie::records::build_records;

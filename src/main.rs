@@ -5,8 +5,9 @@ use clap::builder::PossibleValuesParser;
 use clap::error::{ContextKind, ContextValue, ErrorKind};
 use clap::{Args, Parser, Subcommand};
 use softshadow::eval::bench;
-use softshadow::render::{AccumFormat, PcfKernel, Renderer, Settings, SilhouettePath, SpirvChoice};
+use softshadow::render::Renderer;
 use softshadow::scene::Scene;
+use softshadow::settings::{AccumFormat, PcfKernel, Settings, SilhouettePath, SpirvChoice};
 use softshadow::vk::{Context, ContextOptions};
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -447,7 +448,7 @@ fn render(cli: &Cli, a: &RenderArgs) -> Result<()> {
         cache_light_passes: !a.timings,
         ..Settings::default()
     };
-    if let Some(w) = softshadow::render::check_radius(&scene, settings.radius_for(&scene))? {
+    if let Some(w) = softshadow::frustum::check_radius(&scene, settings.radius_for(&scene))? {
         eprintln!("{w}");
     }
     let mut r = Renderer::new(&ctx, scene, &a.technique, settings)?;

@@ -8,7 +8,6 @@
 //! together by [`Publish::commit`]; a failure while staging removes every temporary file and
 //! every folder the command created, and a failure while renaming puts back what was there.
 
-use crate::render::FrameImages;
 use anyhow::{anyhow, bail, Context as _, Result};
 use exr::prelude::{
     AnyChannel, AnyChannels, Encoding, FlatSamples, Image, Layer, LayerAttributes, WritableImage,
@@ -240,6 +239,17 @@ pub fn check_png_name(path: &Path, flag: &str) -> Result<()> {
             path.display()
         ),
     }
+}
+
+/// The image and AOVs of a frame, read back to the host, row 0 at the top (what
+/// `render::Renderer::read_back` returns and the writers below write).
+pub struct FrameImages {
+    pub width: u32,
+    pub height: u32,
+    pub color: Vec<[u8; 4]>,
+    pub visibility: Vec<f32>,
+    pub position: Vec<[f32; 4]>,
+    pub normal: Vec<[f32; 3]>,
 }
 
 /// The image crate wraps I/O errors and returns the same error as its source, so `{:#}`

@@ -14,9 +14,9 @@ mod common;
 
 use common::Gpu;
 use softshadow::eval::metrics::{errors_at, Errors};
-use softshadow::eval::reference::{visibility_cached, ReferenceParams};
-use softshadow::render::Settings;
+use softshadow::reference::{visibility_cached, ReferenceParams};
 use softshadow::scene::Scene;
+use softshadow::settings::Settings;
 
 const TECHNIQUES: [&str; 4] = ["hard", "pcss", "smoothies", "ssm"];
 

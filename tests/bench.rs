@@ -5,10 +5,10 @@
 use softshadow::eval::bench::{self, Motion, Radius, Stat};
 use softshadow::eval::metrics;
 use softshadow::eval::plot::pareto_front;
-use softshadow::eval::reference::{self, ReferenceParams};
 use softshadow::eval::spirv;
-use softshadow::render::Settings;
+use softshadow::reference::{self, ReferenceParams};
 use softshadow::scene::Scene;
+use softshadow::settings::Settings;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 

@@ -6,9 +6,10 @@
 mod common;
 
 use common::{small, softshadow, Gpu};
-use softshadow::render::passes::FAR_DEPTH;
-use softshadow::render::{Renderer, Settings};
+use softshadow::gpu::passes::FAR_DEPTH;
+use softshadow::render::Renderer;
 use softshadow::scene::Scene;
+use softshadow::settings::Settings;
 use softshadow::technique::TECHNIQUES;
 
 fn tiny() -> Settings {

@@ -6,8 +6,9 @@ mod common;
 
 use common::{covered, pixel_at, small, Gpu};
 use glam::{Vec3, Vec4};
-use softshadow::render::{FrameImages, Settings};
+use softshadow::output::FrameImages;
 use softshadow::scene::Scene;
+use softshadow::settings::Settings;
 
 /// The `cylinder` scene's geometry, from its objects and light.
 struct CylinderFrame {
@@ -285,7 +286,7 @@ fn smoothie_pass_writes_depth_and_alpha() {
         .unwrap()
         .channels
         .remove(1);
-    let far = softshadow::render::passes::FAR_DEPTH;
+    let far = softshadow::gpu::passes::FAR_DEPTH;
     let near_count = depth.iter().filter(|&&d| d < far * 0.5).count();
     assert!(
         near_count > 100,
@@ -419,7 +420,8 @@ fn zero_light_radius_gives_the_hard_result() {
 /// SPIR-V builds of smoothies: the visibility it writes is the one the timed frame shaded.
 #[test]
 fn the_aov_pass_shades_bit_for_bit_as_the_timed_pass() {
-    use softshadow::render::{Renderer, SpirvChoice};
+    use softshadow::render::Renderer;
+    use softshadow::settings::SpirvChoice;
     let gpu = Gpu::new();
     let mut runs: Vec<(&str, SpirvChoice)> = softshadow::technique::TECHNIQUES
         .iter()

@@ -27,8 +27,9 @@
 
 mod common;
 use common::Gpu;
-use softshadow::render::{FrameImages, Settings};
+use softshadow::output::FrameImages;
 use softshadow::scene::Scene;
+use softshadow::settings::Settings;
 use softshadow::technique::TECHNIQUES;
 use std::path::{Path, PathBuf};
 

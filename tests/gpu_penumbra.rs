@@ -7,8 +7,11 @@ mod common;
 
 use common::{bowl, covered, cube, pixel_at, small, softshadow, with_caster, Gpu};
 use glam::{Mat4, Vec3};
-use softshadow::render::{fit_light, FrameImages, Renderer, Settings, SilhouettePath};
+use softshadow::frustum::fit_light;
+use softshadow::output::FrameImages;
+use softshadow::render::Renderer;
 use softshadow::scene::Scene;
+use softshadow::settings::{Settings, SilhouettePath};
 use softshadow::silhouette::penumbra::{build_penumbra, PenumbraVertex};
 use softshadow::silhouette::{extract, Adjacency};
 use softshadow::technique::penumbra_map::cone_base_depth;

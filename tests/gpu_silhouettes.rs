@@ -6,8 +6,10 @@ mod common;
 
 use common::{bowl, cube, small, softshadow, with_caster, Gpu};
 use glam::{Mat4, Vec3};
-use softshadow::render::{fit_light, Renderer, Settings, SilhouettePath};
+use softshadow::frustum::fit_light;
+use softshadow::render::Renderer;
 use softshadow::scene::{Mesh, Scene};
+use softshadow::settings::{Settings, SilhouettePath};
 use softshadow::silhouette::{extract, Adjacency, EdgeKind};
 use softshadow::vk::FrameTimings;
 use std::collections::BTreeSet;

@@ -6,8 +6,10 @@ mod common;
 
 use common::{covered, small, Gpu};
 use glam::{Vec3, Vec4};
-use softshadow::render::{FrameImages, PcfKernel, Renderer, Settings};
+use softshadow::output::FrameImages;
+use softshadow::render::Renderer;
 use softshadow::scene::Scene;
+use softshadow::settings::{PcfKernel, Settings};
 
 const SIZE: u32 = 192;
 const SHADOW_RES: u32 = 512;

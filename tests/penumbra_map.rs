@@ -6,8 +6,9 @@ mod common;
 
 use common::{covered, pixel_at, small, Gpu};
 use glam::{Mat4, Vec2, Vec3};
-use softshadow::render::{FrameImages, Settings};
+use softshadow::output::FrameImages;
 use softshadow::scene::{primitives, Camera, Light, Mesh, Object, Role, Scene};
+use softshadow::settings::Settings;
 use std::sync::Arc;
 
 const PM: &str = "penumbra-map";

@@ -6,7 +6,8 @@ mod common;
 
 use common::{covered, pixel_at, small, Gpu};
 use glam::{Mat4, Vec2, Vec3, Vec4};
-use softshadow::render::{FrameImages, Renderer};
+use softshadow::output::FrameImages;
+use softshadow::render::Renderer;
 use softshadow::scene::{primitives, Camera, Light, Object, Role, Scene};
 use std::sync::Arc;
 

@@ -1,4 +1,4 @@
-//! The ray-cast reference (src/eval/reference.rs) against two independent paths: the GPU's
+//! The ray-cast reference (src/reference.rs) against two independent paths: the GPU's
 //! average of hard shadows from points over the light disc (Heckbert & Herf), and, for a
 //! point light, the hard shadow map itself; the `reference` technique's image; the cache;
 //! bad input.
@@ -7,11 +7,12 @@ mod common;
 use common::{small, Gpu};
 use softshadow::eval::accumulate::heckbert_herf;
 use softshadow::eval::metrics::errors;
-use softshadow::eval::reference::{
+use softshadow::frustum::fit_light;
+use softshadow::output::FrameImages;
+use softshadow::reference::{
     cache_key, cache_key_of_code, cache_path, encode_cache, read_cache, visibility_at,
     visibility_cached, CacheEntry, ReferenceParams,
 };
-use softshadow::render::{fit_light, FrameImages};
 use softshadow::scene::Scene;
 
 /// Covered pixels well inside the spotlight frustum: outside it the shadow map says "lit"
@@ -377,7 +378,7 @@ fn cache_key_changes_with_every_input() {
     let seed = ReferenceParams { seed: 8, ..params };
     changed.push(("seed", key(&scene, 0.3, &positions, &normals, &seed)));
     // The ray caster's code: the key is of this source, and one edit to it is another key.
-    let mut source = include_bytes!("../src/eval/reference.rs").to_vec();
+    let mut source = include_bytes!("../src/reference.rs").to_vec();
     let of_code = |code: &[u8]| cache_key_of_code(code, &scene, 0.3, &positions, &normals, &params);
     assert_eq!(
         of_code(&source),

@@ -5,8 +5,9 @@ mod common;
 
 use common::{small, Gpu};
 use glam::{Mat4, Vec3};
-use softshadow::render::{Renderer, Settings};
+use softshadow::render::Renderer;
 use softshadow::scene::Scene;
+use softshadow::settings::Settings;
 use softshadow::technique::TECHNIQUES;
 use softshadow::vk::FrameTimings;
 

@@ -6,8 +6,9 @@ mod common;
 
 use common::{covered, small, softshadow, Gpu};
 use softshadow::eval::{bench, spirv};
-use softshadow::render::{Renderer, Settings, SpirvChoice};
+use softshadow::render::Renderer;
 use softshadow::scene::Scene;
+use softshadow::settings::{Settings, SpirvChoice};
 
 const ONE_LEVEL: f32 = 1.0 / 255.0;
 

@@ -6,8 +6,10 @@ mod common;
 
 use common::{covered, off_edges, pixel_at, small, Gpu};
 use glam::{Vec2, Vec3};
-use softshadow::render::{AccumFormat, FrameImages, Renderer, Settings};
+use softshadow::output::FrameImages;
+use softshadow::render::Renderer;
 use softshadow::scene::Scene;
+use softshadow::settings::{AccumFormat, Settings};
 
 fn scene(name: &str) -> Scene {
     Scene::load(name).unwrap_or_else(|e| panic!("{e:#}"))
@@ -352,8 +354,8 @@ fn occluder_map_out_of_range_is_a_clear_error() {
         .ctx
         .limits
         .max_image_dimension2_d
-        .min(softshadow::render::MAX_OCCLUDER_RES);
-    let min = softshadow::render::MIN_OCCLUDER_RES;
+        .min(softshadow::settings::MAX_OCCLUDER_RES);
+    let min = softshadow::settings::MIN_OCCLUDER_RES;
     for bad in [0, 1, 3, min - 1, max + 1, 4096, 16384] {
         let set = Settings {
             occluder_res: bad,

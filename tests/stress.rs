@@ -9,9 +9,9 @@ use common::{small, Gpu};
 use glam::{Mat4, Vec2, Vec3};
 use proptest::prelude::*;
 use softshadow::eval::stress::{self, StressOptions};
-use softshadow::render::Settings;
 use softshadow::scene::primitives as prim;
 use softshadow::scene::{Camera, Light, Mesh, Object, Role, Scene};
+use softshadow::settings::Settings;
 use std::sync::Arc;
 
 #[test]

@@ -9,8 +9,9 @@
 //! are the only messages it lets through.
 
 use softshadow::eval::bench::Motion;
-use softshadow::render::{AccumFormat, Renderer, Settings, SilhouettePath, SpirvChoice};
+use softshadow::render::Renderer;
 use softshadow::scene::Scene;
+use softshadow::settings::{AccumFormat, Settings, SilhouettePath, SpirvChoice};
 use softshadow::technique::TECHNIQUES;
 use softshadow::vk::{Context, ContextOptions};
 

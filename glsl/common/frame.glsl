@@ -1,6 +1,6 @@
 // Per-frame constants shared by every pass (set 0, binding 0) and the per-draw push
 // constants (compute shaders with their own push constants define FRAME_NO_DRAW_PUSH).
-// Mirrors `FrameUniforms` (src/render/mod.rs) and `DrawPush` (src/render/gpu_scene.rs), std140.
+// Mirrors `FrameUniforms` (src/render/mod.rs) and `DrawPush` (src/gpu/gpu_scene.rs), std140.
 #ifndef FRAME_GLSL
 #define FRAME_GLSL
 

@@ -5,7 +5,7 @@
 // frame.technique: x = kernel kind (0 box, 1 Poisson), y = N, z = Poisson radius (texels).
 #include "pcf/filter.glsl"
 
-// RG32F, MIN-blended, no depth attachment (render::passes::ShadowMap): r = nearest caster's
+// RG32F, MIN-blended, no depth attachment (gpu::passes::ShadowMap): r = nearest caster's
 // linear depth, the one compared here.
 layout(set = 0, binding = 1) uniform sampler2D shadow_map;
 

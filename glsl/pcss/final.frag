@@ -7,7 +7,7 @@
 // frame.technique2: x = blocker-search samples.
 #include "pcf/filter.glsl"
 
-// RG32F, MIN-blended, no depth attachment (render::passes::ShadowMap): r = nearest caster's
+// RG32F, MIN-blended, no depth attachment (gpu::passes::ShadowMap): r = nearest caster's
 // linear depth, the one searched and compared here.
 layout(set = 0, binding = 1) uniform sampler2D shadow_map;
 

@@ -15,7 +15,7 @@ layout(location = 1) in vec2 v_zv_h;
 layout(location = 2) flat in float v_reach;
 layout(location = 0) out float o_intensity;
 
-// FAR_DEPTH of src/render/passes.rs: texels that see no surface.
+// FAR_DEPTH of src/gpu/passes.rs: texels that see no surface.
 const float FAR_DEPTH = 1.0e30;
 // Below this Z_P - Z_v (relative to Z_P) the receiver touches the silhouette vertex: no
 // penumbra (contact), and no division by a rounding-sized denominator (no NaN, Inf, speckle).

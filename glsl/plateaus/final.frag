@@ -8,7 +8,7 @@
 #include "plateaus/plane.glsl"
 
 layout(set = 0, binding = 2) uniform sampler2D plateau_tex;   // R32F penumbra fraction, 1 = lit
-// RG32F, MIN-blended, no depth attachment (render::passes::ShadowMap): r = nearest caster's
+// RG32F, MIN-blended, no depth attachment (gpu::passes::ShadowMap): r = nearest caster's
 // linear depth.
 layout(set = 0, binding = 3) uniform sampler2D shadow_map;
 layout(set = 0, binding = 4) uniform sampler1D falloff;       // R32F 0.5 - 0.5 cos(pi x)

@@ -1,6 +1,6 @@
 #version 450
 #extension GL_GOOGLE_include_directive : require
-// reference: the ray-cast visibility (src/eval/reference.rs), computed on the CPU at this
+// reference: the ray-cast visibility (src/reference.rs), computed on the CPU at this
 // very pixel's surface point and uploaded as an R32F image of the camera's size; the pass
 // only looks it up at its own pixel, so the AOV and the PNG show the exact reference.
 #include "common/frame.glsl"

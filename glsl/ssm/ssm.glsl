@@ -2,7 +2,7 @@
 #ifndef SSM_GLSL
 #define SSM_GLSL
 
-// Clear value of the linear-depth maps (render::passes::FAR_DEPTH); anything above EMPTY
+// Clear value of the linear-depth maps (gpu::passes::FAR_DEPTH); anything above EMPTY
 // is "no surface at this texel".
 const float FAR_DEPTH = 1.0e30;
 const float EMPTY = 0.5e30;

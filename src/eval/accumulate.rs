@@ -12,8 +12,10 @@
 //! scenes' shadows). Each hard shadow has the `hard` technique's 2x2 filtered comparison
 //! and its shadow-map aliasing, which averaging over K shifted maps blurs.
 
-use crate::render::{FrameImages, Renderer, Settings};
+use crate::output::FrameImages;
+use crate::render::Renderer;
 use crate::scene::Scene;
+use crate::settings::Settings;
 use crate::vk::Context;
 use anyhow::{bail, Context as _, Result};
 use glam::{Vec2, Vec3};

@@ -37,12 +37,12 @@
 //! place only when the whole sweep succeeded, so a failure never leaves half the output.
 
 use super::metrics::{self, Errors};
-use super::reference::{self, ReferenceParams};
 use super::{plot, report, spirv};
-use crate::render::{
-    AccumFormat, FrameImages, PcfKernel, Renderer, Settings, SilhouettePath, SpirvChoice,
-};
+use crate::output::FrameImages;
+use crate::reference::{self, ReferenceParams};
+use crate::render::Renderer;
 use crate::scene::{Scene, BUILTIN_SCENES};
+use crate::settings::{AccumFormat, PcfKernel, Settings, SilhouettePath, SpirvChoice};
 use crate::technique::{self, smoothies::smoothie_width};
 use crate::vk::{Context, FrameTimings};
 use anyhow::{bail, Context as _, Result};

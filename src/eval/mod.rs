@@ -6,7 +6,6 @@
 
 pub mod accumulate;
 pub mod metrics;
-pub mod reference;
 
 pub mod bench;
 pub mod compare;

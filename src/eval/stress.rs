@@ -1,5 +1,5 @@
 //! `softshadow stress`: a fixed list of named edge cases, every technique on each, checked
-//! against the ray-cast reference (`eval::reference`) with the docs/DESIGN.md metrics.
+//! against the ray-cast reference (`reference`) with the docs/DESIGN.md metrics.
 //!
 //! Per case and technique a [`Row`]: counts of NaN, Inf and out-of-\[0,1\] visibility pixels,
 //! `mae_lit` / `p99_lit` / `mae_shadow` / `p99` / `max` against the reference (docs/DESIGN.md;
@@ -18,11 +18,13 @@
 //! runs in CI on lavapipe in under two minutes; the full suite uses larger sizes.
 
 use crate::eval::metrics::{errors, faces_light, Errors};
-use crate::eval::reference::{visibility_cached, ReferenceParams};
-use crate::render::{AccumFormat, FrameImages, Renderer, Settings};
+use crate::output::FrameImages;
+use crate::reference::{visibility_cached, ReferenceParams};
+use crate::render::Renderer;
 use crate::scene::builtin::{builtin, rig};
 use crate::scene::primitives as prim;
 use crate::scene::{Camera, Light, Mesh, Object, Role, Scene};
+use crate::settings::{AccumFormat, Settings};
 use crate::technique::TECHNIQUES;
 use crate::vk::Context;
 use anyhow::{bail, Context as _, Result};
@@ -664,9 +666,9 @@ fn build(name: &str, sizes: &Sizes) -> Result<Case> {
             let mut s = builtin_scene("cylinder")?;
             s.name = name.into();
             let res = if name == "shadow-res-min" {
-                (crate::render::MIN_SHADOW_RES, sizes.occluder_res)
+                (crate::settings::MIN_SHADOW_RES, sizes.occluder_res)
             } else {
-                (sizes.shadow_res, crate::render::MIN_OCCLUDER_RES)
+                (sizes.shadow_res, crate::settings::MIN_OCCLUDER_RES)
             };
             Case {
                 res: Some(res),
@@ -676,7 +678,7 @@ fn build(name: &str, sizes: &Sizes) -> Result<Case> {
         "near-far-1e-4" => {
             let mut s = builtin_scene("cylinder")?;
             let l = s.light;
-            let far = crate::render::fit_light(&s).far;
+            let far = crate::frustum::fit_light(&s).far;
             let d = (l.target - l.position).normalize_or(Vec3::NEG_Y);
             let side = d.cross(Vec3::Y).normalize_or(Vec3::X);
             // A speck at 1e-4 of the far distance, a little off the axis so it shadows a

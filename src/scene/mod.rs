@@ -147,7 +147,7 @@ pub struct LightView {
     pub far: f32,
     pub fov_deg: f32,
     /// Depth extent of what the light sees, before the near/far headroom (`far - near` unless
-    /// fitted by `render::fit_light`): the scale of the depth bias.
+    /// fitted by `frustum::fit_light`): the scale of the depth bias.
     pub depth_span: f32,
 }
 

@@ -157,7 +157,7 @@ impl Width {
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct GeometryKey {
     /// Not the projection: uv and linear depth do not depend on `far`, which moves with
-    /// every object (`render::fit_light`); `near` drops edges, so it is part of the key.
+    /// every object (`frustum::fit_light`); `near` drops edges, so it is part of the key.
     view: Mat4,
     fov_deg: f32,
     near: f32,

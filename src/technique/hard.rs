@@ -13,7 +13,7 @@
 //!    `glsl/hard/shadow_map.vert` (the light's view-projection: the buffer holds
 //!    z = f / (f - n) * (1 - n / d) of linear depth d, near n and far f of the light).
 //!    Left in SHADER_READ_ONLY_OPTIMAL.
-//! 2. `hard/final` — every object from the camera (`render::passes::FinalPass`).
+//! 2. `hard/final` — every object from the camera (`gpu::passes::FinalPass`).
 //!    Fragment `glsl/hard/final.frag` samples the map through a `sampler2DShadow`
 //!    (compare LESS_OR_EQUAL, linear filter, clamp to edge) at the normal-offset point's
 //!    light uv (`common/shadow.glsl`: 2 texels along the normal, scaled by the light's
@@ -32,8 +32,8 @@
 //! filter); no penumbra at any light radius.
 
 use super::{FrameInput, LightBuffer, Technique, TechniqueInfo, TechniqueInit};
-use crate::render::gpu_scene::{DRAW_PUSH_BYTES, SCENE_ATTRIBUTES, SCENE_VERTEX_STRIDE};
-use crate::render::passes::{FinalPass, FinalShader};
+use crate::gpu::gpu_scene::{DRAW_PUSH_BYTES, SCENE_ATTRIBUTES, SCENE_VERTEX_STRIDE};
+use crate::gpu::passes::{FinalPass, FinalShader};
 use crate::shaders;
 use crate::vk::{
     CompareOp, Context, CullModeFlags, DepthState, DescriptorSet, Format, GraphicsPipelineDesc,

@@ -10,9 +10,11 @@ pub mod reference;
 pub mod smoothies;
 pub mod ssm;
 
-use crate::render::passes::ShadowMap;
-use crate::render::{CameraTargets, GpuScene, Settings};
-use crate::scene::{LightView, Scene};
+use crate::gpu::passes::ShadowMap;
+pub use crate::gpu::FrameInput;
+use crate::gpu::GpuScene;
+use crate::scene::Scene;
+use crate::settings::Settings;
 use crate::vk::{Buffer, Context, Image, Recorder};
 use anyhow::{bail, Result};
 
@@ -24,20 +26,6 @@ pub struct TechniqueInit<'a> {
     /// The frame constants (glsl/common/frame.glsl), binding 0 of every set.
     pub ubo: &'a Buffer,
     pub settings: &'a Settings,
-}
-
-/// What one frame is rendered from.
-pub struct FrameInput<'a> {
-    pub scene: &'a Scene,
-    pub gpu: &'a GpuScene,
-    pub light: &'a LightView,
-    pub settings: &'a Settings,
-    pub targets: &'a CameraTargets,
-    /// Light radius R in effect (settings override or the scene's).
-    pub light_radius: f32,
-    /// The untimed AOV pass (`Renderer::read_back`): the final pass also writes visibility,
-    /// position and normal (`render::passes::FinalPass`). False in timed frames.
-    pub aov: bool,
 }
 
 pub trait Technique {
@@ -94,7 +82,7 @@ pub struct LightBuffer<'a> {
     pub channels: &'static [&'static str],
 }
 
-/// The shared shadow map (`render::passes::ShadowMap`) as a light buffer named `name`:
+/// The shared shadow map (`gpu::passes::ShadowMap`) as a light buffer named `name`:
 /// r = the nearest caster's linear depth, g = the nearest surface's of any role (1e30 where
 /// nothing was drawn).
 pub fn shadow_map_buffer<'a>(name: &'static str, map: &'a ShadowMap) -> LightBuffer<'a> {

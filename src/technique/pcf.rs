@@ -27,10 +27,10 @@
 //! footprint, so box1 still compares at the point's depth: `box1` = `hard` exactly.
 //!
 //! ## Passes, in order
-//! 1. `pcf/shadow_map` — casters from the light (`render::passes::ShadowMap`).
+//! 1. `pcf/shadow_map` — casters from the light (`gpu::passes::ShadowMap`).
 //!    Attachments: R32_SFLOAT linear depth (clear 1e30, no blend) + D32_SFLOAT (clear 1.0,
 //!    LESS). Vertex `glsl/common/shadow_depth.vert`, fragment `glsl/common/shadow_depth.frag`.
-//! 2. `pcf/final` — every object from the camera (`render::passes::FinalPass`), fragment
+//! 2. `pcf/final` — every object from the camera (`gpu::passes::FinalPass`), fragment
 //!    `glsl/pcf/final.frag`: reads the shadow map (nearest sampler, gathers) at the
 //!    normal-offset point's light uv, compares each texel with the point's linear depth
 //!    (relative bias `frame.light_frustum.w`) and filters with the kernel above.
@@ -51,8 +51,8 @@
 //! of the final pass.
 
 use super::{shadow_map_buffer, FrameInput, LightBuffer, Technique, TechniqueInfo, TechniqueInit};
-use crate::render::passes::{FinalPass, FinalShader, ShadowMap};
-use crate::render::PcfKernel;
+use crate::gpu::passes::{FinalPass, FinalShader, ShadowMap};
+use crate::settings::PcfKernel;
 use crate::shaders;
 use crate::vk::{Context, DescriptorSet, Filter, Recorder, Resource, Sampler};
 use anyhow::{Context as _, Result};

@@ -24,11 +24,11 @@
 //!   `glsl/pcf/filter.glsl`), so the receiver's own texels are neither blockers nor shadow.
 //!
 //! ## Passes, in order
-//! 1. `pcss/shadow_map` — casters from the light (`render::passes::ShadowMap`).
+//! 1. `pcss/shadow_map` — casters from the light (`gpu::passes::ShadowMap`).
 //!    Attachments: R32_SFLOAT linear depth (clear 1e30, no blend) + D32_SFLOAT (clear 1.0,
 //!    LESS). Vertex `glsl/common/shadow_depth.vert`, fragment `glsl/common/shadow_depth.frag`.
 //!    Linear depths are what Eq. 1, 3 and 4 take.
-//! 2. `pcss/final` — every object from the camera (`render::passes::FinalPass`), fragment
+//! 2. `pcss/final` — every object from the camera (`gpu::passes::FinalPass`), fragment
 //!    `glsl/pcss/final.frag`. As in Fernando's original, all three steps run in this one
 //!    fragment shader (no separate blocker-search pass):
 //!    - Step 1, blocker search: `search_samples` points of the Poisson disc
@@ -71,8 +71,8 @@
 //! blocked" for most pixels), which needs mip-level image views in `src/vk`.
 
 use super::{shadow_map_buffer, FrameInput, LightBuffer, Technique, TechniqueInfo, TechniqueInit};
-use crate::render::passes::{FinalPass, FinalShader, ShadowMap};
-use crate::render::PcfKernel;
+use crate::gpu::passes::{FinalPass, FinalShader, ShadowMap};
+use crate::settings::PcfKernel;
 use crate::shaders;
 use crate::vk::{Context, DescriptorSet, Filter, Recorder, Resource, Sampler};
 use anyhow::{Context as _, Result};

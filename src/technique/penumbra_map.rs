@@ -16,7 +16,7 @@
 //!    3..8-edge vertices); one sheet per edge, the plane through the edge tangent to the light
 //!    disc on the inner side, i.e. the exact outer tangent of the two cones (fourth bullet).
 //!    That quad is planar, so the paper's subdivision of "extremely non-planar" quads is never
-//!    needed. Z_far = 0.995 x the light's far plane (`render::fit_light` puts it 1 % beyond
+//!    needed. Z_far = 0.995 x the light's far plane (`frustum::fit_light` puts it 1 % beyond
 //!    the farthest scene corner, so every receiver is nearer; the margin keeps the bases
 //!    inside the clip volume). 24 bytes a vertex: world position, (Zv k, k), the object's
 //!    angular radius `reach` from the light centre. R = 0: no geometry (the pass is skipped).
@@ -35,7 +35,7 @@
 //!    Both build the same triangles (tests/gpu_penumbra.rs) and keep each caster's geometry
 //!    until its model or the light changes (a moved caster rebuilds only its own). Z_far is
 //!    part of the light: a receiver that moves the far plane rebuilds every caster.
-//! 1. `penumbra-map/shadow_map` — the shared `render::passes::ShadowMap`: every object from
+//! 1. `penumbra-map/shadow_map` — the shared `gpu::passes::ShadowMap`: every object from
 //!    the light into one R32G32_SFLOAT target, clear 1e30 (`FAR_DEPTH`), blend MIN, no depth
 //!    attachment; r = the nearest caster's linear depth (the shadow map of the final test),
 //!    g = the nearest surface of any role (Z_P of Eq. 1: the foremost surface, casting or
@@ -89,9 +89,10 @@
 //! from the light) hides the penumbra of whatever lies behind it.
 
 use super::{shadow_map_buffer, FrameInput, LightBuffer, Technique, TechniqueInfo, TechniqueInit};
-use crate::render::passes::{CasterCache, DynamicVertices, FinalPass, FinalShader, ShadowMap};
-use crate::render::{fit_light, SilhouettePath};
+use crate::frustum::fit_light;
+use crate::gpu::passes::{CasterCache, DynamicVertices, FinalPass, FinalShader, ShadowMap};
 use crate::scene::LightView;
+use crate::settings::SilhouettePath;
 use crate::shaders;
 use crate::silhouette::gpu::GpuSilhouettes;
 use crate::silhouette::penumbra::{build_penumbra, PenumbraKey, PenumbraVertex};

@@ -51,12 +51,12 @@
 //! in plane coordinates plus one texel each side, at `Settings::shadow_res`^2 texels. It
 //! depends on the plane's transform, the light (position, target, fov) and the resolution,
 //! not on the casters: the frustum's sides do not move with the fitted near/far, and
-//! `render::fit_light` puts near 1 % in front of every object it sees, the plane included,
+//! `frustum::fit_light` puts near 1 % in front of every object it sees, the plane included,
 //! so the near plane never cuts the lit part of the plane (only its far * 1e-4 floor could,
 //! for a plane almost touching the light).
 //!
 //! ## What a frame rebuilds
-//! Cones and sheets are cached per caster (`render::passes::CasterCache`) with the key
+//! Cones and sheets are cached per caster (`gpu::passes::CasterCache`) with the key
 //! (`PlaneFrame`, R): a caster whose model matrix changed rebuilds only its own silhouette
 //! and geometry, the others are reused and everything is concatenated in object order and
 //! uploaded (the same vertex buffer a full rebuild makes, so the same image bit for bit). A
@@ -109,8 +109,8 @@
 //! on the plane up to each method's one-texel edge aliasing (the texel grids differ).
 
 use super::{shadow_map_buffer, FrameInput, LightBuffer, Technique, TechniqueInfo, TechniqueInit};
-use crate::render::gpu_scene::{GpuObject, DRAW_PUSH_BYTES, SCENE_ATTRIBUTES, SCENE_VERTEX_STRIDE};
-use crate::render::passes::{
+use crate::gpu::gpu_scene::{GpuObject, DRAW_PUSH_BYTES, SCENE_ATTRIBUTES, SCENE_VERTEX_STRIDE};
+use crate::gpu::passes::{
     falloff_lut, CasterCache, DynamicVertices, FinalPass, FinalShader, ShadowMap,
 };
 use crate::scene::{normal_matrix, Aabb, LightView, Mesh, Scene};

@@ -3,7 +3,7 @@
 //! docs/DESIGN.md's exact visibility: the fraction of the spherical light's disc (centre L,
 //! radius R, facing the shaded point) that the point sees, by stratified shadow rays (at least
 //! 256 per pixel, deterministic seed) against the casters' exact triangles on the CPU
-//! (`eval::reference`, obvhs BVH, rayon), at exactly the surface points the camera pixels
+//! (`reference`, obvhs BVH, rayon), at exactly the surface points the camera pixels
 //! show. Not a real-time technique: it is what every other technique's error is measured
 //! against, and `--technique reference` shows it as an image.
 //!
@@ -14,12 +14,12 @@
 //!    AOVs, which are read back. Steps 1 to 3 are skipped (`--timings` prints `reference/ray_cast skipped`)
 //!    when the camera, the light, R, the object transforms and the size are those of the
 //!    last computed frame.
-//! 2. `reference/ray_cast` (CPU): `eval::reference::visibility_cached` at those points
+//! 2. `reference/ray_cast` (CPU): `reference::visibility_cached` at those points
 //!    (read from the on-disk cache when the same inputs were computed before).
 //! 3. `reference/upload` (CPU + a copy on the technique's command buffer): the values into
 //!    `reference visibility`, R32_SFLOAT of the camera's size, sampled in
 //!    SHADER_READ_ONLY_OPTIMAL (filled with 1 at creation so it is never undefined).
-//! 4. `reference/final` — every object from the camera (`render::passes::FinalPass`).
+//! 4. `reference/final` — every object from the camera (`gpu::passes::FinalPass`).
 //!    Fragment `glsl/reference/final.frag` reads the image with `texelFetch` at
 //!    `gl_FragCoord` (no filtering: one value per pixel). Writes colour RGBA8 (and, in the
 //!    untimed AOV pass `reference/aov`, visibility R32F, position RGBA32F, normal RGBA16F;
@@ -33,8 +33,8 @@
 //! in penumbrae); seconds to minutes per new view on a CPU (cached afterwards).
 
 use super::{FrameInput, Technique, TechniqueInfo, TechniqueInit};
-use crate::eval::reference::{visibility_cached, ReferenceParams};
-use crate::render::passes::{FinalPass, FinalShader};
+use crate::gpu::passes::{FinalPass, FinalShader};
+use crate::reference::{visibility_cached, ReferenceParams};
 use crate::scene::{Camera, Light};
 use crate::shaders;
 use crate::vk::{

@@ -50,7 +50,7 @@
 //!
 //!    Both find the same edges (tests/gpu_silhouettes.rs) and keep each caster's geometry
 //!    until its model or the light changes: a moved caster rebuilds only its own smoothies.
-//! 1. `smoothies/shadow_map` — `render::passes::ShadowMap`: R32G32_SFLOAT, clear 1e30,
+//! 1. `smoothies/shadow_map` — `gpu::passes::ShadowMap`: R32G32_SFLOAT, clear 1e30,
 //!    blend MIN, no depth attachment; r = nearest caster's linear depth (the umbra test),
 //!    g = nearest surface of any role (the receiver depth r of Eq. 1). Linear depth, not
 //!    the depth buffer's, because Eq. 1 needs b/r.
@@ -105,11 +105,12 @@
 //! the shadow also detaches the smoothie (Volokh Fig. 8), hence normal offset.
 
 use super::{shadow_map_buffer, FrameInput, LightBuffer, Technique, TechniqueInfo, TechniqueInit};
-use crate::render::passes::{
+use crate::frustum::fit_light;
+use crate::gpu::passes::{
     falloff_lut, CasterCacheOf, DynamicVertices, FinalPass, FinalShader, ShadowMap, FAR_DEPTH,
 };
-use crate::render::{fit_light, SilhouettePath};
 use crate::scene::{LightView, Scene};
+use crate::settings::SilhouettePath;
 use crate::shaders;
 use crate::silhouette::gpu::GpuSilhouettes;
 use crate::silhouette::smoothie::records::{build_records, SmoothieRecords};

@@ -42,7 +42,7 @@
 //!
 //! ## Passes, in order (`ssm2` names its passes `ssm2/...`)
 //! 1. `ssm/occluder_map` — casters from the light, front (nearest) surfaces
-//!    (`render::passes::ShadowMap`): R32G32_SFLOAT, clear FAR_DEPTH (1e30), blend MIN; the
+//!    (`gpu::passes::ShadowMap`): R32G32_SFLOAT, clear FAR_DEPTH (1e30), blend MIN; the
 //!    r channel (nearest caster) is the occluder map. Shaders `glsl/common/shadow_depth.*`.
 //! 2. `ssm2/back_occluder_map` (ssm2 only) — the same, farthest surfaces: R32_SFLOAT clear
 //!    FAR_DEPTH, no blend, + D32_SFLOAT clear **0.0**, compare **GREATER**, no culling.
@@ -100,9 +100,10 @@
 //! - Cost grows with the penumbra extents: N^2 patches times (2h+1)^2 texels each (Sec. 6).
 
 use super::{shadow_map_buffer, FrameInput, LightBuffer, Technique, TechniqueInfo, TechniqueInit};
-use crate::render::passes::{FinalPass, FinalShader, ShadowMap, FAR_DEPTH};
-use crate::render::{AccumFormat, GpuScene};
+use crate::gpu::passes::{FinalPass, FinalShader, ShadowMap, FAR_DEPTH};
+use crate::gpu::GpuScene;
 use crate::scene::Role;
+use crate::settings::AccumFormat;
 use crate::shaders;
 use crate::vk::{
     Blend, Buffer, BufferUsageFlags, CompareOp, Context, CullModeFlags, DepthState, DescriptorSet,
@@ -249,8 +250,8 @@ impl Ssm {
                     name,
                     vertex: shaders::COMMON_SHADOW_DEPTH_VERT,
                     fragment: Some(fragment),
-                    vertex_stride: crate::render::gpu_scene::SCENE_VERTEX_STRIDE,
-                    attributes: &crate::render::gpu_scene::SCENE_ATTRIBUTES[..1],
+                    vertex_stride: crate::gpu::gpu_scene::SCENE_VERTEX_STRIDE,
+                    attributes: &crate::gpu::gpu_scene::SCENE_ATTRIBUTES[..1],
                     topology: PrimitiveTopology::TRIANGLE_LIST,
                     cull: CullModeFlags::NONE,
                     // MIN keeps the nearest depth without a z-buffer per layer.
@@ -259,7 +260,7 @@ impl Ssm {
                         (Format::R32_SFLOAT, Blend::Min),
                     ],
                     depth: None,
-                    push_constant_bytes: crate::render::gpu_scene::DRAW_PUSH_BYTES,
+                    push_constant_bytes: crate::gpu::gpu_scene::DRAW_PUSH_BYTES,
                     sets: &[&receiver_set],
                 },
             )
@@ -469,8 +470,8 @@ impl BackOccluderMap {
                 name,
                 vertex: shaders::COMMON_SHADOW_DEPTH_VERT,
                 fragment: Some(shaders::COMMON_SHADOW_DEPTH_FRAG),
-                vertex_stride: crate::render::gpu_scene::SCENE_VERTEX_STRIDE,
-                attributes: &crate::render::gpu_scene::SCENE_ATTRIBUTES[..1],
+                vertex_stride: crate::gpu::gpu_scene::SCENE_VERTEX_STRIDE,
+                attributes: &crate::gpu::gpu_scene::SCENE_ATTRIBUTES[..1],
                 topology: PrimitiveTopology::TRIANGLE_LIST,
                 // The farthest surface of any winding: open meshes have no "back faces".
                 cull: CullModeFlags::NONE,
@@ -482,7 +483,7 @@ impl BackOccluderMap {
                     write: true,
                     compare: CompareOp::GREATER,
                 }),
-                push_constant_bytes: crate::render::gpu_scene::DRAW_PUSH_BYTES,
+                push_constant_bytes: crate::gpu::gpu_scene::DRAW_PUSH_BYTES,
                 sets: &[&set],
             },
         )?;

@@ -3,8 +3,10 @@
 //! test on any validation message.
 #![allow(dead_code)]
 
-use softshadow::render::{FrameImages, Renderer, Settings};
+use softshadow::output::FrameImages;
+use softshadow::render::Renderer;
 use softshadow::scene::Scene;
+use softshadow::settings::Settings;
 use softshadow::vk::{Context, ContextOptions, FrameTimings};
 
 pub struct Gpu {

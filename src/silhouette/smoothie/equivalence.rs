@@ -366,7 +366,7 @@ fn odd_meshes_agree_with_the_reference() {
 fn builtin_scenes_agree_with_the_reference() {
     for name in ["dense", "primitives", "bunny", "fence"] {
         let scene = Scene::load(name).unwrap();
-        let fitted = crate::render::fit_light(&scene);
+        let fitted = crate::frustum::fit_light(&scene);
         let mut views = vec![fitted];
         let b = scene.bounds();
         views.extend(lights(

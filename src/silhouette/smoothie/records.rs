@@ -682,7 +682,7 @@ mod tests {
     /// at most a half turn. On a vertex where ten edges meet and on every built-in scene.
     #[test]
     fn special_vertices_get_one_full_disc_fan() {
-        use crate::render::fit_light;
+        use crate::frustum::fit_light;
         use crate::scene::{Light, LightView, Mesh, Scene, BUILTIN_SCENES};
         let check = |r: &SmoothieRecords, name: &str| {
             assert_eq!(r.fans.len(), r.corners, "{name}: one fan per corner");

@@ -239,7 +239,7 @@ impl FinalPass {
     pub fn pass(
         &self,
         rec: &mut Recorder<'_>,
-        frame: &crate::technique::FrameInput<'_>,
+        frame: &crate::gpu::FrameInput<'_>,
         set: &DescriptorSet,
     ) -> Result<()> {
         let pipeline = if frame.aov { &self.aov } else { &self.pipeline };

@@ -18,7 +18,7 @@
 //! Through an obvhs compressed wide BVH (PLOC build, 8-wide SIMD node tests). Self-hit
 //! guard: the origin is moved along the pixel's normal (the AOV's, which faces the camera)
 //! by `EPS_REL` times the bounding radius of the objects in the light's cone
-//! (`render::light_seen_bounds`), and hits closer than that distance are
+//! (`frustum::light_seen_bounds`), and hits closer than that distance are
 //! ignored. Rasterised positions are off their triangle's plane by about 1e-6 of their
 //! magnitude, so 1e-4 of the scene size clears them while staying far below any contact
 //! gap a shadow-map technique could resolve. Points on a surface's side facing away from the
@@ -289,7 +289,7 @@ pub fn visibility_at(
     };
     // The size of what the light sees, not of the whole scene: one object far away would
     // otherwise push the guard past every contact gap.
-    let eps = EPS_REL * crate::render::light_seen_bounds(scene).radius().max(1e-30);
+    let eps = EPS_REL * crate::frustum::light_seen_bounds(scene).radius().max(1e-30);
     let light = scene.light.position;
     let (rows, cols) = params.grid();
     let n = rows * cols;

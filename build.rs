@@ -153,6 +153,7 @@ fn run() -> Result<(), String> {
         }
     }
     let _ = writeln!(consts, "pub const ALL: &[Shader] = &[\n{table}];");
+    consts.push_str(&technique_constants(&files, &glsl)?);
     if !failures.is_empty() {
         return Err(format!(
             "{} shader(s) failed to compile:\n{}",
@@ -162,6 +163,58 @@ fn run() -> Result<(), String> {
     }
     std::fs::write(out.join("shaders.rs"), consts).map_err(|e| e.to_string())?;
     Ok(())
+}
+
+/// The per-technique constants, named once in each `glsl/<technique>/constants.glsl` as
+/// `#define NAME frame.technique.x` (x..w of `technique`, then of `technique2`), as the Rust
+/// module `constants`: `pub const NAME: usize` = the slot (0..4 `technique`, 4..8
+/// `technique2`) that `technique::constants` fills. A slot named twice is an error.
+fn technique_constants(files: &[PathBuf], glsl: &Path) -> Result<String, String> {
+    let mut out = String::from(
+        "/// Slots of `frame.technique` (0..4) and `frame.technique2` (4..8), named by the\n\
+         /// `#define`s of each `glsl/<technique>/constants.glsl`.\npub mod constants {\n",
+    );
+    for file in files
+        .iter()
+        .filter(|f| f.file_name().is_some_and(|n| n == "constants.glsl"))
+    {
+        let rel = file.strip_prefix(glsl).map_err(|e| e.to_string())?;
+        let source =
+            std::fs::read_to_string(file).map_err(|e| format!("{}: {e}", file.display()))?;
+        let mut used: Vec<(usize, String)> = Vec::new();
+        for (n, line) in source.lines().enumerate() {
+            let Some(rest) = line.trim().strip_prefix("#define ") else {
+                continue;
+            };
+            let at = format!("glsl/{}:{}", rel.display(), n + 1);
+            let mut words = rest.split_whitespace();
+            // A bare `#define NAME` is the include guard.
+            let (Some(name), Some(value)) = (words.next(), words.next()) else {
+                continue;
+            };
+            let slot = value
+                .strip_prefix("frame.technique")
+                .and_then(|v| match v.as_bytes() {
+                    [b'.', c] => Some((0, *c)),
+                    [b'2', b'.', c] => Some((4, *c)),
+                    _ => None,
+                })
+                .and_then(|(base, c)| b"xyzw".iter().position(|&x| x == c).map(|i| base + i))
+                .ok_or(format!(
+                    "{at}: `{value}` is not one of frame.technique.x..w, frame.technique2.x..w"
+                ))?;
+            if let Some((_, other)) = used.iter().find(|(s, _)| *s == slot) {
+                return Err(format!("{at}: {name} names the slot of {other} ({value})"));
+            }
+            used.push((slot, name.to_string()));
+            let _ = writeln!(
+                out,
+                "    /// `{value}` ({at})\n    pub const {name}: usize = {slot};"
+            );
+        }
+    }
+    out.push_str("}\n");
+    Ok(out)
 }
 
 /// Marks a line of a hand-tuned `.spvasm` final pass that only the AOV variant keeps.

@@ -5,8 +5,9 @@
 //! Layers, bottom up; each module imports only from those above it in this list, so no
 //! module imports from a module that imports it (tests/layers.rs checks every `crate::`
 //! path under src/ against this list):
-//! 1. `vk`: every unsafe Vulkan call behind safe wrappers.
-//! 2. `shaders`: the SPIR-V of every shader under glsl/, compiled by build.rs.
+//! 1. `shaders`: the SPIR-V of every shader under glsl/, compiled by build.rs, and the
+//!    per-technique constants' slots.
+//! 2. `vk`: every unsafe Vulkan call behind safe wrappers.
 //! 3. `output`: checked output paths, all-or-nothing publishing, the PNG and EXR writers.
 //! 4. `scene`: meshes, scene files and the built-in scenes.
 //! 5. `frustum`: light and camera math: the fitted light frustum, the camera's view-projection.

@@ -12,8 +12,8 @@ layout(set = 0, binding = 0, std140) uniform Frame {
     vec4 cam_pos;            // xyz: camera position
     vec4 light_params;       // near, far, shadow-map resolution, 1 / resolution
     vec4 light_frustum;      // tan(fov/2), world texel size per unit depth, normal offset (texels), relative depth bias
-    vec4 technique;          // technique-specific (smoothies: x = width t in light uv)
-    vec4 technique2;         // technique-specific
+    vec4 technique;          // technique-specific, named by each glsl/<technique>/constants.glsl
+    vec4 technique2;         // technique-specific, named likewise
 } frame;
 
 #ifndef FRAME_NO_DRAW_PUSH

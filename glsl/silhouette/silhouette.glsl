@@ -11,6 +11,7 @@
 
 #define FRAME_NO_DRAW_PUSH
 #include "common/frame.glsl"
+#include "smoothies/constants.glsl"
 
 layout(push_constant, std430) uniform Counts {
     uvec4 counts;          // edges, welded vertices, casters (all casters together), 0
@@ -138,10 +139,10 @@ vec2 project_normal(vec3 p, float depth, vec2 uv, vec3 n_obj) {
     return (c.w > 0.0 && finite2(v)) ? v : vec2(0.0);
 }
 
-// Width::at: the fixed t (frame.technique.y >= 0) or R / (2 b tan(fov/2)), clamped.
+// Width::at: the fixed t (SMOOTHIE_FIXED_T >= 0) or R / (2 b tan(fov/2)), clamped.
 float width_at(float depth) {
-    if (frame.technique.y >= 0.0) {
-        return frame.technique.y;
+    if (SMOOTHIE_FIXED_T >= 0.0) {
+        return SMOOTHIE_FIXED_T;
     }
     float t = frame.light_pos_radius.w / (2.0 * max(depth, 1e-30) * frame.light_frustum.x);
     return clamp(t, 0.0, MAX_CALIBRATED_T);

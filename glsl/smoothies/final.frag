@@ -4,6 +4,7 @@
 // behind the blocker -> 0, else behind the smoothie -> its alpha, else 1; bilinear weights;
 // then the sinusoidal falloff from a 1-D lookup texture.
 #include "common/shadow.glsl"
+#include "smoothies/constants.glsl"
 
 layout(set = 0, binding = 1) uniform sampler2D shadow_map;       // RG32F: r = nearest caster depth
 layout(set = 0, binding = 2) uniform sampler2D smoothie_depth;   // R32F smoothie depth (MIN)
@@ -18,7 +19,7 @@ float visibility(vec3 p, vec3 n) {
     if (all(equal(lit, vec4(0.0)))) return 0.0;
     // t = 0 (a point light, R = 0): exactly `hard`, falloff curve included (it is identity
     // only at 0 and 1, and would reshape the one-texel filtered edge).
-    if (frame.technique.x <= 0.0) return bilinear(lit, s.uv);
+    if (SMOOTHIE_T <= 0.0) return bilinear(lit, s.uv);
     vec4 in_front = lit_test(textureGather(smoothie_depth, s.uv, 0), s.depth);
     // The alpha fetch is only needed where some texel lies behind a smoothie (penumbrae):
     // lit areas, the bulk of the image, skip it and the falloff lookup.

@@ -7,6 +7,7 @@
 // visibility = 1 - occlusion. ssm2 (TWO_SIDED) merges front and back maps with max (Sec. 3.5).
 #include "common/frame.glsl"
 #include "ssm/ssm.glsl"
+#include "ssm/constants.glsl"
 
 layout(set = 0, binding = 1) uniform sampler2D receiver_front;   // R32F nearest receiver depth
 layout(set = 0, binding = 2) uniform sampler2D ssm_front;        // accumulated occlusion, layer 0
@@ -21,7 +22,7 @@ layout(set = 0, binding = 5) uniform sampler2D ssm_back_pure;    // back-face oc
 const float MATCH_TEXELS = 3.0;
 
 float visibility(vec3 p, vec3 n) {
-    float res = frame.technique.y;
+    float res = SSM_RES;
     float texel = 2.0 * frame.light_frustum.x / res;   // world texel size per unit depth
     // Normal offset as common/shadow.glsl, in occluder-map texels.
     float d0 = -(frame.light_view * vec4(p, 1.0)).z;

@@ -13,6 +13,7 @@
 // (Sec. 4.2: "MOV_SAT, SUB, MUL").
 #include "common/frame.glsl"
 #include "ssm/ssm.glsl"
+#include "ssm/constants.glsl"
 
 layout(set = 0, binding = 2) uniform sampler2D receiver_front;   // R32F nearest receiver
 layout(set = 0, binding = 3) uniform sampler2D receiver_pure;    // R32F nearest pure receiver
@@ -25,15 +26,15 @@ layout(location = 1) out float o_pure;    // occlusion of the pure receiver behi
 
 float occlusion(float zr, vec2 r) {
     float zo = v_patch.z;
-    float n = frame.technique.y;
+    float n = SSM_RES;
     float t = frame.light_frustum.x;
     // Self-occlusion guard (the paper separates occluders from receivers): a patch less than
-    // `technique.w` texels of depth slope in front of the receiver is the receiver's own
+    // `SSM_SELF_GUARD_TEXELS` texels of depth slope in front of the receiver is the receiver's own
     // surface (same texel, or a staircase step of a sloped surface), not an occluder.
-    float guard = zr * (frame.light_frustum.w + frame.technique.w * 2.0 * t / n);
+    float guard = zr * (frame.light_frustum.w + SSM_SELF_GUARD_TEXELS * 2.0 * t / n);
     if (zr - zo <= guard) return 0.0;
     vec2 d0 = v_patch.xy - r;   // patch's low edge minus receiver, in texels
-    float L = frame.technique.x;
+    float L = SSM_LIGHT_SIDE;
     if (L <= 0.0) {
         // Point light: the patch hides the whole light iff it covers the receiver's ray.
         return all(lessThanEqual(d0, vec2(0.0))) && all(greaterThan(d0 + 1.0, vec2(0.0))) ? 1.0 : 0.0;

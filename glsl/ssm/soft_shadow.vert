@@ -8,6 +8,7 @@
 // behind every receiver become a degenerate quad outside clip space (no fragment).
 #include "common/frame.glsl"
 #include "ssm/ssm.glsl"
+#include "ssm/constants.glsl"
 
 // r = the casters' linear depth: the RG32F MIN-blended shared shadow map (front surfaces),
 // or ssm2's R32F back occluder map (farthest surfaces, GREATER depth test).
@@ -17,7 +18,7 @@ layout(set = 0, binding = 4, std430) readonly buffer Bound { uint zmax_bits; } b
 layout(location = 0) flat out vec3 v_patch;   // patch texel (i, j) and its depth z_O
 
 void main() {
-    int n = int(frame.technique.y);
+    int n = int(SSM_RES);
     ivec2 texel = ivec2(gl_InstanceIndex % n, gl_InstanceIndex / n);
     float zo = texelFetch(occluder_map, texel, 0).r;
     float zmax = uintBitsToFloat(bound.zmax_bits);
@@ -26,7 +27,7 @@ void main() {
         gl_Position = vec4(2.0, 2.0, 2.0, 1.0);
         return;
     }
-    float h = frame.technique.x * float(n) / (4.0 * frame.light_frustum.x) * (1.0 / zo - 1.0 / zmax);
+    float h = SSM_LIGHT_SIDE * float(n) / (4.0 * frame.light_frustum.x) * (1.0 / zo - 1.0 / zmax);
     // A hair of margin: fragments on the exact border contribute 0 anyway.
     vec2 lo = vec2(texel) - h - 1e-3;
     vec2 hi = vec2(texel) + 1.0 + h + 1e-3;

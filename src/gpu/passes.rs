@@ -49,7 +49,7 @@ impl ShadowMap {
                 ctx.device_name
             );
         }
-        let set = DescriptorSet::new(ctx, &[Resource::Uniform(ubo)], name)?;
+        let set = DescriptorSet::new(ctx, &[("frame", Resource::Uniform(ubo))], name)?;
         let pipeline = Pipeline::graphics(
             ctx,
             &GraphicsPipelineDesc {

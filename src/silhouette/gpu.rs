@@ -199,6 +199,18 @@ pub type CasterSilhouettes = Vec<(usize, Vec<GpuEdge>)>;
 /// Per caster: its object index and the floats of the vertices its indirect draw draws.
 pub type CasterGeometry = Vec<(usize, Vec<f32>)>;
 
+/// The shader blocks of the buffers uploaded once (`statics`), bindings 1..=8.
+const STATIC_BLOCKS: [&str; 8] = [
+    "Positions",
+    "Triangles",
+    "FacePlanes",
+    "FaceP0yz",
+    "Edges",
+    "EdgeFaces",
+    "EdgeCaster",
+    "VertexCaster",
+];
+
 /// `edges[].w` of an edge whose faces are listed in `edge_faces` (not exactly two).
 const FACE_LIST: u32 = u32::MAX;
 
@@ -357,6 +369,7 @@ impl GpuSilhouettes {
         let upload = |data: &[u8], what: &str| {
             Buffer::with_data(ctx, data, storage, &format!("silhouettes: {what}"))
         };
+        // In the order of STATIC_BLOCKS.
         let statics = vec![
             upload(bytemuck::cast_slice(&positions), "welded positions")?,
             upload(bytemuck::cast_slice(&triangles), "welded triangles")?,
@@ -432,22 +445,26 @@ impl GpuSilhouettes {
             "caster reach",
         )?;
         let vertices = vertex_buffer(ctx, emitter, region_base)?;
-        let mut resources = vec![Resource::Uniform(ubo)];
-        resources.extend(statics.iter().map(Resource::Storage));
+        // The blocks of glsl/silhouette/silhouette.glsl and penumbra.glsl, in binding order.
+        let mut resources = vec![("frame", Resource::Uniform(ubo))];
+        resources.extend(
+            STATIC_BLOCKS
+                .into_iter()
+                .zip(statics.iter().map(Resource::Storage)),
+        );
         resources.extend(
             [
-                &caster_data,
-                &sil,
-                &edge_dir,
-                &incident_count,
-                &incident,
-                &requested,
-                &draw_commands,
-                &penumbra_frame,
-                &reach_state,
+                ("Casters", &caster_data),
+                ("Silhouette", &sil),
+                ("EdgeDir", &edge_dir),
+                ("IncidentCount", &incident_count),
+                ("Incident", &incident),
+                ("Requested", &requested),
+                ("DrawCommands", &draw_commands),
+                ("PenumbraFrame", &penumbra_frame),
+                ("ReachState", &reach_state),
             ]
-            .into_iter()
-            .map(Resource::Storage),
+            .map(|(name, b)| (name, Resource::Storage(b))),
         );
         let set = DescriptorSet::new(ctx, &resources, "silhouettes")?;
         let output_set = output_set(ctx, &vertices)?;
@@ -751,7 +768,11 @@ fn vertex_buffer(ctx: &Context, emitter: Emitter, vertices: u32) -> Result<Buffe
 }
 
 fn output_set(ctx: &Context, vertices: &Buffer) -> Result<DescriptorSet> {
-    DescriptorSet::new(ctx, &[Resource::Storage(vertices)], "silhouettes output")
+    DescriptorSet::new(
+        ctx,
+        &[("Vertices", Resource::Storage(vertices))],
+        "silhouettes output",
+    )
 }
 
 /// The caster's constants: as the CPU path's `Projector`, a singular model gets a zero

@@ -70,7 +70,11 @@ impl Hard {
                 | ImageUsageFlags::TRANSFER_SRC,
             "hard/shadow_map depth",
         )?;
-        let map_set = DescriptorSet::new(ctx, &[Resource::Uniform(init.ubo)], "hard/shadow_map")?;
+        let map_set = DescriptorSet::new(
+            ctx,
+            &[("frame", Resource::Uniform(init.ubo))],
+            "hard/shadow_map",
+        )?;
         let map_pipeline = Pipeline::graphics(
             ctx,
             &GraphicsPipelineDesc {
@@ -100,8 +104,8 @@ impl Hard {
         let final_set = DescriptorSet::new(
             ctx,
             &[
-                Resource::Uniform(init.ubo),
-                Resource::Sampled(&map, &sampler),
+                ("frame", Resource::Uniform(init.ubo)),
+                ("shadow_map", Resource::Sampled(&map, &sampler)),
             ],
             "hard/final",
         )?;

@@ -93,6 +93,14 @@ pub fn shadow_map_buffer<'a>(name: &'static str, map: &'a ShadowMap) -> LightBuf
     }
 }
 
+/// `frame.technique` and `frame.technique2` from their eight slots, each filled by its name
+/// in `shaders::constants` (the `#define`s of `glsl/<technique>/constants.glsl`, which the
+/// shaders read by the same names): `k[constants::PCSS_FILTER_SAMPLES] = n as f32`.
+pub fn technique_constants(k: [f32; 8]) -> [[f32; 4]; 2] {
+    let [a, b, c, d, e, f, g, h] = k;
+    [[a, b, c, d], [e, f, g, h]]
+}
+
 pub struct TechniqueInfo {
     pub name: &'static str,
     pub summary: &'static str,

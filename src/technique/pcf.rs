@@ -50,10 +50,13 @@
 //! (9 gathers), poisson16 about 3.5x: on lavapipe a gather costs about as much as the rest
 //! of the final pass.
 
-use super::{shadow_map_buffer, FrameInput, LightBuffer, Technique, TechniqueInfo, TechniqueInit};
+use super::{
+    shadow_map_buffer, technique_constants, FrameInput, LightBuffer, Technique, TechniqueInfo,
+    TechniqueInit,
+};
 use crate::gpu::passes::{FinalPass, FinalShader, ShadowMap};
 use crate::settings::PcfKernel;
-use crate::shaders;
+use crate::shaders::{self, constants as k};
 use crate::vk::{Context, DescriptorSet, Filter, Recorder, Resource, Sampler};
 use anyhow::{Context as _, Result};
 
@@ -68,12 +71,18 @@ pub fn poisson_radius_texels(samples: u32) -> f32 {
     (samples as f32 / std::f32::consts::PI).sqrt()
 }
 
-/// `frame.technique` of `glsl/pcf/final.frag`.
-pub fn kernel_uniform(kernel: PcfKernel) -> [f32; 4] {
+/// The constants of `glsl/pcf/constants.glsl` for `kernel`.
+pub fn kernel_uniform(kernel: PcfKernel) -> [[f32; 4]; 2] {
+    let mut c = [0.0; 8];
     match kernel {
-        PcfKernel::Box(n) => [0.0, n as f32, 0.0, 0.0],
-        PcfKernel::Poisson(n) => [1.0, n as f32, poisson_radius_texels(n), 0.0],
+        PcfKernel::Box(n) => c[k::PCF_SAMPLES] = n as f32,
+        PcfKernel::Poisson(n) => {
+            c[k::PCF_KERNEL_KIND] = 1.0;
+            c[k::PCF_SAMPLES] = n as f32;
+            c[k::PCF_POISSON_RADIUS] = poisson_radius_texels(n);
+        }
     }
+    technique_constants(c)
 }
 
 pub struct Pcf {
@@ -98,8 +107,8 @@ impl Pcf {
         let final_set = DescriptorSet::new(
             ctx,
             &[
-                Resource::Uniform(init.ubo),
-                Resource::Sampled(&shadow.depth, &sampler),
+                ("frame", Resource::Uniform(init.ubo)),
+                ("shadow_map", Resource::Sampled(&shadow.depth, &sampler)),
             ],
             "pcf/final",
         )
@@ -130,7 +139,7 @@ impl Technique for Pcf {
     }
 
     fn uniforms(&self, _frame: &FrameInput<'_>) -> [[f32; 4]; 2] {
-        [kernel_uniform(self.kernel), [0.0; 4]]
+        kernel_uniform(self.kernel)
     }
 
     fn record_light(

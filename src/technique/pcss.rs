@@ -70,10 +70,13 @@
 //! (a min/max depth mip chain of the shadow map: one fetch decides "no blocker" or "all
 //! blocked" for most pixels), which needs mip-level image views in `src/vk`.
 
-use super::{shadow_map_buffer, FrameInput, LightBuffer, Technique, TechniqueInfo, TechniqueInit};
+use super::{
+    shadow_map_buffer, technique_constants, FrameInput, LightBuffer, Technique, TechniqueInfo,
+    TechniqueInit,
+};
 use crate::gpu::passes::{FinalPass, FinalShader, ShadowMap};
 use crate::settings::PcfKernel;
-use crate::shaders;
+use crate::shaders::{self, constants as k};
 use crate::vk::{Context, DescriptorSet, Filter, Recorder, Resource, Sampler};
 use anyhow::{Context as _, Result};
 
@@ -121,8 +124,8 @@ impl Pcss {
         let final_set = DescriptorSet::new(
             ctx,
             &[
-                Resource::Uniform(init.ubo),
-                Resource::Sampled(&shadow.depth, &sampler),
+                ("frame", Resource::Uniform(init.ubo)),
+                ("shadow_map", Resource::Sampled(&shadow.depth, &sampler)),
             ],
             "pcss/final",
         )
@@ -156,15 +159,13 @@ impl Technique for Pcss {
     fn uniforms(&self, frame: &FrameInput<'_>) -> [[f32; 4]; 2] {
         let r = frame.light_radius.max(0.0);
         let two_tan = 2.0 * (frame.light.fov_deg.to_radians() * 0.5).tan();
-        [
-            [
-                r / (two_tan * frame.light.near), // Eq. 2
-                r / two_tan,                      // Eq. 4 without its depths
-                MAX_RADIUS_TEXELS,
-                self.filter_samples as f32,
-            ],
-            [self.search_samples as f32, 0.0, 0.0, 0.0],
-        ]
+        let mut c = [0.0; 8];
+        c[k::PCSS_LIGHT_UV_NEAR] = r / (two_tan * frame.light.near); // Eq. 2
+        c[k::PCSS_PENUMBRA_SCALE] = r / two_tan; // Eq. 4 without its depths
+        c[k::PCSS_MAX_RADIUS_TEXELS] = MAX_RADIUS_TEXELS;
+        c[k::PCSS_FILTER_SAMPLES] = self.filter_samples as f32;
+        c[k::PCSS_SEARCH_SAMPLES] = self.search_samples as f32;
+        technique_constants(c)
     }
 
     fn record_light(

@@ -88,12 +88,15 @@
 //! light motion. One surface per texel: a receive-only object in front of a caster (seen
 //! from the light) hides the penumbra of whatever lies behind it.
 
-use super::{shadow_map_buffer, FrameInput, LightBuffer, Technique, TechniqueInfo, TechniqueInit};
+use super::{
+    shadow_map_buffer, technique_constants, FrameInput, LightBuffer, Technique, TechniqueInfo,
+    TechniqueInit,
+};
 use crate::frustum::fit_light;
 use crate::gpu::passes::{CasterCache, DynamicVertices, FinalPass, FinalShader, ShadowMap};
 use crate::scene::LightView;
 use crate::settings::SilhouettePath;
-use crate::shaders;
+use crate::shaders::{self, constants as k};
 use crate::silhouette::gpu::GpuSilhouettes;
 use crate::silhouette::penumbra::{build_penumbra, PenumbraKey, PenumbraVertex};
 use crate::silhouette::{self, Adjacency};
@@ -172,8 +175,8 @@ impl PenumbraMap {
         let penumbra_set = DescriptorSet::new(
             ctx,
             &[
-                Resource::Uniform(init.ubo),
-                Resource::Sampled(&shadow.depth, &nearest),
+                ("frame", Resource::Uniform(init.ubo)),
+                ("shadow_map", Resource::Sampled(&shadow.depth, &nearest)),
             ],
             "penumbra-map/penumbra",
         )?;
@@ -198,9 +201,9 @@ impl PenumbraMap {
         let final_set = DescriptorSet::new(
             ctx,
             &[
-                Resource::Uniform(init.ubo),
-                Resource::Sampled(&shadow.depth, &nearest),
-                Resource::Sampled(&penumbra, &nearest),
+                ("frame", Resource::Uniform(init.ubo)),
+                ("shadow_map", Resource::Sampled(&shadow.depth, &nearest)),
+                ("penumbra_map", Resource::Sampled(&penumbra, &nearest)),
             ],
             "penumbra-map/final",
         )?;
@@ -276,11 +279,11 @@ impl Technique for PenumbraMap {
     }
 
     fn uniforms(&self, frame: &FrameInput<'_>) -> [[f32; 4]; 2] {
-        // Informational (debug captures): Lr and Z_far; the shaders read neither.
-        [
-            [frame.light_radius, cone_base_depth(frame.light), 0.0, 0.0],
-            [0.0; 4],
-        ]
+        // Informational (debug captures): the shaders read neither.
+        let mut c = [0.0; 8];
+        c[k::PENUMBRA_MAP_LIGHT_RADIUS] = frame.light_radius;
+        c[k::PENUMBRA_MAP_Z_FAR] = cone_base_depth(frame.light);
+        technique_constants(c)
     }
 
     fn record_light(

@@ -654,7 +654,10 @@ impl Plateaus {
         };
         let drop_set = DescriptorSet::new(
             ctx,
-            &[Resource::Uniform(init.ubo), Resource::Uniform(&plane_ubo)],
+            &[
+                ("frame", Resource::Uniform(init.ubo)),
+                ("plane", Resource::Uniform(&plane_ubo)),
+            ],
             "plateaus/drop_shadow",
         )?;
         let drop_pipeline = Pipeline::graphics(
@@ -699,11 +702,11 @@ impl Plateaus {
         let final_set = DescriptorSet::new(
             ctx,
             &[
-                Resource::Uniform(init.ubo),
-                Resource::Uniform(&plane_ubo),
-                Resource::Sampled(&texture, &nearest),
-                Resource::Sampled(&shadow.depth, &nearest),
-                Resource::Sampled(&falloff, &linear),
+                ("frame", Resource::Uniform(init.ubo)),
+                ("plane", Resource::Uniform(&plane_ubo)),
+                ("plateau_tex", Resource::Sampled(&texture, &nearest)),
+                ("shadow_map", Resource::Sampled(&shadow.depth, &nearest)),
+                ("falloff", Resource::Sampled(&falloff, &linear)),
             ],
             "plateaus/final",
         )?;

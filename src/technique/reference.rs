@@ -109,8 +109,11 @@ impl Reference {
         let final_set = DescriptorSet::new(
             ctx,
             &[
-                Resource::Uniform(init.ubo),
-                Resource::Sampled(&visibility, &sampler),
+                ("frame", Resource::Uniform(init.ubo)),
+                (
+                    "reference_visibility",
+                    Resource::Sampled(&visibility, &sampler),
+                ),
             ],
             "reference/final",
         )

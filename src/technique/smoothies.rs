@@ -104,14 +104,17 @@
 //! of a coarse mesh changes under a moving light (Volokh Sec. 7); a depth bias that detaches
 //! the shadow also detaches the smoothie (Volokh Fig. 8), hence normal offset.
 
-use super::{shadow_map_buffer, FrameInput, LightBuffer, Technique, TechniqueInfo, TechniqueInit};
+use super::{
+    shadow_map_buffer, technique_constants, FrameInput, LightBuffer, Technique, TechniqueInfo,
+    TechniqueInit,
+};
 use crate::frustum::fit_light;
 use crate::gpu::passes::{
     falloff_lut, CasterCacheOf, DynamicVertices, FinalPass, FinalShader, ShadowMap, FAR_DEPTH,
 };
 use crate::scene::{LightView, Scene};
 use crate::settings::SilhouettePath;
-use crate::shaders;
+use crate::shaders::{self, constants as k};
 use crate::silhouette::gpu::GpuSilhouettes;
 use crate::silhouette::smoothie::records::{build_records, SmoothieRecords};
 use crate::silhouette::smoothie::{GeometryKey, SmoothieVertex, Width};
@@ -233,8 +236,8 @@ impl Smoothies {
         let smoothie_set = DescriptorSet::new(
             ctx,
             &[
-                Resource::Uniform(init.ubo),
-                Resource::Sampled(&shadow.depth, &nearest),
+                ("frame", Resource::Uniform(init.ubo)),
+                ("shadow_map", Resource::Sampled(&shadow.depth, &nearest)),
             ],
             "smoothies/smoothie",
         )?;
@@ -260,11 +263,17 @@ impl Smoothies {
         let final_set = DescriptorSet::new(
             ctx,
             &[
-                Resource::Uniform(init.ubo),
-                Resource::Sampled(&shadow.depth, &nearest),
-                Resource::Sampled(&smoothie_depth, &nearest),
-                Resource::Sampled(&smoothie_alpha, &nearest),
-                Resource::Sampled(&falloff, &linear),
+                ("frame", Resource::Uniform(init.ubo)),
+                ("shadow_map", Resource::Sampled(&shadow.depth, &nearest)),
+                (
+                    "smoothie_depth",
+                    Resource::Sampled(&smoothie_depth, &nearest),
+                ),
+                (
+                    "smoothie_alpha",
+                    Resource::Sampled(&smoothie_alpha, &nearest),
+                ),
+                ("falloff", Resource::Sampled(&falloff, &linear)),
             ],
             "smoothies/final",
         )?;
@@ -374,7 +383,7 @@ impl Smoothies {
         };
         DescriptorSet::new(
             ctx,
-            &[Resource::Storage(buffer)],
+            &[("Records", Resource::Storage(buffer))],
             "smoothies/smoothie records",
         )
     }
@@ -425,16 +434,18 @@ impl Technique for Smoothies {
     }
 
     fn uniforms(&self, frame: &FrameInput<'_>) -> [[f32; 4]; 2] {
-        // x: the representative width; the final pass only tests it for 0 (R = 0 is `hard`).
+        // The final pass only tests the representative width for 0 (R = 0 is `hard`).
         let t = smoothie_width(
             frame.settings.smoothie_t,
             frame.scene,
             frame.light,
             frame.light_radius,
         );
-        // y: the fixed width for the GPU silhouette pass, or -1 for the calibrated one.
-        let fixed = frame.settings.smoothie_t.unwrap_or(-1.0);
-        [[t, fixed, 0.0, 0.0], [0.0; 4]]
+        let mut c = [0.0; 8];
+        c[k::SMOOTHIE_T] = t;
+        // The GPU silhouette passes' fixed width, or -1 for the calibrated one.
+        c[k::SMOOTHIE_FIXED_T] = frame.settings.smoothie_t.unwrap_or(-1.0);
+        technique_constants(c)
     }
 
     fn record_light(

@@ -99,12 +99,15 @@
 //!   caster's own surface deeper than the guard count as occluders of itself.
 //! - Cost grows with the penumbra extents: N^2 patches times (2h+1)^2 texels each (Sec. 6).
 
-use super::{shadow_map_buffer, FrameInput, LightBuffer, Technique, TechniqueInfo, TechniqueInit};
+use super::{
+    shadow_map_buffer, technique_constants, FrameInput, LightBuffer, Technique, TechniqueInfo,
+    TechniqueInit,
+};
 use crate::gpu::passes::{FinalPass, FinalShader, ShadowMap, FAR_DEPTH};
 use crate::gpu::GpuScene;
 use crate::scene::Role;
 use crate::settings::AccumFormat;
-use crate::shaders;
+use crate::shaders::{self, constants as k};
 use crate::vk::{
     Blend, Buffer, BufferUsageFlags, CompareOp, Context, CullModeFlags, DepthState, DescriptorSet,
     Filter, Format, GraphicsPipelineDesc, Image, ImageUsageFlags, MemoryLocation, Pipeline,
@@ -241,8 +244,11 @@ impl Ssm {
             )
             .context("ssm receiver map")?,
         ];
-        let receiver_set =
-            DescriptorSet::new(ctx, &[Resource::Uniform(init.ubo)], "ssm/receiver_map")?;
+        let receiver_set = DescriptorSet::new(
+            ctx,
+            &[("frame", Resource::Uniform(init.ubo))],
+            "ssm/receiver_map",
+        )?;
         let receiver_pipeline = |fragment: &[u8], name: &str| {
             Pipeline::graphics(
                 ctx,
@@ -284,10 +290,16 @@ impl Ssm {
         let bound_set = DescriptorSet::new(
             ctx,
             &[
-                Resource::Uniform(init.ubo),
-                Resource::Sampled(&receiver_layers[0], &nearest),
-                Resource::Sampled(&receiver_layers[1], &nearest),
-                Resource::Storage(&bound),
+                ("frame", Resource::Uniform(init.ubo)),
+                (
+                    "receiver_front",
+                    Resource::Sampled(&receiver_layers[0], &nearest),
+                ),
+                (
+                    "receiver_pure",
+                    Resource::Sampled(&receiver_layers[1], &nearest),
+                ),
+                ("bound", Resource::Storage(&bound)),
             ],
             "ssm/receiver_bound",
         )?;
@@ -307,11 +319,17 @@ impl Ssm {
             let set = DescriptorSet::new(
                 ctx,
                 &[
-                    Resource::Uniform(init.ubo),
-                    Resource::Sampled(occluder_map, &nearest),
-                    Resource::Sampled(&receiver_layers[0], &nearest),
-                    Resource::Sampled(&receiver_layers[1], &nearest),
-                    Resource::Storage(&bound),
+                    ("frame", Resource::Uniform(init.ubo)),
+                    ("occluder_map", Resource::Sampled(occluder_map, &nearest)),
+                    (
+                        "receiver_front",
+                        Resource::Sampled(&receiver_layers[0], &nearest),
+                    ),
+                    (
+                        "receiver_pure",
+                        Resource::Sampled(&receiver_layers[1], &nearest),
+                    ),
+                    ("bound", Resource::Storage(&bound)),
                 ],
                 name,
             )?;
@@ -353,14 +371,17 @@ impl Ssm {
         .context("ssm soft shadow pipeline")?;
 
         let mut final_resources = vec![
-            Resource::Uniform(init.ubo),
-            Resource::Sampled(&receiver_layers[0], &nearest),
-            Resource::Sampled(&front.layers[0], &nearest),
-            Resource::Sampled(&front.layers[1], &nearest),
+            ("frame", Resource::Uniform(init.ubo)),
+            (
+                "receiver_front",
+                Resource::Sampled(&receiver_layers[0], &nearest),
+            ),
+            ("ssm_front", Resource::Sampled(&front.layers[0], &nearest)),
+            ("ssm_pure", Resource::Sampled(&front.layers[1], &nearest)),
         ];
         if let Some(b) = &back_soft {
-            final_resources.push(Resource::Sampled(&b.layers[0], &nearest));
-            final_resources.push(Resource::Sampled(&b.layers[1], &nearest));
+            final_resources.push(("ssm_back_front", Resource::Sampled(&b.layers[0], &nearest)));
+            final_resources.push(("ssm_back_pure", Resource::Sampled(&b.layers[1], &nearest)));
         }
         let final_name = if two_sided { "ssm2/final" } else { "ssm/final" };
         let final_set = DescriptorSet::new(ctx, &final_resources, final_name)?;
@@ -463,7 +484,7 @@ impl BackOccluderMap {
             ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT,
             "ssm2 back occluder z-buffer",
         )?;
-        let set = DescriptorSet::new(ctx, &[Resource::Uniform(ubo)], name)?;
+        let set = DescriptorSet::new(ctx, &[("frame", Resource::Uniform(ubo))], name)?;
         let pipeline = Pipeline::graphics(
             ctx,
             &GraphicsPipelineDesc {
@@ -519,15 +540,12 @@ impl Technique for Ssm {
 
     fn uniforms(&self, frame: &FrameInput<'_>) -> [[f32; 4]; 2] {
         let n = self.res as f32;
-        [
-            [
-                light_square_side(frame.light_radius),
-                n,
-                1.0 / n,
-                SELF_GUARD_TEXELS,
-            ],
-            [0.0; 4],
-        ]
+        let mut c = [0.0; 8];
+        c[k::SSM_LIGHT_SIDE] = light_square_side(frame.light_radius);
+        c[k::SSM_RES] = n;
+        c[k::SSM_INV_RES] = 1.0 / n;
+        c[k::SSM_SELF_GUARD_TEXELS] = SELF_GUARD_TEXELS;
+        technique_constants(c)
     }
 
     fn record_light(

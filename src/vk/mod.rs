@@ -35,10 +35,31 @@
 //! With `--validation` (and in every test) the Khronos layer's synchronization validation
 //! checks the result; `SOFTSHADOW_BEST_PRACTICES=1` adds its best-practices checks.
 
+//! # Names across the Rust-GLSL line
+//!
+//! Binding numbers are written once, in the GLSL a porter reads
+//! (`layout(set = 0, binding = 3) uniform sampler2D smoothie_alpha;`). Each `DescriptorSet`
+//! names the shader variable of every binding it fills, and every pipeline creation reads
+//! the bindings its shaders declare from their SPIR-V (`reflect`, with the spirq crate) and
+//! compares name and kind binding by binding: a list reordered on either side is an error at
+//! creation naming the binding, never two textures silently swapped. Reflection rather than
+//! a generated header or shared constants: the numbers and names stay in the GLSL with no
+//! second copy to keep in step, and the check runs on the very SPIR-V the device gets, for
+//! every pipeline every test creates. spirq rather than a SPIR-V reader of our own: parsing
+//! SPIR-V is what a maintained crate is for. (`sync::reflect`, which finds the stages that
+//! use a binding and whether they write it, still walks the instructions itself: spirq
+//! reports access from the `readonly`/`writeonly` decorations, not from the stores.)
+//!
+//! Per-technique constants (`frame.technique`, `frame.technique2`) cannot be reflected: a
+//! name the shader reads them by is a `#define`, gone before SPIR-V. So each technique names
+//! its slots once, in `glsl/<technique>/constants.glsl`; build.rs turns those `#define`s into
+//! `shaders::constants`, by which the technique fills each slot (`technique_constants`).
+
 mod cmd;
 mod context;
 mod memory;
 mod pipeline;
+mod reflect;
 mod sync;
 
 pub use ash::vk::{

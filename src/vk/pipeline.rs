@@ -4,21 +4,32 @@
 
 use super::context::{Context, Shared};
 use super::memory::{Buffer, Image, Sampler};
-use super::sync::{reflect, BindingUse, Target};
+use super::reflect::{self, HostBinding};
+use super::sync::{reflect as reflect_uses, BindingUse, Target};
 use anyhow::{Context as _, Result};
 use ash::vk;
 use std::sync::Arc;
 
-/// Creates the module and adds the bindings it uses to `uses` (what barriers derive from).
+/// Creates the module, checks the bindings it declares against `sets` by name and kind
+/// (`reflect::check`), and adds the bindings it uses to `uses` (what barriers derive from).
 fn shader_module(
     ctx: &Context,
     spirv: &[u8],
     name: &str,
+    sets: &[&DescriptorSet],
     uses: &mut Vec<BindingUse>,
 ) -> Result<vk::ShaderModule> {
     let words = ash::util::read_spv(&mut std::io::Cursor::new(spirv))
         .with_context(|| format!("reading SPIR-V of {name}"))?;
-    reflect(&words, uses).with_context(|| format!("reflecting the SPIR-V of {name}"))?;
+    let declared =
+        reflect::bindings(&words).with_context(|| format!("reflecting the SPIR-V of {name}"))?;
+    let host: Vec<Vec<HostBinding>> = sets.iter().map(|s| s.host_bindings()).collect();
+    let host: Vec<&[HostBinding]> = host.iter().map(Vec::as_slice).collect();
+    reflect::check(&declared, &host).with_context(|| {
+        let names: Vec<&str> = sets.iter().map(|s| s.name.as_str()).collect();
+        format!("{name} against its descriptor sets {names:?}")
+    })?;
+    reflect_uses(&words, uses).with_context(|| format!("reflecting the SPIR-V of {name}"))?;
     let info = vk::ShaderModuleCreateInfo::default().code(&words);
     // SAFETY: `words` is SPIR-V produced and validated by build.rs.
     unsafe { ctx.device().create_shader_module(&info, None) }
@@ -45,7 +56,8 @@ impl BindingKind {
     }
 }
 
-/// One resource for a binding, in binding order.
+/// One resource for a binding. `DescriptorSet::new` takes them in binding order, each
+/// with the name of the shader variable it is for.
 pub enum Resource<'a> {
     Uniform(&'a Buffer),
     Storage(&'a Buffer),
@@ -75,11 +87,21 @@ pub struct DescriptorSet {
     pub(crate) set: vk::DescriptorSet,
     /// What each binding holds, in binding order, for the barriers of the commands using it.
     pub(crate) bindings: Arc<[(BindingKind, Target)]>,
+    /// The shader variable each binding is for, in binding order.
+    names: Vec<&'static str>,
+    /// For errors: which set this is.
+    pub name: String,
 }
 
 impl DescriptorSet {
-    /// Bindings 0..n take `resources` in order.
-    pub fn new(ctx: &Context, resources: &[Resource<'_>], name: &str) -> Result<Self> {
+    /// Bindings 0..n take `resources` in order, each named by the shader variable it is for:
+    /// the GLSL instance name (`uniform Frame { .. } frame;` is `frame`, `uniform sampler2D
+    /// shadow_map;` is `shadow_map`), or the block's type name when the instance is anonymous
+    /// (`buffer Edges { .. };` is `Edges`). Every pipeline made with the set checks each
+    /// binding its shaders declare against these names and kinds (`reflect::check`).
+    pub fn new(ctx: &Context, named: &[(&'static str, Resource<'_>)], name: &str) -> Result<Self> {
+        let names: Vec<&'static str> = named.iter().map(|(n, _)| *n).collect();
+        let resources: Vec<&Resource<'_>> = named.iter().map(|(_, r)| r).collect();
         let device = ctx.device();
         let stages = vk::ShaderStageFlags::ALL_GRAPHICS | vk::ShaderStageFlags::COMPUTE;
         let bindings: Vec<_> = resources
@@ -132,6 +154,8 @@ impl DescriptorSet {
                     (r.kind(), target)
                 })
                 .collect(),
+            names,
+            name: name.to_string(),
         };
         let layouts = [layout];
         let alloc = vk::DescriptorSetAllocateInfo::default()
@@ -183,6 +207,15 @@ impl DescriptorSet {
         // SAFETY: every write references live resources and matches the layout.
         unsafe { device.update_descriptor_sets(&writes, &[]) };
         Ok(this)
+    }
+
+    /// Kind and name of each binding, in binding order.
+    fn host_bindings(&self) -> Vec<HostBinding> {
+        self.bindings
+            .iter()
+            .zip(&self.names)
+            .map(|(&(kind, _), &name)| HostBinding { kind, name })
+            .collect()
     }
 }
 
@@ -276,20 +309,26 @@ impl Pipeline {
         let device = ctx.device();
         let layout = pipeline_layout(ctx, d.sets, d.push_constant_bytes, d.name)?;
         let mut uses = Vec::new();
-        let made = shader_module(ctx, d.vertex, &format!("{} (vertex)", d.name), &mut uses)
-            .and_then(|vs| match d.fragment {
-                Some(f) => {
-                    match shader_module(ctx, f, &format!("{} (fragment)", d.name), &mut uses) {
-                        Ok(fs) => Ok((vs, Some(fs))),
-                        Err(e) => {
-                            // SAFETY: the module is unused.
-                            unsafe { device.destroy_shader_module(vs, None) };
-                            Err(e)
-                        }
+        let made = shader_module(
+            ctx,
+            d.vertex,
+            &format!("{} (vertex)", d.name),
+            d.sets,
+            &mut uses,
+        )
+        .and_then(|vs| match d.fragment {
+            Some(f) => {
+                match shader_module(ctx, f, &format!("{} (fragment)", d.name), d.sets, &mut uses) {
+                    Ok(fs) => Ok((vs, Some(fs))),
+                    Err(e) => {
+                        // SAFETY: the module is unused.
+                        unsafe { device.destroy_shader_module(vs, None) };
+                        Err(e)
                     }
                 }
-                None => Ok((vs, None)),
-            });
+            }
+            None => Ok((vs, None)),
+        });
         let (vs, fs) = match made {
             Ok(m) => m,
             Err(e) => {
@@ -430,7 +469,7 @@ impl Pipeline {
         let device = ctx.device();
         let layout = pipeline_layout(ctx, sets, push_constant_bytes, name)?;
         let mut uses = Vec::new();
-        let module = match shader_module(ctx, spirv, name, &mut uses) {
+        let module = match shader_module(ctx, spirv, name, sets, &mut uses) {
             Ok(m) => m,
             Err(e) => {
                 // SAFETY: unused layout.

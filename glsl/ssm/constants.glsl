@@ -1,0 +1,13 @@
+// The soft shadow maps' per-technique constants (frame.technique, common/frame.glsl), named
+// once here: build.rs turns each #define into `shaders::constants::NAME`, the slot that
+// src/technique/ssm.rs fills by that name (ssm and ssm2 alike).
+#ifndef SSM_CONSTANTS_GLSL
+#define SSM_CONSTANTS_GLSL
+#include "common/frame.glsl"
+
+#define SSM_LIGHT_SIDE frame.technique.x          // L: side of the square light (light_square_side)
+#define SSM_RES frame.technique.y                 // n: side of the occluder and soft shadow maps
+#define SSM_INV_RES frame.technique.z             // 1 / n
+#define SSM_SELF_GUARD_TEXELS frame.technique.w   // receiver self-occlusion guard, texels of slope
+
+#endif

@@ -303,148 +303,15 @@ impl GpuSilhouettes {
         emitter: Emitter,
         estimate: impl Fn(&Adjacency, &Object) -> usize,
     ) -> Result<Option<Self>> {
-        let mut casters = Vec::new();
-        let mut positions: Vec<[f32; 4]> = Vec::new();
-        let mut triangles: Vec<[u32; 4]> = Vec::new();
-        let mut planes: Vec<[f32; 4]> = Vec::new();
-        let mut p0yz: Vec<[f32; 2]> = Vec::new();
-        let mut edges: Vec<[u32; 4]> = Vec::new();
-        let mut edge_faces: Vec<u32> = Vec::new();
-        let mut edge_caster: Vec<u32> = Vec::new();
-        let mut vertex_caster: Vec<u32> = Vec::new();
-        let mut region_base = 0u32;
-        for (i, (o, adj)) in objects.iter().zip(adjacency).enumerate() {
-            let Some(adj) = adj else { continue };
-            if adj.edges.is_empty() {
-                continue;
-            }
-            let id = casters.len() as u32;
-            let (vbase, fbase) = (positions.len() as u32, triangles.len() as u32);
-            let edge_base = edges.len() as u32;
-            positions.extend(adj.positions.iter().map(|p| p.extend(1.0).to_array()));
-            triangles.extend(
-                adj.triangles
-                    .iter()
-                    .map(|t| [t[0] + vbase, t[1] + vbase, t[2] + vbase, 0]),
-            );
-            for (t, n) in adj.triangles.iter().zip(&adj.face_normals) {
-                // A degenerate face has a zero normal: the shader's "no facing test".
-                let p0 = adj.positions[t[0] as usize];
-                planes.push([n.x, n.y, n.z, p0.x]);
-                p0yz.push([p0.y, p0.z]);
-            }
-            for (e, edge) in adj.edges.iter().enumerate() {
-                let entry = |f: &super::EdgeFace| (f.face + fbase) << 1 | u32::from(f.forward);
-                let (z, w) = match adj.edge_faces(e) {
-                    [f0, f1] => (entry(f0), entry(f1)),
-                    faces => {
-                        let start = edge_faces.len() as u32;
-                        edge_faces.push(faces.len() as u32);
-                        edge_faces.extend(faces.iter().map(entry));
-                        (start, FACE_LIST)
-                    }
-                };
-                edges.push([edge.v[0] + vbase, edge.v[1] + vbase, z, w]);
-            }
-            edge_caster.extend(std::iter::repeat_n(id, adj.edges.len()));
-            vertex_caster.extend(std::iter::repeat_n(id, adj.positions.len()));
-            let estimate = u32::try_from(estimate(adj, o)).unwrap_or(u32::MAX);
-            let capacity = estimate
-                .saturating_add(estimate / 2)
-                .saturating_add(REGION_SLACK);
-            casters.push(Caster {
-                object: i,
-                edge_base,
-                edge_ends: adj.edges.iter().map(|e| e.v).collect(),
-                region_base,
-                capacity,
-                built_for: None,
-            });
-            region_base = region_base.saturating_add(capacity);
-        }
-        if casters.is_empty() {
+        let welded = Welded::gather(objects, adjacency, estimate);
+        if welded.casters.is_empty() {
             return Ok(None);
         }
-        let storage = BufferUsageFlags::STORAGE_BUFFER;
-        let upload = |data: &[u8], what: &str| {
-            Buffer::with_data(ctx, data, storage, &format!("silhouettes: {what}"))
-        };
-        // In the order of STATIC_BLOCKS.
-        let statics = vec![
-            upload(bytemuck::cast_slice(&positions), "welded positions")?,
-            upload(bytemuck::cast_slice(&triangles), "welded triangles")?,
-            upload(bytemuck::cast_slice(&planes), "face planes")?,
-            upload(bytemuck::cast_slice(&p0yz), "face corners yz")?,
-            upload(bytemuck::cast_slice(&edges), "edges")?,
-            upload(bytemuck::cast_slice(&edge_faces), "edge faces")?,
-            upload(bytemuck::cast_slice(&edge_caster), "edge casters")?,
-            upload(bytemuck::cast_slice(&vertex_caster), "vertex casters")?,
-        ];
-        let n_casters = casters.len() as u64;
-        let (n_edges, n_verts) = (edges.len() as u64, positions.len() as u64);
-        let gpu = |size: u64, usage: BufferUsageFlags, location: MemoryLocation, what: &str| {
-            Buffer::new(ctx, size, usage, location, &format!("silhouettes: {what}"))
-        };
-        let caster_data = gpu(
-            n_casters * std::mem::size_of::<CasterData>() as u64,
-            storage,
-            MemoryLocation::CpuToGpu,
-            "caster transforms",
-        )?;
-        let sil = gpu(
-            4 * n_edges,
-            storage | BufferUsageFlags::TRANSFER_SRC,
-            MemoryLocation::GpuOnly,
-            "silhouette flags",
-        )?;
-        let edge_dir = gpu(
-            8 * n_edges,
-            storage,
-            MemoryLocation::GpuOnly,
-            "edge directions",
-        )?;
-        let incident_count = gpu(
-            4 * n_verts,
-            storage | BufferUsageFlags::TRANSFER_DST,
-            MemoryLocation::GpuOnly,
-            "incident counts",
-        )?;
-        let incident = gpu(
-            4 * MAX_INCIDENT * n_verts,
-            storage,
-            MemoryLocation::GpuOnly,
-            "incident edges",
-        )?;
-        let mut requested = gpu(
-            4 * n_casters,
-            storage | BufferUsageFlags::TRANSFER_DST,
-            MemoryLocation::GpuToCpu,
-            "vertices requested",
-        )?;
-        requested.write(0, &vec![0; 4 * n_casters as usize])?;
-        let draw_commands = gpu(
-            16 * n_casters,
-            storage
-                | BufferUsageFlags::INDIRECT_BUFFER
-                | BufferUsageFlags::TRANSFER_DST
-                | BufferUsageFlags::TRANSFER_SRC,
-            MemoryLocation::GpuOnly,
-            "draw commands",
-        )?;
-        let mut penumbra_frame = gpu(
-            std::mem::size_of::<PenumbraFrame>() as u64,
-            storage,
-            MemoryLocation::CpuToGpu,
-            "penumbra-map light",
-        )?;
-        penumbra_frame.write(0, bytemuck::bytes_of(&PenumbraFrame::zeroed()))?;
-        let reach_state = gpu(
-            4 * REACH_WORDS * n_casters,
-            storage | BufferUsageFlags::TRANSFER_DST,
-            MemoryLocation::GpuOnly,
-            "caster reach",
-        )?;
-        let vertices = vertex_buffer(ctx, emitter, region_base)?;
+        let statics = welded.upload(ctx)?;
+        let n_casters = welded.casters.len() as u64;
+        let (n_edges, n_verts) = (welded.edges.len() as u64, welded.positions.len() as u64);
+        let w = WorkBuffers::new(ctx, n_casters, n_edges, n_verts)?;
+        let vertices = vertex_buffer(ctx, emitter, welded.region_base)?;
         // The blocks of glsl/silhouette/silhouette.glsl and penumbra.glsl, in binding order.
         let mut resources = vec![("frame", Resource::Uniform(ubo))];
         resources.extend(
@@ -454,69 +321,35 @@ impl GpuSilhouettes {
         );
         resources.extend(
             [
-                ("Casters", &caster_data),
-                ("Silhouette", &sil),
-                ("EdgeDir", &edge_dir),
-                ("IncidentCount", &incident_count),
-                ("Incident", &incident),
-                ("Requested", &requested),
-                ("DrawCommands", &draw_commands),
-                ("PenumbraFrame", &penumbra_frame),
-                ("ReachState", &reach_state),
+                ("Casters", &w.caster_data),
+                ("Silhouette", &w.sil),
+                ("EdgeDir", &w.edge_dir),
+                ("IncidentCount", &w.incident_count),
+                ("Incident", &w.incident),
+                ("Requested", &w.requested),
+                ("DrawCommands", &w.draw_commands),
+                ("PenumbraFrame", &w.penumbra_frame),
+                ("ReachState", &w.reach_state),
             ]
             .map(|(name, b)| (name, Resource::Storage(b))),
         );
         let set = DescriptorSet::new(ctx, &resources, "silhouettes")?;
         let output_set = output_set(ctx, &vertices)?;
-        let push = std::mem::size_of::<CountsPush>() as u32;
-        let make = |name: &str, spirv: &[u8]| {
-            Pipeline::compute(ctx, name, spirv, &[&set, &output_set], push)
-                .with_context(|| format!("creating the {name} pipeline"))
-        };
-        let finish = (
-            make("silhouette/finish", shaders::SILHOUETTE_FINISH_COMP)?,
-            Threads::Casters,
-        );
-        let stages = match emitter {
-            Emitter::Smoothies => vec![
-                (
-                    make("silhouette/edges", shaders::SILHOUETTE_EDGES_COMP)?,
-                    Threads::Edges,
-                ),
-                (
-                    make("silhouette/corners", shaders::SILHOUETTE_CORNERS_COMP)?,
-                    Threads::Vertices,
-                ),
-                finish,
-            ],
-            Emitter::Penumbra => vec![
-                (
-                    make(
-                        "silhouette/penumbra_edges",
-                        shaders::SILHOUETTE_PENUMBRA_EDGES_COMP,
-                    )?,
-                    Threads::Edges,
-                ),
-                (
-                    make(
-                        "silhouette/penumbra_reach",
-                        shaders::SILHOUETTE_PENUMBRA_REACH_COMP,
-                    )?,
-                    Threads::Vertices,
-                ),
-                (
-                    make(
-                        "silhouette/penumbra_emit",
-                        shaders::SILHOUETTE_PENUMBRA_EMIT_COMP,
-                    )?,
-                    Threads::EdgesThenVertices,
-                ),
-                finish,
-            ],
-        };
+        let stages = stages(ctx, emitter, &[&set, &output_set])?;
+        let WorkBuffers {
+            caster_data,
+            sil,
+            edge_dir,
+            incident_count,
+            incident,
+            requested,
+            draw_commands,
+            penumbra_frame,
+            reach_state,
+        } = w;
         Ok(Some(Self {
             emitter,
-            casters,
+            casters: welded.casters,
             edges: n_edges as u32,
             welded_vertices: n_verts as u32,
             _statics: statics,
@@ -752,6 +585,257 @@ impl GpuSilhouettes {
             })
             .collect()
     }
+}
+
+/// Every caster's adjacency welded into one set of arrays, indices offset per caster, as the
+/// compute passes read them (glsl/silhouette/silhouette.glsl), and each caster's region of
+/// the vertex buffer.
+#[derive(Default)]
+struct Welded {
+    casters: Vec<Caster>,
+    positions: Vec<[f32; 4]>,
+    /// Welded vertex indices, w unused.
+    triangles: Vec<[u32; 4]>,
+    /// Per face: its normal and the x of its first corner (`p0yz` holds y and z).
+    planes: Vec<[f32; 4]>,
+    p0yz: Vec<[f32; 2]>,
+    /// Per edge: its two vertices and its two faces, or (start in `edge_faces`, FACE_LIST).
+    edges: Vec<[u32; 4]>,
+    edge_faces: Vec<u32>,
+    edge_caster: Vec<u32>,
+    vertex_caster: Vec<u32>,
+    /// The end of the last region: the vertex buffer's size in vertices.
+    region_base: u32,
+}
+
+impl Welded {
+    /// The casters among `objects` (zipped with `adjacency`) that have edges; `estimate`
+    /// sizes each region.
+    fn gather(
+        objects: &[Object],
+        adjacency: &[Option<Arc<Adjacency>>],
+        estimate: impl Fn(&Adjacency, &Object) -> usize,
+    ) -> Self {
+        let mut out = Welded::default();
+        for (i, (o, adj)) in objects.iter().zip(adjacency).enumerate() {
+            let Some(adj) = adj else { continue };
+            if adj.edges.is_empty() {
+                continue;
+            }
+            let id = out.casters.len() as u32;
+            let (vbase, fbase) = (out.positions.len() as u32, out.triangles.len() as u32);
+            let edge_base = out.edges.len() as u32;
+            out.positions
+                .extend(adj.positions.iter().map(|p| p.extend(1.0).to_array()));
+            out.triangles.extend(
+                adj.triangles
+                    .iter()
+                    .map(|t| [t[0] + vbase, t[1] + vbase, t[2] + vbase, 0]),
+            );
+            for (t, n) in adj.triangles.iter().zip(&adj.face_normals) {
+                // A degenerate face has a zero normal: the shader's "no facing test".
+                let p0 = adj.positions[t[0] as usize];
+                out.planes.push([n.x, n.y, n.z, p0.x]);
+                out.p0yz.push([p0.y, p0.z]);
+            }
+            for (e, edge) in adj.edges.iter().enumerate() {
+                let entry = |f: &super::EdgeFace| (f.face + fbase) << 1 | u32::from(f.forward);
+                let (z, w) = match adj.edge_faces(e) {
+                    [f0, f1] => (entry(f0), entry(f1)),
+                    faces => {
+                        let start = out.edge_faces.len() as u32;
+                        out.edge_faces.push(faces.len() as u32);
+                        out.edge_faces.extend(faces.iter().map(entry));
+                        (start, FACE_LIST)
+                    }
+                };
+                out.edges.push([edge.v[0] + vbase, edge.v[1] + vbase, z, w]);
+            }
+            out.edge_caster
+                .extend(std::iter::repeat_n(id, adj.edges.len()));
+            out.vertex_caster
+                .extend(std::iter::repeat_n(id, adj.positions.len()));
+            let estimate = u32::try_from(estimate(adj, o)).unwrap_or(u32::MAX);
+            let capacity = estimate
+                .saturating_add(estimate / 2)
+                .saturating_add(REGION_SLACK);
+            out.casters.push(Caster {
+                object: i,
+                edge_base,
+                edge_ends: adj.edges.iter().map(|e| e.v).collect(),
+                region_base: out.region_base,
+                capacity,
+                built_for: None,
+            });
+            out.region_base = out.region_base.saturating_add(capacity);
+        }
+        out
+    }
+
+    /// The arrays as storage buffers, in the order of `STATIC_BLOCKS` (bindings 1..=8).
+    fn upload(&self, ctx: &Context) -> Result<Vec<Buffer>> {
+        let upload = |data: &[u8], what: &str| {
+            let usage = BufferUsageFlags::STORAGE_BUFFER;
+            Buffer::with_data(ctx, data, usage, &format!("silhouettes: {what}"))
+        };
+        Ok(vec![
+            upload(bytemuck::cast_slice(&self.positions), "welded positions")?,
+            upload(bytemuck::cast_slice(&self.triangles), "welded triangles")?,
+            upload(bytemuck::cast_slice(&self.planes), "face planes")?,
+            upload(bytemuck::cast_slice(&self.p0yz), "face corners yz")?,
+            upload(bytemuck::cast_slice(&self.edges), "edges")?,
+            upload(bytemuck::cast_slice(&self.edge_faces), "edge faces")?,
+            upload(bytemuck::cast_slice(&self.edge_caster), "edge casters")?,
+            upload(bytemuck::cast_slice(&self.vertex_caster), "vertex casters")?,
+        ])
+    }
+}
+
+/// The buffers the compute passes write, sized for the welded casters (bindings 9..=17).
+struct WorkBuffers {
+    caster_data: Buffer,
+    sil: Buffer,
+    edge_dir: Buffer,
+    incident_count: Buffer,
+    incident: Buffer,
+    requested: Buffer,
+    draw_commands: Buffer,
+    penumbra_frame: Buffer,
+    reach_state: Buffer,
+}
+
+impl WorkBuffers {
+    fn new(ctx: &Context, n_casters: u64, n_edges: u64, n_verts: u64) -> Result<Self> {
+        let storage = BufferUsageFlags::STORAGE_BUFFER;
+        let gpu = |size: u64, usage: BufferUsageFlags, location: MemoryLocation, what: &str| {
+            Buffer::new(ctx, size, usage, location, &format!("silhouettes: {what}"))
+        };
+        let caster_data = gpu(
+            n_casters * std::mem::size_of::<CasterData>() as u64,
+            storage,
+            MemoryLocation::CpuToGpu,
+            "caster transforms",
+        )?;
+        let sil = gpu(
+            4 * n_edges,
+            storage | BufferUsageFlags::TRANSFER_SRC,
+            MemoryLocation::GpuOnly,
+            "silhouette flags",
+        )?;
+        let edge_dir = gpu(
+            8 * n_edges,
+            storage,
+            MemoryLocation::GpuOnly,
+            "edge directions",
+        )?;
+        let incident_count = gpu(
+            4 * n_verts,
+            storage | BufferUsageFlags::TRANSFER_DST,
+            MemoryLocation::GpuOnly,
+            "incident counts",
+        )?;
+        let incident = gpu(
+            4 * MAX_INCIDENT * n_verts,
+            storage,
+            MemoryLocation::GpuOnly,
+            "incident edges",
+        )?;
+        let mut requested = gpu(
+            4 * n_casters,
+            storage | BufferUsageFlags::TRANSFER_DST,
+            MemoryLocation::GpuToCpu,
+            "vertices requested",
+        )?;
+        requested.write(0, &vec![0; 4 * n_casters as usize])?;
+        let draw_commands = gpu(
+            16 * n_casters,
+            storage
+                | BufferUsageFlags::INDIRECT_BUFFER
+                | BufferUsageFlags::TRANSFER_DST
+                | BufferUsageFlags::TRANSFER_SRC,
+            MemoryLocation::GpuOnly,
+            "draw commands",
+        )?;
+        let mut penumbra_frame = gpu(
+            std::mem::size_of::<PenumbraFrame>() as u64,
+            storage,
+            MemoryLocation::CpuToGpu,
+            "penumbra-map light",
+        )?;
+        penumbra_frame.write(0, bytemuck::bytes_of(&PenumbraFrame::zeroed()))?;
+        let reach_state = gpu(
+            4 * REACH_WORDS * n_casters,
+            storage | BufferUsageFlags::TRANSFER_DST,
+            MemoryLocation::GpuOnly,
+            "caster reach",
+        )?;
+        Ok(Self {
+            caster_data,
+            sil,
+            edge_dir,
+            incident_count,
+            incident,
+            requested,
+            draw_commands,
+            penumbra_frame,
+            reach_state,
+        })
+    }
+}
+
+/// The dispatches of `emitter` in order: the classification with the first emitter, ...,
+/// finish, each with what its threads run over.
+fn stages(
+    ctx: &Context,
+    emitter: Emitter,
+    sets: &[&DescriptorSet],
+) -> Result<Vec<(Pipeline, Threads)>> {
+    let push = std::mem::size_of::<CountsPush>() as u32;
+    let make = |name: &str, spirv: &[u8]| {
+        Pipeline::compute(ctx, name, spirv, sets, push)
+            .with_context(|| format!("creating the {name} pipeline"))
+    };
+    let finish = (
+        make("silhouette/finish", shaders::SILHOUETTE_FINISH_COMP)?,
+        Threads::Casters,
+    );
+    Ok(match emitter {
+        Emitter::Smoothies => vec![
+            (
+                make("silhouette/edges", shaders::SILHOUETTE_EDGES_COMP)?,
+                Threads::Edges,
+            ),
+            (
+                make("silhouette/corners", shaders::SILHOUETTE_CORNERS_COMP)?,
+                Threads::Vertices,
+            ),
+            finish,
+        ],
+        Emitter::Penumbra => vec![
+            (
+                make(
+                    "silhouette/penumbra_edges",
+                    shaders::SILHOUETTE_PENUMBRA_EDGES_COMP,
+                )?,
+                Threads::Edges,
+            ),
+            (
+                make(
+                    "silhouette/penumbra_reach",
+                    shaders::SILHOUETTE_PENUMBRA_REACH_COMP,
+                )?,
+                Threads::Vertices,
+            ),
+            (
+                make(
+                    "silhouette/penumbra_emit",
+                    shaders::SILHOUETTE_PENUMBRA_EMIT_COMP,
+                )?,
+                Threads::EdgesThenVertices,
+            ),
+            finish,
+        ],
+    })
 }
 
 fn vertex_buffer(ctx: &Context, emitter: Emitter, vertices: u32) -> Result<Buffer> {

@@ -44,10 +44,23 @@ fn check_channel(what: &str, name: &str, values: &[f32]) {
         // Fractions of the light, 1 = lit: the cylinder's shadow makes some of it darker.
         assert!(min >= 0.0 && max <= 1.0, "{what}: values in {min}..{max}");
         assert!(min < 1.0, "{what}: no shadow at all");
-    } else if name == "occlusion" {
-        // Summed micro-patch occlusion: non-negative, not clamped, and somewhere positive.
+    } else if name.ends_with("visibility") {
+        // A visibility (penumbra-map-centred's outer map), 1 = lit: darker somewhere.
+        assert!(min >= 0.0 && max <= 1.0, "{what}: values in {min}..{max}");
+        assert!(min < 1.0, "{what}: no shadow at all");
+    } else if name.ends_with("occlusion") {
+        // Summed micro-patch occlusion, or a centred form's inner occlusion (1 = umbra):
+        // non-negative, not clamped, and somewhere positive.
         assert!(min >= 0.0, "{what}: negative occlusion {min}");
         assert!(max > 0.0, "{what}: no occlusion at all");
+    } else if name.ends_with("nearness") {
+        // 1 - depth / far (penumbra-map-centred's inner receiver): in [0, 1], and on
+        // `cylinder` some inner penumbra was drawn (below the clear, 1).
+        assert!(min >= 0.0 && max <= 1.0, "{what}: values in {min}..{max}");
+        assert!(min < 1.0, "{what}: nothing drawn");
+    } else if name == "unused" {
+        // A padding channel: its clear value everywhere.
+        assert!(min == max, "{what}: values in {min}..{max}");
     } else {
         panic!("{what}: channel name '{name}' is not one this test knows");
     }

@@ -304,6 +304,12 @@ impl<'c> Renderer<'c> {
                     .map(f16::to_f32)
                     .collect()]
             }
+            crate::vk::Format::R16G16B16A16_SFLOAT => {
+                let texels = read_image::<[f16; 4]>(self.ctx, &mut self.runner, img)?;
+                (0..4)
+                    .map(|c| texels.iter().map(|t| t[c].to_f32()).collect())
+                    .collect()
+            }
             crate::vk::Format::R32G32_SFLOAT => {
                 let texels = read_image::<[f32; 2]>(self.ctx, &mut self.runner, img)?;
                 (0..2)

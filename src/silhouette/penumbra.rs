@@ -34,6 +34,14 @@
 //! one base disc contains the other (|alpha| >= 1: the edge points almost at the light) the
 //! bigger cone covers the sheet's place and no sheet is emitted.
 //!
+//! # Inner cones and sheets (`Side::Inner`, penumbra-map-centred; not in the paper)
+//! The same construction mirrored into the hard shadow: the plane through the edge tangent
+//! to the light disc on the OUTSIDE (n = alpha u - sqrt(1 - alpha^2) w, the other common
+//! external tangent of the base discs), so the sheet opens inward from the edge, and the
+//! cone arcs between the inner normals. Seen from the light centre a point of either sheet
+//! at depth Z lies Lr (1/Zv - 1/Z) (tangent units) from the edge's hard-edge line: the half
+//! width of the penumbra a receiver at depth Z gets from a disc of radius Lr.
+//!
 //! # Zv per fragment (Eq. 1's Z_vi)
 //! Every vertex carries `zv_h = (Zv * k, k)` and the shader uses Zv = x / y after
 //! perspective-correct interpolation. Cone vertices have k = 1 (Zv constant). On a sheet the
@@ -121,6 +129,15 @@ pub const BLOCKER_REACH_UNKNOWN: f32 = 1e6;
 
 /// Triangles per cone: 16 keeps the circumscribed polygon within 2 % of the round cone.
 pub const CONE_SEGMENTS: usize = 16;
+
+/// Which side of the silhouette the cones and sheets open to.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Side {
+    /// Outward, away from the hard shadow: the paper's construction.
+    Outer,
+    /// Inward, into the hard shadow (penumbra-map-centred).
+    Inner,
+}
 
 /// One silhouette vertex in light view space.
 #[derive(Clone, Copy)]
@@ -223,8 +240,15 @@ struct SheetOut {
     n: Vec2,
 }
 
-/// The sheet quad of edge a -> b as two triangles, or None (see the module doc).
-fn sheet(a: &ConeData, b: &ConeData, view_inv: Mat4, z_far: f32, reach: f32) -> Option<SheetOut> {
+/// The sheet quad of edge a -> b on `side` as two triangles, or None (see the module doc).
+fn sheet(
+    a: &ConeData,
+    b: &ConeData,
+    view_inv: Mat4,
+    z_far: f32,
+    reach: f32,
+    side: Side,
+) -> Option<SheetOut> {
     let along = b.centre - a.centre;
     let d = along.length();
     if d.is_nan() || d <= 1e-7 * z_far {
@@ -232,7 +256,11 @@ fn sheet(a: &ConeData, b: &ConeData, view_inv: Mat4, z_far: f32, reach: f32) -> 
     }
     let u = along / d;
     // Right of a -> b in light uv: the outside of the silhouette (`SilhouetteEdge`).
-    let w = Vec2::new(u.y, -u.x);
+    let right = Vec2::new(u.y, -u.x);
+    let w = match side {
+        Side::Outer => right,
+        Side::Inner => -right,
+    };
     let alpha = (a.radius - b.radius) / d;
     if alpha.abs() >= 1.0 - 1e-6 {
         return None;
@@ -318,7 +346,21 @@ pub fn build_penumbra(
     light_radius: f32,
     z_far: f32,
 ) -> PenumbraGeometry {
-    let mut geo = PenumbraGeometry::default();
+    let [outer] = build_penumbra_sides(adj, sil, model, light, light_radius, z_far, [Side::Outer]);
+    outer
+}
+
+/// `build_penumbra` for each of `sides` from one pass over the silhouette vertices (the
+/// cones' tips, bases and the blocker reach are the same on both sides).
+pub fn build_penumbra_sides<const N: usize>(
+    adj: &Adjacency,
+    sil: &[SilhouetteEdge],
+    model: Mat4,
+    light: &LightView,
+    light_radius: f32,
+    z_far: f32,
+    sides: [Side; N],
+) -> [PenumbraGeometry; N] {
     let view_inv = light.view.inverse();
     let par = sil.len() >= PAR_EDGES;
     // Distinct silhouette vertices in welded-vertex order (a bit per welded vertex, then
@@ -347,19 +389,37 @@ pub fn build_penumbra(
         edges_at[slot[e.a as usize] as usize] += 1;
         edges_at[slot[e.b as usize] as usize] += 1;
     }
-    geo.special_vertices = edges_at.iter().filter(|&&n| n != 2).count();
+    let special_vertices = edges_at.iter().filter(|&&n| n != 2).count();
     let cones: Vec<Option<ConeData>> = map_maybe_par(&verts, par, |&v| {
         let p = model.transform_point3(adj.positions[v as usize]);
         cone_data(p, light, light_radius, z_far)
     });
     let reach = blocker_reach(&cones, z_far);
     let cone_of = |v: u32| cones[slot[v as usize] as usize].as_ref();
-    let sheets: Vec<Option<SheetOut>> = map_maybe_par(sil, par, |e| {
-        sheet(cone_of(e.a)?, cone_of(e.b)?, view_inv, z_far, reach)
-    });
+    sides.map(|side| {
+        let sheets: Vec<Option<SheetOut>> = map_maybe_par(sil, par, |e| {
+            sheet(cone_of(e.a)?, cone_of(e.b)?, view_inv, z_far, reach, side)
+        });
+        let mut geo = emit(&cones, &slot, sil, sheets, reach, view_inv, z_far);
+        geo.special_vertices = special_vertices;
+        geo
+    })
+}
+
+/// One side's cones (arcs between its sheets' normals) and sheets as a triangle list.
+fn emit(
+    cones: &[Option<ConeData>],
+    slot: &[u32],
+    sil: &[SilhouetteEdge],
+    sheets: Vec<Option<SheetOut>>,
+    reach: f32,
+    view_inv: Mat4,
+    z_far: f32,
+) -> PenumbraGeometry {
+    let mut geo = PenumbraGeometry::default();
     // Per vertex, how many sheets it has (saturating at 3) and the tangent normals of the
     // first two, in silhouette order: all `cone_arc` needs.
-    let mut normals: Vec<(u8, [Vec2; 2])> = vec![(0, [Vec2::ZERO; 2]); verts.len()];
+    let mut normals: Vec<(u8, [Vec2; 2])> = vec![(0, [Vec2::ZERO; 2]); cones.len()];
     for (e, s) in sil.iter().zip(&sheets) {
         let Some(s) = s else { continue };
         for v in [e.a, e.b] {
@@ -505,6 +565,48 @@ mod tests {
             // zv_h: exact Zv at every corner.
             assert!((q[5].zv_h[0] / q[5].zv_h[1] - (-a.z)).abs() < 1e-3);
             assert!((q[2].zv_h[0] / q[2].zv_h[1] - (-b.z)).abs() < 1e-3);
+        }
+    }
+
+    #[test]
+    fn inner_sheets_mirror_the_outer_ones_into_the_hard_shadow() {
+        let adj = Adjacency::build(&cube()).unwrap();
+        let model = Mat4::from_rotation_y(0.3) * Mat4::from_translation(Vec3::new(0.0, 1.0, 0.0));
+        let lv = light_at(Vec3::new(3.0, 4.5, 2.2), Vec3::new(0.0, 1.0, 0.0));
+        let sil = extract(&adj, model, lv.position);
+        let (lr, z_far) = (0.3, 20.0);
+        let [outer, inner] = build_penumbra_sides(
+            &adj,
+            &sil,
+            model,
+            &lv,
+            lr,
+            z_far,
+            [Side::Outer, Side::Inner],
+        );
+        assert_eq!(outer, build_penumbra(&adj, &sil, model, &lv, lr, z_far));
+        assert!(all_finite(&inner));
+        check_counts(&inner);
+        assert_eq!((inner.cones, inner.sheets), (outer.cones, outer.sheets));
+        let (c, _) = lv.project(Vec3::new(0.0, 1.0, 0.0));
+        let to_view = |p: [f32; 3]| lv.view.transform_point3(Vec3::from(p));
+        for (q, o) in inner.vertices[3 * inner.cone_triangles..]
+            .chunks_exact(6)
+            .zip(outer.vertices[3 * outer.cone_triangles..].chunks_exact(6))
+        {
+            let [a, b, tb, _, _, ta] = [0, 1, 2, 3, 4, 5].map(|i| to_view(q[i].position));
+            // The same edge as the outer sheet, planar, through the disc's rim on the far side.
+            assert_eq!(q[0].position, o[0].position);
+            assert_eq!(q[1].position, o[1].position);
+            let n = (b - a).cross(tb - a).normalize();
+            assert!(n.dot(ta - a).abs() < 1e-4 * (ta - a).length(), "planar");
+            let nb = (ta.truncate() - a.truncate() * (z_far / -a.z)).normalize();
+            let t = (-lr * nb).extend(0.0);
+            assert!(n.dot(t - a).abs() < 1e-3, "tangent to the light disc");
+            // Opens towards the cube's projected centre: into the hard shadow.
+            let (sa, _) = lv.project(view_to_world(&lv, a));
+            let (sb, _) = lv.project(view_to_world(&lv, b));
+            assert!(nb.dot((sa + sb) * 0.5 - c) < 0.0, "inside");
         }
     }
 

@@ -5,6 +5,7 @@ pub mod hard;
 pub mod pcf;
 pub mod pcss;
 pub mod penumbra_map;
+pub mod penumbra_map_centred;
 pub mod plateaus;
 pub mod reference;
 pub mod smoothies;
@@ -101,6 +102,15 @@ pub fn technique_constants(k: [f32; 8]) -> [[f32; 4]; 2] {
     [[a, b, c, d], [e, f, g, h]]
 }
 
+/// Which penumbra a silhouette technique draws: its paper's (outward from the hard shadow),
+/// or the centred one of its `-centred` form (issue 22: inner and outer, the disc-chord
+/// profile, src/technique/penumbra_map_centred.rs).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum Form {
+    Paper,
+    Centred,
+}
+
 pub struct TechniqueInfo {
     pub name: &'static str,
     pub summary: &'static str,
@@ -114,6 +124,7 @@ pub const TECHNIQUES: &[TechniqueInfo] = &[
     pcss::INFO,
     smoothies::INFO,
     penumbra_map::INFO,
+    penumbra_map_centred::INFO,
     plateaus::INFO,
     ssm::INFO,
     ssm::INFO2,

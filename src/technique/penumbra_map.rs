@@ -4,7 +4,9 @@
 //! intensity of the foremost surface seen from the light, rendered by drawing a cone at each
 //! silhouette vertex and a sheet along each silhouette edge (from the light's centre) and
 //! evaluating Eq. 1 per fragment. The final pass does two lookups. Outer penumbra only: the
-//! umbra is the hard shadow, the penumbra grows outward from it.
+//! umbra is the hard shadow, the penumbra grows outward from it. (`penumbra-map-centred`,
+//! src/technique/penumbra_map_centred.rs, is this struct with `Form::Centred`: inner cones
+//! and sheets too.)
 //!
 //! ## Passes, in order
 //! 0. `penumbra-map/silhouettes` — per caster: brute-force silhouette edges from the light
@@ -45,9 +47,10 @@
 //!    attachment; one colour attachment, the penumbra map: R16_SFLOAT intensity, clear 1.0
 //!    (the paper's "clear to white"), blend MIN. `glsl/penumbra_map/penumbra.vert` projects
 //!    with the light's view-projection and passes the linear depth Z_F and (Zv k, k)
-//!    perspective-correctly; `penumbra.frag` reads Z_P = the shadow map's g (foremost
-//!    surface) at its own texel (texelFetch), discards when nothing is there, when Z_F > Z_P (pseudocode step 4: the
-//!    geometry is behind the surface) and when Z_P - Zv <= 1e-4 Z_P (the surface touches or is
+//!    perspective-correctly; `penumbra.frag` (its tests and bound in
+//!    glsl/penumbra_map/wedge.glsl, shared with the centred form) reads Z_P = the shadow
+//!    map's g (foremost surface) at its own texel (texelFetch), discards when nothing is
+//!    there, when Z_F > Z_P (pseudocode step 4: the geometry is behind the surface) and when Z_P - Zv <= 1e-4 Z_P (the surface touches or is
 //!    in front of the silhouette vertex: no penumbra, and no NaN/Inf from the division), then
 //!    writes s = 3 I^2 - 2 I^3 with I = clamp((Z_F - Zv) / (Z_P - Zv), 0, 1) — Eq. 1 (the
 //!    issue's I = (ZF - Zv)/(ZP - Zv) is the same formula) with Parker et al.'s falloff —
@@ -60,8 +63,9 @@
 //!    colour texture, and leaves no depth attachment to clear. R16F steps 2^-11 near 1.
 //! 3. `penumbra-map/final` — from the camera (`FinalPass`), `glsl/penumbra_map/final.frag`:
 //!    textureGather of the shadow map's r (casters) and g (foremost surface) and of the
-//!    penumbra map at the normal-offset point; per texel visibility = lit test x intensity (0 in the hard
-//!    shadow, else the penumbra intensity), bilinear weights (the 2x2 filter of `hard`). A
+//!    penumbra map at the normal-offset point (the window test below is
+//!    glsl/penumbra_map/surface.glsl, shared with the centred form); per texel visibility =
+//!    lit test x intensity (0 in the hard shadow, else the penumbra intensity), bilinear weights (the 2x2 filter of `hard`). A
 //!    texel whose foremost surface lies more than 1 % beyond the point's own surface AT THAT
 //!    TEXEL (the depth of the point's tangent plane through the texel centre, clamped to
 //!    [depth, 1.05 depth]) counts as intensity 1: it holds the penumbra of a background
@@ -89,16 +93,16 @@
 //! from the light) hides the penumbra of whatever lies behind it.
 
 use super::{
-    shadow_map_buffer, technique_constants, FrameInput, LightBuffer, Technique, TechniqueInfo,
-    TechniqueInit,
+    shadow_map_buffer, technique_constants, Form, FrameInput, LightBuffer, Technique,
+    TechniqueInfo, TechniqueInit,
 };
 use crate::frustum::fit_light;
-use crate::gpu::passes::{CasterCache, DynamicVertices, FinalPass, FinalShader, ShadowMap};
+use crate::gpu::passes::{CasterCacheOf, DynamicVertices, FinalPass, FinalShader, ShadowMap};
 use crate::scene::LightView;
 use crate::settings::SilhouettePath;
 use crate::shaders::{self, constants as k};
 use crate::silhouette::gpu::GpuSilhouettes;
-use crate::silhouette::penumbra::{build_penumbra, PenumbraKey, PenumbraVertex};
+use crate::silhouette::penumbra::{build_penumbra_sides, PenumbraKey, PenumbraVertex, Side};
 use crate::silhouette::{self, Adjacency};
 use crate::vk::{
     Blend, Context, CullModeFlags, DescriptorSet, Filter, Format, GraphicsPipelineDesc, Image,
@@ -110,7 +114,7 @@ use std::sync::Arc;
 pub const INFO: TechniqueInfo = TechniqueInfo {
     name: "penumbra-map",
     summary: "Wyman & Hansen 2003: shadow map + penumbra map of silhouette cones and sheets",
-    create: PenumbraMap::create,
+    create: |init| PenumbraMap::create(init, Form::Paper),
 };
 
 const PENUMBRA_VERTEX_BYTES: u32 = std::mem::size_of::<PenumbraVertex>() as u32;
@@ -130,10 +134,47 @@ pub fn cone_base_depth(light: &LightView) -> f32 {
     light.far * Z_FAR_OF_FAR
 }
 
+/// The names of one form's passes (= timestamp and debug labels).
+struct Names {
+    technique: &'static str,
+    silhouettes: &'static str,
+    shadow_map: &'static str,
+    penumbra: &'static str,
+    final_pass: &'static str,
+}
+
+impl Form {
+    fn names(self) -> Names {
+        match self {
+            Form::Paper => Names {
+                technique: "penumbra-map",
+                silhouettes: "penumbra-map/silhouettes",
+                shadow_map: "penumbra-map/shadow_map",
+                penumbra: "penumbra-map/penumbra",
+                final_pass: "penumbra-map/final",
+            },
+            Form::Centred => Names {
+                technique: "penumbra-map-centred",
+                silhouettes: "penumbra-map-centred/silhouettes",
+                shadow_map: "penumbra-map-centred/shadow_map",
+                penumbra: "penumbra-map-centred/penumbra",
+                final_pass: "penumbra-map-centred/final",
+            },
+        }
+    }
+}
+
+/// One caster's outer cones and sheets, then its inner ones (empty in the paper form).
+type Sides = [Vec<PenumbraVertex>; 2];
+
 pub struct PenumbraMap {
+    form: Form,
     shadow: ShadowMap,
+    /// The paper's penumbra map; the centred form's outer and inner maps (r, g).
     penumbra: Image,
     penumbra_pipeline: Pipeline,
+    /// Centred form: the inner cones' and sheets' pipeline.
+    inner_pipeline: Option<Pipeline>,
     penumbra_set: DescriptorSet,
     final_pass: FinalPass,
     final_set: DescriptorSet,
@@ -143,8 +184,9 @@ pub struct PenumbraMap {
     adjacency: Vec<Option<Arc<Adjacency>>>,
     /// CPU path: per caster, its cones and sheets and what they were built for: a moved
     /// caster rebuilds only its own.
-    cache: CasterCache<PenumbraKey, PenumbraVertex>,
+    cache: CasterCacheOf<PenumbraKey, Sides>,
     vertices: DynamicVertices,
+    inner_vertices: DynamicVertices,
     /// GPU path: silhouettes, cones and sheets by compute, drawn indirectly (None on the CPU
     /// path, or when no caster has an edge).
     gpu_silhouettes: Option<GpuSilhouettes>,
@@ -153,23 +195,41 @@ pub struct PenumbraMap {
 }
 
 impl PenumbraMap {
-    fn create(init: &TechniqueInit<'_>) -> Result<Box<dyn Technique>> {
+    pub(crate) fn create(init: &TechniqueInit<'_>, form: Form) -> Result<Box<dyn Technique>> {
         let ctx = init.ctx;
+        let names = form.names();
         let res = init.settings.shadow_res;
         for f in [Format::R32_SFLOAT, Format::R16_SFLOAT] {
             if !ctx.supports_blend(f) {
                 anyhow::bail!(
-                    "{} cannot MIN-blend {f:?} attachments, which penumbra-map needs",
-                    ctx.device_name
+                    "{} cannot MIN-blend {f:?} attachments, which {} needs",
+                    ctx.device_name,
+                    names.technique
                 );
             }
         }
         let usage = ImageUsageFlags::COLOR_ATTACHMENT
             | ImageUsageFlags::SAMPLED
             | ImageUsageFlags::TRANSFER_SRC;
-        let shadow = ShadowMap::new(ctx, init.ubo, res, "penumbra-map/shadow_map")?;
-        let penumbra = Image::new_2d(ctx, res, res, Format::R16_SFLOAT, usage, "penumbra map")
-            .context("creating the penumbra map")?;
+        let shadow = ShadowMap::new(ctx, init.ubo, res, names.shadow_map)?;
+        // The centred form packs its two maps into one target so that one MIN blend serves
+        // both (see penumbra_map_centred.rs).
+        let (penumbra_name, penumbra_format) = match form {
+            Form::Paper => ("penumbra map", Format::R16_SFLOAT),
+            Form::Centred => (
+                "penumbra map (outer, inner, receiver)",
+                Format::R16G16B16A16_SFLOAT,
+            ),
+        };
+        if !ctx.supports_blend(penumbra_format) {
+            anyhow::bail!(
+                "{} cannot MIN-blend {penumbra_format:?} attachments, which {} needs",
+                ctx.device_name,
+                names.technique
+            );
+        }
+        let penumbra = Image::new_2d(ctx, res, res, penumbra_format, usage, penumbra_name)
+            .with_context(|| format!("creating the {penumbra_name}"))?;
         let nearest = Sampler::new(ctx, Filter::Nearest).context("creating the nearest sampler")?;
 
         let penumbra_set = DescriptorSet::new(
@@ -178,46 +238,66 @@ impl PenumbraMap {
                 ("frame", Resource::Uniform(init.ubo)),
                 ("shadow_map", Resource::Sampled(&shadow.depth, &nearest)),
             ],
-            "penumbra-map/penumbra",
+            names.penumbra,
         )?;
-        let penumbra_pipeline = Pipeline::graphics(
-            ctx,
-            &GraphicsPipelineDesc {
-                name: "penumbra-map/penumbra",
-                vertex: shaders::PENUMBRA_MAP_PENUMBRA_VERT,
-                fragment: Some(shaders::PENUMBRA_MAP_PENUMBRA_FRAG),
-                vertex_stride: PENUMBRA_VERTEX_BYTES,
-                attributes: PENUMBRA_ATTRIBUTES,
-                topology: PrimitiveTopology::TRIANGLE_LIST,
-                // Cones are seen from inside, sheets from either side.
-                cull: CullModeFlags::NONE,
-                // Darkest wins (the paper's LESS test on intensity stored as depth).
-                colors: &[(Format::R16_SFLOAT, Blend::Min)],
-                depth: None,
-                push_constant_bytes: 0,
-                sets: &[&penumbra_set],
-            },
-        )?;
-        let final_set = DescriptorSet::new(
-            ctx,
-            &[
-                ("frame", Resource::Uniform(init.ubo)),
-                ("shadow_map", Resource::Sampled(&shadow.depth, &nearest)),
-                ("penumbra_map", Resource::Sampled(&penumbra, &nearest)),
-            ],
-            "penumbra-map/final",
-        )?;
-        let final_pass = FinalPass::new(
-            ctx,
-            "penumbra-map/final",
-            FinalShader {
+        // Darkest wins (the paper's LESS test on intensity stored as depth).
+        let colors = &[(penumbra_format, Blend::Min)];
+        let penumbra_pipeline_for = |fragment: &[u8]| {
+            Pipeline::graphics(
+                ctx,
+                &GraphicsPipelineDesc {
+                    name: names.penumbra,
+                    vertex: shaders::PENUMBRA_MAP_PENUMBRA_VERT,
+                    fragment: Some(fragment),
+                    vertex_stride: PENUMBRA_VERTEX_BYTES,
+                    attributes: PENUMBRA_ATTRIBUTES,
+                    topology: PrimitiveTopology::TRIANGLE_LIST,
+                    // Cones are seen from inside, sheets from either side.
+                    cull: CullModeFlags::NONE,
+                    colors,
+                    depth: None,
+                    push_constant_bytes: 0,
+                    sets: &[&penumbra_set],
+                },
+            )
+        };
+        let (penumbra_pipeline, inner_pipeline) = match form {
+            Form::Paper => (
+                penumbra_pipeline_for(shaders::PENUMBRA_MAP_PENUMBRA_FRAG)?,
+                None,
+            ),
+            Form::Centred => (
+                penumbra_pipeline_for(shaders::PENUMBRA_MAP_CENTRED_OUTER_FRAG)?,
+                Some(penumbra_pipeline_for(
+                    shaders::PENUMBRA_MAP_CENTRED_INNER_FRAG,
+                )?),
+            ),
+        };
+        let final_resources = [
+            ("frame", Resource::Uniform(init.ubo)),
+            ("shadow_map", Resource::Sampled(&shadow.depth, &nearest)),
+            ("penumbra_map", Resource::Sampled(&penumbra, &nearest)),
+        ];
+        let final_set = DescriptorSet::new(ctx, &final_resources, names.final_pass)?;
+        let final_shader = match form {
+            Form::Paper => FinalShader {
                 color: shaders::PENUMBRA_MAP_FINAL_FRAG,
                 aov: shaders::PENUMBRA_MAP_FINAL_FRAG_AOV,
             },
-            &final_set,
-        )?;
+            Form::Centred => FinalShader {
+                color: shaders::PENUMBRA_MAP_CENTRED_FINAL_FRAG,
+                aov: shaders::PENUMBRA_MAP_CENTRED_FINAL_FRAG_AOV,
+            },
+        };
+        let final_pass = FinalPass::new(ctx, names.final_pass, final_shader, &final_set)?;
         let adjacency = silhouette::caster_adjacency(init.scene, |_| true)?;
-        let gpu_silhouettes = match init.settings.silhouettes.resolve(ctx) {
+        // The GPU silhouette passes build the outer side only: the centred form always
+        // builds on the CPU.
+        let path = match form {
+            Form::Paper => init.settings.silhouettes.resolve(ctx),
+            Form::Centred => SilhouettePath::Cpu,
+        };
+        let gpu_silhouettes = match path {
             SilhouettePath::Cpu | SilhouettePath::Auto => None,
             SilhouettePath::Gpu => {
                 // Sized for the scene's own light; `prepare` grows it when a frame needs more.
@@ -236,16 +316,19 @@ impl PenumbraMap {
             }
         };
         Ok(Box::new(Self {
+            form,
             shadow,
             penumbra,
             penumbra_pipeline,
+            inner_pipeline,
             penumbra_set,
             final_pass,
             final_set,
             _nearest: nearest,
-            cache: CasterCache::new(adjacency.len()),
+            cache: CasterCacheOf::new(adjacency.len()),
             adjacency,
             vertices: DynamicVertices::new("penumbra-map cones and sheets"),
+            inner_vertices: DynamicVertices::new("penumbra-map inner cones and sheets"),
             gpu_silhouettes,
             draw_geometry: false,
         }))
@@ -260,6 +343,7 @@ impl PenumbraMap {
     /// built (of all when the light changed); returns how many were rebuilt.
     fn build_geometry(&mut self, frame: &FrameInput<'_>, key: PenumbraKey, force: bool) -> usize {
         let (light, radius, z_far) = (frame.light, key.radius, key.z_far);
+        let form = self.form;
         self.cache.update(
             &frame.scene.objects,
             &self.adjacency,
@@ -267,15 +351,48 @@ impl PenumbraMap {
             force,
             |adj, model| {
                 let sil = silhouette::extract(adj, model, light.position);
-                build_penumbra(adj, &sil, model, light, radius, z_far).vertices
+                match form {
+                    Form::Paper => {
+                        let [outer] = build_penumbra_sides(
+                            adj,
+                            &sil,
+                            model,
+                            light,
+                            radius,
+                            z_far,
+                            [Side::Outer],
+                        );
+                        [outer.vertices, Vec::new()]
+                    }
+                    Form::Centred => build_penumbra_sides(
+                        adj,
+                        &sil,
+                        model,
+                        light,
+                        radius,
+                        z_far,
+                        [Side::Outer, Side::Inner],
+                    )
+                    .map(|g| g.vertices),
+                }
             },
         )
+    }
+
+    /// Every caster's cached geometry of one side, in object order.
+    fn concat(&self, side: usize) -> Vec<PenumbraVertex> {
+        let n = self.cache.iter().map(|s| s[side].len()).sum();
+        let mut out = Vec::with_capacity(n);
+        for s in self.cache.iter() {
+            out.extend_from_slice(&s[side]);
+        }
+        out
     }
 }
 
 impl Technique for PenumbraMap {
     fn name(&self) -> &'static str {
-        INFO.name
+        self.form.names().technique
     }
 
     fn uniforms(&self, frame: &FrameInput<'_>) -> [[f32; 4]; 2] {
@@ -292,6 +409,7 @@ impl Technique for PenumbraMap {
         rec: &mut Recorder<'_>,
         frame: &FrameInput<'_>,
     ) -> Result<()> {
+        let names = self.form.names();
         // R = 0 (a point light): every cone has radius 0, the result is `hard`.
         self.draw_geometry = frame.light_radius > 0.0;
         // Without pass caching every frame rebuilds everything (the bench's baseline).
@@ -304,38 +422,46 @@ impl Technique for PenumbraMap {
         );
         if !self.draw_geometry {
             if self.gpu_silhouettes.is_some() {
-                rec.skip("penumbra-map/silhouettes", "light radius 0: hard shadows");
+                rec.skip(names.silhouettes, "light radius 0: hard shadows");
             }
             self.vertices.upload::<PenumbraVertex>(ctx, &[])?;
+            self.inner_vertices.upload::<PenumbraVertex>(ctx, &[])?;
         } else if let Some(gpu) = self.gpu_silhouettes.as_mut() {
             gpu.prepare(ctx)?;
             if !force && gpu.dirty_penumbra(&frame.scene.objects, key) == 0 {
-                rec.skip("penumbra-map/silhouettes", "light and casters unchanged");
+                rec.skip(names.silhouettes, "light and casters unchanged");
             } else {
-                rec.pass("penumbra-map/silhouettes", |rec| {
+                rec.pass(names.silhouettes, |rec| {
                     gpu.record_penumbra(rec, &frame.scene.objects, frame.light, key, force)
                 })?;
-                rec.rebuilt("penumbra-map/silhouettes", gpu.rebuilt(), casters);
+                rec.rebuilt(names.silhouettes, gpu.rebuilt(), casters);
             }
         } else {
-            let rebuilt = rec.cpu("penumbra-map/silhouettes", || {
-                self.build_geometry(frame, key, force)
-            });
-            rec.rebuilt("penumbra-map/silhouettes", rebuilt, casters);
-            let vertices = self.cache.concat();
-            self.vertices.upload(ctx, &vertices)?;
+            let rebuilt = rec.cpu(names.silhouettes, || self.build_geometry(frame, key, force));
+            rec.rebuilt(names.silhouettes, rebuilt, casters);
+            self.vertices.upload(ctx, &self.concat(0))?;
+            if self.inner_pipeline.is_some() {
+                self.inner_vertices.upload(ctx, &self.concat(1))?;
+            }
         }
 
         self.shadow.pass(rec, frame.gpu)?;
-        rec.pass("penumbra-map/penumbra", |rec| {
+        rec.pass(names.penumbra, |rec| {
+            // The paper's "clear to white"; the centred form's inner occlusion starts at 1.
             rec.begin_rendering(&[(&self.penumbra, Some([1.0; 4]))], None);
             if self.draw_geometry {
                 rec.bind_pipeline(&self.penumbra_pipeline);
                 rec.bind_sets(&self.penumbra_pipeline, &[&self.penumbra_set]);
                 match &self.gpu_silhouettes {
                     Some(gpu) => gpu.draw(rec),
-                    None if !self.vertices.is_empty() => self.vertices.draw(rec),
-                    None => {}
+                    None => self.vertices.draw(rec),
+                }
+                if let Some(inner_pipeline) = &self.inner_pipeline {
+                    if !self.inner_vertices.is_empty() {
+                        rec.bind_pipeline(inner_pipeline);
+                        rec.bind_sets(inner_pipeline, &[&self.penumbra_set]);
+                        self.inner_vertices.draw(rec);
+                    }
                 }
             }
             rec.end_rendering();
@@ -345,9 +471,10 @@ impl Technique for PenumbraMap {
     }
 
     fn light_passes(&self) -> Vec<String> {
-        let mut passes = vec!["penumbra-map/shadow_map", "penumbra-map/penumbra"];
+        let names = self.form.names();
+        let mut passes = vec![names.shadow_map, names.penumbra];
         if self.gpu_silhouettes.is_some() {
-            passes.insert(0, "penumbra-map/silhouettes");
+            passes.insert(0, names.silhouettes);
         }
         passes.into_iter().map(String::from).collect()
     }
@@ -364,11 +491,22 @@ impl Technique for PenumbraMap {
     fn light_buffers(&self) -> Vec<LightBuffer<'_>> {
         vec![
             shadow_map_buffer("shadow_map", &self.shadow),
-            // Eq. 1's intensity, darkest (MIN) of the cones and sheets; 1 = lit.
             LightBuffer {
                 name: "penumbra_map",
                 image: &self.penumbra,
-                channels: &["intensity"],
+                channels: match self.form {
+                    // Eq. 1's intensity, darkest (MIN) of the cones and sheets; 1 = lit.
+                    Form::Paper => &["intensity"],
+                    // The darkest outer visibility (1 = lit), the least inner occlusion
+                    // (1 = umbra) and 1 - the farthest receiver depth / far an inner value
+                    // was made for, all MIN (penumbra_map_centred.rs).
+                    Form::Centred => &[
+                        "outer_visibility",
+                        "inner_occlusion",
+                        "inner_receiver_nearness",
+                        "unused",
+                    ],
+                },
             },
         ]
     }

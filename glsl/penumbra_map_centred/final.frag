@@ -1,0 +1,37 @@
+#version 450
+#extension GL_GOOGLE_include_directive : require
+// penumbra-map-centred/final: the paper's two lookups (penumbra_map/final.frag) plus the
+// inner side. At each texel of the 2x2 footprint: in front of the shadow map's nearest
+// caster -> the outer visibility if the texel's foremost surface is this point's surface,
+// else 1 (as the paper form); behind it -> 1 - the inner occlusion (0 where no inner cone or
+// sheet reached: the umbra) if this point is not beyond the farthest receiver an inner value
+// there was made for (a point behind a second caster, e.g. the ground under two stacked
+// boxes, stays in the umbra), never lighter than the outer visibility there (a second caster's outer penumbra
+// over this one's shadow). Bilinear weights, as `hard`.
+#include "common/shadow.glsl"
+#include "penumbra_map/surface.glsl"
+
+layout(set = 0, binding = 1) uniform sampler2D shadow_map;   // RG32F: r caster depth, g foremost surface
+// RGBA16F, MIN: r = outer visibility (1 = lit), g = inner occlusion (1 = umbra), b = 1 - the
+// farthest receiver depth / far an inner value was made for.
+layout(set = 0, binding = 2) uniform sampler2D penumbra_map;
+
+// A point more than this (relative) beyond the inner value's receiver is behind something
+// else: the estimate extrapolates the receiver's plane, so 5 % is several texels' worth of
+// slope and far below the gap between a caster and the ground it stands over.
+const float RECEIVER_EPS = 0.05;
+
+float visibility(vec3 p, vec3 n) {
+    LightSample s = light_sample(p, n);
+    if (!s.inside) return 1.0;
+    vec4 lit = lit_test(textureGather(shadow_map, s.uv, 0), s.depth);
+    vec4 own = own_surface(textureGather(shadow_map, s.uv, 1), s, p, n);
+    vec4 outer = textureGather(penumbra_map, s.uv, 0);
+    vec4 in_front = mix(vec4(1.0), outer, own);
+    vec4 receiver = (1.0 - textureGather(penumbra_map, s.uv, 2)) * frame.light_params.y;
+    vec4 inner = (1.0 - textureGather(penumbra_map, s.uv, 1)) * step(s.depth, receiver * (1.0 + RECEIVER_EPS));
+    vec4 behind = min(inner, outer);
+    return clamp(bilinear(mix(behind, in_front, lit), s.uv), 0.0, 1.0);
+}
+
+#include "common/final.glsl"

@@ -1,0 +1,31 @@
+#version 450
+#extension GL_GOOGLE_include_directive : require
+// penumbra-map-centred/penumbra, outer cones and sheets: the paper's fragment program
+// (penumbra_map/penumbra.frag) with the penumbra centred on the hard edge. Eq. 1's depths
+// give the exact share of the outer penumbra half-width at P: the fragment F lies
+// Lr (1/Zv - 1/Z_F) (tangent units) outside the hard-edge line, the half-width at P is
+// Lr (1/Zv - 1/Z_P), so
+//     s = (1/Zv - 1/Z_F) / (1/Zv - 1/Z_P) = I Z_P / Z_F,   I = Eq. 1,
+// and the visibility is the disc-chord profile v = disc_chord(-s): 0.5 on the hard edge, 1
+// at the outer rim. Written to the RGBA16F penumbra map with MIN blending: r (outer
+// visibility: darkest wins, as in the paper) gets v, the inner channels the neutral 1.
+#include "common/frame.glsl"
+#include "common/penumbra.glsl"
+#include "penumbra_map/wedge.glsl"
+
+layout(set = 0, binding = 1) uniform sampler2D shadow_map;   // RG32F: g = foremost surface of any role
+
+layout(location = 0) in float v_depth;
+layout(location = 1) in vec2 v_zv_h;
+layout(location = 2) flat in float v_reach;
+layout(location = 0) out vec4 o_penumbra;   // outer visibility, inner occlusion, 1 - receiver depth / far, unused
+
+void main() {
+    Eq1 e;
+    if (!eq1_depths(texelFetch(shadow_map, ivec2(gl_FragCoord.xy), 0).g, v_depth, v_zv_h, e)) {
+        discard;
+    }
+    // Rasterised F can fall a rounding error in front of the tip.
+    float s = clamp((e.zf - e.zv) / e.denom * (e.zp / e.zf), 0.0, 1.0);
+    o_penumbra = vec4(max(disc_chord(-s), blocker_floor(v_reach, e.zv, e.zp, e.denom)), 1.0, 1.0, 1.0);
+}

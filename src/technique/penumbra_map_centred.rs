@@ -1,0 +1,118 @@
+//! # penumbra-map-centred — Wyman & Hansen 2003 with the penumbra centred on the hard edge
+//!
+//! `penumbra-map` (src/technique/penumbra_map.rs, whose header this one builds on) takes the
+//! hard shadow from the light's centre as the umbra and grows the penumbra outward from it,
+//! so every shadow is too large and too dark (the paper's Sec. 4.1). From the light's centre
+//! the hard edge of a straight blocker edge is where the true visibility of a disc light is
+//! 0.5; the true penumbra runs from the inner edge (0, inside the hard shadow) through the
+//! hard edge to the outer edge (1), with the disc-chord profile
+//! v(s) = (1/pi)(acos s - s sqrt(1 - s^2)) (glsl/common/penumbra.glsl, s = the signed distance
+//! from the hard edge over the half-width, positive inside). This form draws the paper's
+//! outer cones and sheets AND their mirror images inside the hard shadow (issue 22; Cai et
+//! al. 2006's inner and outer fins are the same idea for shadow fins). Same pass structure,
+//! same geometry builder (`silhouette::penumbra::build_penumbra_sides`, `Side::Outer` /
+//! `Side::Inner`), same struct as the paper form (`penumbra_map::PenumbraMap`, `Form`).
+//!
+//! ## Geometry
+//! Half-width of the penumbra that a receiver at linear light depth Z gets from a
+//! silhouette point at depth Zv, in tangent units (lateral offset / depth, the light-screen
+//! unit): w(Z) = Lr (1/Zv - 1/Z). The outer sheet of an edge is the plane through the edge
+//! tangent to the light disc on the inner side (the paper's), the inner sheet the plane
+//! through the edge tangent on the outer side; a point of either at depth Z_F lies
+//! u = w(Z_F) from the edge's hard-edge line, outside or inside. Cones: arcs between the
+//! two sheets' normals at each silhouette vertex, on each side (the gap at a convex vertex
+//! outside, at a reflex vertex inside). Both sides are built on the CPU
+//! (`--silhouettes gpu` is not implemented for the inner side and builds on the CPU too).
+//!
+//! ## Passes, in order
+//! 0. CPU `penumbra-map-centred/silhouettes` (R > 0) — per moved caster: silhouette from the
+//!    light centre, then the outer and the inner cones and sheets (24-byte
+//!    `PenumbraVertex`, as the paper form), uploaded to two host-visible vertex buffers.
+//! 1. `penumbra-map-centred/shadow_map` — the shared `ShadowMap`: R32G32_SFLOAT, clear 1e30,
+//!    blend MIN, no depth attachment; r = nearest caster's linear depth, g = nearest
+//!    surface's of any role.
+//! 2. `penumbra-map-centred/penumbra` — one rendering scope, no depth attachment, culling
+//!    off, one colour attachment, the penumbra map: R16G16B16A16_SFLOAT, clear (1, 1, 1, 1),
+//!    blend MIN; r = the outer visibility (darkest wins, the paper's rule), g = the inner
+//!    OCCLUSION 1 - v (so that the same MIN keeps the lightest inner estimate), b = 1 - the
+//!    depth / far of the receiver an inner value was made for (the farthest wins: one
+//!    caster's inner penumbra on a second caster behind it must not put the ground behind
+//!    both in the umbra where another edge's inner penumbra reaches the ground), a unused.
+//!    One attachment because MIN on one map and MAX on another would need the
+//!    independentBlend feature. Both draws use glsl/penumbra_map/penumbra.vert (the paper's).
+//!    - outer cones and sheets, `glsl/penumbra_map_centred/outer.frag`: the paper's
+//!      fragment program (shared in glsl/penumbra_map/wedge.glsl: Z_P = the shadow map's g at
+//!      the fragment's texel, the same discards, the same blocker-size bound) with the exact
+//!      outer fraction s = (1/Zv - 1/Z_F) / (1/Zv - 1/Z_P) = I Z_P / Z_F (I = Eq. 1) and
+//!      v = disc_chord(-s) in [0.5, 1]; writes (v, 1).
+//!    - inner cones and sheets, `glsl/penumbra_map_centred/inner.frag`: u = w(Z_F), the
+//!      inward direction = the gradient of u over the map (dFdx/dFdy). The receiver behind
+//!      the texel is hidden from the light, so its depth Z_R is estimated from the shadow
+//!      map's g 1.5 and 5.5 texels outside the edge along that direction: the plane through
+//!      the two samples (1/depth is affine across the map over a plane) extrapolated to the
+//!      texel, within 5 % of the nearer sample. Discarded when the near sample shows a
+//!      caster more than 1 % in front of the edge (the edge is hidden by another caster: no
+//!      inner penumbra through it), when the fragment's own texel is not behind a caster
+//!      1 % nearer than Z_R, or when s = u / w(Z_R) >= 1 (umbra). Else v = disc_chord(s)
+//!      in [0, 0.5], plus the thin-blocker term below, raised to the blocker-size bound;
+//!      writes (1, 1 - v, 1 - Z_R / far, 1).
+//! 3. `penumbra-map-centred/final` — `FinalPass` with
+//!    `glsl/penumbra_map_centred/final.frag`: per texel of the 2x2 footprint (textureGather
+//!    of the shadow map's r and g and of the penumbra map's r, g and b at the normal-offset
+//!    point), in front of the nearest caster: the outer visibility if the texel's foremost
+//!    surface is the point's own (the paper form's window, glsl/penumbra_map/surface.glsl),
+//!    else 1; behind it: 1 - the inner occlusion if the point is at most 5 % beyond the
+//!    farthest receiver depth of the inner values there, else 0 (a point behind a second caster, e.g. the ground under
+//!    two stacked boxes, stays in the umbra), and never more than the outer visibility.
+//!    Bilinear weights as `hard`. R = 0 draws no cones or sheets: the map stays (1, 1, 1, 1),
+//!    and the result is `hard`'s exactly.
+//!
+//! ## Combining edges (what the centring approximates)
+//! - Several outer wedges at a texel: the darkest (MIN), as the paper. Exact for one edge;
+//!   two blockers' overlapping outer penumbrae are never lighter than either alone (the
+//!   union of two blockers hides at least what each hides), but darker-than-both (the sum of
+//!   their occlusions) is not modelled.
+//! - Several inner wedges at a texel: the lightest (MIN of the occlusion). For a convex blocker the light that
+//!   reaches a point is at least what the nearest edge alone lets through, so MAX of the
+//!   per-edge values is a lower bound there; neighbouring edges of a curved silhouette
+//!   (nearly parallel, same side) give nearly equal values and are not counted twice.
+//! - Thin blockers: a MAX over edges alone would leave a strip narrower than its penumbra
+//!   half as bright as it is. Each inner fragment marches the shadow map inward along its
+//!   normal (8 steps over w, then 3 bisections) for the blocker's far edge, d beyond the
+//!   texel. Through a strip between parallel edges a and b a point sees the disc's segment
+//!   beyond each edge: the blocked share is 1 - disc_chord(s_a) - disc_chord(s_b), per-edge
+//!   occlusions combine (they do not take the minimum); the inner fragment writes
+//!   disc_chord(s_a) + disc_chord(d / w), so inner extents meeting from both sides give
+//!   partial light, exactly for a parallel strip. At a sharp corner of a thin blocker the
+//!   march can leave through the other edge and count its segment fully: too light there.
+//! - Hidden receivers under another caster's outer penumbra take min(inner, outer), where
+//!   the outer value was evaluated at the foremost (nearer) surface: not darker than the
+//!   outer penumbra at the receiver's own depth would be.
+//! - Overlapping casters: an edge whose outside is covered by a caster in front of it draws
+//!   no inner penumbra, so one caster's inner penumbra never lightens another's umbra
+//!   (union semantics at the hard-shadow outline). A caster BEHIND the edge but in front of
+//!   the receiver ends the march (the blocker and it are one union, through Z_R), and a
+//!   receiver behind that second caster gets 0 in the final pass (the receiver-depth check).
+//!
+//! ## Known artefacts
+//! One receiver per texel for the inner side: Z_R is the plane of the surface just outside
+//! the edge; a hidden point more than 5 % beyond it gets the umbra (right behind a second
+//! caster, too dark behind a receiver that curves away), one nearer gets that plane's wider
+//! penumbra (too light). Surfaces facing away from the light inside the inner band get the
+//! inner penumbra too (the shading's n.l hides it). The march and the edge test are
+//! quantised to the shadow map's texels (the far edge to 1/2 texel after bisection).
+//! Silhouettes from the light centre only (they pop under light motion) and the paper's
+//! creases at concavities remain; both halves are evaluated for a straight edge, so curved
+//! silhouettes (a sphere's) get a slightly too dark inner penumbra (a convex outline hides
+//! less of the disc than the half-plane of its tangent). The inner fragments cost up to 14
+//! shadow-map fetches each (two receiver samples, own texel, 8 + 3 march steps), only in
+//! the inner band.
+
+use super::penumbra_map::PenumbraMap;
+use super::{Form, TechniqueInfo};
+
+pub const INFO: TechniqueInfo = TechniqueInfo {
+    name: "penumbra-map-centred",
+    summary: "penumbra maps with inner and outer cones and sheets: disc-chord penumbra centred on the hard edge",
+    create: |init| PenumbraMap::create(init, Form::Centred),
+};

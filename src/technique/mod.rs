@@ -4,6 +4,7 @@
 pub mod hard;
 pub mod pcf;
 pub mod pcss;
+pub mod pcss_fast;
 pub mod penumbra_map;
 pub mod penumbra_map_centred;
 pub mod plateaus;
@@ -122,6 +123,7 @@ pub const TECHNIQUES: &[TechniqueInfo] = &[
     hard::INFO,
     pcf::INFO,
     pcss::INFO,
+    pcss_fast::INFO,
     smoothies::INFO,
     penumbra_map::INFO,
     penumbra_map_centred::INFO,

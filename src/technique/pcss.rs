@@ -29,8 +29,9 @@
 //!    LESS). Vertex `glsl/common/shadow_depth.vert`, fragment `glsl/common/shadow_depth.frag`.
 //!    Linear depths are what Eq. 1, 3 and 4 take.
 //! 2. `pcss/final` — every object from the camera (`gpu::passes::FinalPass`), fragment
-//!    `glsl/pcss/final.frag`. As in Fernando's original, all three steps run in this one
-//!    fragment shader (no separate blocker-search pass):
+//!    `glsl/pcss/final.frag`, the steps in `glsl/pcss/search.glsl`. As in Fernando's
+//!    original, all three steps run in this one fragment shader (no separate blocker-search
+//!    pass):
 //!    - Step 1, blocker search: `search_samples` points of the Poisson disc
 //!      (`glsl/pcf/filter.glsl`) scaled to the radius of Eq. 3, one `textureGather` (4
 //!      texels) each; average linear depth of the texels closer than the receiver (same
@@ -66,9 +67,8 @@
 //! measured ratios). The shadow-map pass is the shared `ShadowMap` (as `pcf`'s); the final pass
 //! dominates, and in it the blocker search: every lit pixel inside the light frustum pays
 //! SEARCH_SAMPLES gathers before it can exit, and on lavapipe one gather costs about as much
-//! as all of `hard`'s final pass. The fix that would meet the goal is a hierarchical search
-//! (a min/max depth mip chain of the shadow map: one fetch decides "no blocker" or "all
-//! blocked" for most pixels), which needs mip-level image views in `src/vk`.
+//! as all of `hard`'s final pass. `pcss-fast` (src/technique/pcss_fast.rs) settles most
+//! pixels with a min/max hierarchy of the shadow map first, for the same image.
 
 use super::{
     shadow_map_buffer, technique_constants, FrameInput, LightBuffer, Technique, TechniqueInfo,
@@ -100,6 +100,19 @@ pub fn sample_counts(kernel: PcfKernel) -> (u32, u32) {
         PcfKernel::Poisson(n) => (n, n),
         PcfKernel::Box(_) => (SEARCH_SAMPLES, FILTER_SAMPLES),
     }
+}
+
+/// The slots of `glsl/pcss/constants.glsl` (shared with `pcss-fast`).
+pub(crate) fn slots(frame: &FrameInput<'_>, search_samples: u32, filter_samples: u32) -> [f32; 8] {
+    let r = frame.light_radius.max(0.0);
+    let two_tan = 2.0 * (frame.light.fov_deg.to_radians() * 0.5).tan();
+    let mut c = [0.0; 8];
+    c[k::PCSS_LIGHT_UV_NEAR] = r / (two_tan * frame.light.near); // Eq. 2
+    c[k::PCSS_PENUMBRA_SCALE] = r / two_tan; // Eq. 4 without its depths
+    c[k::PCSS_MAX_RADIUS_TEXELS] = MAX_RADIUS_TEXELS;
+    c[k::PCSS_FILTER_SAMPLES] = filter_samples as f32;
+    c[k::PCSS_SEARCH_SAMPLES] = search_samples as f32;
+    c
 }
 
 pub struct Pcss {
@@ -157,15 +170,7 @@ impl Technique for Pcss {
     }
 
     fn uniforms(&self, frame: &FrameInput<'_>) -> [[f32; 4]; 2] {
-        let r = frame.light_radius.max(0.0);
-        let two_tan = 2.0 * (frame.light.fov_deg.to_radians() * 0.5).tan();
-        let mut c = [0.0; 8];
-        c[k::PCSS_LIGHT_UV_NEAR] = r / (two_tan * frame.light.near); // Eq. 2
-        c[k::PCSS_PENUMBRA_SCALE] = r / two_tan; // Eq. 4 without its depths
-        c[k::PCSS_MAX_RADIUS_TEXELS] = MAX_RADIUS_TEXELS;
-        c[k::PCSS_FILTER_SAMPLES] = self.filter_samples as f32;
-        c[k::PCSS_SEARCH_SAMPLES] = self.search_samples as f32;
-        technique_constants(c)
+        technique_constants(slots(frame, self.search_samples, self.filter_samples))
     }
 
     fn record_light(

@@ -1,0 +1,56 @@
+// pcss's three steps (Fernando 2005) for one point, shared by `pcss` and `pcss-fast`, which
+// differ only in what they try before the blocker search. Equation numbers as in
+// src/technique/pcss.rs.
+#ifndef PCSS_SEARCH_GLSL
+#define PCSS_SEARCH_GLSL
+#include "pcf/filter.glsl"
+#include "pcss/constants.glsl"
+
+// RG32F, MIN-blended, no depth attachment (gpu::passes::ShadowMap): r = nearest caster's
+// linear depth, the one searched and compared here.
+layout(set = 0, binding = 1) uniform sampler2D shadow_map;
+
+// Blocker-search radius in texels (Eq. 3): the light's projection through the receiver onto
+// the near plane, clamped to the largest radius.
+float pcss_search_radius(LightSample s) {
+    float near = frame.light_params.x;
+    float d_r = s.depth;
+    return min(PCSS_LIGHT_UV_NEAR * max(d_r - near, 0.0) / d_r * frame.light_params.z,
+               PCSS_MAX_RADIUS_TEXELS);
+}
+
+// Steps 1 to 3 for a point inside the light frustum; `rp` is its receiver plane over the
+// search disc (`receiver_plane(s, n, search + 1.0)`).
+float pcss_visibility(LightSample s, ReceiverPlane rp, float search) {
+    float res = frame.light_params.z;
+    float max_texels = PCSS_MAX_RADIUS_TEXELS;
+    float d_r = s.depth;
+
+    // Step 1, blocker search over the disc of Eq. 3, 4 texels per gather.
+    // Under half a texel every tap reads the same 2x2 footprint: one is enough (R = 0).
+    int taps = search < 0.5 ? 1 : int(PCSS_SEARCH_SAMPLES);
+    float depth_sum = 0.0;
+    float blockers = 0.0;
+    for (int i = 0; i < taps; ++i) {
+        vec2 duv = POISSON[i] * (search / res);
+        vec4 g = textureGather(shadow_map, s.uv + duv, 0);
+        // The receiver's own surface inside the search disc is no blocker (filter.glsl).
+        vec4 blocked = vec4(1.0) - lit_test(g, plane_depth(rp, duv));
+        depth_sum += dot(blocked, g);
+        blockers += dot(blocked, vec4(1.0));
+    }
+    if (blockers == 0.0) return 1.0;              // nothing in front: fully lit, no filter
+    if (blockers == float(4 * taps)) return 0.0;  // every texel blocked: umbra
+    float d_b = depth_sum / blockers;
+
+    // Step 2, penumbra estimate (Eq. 1) in world units at the receiver, as uv (Eq. 4).
+    float radius = min(PCSS_PENUMBRA_SCALE * (d_r - d_b) / (d_b * d_r) * res, max_texels);
+
+    // Step 3, PCF over a Poisson disc of that radius; each tap is a 2x2 bilinear footprint.
+    // A point light (R = 0) leaves one 2x2 footprint: the `hard` result, one tap.
+    int samples = radius < 0.01 ? 1 : int(PCSS_FILTER_SAMPLES);
+    rp.max_shift = 8.0 * (radius + 1.0) * d_r * frame.light_frustum.y;
+    return pcf_poisson(shadow_map, s.uv, rp, samples, radius);
+}
+
+#endif

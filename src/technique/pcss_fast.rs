@@ -1,0 +1,304 @@
+//! # pcss-fast — `pcss` (Fernando 2005) that settles most pixels with a min/max hierarchy
+//!
+//! The same image as `pcss` (src/technique/pcss.rs: Equations 1–5, sample counts, known
+//! artefacts), for less work. In `pcss` every lit pixel inside the light frustum pays the
+//! whole blocker search (SEARCH_SAMPLES gathers of 4 texels) to learn that nothing is in
+//! front of it, and every umbra pixel pays it to learn that everything is. Here a min/max
+//! hierarchy of the shadow map's caster depths answers both questions first, for the square
+//! of texels the search can touch, with at most nine reads; only the points it cannot settle
+//! (penumbrae, and lit points near a caster) run pcss's search and filter, unchanged.
+//!
+//! ## Why the image is pcss's exactly
+//! Both early answers are conservative bounds on pcss's own test (`lit_test` against the
+//! receiver plane, `glsl/pcf/filter.glsl`), over a superset of the texels pcss reads:
+//! * the texels: a search tap's 2x2 gather reads within `search + 1` texels of the point
+//!   (the Poisson points lie inside the unit disc); the hierarchy's square adds half a texel
+//!   and clamps to the map as the clamp-to-edge sampler does;
+//! * "no blocker" (1): pcss's plane depth is never deeper than the point (`plane_depth` only
+//!   moves it closer), so `min * (1 + bias) >= depth` makes every tap lit;
+//! * "every texel blocked" (0): the plane is closest at `q_max = 1 + (|g_x| + |g_y|) search /
+//!   res`, so `max * (1 + bias) < depth / q_max` (clamped by the plane's `max_shift`, with a
+//!   1e-5 margin for rounding) makes every tap blocked.
+//!
+//! pcss returns exactly 1 and 0 in those two cases (its "no blocker" and "umbra" exits), so
+//! every pixel the hierarchy settles gets pcss's value, and every other pixel runs pcss's
+//! code (`glsl/pcss/search.glsl`, shared). tests/pcss_fast.rs holds the two images equal.
+//! A hierarchical blocker *average* (the "walk the hierarchy instead of 16 gathers"
+//! for the penumbra pixels too) would change the image: the average of pcss's sparse taps is
+//! not the average of a cell's depths. It is not done here.
+//!
+//! ## Passes, in order
+//! 1. `pcss-fast/shadow_map` — casters from the light (`gpu::passes::ShadowMap`): RG32F,
+//!    r = the nearest caster's linear depth, clear 1e30, MIN blend, no depth attachment.
+//! 2. `pcss-fast/minmax` — `glsl/pcss_fast/minmax.comp`, one dispatch per level (8x8
+//!    threads a group): level k (1..LEVELS) is ceil(res / 2^k) cells a side, each the
+//!    (min, max) of its 2x2 children; level 1 reads the shadow map (one textureGather of r
+//!    a cell), the others the level below. One storage buffer of vec2 (`minmax`), levels one after
+//!    another, row by row (`glsl/pcss_fast/hierarchy.glsl`): about res²/3 cells, 2.8 MB at
+//!    1024². A buffer rather than a mipmapped image: no per-level views or layouts, and the
+//!    final pass reads whole cells by index anyway. Barriers between levels come from the
+//!    dispatches' declared accesses (`vk::Recorder`).
+//! 3. `pcss-fast/final` — every object from the camera (`gpu::passes::FinalPass`), fragment
+//!    `glsl/pcss_fast/final.frag`: the search radius (Eq. 3), the square of texels it
+//!    touches, the lowest level at which that square spans at most 3x3 cells, their
+//!    (min, max), the two tests above, else pcss's steps 1–3. 3x3 cells one level finer
+//!    rather than 2x2: the cells hug the square closer, and on `cylinder` (320x240) the
+//!    points left to the search fell from 12661 to 10169 (pcss itself finds 2900 penumbra
+//!    points there; the rest are lit points with a blocker in their search disc). Writes colour RGBA8, no
+//!    blending (the untimed AOV pass `pcss-fast/aov` also visibility R32F, position
+//!    RGBA32F, normal RGBA16F).
+//!
+//! Constants: pcss's (`frame.technique`, `frame.technique2.x`, glsl/pcss/constants.glsl) and
+//! `frame.technique2.y` = the level count (glsl/pcss_fast/constants.glsl).
+//!
+//! ## Levels
+//! The search radius is at most MAX_RADIUS_TEXELS (48), so the square's corners lie at most
+//! 2 (48 + 2) = 100 texels apart, which 3 cells of 2^6 = 64 always cover: levels 1..6, fewer
+//! when the map is smaller (none past one cell). The coarser the level, the likelier a cell
+//! holds a caster and the point falls back to the search: a lit point settles only when no
+//! caster lies within its search square.
+//!
+//! ## Known artefacts
+//! Those of `pcss`, no more. Points on a caster's own lit surface (the caster is in its own
+//! cells) never settle as lit, and pay the hierarchy's reads on top of the search.
+
+use super::pcss;
+use super::{
+    shadow_map_buffer, technique_constants, FrameInput, LightBuffer, Technique, TechniqueInfo,
+    TechniqueInit,
+};
+use crate::gpu::passes::{FinalPass, FinalShader, ShadowMap};
+use crate::shaders::{self, constants as k};
+use crate::vk::{
+    Buffer, BufferUsageFlags, Context, DescriptorSet, Filter, MemoryLocation, Pipeline, Recorder,
+    Resource, Sampler,
+};
+use anyhow::{Context as _, Result};
+
+pub const INFO: TechniqueInfo = TechniqueInfo {
+    name: "pcss-fast",
+    summary: "pcss with a min/max hierarchy of the shadow map settling lit and umbra pixels first",
+    create: PcssFast::create,
+};
+
+/// Threads a side of a `minmax.comp` workgroup (its `local_size_x/y`).
+const GROUP: u32 = 8;
+/// Levels that cover the largest search square (module header, "Levels").
+const MAX_LEVELS: u32 = 6;
+
+/// One level of the hierarchy: its first cell in the buffer and its cells a side.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Level {
+    pub offset: u32,
+    pub size: u32,
+}
+
+/// The levels for a `res`² shadow map: 1..=MAX_LEVELS, stopping after the first one cell a
+/// side (a coarser one would hold the same single cell).
+pub fn levels(res: u32) -> Vec<Level> {
+    let mut out = Vec::new();
+    let (mut size, mut offset) = (res.max(1), 0);
+    while out.len() < MAX_LEVELS as usize && size > 1 {
+        size = size.div_ceil(2);
+        out.push(Level { offset, size });
+        offset += size * size;
+    }
+    out
+}
+
+/// `minmax.comp`'s push constants (its `Level` block).
+#[repr(C)]
+#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
+struct LevelPush {
+    src_offset: i32,
+    src_size: i32,
+    dst_offset: i32,
+    dst_size: i32,
+}
+
+pub struct PcssFast {
+    shadow: ShadowMap,
+    levels: Vec<Level>,
+    /// Kept alive for the sets that bind it.
+    _minmax: Buffer,
+    build: Pipeline,
+    build_set: DescriptorSet,
+    final_pass: FinalPass,
+    final_set: DescriptorSet,
+    search_samples: u32,
+    filter_samples: u32,
+    _sampler: Sampler,
+}
+
+impl PcssFast {
+    fn create(init: &TechniqueInit<'_>) -> Result<Box<dyn Technique>> {
+        let ctx = init.ctx;
+        init.settings.pcf_kernel.check()?;
+        let (search_samples, filter_samples) = pcss::sample_counts(init.settings.pcf_kernel);
+        let res = init.settings.shadow_res;
+        let shadow = ShadowMap::new(ctx, init.ubo, res, "pcss-fast/shadow_map")
+            .context("pcss-fast shadow map")?;
+        let levels = levels(res);
+        let cells: u64 = levels.iter().map(|l| u64::from(l.size).pow(2)).sum();
+        let minmax = Buffer::new(
+            ctx,
+            cells * 8,
+            BufferUsageFlags::STORAGE_BUFFER,
+            MemoryLocation::GpuOnly,
+            "pcss-fast/minmax",
+        )
+        .context("pcss-fast min/max hierarchy")?;
+        // Nearest: gathers and texelFetch ignore filtering, and no path may blend depths.
+        let sampler = Sampler::new(ctx, Filter::Nearest).context("pcss-fast sampler")?;
+        let build_set = DescriptorSet::new(
+            ctx,
+            &[
+                ("shadow_map", Resource::Sampled(&shadow.depth, &sampler)),
+                ("minmax", Resource::Storage(&minmax)),
+            ],
+            "pcss-fast/minmax",
+        )
+        .context("pcss-fast minmax descriptor set")?;
+        let build = Pipeline::compute(
+            ctx,
+            "pcss-fast/minmax",
+            shaders::PCSS_FAST_MINMAX_COMP,
+            &[&build_set],
+            std::mem::size_of::<LevelPush>() as u32,
+        )
+        .context("pcss-fast minmax pipeline")?;
+        let final_set = DescriptorSet::new(
+            ctx,
+            &[
+                ("frame", Resource::Uniform(init.ubo)),
+                ("shadow_map", Resource::Sampled(&shadow.depth, &sampler)),
+                ("minmax", Resource::Storage(&minmax)),
+            ],
+            "pcss-fast/final",
+        )
+        .context("pcss-fast final descriptor set")?;
+        let final_pass = FinalPass::new(
+            ctx,
+            "pcss-fast/final",
+            FinalShader {
+                color: shaders::PCSS_FAST_FINAL_FRAG,
+                aov: shaders::PCSS_FAST_FINAL_FRAG_AOV,
+            },
+            &final_set,
+        )
+        .context("pcss-fast final pass")?;
+        Ok(Box::new(Self {
+            shadow,
+            levels,
+            _minmax: minmax,
+            build,
+            build_set,
+            final_pass,
+            final_set,
+            search_samples,
+            filter_samples,
+            _sampler: sampler,
+        }))
+    }
+
+    /// Pass 2: every level from the one below, level 1 from the shadow map.
+    fn record_minmax(&self, rec: &mut Recorder<'_>) -> Result<()> {
+        rec.pass("pcss-fast/minmax", |rec| {
+            let mut src = (-1, self.shadow.resolution as i32);
+            for l in &self.levels {
+                let push = LevelPush {
+                    src_offset: src.0,
+                    src_size: src.1,
+                    dst_offset: l.offset as i32,
+                    dst_size: l.size as i32,
+                };
+                rec.bind_pipeline(&self.build);
+                rec.bind_sets(&self.build, &[&self.build_set]);
+                rec.push_constants(&self.build, bytemuck::bytes_of(&push));
+                let groups = l.size.div_ceil(GROUP);
+                rec.dispatch(groups, groups, 1);
+                src = (l.offset as i32, l.size as i32);
+            }
+            Ok(())
+        })
+    }
+}
+
+impl Technique for PcssFast {
+    fn name(&self) -> &'static str {
+        INFO.name
+    }
+
+    fn uniforms(&self, frame: &FrameInput<'_>) -> [[f32; 4]; 2] {
+        let mut c = pcss::slots(frame, self.search_samples, self.filter_samples);
+        c[k::PCSS_FAST_LEVELS] = self.levels.len() as f32;
+        technique_constants(c)
+    }
+
+    fn record_light(
+        &mut self,
+        _ctx: &Context,
+        rec: &mut Recorder<'_>,
+        frame: &FrameInput<'_>,
+    ) -> Result<()> {
+        self.shadow.pass(rec, frame.gpu)?;
+        self.record_minmax(rec)
+    }
+
+    fn light_passes(&self) -> Vec<String> {
+        vec!["pcss-fast/shadow_map".into(), "pcss-fast/minmax".into()]
+    }
+
+    fn record_final(
+        &mut self,
+        _ctx: &Context,
+        rec: &mut Recorder<'_>,
+        frame: &FrameInput<'_>,
+    ) -> Result<()> {
+        self.final_pass.pass(rec, frame, &self.final_set)
+    }
+
+    fn light_buffers(&self) -> Vec<LightBuffer<'_>> {
+        vec![shadow_map_buffer("shadow_map", &self.shadow)]
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::technique::pcss::MAX_RADIUS_TEXELS;
+
+    #[test]
+    fn levels_halve_rounding_up_and_follow_each_other() {
+        let l = levels(1024);
+        assert_eq!(l.len(), 6);
+        assert_eq!(
+            l[0],
+            Level {
+                offset: 0,
+                size: 512
+            }
+        );
+        assert_eq!(
+            l[1],
+            Level {
+                offset: 512 * 512,
+                size: 256
+            }
+        );
+        assert_eq!(l[5].size, 16);
+        // An odd size keeps its last texel: 100 -> 50 -> 25 -> 13 -> 7 -> 4 -> 2.
+        let sizes: Vec<u32> = levels(100).iter().map(|l| l.size).collect();
+        assert_eq!(sizes, [50, 25, 13, 7, 4, 2]);
+        // No level past one cell.
+        let sizes: Vec<u32> = levels(16).iter().map(|l| l.size).collect();
+        assert_eq!(sizes, [8, 4, 2, 1]);
+        // At the top level the largest search square (final.frag: corners floor(c -+ (search
+        // + 1.5)) apart) spans at most 3 cells, whatever its position.
+        let cell = 1i32 << MAX_LEVELS;
+        let span = 2 * (MAX_RADIUS_TEXELS as i32 + 2);
+        for lo in 0..cell {
+            assert!(((lo + span) >> MAX_LEVELS) - (lo >> MAX_LEVELS) <= 2);
+        }
+    }
+}

@@ -5,6 +5,6 @@
 #define PCSS_FAST_CONSTANTS_GLSL
 #include "common/frame.glsl"
 
-#define PCSS_FAST_LEVELS frame.technique2.y  // levels of the min/max hierarchy (1..LEVELS)
+#define PCSS_FAST_LAST_LEVEL frame.technique2.y  // the min/max hierarchy's coarsest level (2..LAST)
 
 #endif

@@ -12,11 +12,11 @@ layout(std430, set = 0, binding = 2) readonly buffer MinMax { vec2 cells[]; } mi
 // (min, max) of the caster depths over the cells of the lowest level at which the texels
 // [lo, hi] span at most 3 x 3 cells; (0, 3e38), deciding nothing, if none does.
 vec2 depth_bounds(ivec2 lo, ivec2 hi) {
-    int levels = int(PCSS_FAST_LEVELS);
-    int size = int(frame.light_params.z);
+    int last = int(PCSS_FAST_LAST_LEVEL);
+    int res = int(frame.light_params.z);
     int offset = 0;
-    for (int k = 1; k <= levels; ++k) {
-        size = next_level_size(size);
+    for (int k = 2; k <= last; ++k) {
+        int size = level_size(res, k);
         ivec2 a = lo >> k;
         ivec2 b = hi >> k;
         if (all(lessThanEqual(b - a, ivec2(2)))) {

@@ -1,7 +1,8 @@
 #version 450
 #extension GL_GOOGLE_include_directive : require
 // pcss-fast/minmax: one level of the min/max hierarchy (pcss_fast/hierarchy.glsl) from the
-// level below it, one dispatch a level; level 1 reads the shadow map itself.
+// level below it, one dispatch a level; the first level (2: 4x4 texels a cell) reads the
+// shadow map itself.
 #include "pcss_fast/hierarchy.glsl"
 
 layout(local_size_x = 8, local_size_y = 8) in;
@@ -12,7 +13,7 @@ layout(set = 0, binding = 0) uniform sampler2D shadow_map;
 layout(std430, set = 0, binding = 1) buffer MinMax { vec2 cells[]; } minmax;
 
 layout(push_constant) uniform Level {
-    int src_offset;  // first cell of the level below; < 0: the shadow map
+    int src_offset;  // first cell of the level below; < 0: the shadow map, 4x4 texels a cell
     int src_size;    // its cells (texels) a side
     int dst_offset;  // first cell of this level
     int dst_size;    // its cells a side
@@ -23,10 +24,19 @@ void main() {
     if (any(greaterThanEqual(d, ivec2(level.dst_size)))) return;
     vec2 r;
     if (level.src_offset < 0) {
-        // One gather at the corner the four texels share reads all of them; past the edge of
-        // an odd-sized map the clamp-to-edge sampler repeats the last texel.
-        vec4 g = textureGather(shadow_map, vec2(2 * d + 1) / float(level.src_size), 0);
-        r = vec2(min(min(g.x, g.y), min(g.z, g.w)), max(max(g.x, g.y), max(g.z, g.w)));
+        // A gather at the corner four texels share reads all of them, so four gathers read
+        // the cell's 4x4; past the map's edge the clamp-to-edge sampler repeats its last
+        // texels, which the cell covers anyway. 4x4 rather than 2x2 cells first: a level of
+        // res²/4 threads cost about as much as the shadow-map pass on lavapipe.
+        r = vec2(3.0e38, -3.0e38);
+        for (int j = 0; j < 2; ++j) {
+            for (int i = 0; i < 2; ++i) {
+                vec2 corner = vec2(4 * d + 2 * ivec2(i, j) + 1) / float(level.src_size);
+                vec4 g = textureGather(shadow_map, corner, 0);
+                r = vec2(min(r.x, min(min(g.x, g.y), min(g.z, g.w))),
+                         max(r.y, max(max(g.x, g.y), max(g.z, g.w))));
+            }
+        }
     } else {
         r = vec2(3.0e38, -3.0e38);
         for (int j = 0; j < 2; ++j) {

@@ -31,32 +31,35 @@
 //! 1. `pcss-fast/shadow_map` — casters from the light (`gpu::passes::ShadowMap`): RG32F,
 //!    r = the nearest caster's linear depth, clear 1e30, MIN blend, no depth attachment.
 //! 2. `pcss-fast/minmax` — `glsl/pcss_fast/minmax.comp`, one dispatch per level (8x8
-//!    threads a group): level k (1..LEVELS) is ceil(res / 2^k) cells a side, each the
-//!    (min, max) of its 2x2 children; level 1 reads the shadow map (one textureGather of r
-//!    a cell), the others the level below. One storage buffer of vec2 (`minmax`), levels one after
-//!    another, row by row (`glsl/pcss_fast/hierarchy.glsl`): about res²/3 cells, 2.8 MB at
-//!    1024². A buffer rather than a mipmapped image: no per-level views or layouts, and the
-//!    final pass reads whole cells by index anyway. Barriers between levels come from the
-//!    dispatches' declared accesses (`vk::Recorder`).
+//!    threads a group): level k (2..=6) is ceil(res / 2^k) cells a side, each the (min, max)
+//!    of the caster depths (r) it covers; level 2 reads the shadow map (four textureGathers
+//!    a cell of 4x4 texels), the others 2x2 cells of the level below. One storage buffer of
+//!    vec2 (`minmax`), levels one after another, row by row
+//!    (`glsl/pcss_fast/hierarchy.glsl`): about res²/12 cells, 0.7 MB at 1024². A buffer
+//!    rather than a mipmapped image: no per-level views or layouts, and the final pass reads
+//!    whole cells by index anyway. Barriers between levels come from the dispatches'
+//!    declared accesses (`vk::Recorder`).
 //! 3. `pcss-fast/final` — every object from the camera (`gpu::passes::FinalPass`), fragment
 //!    `glsl/pcss_fast/final.frag`: the search radius (Eq. 3), the square of texels it
 //!    touches, the lowest level at which that square spans at most 3x3 cells, their
-//!    (min, max), the two tests above, else pcss's steps 1–3. 3x3 cells one level finer
-//!    rather than 2x2: the cells hug the square closer, and on `cylinder` (320x240) the
-//!    points left to the search fell from 12661 to 10169 (pcss itself finds 2900 penumbra
-//!    points there; the rest are lit points with a blocker in their search disc). Writes colour RGBA8, no
-//!    blending (the untimed AOV pass `pcss-fast/aov` also visibility R32F, position
-//!    RGBA32F, normal RGBA16F).
+//!    (min, max), the two tests above, else pcss's steps 1–3. 3x3 cells rather than 2x2 one
+//!    level coarser: the cells hug the square closer, and on `cylinder` (320x240) the points
+//!    left to the search fell from 12661 to 10169 (pcss itself finds 2900 penumbra points
+//!    there; the rest are lit points with a blocker in their search disc). Writes colour
+//!    RGBA8, no blending (the untimed AOV pass `pcss-fast/aov` also visibility R32F,
+//!    position RGBA32F, normal RGBA16F).
 //!
 //! Constants: pcss's (`frame.technique`, `frame.technique2.x`, glsl/pcss/constants.glsl) and
-//! `frame.technique2.y` = the level count (glsl/pcss_fast/constants.glsl).
+//! `frame.technique2.y` = the coarsest level (glsl/pcss_fast/constants.glsl).
 //!
 //! ## Levels
 //! The search radius is at most MAX_RADIUS_TEXELS (48), so the square's corners lie at most
-//! 2 (48 + 2) = 100 texels apart, which 3 cells of 2^6 = 64 always cover: levels 1..6, fewer
-//! when the map is smaller (none past one cell). The coarser the level, the likelier a cell
-//! holds a caster and the point falls back to the search: a lit point settles only when no
-//! caster lies within its search square.
+//! 2 (48 + 2) = 100 texels apart, which 3 cells of 2^6 = 64 always cover: levels up to 6,
+//! fewer when the map is smaller (none past one cell). The finest is level 2 (4x4 texels),
+//! not 1: at 1024² a level-1 build (512² threads) took about 5 ms on lavapipe, two thirds of
+//! `hard`'s frame, and level 1 would only serve searches under a texel. The coarser the
+//! level, the likelier a cell holds a caster and the point falls back to the search: a lit
+//! point settles only when no caster lies within its search square.
 //!
 //! ## Known artefacts
 //! Those of `pcss`, no more. Points on a caster's own lit surface (the caster is in its own
@@ -83,24 +86,32 @@ pub const INFO: TechniqueInfo = TechniqueInfo {
 
 /// Threads a side of a `minmax.comp` workgroup (its `local_size_x/y`).
 const GROUP: u32 = 8;
-/// Levels that cover the largest search square (module header, "Levels").
-const MAX_LEVELS: u32 = 6;
+/// The finest level: 4x4 texels a cell (module header, "Levels").
+const FIRST_LEVEL: u32 = 2;
+/// The coarsest level that the largest search square needs (module header, "Levels").
+const LAST_LEVEL: u32 = 6;
 
-/// One level of the hierarchy: its first cell in the buffer and its cells a side.
+/// One level of the hierarchy: 2^k texels a cell side, its first cell in the buffer, its
+/// cells a side.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Level {
+    pub k: u32,
     pub offset: u32,
     pub size: u32,
 }
 
-/// The levels for a `res`² shadow map: 1..=MAX_LEVELS, stopping after the first one cell a
-/// side (a coarser one would hold the same single cell).
+/// The levels for a `res`² shadow map: FIRST_LEVEL..=LAST_LEVEL, stopping after the first
+/// one cell a side (a coarser one would hold the same single cell). Sizes round up, as
+/// `level_size` in glsl/pcss_fast/hierarchy.glsl.
 pub fn levels(res: u32) -> Vec<Level> {
-    let mut out = Vec::new();
-    let (mut size, mut offset) = (res.max(1), 0);
-    while out.len() < MAX_LEVELS as usize && size > 1 {
-        size = size.div_ceil(2);
-        out.push(Level { offset, size });
+    let mut out: Vec<Level> = Vec::new();
+    let mut offset = 0;
+    for k in FIRST_LEVEL..=LAST_LEVEL {
+        if out.last().is_some_and(|l| l.size == 1) {
+            break;
+        }
+        let size = res.max(1).div_ceil(1 << k);
+        out.push(Level { k, offset, size });
         offset += size * size;
     }
     out
@@ -201,9 +212,11 @@ impl PcssFast {
         }))
     }
 
-    /// Pass 2: every level from the one below, level 1 from the shadow map.
+    /// Pass 2: every level from the one below, the first from the shadow map.
     fn record_minmax(&self, rec: &mut Recorder<'_>) -> Result<()> {
         rec.pass("pcss-fast/minmax", |rec| {
+            // The first level reads the shadow map (4x4 texels a cell), the others the level
+            // below (2x2 cells).
             let mut src = (-1, self.shadow.resolution as i32);
             for l in &self.levels {
                 let push = LevelPush {
@@ -231,7 +244,8 @@ impl Technique for PcssFast {
 
     fn uniforms(&self, frame: &FrameInput<'_>) -> [[f32; 4]; 2] {
         let mut c = pcss::slots(frame, self.search_samples, self.filter_samples);
-        c[k::PCSS_FAST_LEVELS] = self.levels.len() as f32;
+        // No level (a map of 4 texels or fewer): the loop in final.frag never runs.
+        c[k::PCSS_FAST_LAST_LEVEL] = self.levels.last().map_or(1, |l| l.k) as f32;
         technique_constants(c)
     }
 
@@ -271,34 +285,24 @@ mod tests {
     #[test]
     fn levels_halve_rounding_up_and_follow_each_other() {
         let l = levels(1024);
-        assert_eq!(l.len(), 6);
-        assert_eq!(
-            l[0],
-            Level {
-                offset: 0,
-                size: 512
-            }
-        );
-        assert_eq!(
-            l[1],
-            Level {
-                offset: 512 * 512,
-                size: 256
-            }
-        );
-        assert_eq!(l[5].size, 16);
-        // An odd size keeps its last texel: 100 -> 50 -> 25 -> 13 -> 7 -> 4 -> 2.
+        let first = |k: u32, offset: u32, size: u32| Level { k, offset, size };
+        assert_eq!(l.len(), 5);
+        assert_eq!(l[0], first(2, 0, 256));
+        assert_eq!(l[1], first(3, 256 * 256, 128));
+        let before_6 = 256 * 256 + 128 * 128 + 64 * 64 + 32 * 32;
+        assert_eq!(l[4], first(6, before_6, 16));
+        // Sizes round up, so an odd size keeps its last texel: 100 -> 25 -> 13 -> 7 -> 4 -> 2.
         let sizes: Vec<u32> = levels(100).iter().map(|l| l.size).collect();
-        assert_eq!(sizes, [50, 25, 13, 7, 4, 2]);
+        assert_eq!(sizes, [25, 13, 7, 4, 2]);
         // No level past one cell.
         let sizes: Vec<u32> = levels(16).iter().map(|l| l.size).collect();
-        assert_eq!(sizes, [8, 4, 2, 1]);
+        assert_eq!(sizes, [4, 2, 1]);
         // At the top level the largest search square (final.frag: corners floor(c -+ (search
         // + 1.5)) apart) spans at most 3 cells, whatever its position.
-        let cell = 1i32 << MAX_LEVELS;
+        let cell = 1i32 << LAST_LEVEL;
         let span = 2 * (MAX_RADIUS_TEXELS as i32 + 2);
         for lo in 0..cell {
-            assert!(((lo + span) >> MAX_LEVELS) - (lo >> MAX_LEVELS) <= 2);
+            assert!(((lo + span) >> LAST_LEVEL) - (lo >> LAST_LEVEL) <= 2);
         }
     }
 }

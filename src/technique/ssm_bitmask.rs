@@ -74,8 +74,13 @@
 //!    same masks (ssm2 keeps two maps and takes their max, an approximation a union does not
 //!    need).
 //! 7. `ssm-bitmask/final` — `FinalPass` with `glsl/ssm_bitmask/final.frag` (both forms): as
-//!    ssm's final pass (normal offset, 2x2 footprint, layer choice), each texel's occlusion =
-//!    popcount / 128, bilinear weights, visibility = 1 - occlusion.
+//!    ssm's final pass (2x2 footprint of the receiver map and the masks, layer 0 for the
+//!    texel's own receiver, layer 1 behind it, bilinear weights) but **without the normal
+//!    offset**: a mask holds the visibility of the receiver at its texel's centre, so the
+//!    point is looked up where it is (ssm's offset of 2 occluder texels shifts every
+//!    penumbra by a fraction of a texel; on `fence`, whose rails are two texels tall, that
+//!    alone is most of ssm's error). Each texel's occlusion = popcount / 128,
+//!    visibility = 1 - occlusion.
 //!
 //! ## Frame constants
 //! `frame.technique` as ssm's (L, N, 1/N, guard); `frame.technique2` = (R, R', connect

@@ -22,15 +22,20 @@ float hidden_fraction(uvec4 m) {
 float visibility(vec3 p, vec3 n) {
     float res = SSM_RES;
     float texel = 2.0 * frame.light_frustum.x / res;   // world texel size per unit depth
-    // No normal offset (ssm's final pass has one): the masks hold the visibility of the
-    // receiver at each texel's centre, so the point is looked up where it is; an offset
-    // point would read the receivers beside it and shift every penumbra by a fraction of a
-    // texel. The depth tolerance below tells the point's own surface from those behind.
+    // The masks hold the visibility of the receiver at each texel's centre: the point is
+    // looked up where it is (ssm looks up a normal-offset point, which reads the receivers
+    // beside it and shifts every penumbra by a fraction of a texel). Only the depth that
+    // picks the layer is the offset point's (ssm's offset, in occluder-map texels), so that a
+    // caster's own steep surface is not taken for something behind its texel's receiver.
+    float d0 = -(frame.light_view * vec4(p, 1.0)).z;
+    vec3 l = normalize(frame.light_pos_radius.xyz - p);
+    float slope = clamp(sqrt(max(1.0 - dot(n, l) * dot(n, l), 0.0)), 0.2, 1.0);
+    vec3 po = p + n * (d0 * texel * frame.light_frustum.z * slope);
     vec4 c = frame.light_view_proj * vec4(p, 1.0);
     if (c.w <= frame.light_params.x) return 1.0;
     vec2 uv = (c.xy / c.w) * 0.5 + 0.5;
     if (any(lessThan(uv, vec2(0.0))) || any(greaterThan(uv, vec2(1.0)))) return 1.0;
-    float depth = c.w;
+    float depth = (frame.light_view_proj * vec4(po, 1.0)).w;
 
     vec4 z1 = textureGather(receiver_front, uv, 0);
     vec4 tol = z1 * (frame.light_frustum.w + MATCH_TEXELS * texel);

@@ -75,12 +75,13 @@
 //!    need).
 //! 7. `ssm-bitmask/final` — `FinalPass` with `glsl/ssm_bitmask/final.frag` (both forms): as
 //!    ssm's final pass (2x2 footprint of the receiver map and the masks, layer 0 for the
-//!    texel's own receiver, layer 1 behind it, bilinear weights) but **without the normal
-//!    offset**: a mask holds the visibility of the receiver at its texel's centre, so the
-//!    point is looked up where it is (ssm's offset of 2 occluder texels shifts every
-//!    penumbra by a fraction of a texel; on `fence`, whose rails are two texels tall, that
-//!    alone is most of ssm's error). Each texel's occlusion = popcount / 128,
-//!    visibility = 1 - occlusion.
+//!    texel's own receiver, layer 1 behind it, bilinear weights) but the footprint is read at
+//!    the point itself, **not at a normal-offset point**: a mask holds the visibility of the
+//!    receiver at its texel's centre, and ssm's offset of 2 occluder texels shifts every
+//!    penumbra by a fraction of a texel (on `fence`, whose rails are two texels tall, that
+//!    alone is most of ssm's error). Only the depth that picks the layer is the offset
+//!    point's, so a caster's own steep surface is not taken for something behind its
+//!    texel's receiver. Each texel's occlusion = popcount / 128, visibility = 1 - occlusion.
 //!
 //! ## Frame constants
 //! `frame.technique` as ssm's (L, N, 1/N, guard); `frame.technique2` = (R, R', connect
@@ -105,6 +106,9 @@
 //!   limits and the self-occlusion guard: as ssm.
 //! - The disc faces each receiver texel's centre, not the camera pixel's point: the
 //!   bilinear footprint blends four receivers' masks (as ssm blends four sums).
+//! - At R = 0, on a caster's own surface near its terminator (n.l < 0.2), the point looked
+//!   up without an offset can read the texel of the caster's nearer part and go dark where
+//!   `hard`'s offset point is lit (docs/DESIGN.md's mae_lit leaves these pixels out).
 
 use super::ssm::{
     ssm_uniforms, BackOccluderMap, ReceiverBound, ReceiverMap, MAP_USAGE, SELF_GUARD_TEXELS,

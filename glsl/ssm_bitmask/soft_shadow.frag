@@ -25,6 +25,7 @@ layout(set = 0, binding = 5, std430) readonly buffer Table { uvec4 masks[]; } ta
 
 layout(location = 0) flat in vec3 v_patch;
 layout(location = 1) flat in vec4 v_corner_depth;
+layout(location = 2) flat in float v_reach;   // see soft_shadow.vert
 
 layout(location = 0) out uvec4 o_front;   // samples hidden from the nearest receiver
 layout(location = 1) out uvec4 o_pure;    // samples hidden from the pure receiver behind it
@@ -74,6 +75,13 @@ uvec4 hidden(float zr, vec2 r) {
         bool covers = all(lessThanEqual(d0, vec2(0.0))) && all(greaterThan(d0 + 1.0, vec2(0.0)));
         return covers ? ALL_SAMPLES : NO_SAMPLES;
     }
+    // The quad was drawn for the farthest receiver; a nearer one is reached by less. The
+    // receiver's texel centre lies half a texel inside its square: one texel of slack.
+    vec4 zc = v_corner_depth;
+    float znear = min(zo, min(min(zc.x, zc.y), min(zc.z, zc.w)));
+    float h = v_reach * (1.0 / znear - 1.0 / zr) + 1.0;
+    vec2 outside = max(v_patch.xy - r, r - (v_patch.xy + 1.0));
+    if (any(greaterThan(outside, vec2(h)))) return NO_SAMPLES;
     vec3 p = light_frame(r, zr);
     float dist = length(p);
     vec3 w = -p / dist;

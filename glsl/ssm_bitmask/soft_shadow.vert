@@ -22,6 +22,9 @@ layout(set = 0, binding = 4, std430) readonly buffer Bound { uint zmax_bits; } b
 
 layout(location = 0) flat out vec3 v_patch;          // texel (i, j) and its depth z_O
 layout(location = 1) flat out vec4 v_corner_depth;   // corners (i,j), (i+1,j), (i,j+1), (i+1,j+1)
+// Texels of extent per unit of (1/z_near - 1/z_R): the quad reaches receivers at depth z_R
+// at most v_reach (1/z_near - 1/z_R) texels beyond its own square.
+layout(location = 2) flat out float v_reach;
 
 void main() {
     int n = int(SSM_RES);
@@ -30,6 +33,7 @@ void main() {
     float zmax = uintBitsToFloat(bound.zmax_bits);
     v_patch = vec3(vec2(texel), zo);
     v_corner_depth = vec4(zo);
+    v_reach = 0.0;
     if (zo >= EMPTY || !(zo < zmax)) {
         gl_Position = vec4(2.0, 2.0, 2.0, 1.0);
         return;
@@ -64,8 +68,18 @@ void main() {
         v_corner_depth[c] = zc;
         znear = min(znear, zc);
     }
-    float h = SSMB_EXTENT_RADIUS * float(n) / (2.0 * frame.light_frustum.x)
-        * (1.0 / znear - 1.0 / zmax);
+    // The disc faces the receiver, so the cone from a receiver to it is R wide across the
+    // line to the light's centre and R / cos(alpha) wide in the map's plane, alpha the
+    // line's angle to the light's axis: SSMB_EXTENT_RADIUS is R / cos(alpha) at the
+    // frustum's corner; near the axis the extent is smaller. Bound alpha over the receivers
+    // the corner-bound extent reaches, then grow the quad by the bound at that alpha.
+    float t = frame.light_frustum.x;
+    float reach = float(n) / (2.0 * t) * (1.0 / znear - 1.0 / zmax);
+    float h_corner = SSMB_EXTENT_RADIUS * reach;
+    vec2 ndc = abs((vec2(texel) + 0.5) * (2.0 * SSM_INV_RES) - 1.0) + (h_corner + 1.0) * 2.0 * SSM_INV_RES;
+    float stretch = min(1.05 * sqrt(1.0 + t * t * dot(ndc, ndc)) * SSMB_RADIUS, SSMB_EXTENT_RADIUS);
+    v_reach = stretch * float(n) / (2.0 * t);
+    float h = v_reach * (1.0 / znear - 1.0 / zmax);
     // A hair of margin: fragments on the exact border see the quad edge-on.
     vec2 lo = vec2(texel) - h - 1e-3;
     vec2 hi = vec2(texel) + 1.0 + h + 1e-3;

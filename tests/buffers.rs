@@ -44,6 +44,11 @@ fn check_channel(what: &str, name: &str, values: &[f32]) {
         // Fractions of the light, 1 = lit: the cylinder's shadow makes some of it darker.
         assert!(min >= 0.0 && max <= 1.0, "{what}: values in {min}..{max}");
         assert!(min < 1.0, "{what}: no shadow at all");
+    } else if name == "occluded_fraction" {
+        // The fraction of a bitmask's light samples hidden (ssm-bitmask), 1 = umbra: in
+        // [0, 1], and the cylinder hides some of the light somewhere.
+        assert!(min >= 0.0 && max <= 1.0, "{what}: values in {min}..{max}");
+        assert!(max > 0.0, "{what}: no occlusion at all");
     } else if name.ends_with("visibility") {
         // A visibility (penumbra-map-centred's outer map), 1 = lit: darker somewhere.
         assert!(min >= 0.0 && max <= 1.0, "{what}: values in {min}..{max}");

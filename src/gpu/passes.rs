@@ -52,21 +52,13 @@ impl ShadowMap {
         let set = DescriptorSet::new(ctx, &[("frame", Resource::Uniform(ubo))], name)?;
         let pipeline = Pipeline::graphics(
             ctx,
-            &GraphicsPipelineDesc {
+            &depth_only_pipeline(DepthOnly {
                 name,
-                vertex: shaders::COMMON_SHADOW_DEPTH_VERT,
-                fragment: Some(shaders::COMMON_SHADOW_DEPTH_FRAG),
-                vertex_stride: SCENE_VERTEX_STRIDE,
-                // Depth only needs the position; an unread normal is a validation warning.
-                attributes: &SCENE_ATTRIBUTES[..1],
-                topology: PrimitiveTopology::TRIANGLE_LIST,
-                // Open meshes and planes cast from both sides.
-                cull: CullModeFlags::NONE,
+                fragment: shaders::COMMON_SHADOW_DEPTH_FRAG,
                 colors: &[(Format::R32G32_SFLOAT, Blend::Min)],
                 depth: None,
-                push_constant_bytes: DRAW_PUSH_BYTES,
                 sets: &[&set],
-            },
+            }),
         )?;
         Ok(Self {
             depth,
@@ -91,6 +83,37 @@ impl ShadowMap {
         rec.bind_sets(&self.pipeline, &[&self.set]);
         scene.draw(rec, &self.pipeline, |_| true);
         rec.end_rendering();
+    }
+}
+
+/// What differs between the depth-only pipelines (scene geometry drawn from the light,
+/// linear depth out): the shared shadow map, ssm's receiver map and back occluder map.
+pub struct DepthOnly<'a> {
+    pub name: &'a str,
+    /// A fragment shader reading `common/shadow_depth.vert`'s `v_depth` (location 0).
+    pub fragment: &'a [u8],
+    pub colors: &'a [(Format, Blend)],
+    pub depth: Option<DepthState>,
+    pub sets: &'a [&'a DescriptorSet],
+}
+
+/// The pipeline of a depth-only pass: scene positions through `common/shadow_depth.vert`
+/// (linear light depth out), triangle lists, no culling, the draw push constants.
+pub fn depth_only_pipeline(d: DepthOnly<'_>) -> GraphicsPipelineDesc<'_> {
+    GraphicsPipelineDesc {
+        name: d.name,
+        vertex: shaders::COMMON_SHADOW_DEPTH_VERT,
+        fragment: Some(d.fragment),
+        vertex_stride: SCENE_VERTEX_STRIDE,
+        // Depth only needs the position; an unread normal is a validation warning.
+        attributes: &SCENE_ATTRIBUTES[..1],
+        topology: PrimitiveTopology::TRIANGLE_LIST,
+        // Open meshes and planes cast from both sides; the farthest surface of any winding.
+        cull: CullModeFlags::NONE,
+        colors: d.colors,
+        depth: d.depth,
+        push_constant_bytes: DRAW_PUSH_BYTES,
+        sets: d.sets,
     }
 }
 

@@ -316,6 +316,15 @@ impl<'c> Renderer<'c> {
                     .map(|c| texels.iter().map(|t| t[c]).collect())
                     .collect()
             }
+            // A light-sample bitmask (ssm-bitmask): one channel, the fraction of its 128 bits
+            // that are set.
+            crate::vk::Format::R32G32B32A32_UINT => {
+                let texels = read_image::<[u32; 4]>(self.ctx, &mut self.runner, img)?;
+                vec![texels
+                    .iter()
+                    .map(|t| t.iter().map(|w| w.count_ones()).sum::<u32>() as f32 / 128.0)
+                    .collect()]
+            }
             // D32: `hard`'s depth map, the light's z/w in [0, 1] as the rasterizer stored it.
             crate::vk::Format::R32_SFLOAT | crate::vk::Format::D32_SFLOAT => {
                 vec![read_image::<f32>(self.ctx, &mut self.runner, img)?]

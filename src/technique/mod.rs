@@ -11,6 +11,7 @@ pub mod plateaus;
 pub mod reference;
 pub mod smoothies;
 pub mod ssm;
+pub mod ssm_bitmask;
 
 use crate::gpu::passes::ShadowMap;
 pub use crate::gpu::FrameInput;
@@ -130,6 +131,8 @@ pub const TECHNIQUES: &[TechniqueInfo] = &[
     plateaus::INFO,
     ssm::INFO,
     ssm::INFO2,
+    ssm_bitmask::INFO,
+    ssm_bitmask::INFO2,
     reference::INFO,
 ];
 

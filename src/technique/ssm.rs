@@ -103,7 +103,9 @@ use super::{
     shadow_map_buffer, technique_constants, FrameInput, LightBuffer, Technique, TechniqueInfo,
     TechniqueInit,
 };
-use crate::gpu::passes::{FinalPass, FinalShader, ShadowMap, FAR_DEPTH};
+use crate::gpu::passes::{
+    depth_only_pipeline, DepthOnly, FinalPass, FinalShader, ShadowMap, FAR_DEPTH,
+};
 use crate::gpu::GpuScene;
 use crate::scene::Role;
 use crate::settings::AccumFormat;
@@ -132,10 +134,17 @@ pub const INFO2: TechniqueInfo = TechniqueInfo {
 /// Self-occlusion guard: a micro-patch less than this many texels of depth slope in front of
 /// the receiver is the receiver's own surface (its own texel, or the staircase of a surface
 /// sloped up to ~55 degrees to the light's image plane), not an occluder.
-const SELF_GUARD_TEXELS: f32 = 1.5;
+pub(crate) const SELF_GUARD_TEXELS: f32 = 1.5;
 
 /// Compute workgroup side of `glsl/ssm/receiver_bound.comp`.
 const BOUND_GROUP: u32 = 16;
+
+/// Usage of every light-space image of the soft shadow maps: drawn, sampled, read back.
+pub(crate) const MAP_USAGE: ImageUsageFlags = ImageUsageFlags::from_raw(
+    ImageUsageFlags::COLOR_ATTACHMENT.as_raw()
+        | ImageUsageFlags::SAMPLED.as_raw()
+        | ImageUsageFlags::TRANSFER_SRC.as_raw(),
+);
 
 fn create_one_sided(init: &TechniqueInit<'_>) -> Result<Box<dyn Technique>> {
     Ok(Box::new(Ssm::create(init, false)?))
@@ -150,6 +159,154 @@ pub fn light_square_side(r: f32) -> f32 {
     r * std::f32::consts::PI.sqrt()
 }
 
+/// Pass 3: the two receiver layers (R32F, MIN-blended) and the pipelines that draw them.
+pub(crate) struct ReceiverMap {
+    /// Layer 0: the nearest receiving surface; layer 1: the nearest pure receiver.
+    pub layers: [Image; 2],
+    set: DescriptorSet,
+    both: Pipeline,
+    only: Pipeline,
+}
+
+impl ReceiverMap {
+    pub fn new(ctx: &Context, ubo: &Buffer, res: u32, technique: &str) -> Result<Self> {
+        if !ctx.supports_blend(Format::R32_SFLOAT) {
+            bail!(
+                "{} cannot MIN-blend R32_SFLOAT attachments, which the receiver map needs",
+                ctx.device_name
+            );
+        }
+        let layer = |what: &str| {
+            Image::new_2d(
+                ctx,
+                res,
+                res,
+                Format::R32_SFLOAT,
+                MAP_USAGE,
+                &format!("{technique} receiver map ({what})"),
+            )
+        };
+        let layers = [layer("front")?, layer("pure")?];
+        let name = format!("{technique}/receiver_map");
+        let set = DescriptorSet::new(ctx, &[("frame", Resource::Uniform(ubo))], &name)?;
+        let pipeline = |fragment: &[u8], role: &str| {
+            Pipeline::graphics(
+                ctx,
+                &depth_only_pipeline(DepthOnly {
+                    name: &format!("{name} ({role})"),
+                    fragment,
+                    // MIN keeps the nearest depth without a z-buffer per layer.
+                    colors: &[
+                        (Format::R32_SFLOAT, Blend::Min),
+                        (Format::R32_SFLOAT, Blend::Min),
+                    ],
+                    depth: None,
+                    sets: &[&set],
+                }),
+            )
+        };
+        let both = pipeline(shaders::SSM_RECEIVER_BOTH_FRAG, "both")?;
+        let only = pipeline(shaders::SSM_RECEIVER_ONLY_FRAG, "receivers")?;
+        Ok(Self {
+            layers,
+            set,
+            both,
+            only,
+        })
+    }
+
+    pub fn record(&self, rec: &mut Recorder<'_>, gpu: &GpuScene) {
+        rec.begin_rendering(
+            &[
+                (&self.layers[0], Some([FAR_DEPTH; 4])),
+                (&self.layers[1], Some([FAR_DEPTH; 4])),
+            ],
+            None,
+        );
+        rec.bind_pipeline(&self.both);
+        rec.bind_sets(&self.both, &[&self.set]);
+        gpu.draw(rec, &self.both, |o| o.role == Role::Both);
+        rec.bind_pipeline(&self.only);
+        rec.bind_sets(&self.only, &[&self.set]);
+        gpu.draw(rec, &self.only, |o| o.role == Role::Receiver);
+        rec.end_rendering();
+    }
+
+    /// The two layers as light buffers.
+    pub fn buffers(&self) -> [LightBuffer<'_>; 2] {
+        [
+            LightBuffer {
+                name: "receiver_map",
+                image: &self.layers[0],
+                channels: &["receiver_depth"],
+            },
+            LightBuffer {
+                name: "receiver_map_pure",
+                image: &self.layers[1],
+                channels: &["pure_receiver_depth"],
+            },
+        ]
+    }
+}
+
+/// Pass 4: the farthest receiver depth z_max, in a 4-byte storage buffer.
+pub(crate) struct ReceiverBound {
+    pub buffer: Buffer,
+    set: DescriptorSet,
+    pipeline: Pipeline,
+    res: u32,
+}
+
+impl ReceiverBound {
+    pub fn new(
+        ctx: &Context,
+        ubo: &Buffer,
+        receivers: &ReceiverMap,
+        nearest: &Sampler,
+        technique: &str,
+    ) -> Result<Self> {
+        let name = format!("{technique}/receiver_bound");
+        let buffer = Buffer::new(
+            ctx,
+            4,
+            BufferUsageFlags::STORAGE_BUFFER | BufferUsageFlags::TRANSFER_DST,
+            MemoryLocation::GpuOnly,
+            &name,
+        )?;
+        let set = DescriptorSet::new(
+            ctx,
+            &[
+                ("frame", Resource::Uniform(ubo)),
+                (
+                    "receiver_front",
+                    Resource::Sampled(&receivers.layers[0], nearest),
+                ),
+                (
+                    "receiver_pure",
+                    Resource::Sampled(&receivers.layers[1], nearest),
+                ),
+                ("bound", Resource::Storage(&buffer)),
+            ],
+            &name,
+        )?;
+        let pipeline = Pipeline::compute(ctx, &name, shaders::SSM_RECEIVER_BOUND_COMP, &[&set], 0)?;
+        Ok(Self {
+            buffer,
+            set,
+            pipeline,
+            res: receivers.layers[0].extent.width,
+        })
+    }
+
+    pub fn record(&self, rec: &mut Recorder<'_>) {
+        rec.fill_buffer(&self.buffer, 0);
+        rec.bind_pipeline(&self.pipeline);
+        rec.bind_sets(&self.pipeline, &[&self.set]);
+        let groups = self.res.div_ceil(BOUND_GROUP);
+        rec.dispatch(groups, groups, 1);
+    }
+}
+
 /// One occluder map's micro-patches into one pair of SSM layers.
 struct SoftShadow {
     /// Layer 0 (nearest receiver) and layer 1 (pure receiver) accumulations.
@@ -158,26 +315,58 @@ struct SoftShadow {
     name: &'static str,
 }
 
+impl SoftShadow {
+    fn new(
+        init: &TechniqueInit<'_>,
+        occluder_map: &Image,
+        receivers: &ReceiverMap,
+        bound: &ReceiverBound,
+        nearest: &Sampler,
+        name: &'static str,
+    ) -> Result<Self> {
+        let (ctx, res) = (init.ctx, init.settings.occluder_res);
+        let accum = accum_format(init.settings.accum_format);
+        let layers = [
+            Image::new_2d(ctx, res, res, accum, MAP_USAGE, &format!("{name} (front)"))?,
+            Image::new_2d(ctx, res, res, accum, MAP_USAGE, &format!("{name} (pure)"))?,
+        ];
+        let set = DescriptorSet::new(
+            ctx,
+            &[
+                ("frame", Resource::Uniform(init.ubo)),
+                ("occluder_map", Resource::Sampled(occluder_map, nearest)),
+                (
+                    "receiver_front",
+                    Resource::Sampled(&receivers.layers[0], nearest),
+                ),
+                (
+                    "receiver_pure",
+                    Resource::Sampled(&receivers.layers[1], nearest),
+                ),
+                ("bound", Resource::Storage(&bound.buffer)),
+            ],
+            name,
+        )?;
+        Ok(Self { layers, set, name })
+    }
+}
+
 /// The farthest-surface occluder map of ssm2 (as `ShadowMap`, GREATER instead of LESS).
-struct BackOccluderMap {
-    depth: Image,
+pub(crate) struct BackOccluderMap {
+    pub depth: Image,
     zbuffer: Image,
     pipeline: Pipeline,
     set: DescriptorSet,
+    pub name: String,
 }
 
 pub struct Ssm {
-    two_sided: bool,
+    name: &'static str,
     res: u32,
     occluder: ShadowMap,
     back: Option<BackOccluderMap>,
-    receiver_layers: [Image; 2],
-    receiver_set: DescriptorSet,
-    receiver_both: Pipeline,
-    receiver_only: Pipeline,
-    bound: Buffer,
-    bound_set: DescriptorSet,
-    bound_pipeline: Pipeline,
+    receivers: ReceiverMap,
+    bound: ReceiverBound,
     soft_pipeline: Pipeline,
     front: SoftShadow,
     back_soft: Option<SoftShadow>,
@@ -197,7 +386,7 @@ impl Ssm {
     fn create(init: &TechniqueInit<'_>, two_sided: bool) -> Result<Self> {
         let ctx = init.ctx;
         let res = init.settings.occluder_res;
-        let tname = if two_sided { "ssm2" } else { "ssm" };
+        let name = if two_sided { INFO2.name } else { INFO.name };
         let accum = accum_format(init.settings.accum_format);
         if !ctx.supports_blend(accum) {
             bail!(
@@ -205,135 +394,24 @@ impl Ssm {
                 ctx.device_name
             );
         }
-        if !ctx.supports_blend(Format::R32_SFLOAT) {
-            bail!(
-                "{} cannot MIN-blend R32_SFLOAT attachments, which the receiver map needs",
-                ctx.device_name
-            );
-        }
-        let usage = ImageUsageFlags::COLOR_ATTACHMENT
-            | ImageUsageFlags::SAMPLED
-            | ImageUsageFlags::TRANSFER_SRC;
         let nearest = Sampler::new(ctx, Filter::Nearest).context("ssm sampler")?;
 
-        let occluder = ShadowMap::new(ctx, init.ubo, res, &format!("{tname}/occluder_map"))
+        // Passes 1-4: occluder maps, receiver map, receiver bound.
+        let occluder = ShadowMap::new(ctx, init.ubo, res, &format!("{name}/occluder_map"))
             .context("ssm occluder map")?;
-        let back = if two_sided {
-            Some(BackOccluderMap::new(ctx, init.ubo, res).context("ssm2 back occluder map")?)
-        } else {
-            None
+        let back = match two_sided {
+            true => {
+                Some(BackOccluderMap::new(ctx, init.ubo, res, name).context("back occluder map")?)
+            }
+            false => None,
         };
+        let receivers = ReceiverMap::new(ctx, init.ubo, res, name).context("ssm receiver map")?;
+        let bound = ReceiverBound::new(ctx, init.ubo, &receivers, &nearest, name)
+            .context("ssm receiver bound")?;
 
-        let receiver_layers = [
-            Image::new_2d(
-                ctx,
-                res,
-                res,
-                Format::R32_SFLOAT,
-                usage,
-                "ssm receiver map (front)",
-            )
-            .context("ssm receiver map")?,
-            Image::new_2d(
-                ctx,
-                res,
-                res,
-                Format::R32_SFLOAT,
-                usage,
-                "ssm receiver map (pure)",
-            )
-            .context("ssm receiver map")?,
-        ];
-        let receiver_set = DescriptorSet::new(
-            ctx,
-            &[("frame", Resource::Uniform(init.ubo))],
-            "ssm/receiver_map",
-        )?;
-        let receiver_pipeline = |fragment: &[u8], name: &str| {
-            Pipeline::graphics(
-                ctx,
-                &GraphicsPipelineDesc {
-                    name,
-                    vertex: shaders::COMMON_SHADOW_DEPTH_VERT,
-                    fragment: Some(fragment),
-                    vertex_stride: crate::gpu::gpu_scene::SCENE_VERTEX_STRIDE,
-                    attributes: &crate::gpu::gpu_scene::SCENE_ATTRIBUTES[..1],
-                    topology: PrimitiveTopology::TRIANGLE_LIST,
-                    cull: CullModeFlags::NONE,
-                    // MIN keeps the nearest depth without a z-buffer per layer.
-                    colors: &[
-                        (Format::R32_SFLOAT, Blend::Min),
-                        (Format::R32_SFLOAT, Blend::Min),
-                    ],
-                    depth: None,
-                    push_constant_bytes: crate::gpu::gpu_scene::DRAW_PUSH_BYTES,
-                    sets: &[&receiver_set],
-                },
-            )
-        };
-        let receiver_both =
-            receiver_pipeline(shaders::SSM_RECEIVER_BOTH_FRAG, "ssm/receiver_map (both)")
-                .context("ssm receiver pipeline")?;
-        let receiver_only = receiver_pipeline(
-            shaders::SSM_RECEIVER_ONLY_FRAG,
-            "ssm/receiver_map (receivers)",
-        )
-        .context("ssm receiver pipeline")?;
-
-        let bound = Buffer::new(
-            ctx,
-            4,
-            BufferUsageFlags::STORAGE_BUFFER | BufferUsageFlags::TRANSFER_DST,
-            MemoryLocation::GpuOnly,
-            "ssm receiver bound",
-        )?;
-        let bound_set = DescriptorSet::new(
-            ctx,
-            &[
-                ("frame", Resource::Uniform(init.ubo)),
-                (
-                    "receiver_front",
-                    Resource::Sampled(&receiver_layers[0], &nearest),
-                ),
-                (
-                    "receiver_pure",
-                    Resource::Sampled(&receiver_layers[1], &nearest),
-                ),
-                ("bound", Resource::Storage(&bound)),
-            ],
-            "ssm/receiver_bound",
-        )?;
-        let bound_pipeline = Pipeline::compute(
-            ctx,
-            "ssm/receiver_bound",
-            shaders::SSM_RECEIVER_BOUND_COMP,
-            &[&bound_set],
-            0,
-        )?;
-
-        let soft = |occluder_map: &Image, name: &'static str| -> Result<SoftShadow> {
-            let layers = [
-                Image::new_2d(ctx, res, res, accum, usage, &format!("{name} (front)"))?,
-                Image::new_2d(ctx, res, res, accum, usage, &format!("{name} (pure)"))?,
-            ];
-            let set = DescriptorSet::new(
-                ctx,
-                &[
-                    ("frame", Resource::Uniform(init.ubo)),
-                    ("occluder_map", Resource::Sampled(occluder_map, &nearest)),
-                    (
-                        "receiver_front",
-                        Resource::Sampled(&receiver_layers[0], &nearest),
-                    ),
-                    (
-                        "receiver_pure",
-                        Resource::Sampled(&receiver_layers[1], &nearest),
-                    ),
-                    ("bound", Resource::Storage(&bound)),
-                ],
-                name,
-            )?;
-            Ok(SoftShadow { layers, set, name })
+        // Passes 5-6: the micro-patches of each occluder map.
+        let soft = |map: &Image, pass: &'static str| {
+            SoftShadow::new(init, map, &receivers, &bound, &nearest, pass)
         };
         let front = soft(
             &occluder.depth,
@@ -370,46 +448,17 @@ impl Ssm {
         )
         .context("ssm soft shadow pipeline")?;
 
-        let mut final_resources = vec![
-            ("frame", Resource::Uniform(init.ubo)),
-            (
-                "receiver_front",
-                Resource::Sampled(&receiver_layers[0], &nearest),
-            ),
-            ("ssm_front", Resource::Sampled(&front.layers[0], &nearest)),
-            ("ssm_pure", Resource::Sampled(&front.layers[1], &nearest)),
-        ];
-        if let Some(b) = &back_soft {
-            final_resources.push(("ssm_back_front", Resource::Sampled(&b.layers[0], &nearest)));
-            final_resources.push(("ssm_back_pure", Resource::Sampled(&b.layers[1], &nearest)));
-        }
-        let final_name = if two_sided { "ssm2/final" } else { "ssm/final" };
-        let final_set = DescriptorSet::new(ctx, &final_resources, final_name)?;
-        let fragment = if two_sided {
-            FinalShader {
-                color: shaders::SSM2_FINAL_FRAG,
-                aov: shaders::SSM2_FINAL_FRAG_AOV,
-            }
-        } else {
-            FinalShader {
-                color: shaders::SSM_FINAL_FRAG,
-                aov: shaders::SSM_FINAL_FRAG_AOV,
-            }
-        };
-        let final_pass =
-            FinalPass::new(ctx, final_name, fragment, &final_set).context("ssm final pass")?;
+        // Pass 7.
+        let (final_pass, final_set) =
+            final_pass(init, name, &receivers, &front, back_soft.as_ref(), &nearest)
+                .context("ssm final pass")?;
         Ok(Self {
-            two_sided,
+            name,
             res,
             occluder,
             back,
-            receiver_layers,
-            receiver_set,
-            receiver_both,
-            receiver_only,
+            receivers,
             bound,
-            bound_set,
-            bound_pipeline,
             soft_pipeline,
             front,
             back_soft,
@@ -420,32 +469,7 @@ impl Ssm {
     }
 
     fn pass_name(&self, pass: &str) -> String {
-        format!("{}/{pass}", if self.two_sided { "ssm2" } else { "ssm" })
-    }
-
-    fn record_receivers(&self, rec: &mut Recorder<'_>, gpu: &GpuScene) {
-        rec.begin_rendering(
-            &[
-                (&self.receiver_layers[0], Some([FAR_DEPTH; 4])),
-                (&self.receiver_layers[1], Some([FAR_DEPTH; 4])),
-            ],
-            None,
-        );
-        rec.bind_pipeline(&self.receiver_both);
-        rec.bind_sets(&self.receiver_both, &[&self.receiver_set]);
-        gpu.draw(rec, &self.receiver_both, |o| o.role == Role::Both);
-        rec.bind_pipeline(&self.receiver_only);
-        rec.bind_sets(&self.receiver_only, &[&self.receiver_set]);
-        gpu.draw(rec, &self.receiver_only, |o| o.role == Role::Receiver);
-        rec.end_rendering();
-    }
-
-    fn record_bound(&self, rec: &mut Recorder<'_>) {
-        rec.fill_buffer(&self.bound, 0);
-        rec.bind_pipeline(&self.bound_pipeline);
-        rec.bind_sets(&self.bound_pipeline, &[&self.bound_set]);
-        let groups = self.res.div_ceil(BOUND_GROUP);
-        rec.dispatch(groups, groups, 1);
+        format!("{}/{pass}", self.name)
     }
 
     fn record_soft(&self, rec: &mut Recorder<'_>, soft: &SoftShadow) {
@@ -463,18 +487,54 @@ impl Ssm {
     }
 }
 
+/// The final pass and its set: receiver map and SSMs, read with a nearest sampler.
+fn final_pass(
+    init: &TechniqueInit<'_>,
+    technique: &str,
+    receivers: &ReceiverMap,
+    front: &SoftShadow,
+    back: Option<&SoftShadow>,
+    nearest: &Sampler,
+) -> Result<(FinalPass, DescriptorSet)> {
+    let mut resources = vec![
+        ("frame", Resource::Uniform(init.ubo)),
+        (
+            "receiver_front",
+            Resource::Sampled(&receivers.layers[0], nearest),
+        ),
+        ("ssm_front", Resource::Sampled(&front.layers[0], nearest)),
+        ("ssm_pure", Resource::Sampled(&front.layers[1], nearest)),
+    ];
+    if let Some(b) = back {
+        resources.push(("ssm_back_front", Resource::Sampled(&b.layers[0], nearest)));
+        resources.push(("ssm_back_pure", Resource::Sampled(&b.layers[1], nearest)));
+    }
+    let name = format!("{technique}/final");
+    let set = DescriptorSet::new(init.ctx, &resources, &name)?;
+    let fragment = match back {
+        Some(_) => FinalShader {
+            color: shaders::SSM2_FINAL_FRAG,
+            aov: shaders::SSM2_FINAL_FRAG_AOV,
+        },
+        None => FinalShader {
+            color: shaders::SSM_FINAL_FRAG,
+            aov: shaders::SSM_FINAL_FRAG_AOV,
+        },
+    };
+    let pass = FinalPass::new(init.ctx, &name, fragment, &set)?;
+    Ok((pass, set))
+}
+
 impl BackOccluderMap {
-    fn new(ctx: &Context, ubo: &Buffer, res: u32) -> Result<Self> {
-        let name = "ssm2/back_occluder_map";
+    pub fn new(ctx: &Context, ubo: &Buffer, res: u32, technique: &str) -> Result<Self> {
+        let name = format!("{technique}/back_occluder_map");
         let depth = Image::new_2d(
             ctx,
             res,
             res,
             Format::R32_SFLOAT,
-            ImageUsageFlags::COLOR_ATTACHMENT
-                | ImageUsageFlags::SAMPLED
-                | ImageUsageFlags::TRANSFER_SRC,
-            "ssm2 back occluder map",
+            MAP_USAGE,
+            &format!("{technique} back occluder map"),
         )?;
         let zbuffer = Image::new_2d(
             ctx,
@@ -482,20 +542,14 @@ impl BackOccluderMap {
             res,
             Format::D32_SFLOAT,
             ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT,
-            "ssm2 back occluder z-buffer",
+            &format!("{technique} back occluder z-buffer"),
         )?;
-        let set = DescriptorSet::new(ctx, &[("frame", Resource::Uniform(ubo))], name)?;
+        let set = DescriptorSet::new(ctx, &[("frame", Resource::Uniform(ubo))], &name)?;
         let pipeline = Pipeline::graphics(
             ctx,
-            &GraphicsPipelineDesc {
-                name,
-                vertex: shaders::COMMON_SHADOW_DEPTH_VERT,
-                fragment: Some(shaders::COMMON_SHADOW_DEPTH_FRAG),
-                vertex_stride: crate::gpu::gpu_scene::SCENE_VERTEX_STRIDE,
-                attributes: &crate::gpu::gpu_scene::SCENE_ATTRIBUTES[..1],
-                topology: PrimitiveTopology::TRIANGLE_LIST,
-                // The farthest surface of any winding: open meshes have no "back faces".
-                cull: CullModeFlags::NONE,
+            &depth_only_pipeline(DepthOnly {
+                name: &name,
+                fragment: shaders::COMMON_SHADOW_DEPTH_FRAG,
                 colors: &[(Format::R32_SFLOAT, Blend::None)],
                 // GREATER against a 0 clear keeps the farthest caster surface (Sec. 3.5).
                 depth: Some(DepthState {
@@ -504,19 +558,19 @@ impl BackOccluderMap {
                     write: true,
                     compare: CompareOp::GREATER,
                 }),
-                push_constant_bytes: crate::gpu::gpu_scene::DRAW_PUSH_BYTES,
                 sets: &[&set],
-            },
+            }),
         )?;
         Ok(Self {
             depth,
             zbuffer,
             pipeline,
             set,
+            name,
         })
     }
 
-    fn record(&self, rec: &mut Recorder<'_>, scene: &GpuScene) {
+    pub fn record(&self, rec: &mut Recorder<'_>, scene: &GpuScene) {
         rec.begin_rendering(
             &[(&self.depth, Some([FAR_DEPTH; 4]))],
             Some((&self.zbuffer, Some(0.0))),
@@ -527,25 +581,34 @@ impl BackOccluderMap {
         scene.draw(rec, &self.pipeline, |o| o.role.casts());
         rec.end_rendering();
     }
+
+    pub fn buffer(&self) -> LightBuffer<'_> {
+        LightBuffer {
+            name: "back_occluder_map",
+            image: &self.depth,
+            channels: &["farthest_caster_depth"],
+        }
+    }
+}
+
+/// `frame.technique` of every soft shadow map (glsl/ssm/constants.glsl).
+pub(crate) fn ssm_uniforms(res: u32, frame: &FrameInput<'_>) -> [[f32; 4]; 2] {
+    let n = res as f32;
+    let mut c = [0.0; 8];
+    c[k::SSM_LIGHT_SIDE] = light_square_side(frame.light_radius);
+    c[k::SSM_RES] = n;
+    c[k::SSM_INV_RES] = 1.0 / n;
+    c[k::SSM_SELF_GUARD_TEXELS] = SELF_GUARD_TEXELS;
+    technique_constants(c)
 }
 
 impl Technique for Ssm {
     fn name(&self) -> &'static str {
-        if self.two_sided {
-            INFO2.name
-        } else {
-            INFO.name
-        }
+        self.name
     }
 
     fn uniforms(&self, frame: &FrameInput<'_>) -> [[f32; 4]; 2] {
-        let n = self.res as f32;
-        let mut c = [0.0; 8];
-        c[k::SSM_LIGHT_SIDE] = light_square_side(frame.light_radius);
-        c[k::SSM_RES] = n;
-        c[k::SSM_INV_RES] = 1.0 / n;
-        c[k::SSM_SELF_GUARD_TEXELS] = SELF_GUARD_TEXELS;
-        technique_constants(c)
+        ssm_uniforms(self.res, frame)
     }
 
     fn record_light(
@@ -559,17 +622,17 @@ impl Technique for Ssm {
             Ok(())
         })?;
         if let Some(back) = &self.back {
-            rec.pass("ssm2/back_occluder_map", |rec| {
+            rec.pass(&back.name, |rec| {
                 back.record(rec, frame.gpu);
                 Ok(())
             })?;
         }
         rec.pass(&self.pass_name("receiver_map"), |rec| {
-            self.record_receivers(rec, frame.gpu);
+            self.receivers.record(rec, frame.gpu);
             Ok(())
         })?;
         rec.pass(&self.pass_name("receiver_bound"), |rec| {
-            self.record_bound(rec);
+            self.bound.record(rec);
             Ok(())
         })?;
         rec.pass(self.front.name, |rec| {
@@ -587,8 +650,8 @@ impl Technique for Ssm {
 
     fn light_passes(&self) -> Vec<String> {
         let mut names = vec![self.pass_name("occluder_map")];
-        if self.back.is_some() {
-            names.push("ssm2/back_occluder_map".into());
+        if let Some(b) = &self.back {
+            names.push(b.name.clone());
         }
         names.push(self.pass_name("receiver_map"));
         names.push(self.pass_name("receiver_bound"));
@@ -614,29 +677,17 @@ impl Technique for Ssm {
             image,
             channels,
         };
-        // Receiver layer 0: the nearest receiving surface; layer 1: the nearest pure receiver.
-        let mut out = vec![
-            shadow_map_buffer("occluder_map", &self.occluder),
-            buffer(
-                "receiver_map",
-                &self.receiver_layers[0],
-                &["receiver_depth"],
-            ),
-            buffer(
-                "receiver_map_pure",
-                &self.receiver_layers[1],
-                &["pure_receiver_depth"],
-            ),
-            // Summed micro-patch occlusion of the light, per receiver layer (>= 0, unclamped).
-            buffer("soft_shadow", &self.front.layers[0], &["occlusion"]),
-            buffer("soft_shadow_pure", &self.front.layers[1], &["occlusion"]),
-        ];
+        let mut out = vec![shadow_map_buffer("occluder_map", &self.occluder)];
+        out.extend(self.receivers.buffers());
+        // Summed micro-patch occlusion of the light, per receiver layer (>= 0, unclamped).
+        out.push(buffer("soft_shadow", &self.front.layers[0], &["occlusion"]));
+        out.push(buffer(
+            "soft_shadow_pure",
+            &self.front.layers[1],
+            &["occlusion"],
+        ));
         if let Some(b) = &self.back {
-            out.push(buffer(
-                "back_occluder_map",
-                &b.depth,
-                &["farthest_caster_depth"],
-            ));
+            out.push(b.buffer());
         }
         if let Some(b) = &self.back_soft {
             out.push(buffer("soft_shadow_back", &b.layers[0], &["occlusion"]));

@@ -101,6 +101,9 @@ pub struct Context {
     pub driver_name: String,
     pub driver_info: String,
     pub validation: bool,
+    /// Whether the `logicOp` feature is enabled (enabled wherever the device offers it):
+    /// `Blend::Or` pipelines need it.
+    pub logic_op: bool,
 }
 
 unsafe extern "system" fn debug_callback(
@@ -260,7 +263,12 @@ impl Context {
             // Required by Vulkan 1.3; spirv-opt emits LocalSizeId for compute shaders.
             .maintenance4(true);
         let mut f12 = vk::PhysicalDeviceVulkan12Features::default().host_query_reset(true);
-        let features = vk::PhysicalDeviceFeatures::default();
+        // SAFETY: `physical` belongs to this instance.
+        let offered = unsafe { instance.get_physical_device_features(physical) };
+        // Optional: only the techniques that OR integer attachments need it (they say so
+        // when it is missing), so a device without it still runs the others.
+        let logic_op = offered.logic_op == vk::TRUE;
+        let features = vk::PhysicalDeviceFeatures::default().logic_op(logic_op);
         let device_create = vk::DeviceCreateInfo::default()
             .queue_create_infos(&queue_info)
             .enabled_features(&features)
@@ -307,6 +315,7 @@ impl Context {
             driver_name,
             driver_info,
             validation: opts.validation,
+            logic_op,
         })
     }
 

@@ -306,7 +306,7 @@ impl Image {
             vk::Format::R16_SFLOAT => 2,
             vk::Format::R16G16B16A16_SFLOAT | vk::Format::R32G32_SFLOAT => 8,
             vk::Format::R16G16_SFLOAT => 4,
-            vk::Format::R32G32B32A32_SFLOAT => 16,
+            vk::Format::R32G32B32A32_SFLOAT | vk::Format::R32G32B32A32_UINT => 16,
             _ => 4,
         }
     }

@@ -6,7 +6,7 @@ use super::context::{Context, Shared};
 use super::memory::{Buffer, Image, Sampler};
 use super::reflect::{self, HostBinding};
 use super::sync::{reflect as reflect_uses, BindingUse, Target};
-use anyhow::{Context as _, Result};
+use anyhow::{bail, Context as _, Result};
 use ash::vk;
 use std::sync::Arc;
 
@@ -242,6 +242,10 @@ pub enum Blend {
     Max,
     /// dst = src + dst: accumulation (soft shadow maps).
     Add,
+    /// dst = src | dst on an integer attachment (bitmasks): the logic op OR, which is one
+    /// state for the whole pipeline, so every attachment of such a pipeline must be `Or`.
+    /// Needs the `logicOp` device feature (`Context::logic_op`).
+    Or,
 }
 
 /// One vertex attribute: location, format, byte offset.
@@ -306,6 +310,21 @@ fn pipeline_layout(
 
 impl Pipeline {
     pub fn graphics(ctx: &Context, d: &GraphicsPipelineDesc<'_>) -> Result<Self> {
+        // Checked before anything is created, so that nothing leaks on these errors.
+        let ors = d.colors.iter().filter(|c| c.1 == Blend::Or).count();
+        if ors > 0 && ors < d.colors.len() {
+            bail!(
+                "{}: Blend::Or is the pipeline's logic op, so it must be every attachment's blend",
+                d.name
+            );
+        }
+        if ors > 0 && !ctx.logic_op {
+            bail!(
+                "{}: {} lacks the logicOp feature, which OR-combining attachments needs",
+                d.name,
+                ctx.device_name
+            );
+        }
         let device = ctx.device();
         let layout = pipeline_layout(ctx, d.sets, d.push_constant_bytes, d.name)?;
         let mut uses = Vec::new();
@@ -388,7 +407,7 @@ impl Pipeline {
                 let a = vk::PipelineColorBlendAttachmentState::default()
                     .color_write_mask(vk::ColorComponentFlags::RGBA);
                 let op = match blend {
-                    Blend::None => return a,
+                    Blend::None | Blend::Or => return a,
                     Blend::Min => vk::BlendOp::MIN,
                     Blend::Max => vk::BlendOp::MAX,
                     Blend::Add => vk::BlendOp::ADD,
@@ -403,8 +422,10 @@ impl Pipeline {
                     .dst_alpha_blend_factor(vk::BlendFactor::ONE)
             })
             .collect();
-        let blend =
-            vk::PipelineColorBlendStateCreateInfo::default().attachments(&blend_attachments);
+        let blend = vk::PipelineColorBlendStateCreateInfo::default()
+            .logic_op_enable(ors > 0)
+            .logic_op(vk::LogicOp::OR)
+            .attachments(&blend_attachments);
         let depth = match d.depth {
             Some(ds) => vk::PipelineDepthStencilStateCreateInfo::default()
                 .depth_test_enable(ds.test)

@@ -1,0 +1,19 @@
+// Shared by the micro-quad pass of ssm-bitmask and ssm2-bitmask: the light frame, and the
+// light samples on one side of a line, from the edge table (src/technique/ssm_bitmask.rs).
+#ifndef SSM_BITMASK_GLSL
+#define SSM_BITMASK_GLSL
+#include "ssm_bitmask/constants.glsl"
+
+const uvec4 NO_SAMPLES = uvec4(0u);
+const uvec4 ALL_SAMPLES = uvec4(0xffffffffu);
+const float PI = 3.14159265358979;
+
+// Light frame: the light centre at the origin, z = linear depth along the light's axis.
+// `px` in occluder-map pixels (texel i spans [i, i+1]). Corner and receiver positions all go
+// through this one function, so a corner shared by two micro-quads is the same float triple.
+vec3 light_frame(vec2 px, float z) {
+    vec2 ndc = px * (2.0 * SSM_INV_RES) - 1.0;
+    return vec3(ndc * (frame.light_frustum.x * z), z);
+}
+
+#endif

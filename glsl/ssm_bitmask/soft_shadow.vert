@@ -1,0 +1,89 @@
+#version 450
+#extension GL_GOOGLE_include_directive : require
+// ssm-bitmask/soft_shadow: one instance per occluder-map texel, 4 vertices (triangle strip).
+// The micro-quad of texel (i, j) spans its pixel square [i, i+1] x [j, j+1]; each corner's
+// depth is the harmonic mean (exact for a plane: 1/z is affine across the map) of the up to
+// four texels around that corner that are one surface with (i, j): a depth within
+// SSMB_CONNECT_TEXELS texels of slope. Neighbouring quads of one surface thus share their
+// corners (no gaps between micro-patches); at a silhouette or a depth discontinuity the
+// corner keeps the texel's own depth, so the quad ends at the texel's edge as the paper's
+// micro-patch does. The quad drawn is the penumbra extent as ssm's (soft_shadow.vert there):
+// the texel square grown by h = R' N / (2 tan(fov/2)) (1/z_near - 1/z_max) texels, R' the
+// disc's reach on the light's image plane, z_near the quad's nearest corner. Empty texels
+// and quads behind every receiver become a degenerate quad outside clip space.
+#include "common/frame.glsl"
+#include "ssm/ssm.glsl"
+#include "ssm_bitmask/constants.glsl"
+
+// r = the casters' linear depth: the RG32F MIN-blended shared shadow map (front surfaces),
+// or ssm2-bitmask's R32F back occluder map (farthest surfaces).
+layout(set = 0, binding = 1) uniform sampler2D occluder_map;
+layout(set = 0, binding = 4, std430) readonly buffer Bound { uint zmax_bits; } bound;
+
+layout(location = 0) flat out vec3 v_patch;          // texel (i, j) and its depth z_O
+layout(location = 1) flat out vec4 v_corner_depth;   // corners (i,j), (i+1,j), (i,j+1), (i+1,j+1)
+// Texels of extent per unit of (1/z_near - 1/z_R): the quad reaches receivers at depth z_R
+// at most v_reach (1/z_near - 1/z_R) texels beyond its own square.
+layout(location = 2) flat out float v_reach;
+
+void main() {
+    int n = int(SSM_RES);
+    ivec2 texel = ivec2(gl_InstanceIndex % n, gl_InstanceIndex / n);
+    float zo = texelFetch(occluder_map, texel, 0).r;
+    float zmax = uintBitsToFloat(bound.zmax_bits);
+    v_patch = vec3(vec2(texel), zo);
+    v_corner_depth = vec4(zo);
+    v_reach = 0.0;
+    if (zo >= EMPTY || !(zo < zmax)) {
+        gl_Position = vec4(2.0, 2.0, 2.0, 1.0);
+        return;
+    }
+    // 1/z of the 3x3 neighbourhood where it is one surface with the texel, else 0. The
+    // test is symmetric in the two depths, so two neighbours agree on whether they connect.
+    float slope = SSMB_CONNECT_TEXELS * 2.0 * frame.light_frustum.x * SSM_INV_RES;
+    float inv[9];
+    for (int k = 0; k < 9; ++k) {
+        ivec2 q = texel + ivec2(k % 3 - 1, k / 3 - 1);
+        float z = FAR_DEPTH;
+        if (all(greaterThanEqual(q, ivec2(0))) && all(lessThan(q, ivec2(n)))) {
+            z = texelFetch(occluder_map, q, 0).r;
+        }
+        bool one = z < EMPTY && abs(z - zo) <= slope * min(z, zo);
+        inv[k] = one ? 1.0 / z : 0.0;
+    }
+    float znear = zo;
+    for (int c = 0; c < 4; ++c) {
+        // Corner (i + cx, j + cy) touches the texels at offsets cx-1..cx, cy-1..cy: indices
+        // below in a fixed order of the map, so a corner's sum is the same in every quad.
+        int cx = c & 1, cy = c >> 1;
+        int k0 = cy * 3 + cx;   // offset (cx - 1, cy - 1)
+        float s = 0.0, m = 0.0;
+        for (int t = 0; t < 4; ++t) {
+            float v = inv[k0 + (t & 1) + 3 * (t >> 1)];
+            s += v;
+            m += v > 0.0 ? 1.0 : 0.0;
+        }
+        // s > 0: the texel itself is always one of the four.
+        float zc = m / s;
+        v_corner_depth[c] = zc;
+        znear = min(znear, zc);
+    }
+    // The disc faces the receiver, so the cone from a receiver to it is R wide across the
+    // line to the light's centre and R / cos(alpha) wide in the map's plane, alpha the
+    // line's angle to the light's axis: SSMB_EXTENT_RADIUS is R / cos(alpha) at the
+    // frustum's corner; near the axis the extent is smaller. Bound alpha over the receivers
+    // the corner-bound extent reaches, then grow the quad by the bound at that alpha.
+    float t = frame.light_frustum.x;
+    float reach = float(n) / (2.0 * t) * (1.0 / znear - 1.0 / zmax);
+    float h_corner = SSMB_EXTENT_RADIUS * reach;
+    vec2 ndc = abs((vec2(texel) + 0.5) * (2.0 * SSM_INV_RES) - 1.0) + (h_corner + 1.0) * 2.0 * SSM_INV_RES;
+    float stretch = min(1.05 * sqrt(1.0 + t * t * dot(ndc, ndc)) * SSMB_RADIUS, SSMB_EXTENT_RADIUS);
+    v_reach = stretch * float(n) / (2.0 * t);
+    float h = v_reach * (1.0 / znear - 1.0 / zmax);
+    // A hair of margin: fragments on the exact border see the quad edge-on.
+    vec2 lo = vec2(texel) - h - 1e-3;
+    vec2 hi = vec2(texel) + 1.0 + h + 1e-3;
+    vec2 corner = vec2(float(gl_VertexIndex & 1), float(gl_VertexIndex >> 1));
+    vec2 px = mix(lo, hi, corner);
+    gl_Position = vec4(px * (2.0 / float(n)) - 1.0, 0.0, 1.0);
+}

@@ -1,0 +1,489 @@
+//! # ssm-bitmask / ssm2-bitmask — soft shadow maps with exact occlusion
+//!
+//! Atty et al. 2006 (`ssm`, src/technique/ssm.rs, whose header this one builds on) back-
+//! project one micro-patch per occluder-map texel onto the light and ADD the hidden areas:
+//! where two back-projections overlap the light is counted twice (too dark), where
+//! neighbouring patches at different depths leave a gap between their back-projections
+//! light leaks through (their Sec. 5.1.2, Eq. 1-3). This form takes the *union* of what the
+//! micro-patches hide instead of the sum — bitmask soft shadows (Schwarz & Stamminger,
+//! *Bitmask Soft Shadows*, CGF 26(3) 2007): per soft-shadow-map texel one bit per light
+//! sample, set when some micro-patch hides that sample, OR-combined; micro-quads that join
+//! neighbouring texels close the gaps. Same occluder, receiver and bound passes as `ssm`
+//! (shared code: `ssm::ReceiverMap`, `ssm::ReceiverBound`, `ssm::BackOccluderMap`).
+//!
+//! ## Resolution rule: light samples and bits
+//! 128 samples on the disc light, one bit each in a `uvec4` (R32G32B32A32_UINT attachment):
+//! sample k is bit k % 32 of word k / 32. Visibility = 1 - popcount(mask) / 128, so it moves
+//! in steps of 1/128 (the reference averages at least 256 rays). Positions: a golden-angle
+//! (Vogel) spiral, radius sqrt((k + 1/2) / 128), angle k * 137.5 degrees — equal area per
+//! sample, no two on one line through the centre, fixed for every pixel (the banding of a
+//! fixed pattern is 1/128 steps, below 8-bit display steps of a shaded image).
+//!
+//! ## The light
+//! The disc of docs/DESIGN.md: centre at the light position, radius R, **facing the receiver
+//! point** (`ssm` uses a square of the same area parallel to the map). Each micro-quad corner
+//! is projected from the receiver onto the disc's plane; projection from a point maps lines
+//! to lines, so each of the quad's two triangles is a triangle on the disc and the samples
+//! inside it are the AND of three half-planes. R = 0 (point light): a quad hides every
+//! sample iff its texel covers the receiver's ray, exactly as `ssm` (hard shadows at the
+//! occluder map's resolution).
+//!
+//! ## The edge table (a storage buffer, built once on the CPU, `edge_table`)
+//! 512 rows (line direction phi = (row + 1/2) pi / 512, canonical directions only: +y, or +x
+//! when horizontal) x 256 columns (signed distance of the line from the disc centre, (col +
+//! 1/2) 2 / 256 - 1, in disc radii): the `uvec4` mask of the samples strictly left of the
+//! directed line, 2 MiB. A shader takes a line in its canonical direction and the complement
+//! for the other side, so the two triangles that share an edge split the samples near it
+//! exactly, whatever the table's rounding: no sample falls between two micro-quads, none is
+//! counted twice (counting twice would be harmless in a union, but it is not needed). Table
+//! rounding moves each edge by at most pi/1024 radians and 1/256 disc radius; unbiased.
+//!
+//! ## Micro-quads (the gap closing), and the dilation constant
+//! The micro-quad of texel (i, j) spans the texel's square of the map, as the paper's micro-
+//! patch, but each corner has its own depth: the harmonic mean of the up to four texels
+//! around the corner that are one surface with (i, j), i.e. whose depths differ by at most
+//! `CONNECT_TEXELS` = 4 texels of depth slope (surfaces up to ~76 degrees from the map's
+//! image plane). Neighbouring quads of one surface share corners, so their back-projections
+//! meet exactly; at a silhouette or a larger depth step the corner keeps the texel's depth,
+//! so the quad ends at the texel's edge (the occluder is not eroded by half a texel, and R =
+//! 0 is `ssm` and `hard`). There is no dilation of the back-projections: the dilation constant
+//! is 0, the gaps are closed by the shared corners and the table's complementary halves.
+//!
+//! ## Passes, in order (`ssm2-bitmask` names its passes `ssm2-bitmask/...`)
+//! 1. `ssm-bitmask/occluder_map` — as ssm's: `gpu::passes::ShadowMap`, R32G32_SFLOAT, clear
+//!    1e30, blend MIN; r = nearest caster depth.
+//! 2. `ssm2-bitmask/back_occluder_map` (two-sided only) — as ssm2's: R32_SFLOAT clear 1e30 +
+//!    D32_SFLOAT clear 0.0, compare GREATER, no culling: the farthest caster surfaces.
+//! 3. `ssm-bitmask/receiver_map` — as ssm's: two R32_SFLOAT layers (nearest receiver,
+//!    nearest pure receiver), clear 1e30, blend MIN (`glsl/ssm/receiver_*.frag`).
+//! 4. `ssm-bitmask/receiver_bound` — as ssm's: z_max of both layers into a 4-byte buffer
+//!    (`glsl/ssm/receiver_bound.comp`).
+//! 5. `ssm-bitmask/soft_shadow` — one instanced draw of N^2 instances x 4 vertices (triangle
+//!    strip), no vertex buffer. Two colour attachments R32G32B32A32_UINT (layer 0, layer 1),
+//!    clear 0, **logic op OR** (the `logicOp` device feature; blending off).
+//!    `glsl/ssm_bitmask/soft_shadow.vert` reads the occluder map's 3x3 neighbourhood and
+//!    writes the texel, its four corner depths and its reach (flat), drawing the penumbra
+//!    extent grown by h = R' N / (2 tan(fov/2)) (1/z_near - 1/z_max) texels. R' = 1.05 R /
+//!    cos(alpha): a disc facing the receiver is R wide across the line to the light's centre
+//!    and R / cos(alpha) in the map's plane, alpha that line's angle to the light's axis,
+//!    bounded over the receivers the quad can reach (at most sqrt(1 + 2 tan^2(fov/2)) at the
+//!    frustum's corner). `glsl/ssm_bitmask/soft_shadow.frag` reads both receiver layers at
+//!    its texel, the bound and the edge table; per layer it skips quads within the self-
+//!    occlusion guard (as ssm: 1.5 texels of slope) and receivers beyond the reach at their
+//!    own depth, projects the four corners onto the disc facing the receiver and writes the
+//!    mask of the samples inside the two triangles.
+//! 6. `ssm2-bitmask/soft_shadow_back` (two-sided only) — pass 5 with the back occluder map,
+//!    loading (not clearing) the same two attachments: the back micro-quads are ORed into the
+//!    same masks (ssm2 keeps two maps and takes their max, an approximation a union does not
+//!    need).
+//! 7. `ssm-bitmask/final` — `FinalPass` with `glsl/ssm_bitmask/final.frag` (both forms): as
+//!    ssm's final pass (2x2 footprint of the receiver map and the masks, layer 0 for the
+//!    texel's own receiver, layer 1 behind it, bilinear weights) but the footprint is read at
+//!    the point itself, **not at a normal-offset point**: a mask holds the visibility of the
+//!    receiver at its texel's centre, and ssm's offset of 2 occluder texels shifts every
+//!    penumbra by a fraction of a texel (on `fence`, whose rails are two texels tall, that
+//!    alone is most of ssm's error). Only the depth that picks the layer is the offset
+//!    point's, so a caster's own steep surface is not taken for something behind its
+//!    texel's receiver. Each texel's occlusion = popcount / 128, visibility = 1 - occlusion.
+//!
+//! ## Frame constants
+//! `frame.technique` as ssm's (L, N, 1/N, guard); `frame.technique2` = (R, R', connect
+//! texels, edge-table rows): glsl/ssm_bitmask/constants.glsl.
+//!
+//! ## Cost
+//! As ssm's: N^2 quads times their extents in `soft_shadow`, each fragment up to ten table
+//! reads (five edges per receiver layer, one when both layers are the same surface); the
+//! back-face pass nearly doubles it for ssm2-bitmask. The final pass reads four masks instead
+//! of ssm's gathers. On lavapipe (bunny, 512^2 image, one frame, 2 shared cores) the
+//! micro-quad pass costs about 5x ssm's micro-patch pass (larger extents: the disc faces the
+//! receiver; ten times the fragment work), the frame about 3x ssm's and 11x hard's.
+//!
+//! ## Known artefacts
+//! - Only what the light's centre sees of the occluders is discretised (ssm's Sec. 5.1.1):
+//!   behind a depth discontinuity (an ear in front of the body) nothing is known, so light
+//!   seen from the disc's edge through that unknown region passes; ssm2-bitmask's back faces
+//!   fill part of it.
+//! - A depth step smaller than `CONNECT_TEXELS` is bridged by a "skirt" between the two
+//!   surfaces: a little too much occlusion behind small steps.
+//! - 128 samples: visibility in steps of 1/128, the same pattern everywhere (no noise, faint
+//!   1/128 contours in wide penumbrae).
+//! - Occluder-map aliasing at R = 0 and small R (ssm's Sec. 5.2.4), the receiver layers'
+//!   limits and the self-occlusion guard: as ssm.
+//! - The disc faces each receiver texel's centre, not the camera pixel's point: the
+//!   bilinear footprint blends four receivers' masks (as ssm blends four sums).
+//! - At R = 0, on a caster's own surface near its terminator (n.l < 0.2), the point looked
+//!   up without an offset can read the texel of the caster's nearer part and go dark where
+//!   `hard`'s offset point is lit (docs/DESIGN.md's mae_lit leaves these pixels out).
+
+use super::ssm::{
+    ssm_uniforms, BackOccluderMap, ReceiverBound, ReceiverMap, MAP_USAGE, SELF_GUARD_TEXELS,
+};
+use super::{shadow_map_buffer, FrameInput, LightBuffer, Technique, TechniqueInfo, TechniqueInit};
+use crate::gpu::passes::{FinalPass, FinalShader, ShadowMap};
+use crate::shaders::{self, constants as k};
+use crate::vk::{
+    Blend, Buffer, BufferUsageFlags, Context, CullModeFlags, DescriptorSet, Filter, Format,
+    GraphicsPipelineDesc, Image, Pipeline, PrimitiveTopology, Recorder, Resource, Sampler,
+};
+use anyhow::{bail, Context as _, Result};
+use glam::Vec2;
+use std::sync::OnceLock;
+
+pub const INFO: TechniqueInfo = TechniqueInfo {
+    name: "ssm-bitmask",
+    summary: "soft shadow map with exact occlusion: micro-quads OR a 128-sample light bitmask (Schwarz & Stamminger 2007)",
+    create: create_one_sided,
+};
+
+pub const INFO2: TechniqueInfo = TechniqueInfo {
+    name: "ssm2-bitmask",
+    summary: "two-sided ssm-bitmask: front and back micro-quads ORed into one light bitmask",
+    create: create_two_sided,
+};
+
+/// Light samples, one bit each in a `uvec4`.
+pub const SAMPLES: usize = 128;
+
+/// Rows of the edge table: line directions over [0, pi).
+const TABLE_ANGLES: usize = 512;
+
+/// Columns of the edge table: signed distances from the disc centre over [-1, 1] radii.
+const TABLE_DISTANCES: usize = 256;
+
+/// Neighbouring occluder texels whose depths differ by at most this many texels of depth
+/// slope are one surface, and their micro-quads share corners.
+const CONNECT_TEXELS: f32 = 4.0;
+
+/// Margin on the disc's reach on the map's image plane (the extents must cover it).
+const EXTENT_MARGIN: f32 = 1.05;
+
+/// The mask format: 128 bits.
+const MASK_FORMAT: Format = Format::R32G32B32A32_UINT;
+
+fn create_one_sided(init: &TechniqueInit<'_>) -> Result<Box<dyn Technique>> {
+    Ok(Box::new(SsmBitmask::create(init, false)?))
+}
+
+fn create_two_sided(init: &TechniqueInit<'_>) -> Result<Box<dyn Technique>> {
+    Ok(Box::new(SsmBitmask::create(init, true)?))
+}
+
+/// The light samples on the unit disc: a golden-angle spiral, equal area per sample.
+pub fn light_samples() -> Vec<Vec2> {
+    let golden = std::f32::consts::PI * (3.0 - 5f32.sqrt());
+    (0..SAMPLES)
+        .map(|k| {
+            let r = ((k as f32 + 0.5) / SAMPLES as f32).sqrt();
+            let a = k as f32 * golden;
+            Vec2::new(r * a.cos(), r * a.sin())
+        })
+        .collect()
+}
+
+/// The edge table (row-major, `TABLE_ANGLES` x `TABLE_DISTANCES`): for the line of direction
+/// (cos phi, sin phi) at signed distance d from the centre (its left normal n = (-sin phi,
+/// cos phi), the line = {x : n.x = d}), the samples with n.s > d, bit k of the mask.
+pub fn edge_table() -> &'static [[u32; 4]] {
+    static TABLE: OnceLock<Vec<[u32; 4]>> = OnceLock::new();
+    TABLE.get_or_init(|| {
+        let samples = light_samples();
+        let mut table = Vec::with_capacity(TABLE_ANGLES * TABLE_DISTANCES);
+        for row in 0..TABLE_ANGLES {
+            let phi = (row as f32 + 0.5) / TABLE_ANGLES as f32 * std::f32::consts::PI;
+            let n = Vec2::new(-phi.sin(), phi.cos());
+            for col in 0..TABLE_DISTANCES {
+                let d = (col as f32 + 0.5) * 2.0 / TABLE_DISTANCES as f32 - 1.0;
+                let mut mask = [0u32; 4];
+                for (k, s) in samples.iter().enumerate() {
+                    if n.dot(*s) > d {
+                        mask[k / 32] |= 1 << (k % 32);
+                    }
+                }
+                table.push(mask);
+            }
+        }
+        table
+    })
+}
+
+/// One occluder map's micro-quads into the two mask layers.
+struct QuadPass {
+    set: DescriptorSet,
+    name: String,
+}
+
+pub struct SsmBitmask {
+    name: &'static str,
+    res: u32,
+    occluder: ShadowMap,
+    back: Option<BackOccluderMap>,
+    receivers: ReceiverMap,
+    bound: ReceiverBound,
+    /// Layer 0 (nearest receiver) and layer 1 (pure receiver): the hidden light samples.
+    masks: [Image; 2],
+    _table: Buffer,
+    front: QuadPass,
+    back_quads: Option<QuadPass>,
+    quad_pipeline: Pipeline,
+    final_pass: FinalPass,
+    final_set: DescriptorSet,
+    _nearest: Sampler,
+}
+
+impl SsmBitmask {
+    fn create(init: &TechniqueInit<'_>, two_sided: bool) -> Result<Self> {
+        let ctx = init.ctx;
+        let res = init.settings.occluder_res;
+        let name = if two_sided { INFO2.name } else { INFO.name };
+        if !ctx.logic_op {
+            bail!(
+                "{name} needs the logicOp device feature (OR-combining the light-sample masks), which {} does not offer",
+                ctx.device_name
+            );
+        }
+        let nearest = Sampler::new(ctx, Filter::Nearest).context("ssm-bitmask sampler")?;
+
+        // Passes 1-4, as ssm's.
+        let occluder = ShadowMap::new(ctx, init.ubo, res, &format!("{name}/occluder_map"))
+            .context("ssm-bitmask occluder map")?;
+        let back = match two_sided {
+            true => Some(
+                BackOccluderMap::new(ctx, init.ubo, res, name)
+                    .context("ssm2-bitmask back occluder map")?,
+            ),
+            false => None,
+        };
+        let receivers =
+            ReceiverMap::new(ctx, init.ubo, res, name).context("ssm-bitmask receiver map")?;
+        let bound = ReceiverBound::new(ctx, init.ubo, &receivers, &nearest, name)
+            .context("ssm-bitmask receiver bound")?;
+
+        // Passes 5-6: the micro-quads of each occluder map into one pair of masks.
+        let mask = |what: &str| {
+            Image::new_2d(
+                ctx,
+                res,
+                res,
+                MASK_FORMAT,
+                MAP_USAGE,
+                &format!("{name} light-sample mask ({what})"),
+            )
+        };
+        let masks = [
+            mask("front").context("ssm-bitmask masks")?,
+            mask("pure").context("ssm-bitmask masks")?,
+        ];
+        let table = Buffer::with_data(
+            ctx,
+            bytemuck::cast_slice(edge_table()),
+            BufferUsageFlags::STORAGE_BUFFER,
+            &format!("{name} edge table"),
+        )
+        .context("ssm-bitmask edge table")?;
+        let quads = |map: &Image, pass: &str| -> Result<QuadPass> {
+            let name = format!("{name}/{pass}");
+            let set = DescriptorSet::new(
+                ctx,
+                &[
+                    ("frame", Resource::Uniform(init.ubo)),
+                    ("occluder_map", Resource::Sampled(map, &nearest)),
+                    (
+                        "receiver_front",
+                        Resource::Sampled(&receivers.layers[0], &nearest),
+                    ),
+                    (
+                        "receiver_pure",
+                        Resource::Sampled(&receivers.layers[1], &nearest),
+                    ),
+                    ("bound", Resource::Storage(&bound.buffer)),
+                    ("table", Resource::Storage(&table)),
+                ],
+                &name,
+            )?;
+            Ok(QuadPass { set, name })
+        };
+        let front = quads(&occluder.depth, "soft_shadow").context("ssm-bitmask micro-quads")?;
+        let back_quads = match &back {
+            Some(b) => {
+                Some(quads(&b.depth, "soft_shadow_back").context("ssm2-bitmask back micro-quads")?)
+            }
+            None => None,
+        };
+        // Both sets are defined identically, so one pipeline serves both.
+        let quad_pipeline = Pipeline::graphics(
+            ctx,
+            &GraphicsPipelineDesc {
+                name: &front.name,
+                vertex: shaders::SSM_BITMASK_SOFT_SHADOW_VERT,
+                fragment: Some(shaders::SSM_BITMASK_SOFT_SHADOW_FRAG),
+                vertex_stride: 0,
+                attributes: &[],
+                topology: PrimitiveTopology::TRIANGLE_STRIP,
+                cull: CullModeFlags::NONE,
+                // OR: the union of the samples the micro-quads hide.
+                colors: &[(MASK_FORMAT, Blend::Or), (MASK_FORMAT, Blend::Or)],
+                depth: None,
+                push_constant_bytes: 0,
+                sets: &[&front.set],
+            },
+        )
+        .context("ssm-bitmask micro-quad pipeline")?;
+
+        // Pass 7.
+        let final_name = format!("{name}/final");
+        let final_set = DescriptorSet::new(
+            ctx,
+            &[
+                ("frame", Resource::Uniform(init.ubo)),
+                (
+                    "receiver_front",
+                    Resource::Sampled(&receivers.layers[0], &nearest),
+                ),
+                ("mask_front", Resource::Sampled(&masks[0], &nearest)),
+                ("mask_pure", Resource::Sampled(&masks[1], &nearest)),
+            ],
+            &final_name,
+        )?;
+        let final_pass = FinalPass::new(
+            ctx,
+            &final_name,
+            FinalShader {
+                color: shaders::SSM_BITMASK_FINAL_FRAG,
+                aov: shaders::SSM_BITMASK_FINAL_FRAG_AOV,
+            },
+            &final_set,
+        )
+        .context("ssm-bitmask final pass")?;
+        Ok(Self {
+            name,
+            res,
+            occluder,
+            back,
+            receivers,
+            bound,
+            masks,
+            _table: table,
+            front,
+            back_quads,
+            quad_pipeline,
+            final_pass,
+            final_set,
+            _nearest: nearest,
+        })
+    }
+
+    fn pass_name(&self, pass: &str) -> String {
+        format!("{}/{pass}", self.name)
+    }
+
+    /// Draws one occluder map's micro-quads; the first pass clears the masks, a second
+    /// (the back faces) ORs into them.
+    fn record_quads(&self, rec: &mut Recorder<'_>, quads: &QuadPass, clear: bool) {
+        let clear = clear.then_some([0.0; 4]);
+        rec.begin_rendering(&[(&self.masks[0], clear), (&self.masks[1], clear)], None);
+        rec.bind_pipeline(&self.quad_pipeline);
+        rec.bind_sets(&self.quad_pipeline, &[&quads.set]);
+        rec.draw(4, self.res * self.res);
+        rec.end_rendering();
+    }
+}
+
+impl Technique for SsmBitmask {
+    fn name(&self) -> &'static str {
+        self.name
+    }
+
+    fn uniforms(&self, frame: &FrameInput<'_>) -> [[f32; 4]; 2] {
+        let [first, _] = ssm_uniforms(self.res, frame);
+        debug_assert_eq!(first[k::SSM_SELF_GUARD_TEXELS], SELF_GUARD_TEXELS);
+        let t = (frame.light.fov_deg.to_radians() * 0.5).tan();
+        let r = frame.light_radius;
+        let mut second = [0.0; 4];
+        second[k::SSMB_RADIUS - 4] = r;
+        second[k::SSMB_EXTENT_RADIUS - 4] = EXTENT_MARGIN * r * (1.0 + 2.0 * t * t).sqrt();
+        second[k::SSMB_CONNECT_TEXELS - 4] = CONNECT_TEXELS;
+        second[k::SSMB_LUT_ANGLES - 4] = TABLE_ANGLES as f32;
+        [first, second]
+    }
+
+    fn record_light(
+        &mut self,
+        _ctx: &Context,
+        rec: &mut Recorder<'_>,
+        frame: &FrameInput<'_>,
+    ) -> Result<()> {
+        rec.pass(&self.pass_name("occluder_map"), |rec| {
+            self.occluder.record(rec, frame.gpu);
+            Ok(())
+        })?;
+        if let Some(back) = &self.back {
+            rec.pass(&back.name, |rec| {
+                back.record(rec, frame.gpu);
+                Ok(())
+            })?;
+        }
+        rec.pass(&self.pass_name("receiver_map"), |rec| {
+            self.receivers.record(rec, frame.gpu);
+            Ok(())
+        })?;
+        rec.pass(&self.pass_name("receiver_bound"), |rec| {
+            self.bound.record(rec);
+            Ok(())
+        })?;
+        rec.pass(&self.front.name, |rec| {
+            self.record_quads(rec, &self.front, true);
+            Ok(())
+        })?;
+        if let Some(back) = &self.back_quads {
+            rec.pass(&back.name, |rec| {
+                self.record_quads(rec, back, false);
+                Ok(())
+            })?;
+        }
+        Ok(())
+    }
+
+    fn light_passes(&self) -> Vec<String> {
+        let mut names = vec![self.pass_name("occluder_map")];
+        if let Some(b) = &self.back {
+            names.push(b.name.clone());
+        }
+        names.push(self.pass_name("receiver_map"));
+        names.push(self.pass_name("receiver_bound"));
+        names.push(self.front.name.clone());
+        if let Some(b) = &self.back_quads {
+            names.push(b.name.clone());
+        }
+        names
+    }
+
+    fn record_final(
+        &mut self,
+        _ctx: &Context,
+        rec: &mut Recorder<'_>,
+        frame: &FrameInput<'_>,
+    ) -> Result<()> {
+        self.final_pass.pass(rec, frame, &self.final_set)
+    }
+
+    fn light_buffers(&self) -> Vec<LightBuffer<'_>> {
+        let mut out = vec![shadow_map_buffer("occluder_map", &self.occluder)];
+        out.extend(self.receivers.buffers());
+        // The masks, read back as the fraction of the 128 samples hidden
+        // (`Renderer::read_technique_buffer` decodes an RGBA32UI mask so).
+        out.push(LightBuffer {
+            name: "soft_shadow",
+            image: &self.masks[0],
+            channels: &["occluded_fraction"],
+        });
+        out.push(LightBuffer {
+            name: "soft_shadow_pure",
+            image: &self.masks[1],
+            channels: &["occluded_fraction"],
+        });
+        if let Some(b) = &self.back {
+            out.push(b.buffer());
+        }
+        out
+    }
+}

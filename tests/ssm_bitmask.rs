@@ -1,0 +1,269 @@
+//! Soft shadow maps with exact occlusion (issue 22 item 3), `ssm-bitmask` and `ssm2-bitmask`,
+//! against the paper's additive forms, `hard`, `pcss` and the ray-cast reference, on lavapipe
+//! with validation:
+//! - mae_lit below ssm's (and hard's) on `cylinder`, `bunny`, `primitives` and `fence`, by
+//!   measured margins;
+//! - no light leak where the reference is in full umbra (the gaps between micro-patches);
+//! - penumbrae no darker than the reference than measured (a union, not a sum).
+//! R = 0 matching `hard` is tests/ssm.rs's `zero_radius_matches_hard`, which covers both.
+
+mod common;
+
+use common::{covered, Gpu};
+use softshadow::eval::metrics::{errors_at, faces_light, Errors};
+use softshadow::output::FrameImages;
+use softshadow::reference::{visibility_cached, ReferenceParams};
+use softshadow::scene::Scene;
+use softshadow::settings::Settings;
+
+const SCENES: &[&str] = &["cylinder", "bunny", "primitives", "fence"];
+const TECHNIQUES: &[&str] = &["hard", "pcss", "ssm", "ssm2", "ssm-bitmask", "ssm2-bitmask"];
+
+/// How far below ssm's (ssm2's for the two-sided form) mae_lit each bitmask form is at least,
+/// per scene of `SCENES`. Measured (paper - bitmask): ssm-bitmask 0.034, 0.047, 0.039, 0.150;
+/// ssm2-bitmask 0.030, 0.045, 0.038, 0.152.
+const MARGINS: &[(&str, [f64; 4])] = &[
+    ("ssm-bitmask", [0.025, 0.035, 0.03, 0.1]),
+    ("ssm2-bitmask", [0.02, 0.035, 0.03, 0.1]),
+];
+
+fn reference(scene: &Scene, img: &FrameImages) -> Vec<f32> {
+    visibility_cached(
+        scene,
+        scene.light.radius,
+        &img.position,
+        &img.normal,
+        &ReferenceParams::default(),
+    )
+    .unwrap_or_else(|e| panic!("reference of {}: {e:#}", scene.name))
+}
+
+/// tests/acceptance.rs's measurement: 160x160, every other setting at its default.
+fn render(gpu: &Gpu, scene: &Scene, technique: &str) -> FrameImages {
+    let settings = Settings {
+        width: 160,
+        height: 160,
+        ..Settings::default()
+    };
+    gpu.render_frames(scene.clone(), technique, settings, 1).0
+}
+
+fn errors(scene: &Scene, img: &FrameImages, v_ref: &[f32]) -> Errors {
+    errors_at(
+        &img.visibility,
+        v_ref,
+        &img.position,
+        &img.normal,
+        scene.light.position,
+    )
+}
+
+/// Surface pixels facing the light (mae_lit's region).
+fn lit_pixels(scene: &Scene, img: &FrameImages) -> Vec<usize> {
+    let faces = faces_light(&img.position, &img.normal, scene.light.position);
+    covered(img).into_iter().filter(|&i| faces[i]).collect()
+}
+
+#[test]
+fn mae_lit_below_the_additive_forms() {
+    let gpu = Gpu::new();
+    let mut table = format!("| scene | {} |\n", TECHNIQUES.join(" | "));
+    let mut bad = Vec::new();
+    for (s, name) in SCENES.iter().enumerate() {
+        let scene = Scene::load(name).unwrap_or_else(|e| panic!("{e:#}"));
+        let mut mae = Vec::new();
+        let mut v_ref = None;
+        for t in TECHNIQUES {
+            let img = render(&gpu, &scene, t);
+            let r = v_ref.get_or_insert_with(|| reference(&scene, &img));
+            let e = errors(&scene, &img, r);
+            assert!(e.lit_pixels > 200, "{name}/{t}: {e:?}");
+            mae.push(e.mae_lit);
+        }
+        let of = |t: &str| mae[TECHNIQUES.iter().position(|x| *x == t).unwrap()];
+        table.push_str(&format!(
+            "| {name} | {} |\n",
+            mae.iter()
+                .map(|m| format!("{m:.4}"))
+                .collect::<Vec<_>>()
+                .join(" | ")
+        ));
+        for &(t, margins) in MARGINS {
+            let paper = t.strip_suffix("-bitmask").unwrap();
+            if of(t) > of(paper) - margins[s] {
+                bad.push(format!(
+                    "{name}/{t}: mae_lit {:.4} not {} below {paper}'s {:.4}",
+                    of(t),
+                    margins[s],
+                    of(paper)
+                ));
+            }
+            // On `cylinder` the exact occlusion beats pcss (measured 0.0087 and 0.0073 against
+            // 0.0139); elsewhere the occluder map's 256^2 texels limit it (README).
+            if *name == "cylinder" && of(t) > of("pcss") {
+                bad.push(format!(
+                    "{name}/{t}: mae_lit {:.4} above pcss's {:.4}",
+                    of(t),
+                    of("pcss")
+                ));
+            }
+            if of(t) >= of("hard") {
+                bad.push(format!(
+                    "{name}/{t}: mae_lit {:.4} not below hard's {:.4}",
+                    of(t),
+                    of("hard")
+                ));
+            }
+        }
+    }
+    println!("mae_lit\n{table}");
+    assert!(bad.is_empty(), "{}\n{table}", bad.join("\n"));
+}
+
+/// Light-facing pixels where the reference is in full umbra and `img` lets more than 0.1
+/// through, and how many such umbra pixels there are.
+fn leaks(scene: &Scene, img: &FrameImages, v_ref: &[f32]) -> (usize, usize) {
+    let umbra: Vec<usize> = lit_pixels(scene, img)
+        .into_iter()
+        .filter(|&i| v_ref[i] <= 0.001)
+        .collect();
+    let leaking = umbra.iter().filter(|&&i| img.visibility[i] > 0.1).count();
+    (leaking, umbra.len())
+}
+
+/// The fence's rails are two occluder texels tall at the default 256^2: most pixels that
+/// leak light are on the umbra's edge, where the map's texels and the reference disagree
+/// (measured at 256^2: ssm 176 of 398 umbra pixels, ssm-bitmask 85, ssm2-bitmask 70; at
+/// 512^2: ssm 72, ssm-bitmask 22, ssm2-bitmask 16). ssm's offset lookup and the gaps between
+/// its micro-patches add the rest; the bitmask forms leak at most 55 % as often.
+#[test]
+fn light_leaks_under_fence_slats_are_halved() {
+    let gpu = Gpu::new();
+    let scene = Scene::load("fence").unwrap();
+    for occluder_res in [256, 512] {
+        let settings = Settings {
+            width: 160,
+            height: 160,
+            occluder_res,
+            ..Settings::default()
+        };
+        let render = |t: &str| gpu.render_frames(scene.clone(), t, settings.clone(), 1).0;
+        let ssm = render("ssm");
+        let v_ref = reference(&scene, &ssm);
+        let (ssm_leaks, umbra) = leaks(&scene, &ssm, &v_ref);
+        assert!(umbra > 100, "fence: {umbra} umbra pixels");
+        for t in ["ssm-bitmask", "ssm2-bitmask"] {
+            let (n, _) = leaks(&scene, &render(t), &v_ref);
+            println!("fence at {occluder_res}^2: {n} of {umbra} umbra pixels lit above 0.1 by {t} (ssm: {ssm_leaks})");
+            assert!(
+                n * 100 <= ssm_leaks * 55,
+                "{t} at {occluder_res}^2: {n} leaks, ssm {ssm_leaks}"
+            );
+            if occluder_res == 512 {
+                assert!(
+                    n * 100 <= umbra * 8,
+                    "{t} at 512^2: {n} of {umbra} umbra pixels leak"
+                );
+            }
+        }
+    }
+}
+
+/// How much darker than the reference `img` is on average over the reference's penumbra on
+/// light-facing pixels: mean of max(v_ref - v, 0).
+fn darkening(scene: &Scene, img: &FrameImages, v_ref: &[f32]) -> f64 {
+    let penumbra: Vec<usize> = lit_pixels(scene, img)
+        .into_iter()
+        .filter(|&i| v_ref[i] > 0.02 && v_ref[i] < 0.98)
+        .collect();
+    penumbra
+        .iter()
+        .map(|&i| f64::from((v_ref[i] - img.visibility[i]).max(0.0)))
+        .sum::<f64>()
+        / penumbra.len().max(1) as f64
+}
+
+/// Mean darkening over the penumbra at most, per scene and form (measured x 1.2). Measured
+/// (ssm-bitmask, ssm2-bitmask; ssm, ssm2): cylinder 0.0090, 0.0117; 0.0102, 0.0108;
+/// overlap 0.0310, 0.0332; 0.0258, 0.0289; bunny 0.0278, 0.0364; 0.0146, 0.0166. The union
+/// never counts the light twice, yet the bitmask forms are a little darker than the additive
+/// ones here: ssm's normal offset shifts its penumbrae outward (too bright overall, mae_lit
+/// 2-3x higher), and the micro-quads reach down to the receiver at contacts.
+const DARKENING: &[(&str, [f64; 2])] = &[
+    ("cylinder", [0.011, 0.014]),
+    ("overlap", [0.037, 0.040]),
+    ("bunny", [0.033, 0.044]),
+];
+
+#[test]
+fn penumbrae_are_not_much_darker_than_the_reference() {
+    let gpu = Gpu::new();
+    for &(name, bounds) in DARKENING {
+        let scene = Scene::load(name).unwrap();
+        let ssm = render(&gpu, &scene, "ssm");
+        let v_ref = reference(&scene, &ssm);
+        for (t, bound) in ["ssm-bitmask", "ssm2-bitmask"].into_iter().zip(bounds) {
+            let paper = t.strip_suffix("-bitmask").unwrap();
+            let d_paper = darkening(&scene, &render(&gpu, &scene, paper), &v_ref);
+            let d = darkening(&scene, &render(&gpu, &scene, t), &v_ref);
+            println!(
+                "{name}: mean darkening over the penumbra {d:.4} with {t} ({paper}: {d_paper:.4})"
+            );
+            assert!(
+                d <= bound,
+                "{name}/{t}: darkening {d:.4} above {bound} ({paper} {d_paper:.4})"
+            );
+        }
+    }
+}
+
+/// R = 0 is `hard` on the pixels mae_lit judges (surfaces facing the light): the final pass
+/// looks the point up without ssm's normal offset, so on a caster's own surface near its
+/// terminator (n.l < 0.2, where `hard`'s offset point is lit) the two differ; docs/DESIGN.md
+/// leaves those out. Measured on cylinder (boxes): 15 (0) of the light-facing pixels off
+/// hard's edges differ by more than 0.02 (of 10621 and 9174).
+#[test]
+fn zero_radius_matches_hard_where_surfaces_face_the_light() {
+    let gpu = Gpu::new();
+    for t in ["ssm-bitmask", "ssm2-bitmask"] {
+        for name in ["cylinder", "boxes"] {
+            let scene = Scene::load(name).unwrap();
+            let set = Settings {
+                light_radius: Some(0.0),
+                occluder_res: 256,
+                ..common::small(128, 256)
+            };
+            let hard = gpu.render_frames(scene.clone(), "hard", set.clone(), 1).0;
+            let soft = gpu.render_frames(scene.clone(), t, set, 1).0;
+            let faces = faces_light(&hard.position, &hard.normal, scene.light.position);
+            let px: Vec<usize> = covered(&hard).into_iter().filter(|&i| faces[i]).collect();
+            let calm: Vec<usize> = common::off_edges(&hard, 2)
+                .into_iter()
+                .filter(|&i| faces[i])
+                .collect();
+            let off = |px: &[usize], tol: f32| {
+                px.iter()
+                    .filter(|&&i| (hard.visibility[i] - soft.visibility[i]).abs() > tol)
+                    .count()
+            };
+            let shadowed = calm.iter().filter(|&&i| hard.visibility[i] < 0.5).count();
+            println!(
+                "{t} {name}: of {} light-facing pixels {} differ from hard by more than 0.5; of {} off the edges ({shadowed} in shadow) {} by more than 0.02",
+                px.len(), off(&px, 0.5), calm.len(), off(&calm, 0.02)
+            );
+            assert!(shadowed > 200, "{t} {name}: {shadowed} shadowed pixels");
+            assert!(
+                off(&px, 0.5) * 100 <= px.len(),
+                "{t} {name}: {} of {} pixels differ from hard at R = 0",
+                off(&px, 0.5),
+                px.len()
+            );
+            assert!(
+                off(&calm, 0.02) * 200 <= calm.len(),
+                "{t} {name}: {} of {} pixels off the edges differ from hard by more than 0.02 at R = 0",
+                off(&calm, 0.02),
+                calm.len()
+            );
+        }
+    }
+}

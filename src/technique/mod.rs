@@ -9,6 +9,7 @@ pub mod penumbra_map_centred;
 pub mod plateaus;
 pub mod reference;
 pub mod smoothies;
+pub mod smoothies_centred;
 pub mod ssm;
 
 use crate::gpu::passes::ShadowMap;
@@ -123,6 +124,7 @@ pub const TECHNIQUES: &[TechniqueInfo] = &[
     pcf::INFO,
     pcss::INFO,
     smoothies::INFO,
+    smoothies_centred::INFO,
     penumbra_map::INFO,
     penumbra_map_centred::INFO,
     plateaus::INFO,

@@ -6,6 +6,8 @@
 //! smoothie by its alpha, giving a penumbra that grows outward from the hard shadow edge.
 //! With the implementation lessons of Volokh's report (extrusion direction from averaged
 //! screen-space normals, corner construction, the b ~ r guard, linear R32F depths).
+//! (`smoothies-centred`, src/technique/smoothies_centred.rs, is this struct with
+//! `Form::Centred`: inner smoothies too, the penumbra centred on the hard edge.)
 //!
 //! At a glance (each pass in full below):
 //! - `smoothies/silhouettes` (CPU, or compute on the GPU path): silhouette edges, then

@@ -1023,6 +1023,46 @@ mod tests {
     }
 
     #[test]
+    fn inner_smoothies_reflect_the_outer_ones_into_the_hard_shadow() {
+        let adj = Adjacency::build(&cube()).unwrap();
+        let model = Mat4::from_translation(Vec3::new(0.0, 1.0, 0.0));
+        let centre = Vec3::new(0.0, 1.0, 0.0);
+        let lv = light_at(Vec3::new(3.0, 4.5, 2.2), centre);
+        let sil = extract(&adj, model, lv.position);
+        let t = 0.05;
+        let outer = build_smoothies(&adj, &sil, model, &lv, t);
+        let inner = build_smoothies_side(&adj, &sil, model, &lv, Width::Fixed(t), Side::Inner);
+        assert!(all_finite(&inner));
+        check_counts(&inner);
+        assert_eq!(
+            [inner.edges, inner.corners, inner.corner_triangles],
+            [outer.edges, outer.corners, outer.corner_triangles]
+        );
+        let (c, _) = lv.project(centre);
+        let quads = 6 * inner.edges;
+        for (qi, qo) in inner.vertices[..quads]
+            .chunks_exact(6)
+            .zip(outer.vertices[..quads].chunks_exact(6))
+        {
+            // The same silhouette edge, extruded by -d: into the hard shadow.
+            assert_eq!([qi[0].uv, qi[1].uv], [qo[0].uv, qo[1].uv]);
+            let d = Vec2::from(qo[0].dir);
+            assert_eq!(Vec2::from(qi[0].dir), -d);
+            let (s0, s1) = (Vec2::from(qi[0].uv), Vec2::from(qi[1].uv));
+            assert!((Vec2::from(qi[2].uv) - (s1 - t * d)).length() < 1e-6);
+            assert!((Vec2::from(qi[5].uv) - (s0 - t * d)).length() < 1e-6);
+            assert!(Vec2::from(qi[0].dir).dot((s0 + s1) * 0.5 - c) < 0.0);
+        }
+        // Each corner fan is the outer one reflected through its vertex.
+        for (fi, fo) in inner.vertices[quads..].iter().zip(&outer.vertices[quads..]) {
+            assert_eq!(fi.anchor, fo.anchor);
+            let a = Vec2::from(fi.anchor);
+            let reflected = a - (Vec2::from(fo.uv) - a);
+            assert!((Vec2::from(fi.uv) - reflected).length() < 1e-6);
+        }
+    }
+
+    #[test]
     fn bowtie_special_vertex() {
         let adj = Adjacency::build(&bowtie()).unwrap();
         let lv = light_at(Vec3::new(0.0, 0.0, 10.0), Vec3::ZERO);

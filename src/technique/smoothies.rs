@@ -336,7 +336,7 @@ impl Smoothies {
         // CPU path: vertex pulling from the records, no vertex input.
         let records = DynamicVertices::storage(ctx, "smoothie records")?;
         let records_set = Self::records_set(ctx, &records)?;
-        let records_pipelines = |fragment: &[u8]| -> Result<[Pipeline; 2]> {
+        let records_pipelines_with = |fragment: &[u8]| -> Result<[Pipeline; 2]> {
             let sets = [&smoothie_set, &records_set];
             Ok([
                 pipeline(
@@ -357,9 +357,9 @@ impl Smoothies {
         };
         let inner_pipelines = match form {
             Form::Paper => None,
-            Form::Centred => Some(records_pipelines(fragments[1])?),
+            Form::Centred => Some(records_pipelines_with(fragments[1])?),
         };
-        let records_pipelines = records_pipelines(fragments[0])?;
+        let records_pipelines = records_pipelines_with(fragments[0])?;
         let depth_resource = (
             "smoothie_depth",
             Resource::Sampled(&smoothie_depth, &nearest),

@@ -7,6 +7,7 @@ pub mod pcss;
 pub mod penumbra_map;
 pub mod penumbra_map_centred;
 pub mod plateaus;
+pub mod plateaus_centred;
 pub mod reference;
 pub mod smoothies;
 pub mod smoothies_centred;
@@ -128,6 +129,7 @@ pub const TECHNIQUES: &[TechniqueInfo] = &[
     penumbra_map::INFO,
     penumbra_map_centred::INFO,
     plateaus::INFO,
+    plateaus_centred::INFO,
     ssm::INFO,
     ssm::INFO2,
     reference::INFO,

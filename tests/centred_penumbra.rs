@@ -1,5 +1,5 @@
-//! The centred forms of penumbra maps and plateaus (issue 22 item 2) against their paper
-//! forms, `hard` and the ray-cast reference, on lavapipe with validation:
+//! The centred forms of smoothies (issue 22 item 1), penumbra maps and plateaus (item 2)
+//! against their paper forms, `hard` and the ray-cast reference, on lavapipe with validation:
 //! - mae_lit (tests/acceptance.rs's measurement) below the paper form's and `hard`'s on
 //!   `cylinder`, `bunny` and `primitives`, by measured margins;
 //! - an inner penumbra: the umbra shrinks as the light grows, as the reference's does;
@@ -18,13 +18,22 @@ use softshadow::scene::Scene;
 use softshadow::settings::Settings;
 
 /// Each centred form with its paper form.
-const FORMS: &[(&str, &str)] = &[("penumbra-map-centred", "penumbra-map")];
+const FORMS: &[(&str, &str)] = &[
+    ("smoothies-centred", "smoothies"),
+    ("penumbra-map-centred", "penumbra-map"),
+    ("plateaus-centred", "plateaus"),
+];
 
 /// How far below its paper form's and `hard`'s mae_lit each centred form is at least, on
 /// each of `cylinder`, `bunny`, `primitives` (160x160, default settings). Measured (paper -
-/// centred, hard - centred), smallest over the three scenes: penumbra-map-centred 0.079 and
-/// 0.056 (primitives).
-const MARGINS: &[(&str, f64, f64)] = &[("penumbra-map-centred", 0.05, 0.04)];
+/// centred, hard - centred), smallest over the three scenes: smoothies-centred 0.075 and
+/// 0.054, penumbra-map-centred 0.079 and 0.056 (both on primitives), plateaus-centred 0.079
+/// (cylinder) and 0.065 (primitives).
+const MARGINS: &[(&str, f64, f64)] = &[
+    ("smoothies-centred", 0.05, 0.04),
+    ("penumbra-map-centred", 0.05, 0.04),
+    ("plateaus-centred", 0.05, 0.04),
+];
 
 fn margins(centred: &str) -> (f64, f64) {
     MARGINS
@@ -136,7 +145,8 @@ fn umbra_shrinks_as_the_light_grows() {
         assert!(r1 < r0 * 3 / 4, "the reference's umbra {r0} -> {r1}");
         assert!(p1 >= p0, "{paper}'s umbra does not shrink: {p0} -> {p1}");
         // The centred umbra shrinks as the reference's does, by a comparable share
-        // (penumbra-map-centred: to 0.65 of it, the reference to 0.65).
+        // (smoothies-centred and penumbra-map-centred: to 0.65 of it, plateaus-centred to
+        // 0.70, the reference to 0.65).
         let (shrink, ref_shrink) = (c1 as f64 / c0 as f64, r1 as f64 / r0 as f64);
         assert!(
             shrink < 0.8 && (shrink - ref_shrink).abs() < 0.1,
@@ -153,8 +163,15 @@ fn umbra_shrinks_as_the_light_grows() {
 }
 
 /// The centred forms' mean error over the slats' penumbrae, as a share of the paper form's
-/// at most (measured: penumbra-map-centred 0.055 against 0.369, 0.15).
+/// at most (measured: smoothies-centred 0.055 against 0.345, penumbra-map-centred 0.055
+/// against 0.369, plateaus-centred 0.071 against 0.306: 0.16, 0.15, 0.23).
 const THIN_ERROR_SHARE: f64 = 0.3;
+
+/// Forms whose soft shadows are made for one planar receiver only (both plateaus forms give
+/// every other receiver the hard shadow map, by design: Haines 2001 Sec. 2): their
+/// thin-blocker rule is judged on `fence`'s ground (y = 0). Off it, a post over a rail is a
+/// full umbra (2 pixels at 192^2).
+const PLANE_ONLY: &[&str] = &["plateaus-centred"];
 
 #[test]
 fn thin_blocker_is_never_a_full_umbra_where_light_gets_through() {
@@ -168,13 +185,20 @@ fn thin_blocker_is_never_a_full_umbra_where_light_gets_through() {
         let c = gpu.render_frames(scene.clone(), centred, s.clone(), 1).0;
         let p = gpu.render_frames(scene.clone(), paper, s.clone(), 1).0;
         let v_ref = reference(&scene, r, &c);
+        let judged_here = |img: &FrameImages, i: usize| {
+            !PLANE_ONLY.contains(&centred) || img.position[i][1].abs() < 1e-3
+        };
         let bright = |img: &FrameImages| {
             covered(img)
                 .into_iter()
-                .filter(|&i| v_ref[i] > 0.2 && img.visibility[i] <= 0.0)
+                .filter(|&i| judged_here(img, i) && v_ref[i] > 0.2 && img.visibility[i] <= 0.0)
                 .count()
         };
-        let judged = covered(&c).into_iter().filter(|&i| v_ref[i] > 0.2).count();
+        let judged = covered(&c)
+            .into_iter()
+            .filter(|&i| judged_here(&c, i) && v_ref[i] > 0.2)
+            .count();
+        assert!(judged > 1000, "{centred}: only {judged} pixels judged");
         // The slats' penumbrae: how far from the reference there.
         let penumbra: Vec<usize> = covered(&c)
             .into_iter()

@@ -56,6 +56,27 @@ pub mod smoothie;
 
 pub use smoothie::{build_smoothies, SmoothieGeometry, SmoothieVertex};
 
+/// Which side of the silhouette a penumbra construction (smoothies, cones and sheets)
+/// opens to.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Side {
+    /// Outward, away from the hard shadow: the papers' constructions.
+    Outer,
+    /// Inward, into the hard shadow: the centred forms (smoothies-centred,
+    /// penumbra-map-centred).
+    Inner,
+}
+
+impl Side {
+    /// +1 outward, -1 inward: the factor on an outward direction.
+    pub fn sign(self) -> f32 {
+        match self {
+            Side::Outer => 1.0,
+            Side::Inner => -1.0,
+        }
+    }
+}
+
 /// Multiplicative (Fx-style) hasher: the keys are small integers built from our own data, so
 /// HashDoS resistance is irrelevant, and SipHash would dominate the build time of big meshes.
 #[derive(Default, Clone, Copy)]

@@ -130,14 +130,7 @@ pub const BLOCKER_REACH_UNKNOWN: f32 = 1e6;
 /// Triangles per cone: 16 keeps the circumscribed polygon within 2 % of the round cone.
 pub const CONE_SEGMENTS: usize = 16;
 
-/// Which side of the silhouette the cones and sheets open to.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Side {
-    /// Outward, away from the hard shadow: the paper's construction.
-    Outer,
-    /// Inward, into the hard shadow (penumbra-map-centred).
-    Inner,
-}
+pub use super::Side;
 
 /// One silhouette vertex in light view space.
 #[derive(Clone, Copy)]

@@ -68,6 +68,17 @@
 //! Corner vertices have `kind = 1`, `anchor = s` (vertex uv), `dir = [0, 0]`:
 //! alpha = |uv - s| / t.
 //!
+//! # Inner smoothies (`Side::Inner`, smoothies-centred; not in the paper)
+//! The same construction reflected into the hard shadow: every edge quad extruded by -d
+//! instead of d (s0, s1, s1 - t d, s0 - t d, `dir` = -d, so alpha = dot(uv - s0, -d) / t is
+//! the distance inside the hard-edge line), and every corner fan reflected through its vertex
+//! (the arc from -d1 over the same sweep; the hairpin's direction and a special vertex's
+//! spokes decided as for the outer fan, then reflected). Inner quads overlap at convex
+//! vertices and leave the gap at reflex ones, where the reflected fan lies; the edges, their
+//! order, the corners and the counts are those of the outer construction. The records path
+//! draws the same geometry (`SmoothieRecords::mirrored`), held to this by
+//! `silhouette::smoothie::equivalence`.
+//!
 //! # Output layout
 //! `vertices` is a plain triangle list: first `6 * edges` vertices for the edge quads (in
 //! silhouette order), then the corners ordered by welded vertex index. Windings are mixed:
@@ -92,7 +103,7 @@
 mod equivalence;
 pub mod records;
 
-use super::{Adjacency, EdgeKind, SilhouetteEdge};
+use super::{Adjacency, EdgeKind, Side, SilhouetteEdge};
 use crate::scene::LightView;
 use glam::{Mat3, Mat4, Vec2, Vec3};
 use rayon::prelude::*;
@@ -335,17 +346,19 @@ fn third_vertex_side(
     side
 }
 
-/// Appends the quad of silhouette edge `e` (ends `va`, `vb`) to `out`; returns its outward
-/// direction, or `None` (nothing appended) when the edge is skipped.
+/// Appends the quad of silhouette edge `e` (ends `va`, `vb`) on `side` to `out`; returns its
+/// extrusion direction (outward, or inward for `Side::Inner`), or `None` (nothing appended)
+/// when the edge is skipped.
 fn build_edge(
     adj: &Adjacency,
     pr: &Projector,
     e: &SilhouetteEdge,
     va: &SilVertex,
     vb: &SilVertex,
+    side: Side,
     out: &mut Vec<SmoothieVertex>,
 ) -> Option<Vec2> {
-    let d = edge_dir(adj, pr, e, va, vb)?;
+    let d = side.sign() * edge_dir(adj, pr, e, va, vb)?;
     let (a, b) = (va.proj?, vb.proj?);
     let (s0, s1) = (a.s, b.s);
     let (o0, o1) = (s0 + a.t * d, s1 + b.t * d);
@@ -507,8 +520,9 @@ pub(super) fn hairpin_ccw<'a>(
     away.dot(d1.perp()) >= 0.0
 }
 
-/// Appends the corner fan of silhouette vertex `vtx`, whose kept incident edges are
-/// `sil[i]` with outward direction `dirs[i]` for `i` in `inc` (ascending). Returns whether
+/// Appends the corner fan of silhouette vertex `vtx` on `side`, whose kept incident edges
+/// are `sil[i]` with extrusion direction `dirs[i]` (that side's) for `i` in `inc`
+/// (ascending). Returns whether
 /// it is a special vertex, or `None` when it needs no corner. `angles` is scratch;
 /// `angle_of[i]` caches `dirs[i].to_angle()` (NaN: not yet computed), since most edges
 /// need it at both of their corners and atan2 is one of the costliest steps here.
@@ -520,6 +534,7 @@ fn build_corner(
     inc: &[u32],
     sil: &[SilhouetteEdge],
     dirs: &[Option<Vec2>],
+    side: Side,
     out: &mut Vec<SmoothieVertex>,
     angles: &mut Vec<f32>,
     angle_of: &mut [f32],
@@ -552,7 +567,9 @@ fn build_corner(
             // the outside is the opposite way. The projected vertex normal (Volokh) only
             // decides when that is ambiguous: for faces facing the light it points radially
             // from the light's axis, not necessarily away from the blocker.
-            let ccw = hairpin_ccw(adj, pr, vtx, edges(), d1);
+            // Decided on the outward d1: an inner fan is the outer one reflected through
+            // the vertex, same sweep from -d1.
+            let ccw = hairpin_ccw(adj, pr, vtx, edges(), side.sign() * d1);
             sweep = if ccw {
                 std::f32::consts::PI
             } else {
@@ -565,7 +582,7 @@ fn build_corner(
     // Special case: spokes at every d_i and at the projected vertex normal; full disc.
     angles.clear();
     angles.extend(inc.iter().map(|&i| angle(i)));
-    let n = vertex_normal_screen(adj, pr, edges(), p, s, z);
+    let n = side.sign() * vertex_normal_screen(adj, pr, edges(), p, s, z);
     if n.length() > 1e-9 {
         angles.push(n.to_angle());
     }
@@ -606,7 +623,20 @@ pub fn build_smoothies_width(
     light: &LightView,
     width: Width,
 ) -> SmoothieGeometry {
-    build_impl(adj, sil, model, light, width, PAR_CHUNK)
+    build_smoothies_side(adj, sil, model, light, width, Side::Outer)
+}
+
+/// `build_smoothies_width` on `side`: `Side::Inner` gives the inner smoothies of
+/// smoothies-centred (see "Inner smoothies" in the module doc).
+pub fn build_smoothies_side(
+    adj: &Adjacency,
+    sil: &[SilhouetteEdge],
+    model: Mat4,
+    light: &LightView,
+    width: Width,
+    side: Side,
+) -> SmoothieGeometry {
+    build_impl(adj, sil, model, light, width, PAR_CHUNK, side)
 }
 
 /// Corners (and the triangle counts) appended by `corners_into`.
@@ -627,6 +657,7 @@ fn corners_into(
     inc_start: &[u32],
     inc: &[u32],
     order: &[u32],
+    side: Side,
     out: &mut Vec<SmoothieVertex>,
 ) -> CornerStats {
     let mut st = CornerStats::default();
@@ -642,6 +673,7 @@ fn corners_into(
             list,
             sil,
             dirs,
+            side,
             out,
             &mut angles,
             &mut angle_of,
@@ -714,6 +746,7 @@ fn edge_quads(
     numbering: &Numbering,
     parallel: bool,
     chunk: usize,
+    side: Side,
     out: &mut Vec<SmoothieVertex>,
 ) -> Vec<Option<Vec2>> {
     let verts = &numbering.verts;
@@ -728,6 +761,7 @@ fn edge_quads(
                 e,
                 &verts[a as usize],
                 &verts[b as usize],
+                side,
                 out,
             ));
         }
@@ -801,8 +835,8 @@ fn corner_order(numbering: &Numbering, inc_start: &[u32]) -> Vec<u32> {
     order
 }
 
-/// The construction, in four steps: number and project the silhouette vertices, build the
-/// edge quads, group the kept edges by vertex, build the corners. Silhouettes of `chunk`
+/// The construction on `side`, in four steps: number and project the silhouette vertices,
+/// build the edge quads, group the kept edges by vertex, build the corners. Silhouettes of `chunk`
 /// edges or more run the quads and the corners over rayon; the output is the same.
 pub(super) fn build_impl(
     adj: &Adjacency,
@@ -811,6 +845,7 @@ pub(super) fn build_impl(
     light: &LightView,
     width: Width,
     chunk: usize,
+    side: Side,
 ) -> SmoothieGeometry {
     let pr = Projector::new(model, light);
     let parallel = sil.len() >= chunk;
@@ -824,6 +859,7 @@ pub(super) fn build_impl(
         &numbering,
         parallel,
         chunk,
+        side,
         &mut geo.vertices,
     );
     geo.edges = geo.vertices.len() / 6;
@@ -834,7 +870,9 @@ pub(super) fn build_impl(
     let order = corner_order(&numbering, &inc_start);
     let quad_vertices = geo.vertices.len();
     let corners = |order: &[u32], out: &mut Vec<SmoothieVertex>| {
-        corners_into(adj, &pr, sil, &dirs, verts, &inc_start, &inc, order, out)
+        corners_into(
+            adj, &pr, sil, &dirs, verts, &inc_start, &inc, order, side, out,
+        )
     };
     let mut stats = Vec::new();
     if parallel {
@@ -981,6 +1019,46 @@ mod tests {
         for v in &g.vertices[6 * g.edges..] {
             let r = (Vec2::from(v.uv) - Vec2::from(v.anchor)).length();
             assert!(r <= t / (15f32.to_radians()).cos() + 1e-6);
+        }
+    }
+
+    #[test]
+    fn inner_smoothies_reflect_the_outer_ones_into_the_hard_shadow() {
+        let adj = Adjacency::build(&cube()).unwrap();
+        let model = Mat4::from_translation(Vec3::new(0.0, 1.0, 0.0));
+        let centre = Vec3::new(0.0, 1.0, 0.0);
+        let lv = light_at(Vec3::new(3.0, 4.5, 2.2), centre);
+        let sil = extract(&adj, model, lv.position);
+        let t = 0.05;
+        let outer = build_smoothies(&adj, &sil, model, &lv, t);
+        let inner = build_smoothies_side(&adj, &sil, model, &lv, Width::Fixed(t), Side::Inner);
+        assert!(all_finite(&inner));
+        check_counts(&inner);
+        assert_eq!(
+            [inner.edges, inner.corners, inner.corner_triangles],
+            [outer.edges, outer.corners, outer.corner_triangles]
+        );
+        let (c, _) = lv.project(centre);
+        let quads = 6 * inner.edges;
+        for (qi, qo) in inner.vertices[..quads]
+            .chunks_exact(6)
+            .zip(outer.vertices[..quads].chunks_exact(6))
+        {
+            // The same silhouette edge, extruded by -d: into the hard shadow.
+            assert_eq!([qi[0].uv, qi[1].uv], [qo[0].uv, qo[1].uv]);
+            let d = Vec2::from(qo[0].dir);
+            assert_eq!(Vec2::from(qi[0].dir), -d);
+            let (s0, s1) = (Vec2::from(qi[0].uv), Vec2::from(qi[1].uv));
+            assert!((Vec2::from(qi[2].uv) - (s1 - t * d)).length() < 1e-6);
+            assert!((Vec2::from(qi[5].uv) - (s0 - t * d)).length() < 1e-6);
+            assert!(Vec2::from(qi[0].dir).dot((s0 + s1) * 0.5 - c) < 0.0);
+        }
+        // Each corner fan is the outer one reflected through its vertex.
+        for (fi, fo) in inner.vertices[quads..].iter().zip(&outer.vertices[quads..]) {
+            assert_eq!(fi.anchor, fo.anchor);
+            let a = Vec2::from(fi.anchor);
+            let reflected = a - (Vec2::from(fo.uv) - a);
+            assert!((Vec2::from(fi.uv) - reflected).length() < 1e-6);
         }
     }
 

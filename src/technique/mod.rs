@@ -8,8 +8,10 @@ pub mod pcss_fast;
 pub mod penumbra_map;
 pub mod penumbra_map_centred;
 pub mod plateaus;
+pub mod plateaus_centred;
 pub mod reference;
 pub mod smoothies;
+pub mod smoothies_centred;
 pub mod ssm;
 pub mod ssm_bitmask;
 
@@ -126,9 +128,11 @@ pub const TECHNIQUES: &[TechniqueInfo] = &[
     pcss::INFO,
     pcss_fast::INFO,
     smoothies::INFO,
+    smoothies_centred::INFO,
     penumbra_map::INFO,
     penumbra_map_centred::INFO,
     plateaus::INFO,
+    plateaus_centred::INFO,
     ssm::INFO,
     ssm::INFO2,
     ssm_bitmask::INFO,

@@ -5,6 +5,8 @@
 //! vertex and a sheet along the outer side of every silhouette edge — whose depth is its
 //! intensity, so the LESS depth test keeps the darkest primitive (Parker et al.'s "darkest
 //! wins"). The texture is projected onto the plane as a light map through the sine falloff.
+//! (`plateaus-centred`, src/technique/plateaus_centred.rs, is this struct with
+//! `Form::Centred`: inner sheets too, the penumbra centred on the hard edge.)
 //!
 //! The paper numbers no equations; sections and figures are cited, and the relations this
 //! port derives are numbered (P1)-(P4) below.
@@ -108,14 +110,16 @@
 //! plane (a table top) gets them too. R = 0 gives the drop shadow alone, which matches `hard`
 //! on the plane up to each method's one-texel edge aliasing (the texel grids differ).
 
-use super::{shadow_map_buffer, FrameInput, LightBuffer, Technique, TechniqueInfo, TechniqueInit};
+use super::{
+    shadow_map_buffer, Form, FrameInput, LightBuffer, Technique, TechniqueInfo, TechniqueInit,
+};
 use crate::gpu::gpu_scene::{GpuObject, DRAW_PUSH_BYTES, SCENE_ATTRIBUTES, SCENE_VERTEX_STRIDE};
 use crate::gpu::passes::{
-    falloff_lut, CasterCache, DynamicVertices, FinalPass, FinalShader, ShadowMap,
+    falloff_lut, CasterCacheOf, DynamicVertices, FinalPass, FinalShader, ShadowMap,
 };
 use crate::scene::{normal_matrix, Aabb, LightView, Mesh, Scene};
 use crate::shaders;
-use crate::silhouette::{self, Adjacency, SilhouetteEdge};
+use crate::silhouette::{self, Adjacency, Side, SilhouetteEdge};
 use crate::vk::{
     Blend, Buffer, BufferUsageFlags, CompareOp, Context, CullModeFlags, DepthState, DescriptorSet,
     Filter, Format, GraphicsPipelineDesc, Image, ImageUsageFlags, MemoryLocation, Pipeline,
@@ -129,8 +133,44 @@ use std::sync::Arc;
 pub const INFO: TechniqueInfo = TechniqueInfo {
     name: "plateaus",
     summary: "Haines 2001: planar receiver, drop shadow + cones and sheets (darkest wins by depth), sine falloff",
-    create: Plateaus::create,
+    create: |init| Plateaus::create(init, Form::Paper),
 };
+
+/// The names of one form's passes (= timestamp and debug labels).
+struct Names {
+    technique: &'static str,
+    silhouettes: &'static str,
+    drop_shadow: &'static str,
+    plateaus: &'static str,
+    inner: &'static str,
+    shadow_map: &'static str,
+    final_pass: &'static str,
+}
+
+impl Form {
+    fn plateau_names(self) -> Names {
+        match self {
+            Form::Paper => Names {
+                technique: "plateaus",
+                silhouettes: "plateaus/silhouettes",
+                drop_shadow: "plateaus/drop_shadow",
+                plateaus: "plateaus/plateaus",
+                inner: "plateaus/inner",
+                shadow_map: "plateaus/shadow_map",
+                final_pass: "plateaus/final",
+            },
+            Form::Centred => Names {
+                technique: "plateaus-centred",
+                silhouettes: "plateaus-centred/silhouettes",
+                drop_shadow: "plateaus-centred/drop_shadow",
+                plateaus: "plateaus-centred/plateaus",
+                inner: "plateaus-centred/inner",
+                shadow_map: "plateaus-centred/shadow_map",
+                final_pass: "plateaus-centred/final",
+            },
+        }
+    }
+}
 
 /// A receiver is planar when every vertex lies within this fraction of its bounds diagonal
 /// from the plane of its largest triangle (1e-4: exact planes pass, terrain with visible
@@ -433,6 +473,9 @@ impl PlaneFrame {
 pub struct PlateauBuilder<'a> {
     plane: &'a PlaneFrame,
     radius: f32,
+    /// Which side of the edges the sheets open to: outward (the paper's), or inward into
+    /// the drop shadow (plateaus-centred's inner sheets).
+    side: Side,
     pub vertices: Vec<PlateauVertex>,
     pub cones: usize,
     pub sheets: usize,
@@ -454,12 +497,19 @@ impl<'a> PlateauBuilder<'a> {
         Self {
             plane,
             radius,
+            side: Side::Outer,
             vertices: Vec::new(),
             cones: 0,
             sheets: 0,
             spokes: vec![Vec::new(); MAX_CONE_SEGMENTS as usize + 1],
             points: Vec::new(),
         }
+    }
+
+    /// The same builder with its sheets on `side`.
+    pub fn with_side(mut self, side: Side) -> Self {
+        self.side = side;
+        self
     }
 
     /// A point in texture clip space with its depth.
@@ -509,7 +559,8 @@ impl<'a> PlateauBuilder<'a> {
         self.cones += 1;
     }
 
-    /// The sheet on the outer (right-hand) side of the edge c1 -> c2 between the cones
+    /// The sheet on the outer (right-hand) side of the edge c1 -> c2 (the inner side for
+    /// `Side::Inner`) between the cones
     /// (c1, r1) and (c2, r2), (P3).
     pub fn sheet(&mut self, c1: Vec2, r1: f32, c2: Vec2, r2: f32) {
         let texel = self.plane.texel();
@@ -520,7 +571,8 @@ impl<'a> PlateauBuilder<'a> {
             return;
         }
         let e = d / len;
-        let p = Vec2::new(e.y, -e.x);
+        // Inner sheets: the other common tangent of the two discs, (P3) with p -> -p.
+        let p = Vec2::new(e.y, -e.x) * self.side.sign();
         let a = (r1 - r2) / len;
         // One disc holds the other: its cone already covers where the sheet would be.
         if a.abs() >= 1.0 {
@@ -588,7 +640,23 @@ impl<'a> PlateauBuilder<'a> {
     }
 }
 
+/// One caster's cones and outer sheets, then (centred form; empty in the paper form) its
+/// cones and inner sheets.
+type Sides = [Vec<PlateauVertex>; 2];
+
+/// The centred form's extra images and pipeline (plateaus_centred.rs).
+struct Centred {
+    /// R16F, clear 1: 0 where a caster's drop shadow falls.
+    coverage: Image,
+    /// R16F, clear 0, MAX: the lightest inner visibility.
+    inner: Image,
+    inner_pipeline: Pipeline,
+    inner_set: DescriptorSet,
+    inner_vertices: DynamicVertices,
+}
+
 pub struct Plateaus {
+    form: Form,
     receiver: PlanarReceiver,
     texture: Image,
     zbuffer: Image,
@@ -596,6 +664,7 @@ pub struct Plateaus {
     drop_pipeline: Pipeline,
     drop_set: DescriptorSet,
     plateau_pipeline: Pipeline,
+    centred: Option<Centred>,
     shadow: ShadowMap,
     final_pass: FinalPass,
     final_set: DescriptorSet,
@@ -609,7 +678,7 @@ pub struct Plateaus {
     casters: usize,
     /// Per caster, its cones and sheets and the plane frame and radius they were built for:
     /// a moved caster rebuilds only its own.
-    cache: CasterCache<GeometryKey, PlateauVertex>,
+    cache: CasterCacheOf<GeometryKey, Sides>,
     vertices: DynamicVertices,
 }
 
@@ -622,9 +691,10 @@ struct GeometryKey {
 }
 
 impl Plateaus {
-    fn create(init: &TechniqueInit<'_>) -> Result<Box<dyn Technique>> {
+    pub(crate) fn create(init: &TechniqueInit<'_>, form: Form) -> Result<Box<dyn Technique>> {
         let ctx = init.ctx;
         let res = init.settings.shadow_res;
+        let names = form.plateau_names();
         let receiver = find_planar_receiver(init.scene)?;
         let usage = ImageUsageFlags::COLOR_ATTACHMENT
             | ImageUsageFlags::SAMPLED
@@ -658,12 +728,18 @@ impl Plateaus {
                 ("frame", Resource::Uniform(init.ubo)),
                 ("plane", Resource::Uniform(&plane_ubo)),
             ],
-            "plateaus/drop_shadow",
+            names.drop_shadow,
         )?;
+        // The centred form draws the drop shadow into its own coverage image, without the
+        // z-buffer: the outer plateaus of other casters must stay visible inside it.
+        let (drop_color, drop_depth) = match form {
+            Form::Paper => (Format::R32_SFLOAT, Some(depth_state)),
+            Form::Centred => (Format::R16_SFLOAT, None),
+        };
         let drop_pipeline = Pipeline::graphics(
             ctx,
             &GraphicsPipelineDesc {
-                name: "plateaus/drop_shadow",
+                name: names.drop_shadow,
                 vertex: shaders::PLATEAUS_DROP_SHADOW_VERT,
                 fragment: Some(shaders::PLATEAUS_DROP_SHADOW_FRAG),
                 vertex_stride: SCENE_VERTEX_STRIDE,
@@ -672,8 +748,8 @@ impl Plateaus {
                 topology: PrimitiveTopology::TRIANGLE_LIST,
                 // A projected triangle's winding depends on its facing; both sides shadow.
                 cull: CullModeFlags::NONE,
-                colors: &[(Format::R32_SFLOAT, Blend::None)],
-                depth: Some(depth_state),
+                colors: &[(drop_color, Blend::None)],
+                depth: drop_depth,
                 push_constant_bytes: DRAW_PUSH_BYTES,
                 sets: &[&drop_set],
             },
@@ -681,7 +757,7 @@ impl Plateaus {
         let plateau_pipeline = Pipeline::graphics(
             ctx,
             &GraphicsPipelineDesc {
-                name: "plateaus/plateaus",
+                name: names.plateaus,
                 vertex: shaders::PLATEAUS_PLATEAU_VERT,
                 fragment: Some(shaders::PLATEAUS_PLATEAU_FRAG),
                 vertex_stride: PLATEAU_VERTEX_BYTES,
@@ -695,34 +771,55 @@ impl Plateaus {
                 sets: &[],
             },
         )?;
-        let shadow = ShadowMap::new(ctx, init.ubo, res, "plateaus/shadow_map")?;
+        let shadow = ShadowMap::new(ctx, init.ubo, res, names.shadow_map)?;
         let nearest = Sampler::new(ctx, Filter::Nearest)?;
         let linear = Sampler::new(ctx, Filter::Linear)?;
         let falloff = falloff_lut(ctx)?;
-        let final_set = DescriptorSet::new(
-            ctx,
-            &[
-                ("frame", Resource::Uniform(init.ubo)),
-                ("plane", Resource::Uniform(&plane_ubo)),
-                ("plateau_tex", Resource::Sampled(&texture, &nearest)),
-                ("shadow_map", Resource::Sampled(&shadow.depth, &nearest)),
-                ("falloff", Resource::Sampled(&falloff, &linear)),
-            ],
-            "plateaus/final",
-        )?;
-        let final_pass = FinalPass::new(
-            ctx,
-            "plateaus/final",
-            FinalShader {
+        let centred = match form {
+            Form::Paper => None,
+            Form::Centred => Some(Self::centred(init, &names, &nearest)?),
+        };
+        let final_set = match &centred {
+            None => DescriptorSet::new(
+                ctx,
+                &[
+                    ("frame", Resource::Uniform(init.ubo)),
+                    ("plane", Resource::Uniform(&plane_ubo)),
+                    ("plateau_tex", Resource::Sampled(&texture, &nearest)),
+                    ("shadow_map", Resource::Sampled(&shadow.depth, &nearest)),
+                    ("falloff", Resource::Sampled(&falloff, &linear)),
+                ],
+                names.final_pass,
+            )?,
+            Some(c) => DescriptorSet::new(
+                ctx,
+                &[
+                    ("frame", Resource::Uniform(init.ubo)),
+                    ("plane", Resource::Uniform(&plane_ubo)),
+                    ("plateau_tex", Resource::Sampled(&texture, &nearest)),
+                    ("shadow_map", Resource::Sampled(&shadow.depth, &nearest)),
+                    ("coverage", Resource::Sampled(&c.coverage, &nearest)),
+                    ("inner_tex", Resource::Sampled(&c.inner, &nearest)),
+                ],
+                names.final_pass,
+            )?,
+        };
+        let final_shader = match form {
+            Form::Paper => FinalShader {
                 color: shaders::PLATEAUS_FINAL_FRAG,
                 aov: shaders::PLATEAUS_FINAL_FRAG_AOV,
             },
-            &final_set,
-        )?;
+            Form::Centred => FinalShader {
+                color: shaders::PLATEAUS_CENTRED_FINAL_FRAG,
+                aov: shaders::PLATEAUS_CENTRED_FINAL_FRAG_AOV,
+            },
+        };
+        let final_pass = FinalPass::new(ctx, names.final_pass, final_shader, &final_set)?;
         let adjacency = // The plane is never a caster of its own plateaus.
         silhouette::caster_adjacency(init.scene, |i| i != receiver.object)?;
         let casters = adjacency.iter().flatten().count();
         Ok(Box::new(Self {
+            form,
             receiver,
             texture,
             zbuffer,
@@ -730,17 +827,65 @@ impl Plateaus {
             drop_pipeline,
             drop_set,
             plateau_pipeline,
+            centred,
             shadow,
             final_pass,
             final_set,
             _falloff: falloff,
             _nearest: nearest,
             _linear: linear,
-            cache: CasterCache::new(adjacency.len()),
+            cache: CasterCacheOf::new(adjacency.len()),
             adjacency,
             casters,
             vertices: DynamicVertices::new("plateau vertices"),
         }))
+    }
+
+    /// The centred form's coverage and inner images and its inner pipeline.
+    fn centred(init: &TechniqueInit<'_>, names: &Names, nearest: &Sampler) -> Result<Centred> {
+        let ctx = init.ctx;
+        let res = init.settings.shadow_res;
+        if !ctx.supports_blend(Format::R16_SFLOAT) {
+            anyhow::bail!(
+                "{} cannot MAX-blend R16_SFLOAT attachments, which {} needs",
+                ctx.device_name,
+                names.technique
+            );
+        }
+        let usage = ImageUsageFlags::COLOR_ATTACHMENT
+            | ImageUsageFlags::SAMPLED
+            | ImageUsageFlags::TRANSFER_SRC;
+        let coverage = Image::new_2d(ctx, res, res, Format::R16_SFLOAT, usage, "plateau coverage")?;
+        let inner = Image::new_2d(ctx, res, res, Format::R16_SFLOAT, usage, "plateau inner")?;
+        let inner_set = DescriptorSet::new(
+            ctx,
+            &[("coverage", Resource::Sampled(&coverage, nearest))],
+            names.inner,
+        )?;
+        let inner_pipeline = Pipeline::graphics(
+            ctx,
+            &GraphicsPipelineDesc {
+                name: names.inner,
+                vertex: shaders::PLATEAUS_PLATEAU_VERT,
+                fragment: Some(shaders::PLATEAUS_CENTRED_INNER_FRAG),
+                vertex_stride: PLATEAU_VERTEX_BYTES,
+                attributes: PLATEAU_ATTRIBUTES,
+                topology: PrimitiveTopology::TRIANGLE_LIST,
+                cull: CullModeFlags::NONE,
+                // Lightest inner estimate wins.
+                colors: &[(Format::R16_SFLOAT, Blend::Max)],
+                depth: None,
+                push_constant_bytes: 0,
+                sets: &[&inner_set],
+            },
+        )?;
+        Ok(Centred {
+            coverage,
+            inner,
+            inner_pipeline,
+            inner_set,
+            inner_vertices: DynamicVertices::new("plateau inner vertices"),
+        })
     }
 
     fn plane(&self, frame: &FrameInput<'_>) -> Result<PlaneFrame> {
@@ -762,6 +907,7 @@ impl Plateaus {
     /// were rebuilt.
     fn build_geometry(&mut self, frame: &FrameInput<'_>, plane: &PlaneFrame, force: bool) -> usize {
         let radius = frame.light_radius;
+        let form = self.form;
         let key = GeometryKey {
             plane: *plane,
             radius,
@@ -772,12 +918,18 @@ impl Plateaus {
             key,
             force,
             |adj, model| {
-                let mut b = PlateauBuilder::new(plane, radius);
                 let sil = silhouette::extract(adj, model, plane.light);
-                // Each caster's own mailbox: the casters build in parallel.
-                let mut mailbox = vec![0u64; adj.positions.len()];
-                b.silhouette(adj, &sil, model, &mut mailbox, 1);
-                b.vertices
+                let build = |side: Side| {
+                    let mut b = PlateauBuilder::new(plane, radius).with_side(side);
+                    // Each caster's own mailbox: the casters build in parallel.
+                    let mut mailbox = vec![0u64; adj.positions.len()];
+                    b.silhouette(adj, &sil, model, &mut mailbox, 1);
+                    b.vertices
+                };
+                match form {
+                    Form::Paper => [build(Side::Outer), Vec::new()],
+                    Form::Centred => [build(Side::Outer), build(Side::Inner)],
+                }
             },
         )
     }
@@ -785,7 +937,7 @@ impl Plateaus {
 
 impl Technique for Plateaus {
     fn name(&self) -> &'static str {
-        INFO.name
+        self.form.plateau_names().technique
     }
 
     fn record_light(
@@ -800,32 +952,84 @@ impl Technique for Plateaus {
         // A light in (or under) the plane's level casts nothing onto it that it could light.
         let lit_plane = plane.light_height > plane.texel() * 1e-3;
         let soft = lit_plane && frame.light_radius > 0.0;
-        let vertices = if soft {
+        let names = self.form.plateau_names();
+        let concat = |cache: &CasterCacheOf<GeometryKey, Sides>, side: usize| {
+            let mut out = Vec::new();
+            for v in cache.iter() {
+                out.extend_from_slice(&v[side]);
+            }
+            out
+        };
+        let (vertices, inner_vertices) = if soft {
             // Without pass caching every frame rebuilds everything (the bench's baseline).
             let force = !frame.settings.cache_light_passes;
-            let rebuilt = rec.cpu("plateaus/silhouettes", || {
+            let rebuilt = rec.cpu(names.silhouettes, || {
                 self.build_geometry(frame, &plane, force)
             });
-            rec.rebuilt("plateaus/silhouettes", rebuilt, self.casters);
-            self.cache.concat()
+            rec.rebuilt(names.silhouettes, rebuilt, self.casters);
+            (concat(&self.cache, 0), concat(&self.cache, 1))
         } else {
-            Vec::new()
+            (Vec::new(), Vec::new())
         };
         self.vertices.upload(ctx, &vertices)?;
+        if let Some(c) = self.centred.as_mut() {
+            c.inner_vertices.upload(ctx, &inner_vertices)?;
+        }
 
         let plane_gpu: Option<&GpuObject> = frame.gpu.objects.get(self.receiver.object);
-        rec.pass("plateaus/drop_shadow", |rec| {
+        let draw_drop = |rec: &mut Recorder<'_>| {
+            rec.bind_pipeline(&self.drop_pipeline);
+            rec.bind_sets(&self.drop_pipeline, &[&self.drop_set]);
+            // The plane cannot shadow itself.
+            frame.gpu.draw(rec, &self.drop_pipeline, |o| {
+                o.role.casts() && plane_gpu.is_none_or(|p| !std::ptr::eq(o, p))
+            });
+        };
+        if let Some(c) = &self.centred {
+            rec.pass(names.drop_shadow, |rec| {
+                rec.begin_rendering(&[(&c.coverage, Some([1.0; 4]))], None);
+                if lit_plane {
+                    draw_drop(rec);
+                }
+                rec.end_rendering();
+                Ok(())
+            })?;
+            // Outer plateaus over a cleared texture and z-buffer (no drop shadow in them),
+            // then the inner ones; both passes run at R = 0 too, so that the final pass
+            // always reads written images.
+            rec.pass(names.plateaus, |rec| {
+                rec.begin_rendering(
+                    &[(&self.texture, Some([1.0; 4]))],
+                    Some((&self.zbuffer, Some(1.0))),
+                );
+                rec.discard_after(&self.zbuffer);
+                if !self.vertices.is_empty() {
+                    rec.bind_pipeline(&self.plateau_pipeline);
+                    self.vertices.draw(rec);
+                }
+                rec.end_rendering();
+                Ok(())
+            })?;
+            rec.pass(names.inner, |rec| {
+                rec.begin_rendering(&[(&c.inner, Some([0.0; 4]))], None);
+                if !c.inner_vertices.is_empty() {
+                    rec.bind_pipeline(&c.inner_pipeline);
+                    rec.bind_sets(&c.inner_pipeline, &[&c.inner_set]);
+                    c.inner_vertices.draw(rec);
+                }
+                rec.end_rendering();
+                Ok(())
+            })?;
+            self.shadow.pass(rec, frame.gpu)?;
+            return Ok(());
+        }
+        rec.pass(names.drop_shadow, |rec| {
             rec.begin_rendering(
                 &[(&self.texture, Some([1.0; 4]))],
                 Some((&self.zbuffer, Some(1.0))),
             );
             if lit_plane {
-                rec.bind_pipeline(&self.drop_pipeline);
-                rec.bind_sets(&self.drop_pipeline, &[&self.drop_set]);
-                // The plane cannot shadow itself.
-                frame.gpu.draw(rec, &self.drop_pipeline, |o| {
-                    o.role.casts() && plane_gpu.is_none_or(|p| !std::ptr::eq(o, p))
-                });
+                draw_drop(rec);
             }
             rec.end_rendering();
             Ok(())
@@ -849,13 +1053,12 @@ impl Technique for Plateaus {
     }
 
     fn light_passes(&self) -> Vec<String> {
-        [
-            "plateaus/drop_shadow",
-            "plateaus/plateaus",
-            "plateaus/shadow_map",
-        ]
-        .map(String::from)
-        .to_vec()
+        let names = self.form.plateau_names();
+        let mut passes = vec![names.drop_shadow, names.plateaus, names.shadow_map];
+        if self.centred.is_some() {
+            passes.insert(2, names.inner);
+        }
+        passes.into_iter().map(String::from).collect()
     }
 
     fn record_final(
@@ -868,15 +1071,31 @@ impl Technique for Plateaus {
     }
 
     fn light_buffers(&self) -> Vec<LightBuffer<'_>> {
-        vec![
-            // The top-down plateau texture: penumbra fraction f, 0 in the drop shadow, 1 lit.
+        let mut buffers = vec![
+            // The top-down plateau texture: penumbra fraction f, 0 in the drop shadow, 1 lit
+            // (the centred form: the outer plateaus' fraction only, no drop shadow).
             LightBuffer {
                 name: "plateaus",
                 image: &self.texture,
                 channels: &["fraction"],
             },
             shadow_map_buffer("shadow_map", &self.shadow),
-        ]
+        ];
+        if let Some(c) = &self.centred {
+            // 0 under a caster's drop shadow, 1 elsewhere.
+            buffers.push(LightBuffer {
+                name: "coverage",
+                image: &c.coverage,
+                channels: &["drop_shadow_visibility"],
+            });
+            // The lightest inner visibility in [0, 0.5] (0: umbra, and where none was drawn).
+            buffers.push(LightBuffer {
+                name: "inner",
+                image: &c.inner,
+                channels: &["inner_visibility"],
+            });
+        }
+        buffers
     }
 }
 

@@ -6,6 +6,8 @@
 //! smoothie by its alpha, giving a penumbra that grows outward from the hard shadow edge.
 //! With the implementation lessons of Volokh's report (extrusion direction from averaged
 //! screen-space normals, corner construction, the b ~ r guard, linear R32F depths).
+//! (`smoothies-centred`, src/technique/smoothies_centred.rs, is this struct with
+//! `Form::Centred`: inner smoothies too, the penumbra centred on the hard edge.)
 //!
 //! At a glance (each pass in full below):
 //! - `smoothies/silhouettes` (CPU, or compute on the GPU path): silhouette edges, then
@@ -105,8 +107,8 @@
 //! the shadow also detaches the smoothie (Volokh Fig. 8), hence normal offset.
 
 use super::{
-    shadow_map_buffer, technique_constants, FrameInput, LightBuffer, Technique, TechniqueInfo,
-    TechniqueInit,
+    shadow_map_buffer, technique_constants, Form, FrameInput, LightBuffer, Technique,
+    TechniqueInfo, TechniqueInit,
 };
 use crate::frustum::fit_light;
 use crate::gpu::passes::{
@@ -118,7 +120,7 @@ use crate::shaders::{self, constants as k};
 use crate::silhouette::gpu::GpuSilhouettes;
 use crate::silhouette::smoothie::records::{build_records, SmoothieRecords};
 use crate::silhouette::smoothie::{GeometryKey, SmoothieVertex, Width};
-use crate::silhouette::{self, Adjacency};
+use crate::silhouette::{self, Adjacency, Side};
 use crate::vk::{
     Blend, Context, CullModeFlags, DescriptorSet, Filter, Format, GraphicsPipelineDesc, Image,
     ImageUsageFlags, Pipeline, PrimitiveTopology, Recorder, Resource, Sampler,
@@ -129,8 +131,38 @@ use std::sync::Arc;
 pub const INFO: TechniqueInfo = TechniqueInfo {
     name: "smoothies",
     summary: "Chan & Durand 2003: shadow map + smoothie buffer (depth, alpha), min blending",
-    create: Smoothies::create,
+    create: |init| Smoothies::create(init, Form::Paper),
 };
+
+/// The names of one form's passes (= timestamp and debug labels).
+struct Names {
+    technique: &'static str,
+    silhouettes: &'static str,
+    shadow_map: &'static str,
+    smoothie: &'static str,
+    final_pass: &'static str,
+}
+
+impl Form {
+    fn smoothie_names(self) -> Names {
+        match self {
+            Form::Paper => Names {
+                technique: "smoothies",
+                silhouettes: "smoothies/silhouettes",
+                shadow_map: "smoothies/shadow_map",
+                smoothie: "smoothies/smoothie",
+                final_pass: "smoothies/final",
+            },
+            Form::Centred => Names {
+                technique: "smoothies-centred",
+                silhouettes: "smoothies-centred/silhouettes",
+                shadow_map: "smoothies-centred/shadow_map",
+                smoothie: "smoothies-centred/smoothie",
+                final_pass: "smoothies-centred/final",
+            },
+        }
+    }
+}
 
 const SMOOTHIE_VERTEX_BYTES: u32 = std::mem::size_of::<SmoothieVertex>() as u32;
 
@@ -175,15 +207,21 @@ pub fn smoothie_width(fixed: Option<f32>, scene: &Scene, light: &LightView, radi
 }
 
 pub struct Smoothies {
+    form: Form,
     shadow: ShadowMap,
     smoothie_depth: Image,
+    /// The paper's remapped alpha (R16F); the centred form's penumbra values (RGBA16F:
+    /// outer visibility, inner occlusion, inner receiver nearness, unused).
     smoothie_alpha: Image,
-    /// GPU path: expanded `SmoothieVertex` buffer written by the silhouette compute pass.
-    smoothie_pipeline: Pipeline,
+    /// GPU path: expanded `SmoothieVertex` buffer written by the silhouette compute pass
+    /// (paper form only).
+    smoothie_pipeline: Option<Pipeline>,
     smoothie_set: DescriptorSet,
     /// CPU path: records pulled from a storage buffer by smoothie_edges.vert and
-    /// smoothie_fans.vert (in that order).
+    /// smoothie_fans.vert (in that order); the centred form's outer smoothies.
     records_pipelines: [Pipeline; 2],
+    /// Centred form: the same two vertex shaders with the inner smoothies' fragment shader.
+    inner_pipelines: Option<[Pipeline; 2]>,
     /// Rewritten whenever `records` reallocates its buffer.
     records_set: DescriptorSet,
     final_pass: FinalPass,
@@ -200,9 +238,9 @@ pub struct Smoothies {
     cpu_cache: CasterCacheOf<GeometryKey, SmoothieRecords>,
     /// Every caster's records, back to back (`SmoothieRecords::write_words`).
     records: DynamicVertices,
-    /// Per caster with geometry: push constants (first 16-byte unit, vertex, edge, fan
-    /// records) and the vertex counts of its edge and fan draws.
-    record_draws: Vec<([u32; 4], [u32; 2])>,
+    /// Per caster with geometry and side: push constants (first 16-byte unit, vertex, edge,
+    /// fan records) and the vertex counts of its edge and fan draws.
+    record_draws: Vec<(Side, [u32; 4], [u32; 2])>,
     /// GPU path: silhouettes and geometry by compute, drawn indirectly.
     gpu_silhouettes: Option<GpuSilhouettes>,
     /// Whether the smoothie pass draws anything (false at t = 0).
@@ -210,25 +248,44 @@ pub struct Smoothies {
 }
 
 impl Smoothies {
-    fn create(init: &TechniqueInit<'_>) -> Result<Box<dyn Technique>> {
+    pub(crate) fn create(init: &TechniqueInit<'_>, form: Form) -> Result<Box<dyn Technique>> {
         let ctx = init.ctx;
         let res = init.settings.shadow_res;
-        for f in [Format::R32_SFLOAT, Format::R16_SFLOAT] {
+        let names = form.smoothie_names();
+        let (value_name, value_format, fragments) = match form {
+            Form::Paper => (
+                "smoothie alpha",
+                Format::R16_SFLOAT,
+                [init.settings.spirv.pick(
+                    shaders::SMOOTHIES_SMOOTHIE_FRAG,
+                    shaders::SMOOTHIES_SMOOTHIE_FRAG_SPVASM,
+                ); 2],
+            ),
+            Form::Centred => (
+                "smoothie penumbra",
+                Format::R16G16B16A16_SFLOAT,
+                [
+                    shaders::SMOOTHIES_CENTRED_OUTER_FRAG,
+                    shaders::SMOOTHIES_CENTRED_INNER_FRAG,
+                ],
+            ),
+        };
+        for f in [Format::R32_SFLOAT, value_format] {
             if !ctx.supports_blend(f) {
                 anyhow::bail!(
-                    "{} cannot MIN-blend {f:?} attachments, which smoothies need",
-                    ctx.device_name
+                    "{} cannot MIN-blend {f:?} attachments, which {} needs",
+                    ctx.device_name,
+                    names.technique
                 );
             }
         }
-        let shadow = ShadowMap::new(ctx, init.ubo, res, "smoothies/shadow_map")?;
+        let shadow = ShadowMap::new(ctx, init.ubo, res, names.shadow_map)?;
         let usage = ImageUsageFlags::COLOR_ATTACHMENT
             | ImageUsageFlags::SAMPLED
             | ImageUsageFlags::TRANSFER_SRC;
         let smoothie_depth =
             Image::new_2d(ctx, res, res, Format::R32_SFLOAT, usage, "smoothie depth")?;
-        let smoothie_alpha =
-            Image::new_2d(ctx, res, res, Format::R16_SFLOAT, usage, "smoothie alpha")?;
+        let smoothie_alpha = Image::new_2d(ctx, res, res, value_format, usage, value_name)?;
         let nearest = Sampler::new(ctx, Filter::Nearest)?;
         let linear = Sampler::new(ctx, Filter::Linear)?;
         let falloff = falloff_lut(ctx)?;
@@ -239,48 +296,105 @@ impl Smoothies {
                 ("frame", Resource::Uniform(init.ubo)),
                 ("shadow_map", Resource::Sampled(&shadow.depth, &nearest)),
             ],
-            "smoothies/smoothie",
+            names.smoothie,
         )?;
-        // GPU path: expanded `SmoothieVertex`es as vertex input.
-        let smoothie_pipeline = Self::smoothie_pipeline(
-            init,
-            shaders::SMOOTHIES_SMOOTHIE_VERT,
-            (SMOOTHIE_VERTEX_BYTES, SMOOTHIE_ATTRIBUTES),
-            0,
-            &[&smoothie_set],
-        )?;
+        let colors = [(Format::R32_SFLOAT, Blend::Min), (value_format, Blend::Min)];
+        let pipeline = |vertex: &[u8],
+                        fragment: &[u8],
+                        input: (u32, &[crate::vk::Attribute]),
+                        push: u32,
+                        sets: &[&DescriptorSet]| {
+            Pipeline::graphics(
+                init.ctx,
+                &GraphicsPipelineDesc {
+                    name: names.smoothie,
+                    vertex,
+                    fragment: Some(fragment),
+                    vertex_stride: input.0,
+                    attributes: input.1,
+                    topology: PrimitiveTopology::TRIANGLE_LIST,
+                    // Smoothie quads and fans are built in 2-D with either winding.
+                    cull: CullModeFlags::NONE,
+                    colors: &colors,
+                    depth: None,
+                    push_constant_bytes: push,
+                    sets,
+                },
+            )
+        };
+        // GPU path (paper form): expanded `SmoothieVertex`es as vertex input.
+        let smoothie_pipeline = match form {
+            Form::Paper => Some(pipeline(
+                shaders::SMOOTHIES_SMOOTHIE_VERT,
+                fragments[0],
+                (SMOOTHIE_VERTEX_BYTES, SMOOTHIE_ATTRIBUTES),
+                0,
+                &[&smoothie_set],
+            )?),
+            Form::Centred => None,
+        };
         // CPU path: vertex pulling from the records, no vertex input.
         let records = DynamicVertices::storage(ctx, "smoothie records")?;
         let records_set = Self::records_set(ctx, &records)?;
-        let records_pipeline = |vertex: &[u8]| {
+        let records_pipelines_with = |fragment: &[u8]| -> Result<[Pipeline; 2]> {
             let sets = [&smoothie_set, &records_set];
-            Self::smoothie_pipeline(init, vertex, (0, &[]), RECORDS_PUSH_BYTES, &sets)
+            Ok([
+                pipeline(
+                    shaders::SMOOTHIES_SMOOTHIE_EDGES_VERT,
+                    fragment,
+                    (0, &[]),
+                    RECORDS_PUSH_BYTES,
+                    &sets,
+                )?,
+                pipeline(
+                    shaders::SMOOTHIES_SMOOTHIE_FANS_VERT,
+                    fragment,
+                    (0, &[]),
+                    RECORDS_PUSH_BYTES,
+                    &sets,
+                )?,
+            ])
         };
-        let records_pipelines = [
-            records_pipeline(shaders::SMOOTHIES_SMOOTHIE_EDGES_VERT)?,
-            records_pipeline(shaders::SMOOTHIES_SMOOTHIE_FANS_VERT)?,
-        ];
-        let final_set = DescriptorSet::new(
-            ctx,
-            &[
-                ("frame", Resource::Uniform(init.ubo)),
-                ("shadow_map", Resource::Sampled(&shadow.depth, &nearest)),
-                (
-                    "smoothie_depth",
-                    Resource::Sampled(&smoothie_depth, &nearest),
-                ),
-                (
-                    "smoothie_alpha",
-                    Resource::Sampled(&smoothie_alpha, &nearest),
-                ),
-                ("falloff", Resource::Sampled(&falloff, &linear)),
-            ],
-            "smoothies/final",
-        )?;
-        let final_pass = FinalPass::new(
-            ctx,
-            "smoothies/final",
-            init.settings.spirv.pick(
+        let inner_pipelines = match form {
+            Form::Paper => None,
+            Form::Centred => Some(records_pipelines_with(fragments[1])?),
+        };
+        let records_pipelines = records_pipelines_with(fragments[0])?;
+        let depth_resource = (
+            "smoothie_depth",
+            Resource::Sampled(&smoothie_depth, &nearest),
+        );
+        let final_set = match form {
+            Form::Paper => DescriptorSet::new(
+                ctx,
+                &[
+                    ("frame", Resource::Uniform(init.ubo)),
+                    ("shadow_map", Resource::Sampled(&shadow.depth, &nearest)),
+                    depth_resource,
+                    (
+                        "smoothie_alpha",
+                        Resource::Sampled(&smoothie_alpha, &nearest),
+                    ),
+                    ("falloff", Resource::Sampled(&falloff, &linear)),
+                ],
+                names.final_pass,
+            )?,
+            Form::Centred => DescriptorSet::new(
+                ctx,
+                &[
+                    ("frame", Resource::Uniform(init.ubo)),
+                    ("shadow_map", Resource::Sampled(&shadow.depth, &nearest)),
+                    depth_resource,
+                    (
+                        "smoothie_penumbra",
+                        Resource::Sampled(&smoothie_alpha, &nearest),
+                    ),
+                ],
+                names.final_pass,
+            )?,
+        };
+        let final_shader = match form {
+            Form::Paper => init.settings.spirv.pick(
                 FinalShader {
                     color: shaders::SMOOTHIES_FINAL_FRAG,
                     aov: shaders::SMOOTHIES_FINAL_FRAG_AOV,
@@ -290,21 +404,31 @@ impl Smoothies {
                     aov: shaders::SMOOTHIES_FINAL_FRAG_SPVASM_AOV,
                 },
             ),
-            &final_set,
-        )?;
+            Form::Centred => FinalShader {
+                color: shaders::SMOOTHIES_CENTRED_FINAL_FRAG,
+                aov: shaders::SMOOTHIES_CENTRED_FINAL_FRAG_AOV,
+            },
+        };
+        let final_pass = FinalPass::new(ctx, names.final_pass, final_shader, &final_set)?;
         let adjacency = silhouette::caster_adjacency(init.scene, |_| true)?;
-        let path = init.settings.silhouettes.resolve(ctx);
+        // The inner smoothies are built on the CPU only (records, `Side::Inner`).
+        let path = match form {
+            Form::Paper => init.settings.silhouettes.resolve(ctx),
+            Form::Centred => SilhouettePath::Cpu,
+        };
         let gpu_silhouettes = match path {
             SilhouettePath::Cpu | SilhouettePath::Auto => None,
             SilhouettePath::Gpu => Self::gpu_silhouettes(init, &adjacency)?,
         };
         Ok(Box::new(Self {
+            form,
             shadow,
             smoothie_depth,
             smoothie_alpha,
             smoothie_pipeline,
             smoothie_set,
             records_pipelines,
+            inner_pipelines,
             records_set,
             final_pass,
             final_set,
@@ -319,41 +443,6 @@ impl Smoothies {
             gpu_silhouettes,
             draw_smoothies: false,
         }))
-    }
-
-    /// A `smoothies/smoothie` pipeline: `vertex` (with its vertex stride and attributes)
-    /// and the shared fragment shader into the two MIN-blended attachments, depth R32F and
-    /// alpha R16F; no depth attachment.
-    fn smoothie_pipeline(
-        init: &TechniqueInit<'_>,
-        vertex: &[u8],
-        (vertex_stride, attributes): (u32, &[crate::vk::Attribute]),
-        push_constant_bytes: u32,
-        sets: &[&DescriptorSet],
-    ) -> Result<Pipeline> {
-        Pipeline::graphics(
-            init.ctx,
-            &GraphicsPipelineDesc {
-                name: "smoothies/smoothie",
-                vertex,
-                fragment: Some(init.settings.spirv.pick(
-                    shaders::SMOOTHIES_SMOOTHIE_FRAG,
-                    shaders::SMOOTHIES_SMOOTHIE_FRAG_SPVASM,
-                )),
-                vertex_stride,
-                attributes,
-                topology: PrimitiveTopology::TRIANGLE_LIST,
-                // Smoothie quads and fans are built in 2-D with either winding.
-                cull: CullModeFlags::NONE,
-                colors: &[
-                    (Format::R32_SFLOAT, Blend::Min),
-                    (Format::R16_SFLOAT, Blend::Min),
-                ],
-                depth: None,
-                push_constant_bytes,
-                sets,
-            },
-        )
     }
 
     /// The GPU path's compute passes and buffers, sized for the scene's own light (`prepare`
@@ -391,19 +480,27 @@ impl Smoothies {
     /// CPU path: uploads every cached caster's records into one storage buffer and notes
     /// each caster's draw.
     fn upload_records(&mut self, ctx: &Context) -> Result<()> {
-        let words = self.cpu_cache.iter().map(SmoothieRecords::words).sum();
-        let mut all = Vec::with_capacity(words);
+        let sides: &[Side] = match self.form {
+            Form::Paper => &[Side::Outer],
+            // Every caster's outer records, then every caster's inner ones (mirrored on
+            // the way into the buffer).
+            Form::Centred => &[Side::Outer, Side::Inner],
+        };
+        let words: usize = self.cpu_cache.iter().map(SmoothieRecords::words).sum();
+        let mut all = Vec::with_capacity(words * sides.len());
         self.record_draws.clear();
-        for r in self.cpu_cache.iter() {
-            let count = [6 * r.edges.len(), 3 * r.segments.len()].map(|n| n as u32);
-            if r.draw_vertices() > 0 {
-                let counts = [r.vertices.len(), r.edges.len(), r.fans.len()].map(|n| n as u32);
-                // `write_words` keeps every caster on a 16-byte unit.
-                let unit = (all.len() / 4) as u32;
-                self.record_draws
-                    .push(([unit, counts[0], counts[1], counts[2]], count));
+        for &side in sides {
+            for r in self.cpu_cache.iter() {
+                let count = [6 * r.edges.len(), 3 * r.segments.len()].map(|n| n as u32);
+                if r.draw_vertices() > 0 {
+                    let counts = [r.vertices.len(), r.edges.len(), r.fans.len()].map(|n| n as u32);
+                    // `write_words` keeps every caster on a 16-byte unit.
+                    let unit = (all.len() / 4) as u32;
+                    self.record_draws
+                        .push((side, [unit, counts[0], counts[1], counts[2]], count));
+                }
+                r.write_words_side(side, &mut all);
             }
-            r.write_words(&mut all);
         }
         if self.records.upload(ctx, &all)? {
             self.records_set = Self::records_set(ctx, &self.records)?;
@@ -430,7 +527,7 @@ impl Smoothies {
 
 impl Technique for Smoothies {
     fn name(&self) -> &'static str {
-        INFO.name
+        self.form.smoothie_names().technique
     }
 
     fn uniforms(&self, frame: &FrameInput<'_>) -> [[f32; 4]; 2] {
@@ -466,28 +563,29 @@ impl Technique for Smoothies {
         // Without pass caching every frame rebuilds everything (the bench's baseline).
         let force = !frame.settings.cache_light_passes;
         let casters = self.adjacency.iter().flatten().count();
+        let names = self.form.smoothie_names();
         if !self.draw_smoothies {
-            rec.skip("smoothies/silhouettes", "light radius 0: hard shadows");
+            rec.skip(names.silhouettes, "light radius 0: hard shadows");
         } else if let Some(gpu) = self.gpu_silhouettes.as_mut() {
             gpu.prepare(ctx)?;
             if !force && gpu.dirty(&frame.scene.objects, frame.light, width) == 0 {
-                rec.skip("smoothies/silhouettes", "light and casters unchanged");
+                rec.skip(names.silhouettes, "light and casters unchanged");
             } else {
-                rec.pass("smoothies/silhouettes", |rec| {
+                rec.pass(names.silhouettes, |rec| {
                     gpu.record(rec, &frame.scene.objects, frame.light, width, force)
                 })?;
-                rec.rebuilt("smoothies/silhouettes", gpu.rebuilt(), casters);
+                rec.rebuilt(names.silhouettes, gpu.rebuilt(), casters);
             }
         } else if self.path == SilhouettePath::Cpu {
-            let rebuilt = rec.cpu("smoothies/silhouettes", || {
+            let rebuilt = rec.cpu(names.silhouettes, || {
                 self.build_geometry(frame, width, force)
             });
-            rec.rebuilt("smoothies/silhouettes", rebuilt, casters);
+            rec.rebuilt(names.silhouettes, rebuilt, casters);
             self.upload_records(ctx)?;
         }
 
         self.shadow.pass(rec, frame.gpu)?;
-        rec.pass("smoothies/smoothie", |rec| {
+        rec.pass(names.smoothie, |rec| {
             rec.begin_rendering(
                 &[
                     (&self.smoothie_depth, Some([FAR_DEPTH; 4])),
@@ -496,26 +594,32 @@ impl Technique for Smoothies {
                 None,
             );
             if self.draw_smoothies {
-                match (&self.gpu_silhouettes, self.path) {
-                    (Some(gpu), _) => {
-                        rec.bind_pipeline(&self.smoothie_pipeline);
-                        rec.bind_sets(&self.smoothie_pipeline, &[&self.smoothie_set]);
+                match (&self.gpu_silhouettes, &self.smoothie_pipeline, self.path) {
+                    (Some(gpu), Some(pipeline), _) => {
+                        rec.bind_pipeline(pipeline);
+                        rec.bind_sets(pipeline, &[&self.smoothie_set]);
                         gpu.draw(rec);
                     }
-                    (None, SilhouettePath::Cpu) if !self.record_draws.is_empty() => {
-                        for (i, pipeline) in self.records_pipelines.iter().enumerate() {
-                            rec.bind_pipeline(pipeline);
-                            rec.bind_sets(pipeline, &[&self.smoothie_set, &self.records_set]);
-                            for (push, counts) in &self.record_draws {
-                                if counts[i] > 0 {
-                                    rec.push_constants(pipeline, bytemuck::bytes_of(push));
-                                    rec.draw(counts[i], 1);
+                    (None, _, SilhouettePath::Cpu) if !self.record_draws.is_empty() => {
+                        let sides = [Some((Side::Outer, &self.records_pipelines))]
+                            .into_iter()
+                            .chain([self.inner_pipelines.as_ref().map(|p| (Side::Inner, p))])
+                            .flatten();
+                        for (side, pipelines) in sides {
+                            for (i, pipeline) in pipelines.iter().enumerate() {
+                                rec.bind_pipeline(pipeline);
+                                rec.bind_sets(pipeline, &[&self.smoothie_set, &self.records_set]);
+                                for (s, push, counts) in &self.record_draws {
+                                    if *s == side && counts[i] > 0 {
+                                        rec.push_constants(pipeline, bytemuck::bytes_of(push));
+                                        rec.draw(counts[i], 1);
+                                    }
                                 }
                             }
                         }
                     }
                     // No caster edge: nothing to draw.
-                    (None, _) => {}
+                    _ => {}
                 }
             }
             rec.end_rendering();
@@ -525,9 +629,10 @@ impl Technique for Smoothies {
     }
 
     fn light_passes(&self) -> Vec<String> {
-        let mut passes = vec!["smoothies/shadow_map", "smoothies/smoothie"];
+        let names = self.form.smoothie_names();
+        let mut passes = vec![names.shadow_map, names.smoothie];
         if self.gpu_silhouettes.is_some() {
-            passes.insert(0, "smoothies/silhouettes");
+            passes.insert(0, names.silhouettes);
         }
         passes.into_iter().map(String::from).collect()
     }
@@ -550,11 +655,26 @@ impl Technique for Smoothies {
                 image: &self.smoothie_depth,
                 channels: &["depth"],
             },
-            // The remapped alpha alpha / (1 - b/r), MIN over smoothies (1: none).
-            LightBuffer {
-                name: "smoothie_alpha",
-                image: &self.smoothie_alpha,
-                channels: &["alpha"],
+            match self.form {
+                // The remapped alpha alpha / (1 - b/r), MIN over smoothies (1: none).
+                Form::Paper => LightBuffer {
+                    name: "smoothie_alpha",
+                    image: &self.smoothie_alpha,
+                    channels: &["alpha"],
+                },
+                // The darkest outer visibility (1 = lit), the least inner occlusion (1 =
+                // umbra) and 1 - the farthest inner receiver depth / far, all MIN
+                // (smoothies_centred.rs).
+                Form::Centred => LightBuffer {
+                    name: "smoothie_penumbra",
+                    image: &self.smoothie_alpha,
+                    channels: &[
+                        "outer_visibility",
+                        "inner_occlusion",
+                        "inner_receiver_nearness",
+                        "unused",
+                    ],
+                },
             },
         ]
     }

@@ -14,9 +14,13 @@
 
 use super::records::{build_records, SmoothieRecords};
 use super::MIN_CORNER_ANGLE;
-use super::{build_impl, build_smoothies_width, SmoothieGeometry, SmoothieVertex, Width};
+use super::{
+    build_impl, build_smoothies_side, build_smoothies_width, SmoothieGeometry, SmoothieVertex,
+    Width,
+};
 use crate::scene::{Light, LightView, Mesh, Scene};
 use crate::silhouette::test_meshes::{bowtie, cube, sphere};
+use crate::silhouette::Side;
 use crate::silhouette::{extract, extract_impl, extract_reference, extract_serial, Adjacency};
 use glam::{Mat4, Vec2, Vec3};
 
@@ -81,7 +85,7 @@ fn same(adj: &Adjacency, model: Mat4, lv: &LightView, width: Width) -> (usize, u
     assert_eq!(extract_impl(&wide, model, lv.position, true, 5), sil);
     let reference = build_smoothies_width(adj, &sil, model, lv, width);
     // Tiny chunks force the rayon split of quads and corners.
-    let par = build_impl(adj, &sil, model, lv, width, 3);
+    let par = build_impl(adj, &sil, model, lv, width, 3, Side::Outer);
     assert_eq!(
         bits(&par),
         bits(&reference),
@@ -94,6 +98,36 @@ fn same(adj: &Adjacency, model: Mat4, lv: &LightView, width: Width) -> (usize, u
         fallbacks * 100 <= reference.corners.max(1) + 99,
         "{fallbacks} of {} corners compared by coverage, light at {}",
         reference.corners,
+        lv.position
+    );
+    // The inner smoothies (smoothies-centred): the mirrored records against the inner
+    // reference, the same way; its parallel split too.
+    let inner = build_smoothies_side(adj, &sil, model, lv, width, Side::Inner);
+    let par = build_impl(adj, &sil, model, lv, width, 3, Side::Inner);
+    assert_eq!(
+        bits(&par),
+        bits(&inner),
+        "inner parallel, light at {}",
+        lv.position
+    );
+    assert_eq!(
+        [inner.edges, inner.corners, inner.skipped_edges],
+        [reference.edges, reference.corners, reference.skipped_edges]
+    );
+    let mirrored = records.mirrored();
+    let mut words = Vec::new();
+    records.write_words_side(Side::Inner, &mut words);
+    let mut expect = Vec::new();
+    mirrored.write_words(&mut expect);
+    assert_eq!(
+        words, expect,
+        "write_words_side(Inner) is mirrored()'s words"
+    );
+    let fallbacks = records_match(&mirrored, &inner);
+    assert!(
+        fallbacks * 100 <= inner.corners.max(1) + 99,
+        "inner: {fallbacks} of {} corners compared by coverage, light at {}",
+        inner.corners,
         lv.position
     );
     (sil.len(), reference.vertices.len())

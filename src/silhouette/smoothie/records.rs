@@ -82,7 +82,7 @@ use super::{
     FAN_OVERLAP, MAX_SEGMENT,
 };
 use crate::scene::LightView;
-use crate::silhouette::{Adjacency, EdgeKind, SilhouetteEdge};
+use crate::silhouette::{Adjacency, EdgeKind, Side, SilhouetteEdge};
 use glam::{Mat4, Vec2, Vec4, Vec4Swizzles};
 use std::f32::consts::{FRAC_PI_2, PI, TAU};
 
@@ -214,6 +214,45 @@ impl SmoothieRecords {
         out.extend_from_slice(bytemuck::cast_slice(&self.vertices));
         out.extend_from_slice(bytemuck::cast_slice(&self.edges));
         out.extend_from_slice(bytemuck::cast_slice(&self.fans));
+        out.extend_from_slice(&self.segments);
+        let pad = self.segments.len().next_multiple_of(4) - self.segments.len();
+        out.extend(std::iter::repeat_n(0, pad));
+    }
+
+    /// The inner smoothies (`Side::Inner`, smoothies-centred) of the same silhouette: each
+    /// edge's direction and each fan's first spoke negated, the rest shared. The inner
+    /// reference construction (`build_smoothies_side`) reflects the outer one the same way.
+    pub fn mirrored(&self) -> SmoothieRecords {
+        let mut m = self.clone();
+        for e in &mut m.edges {
+            e.dir = (-Vec2::from(e.dir)).to_array();
+        }
+        for f in &mut m.fans {
+            f.from = (-Vec2::from(f.from)).to_array();
+        }
+        m
+    }
+
+    /// `write_words` of these records (`Side::Outer`) or of `mirrored()` (`Side::Inner`),
+    /// without building the mirrored copy.
+    pub fn write_words_side(&self, side: Side, out: &mut Vec<u32>) {
+        if side == Side::Outer {
+            return self.write_words(out);
+        }
+        out.extend_from_slice(bytemuck::cast_slice(&self.vertices));
+        out.extend(self.edges.iter().flat_map(|e| {
+            let d = (-Vec2::from(e.dir)).to_array();
+            [e.a, e.b, d[0].to_bits(), d[1].to_bits()]
+        }));
+        out.extend(self.fans.iter().flat_map(|f| {
+            let from = (-Vec2::from(f.from)).to_array();
+            [
+                f.centre,
+                from[0].to_bits(),
+                from[1].to_bits(),
+                f.sweep.to_bits(),
+            ]
+        }));
         out.extend_from_slice(&self.segments);
         let pad = self.segments.len().next_multiple_of(4) - self.segments.len();
         out.extend(std::iter::repeat_n(0, pad));

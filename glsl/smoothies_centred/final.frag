@@ -1,0 +1,40 @@
+#version 450
+#extension GL_GOOGLE_include_directive : require
+// smoothies-centred/final: at each texel of the 2x2 footprint, in front of the shadow map's
+// nearest caster -> the outer visibility if the point is behind the nearest smoothie, else
+// 1 (the paper's step 5 with the centred outer value); behind it -> 1 - the inner
+// occlusion (0 where no inner smoothie reached: the umbra) if the point is at most 5 %
+// beyond the farthest receiver an inner value there was made for (a point behind a second
+// caster stays in the umbra), never lighter than the outer visibility there (a second
+// caster's outer smoothie over this one's shadow). Bilinear weights as `hard`; no falloff
+// lookup (the disc-chord profile is in the values).
+#include "common/shadow.glsl"
+#include "smoothies/constants.glsl"
+
+layout(set = 0, binding = 1) uniform sampler2D shadow_map;          // RG32F: r = nearest caster depth
+layout(set = 0, binding = 2) uniform sampler2D smoothie_depth;      // R32F outer smoothie depth (MIN)
+// RGBA16F, MIN: r = outer visibility (1 = lit), g = inner occlusion (1 = umbra), b = 1 - the
+// farthest receiver depth / far an inner value was made for.
+layout(set = 0, binding = 3) uniform sampler2D smoothie_penumbra;
+
+// The inner receiver is an extrapolated plane: 5 % is several texels' worth of slope and
+// far below the gap between a caster and the ground behind it.
+const float RECEIVER_EPS = 0.05;
+
+float visibility(vec3 p, vec3 n) {
+    LightSample s = light_sample(p, n);
+    if (!s.inside) return 1.0;
+    vec4 lit = lit_test(textureGather(shadow_map, s.uv, 0), s.depth);
+    // R = 0: no smoothie was drawn, exactly `hard`.
+    if (SMOOTHIE_T <= 0.0) return bilinear(lit, s.uv);
+    vec4 in_front = lit_test(textureGather(smoothie_depth, s.uv, 0), s.depth);
+    // Lit and in front of every smoothie (the bulk of the image): no penumbra fetch.
+    if (all(equal(lit * in_front, vec4(1.0)))) return 1.0;
+    vec4 outer = mix(textureGather(smoothie_penumbra, s.uv, 0), vec4(1.0), in_front);
+    vec4 receiver = (1.0 - textureGather(smoothie_penumbra, s.uv, 2)) * frame.light_params.y;
+    vec4 inner = (1.0 - textureGather(smoothie_penumbra, s.uv, 1)) * step(s.depth, receiver * (1.0 + RECEIVER_EPS));
+    vec4 behind = min(inner, outer);
+    return clamp(bilinear(mix(behind, outer, lit), s.uv), 0.0, 1.0);
+}
+
+#include "common/final.glsl"

@@ -1,0 +1,42 @@
+// What smoothies-centred's two smoothie fragment shaders (outer.frag, inner.frag) share: the
+// varyings of glsl/smoothies/records.glsl (the paper form's vertex shaders, unchanged), the
+// MRT outputs and the smoothie's own distance from its hard-edge line
+// (src/technique/smoothies_centred.rs).
+#ifndef SMOOTHIES_CENTRED_SMOOTHIE_GLSL
+#define SMOOTHIES_CENTRED_SMOOTHIE_GLSL
+#include "common/frame.glsl"
+#include "common/penumbra.glsl"
+
+layout(set = 0, binding = 1) uniform sampler2D shadow_map;   // RG32F: r nearest caster, g nearest surface
+
+layout(location = 0) noperspective in float v_inv_depth;
+layout(location = 1) flat in float v_kind;
+layout(location = 2) flat in vec2 v_anchor;
+layout(location = 3) flat in vec2 v_dir;
+layout(location = 4) noperspective in float v_width;
+
+// Location 0: R32F smoothie depth b (MIN; the outer smoothies' only). Location 1: RGBA16F
+// (MIN): outer visibility, inner occlusion, 1 - inner receiver depth / far, unused (1).
+layout(location = 0) out float o_depth;
+layout(location = 1) out vec4 o_penumbra;
+
+// FAR_DEPTH of src/gpu/passes.rs: the depth attachment's clear, neutral under MIN.
+const float FAR_DEPTH = 1.0e30;
+// Below this 1 - b/r the smoothie touches what it shadows (Volokh Sec. 3.5: b ~ r): no
+// penumbra, and no division by a rounding-sized denominator.
+const float REMAP_EPS = 1e-4;
+
+// Distance (light uv) of this fragment from its smoothie's hard-edge line (edge quads) or
+// silhouette vertex (corner fans), along the smoothie's extrusion direction `dir`.
+float smoothie_distance(vec2 uv, out vec2 dir) {
+    vec2 q = uv - v_anchor;
+    if (v_kind < 0.5) {
+        dir = v_dir;
+        return dot(q, v_dir);
+    }
+    float r = length(q);
+    dir = r > 0.0 ? q / r : vec2(0.0);
+    return r;
+}
+
+#endif

@@ -1,0 +1,126 @@
+//! # smoothies-centred — Chan & Durand 2003 with the penumbra centred on the hard edge
+//!
+//! `smoothies` (src/technique/smoothies.rs, whose header this one builds on) takes the hard
+//! shadow from the light's centre as the umbra and grows the penumbra outward from it (the
+//! paper's Sec. 3: "smoothies ... only extend outward"), so every shadow is too large and
+//! too dark. From the light's centre the hard edge of a straight blocker edge is where the
+//! true visibility of a disc light is 0.5; the true penumbra runs from the inner edge (0,
+//! inside the hard shadow) through the hard edge to the outer edge (1), with the disc-chord
+//! profile v(s) = (1/pi)(acos s - s sqrt(1 - s^2)) (glsl/common/penumbra.glsl, s = the signed
+//! distance from the hard edge over the penumbra's half-width, positive inside). This form
+//! draws the paper's outer smoothies AND inner smoothies, extruded from the silhouette into
+//! the hard shadow: the inner and outer fins of Cai, Jia, Wang, Hu & Martin, *Multilayered
+//! shadow fins* (CGF 25(1) 2006), which avoid the umbra over-estimation the same way. Same
+//! pass structure and struct as the paper form (`smoothies::Smoothies`, `Form::Centred`).
+//!
+//! ## Geometry
+//! The reference construction, `silhouette::smoothie::build_smoothies_side`: `Side::Outer`
+//! is the paper's (edge quads outward by t, corner fans over the gaps between outward
+//! normals); `Side::Inner` is the same construction reflected into the hard shadow (quads
+//! extruded by -d, each fan reflected through its vertex; module doc of
+//! src/silhouette/smoothie.rs, "Inner smoothies"). The renderer draws the compact records of
+//! `smoothie::records` for both sides: the inner records are the outer ones with each
+//! edge's direction and each fan's first spoke negated (`SmoothieRecords::mirrored`,
+//! written straight into the buffer by `write_words_side`), held to the inner reference by
+//! `silhouette::smoothie::equivalence`. CPU silhouettes only: `--silhouettes gpu` (the
+//! compute path, glsl/silhouette/) is not implemented for the inner side, and this form
+//! builds on the CPU whatever the setting.
+//!
+//! The width t is the paper form's (`--smoothie-t`, else calibrated per silhouette vertex,
+//! t = R / (2 b tan(fov/2)), capped at 0.2). With the calibrated t, a disc light of radius
+//! R gives a receiver at linear depth r a penumbra of half-width t (1 - b/r) uv on either
+//! side of the hard edge of a blocker edge at depth b: the paper's remap
+//! alpha' = alpha / (1 - b/r) (Eq. 1) is s itself, on both sides.
+//!
+//! ## Passes, in order
+//! 0. CPU `smoothies-centred/silhouettes` (R > 0) — per moved caster: silhouette from the
+//!    light centre, then the smoothie records (`build_records`, as the paper form's CPU
+//!    path); uploaded to one host-visible storage buffer, every caster's outer records then
+//!    every caster's inner (mirrored) records.
+//! 1. `smoothies-centred/shadow_map` — the shared `ShadowMap`: R32G32_SFLOAT, clear 1e30,
+//!    blend MIN, no depth attachment; r = nearest caster's linear depth, g = nearest
+//!    surface's of any role.
+//! 2. `smoothies-centred/smoothie` — ONE pass (the paper's single MRT smoothie pass), no
+//!    depth attachment, culling off, two colour attachments:
+//!    location 0 = smoothie linear depth b, R32_SFLOAT, clear 1e30, blend MIN (outer
+//!    smoothies only, as the paper's);
+//!    location 1 = the penumbra values, R16G16B16A16_SFLOAT, clear (1, 1, 1, 1), blend MIN:
+//!    r = outer visibility (darkest wins, the paper's rule), g = inner OCCLUSION 1 - v (so
+//!    that the same MIN keeps the lightest inner estimate), b = 1 - the depth / far of the
+//!    receiver an inner value was made for (the farthest wins), a unused.
+//!    The paper's alpha attachment widened to four channels rather than a third attachment:
+//!    one MIN blend state for all the values (MIN on some and MAX on others would need
+//!    independentBlend), one clear, and 16 bits are enough for fractions and for the
+//!    receiver depth at the final pass's 5 % tolerance; b keeps its own 32-bit attachment
+//!    because the b/r tests need it (REMAP_EPS 1e-4). 12 bytes per texel.
+//!    Four pipelines, all with glsl/smoothies/smoothie_edges.vert or smoothie_fans.vert
+//!    (the paper form's vertex pulling, records at set 1 binding 0, push constants = first
+//!    16-byte unit, vertex, edge and fan record counts); per caster two draws per side:
+//!    - outer records, `glsl/smoothies_centred/outer.frag`: the paper's fragment program
+//!      (receiver r = the shadow map's g at its texel, discard when b/r > 1 or past the
+//!      smoothie's outer side), s = alpha' clamped to [0, 1] (1 where 1 - b/r < 1e-4),
+//!      v = disc_chord(-s) in [0.5, 1]; writes b and (v, 1, 1, 1).
+//!    - inner records, `glsl/smoothies_centred/inner.frag`: x = the fragment's distance
+//!      inside the hard-edge line (corner: from the vertex), `dir` inward. The receiver
+//!      behind this texel is hidden from the light, so its depth Z_R is estimated from the
+//!      shadow map's g 1.5 and 5.5 texels outside the edge along -dir: the plane through
+//!      the two samples (1/depth is affine across the map over a plane) extrapolated to
+//!      this texel, within 5 % of the nearer sample. Discarded when that near sample shows
+//!      a caster more than 1 % in front of b (the edge is hidden by another caster: no
+//!      inner penumbra through it), when this texel is not behind a caster 1 % nearer than
+//!      Z_R, or when s = x / (t (1 - b/Z_R)) >= 1 (umbra). Else v = disc_chord(s) in
+//!      [0, 0.5], plus the thin-blocker term below; writes b = 1e30 (neutral) and
+//!      (1, 1 - v, 1 - Z_R / far, 1).
+//! 3. `smoothies-centred/final` — `FinalPass` with `glsl/smoothies_centred/final.frag`:
+//!    per texel of the 2x2 footprint (textureGather of the shadow map's r, the smoothie
+//!    depth and the penumbra values' r, g, b at the normal-offset point): outer = the outer
+//!    visibility if the point is behind the nearest smoothie, else 1; in front of the
+//!    nearest caster: outer; behind it: min(outer, 1 - the inner occlusion) if the point is
+//!    at most 5 % beyond the farthest receiver depth of the inner values there, else 0 (a
+//!    point behind a second caster, e.g. the ground under two stacked boxes, stays in the
+//!    umbra). Bilinear weights as `hard`; no falloff texture (the profile is in the
+//!    values). R = 0 draws no smoothie and returns `hard`'s bilinear value: `hard`'s image
+//!    exactly.
+//!
+//! ## Combining edges (what the centring approximates)
+//! - Several outer smoothies at a texel: the darkest (MIN), as the paper. Exact for one
+//!   edge; two blockers' overlapping outer penumbrae are never lighter than either alone,
+//!   but the darkening of their sum is not modelled.
+//! - Several inner smoothies at a texel: the lightest (MIN of the occlusion). For a convex
+//!   blocker the light reaching a point is at least what the nearest edge alone lets
+//!   through; inner quads overlap at convex corners, and the lighter (nearer edge's) wins.
+//! - Thin blockers: each inner fragment marches the shadow map inward along `dir` (8 steps
+//!   over the half-width w, then 3 bisections) for the blocker's far edge, d beyond the
+//!   texel, and adds disc_chord(d / w): through a strip between parallel edges a point
+//!   sees the disc's segment beyond each edge, so per-edge shares add. Inner extents
+//!   meeting from both sides of a blocker narrower than its penumbra give partial light,
+//!   never 0. At a sharp corner of a thin blocker the march can leave through the other
+//!   edge and count its segment fully: too light there.
+//! - Overlapping casters: an edge whose outside is covered by a nearer caster draws no
+//!   inner smoothie, so one caster's inner penumbra never lightens another's umbra; a
+//!   caster behind the blocker but in front of the receiver ends the march, and a receiver
+//!   behind that second caster gets 0 (the receiver-depth check). A hidden receiver under
+//!   another caster's outer smoothie takes min(inner, outer).
+//!
+//! ## Known artefacts
+//! One receiver per texel on the inner side: Z_R is the plane of the surface just outside
+//! the edge; a hidden point more than 5 % beyond it gets the umbra (right behind a second
+//! caster, too dark behind a receiver that curves away), one nearer gets that plane's
+//! wider penumbra (too light). The march and the edge test are quantised to shadow-map
+//! texels. Both halves are evaluated for a straight edge, so curved silhouettes get a
+//! slightly too dark inner penumbra. The paper's known artefacts remain: silhouettes from
+//! the light centre (they pop under light motion; thick smoothies snap on coarse meshes),
+//! min rather than the product for overlapping outer penumbrae, and the cap t <= 0.2 (a
+//! blocker near the light gets too narrow a penumbra). The inner fragments cost up to 14
+//! shadow-map fetches each (two receiver samples, own texel, 8 + 3 march steps), only in
+//! the inner band; the outer ones one, as the paper's.
+
+use super::smoothies::Smoothies;
+use super::{Form, TechniqueInfo};
+
+pub const INFO: TechniqueInfo = TechniqueInfo {
+    name: "smoothies-centred",
+    summary:
+        "smoothies with inner and outer smoothies: disc-chord penumbra centred on the hard edge",
+    create: |init| Smoothies::create(init, Form::Centred),
+};

@@ -141,53 +141,6 @@ fn lit_regions(img: &FrameImages) -> Vec<(&'static str, Vec<usize>)> {
 /// Every technique, the reference included: finite, in [0,1], and the regions that must be
 /// lit are lit at every pixel (the darkest allowed is 0.9: measured, the darkest such pixel
 /// of any technique is 1.0).
-/// Every technique, the reference included: finite, in [0,1], and the regions that must be
-/// lit are lit at every pixel (the darkest allowed is 0.9: measured, the darkest such pixel
-/// of any technique is 1.0).
-/// Every technique, the reference included: finite, in [0,1], and the regions that must be
-/// lit are lit at every pixel (the darkest allowed is 0.9: measured, the darkest such pixel
-/// of any technique is 1.0).
-/// Every technique, the reference included: finite, in [0,1], and the regions that must be
-/// lit are lit at every pixel (the darkest allowed is 0.9: measured, the darkest such pixel
-/// of any technique is 1.0).
-#[test]
-fn explore() {
-    let gpu = Gpu::new();
-    for lp in [
-        Vec3::new(-3.0, 7.0, 2.0),
-        Vec3::new(-4.0, 6.0, 3.0),
-        Vec3::new(-2.0, 8.0, 1.5),
-        Vec3::new(-3.5, 7.5, 2.5),
-        Vec3::new(-2.5, 6.5, 3.5),
-    ] {
-        for (w, res) in [
-            (128, 512),
-            (160, 640),
-            (192, 512),
-            (128, 1024),
-            (256, 1024),
-            (96, 256),
-        ] {
-            let mut scene = contact_scene();
-            scene.light.position = lp;
-            for t in ["penumbra-map", "penumbra-map-centred", "ssm", "smoothies"] {
-                let s = Settings {
-                    occluder_res: 256,
-                    ..small(w, res)
-                };
-                let (img, _) = gpu.render_frames(scene.clone(), t, s, 1);
-                let mut out = String::new();
-                for (what, px) in lit_regions(&img) {
-                    let min = px.iter().map(|&i| img.visibility[i]).fold(1.0f32, f32::min);
-                    let n = px.iter().filter(|&&i| img.visibility[i] < 0.9).count();
-                    out += &format!(" {}:{n}/{min:.2}", &what[..12]);
-                }
-                eprintln!("{lp} {w}/{res} {t}:{out}");
-            }
-        }
-    }
-}
-
 #[test]
 fn contacts_and_a_caster_in_the_ground_plane_stay_lit() {
     let gpu = Gpu::new();

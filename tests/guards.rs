@@ -32,6 +32,9 @@ use std::sync::Arc;
 const BOX_AT: Vec3 = Vec3::new(-1.0, 0.5, 0.0);
 const SHEET_AT: Vec3 = Vec3::new(2.0, 0.0, 0.5);
 const SHEET_HALF: f32 = 0.75;
+/// A second sheet hovering 1e-4 above the ground: 1 - b/r ~ 1.4e-5 seen from the light,
+/// below both guards' 1e-4.
+const HOVER_AT: Vec3 = Vec3::new(2.0, 1e-4, -1.6);
 
 fn contact_scene() -> Scene {
     let albedo = Vec3::splat(0.7);
@@ -58,8 +61,15 @@ fn contact_scene() -> Scene {
             // Exactly coplanar with the ground (y = 0).
             Object::new(
                 "sheet",
-                Arc::new(sheet),
+                Arc::new(sheet.clone()),
                 Mat4::from_translation(SHEET_AT),
+                Role::Both,
+                albedo,
+            ),
+            Object::new(
+                "hovering sheet",
+                Arc::new(sheet),
+                Mat4::from_translation(HOVER_AT),
                 Role::Both,
                 albedo,
             ),
@@ -90,9 +100,9 @@ fn pos(img: &FrameImages, i: usize) -> Vec3 {
     Vec4::from(img.position[i]).truncate()
 }
 
-/// Distance in the ground plane from `p` to the sheet's square (0 inside).
-fn off_sheet(p: Vec3) -> f32 {
-    let d = (Vec2::new(p.x - SHEET_AT.x, p.z - SHEET_AT.z)).abs() - Vec2::splat(SHEET_HALF);
+/// Distance in the ground plane from `p` to the square of the sheet at `at` (0 inside).
+fn off_sheet(p: Vec3, at: Vec3) -> f32 {
+    let d = (Vec2::new(p.x - at.x, p.z - at.z)).abs() - Vec2::splat(SHEET_HALF);
     d.max(Vec2::ZERO).length()
 }
 
@@ -116,7 +126,15 @@ fn lit_regions(img: &FrameImages) -> Vec<(&'static str, Vec<usize>)> {
         .copied()
         .filter(|&i| {
             let p = pos(img, i);
-            p.y.abs() < 1e-3 && off_sheet(p) < 0.4
+            p.y.abs() < 1e-3 && off_sheet(p, SHEET_AT) < 0.4
+        })
+        .collect();
+    let hovering: Vec<usize> = cov
+        .iter()
+        .copied()
+        .filter(|&i| {
+            let p = pos(img, i);
+            p.y.abs() < 1e-3 && off_sheet(p, HOVER_AT) < 0.4
         })
         .collect();
     let beside: Vec<usize> = cov
@@ -135,6 +153,7 @@ fn lit_regions(img: &FrameImages) -> Vec<(&'static str, Vec<usize>)> {
         ("the box's lit top", top),
         ("the sheet in the ground and the ground around it", sheet),
         ("the ground beside the box's lit sides", beside),
+        ("the hovering sheet and the ground around it", hovering),
     ]
 }
 

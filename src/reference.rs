@@ -564,5 +564,20 @@ mod tests {
             assert!((0.0..1.0).contains(&a.x) && (0.0..1.0).contains(&a.y));
         }
         assert_ne!(jitter(7, 3, 0), jitter(8, 3, 0));
+        // Each sample of a pixel gets its own point: 1000 samples, 1000 distinct points,
+        // spread over the square (mean near 1/2, both halves hit), and another pixel's differ.
+        let pts: Vec<Vec2> = (0..1000u64).map(|k| jitter(7, 3, k)).collect();
+        let mut keys: Vec<(u32, u32)> =
+            pts.iter().map(|p| (p.x.to_bits(), p.y.to_bits())).collect();
+        keys.sort_unstable();
+        keys.dedup();
+        assert_eq!(keys.len(), pts.len(), "samples share jitter");
+        let mean = pts.iter().copied().sum::<Vec2>() / pts.len() as f32;
+        assert!(
+            (mean - Vec2::splat(0.5)).abs().max_element() < 0.05,
+            "mean {mean}"
+        );
+        assert!((0..1000u64).any(|k| jitter(7, 3, k) != jitter(7, 4, k)));
+        assert_ne!(jitter(7, 3, 5), jitter(7, 4, 5));
     }
 }

@@ -787,3 +787,83 @@ fn bench_reports_partial_rebuilds() {
     assert!(report.contains("(rebuilt 1 of 2 casters)"), "{}", report);
     let _ = std::fs::remove_dir_all(&out);
 }
+
+/// Every file under `dir` with its bytes, sorted.
+fn tree(dir: &Path) -> Vec<(PathBuf, Vec<u8>)> {
+    let mut out = Vec::new();
+    let mut stack = vec![dir.to_path_buf()];
+    while let Some(d) = stack.pop() {
+        for e in std::fs::read_dir(&d).unwrap() {
+            let p = e.unwrap().path();
+            if p.is_dir() {
+                out.push((p.clone(), Vec::new()));
+                stack.push(p);
+            } else {
+                out.push((p.clone(), std::fs::read(&p).unwrap()));
+            }
+        }
+    }
+    out.sort();
+    out
+}
+
+/// A sweep that fails at its second point, after the first staged its images and its
+/// reference, leaves a previous run's `--out` exactly as it was (nothing added, nothing
+/// replaced, no staging folder) and says why on one line.
+#[test]
+fn a_sweep_failing_part_way_leaves_out_as_it_was() {
+    let out = scratch("midway");
+    std::fs::create_dir_all(out.join("images")).unwrap();
+    std::fs::write(out.join("results.csv"), b"a previous run").unwrap();
+    std::fs::write(out.join("images").join("old.png"), b"a previous image").unwrap();
+    let before = tree(&out);
+    let args = [
+        "--validation",
+        "bench",
+        "--scenes",
+        "cylinder",
+        "--techniques",
+        "hard,pcf",
+        "--resolutions",
+        "128",
+        "--width",
+        "32",
+        "--height",
+        "32",
+        "--frames",
+        "1",
+        "--warmup",
+        "0",
+        "--samples",
+        "256",
+        "--out",
+        out.to_str().unwrap(),
+    ];
+    let run = |fail_at: Option<&str>| {
+        let device = std::env::var("SOFTSHADOW_DEVICE").unwrap_or_else(|_| "llvmpipe".into());
+        let mut c = Command::new(env!("CARGO_BIN_EXE_softshadow"));
+        c.args(args).env("SOFTSHADOW_DEVICE", device);
+        match fail_at {
+            Some(n) => c.env("SOFTSHADOW_BENCH_FAIL_AT", n),
+            None => c.env_remove("SOFTSHADOW_BENCH_FAIL_AT"),
+        };
+        c.output().expect("running softshadow")
+    };
+    let o = run(Some("1"));
+    let stderr = text(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "{stderr}");
+    // The first point ran (its progress line), the second failed with one error line.
+    assert!(stderr.contains("[1/2] cylinder / hard"), "{stderr}");
+    let errors: Vec<&str> = stderr.lines().filter(|l| l.starts_with("error:")).collect();
+    assert!(
+        errors.len() == 1 && errors[0].contains("sweep point 1"),
+        "{stderr}"
+    );
+    assert_eq!(tree(&out), before, "a failed sweep changed --out");
+    // The same sweep without the failure replaces the previous run's results: the check
+    // above could fail.
+    let o = run(None);
+    assert!(o.status.success(), "{}", text(&o.stderr));
+    assert_ne!(tree(&out), before);
+    let _ = std::fs::remove_dir_all(&out);
+}

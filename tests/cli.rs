@@ -304,6 +304,35 @@ fn export_writes_obj_and_json() {
     let json: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(obj.with_extension("json")).unwrap())
             .unwrap();
-    assert!(json["lights"][0]["radius"].as_f64().unwrap() > 0.0);
     assert_eq!(json["camera"]["width"].as_u64(), Some(1024));
+    // The light and camera are the scene's.
+    let v3 = |v: &serde_json::Value| {
+        let a: Vec<f32> = v
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|x| x.as_f64().unwrap() as f32)
+            .collect();
+        glam::Vec3::from_slice(&a)
+    };
+    let (l, c) = (&json["lights"][0], &json["camera"]);
+    for (got, want) in [
+        (v3(&l["position"]), scene.light.position),
+        (v3(&l["target"]), scene.light.target),
+        (v3(&c["position"]), scene.camera.position),
+        (v3(&c["target"]), scene.camera.target),
+        (v3(&c["up"]), scene.camera.up),
+    ] {
+        assert!((got - want).length() < 1e-4, "{got} vs {want}\n{json}");
+    }
+    for (got, want) in [
+        (&l["radius"], scene.light.radius),
+        (&l["fov_deg"], scene.light.fov_deg),
+        (&c["fov_deg"], scene.camera.fov_deg),
+    ] {
+        assert!(
+            (got.as_f64().unwrap() as f32 - want).abs() < 1e-5,
+            "{got} vs {want}"
+        );
+    }
 }

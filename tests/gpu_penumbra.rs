@@ -261,10 +261,28 @@ fn gpu_path_with_a_point_light_is_hard() {
     assert_eq!(sil.skipped.as_deref(), Some("light radius 0: hard shadows"));
     let on_gpu = r.read_back().unwrap();
     let cpu = gpu
-        .render_frames(scene, TECHNIQUE, point(SilhouettePath::Cpu), 1)
+        .render_frames(scene.clone(), TECHNIQUE, point(SilhouettePath::Cpu), 1)
         .0;
     assert_eq!(on_gpu.visibility, cpu.visibility);
     assert_eq!(soft(&on_gpu.visibility), soft(&cpu.visibility));
+    // Hard: `hard`'s image, pixel for pixel (both test the same shadow map).
+    let hard = gpu
+        .render_frames(scene, "hard", point(SilhouettePath::Gpu), 1)
+        .0;
+    let shadowed = hard.visibility.iter().filter(|&&v| v < 0.5).count();
+    assert!(shadowed > 100, "the cube casts a shadow: {shadowed} pixels");
+    let off: Vec<usize> = (0..hard.visibility.len())
+        .filter(|&i| (on_gpu.visibility[i] - hard.visibility[i]).abs() > 1e-3)
+        .collect();
+    assert!(
+        off.is_empty(),
+        "{} pixels differ from hard, e.g. {:?}",
+        off.len(),
+        off.iter()
+            .take(5)
+            .map(|&i| (on_gpu.visibility[i], hard.visibility[i]))
+            .collect::<Vec<_>>()
+    );
 }
 
 #[test]

@@ -171,6 +171,40 @@ fn bare_obj_is_framed_on_a_ground_plane() {
     std::fs::remove_dir_all(&d).ok();
 }
 
+/// The exported light and camera are the scene's, value for value.
+fn assert_exported(l: &serde_json::Value, c: &serde_json::Value, s: &Scene) {
+    let v3 = |v: &serde_json::Value| {
+        let a = v.as_array().unwrap();
+        assert_eq!(a.len(), 3, "{v}");
+        Vec3::new(
+            a[0].as_f64().unwrap() as f32,
+            a[1].as_f64().unwrap() as f32,
+            a[2].as_f64().unwrap() as f32,
+        )
+    };
+    let near = |a: Vec3, b: Vec3, what: &str| {
+        assert!(
+            (a - b).length() <= 1e-5 * b.length().max(1.0),
+            "{what}: {a} vs {b}"
+        );
+    };
+    let num = |v: &serde_json::Value, want: f32, what: &str| {
+        let x = v.as_f64().unwrap();
+        assert!(
+            (x - want as f64).abs() <= 1e-5 * (want.abs() as f64).max(1.0),
+            "{what}: {x} vs {want}"
+        );
+    };
+    near(v3(&l["position"]), s.light.position, "light position");
+    near(v3(&l["target"]), s.light.target, "light target");
+    num(&l["radius"], s.light.radius, "light radius");
+    num(&l["fov_deg"], s.light.fov_deg, "light fov");
+    near(v3(&c["position"]), s.camera.position, "camera position");
+    near(v3(&c["target"]), s.camera.target, "camera target");
+    near(v3(&c["up"]), s.camera.up, "camera up");
+    num(&c["fov_deg"], s.camera.fov_deg, "camera fov");
+}
+
 #[test]
 fn export_matches_the_scene() {
     let d = tmp_dir("export");
@@ -198,16 +232,8 @@ fn export_matches_the_scene() {
             serde_json::from_str(&std::fs::read_to_string(d.join(format!("{name}.json"))).unwrap())
                 .unwrap();
         let l = &j["lights"][0];
-        for k in ["position", "target"] {
-            assert_eq!(l[k].as_array().unwrap().len(), 3);
-        }
-        assert!((l["radius"].as_f64().unwrap() - s.light.radius as f64).abs() < 1e-6);
-        assert!(l["fov_deg"].as_f64().unwrap() > 0.0);
         let c = &j["camera"];
-        for k in ["position", "target", "up"] {
-            assert_eq!(c[k].as_array().unwrap().len(), 3);
-        }
-        assert!(c["fov_deg"].as_f64().unwrap() > 0.0);
+        assert_exported(l, c, &s);
         assert_eq!(c["width"], 640);
         assert_eq!(c["height"], 480);
     }

@@ -30,7 +30,16 @@ fn bad_input_errors_are_single_lines() {
         println!("{e}");
         assert!(e.contains(f) && !e.contains('\n'), "{e}");
     }
-    println!("{:#}", Scene::load("nope").unwrap_err());
-    println!("{:#}", Scene::load("missing.obj").unwrap_err());
+    // A name that is neither a built-in nor a file: one line naming it and the built-ins.
+    let e = format!("{:#}", Scene::load("nope").unwrap_err());
+    println!("{e}");
+    assert!(
+        e.contains("'nope'") && e.contains("cylinder") && !e.contains('\n'),
+        "{e}"
+    );
+    // A missing file: one line naming it.
+    let e = format!("{:#}", Scene::load("missing.obj").unwrap_err());
+    println!("{e}");
+    assert!(e.contains("missing.obj") && !e.contains('\n'), "{e}");
     std::fs::remove_dir_all(&d).ok();
 }

@@ -191,10 +191,20 @@ fn culling_changes_no_pixel() {
                     culling,
                     ..small(64, 256)
                 };
-                gpu.render_frames(scene.clone(), name, s, 1).0
+                let mut r = Renderer::new(&gpu.ctx, scene.clone(), name, s).unwrap();
+                r.render().unwrap();
+                (r.read_back().unwrap(), r.objects_in_frusta())
             };
-            let on = render(true);
-            let off = render(false);
+            let (on, kept_on) = render(true);
+            let (off, kept_off) = render(false);
+            // Culling had work to do and did it: the far copy is in neither frustum, and
+            // without culling every object is kept.
+            let n = scene.objects.len();
+            assert_eq!(kept_off, (n, n), "{scene_name}/{name}: culling off");
+            assert!(
+                kept_on.0 < n && kept_on.1 < n && kept_on.0 >= 1 && kept_on.1 >= 1,
+                "{scene_name}/{name}: culling kept {kept_on:?} of {n}"
+            );
             assert!(
                 on.visibility == off.visibility,
                 "{scene_name}/{name}: culling changed the visibility"

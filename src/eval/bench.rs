@@ -978,7 +978,16 @@ pub fn run(ctx: &Context, plan: Plan) -> Result<Outcome> {
         samples: cfg.samples,
         seed: cfg.seed,
     };
+    // Test hook (tests/bench.rs): SOFTSHADOW_BENCH_FAIL_AT=N fails sweep point N as a
+    // runtime error would, so a test can show that a sweep failing part-way, after earlier
+    // points staged their images, leaves `--out` as it was.
+    let fail_at: Option<usize> = std::env::var("SOFTSHADOW_BENCH_FAIL_AT")
+        .ok()
+        .and_then(|v| v.parse().ok());
     for (i, case) in plan.cases.iter().enumerate() {
+        if fail_at == Some(i) {
+            bail!("bench sweep point {i}: failure injected by SOFTSHADOW_BENCH_FAIL_AT");
+        }
         let base = &plan.scenes[case.scene];
         let variant = &plan.variants[case.variant];
         let settings = plan.settings(case);

@@ -102,6 +102,13 @@ impl GpuScene {
         self.objects.iter().any(|o| o.in_light && o.role.casts())
     }
 
+    /// How many objects `cull` kept: (in the light's frustum, in the camera's).
+    pub fn in_frusta(&self) -> (usize, usize) {
+        let light = self.objects.iter().filter(|o| o.in_light).count();
+        let camera = self.objects.iter().filter(|o| o.in_camera).count();
+        (light, camera)
+    }
+
     /// Draws, from the light, every object in the light frustum for which `filter` holds,
     /// with pipeline `p` (already bound).
     pub fn draw(&self, rec: &mut Recorder<'_>, p: &Pipeline, filter: impl Fn(&GpuObject) -> bool) {

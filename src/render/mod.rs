@@ -264,6 +264,13 @@ impl<'c> Renderer<'c> {
         Ok(Some(gpu.decode_geometry(&commands, &floats)))
     }
 
+    /// How many objects the last frame's culling kept for the light-space passes and for the
+    /// camera pass: (in the light's frustum, in the camera's). Every object when culling is
+    /// off (tests/skip.rs).
+    pub fn objects_in_frusta(&self) -> (usize, usize) {
+        self.gpu.in_frusta()
+    }
+
     /// How many casters the GPU silhouette passes rebuilt in the last frame that ran them.
     pub fn gpu_silhouettes_rebuilt(&self) -> Option<usize> {
         self.technique.gpu_silhouettes().map(|g| g.rebuilt())

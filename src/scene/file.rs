@@ -380,7 +380,45 @@ mod tests {
         .unwrap();
         assert_eq!(s.objects.len(), 2);
         assert_eq!(s.name, "t");
-        assert!(s.light.radius > 0.0);
+        // The sphere (radius 1 at y = 2) is the only caster: the fitted light is above it,
+        // aimed between it and its shadow on the ground, with a cone that holds the sphere,
+        // and a radius a few percent of the region it lights.
+        let sphere = Vec3::new(0.0, 2.0, 0.0);
+        let l = s.light;
+        assert!(l.position.y > 3.0, "light at {}", l.position);
+        assert!(
+            l.target.y >= -1e-3 && l.target.y <= 3.0,
+            "light target {}",
+            l.target
+        );
+        let axis = (l.target - l.position).normalize();
+        let to_sphere = sphere - l.position;
+        let half_angle = to_sphere.normalize().angle_between(axis).to_degrees()
+            + (1.0 / to_sphere.length()).asin().to_degrees();
+        assert!(
+            half_angle <= l.fov_deg * 0.5 && l.fov_deg < 120.0,
+            "the sphere spans {half_angle} degrees off the axis of a {} degree cone",
+            l.fov_deg
+        );
+        assert!(
+            l.radius > 0.04 && l.radius < 1.0,
+            "radius {} for a 2-unit caster",
+            l.radius
+        );
+        // The camera looks at the same region from above, the sphere inside its 45 degrees.
+        let c = s.camera;
+        assert_eq!(c.fov_deg, 45.0);
+        assert!(c.position.y > c.target.y, "camera {c:?}");
+        let view = (c.target - c.position).normalize();
+        assert!(
+            (sphere - c.position)
+                .normalize()
+                .angle_between(view)
+                .to_degrees()
+                < 22.5,
+            "the sphere is outside the camera's view: {c:?}"
+        );
+        assert!((c.target - l.target).length() < 1e-3, "{c:?} {l:?}");
     }
 
     #[test]

@@ -697,12 +697,33 @@ mod tests {
         let light = fit_light(&scene);
         let b = scene.caster_bounds().unwrap();
         let depth = light.linear_depth((b.min + b.max) * 0.5);
+        // Independently of `Width::at`: the casters' centre, at depth b along the scene
+        // light's axis, gets the module header's calibration t = R / (2 b tan(fov/2)),
+        // capped at the paper's largest t, 0.2.
+        let axis = (scene.light.target - scene.light.position).normalize();
+        let b_depth = ((b.min + b.max) * 0.5 - scene.light.position).dot(axis);
+        assert!(
+            (b_depth - depth).abs() < 1e-3 * depth,
+            "{b_depth} vs {depth}"
+        );
+        let tan_half = (light.fov_deg.to_radians() * 0.5).tan();
+        let mut widths = Vec::new();
         for radius in [0.0, 0.01, scene.light.radius, 5.0, 1e3] {
             let t = smoothie_width(None, &scene, &light, radius);
             let drawn = smoothie_widths(None, &light, radius).at(depth);
             assert_eq!(t, drawn, "R {radius}");
-            assert!((0.0..=MAX_CALIBRATED_T).contains(&t), "R {radius}: t {t}");
+            let expected = (radius / (2.0 * b_depth * tan_half)).min(0.2);
+            assert!(
+                (t - expected).abs() <= 1e-4 * expected.max(1e-3),
+                "R {radius}: t {t}, expected {expected}"
+            );
+            widths.push(t);
         }
+        // Wider for a larger light, until the cap.
+        assert!(
+            widths.windows(2).all(|w| w[1] >= w[0]) && widths[2] > widths[1],
+            "{widths:?}"
+        );
         assert_eq!(smoothie_width(None, &scene, &light, 1e3), MAX_CALIBRATED_T);
         assert_eq!(smoothie_width(None, &scene, &light, 0.0), 0.0);
         assert_eq!(smoothie_width(Some(0.02), &scene, &light, 1e3), 0.02);

@@ -549,7 +549,10 @@ fn spirv_counts_walk_the_words() {
     assert!(spirv::count(&zero).is_err());
     assert!(spirv::count(&[0u8; 24]).is_err());
 
-    // Every shipped shader is listed and counted; spirv-opt never grows a module's total.
+    // Every shipped shader is listed and counted; spirv-opt never grows a module's total,
+    // except where it unrolls loops of a fixed count (ssm-bitmask's edges and layers: 1059
+    // words raw, 1614 shipped).
+    const UNROLLED: &[&str] = &["ssm_bitmask/soft_shadow.frag"];
     let table = spirv::cost_table(softshadow::shaders::ALL).expect("every shader counts");
     assert!(table
         .iter()
@@ -560,7 +563,11 @@ fn spirv_counts_walk_the_words() {
             "{s:?}"
         );
         if let (Some(raw), true) = (s.glslang, s.optimised) {
-            assert!(s.shipped.total <= raw.total, "{s:?}");
+            if UNROLLED.contains(&s.shader.as_str()) {
+                assert!(s.shipped.total > raw.total, "{s:?} is no longer unrolled");
+            } else {
+                assert!(s.shipped.total <= raw.total, "{s:?}");
+            }
         }
     }
 }

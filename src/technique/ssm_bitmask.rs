@@ -98,6 +98,11 @@
 //! micro-quad pass costs about 5x ssm's micro-patch pass (larger extents: the disc faces the
 //! receiver; ten times the fragment work), the frame about 3x ssm's and 11x hard's.
 //!
+//! Accuracy is then limited by the occluder map's resolution (`--occluder-res`, 256 by
+//! default, shared with ssm): at 512 mae_lit is at most pcss's on cylinder, bunny, primitives
+//! and fence (tests/ssm_bitmask.rs), but the micro-quad pass grows with N^2 quads times
+//! extents N^2 wide in texels: about 10x the 256 pass on lavapipe.
+//!
 //! ## Known artefacts
 //! - Only what the light's centre sees of the occluders is discretised (ssm's Sec. 5.1.1):
 //!   behind a depth discontinuity (an ear in front of the body) nothing is known, so light

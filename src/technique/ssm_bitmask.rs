@@ -100,8 +100,8 @@
 //!
 //! Accuracy is then limited by the occluder map's resolution (`--occluder-res`, 256 by
 //! default, shared with ssm): at 512 mae_lit is at most pcss's on cylinder, bunny, primitives
-//! and fence (tests/ssm_bitmask.rs), but the micro-quad pass grows with N^2 quads times
-//! extents N^2 wide in texels: about 10x the 256 pass on lavapipe.
+//! and fence (tests/ssm_bitmask.rs), but the micro-quad pass grows as N^4 (N^2 quads, each
+//! extent's area in texels N^2): about 10x the 256 pass on lavapipe.
 //!
 //! ## Known artefacts
 //! - Only what the light's centre sees of the occluders is discretised (ssm's Sec. 5.1.1):

@@ -300,3 +300,36 @@ fn at_512_occluder_texels_mae_lit_is_at_most_pcss() {
     }
     assert!(bad.is_empty(), "{}", bad.join("\n"));
 }
+
+/// The light samples fill the disc evenly, and the edge table is what its header says:
+/// every sample left of a line far right of the disc, none far left, monotone between, about
+/// half through the centre, in every direction.
+#[test]
+fn samples_and_edge_table() {
+    use softshadow::technique::ssm_bitmask::{edge_table, light_samples, SAMPLES};
+    let s = light_samples();
+    assert_eq!(s.len(), SAMPLES);
+    assert!(s.iter().all(|p| p.length() < 1.0));
+    for q in 0..4 {
+        let n = s
+            .iter()
+            .filter(|p| (p.x >= 0.0) == (q & 1 == 0) && (p.y >= 0.0) == (q & 2 == 0))
+            .count();
+        assert!((26..=38).contains(&n), "quadrant {q}: {n} samples");
+    }
+    let table = edge_table();
+    let columns = 256;
+    assert_eq!(table.len(), 512 * columns);
+    let count = |m: &[u32; 4]| m.iter().map(|w| w.count_ones()).sum::<u32>();
+    for row in [0, 100, 255, 511] {
+        let line = &table[row * columns..(row + 1) * columns];
+        assert_eq!(count(&line[0]), SAMPLES as u32, "row {row}");
+        assert_eq!(count(&line[columns - 1]), 0, "row {row}");
+        assert!(line.windows(2).all(|w| count(&w[1]) <= count(&w[0])));
+        let mid = count(&line[columns / 2]);
+        assert!(
+            (50..=78).contains(&mid),
+            "row {row}: {mid} left of the centre"
+        );
+    }
+}

@@ -16,8 +16,8 @@
 //! sample k is bit k % 32 of word k / 32. Visibility = 1 - popcount(mask) / 128, so it moves
 //! in steps of 1/128 (the reference averages at least 256 rays). Positions: a golden-angle
 //! (Vogel) spiral, radius sqrt((k + 1/2) / 128), angle k * 137.5 degrees — equal area per
-//! sample, no two on one line through the centre, fixed for every pixel (the banding of a
-//! fixed pattern is 1/128 steps, below 8-bit display steps of a shaded image).
+//! sample, no rows or columns for an edge to line up with, the same for every pixel (no noise;
+//! its banding is 1/128 steps, half an 8-bit display step).
 //!
 //! ## The light
 //! The disc of docs/DESIGN.md: centre at the light position, radius R, **facing the receiver

@@ -16,8 +16,8 @@
 //! sample k is bit k % 32 of word k / 32. Visibility = 1 - popcount(mask) / 128, so it moves
 //! in steps of 1/128 (the reference averages at least 256 rays). Positions: a golden-angle
 //! (Vogel) spiral, radius sqrt((k + 1/2) / 128), angle k * 137.5 degrees — equal area per
-//! sample, no two on one line through the centre, fixed for every pixel (the banding of a
-//! fixed pattern is 1/128 steps, below 8-bit display steps of a shaded image).
+//! sample, no rows or columns for an edge to line up with, the same for every pixel (no noise;
+//! its banding is 1/128 steps, half an 8-bit display step).
 //!
 //! ## The light
 //! The disc of docs/DESIGN.md: centre at the light position, radius R, **facing the receiver
@@ -97,6 +97,11 @@
 //! of ssm's gathers. On lavapipe (bunny, 512^2 image, one frame, 2 shared cores) the
 //! micro-quad pass costs about 5x ssm's micro-patch pass (larger extents: the disc faces the
 //! receiver; ten times the fragment work), the frame about 3x ssm's and 11x hard's.
+//!
+//! Accuracy is then limited by the occluder map's resolution (`--occluder-res`, 256 by
+//! default, shared with ssm): at 512 mae_lit is at most pcss's on cylinder, bunny, primitives
+//! and fence (tests/ssm_bitmask.rs), but the micro-quad pass grows as N^4 (N^2 quads, each
+//! extent's area in texels N^2): about 10x the 256 pass on lavapipe.
 //!
 //! ## Known artefacts
 //! - Only what the light's centre sees of the occluders is discretised (ssm's Sec. 5.1.1):

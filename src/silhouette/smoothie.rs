@@ -739,6 +739,7 @@ fn number_vertices(
 
 /// Appends the edge quads of `sil` to `out` in silhouette order, over rayon in chunks of
 /// `chunk` edges when `parallel`; returns each edge's outward direction (`None`: skipped).
+#[allow(clippy::too_many_arguments)]
 fn edge_quads(
     adj: &Adjacency,
     pr: &Projector,

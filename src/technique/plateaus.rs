@@ -1211,7 +1211,7 @@ mod tests {
     }
 
     #[test]
-    fn sheets_open_away_from_the_drop_shadow() {
+    fn sheets_open_away_from_the_drop_shadow_and_inner_ones_into_it() {
         let l = light(Vec3::new(0.3, 6.0, -0.2), Vec3::ZERO);
         let pf = PlaneFrame::new(&ground_receiver(), Mat4::IDENTITY, &l, 256);
         for model in [
@@ -1248,6 +1248,23 @@ mod tests {
                     assert!(
                         (rim - mid).dot(mid - centre) > 0.0,
                         "sheet of edge {e:?} opens inwards"
+                    );
+                }
+                // plateaus-centred's inner sheet: the same edge (depth 0), its rim inside.
+                let mut inner = PlateauBuilder::new(&pf, 0.5).with_side(Side::Inner);
+                inner.sheet(c1, r1, c2, r2);
+                assert_eq!(inner.vertices.len(), b.vertices.len());
+                for (vi, vo) in inner.vertices.iter().zip(&b.vertices) {
+                    assert_eq!(vi.clip[2], vo.clip[2]);
+                    if vi.clip[2] == 0.0 {
+                        assert_eq!(vi.clip, vo.clip);
+                    }
+                }
+                for v in inner.vertices.iter().filter(|v| v.clip[2] == 1.0) {
+                    let rim = to_plane(v);
+                    assert!(
+                        (rim - mid).dot(mid - centre) < 0.0,
+                        "inner sheet of edge {e:?} opens outwards"
                     );
                 }
             }

@@ -18,6 +18,8 @@ const PANEL: (u32, u32) = (640, 480);
 const HEADER: u32 = 84;
 const COLUMNS: usize = 3;
 
+/// One colour per row of a full bench (every technique, smoothies twice): a colour shared by
+/// two rows would make their points indistinguishable.
 const COLOURS: &[RGBColor] = &[
     RGBColor(0, 0, 0),
     RGBColor(31, 119, 180),
@@ -30,6 +32,12 @@ const COLOURS: &[RGBColor] = &[
     RGBColor(127, 127, 127),
     RGBColor(188, 189, 34),
     RGBColor(23, 190, 207),
+    RGBColor(0, 0, 128),
+    RGBColor(230, 190, 0),
+    RGBColor(0, 128, 128),
+    RGBColor(128, 0, 0),
+    RGBColor(255, 0, 255),
+    RGBColor(96, 160, 255),
 ];
 
 fn fonts() -> Result<()> {
@@ -228,4 +236,23 @@ pub fn time_vs_error(path: &Path, res: &Results<'_>) -> Result<()> {
     let img = image::RgbImage::from_raw(w, h, buf).context("plot buffer size")?;
     img.save_with_format(path, image::ImageFormat::Png)
         .with_context(|| format!("writing {}", path.display()))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::COLOURS;
+
+    #[test]
+    fn every_row_of_a_full_bench_has_its_own_colour() {
+        // Every technique, plus smoothies' second row at the paper's fixed width.
+        let rows = crate::technique::TECHNIQUES.len() + 1;
+        assert!(
+            COLOURS.len() >= rows,
+            "{} colours for {rows} rows",
+            COLOURS.len()
+        );
+        for (i, a) in COLOURS.iter().enumerate() {
+            assert!(!COLOURS[..i].contains(a), "colour {i} repeats");
+        }
+    }
 }

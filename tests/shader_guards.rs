@@ -174,3 +174,70 @@ fn smoothie_remap_guards() {
         }
     }
 }
+
+fn next_up(x: f32) -> f32 {
+    f32::from_bits(x.to_bits() + 1)
+}
+fn next_down(x: f32) -> f32 {
+    f32::from_bits(x.to_bits() - 1)
+}
+
+/// Over depths from 1e-3 to 1e4 at and one ulp either side of contact: every kept smoothie
+/// fragment writes a finite alpha' in [0, 1], and only a smoothie behind the surface or
+/// past its outer side is discarded; every kept penumbra-map fragment has a positive,
+/// finite denominator (also with a degenerate k, which `fragment_zv` bounds).
+#[test]
+fn guards_keep_outputs_finite_at_contact() {
+    let gpu = Gpu::new();
+    let t = 0.02f32;
+    let mut inputs = Vec::new();
+    for r in [1e-3f32, 0.5, 1.0, 7.0, 1e4] {
+        for b in [r, next_down(r), next_up(r), next_down(next_down(r))] {
+            for dist in [0.0f32, 1e-7, 0.01, 0.5, 1.0, 5.0] {
+                inputs.push([b / r, dist, t, 0.0]);
+            }
+        }
+    }
+    let out = run(
+        &gpu,
+        "smoothie_alpha",
+        shaders::TESTS_SMOOTHIE_ALPHA_COMP,
+        false,
+        &inputs,
+    );
+    for (x, o) in inputs.iter().zip(&out) {
+        if o[0] == 1.0 {
+            assert!(
+                o[1].is_finite() && (0.0..=1.0).contains(&o[1]),
+                "{x:?}: {o:?}"
+            );
+        } else {
+            assert!(x[0] > 1.0 || x[1] >= t, "{x:?} discarded");
+        }
+    }
+    let mut inputs = Vec::new();
+    for zp in [1e-3f32, 1.0, 10.0, 1e4] {
+        for zv in [zp, next_down(zp), next_up(zp), zp * (1.0 - 1e-5), 0.0] {
+            for zf in [zv, zp, zp * 0.5, next_down(zp)] {
+                for k in [1.0f32, 1e-20, 0.0] {
+                    inputs.push([zp, zf, zv * k, k]);
+                }
+            }
+        }
+    }
+    let out = run(
+        &gpu,
+        "eq1_depths",
+        shaders::TESTS_EQ1_DEPTHS_COMP,
+        true,
+        &inputs,
+    );
+    for (x, o) in inputs.iter().zip(&out) {
+        if o[0] == 1.0 {
+            assert!(
+                o[1].is_finite() && o[1] > CONTACT_EPS * x[0],
+                "{x:?}: {o:?}"
+            );
+        }
+    }
+}

@@ -5,7 +5,7 @@
 //!   sheet fragment whose surface lies at (or in front of) its silhouette vertex, Z_P - Z_v
 //!   below 1e-4 Z_P, is discarded. Without it Eq. 1 divides a rounding error by a rounding
 //!   error and speckles the caster's own lit top and the ground at a contact.
-//! - smoothies' `REMAP_EPS` (glsl/smoothies/smoothie.frag): a smoothie within 1e-4 of the
+//! - smoothies' `REMAP_EPS` (glsl/smoothies/alpha.glsl, `smoothie_alpha`): a smoothie within 1e-4 of the
 //!   depth it shades touches it and casts nothing (alpha' = 1).
 //! - pcss's no-blocker return (glsl/pcss/final.frag, `blockers == 0.0`): the mean blocker
 //!   depth is formed only when the search found one; without it 0/0 darkens every lit pixel
@@ -21,10 +21,11 @@
 //! - setting smoothies' guarded value to 0 (a touching smoothie casts full shadow) changes no
 //!   pixel either, even for the sheet hovering at 1 - b/r = 1.4e-5: the final pass's depth
 //!   bias (5e-4 relative) already ignores a smoothie that close.
-//! So this test cannot fail for those two deletions; it pins what they are for (contacts and
-//! casters in the receiver's plane stay lit, for every technique) and fails for the guards
-//! that do reach pixels here: pcss's, and plateaus' on-plane discard
-//! (glsl/plateaus/drop_shadow.frag).
+//!
+//! So this test cannot fail for those two deletions (tests/shader_guards.rs runs the guarded
+//! GLSL functions themselves and does); it pins what they are for (contacts and casters in
+//! the receiver's plane stay lit, for every technique) and fails for the guards that do
+//! reach pixels here: pcss's, and plateaus' on-plane discard (glsl/plateaus/drop_shadow.frag).
 //!
 //! The scene: a box resting on the ground, a sheet lying exactly in the ground plane (the
 //! stress case `caster-on-receiver`) and one hovering 1e-4 above it, a light above and to the

@@ -26,6 +26,12 @@ float fragment_zv(vec2 zv_h) {
     return zv_h.x / max(zv_h.y, 1e-30);
 }
 
+// Whether a receiver at depth `zp`, `denom` = Z_P - Z_v behind the silhouette point, is
+// clear of contact (CONTACT_EPS); false for a NaN denominator too.
+bool clear_of_contact(float zp, float denom) {
+    return denom > CONTACT_EPS * zp;
+}
+
 // Eq. 1's depths, with `zp` the surface depth read at the fragment's own texel; false where
 // the paper's fragment program discards.
 bool eq1_depths(float zp, float zf, vec2 zv_h, out Eq1 e) {
@@ -37,7 +43,7 @@ bool eq1_depths(float zp, float zf, vec2 zv_h, out Eq1 e) {
     // Step (4): a cone or sheet behind the surface cannot shadow it.
     if (zf > zp) return false;
     // The surface is at or in front of the silhouette vertex (e.g. the caster itself).
-    return e.denom > CONTACT_EPS * zp;
+    return clear_of_contact(zp, e.denom);
 }
 
 // Blocker-size bound (not in the paper). Cases `blocker-near-light`, `near-far-1e-4`: a

@@ -98,7 +98,7 @@ void main() {
         }
     }
     float denom = zr - zv;
-    if (!(denom > CONTACT_EPS * zr)) discard;
+    if (!clear_of_contact(zr, denom)) discard;
     if (!covered(here, zr)) discard;
     float w = lr * (1.0 / zv - 1.0 / zr);
     float s = u / w;

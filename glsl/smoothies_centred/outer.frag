@@ -22,7 +22,7 @@ void main() {
     float x = smoothie_distance(uv, dir);
     if (x >= t) discard;
     float denom = 1.0 - f;
-    float s = denom > REMAP_EPS ? min(max(x, 0.0) / (t * denom), 1.0) : 1.0;
+    float s = outer_fraction(x, t, denom);
     o_depth = b;
     o_penumbra = vec4(disc_chord(-s), 1.0, 1.0, 1.0);
 }

@@ -22,9 +22,7 @@ layout(location = 1) out vec4 o_penumbra;
 
 // FAR_DEPTH of src/gpu/passes.rs: the depth attachment's clear, neutral under MIN.
 const float FAR_DEPTH = 1.0e30;
-// Below this 1 - b/r the smoothie touches what it shadows (Volokh Sec. 3.5: b ~ r): no
-// penumbra, and no division by a rounding-sized denominator.
-const float REMAP_EPS = 1e-4;
+#include "smoothies_centred/remap.glsl"
 
 // Distance (light uv) of this fragment from its smoothie's hard-edge line (edge quads) or
 // silhouette vertex (corner fans), along the smoothie's extrusion direction `dir`.

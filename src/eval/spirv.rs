@@ -141,10 +141,12 @@ pub fn paper_count(path: &str) -> Option<&'static str> {
     }
 }
 
-/// The cost table of `shaders`, in their order.
+/// The cost table of `shaders`, in their order, less the test harnesses (glsl/tests/),
+/// which no pass runs.
 pub fn cost_table(shaders: &[Shader]) -> Result<Vec<ShaderCost>> {
     shaders
         .iter()
+        .filter(|s| !s.path.starts_with("tests/"))
         .map(|s| {
             let shipped = count(s.spirv).map_err(|e| e.context(s.path))?;
             let glslang = s

@@ -1316,50 +1316,10 @@ fn failure_images(
     ])
 }
 
-/// Rust mirrors of the shaders' guards, so each can be unit-tested at its edge (the
-/// shader comment names the same constant). Keep them in step with the GLSL.
+/// A Rust mirror of PCSS's radii (glsl/pcss/final.frag), unit-tested at its edges; keep it
+/// in step with the GLSL. The smoothie and penumbra-map guards are tested through their
+/// GLSL instead (tests/shader_guards.rs).
 pub mod guards {
-    /// glsl/smoothies/smoothie.frag: `REMAP_EPS`.
-    pub const SMOOTHIE_REMAP_EPS: f32 = 1e-4;
-
-    /// glsl/smoothies/smoothie.frag, Eq. 1: alpha' = alpha / (1 - b/r), clamped; `None`
-    /// where the fragment is discarded (b > r, or at or past the smoothie's outer side,
-    /// `alpha_raw >= t`). Case `near-contact` (b/r -> 1).
-    pub fn smoothie_alpha(alpha_raw: f32, t: f32, b: f32, r: f32) -> Option<f32> {
-        let f = b / r;
-        if f > 1.0 || alpha_raw >= t {
-            return None;
-        }
-        let alpha = (alpha_raw / t).clamp(0.0, 1.0);
-        let denom = 1.0 - f;
-        Some(if denom > SMOOTHIE_REMAP_EPS {
-            (alpha / denom).min(1.0)
-        } else {
-            1.0
-        })
-    }
-
-    /// glsl/penumbra_map/penumbra.frag: `CONTACT_EPS`.
-    pub const PENUMBRA_CONTACT_EPS: f32 = 1e-4;
-
-    /// glsl/penumbra_map/penumbra.frag, Eq. 1 and the smoothstep: I = (Z_F - Z_v) / (Z_P -
-    /// Z_v); `None` where discarded. `zv_h` = (Z_v * h, h) as interpolated.
-    pub fn penumbra_intensity(zp: f32, zf: f32, zv_h: (f32, f32)) -> Option<f32> {
-        const FAR_DEPTH: f32 = 1.0e30;
-        if zp >= 0.5 * FAR_DEPTH || zf > zp {
-            return None;
-        }
-        let zv = zv_h.0 / zv_h.1.max(1e-30);
-        let denom = zp - zv;
-        // Written as the shader's `!(denom > eps)`: a NaN denominator is discarded too.
-        #[allow(clippy::neg_cmp_op_on_partial_ord)]
-        if !(denom > PENUMBRA_CONTACT_EPS * zp) {
-            return None;
-        }
-        let i = ((zf - zv) / denom).clamp(0.0, 1.0);
-        Some(i * i * (3.0 - 2.0 * i))
-    }
-
     /// glsl/pcss/final.frag: the blocker-search radius (Eq. 3) and the penumbra radius
     /// (Eq. 1) in texels, both clamped to `max_texels`. `d_b` is the mean blocker depth,
     /// only formed when at least one blocker was found (`blockers > 0`), so d_b > 0.
@@ -1428,64 +1388,8 @@ mod tests {
         assert!(judged(errs(0.0, 0, 0.2)).pass);
     }
 
-    fn next_up(x: f32) -> f32 {
-        f32::from_bits(x.to_bits() + 1)
-    }
     fn next_down(x: f32) -> f32 {
         f32::from_bits(x.to_bits() - 1)
-    }
-
-    #[test]
-    fn smoothie_remap_is_finite_at_b_equal_r_and_one_ulp_either_side() {
-        for r in [1e-3f32, 0.5, 1.0, 7.0, 1e4] {
-            for b in [r, next_down(r), next_up(r), next_down(next_down(r))] {
-                for raw in [0.0f32, 1e-7, 0.01, 0.5, 1.0, 5.0] {
-                    if let Some(a) = smoothie_alpha(raw, 0.02, b, r) {
-                        assert!(
-                            a.is_finite() && (0.0..=1.0).contains(&a),
-                            "b {b} r {r} raw {raw}: {a}"
-                        );
-                    } else {
-                        assert!(
-                            b > r || raw >= 0.02,
-                            "only b > r or alpha >= 1 is discarded"
-                        );
-                    }
-                }
-            }
-        }
-        // At the smoothie's outer side (alpha = 1) and past it: discarded; just inside: kept.
-        assert_eq!(smoothie_alpha(0.02, 0.02, 0.5, 1.0), None);
-        assert_eq!(smoothie_alpha(0.03, 0.02, 0.5, 1.0), None);
-        assert!(smoothie_alpha(next_down(0.02), 0.02, 0.5, 1.0).is_some());
-        // Far from contact the remap is Eq. 1 unclamped.
-        let a = smoothie_alpha(0.01, 0.02, 0.5, 1.0).unwrap();
-        assert!((a - 1.0).abs() < 1e-6);
-        let a = smoothie_alpha(0.002, 0.02, 0.5, 1.0).unwrap();
-        assert!((a - 0.2).abs() < 1e-6);
-    }
-
-    #[test]
-    fn penumbra_intensity_guard_at_contact() {
-        for zp in [1e-3f32, 1.0, 10.0, 1e4] {
-            for zv in [zp, next_down(zp), next_up(zp), zp * (1.0 - 1e-5), 0.0] {
-                for zf in [zv, zp, zp * 0.5, next_down(zp)] {
-                    for h in [1.0f32, 1e-20, 0.0] {
-                        if let Some(i) = penumbra_intensity(zp, zf, (zv * h, h)) {
-                            assert!(
-                                i.is_finite() && (0.0..=1.0).contains(&i),
-                                "zp {zp} zv {zv} zf {zf} h {h}: {i}"
-                            );
-                        }
-                    }
-                }
-            }
-        }
-        // At contact (Z_v = Z_P) the fragment is dropped: no division by ~0.
-        assert_eq!(penumbra_intensity(1.0, 1.0, (1.0, 1.0)), None);
-        // Halfway between vertex and receiver: smoothstep(0.5) = 0.5.
-        let i = penumbra_intensity(2.0, 1.5, (1.0, 1.0)).unwrap();
-        assert!((i - 0.5).abs() < 1e-6);
     }
 
     #[test]

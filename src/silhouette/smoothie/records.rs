@@ -374,6 +374,10 @@ thread_local! {
     static SCRATCH: std::cell::RefCell<Scratch> = std::cell::RefCell::default();
 }
 
+/// The construction, in four steps over the per-thread working arrays: number the
+/// silhouette vertices, project them, build the edges, build the corners. Each step is one
+/// tight loop (or two) over arrays the previous steps filled, which is what makes this path
+/// faster than the reference; the decisions are the reference's.
 fn build_with(
     adj: &Adjacency,
     sil: &[SilhouetteEdge],
@@ -382,73 +386,104 @@ fn build_with(
     width: Width,
     scratch: &mut Scratch,
 ) -> SmoothieRecords {
-    let Scratch {
-        slot,
-        dirty,
-        welded,
-        ends,
-        clips,
-        incident,
-        arcs,
-    } = scratch;
     let pr = Projector::new(model, light);
     let normals = NormalProjector::new(&pr);
     let mut rec = SmoothieRecords::default();
+    scratch.number(adj.positions.len(), sil);
+    rec.vertices = project(adj, &pr, light, width, &scratch.welded, &mut scratch.clips);
+    rec.edges = kept_edges(adj, &pr, &normals, sil, scratch, &rec.vertices);
+    rec.skipped_edges = sil.len() - rec.edges.len();
+    build_corners(adj, &pr, sil, scratch, &mut rec);
+    scratch.release();
+    rec
+}
 
-    // Silhouette vertices numbered in order of first use (as `build_impl`): `slot[v]` is
-    // welded vertex v's number, or UNNUMBERED. Numbering first and projecting afterwards
-    // keeps the bookkeeping and the arithmetic in separate tight loops. Branch-free: every
-    // vertex is new at exactly one of its (usually two) uses, so "is it new" is a coin toss
-    // to the branch predictor; `welded` is written at every use and advanced only at the
-    // first.
-    let nv = adj.positions.len();
-    if *dirty {
-        slot.fill(UNNUMBERED);
-    }
-    *dirty = true;
-    if slot.len() < nv {
-        slot.resize(nv, UNNUMBERED);
-    }
-    welded.clear();
-    welded.resize(2 * sil.len(), 0);
-    ends.clear();
-    ends.resize(sil.len(), [0; 2]);
-    let mut numbered = 0usize;
-    {
-        // Through slices, not the `Vec`s: for all the compiler knows, a store into a
-        // `Vec`'s buffer may overwrite that `Vec`'s own pointer and length (both live in
-        // `scratch`), so it reloaded them and redid the bounds checks after every store:
-        // ~60 instructions per edge, 34 with slices (BENCHMARKS.md). The same holds in
-        // the loops below.
-        let (slot, uses) = (&mut slot[..], &mut welded[..]);
-        for (e, end) in sil.iter().zip(ends.iter_mut()) {
-            let mut number = |v: u32| {
-                let old = slot[v as usize];
-                let new = old == UNNUMBERED;
-                uses[numbered] = v;
-                let id = if new { numbered as u32 } else { old };
-                slot[v as usize] = id;
-                numbered += usize::from(new);
-                id
-            };
-            *end = [number(e.a), number(e.b)];
+impl Scratch {
+    /// Numbers the silhouette vertices in order of first use (as `build_impl`): fills
+    /// `welded` (the welded vertex of each silhouette vertex) and `ends` (each silhouette
+    /// edge's two silhouette-vertex numbers), and marks the numbered entries of `slot`
+    /// until `release`. Numbering first and projecting afterwards keeps the bookkeeping
+    /// and the arithmetic in separate tight loops.
+    fn number(&mut self, nv: usize, sil: &[SilhouetteEdge]) {
+        let Scratch {
+            slot,
+            dirty,
+            welded,
+            ends,
+            ..
+        } = self;
+        if *dirty {
+            slot.fill(UNNUMBERED);
         }
+        *dirty = true;
+        if slot.len() < nv {
+            slot.resize(nv, UNNUMBERED);
+        }
+        welded.clear();
+        welded.resize(2 * sil.len(), 0);
+        ends.clear();
+        ends.resize(sil.len(), [0; 2]);
+        let mut numbered = 0usize;
+        {
+            // Through slices, not the `Vec`s: for all the compiler knows, a store into a
+            // `Vec`'s buffer may overwrite that `Vec`'s own pointer and length (both live in
+            // `scratch`), so it reloaded them and redid the bounds checks after every store:
+            // ~60 instructions per edge, 34 with slices (BENCHMARKS.md). The same holds in
+            // the later steps.
+            let (slot, uses) = (&mut slot[..], &mut welded[..]);
+            for (e, end) in sil.iter().zip(ends.iter_mut()) {
+                // Branch-free: every vertex is new at exactly one of its (usually two)
+                // uses, so "is it new" is a coin toss to the branch predictor; `uses` is
+                // written at every use and advanced only at the first.
+                let mut number = |v: u32| {
+                    let old = slot[v as usize];
+                    let new = old == UNNUMBERED;
+                    uses[numbered] = v;
+                    let id = if new { numbered as u32 } else { old };
+                    slot[v as usize] = id;
+                    numbered += usize::from(new);
+                    id
+                };
+                *end = [number(e.a), number(e.b)];
+            }
+        }
+        welded.truncate(numbered);
     }
-    welded.truncate(numbered);
-    // Clip coordinates per silhouette vertex: linear in the world point, so an edge's
-    // midpoint needs no projection of its own.
-    // The later loops read only these two arrays per vertex (32 bytes): the world point
-    // is recomputed where the rare fallbacks need it (`edge_dir`, hairpins).
-    // `LightView::project` and `Projector::project`, operation for operation. Each array
-    // by an `extend` of a mapped slice iterator, whose length is known: one reservation
-    // and plain stores, no capacity test or length update per element.
+
+    /// Returns `slot` to all UNNUMBERED, so that the next call starts from a clean table
+    /// without clearing a slot per welded vertex.
+    fn release(&mut self) {
+        for &v in self.welded.iter() {
+            self.slot[v as usize] = UNNUMBERED;
+        }
+        self.dirty = false;
+    }
+}
+
+/// The vertex records, one per silhouette vertex (`welded`), and their clip coordinates
+/// in `clips`. The clip coordinates are kept because they are linear in the world point:
+/// an edge's midpoint needs no projection of its own (`edge_dir`). The later steps read
+/// only these two arrays per vertex (32 bytes); the world point is recomputed where the
+/// rare fallbacks need it (`edge_dir`, hairpins). `LightView::project` and
+/// `Projector::project`, operation for operation.
+fn project(
+    adj: &Adjacency,
+    pr: &Projector,
+    light: &LightView,
+    width: Width,
+    welded: &[u32],
+    clips: &mut Vec<Vec4>,
+) -> Vec<VertexRecord> {
+    // Each array by an `extend` of a mapped slice iterator, whose length is known: one
+    // reservation and plain stores, no capacity test or length update per element.
     clips.clear();
     clips.extend(
         welded
             .iter()
             .map(|&v| light.view_proj * pr.world(adj.positions[v as usize]).extend(1.0)),
     );
-    rec.vertices.extend(clips.iter().map(|&c| {
+    let mut vertices = Vec::new();
+    vertices.extend(clips.iter().map(|&c| {
         // x / w, y / w and 1 / w in one division (each lane rounds as its own would).
         let q = Vec4::new(c.x, c.y, 1.0, 1.0) / c.w;
         let (s, z) = (q.xy() * 0.5 + Vec2::splat(0.5), c.w);
@@ -463,38 +498,69 @@ fn build_with(
             VertexRecord::default()
         }
     }));
+    vertices
+}
 
-    // Edges, in silhouette order. Per silhouette vertex, the number of kept incident edges
-    // (saturating) and the first two of them in silhouette order: all a corner needs.
+/// The edge records, in silhouette order (edges `edge_dir` drops are left out), and per
+/// silhouette vertex in `scratch.incident` the number of kept incident edges (saturating)
+/// and the first two of them in silhouette order: all a corner needs, gathered here so
+/// that the corner step never looks at the edges again.
+fn kept_edges(
+    adj: &Adjacency,
+    pr: &Projector,
+    normals: &NormalProjector,
+    sil: &[SilhouetteEdge],
+    scratch: &mut Scratch,
+    vertices: &[VertexRecord],
+) -> Vec<EdgeRecord> {
+    let Scratch {
+        ends,
+        clips,
+        incident,
+        welded,
+        ..
+    } = scratch;
     incident.clear();
     incident.resize(welded.len(), Incident::default());
-    // Pushed into a local `Vec` (one that only this loop can reach, unlike `rec.edges`),
-    // reading the other arrays through slices.
+    // Pushed into a local `Vec` (one that only this loop can reach, unlike the records'
+    // fields), reading the other arrays through slices.
     let mut edges = Vec::with_capacity(sil.len());
-    {
-        let (vertices, clips, incident) = (&rec.vertices[..], &clips[..], &mut incident[..]);
-        for (i, (e, &[a, b])) in sil.iter().zip(ends.iter()).enumerate() {
-            let ends = [&vertices[a as usize], &vertices[b as usize]];
-            let clip = [clips[a as usize], clips[b as usize]];
-            if let Some(d) = edge_dir(adj, &pr, normals.clip(adj, &pr, e), e, ends, clip) {
-                edges.push(EdgeRecord {
-                    a,
-                    b,
-                    dir: d.to_array(),
-                });
-                for c in [a, b] {
-                    incident[c as usize].add(i as u32, d);
-                }
+    let (clips, incident) = (&clips[..], &mut incident[..]);
+    for (i, (e, &[a, b])) in sil.iter().zip(ends.iter()).enumerate() {
+        let ends = [&vertices[a as usize], &vertices[b as usize]];
+        let clip = [clips[a as usize], clips[b as usize]];
+        if let Some(d) = edge_dir(adj, pr, normals.clip(adj, pr, e), e, ends, clip) {
+            edges.push(EdgeRecord {
+                a,
+                b,
+                dir: d.to_array(),
+            });
+            for c in [a, b] {
+                incident[c as usize].add(i as u32, d);
             }
         }
     }
-    rec.edges = edges;
-    rec.skipped_edges = sil.len() - rec.edges.len();
+    edges
+}
 
-    // Corners in silhouette-vertex order (the order of first use), so that every per-vertex
-    // array is read front to back. `build_smoothies_width` goes by welded vertex index; the
-    // fans are the same, in another order, which the smoothie pass cannot see (both of its
-    // attachments blend with MIN).
+/// The fan records and segment words, and the corner counts, in silhouette-vertex order
+/// (the order of first use), so that every per-vertex array is read front to back.
+/// `build_smoothies_width` goes by welded vertex index; the fans are the same, in another
+/// order, which the smoothie pass cannot see (both of its attachments blend with MIN).
+fn build_corners(
+    adj: &Adjacency,
+    pr: &Projector,
+    sil: &[SilhouetteEdge],
+    scratch: &mut Scratch,
+    rec: &mut SmoothieRecords,
+) {
+    let Scratch {
+        welded,
+        clips,
+        incident,
+        arcs,
+        ..
+    } = scratch;
     // Every vertex's arc from its first to its second edge (used by two-edge corners), in a
     // loop of its own: no pushes and no branches, so that the vertices' divisions and
     // polynomials overlap.
@@ -522,16 +588,11 @@ fn build_with(
             inc,
             arc,
         };
-        if let Some(special) = corner.build(adj, &pr, sil, &mut rec) {
+        if let Some(special) = corner.build(adj, pr, sil, rec) {
             rec.corners += 1;
             rec.special_vertices += usize::from(special);
         }
     }
-    for &v in welded.iter() {
-        slot[v as usize] = UNNUMBERED;
-    }
-    *dirty = false;
-    rec
 }
 
 /// A silhouette vertex's kept incident edges: how many (saturating at 3) and the first two

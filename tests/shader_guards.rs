@@ -1,0 +1,278 @@
+//! The shaders' numeric guards, run through the production GLSL: each glsl/tests/*.comp
+//! harness includes the very function a pass calls, evaluates it at inputs from a storage
+//! buffer and writes what it returns, and these tests check the outputs just inside and
+//! just outside each guard. A render cannot catch these guards (no scene puts a fragment
+//! within 1e-4 relative of contact), and a Rust copy of a formula cannot fail when the
+//! shader changes.
+
+mod common;
+
+use common::Gpu;
+use softshadow::shaders;
+use softshadow::vk::{
+    read_buffer, Buffer, BufferUsageFlags, DescriptorSet, FrameRunner, MemoryLocation, Pipeline,
+    Resource,
+};
+
+/// glsl/penumbra_map/wedge.glsl: `CONTACT_EPS`.
+const CONTACT_EPS: f32 = 1e-4;
+/// glsl/smoothies/alpha.glsl: `REMAP_EPS`.
+const REMAP_EPS: f32 = 1e-4;
+
+/// Runs the compute harness `spirv` once per input (one invocation each) and returns its
+/// outputs. `frame` adds the Frame uniform block at binding 0 for harnesses whose include
+/// declares it (unread: the guards take no frame constants).
+fn run(gpu: &Gpu, name: &str, spirv: &[u8], frame: bool, inputs: &[[f32; 4]]) -> Vec<[f32; 4]> {
+    let ctx = &gpu.ctx;
+    let bytes = std::mem::size_of_val(inputs) as u64;
+    let mut input = Buffer::new(
+        ctx,
+        bytes,
+        BufferUsageFlags::STORAGE_BUFFER,
+        MemoryLocation::CpuToGpu,
+        "guard inputs",
+    )
+    .unwrap();
+    input.write(0, bytemuck::cast_slice(inputs)).unwrap();
+    let output = Buffer::new(
+        ctx,
+        bytes,
+        BufferUsageFlags::STORAGE_BUFFER | BufferUsageFlags::TRANSFER_SRC,
+        MemoryLocation::GpuOnly,
+        "guard outputs",
+    )
+    .unwrap();
+    let mut uniforms = Buffer::new(
+        ctx,
+        512,
+        BufferUsageFlags::UNIFORM_BUFFER,
+        MemoryLocation::CpuToGpu,
+        "frame (unread)",
+    )
+    .unwrap();
+    uniforms.write(0, &[0u8; 512]).unwrap();
+    let mut named = Vec::new();
+    if frame {
+        named.push(("frame", Resource::Uniform(&uniforms)));
+    }
+    named.push(("Inputs", Resource::Storage(&input)));
+    named.push(("Outputs", Resource::Storage(&output)));
+    let set = DescriptorSet::new(ctx, &named, name).unwrap_or_else(|e| panic!("{e:#}"));
+    let pipeline =
+        Pipeline::compute(ctx, name, spirv, &[&set], 0).unwrap_or_else(|e| panic!("{e:#}"));
+    let mut runner = FrameRunner::new(ctx, 1).unwrap();
+    runner
+        .run(|rec| {
+            rec.bind_pipeline(&pipeline);
+            rec.bind_sets(&pipeline, &[&set]);
+            rec.dispatch(inputs.len() as u32, 1, 1);
+            Ok(())
+        })
+        .unwrap_or_else(|e| panic!("{e:#}"));
+    read_buffer(ctx, &mut runner, &output).unwrap_or_else(|e| panic!("{e:#}"))
+}
+
+/// Penumbra maps (`eq1_depths`, used by penumbra_map/penumbra.frag and, through
+/// `clear_of_contact`, penumbra_map_centred/*.frag): a receiver less than CONTACT_EPS Z_P
+/// behind the silhouette point (or in front of it, or at a NaN depth) is discarded, one
+/// twice that far is kept; so are the far-texel and behind-the-surface discards.
+#[test]
+fn penumbra_map_contact_guard() {
+    let gpu = Gpu::new();
+    let zp = 10.0f32;
+    let zv = |denom: f32| zp - denom;
+    let cases: &[([f32; 4], bool, &str)] = &[
+        (
+            [zp, 5.0, zv(2.0 * CONTACT_EPS * zp), 1.0],
+            true,
+            "2 eps behind",
+        ),
+        (
+            [zp, 5.0, zv(0.5 * CONTACT_EPS * zp), 1.0],
+            false,
+            "eps / 2 behind",
+        ),
+        ([zp, 5.0, zp, 1.0], false, "at contact"),
+        ([zp, 5.0, zp + 1.0, 1.0], false, "in front of v"),
+        ([zp, 5.0, f32::NAN, 1.0], false, "NaN Z_v"),
+        (
+            [zp, zp + 1.0, 5.0, 1.0],
+            false,
+            "fragment behind the surface",
+        ),
+        ([1.0e30, 5.0, 4.0, 1.0], false, "far texel"),
+        ([zp, 5.0, 8.0, 2.0], true, "k = 2: Z_v = 4"),
+    ];
+    let inputs: Vec<[f32; 4]> = cases.iter().map(|c| c.0).collect();
+    let out = run(
+        &gpu,
+        "eq1_depths",
+        shaders::TESTS_EQ1_DEPTHS_COMP,
+        true,
+        &inputs,
+    );
+    for ((input, kept, what), o) in cases.iter().zip(&out) {
+        assert_eq!(o[0] == 1.0, *kept, "{what}: {input:?} gave {o:?}");
+    }
+    // The denominator is Z_P - Zv k / k.
+    assert_eq!(out[7][1], zp - 4.0);
+    assert!(
+        (out[0][1] - 2.0 * CONTACT_EPS * zp).abs() < 1e-6,
+        "{:?}",
+        out[0]
+    );
+}
+
+/// Smoothies (`smoothie_alpha`, smoothies/smoothie.frag): a smoothie behind the surface
+/// (f = b / r > 1) or at or past its outer side (distance >= t) is discarded; within
+/// REMAP_EPS of b = r the remap is not trusted and alpha' = 1, elsewhere alpha' =
+/// min(alpha / (1 - f), 1).
+#[test]
+fn smoothie_remap_guards() {
+    let gpu = Gpu::new();
+    let t = 0.5f32;
+    let cases: &[([f32; 4], Option<f32>, &str)] = &[
+        ([1.01, 0.0, t, 0.0], None, "f = 1.01: behind the surface"),
+        ([1.0, 0.0, t, 0.0], Some(1.0), "f = 1: contact, alpha' = 1"),
+        (
+            [1.0 - REMAP_EPS / 2.0, 0.0, t, 0.0],
+            Some(1.0),
+            "1 - f = eps / 2",
+        ),
+        (
+            [1.0 - 2.0 * REMAP_EPS, 0.0, t, 0.0],
+            Some(0.0),
+            "1 - f = 2 eps: remapped",
+        ),
+        ([0.5, 0.1, t, 0.0], Some(0.4), "f = 0.5: alpha 0.2 / 0.5"),
+        (
+            [0.5, 0.4, t, 0.0],
+            Some(1.0),
+            "f = 0.5: alpha 0.8 / 0.5, clamped",
+        ),
+        ([0.5, t, t, 0.0], None, "at the outer side"),
+        ([0.5, 1.01 * t, t, 0.0], None, "past the outer side"),
+    ];
+    let inputs: Vec<[f32; 4]> = cases.iter().map(|c| c.0).collect();
+    let out = run(
+        &gpu,
+        "smoothie_alpha",
+        shaders::TESTS_SMOOTHIE_ALPHA_COMP,
+        false,
+        &inputs,
+    );
+    for ((input, expected, what), o) in cases.iter().zip(&out) {
+        match expected {
+            None => assert_eq!(o[0], 0.0, "{what}: {input:?} kept: {o:?}"),
+            Some(a) => {
+                assert_eq!(o[0], 1.0, "{what}: {input:?} discarded: {o:?}");
+                assert!(
+                    (o[1] - a).abs() < 1e-6,
+                    "{what}: {input:?} gave {o:?}, not {a}"
+                );
+            }
+        }
+    }
+}
+
+fn next_up(x: f32) -> f32 {
+    f32::from_bits(x.to_bits() + 1)
+}
+fn next_down(x: f32) -> f32 {
+    f32::from_bits(x.to_bits() - 1)
+}
+
+/// Over depths from 1e-3 to 1e4 at and one ulp either side of contact: every kept smoothie
+/// fragment writes a finite alpha' in [0, 1], and only a smoothie behind the surface or
+/// past its outer side is discarded; every kept penumbra-map fragment has a positive,
+/// finite denominator (also with a degenerate k, which `fragment_zv` bounds).
+#[test]
+fn guards_keep_outputs_finite_at_contact() {
+    let gpu = Gpu::new();
+    let t = 0.02f32;
+    let mut inputs = Vec::new();
+    for r in [1e-3f32, 0.5, 1.0, 7.0, 1e4] {
+        for b in [r, next_down(r), next_up(r), next_down(next_down(r))] {
+            for dist in [0.0f32, 1e-7, 0.01, 0.5, 1.0, 5.0] {
+                inputs.push([b / r, dist, t, 0.0]);
+            }
+        }
+    }
+    let out = run(
+        &gpu,
+        "smoothie_alpha",
+        shaders::TESTS_SMOOTHIE_ALPHA_COMP,
+        false,
+        &inputs,
+    );
+    for (x, o) in inputs.iter().zip(&out) {
+        if o[0] == 1.0 {
+            assert!(
+                o[1].is_finite() && (0.0..=1.0).contains(&o[1]),
+                "{x:?}: {o:?}"
+            );
+        } else {
+            assert!(x[0] > 1.0 || x[1] >= t, "{x:?} discarded");
+        }
+    }
+    let mut inputs = Vec::new();
+    for zp in [1e-3f32, 1.0, 10.0, 1e4] {
+        for zv in [zp, next_down(zp), next_up(zp), zp * (1.0 - 1e-5), 0.0] {
+            for zf in [zv, zp, zp * 0.5, next_down(zp)] {
+                for k in [1.0f32, 1e-20, 0.0] {
+                    inputs.push([zp, zf, zv * k, k]);
+                }
+            }
+        }
+    }
+    let out = run(
+        &gpu,
+        "eq1_depths",
+        shaders::TESTS_EQ1_DEPTHS_COMP,
+        true,
+        &inputs,
+    );
+    for (x, o) in inputs.iter().zip(&out) {
+        if o[0] == 1.0 {
+            assert!(
+                o[1].is_finite() && o[1] > CONTACT_EPS * x[0],
+                "{x:?}: {o:?}"
+            );
+        }
+    }
+}
+
+/// Smoothies-centred's outer smoothies (`outer_fraction`, smoothies_centred/outer.frag):
+/// within REMAP_EPS of contact s = 1 (lit, no division by ~0), elsewhere s = min(max(x, 0)
+/// / (t (1 - b/r)), 1).
+#[test]
+fn centred_smoothie_remap_guard() {
+    let gpu = Gpu::new();
+    let t = 0.5f32;
+    let cases: &[([f32; 4], f32, &str)] = &[
+        ([0.0, t, 0.0, 0.0], 1.0, "contact"),
+        ([0.0, t, REMAP_EPS / 2.0, 0.0], 1.0, "1 - f = eps / 2"),
+        (
+            [0.0, t, 2.0 * REMAP_EPS, 0.0],
+            0.0,
+            "1 - f = 2 eps: remapped",
+        ),
+        ([0.1, t, 0.5, 0.0], 0.4, "0.1 / (0.5 0.5)"),
+        ([-0.1, t, 0.5, 0.0], 0.0, "inside the hard edge"),
+        ([0.4, t, 0.5, 0.0], 1.0, "clamped"),
+    ];
+    let inputs: Vec<[f32; 4]> = cases.iter().map(|c| c.0).collect();
+    let out = run(
+        &gpu,
+        "centred_remap",
+        shaders::TESTS_CENTRED_REMAP_COMP,
+        false,
+        &inputs,
+    );
+    for ((input, s, what), o) in cases.iter().zip(&out) {
+        assert!(
+            (o[0] - s).abs() < 1e-6,
+            "{what}: {input:?} gave {o:?}, not {s}"
+        );
+    }
+}

@@ -276,3 +276,69 @@ fn centred_smoothie_remap_guard() {
         );
     }
 }
+
+/// PCSS (glsl/pcss/radii.glsl, called by pcss/search.glsl for `pcss` and `pcss-fast`): both
+/// radii stay finite and in [0, max] from a receiver just past the near plane to one 1e7
+/// times farther, and with blockers from just in front of the receiver to 1e4 times closer;
+/// no filter radius without a blocker. Spot values pin the formulas (Eq. 3, Eq. 1 with 4).
+#[test]
+fn pcss_radii_stay_finite_and_in_range() {
+    let gpu = Gpu::new();
+    let next_down = |x: f32| f32::from_bits(x.to_bits() - 1);
+    let mut inputs = Vec::new();
+    for d_r in [1e-4f32, 1e-3, 1.0, 1e3] {
+        for near in [d_r * 0.999, d_r * 1e-4] {
+            for (sum, n) in [
+                (0.0f32, 0.0f32),
+                (d_r * 0.5, 1.0),
+                (next_down(d_r) * 4.0, 4.0),
+                (d_r * 1e-4, 1.0),
+            ] {
+                inputs.push([d_r, near, sum, n]);
+            }
+        }
+    }
+    // Spot values (the harness's light_uv_near 0.2, penumbra scale 0.05, 256 texels, max
+    // 32): d_r 2, near 1: search 0.2 (2 - 1) / 2 256 = 25.6 texels; one blocker at 1: filter
+    // 0.05 (2 - 1) / (1 2) 256 = 6.4; a blocker at 0.01 and a near plane at 1e-4 d_r clamp
+    // both to 32.
+    let spots = [
+        ([2.0f32, 1.0, 1.0, 1.0], 25.6f32, 6.4f32),
+        ([2.0, 2e-4, 0.01, 1.0], 32.0, 32.0),
+    ];
+    inputs.extend(spots.iter().map(|s| s.0));
+    let out = run(
+        &gpu,
+        "pcss_radii",
+        shaders::TESTS_PCSS_RADII_COMP,
+        false,
+        &inputs,
+    );
+    for (input, o) in inputs.iter().zip(&out) {
+        let (search, filter) = (o[0], o[1]);
+        assert!(
+            search.is_finite() && (0.0..=32.0).contains(&search),
+            "{input:?}: search {search}"
+        );
+        if input[3] > 0.0 {
+            assert!(
+                filter.is_finite() && (0.0..=32.0).contains(&filter),
+                "{input:?}: filter {filter}"
+            );
+        } else {
+            assert_eq!(filter, -1.0, "{input:?}: a filter radius without a blocker");
+        }
+    }
+    for ((input, search, filter), o) in spots.iter().zip(&out[out.len() - spots.len()..]) {
+        assert!(
+            (o[0] - search).abs() < 1e-4,
+            "{input:?}: search {} not {search}",
+            o[0]
+        );
+        assert!(
+            (o[1] - filter).abs() < 1e-4,
+            "{input:?}: filter {} not {filter}",
+            o[1]
+        );
+    }
+}

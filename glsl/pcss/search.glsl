@@ -5,6 +5,7 @@
 #define PCSS_SEARCH_GLSL
 #include "pcf/filter.glsl"
 #include "pcss/constants.glsl"
+#include "pcss/radii.glsl"
 
 // RG32F, MIN-blended, no depth attachment (gpu::passes::ShadowMap): r = nearest caster's
 // linear depth, the one searched and compared here.
@@ -13,10 +14,8 @@ layout(set = 0, binding = 1) uniform sampler2D shadow_map;
 // Blocker-search radius in texels (Eq. 3): the light's projection through the receiver onto
 // the near plane, clamped to the largest radius.
 float pcss_search_radius(LightSample s) {
-    float near = frame.light_params.x;
-    float d_r = s.depth;
-    return min(PCSS_LIGHT_UV_NEAR * max(d_r - near, 0.0) / d_r * frame.light_params.z,
-               PCSS_MAX_RADIUS_TEXELS);
+    return pcss_search_texels(PCSS_LIGHT_UV_NEAR, s.depth, frame.light_params.x,
+                              frame.light_params.z, PCSS_MAX_RADIUS_TEXELS);
 }
 
 // Steps 1 to 3 for a point inside the light frustum; `rp` is its receiver plane over the
@@ -44,7 +43,7 @@ float pcss_visibility(LightSample s, ReceiverPlane rp, float search) {
     float d_b = depth_sum / blockers;
 
     // Step 2, penumbra estimate (Eq. 1) in world units at the receiver, as uv (Eq. 4).
-    float radius = min(PCSS_PENUMBRA_SCALE * (d_r - d_b) / (d_b * d_r) * res, max_texels);
+    float radius = pcss_filter_texels(PCSS_PENUMBRA_SCALE, d_r, d_b, res, max_texels);
 
     // Step 3, PCF over a Poisson disc of that radius; each tap is a 2x2 bilinear footprint.
     // A point light (R = 0) leaves one 2x2 footprint: the `hard` result, one tap.

@@ -1316,37 +1316,8 @@ fn failure_images(
     ])
 }
 
-/// A Rust mirror of PCSS's radii (glsl/pcss/final.frag), unit-tested at its edges; keep it
-/// in step with the GLSL. The smoothie and penumbra-map guards are tested through their
-/// GLSL instead (tests/shader_guards.rs).
-pub mod guards {
-    /// glsl/pcss/final.frag: the blocker-search radius (Eq. 3) and the penumbra radius
-    /// (Eq. 1) in texels, both clamped to `max_texels`. `d_b` is the mean blocker depth,
-    /// only formed when at least one blocker was found (`blockers > 0`), so d_b > 0.
-    #[allow(clippy::too_many_arguments)]
-    pub fn pcss_radii(
-        uv_radius_near: f32,
-        r_over_2tan: f32,
-        max_texels: f32,
-        near: f32,
-        res: f32,
-        d_r: f32,
-        depth_sum: f32,
-        blockers: f32,
-    ) -> (f32, Option<f32>) {
-        let search = (uv_radius_near * (d_r - near).max(0.0) / d_r * res).min(max_texels);
-        if blockers == 0.0 {
-            return (search, None);
-        }
-        let d_b = depth_sum / blockers;
-        let radius = (r_over_2tan * (d_r - d_b) / (d_b * d_r) * res).min(max_texels);
-        (search, Some(radius))
-    }
-}
-
 #[cfg(test)]
 mod tests {
-    use super::guards::*;
     use super::*;
 
     fn errs(mae_lit: f64, lit_pixels: usize, mae_shadow: f64) -> Errors {
@@ -1386,37 +1357,6 @@ mod tests {
             .threshold
             .contains("mae_shadow (no shadow pixel faces the light) <= 0.3"));
         assert!(judged(errs(0.0, 0, 0.2)).pass);
-    }
-
-    fn next_down(x: f32) -> f32 {
-        f32::from_bits(x.to_bits() - 1)
-    }
-
-    #[test]
-    fn pcss_divisions_are_finite() {
-        // d_r > near always (light_sample's inside test); blockers > 0 before d_b is formed.
-        for d_r in [1e-4f32, 1e-3, 1.0, 1e3] {
-            for near in [d_r * 0.999, d_r * 1e-4] {
-                for (sum, n) in [
-                    (0.0f32, 0.0f32),
-                    (d_r * 0.5, 1.0),
-                    (next_down(d_r) * 4.0, 4.0),
-                    (d_r * 1e-4, 1.0),
-                ] {
-                    let (search, radius) = pcss_radii(0.1, 0.05, 32.0, near, 256.0, d_r, sum, n);
-                    assert!(search.is_finite() && (0.0..=32.0).contains(&search));
-                    if let Some(r) = radius {
-                        assert!(r.is_finite() && r <= 32.0, "d_r {d_r} sum {sum} n {n}: {r}");
-                        assert!(
-                            r >= 0.0,
-                            "blocker behind the receiver would need a guard: {r}"
-                        );
-                    } else {
-                        assert_eq!(n, 0.0);
-                    }
-                }
-            }
-        }
     }
 
     #[test]

@@ -1,8 +1,8 @@
 //! The stress suite (`softshadow stress`): the quick variant passes on lavapipe, bad names
 //! fail clearly, and property tests over random triangles and lights: every technique's
 //! visibility is finite and in [0,1], and R = 0 equals hard shadows. The shader guards are
-//! tested through the shaders in tests/guards.rs; src/eval/stress.rs keeps unit tests of
-//! Rust mirrors of the formulas (`guards`) at their edges.
+//! tested through the shaders: rendered in tests/guards.rs, and each guarded function run
+//! at the edges of its domain in tests/shader_guards.rs.
 
 mod common;
 use common::{small, Gpu};

@@ -206,6 +206,115 @@ pub fn smoothie_width(fixed: Option<f32>, scene: &Scene, light: &LightView, radi
     width.at(light.linear_depth((b.min + b.max) * 0.5).max(light.near))
 }
 
+/// The smoothie pass's value attachment: the paper's remapped alpha, or the centred form's
+/// penumbra values (see `Smoothies::smoothie_targets`).
+fn value_target(form: Form) -> (&'static str, Format) {
+    match form {
+        Form::Paper => ("smoothie alpha", Format::R16_SFLOAT),
+        Form::Centred => ("smoothie penumbra", Format::R16G16B16A16_SFLOAT),
+    }
+}
+
+/// The smoothie pass's pipelines, all drawing into `smoothie_targets` with MIN blending: the
+/// GPU path's (paper form; expanded `SmoothieVertex`es as vertex input), the CPU path's two
+/// (edge quads, then corner fans, pulled from the records) and, for the centred form, the
+/// same two with the inner smoothies' fragment shader.
+struct SmoothiePipelines {
+    gpu: Option<Pipeline>,
+    records: [Pipeline; 2],
+    inner: Option<[Pipeline; 2]>,
+}
+
+impl SmoothiePipelines {
+    fn new(
+        init: &TechniqueInit<'_>,
+        form: Form,
+        smoothie_set: &DescriptorSet,
+        records_set: &DescriptorSet,
+    ) -> Result<Self> {
+        let name = form.smoothie_names().smoothie;
+        let (outer, inner) = match form {
+            Form::Paper => {
+                let paper = init.settings.spirv.pick(
+                    shaders::SMOOTHIES_SMOOTHIE_FRAG,
+                    shaders::SMOOTHIES_SMOOTHIE_FRAG_SPVASM,
+                );
+                (paper, None)
+            }
+            Form::Centred => (
+                shaders::SMOOTHIES_CENTRED_OUTER_FRAG,
+                Some(shaders::SMOOTHIES_CENTRED_INNER_FRAG),
+            ),
+        };
+        let colors = [
+            (Format::R32_SFLOAT, Blend::Min),
+            (value_target(form).1, Blend::Min),
+        ];
+        let pipeline = |vertex: &[u8],
+                        fragment: &[u8],
+                        input: (u32, &[crate::vk::Attribute]),
+                        push: u32,
+                        sets: &[&DescriptorSet]| {
+            Pipeline::graphics(
+                init.ctx,
+                &GraphicsPipelineDesc {
+                    name,
+                    vertex,
+                    fragment: Some(fragment),
+                    vertex_stride: input.0,
+                    attributes: input.1,
+                    topology: PrimitiveTopology::TRIANGLE_LIST,
+                    // Smoothie quads and fans are built in 2-D with either winding.
+                    cull: CullModeFlags::NONE,
+                    colors: &colors,
+                    depth: None,
+                    push_constant_bytes: push,
+                    sets,
+                },
+            )
+        };
+        let gpu = match form {
+            Form::Paper => Some(pipeline(
+                shaders::SMOOTHIES_SMOOTHIE_VERT,
+                outer,
+                (SMOOTHIE_VERTEX_BYTES, SMOOTHIE_ATTRIBUTES),
+                0,
+                &[smoothie_set],
+            )?),
+            Form::Centred => None,
+        };
+        // Vertex pulling from the records: no vertex input.
+        let records_with = |fragment: &[u8]| -> Result<[Pipeline; 2]> {
+            let sets = [smoothie_set, records_set];
+            Ok([
+                pipeline(
+                    shaders::SMOOTHIES_SMOOTHIE_EDGES_VERT,
+                    fragment,
+                    (0, &[]),
+                    RECORDS_PUSH_BYTES,
+                    &sets,
+                )?,
+                pipeline(
+                    shaders::SMOOTHIES_SMOOTHIE_FANS_VERT,
+                    fragment,
+                    (0, &[]),
+                    RECORDS_PUSH_BYTES,
+                    &sets,
+                )?,
+            ])
+        };
+        let inner = match inner {
+            Some(fragment) => Some(records_with(fragment)?),
+            None => None,
+        };
+        Ok(Self {
+            gpu,
+            records: records_with(outer)?,
+            inner,
+        })
+    }
+}
+
 pub struct Smoothies {
     form: Form,
     shadow: ShadowMap,
@@ -252,44 +361,11 @@ impl Smoothies {
         let ctx = init.ctx;
         let res = init.settings.shadow_res;
         let names = form.smoothie_names();
-        let (value_name, value_format, fragments) = match form {
-            Form::Paper => (
-                "smoothie alpha",
-                Format::R16_SFLOAT,
-                [init.settings.spirv.pick(
-                    shaders::SMOOTHIES_SMOOTHIE_FRAG,
-                    shaders::SMOOTHIES_SMOOTHIE_FRAG_SPVASM,
-                ); 2],
-            ),
-            Form::Centred => (
-                "smoothie penumbra",
-                Format::R16G16B16A16_SFLOAT,
-                [
-                    shaders::SMOOTHIES_CENTRED_OUTER_FRAG,
-                    shaders::SMOOTHIES_CENTRED_INNER_FRAG,
-                ],
-            ),
-        };
-        for f in [Format::R32_SFLOAT, value_format] {
-            if !ctx.supports_blend(f) {
-                anyhow::bail!(
-                    "{} cannot MIN-blend {f:?} attachments, which {} needs",
-                    ctx.device_name,
-                    names.technique
-                );
-            }
-        }
         let shadow = ShadowMap::new(ctx, init.ubo, res, names.shadow_map)?;
-        let usage = ImageUsageFlags::COLOR_ATTACHMENT
-            | ImageUsageFlags::SAMPLED
-            | ImageUsageFlags::TRANSFER_SRC;
-        let smoothie_depth =
-            Image::new_2d(ctx, res, res, Format::R32_SFLOAT, usage, "smoothie depth")?;
-        let smoothie_alpha = Image::new_2d(ctx, res, res, value_format, usage, value_name)?;
+        let (smoothie_depth, smoothie_alpha) = Self::smoothie_targets(ctx, form, res)?;
         let nearest = Sampler::new(ctx, Filter::Nearest)?;
         let linear = Sampler::new(ctx, Filter::Linear)?;
         let falloff = falloff_lut(ctx)?;
-
         let smoothie_set = DescriptorSet::new(
             ctx,
             &[
@@ -298,118 +374,23 @@ impl Smoothies {
             ],
             names.smoothie,
         )?;
-        let colors = [(Format::R32_SFLOAT, Blend::Min), (value_format, Blend::Min)];
-        let pipeline = |vertex: &[u8],
-                        fragment: &[u8],
-                        input: (u32, &[crate::vk::Attribute]),
-                        push: u32,
-                        sets: &[&DescriptorSet]| {
-            Pipeline::graphics(
-                init.ctx,
-                &GraphicsPipelineDesc {
-                    name: names.smoothie,
-                    vertex,
-                    fragment: Some(fragment),
-                    vertex_stride: input.0,
-                    attributes: input.1,
-                    topology: PrimitiveTopology::TRIANGLE_LIST,
-                    // Smoothie quads and fans are built in 2-D with either winding.
-                    cull: CullModeFlags::NONE,
-                    colors: &colors,
-                    depth: None,
-                    push_constant_bytes: push,
-                    sets,
-                },
-            )
-        };
-        // GPU path (paper form): expanded `SmoothieVertex`es as vertex input.
-        let smoothie_pipeline = match form {
-            Form::Paper => Some(pipeline(
-                shaders::SMOOTHIES_SMOOTHIE_VERT,
-                fragments[0],
-                (SMOOTHIE_VERTEX_BYTES, SMOOTHIE_ATTRIBUTES),
-                0,
-                &[&smoothie_set],
-            )?),
-            Form::Centred => None,
-        };
-        // CPU path: vertex pulling from the records, no vertex input.
         let records = DynamicVertices::storage(ctx, "smoothie records")?;
         let records_set = Self::records_set(ctx, &records)?;
-        let records_pipelines_with = |fragment: &[u8]| -> Result<[Pipeline; 2]> {
-            let sets = [&smoothie_set, &records_set];
-            Ok([
-                pipeline(
-                    shaders::SMOOTHIES_SMOOTHIE_EDGES_VERT,
-                    fragment,
-                    (0, &[]),
-                    RECORDS_PUSH_BYTES,
-                    &sets,
-                )?,
-                pipeline(
-                    shaders::SMOOTHIES_SMOOTHIE_FANS_VERT,
-                    fragment,
-                    (0, &[]),
-                    RECORDS_PUSH_BYTES,
-                    &sets,
-                )?,
-            ])
-        };
-        let inner_pipelines = match form {
-            Form::Paper => None,
-            Form::Centred => Some(records_pipelines_with(fragments[1])?),
-        };
-        let records_pipelines = records_pipelines_with(fragments[0])?;
-        let depth_resource = (
-            "smoothie_depth",
-            Resource::Sampled(&smoothie_depth, &nearest),
-        );
-        let final_set = match form {
-            Form::Paper => DescriptorSet::new(
-                ctx,
-                &[
-                    ("frame", Resource::Uniform(init.ubo)),
-                    ("shadow_map", Resource::Sampled(&shadow.depth, &nearest)),
-                    depth_resource,
-                    (
-                        "smoothie_alpha",
-                        Resource::Sampled(&smoothie_alpha, &nearest),
-                    ),
-                    ("falloff", Resource::Sampled(&falloff, &linear)),
-                ],
-                names.final_pass,
-            )?,
-            Form::Centred => DescriptorSet::new(
-                ctx,
-                &[
-                    ("frame", Resource::Uniform(init.ubo)),
-                    ("shadow_map", Resource::Sampled(&shadow.depth, &nearest)),
-                    depth_resource,
-                    (
-                        "smoothie_penumbra",
-                        Resource::Sampled(&smoothie_alpha, &nearest),
-                    ),
-                ],
-                names.final_pass,
-            )?,
-        };
-        let final_shader = match form {
-            Form::Paper => init.settings.spirv.pick(
-                FinalShader {
-                    color: shaders::SMOOTHIES_FINAL_FRAG,
-                    aov: shaders::SMOOTHIES_FINAL_FRAG_AOV,
-                },
-                FinalShader {
-                    color: shaders::SMOOTHIES_FINAL_FRAG_SPVASM,
-                    aov: shaders::SMOOTHIES_FINAL_FRAG_SPVASM_AOV,
-                },
-            ),
-            Form::Centred => FinalShader {
-                color: shaders::SMOOTHIES_CENTRED_FINAL_FRAG,
-                aov: shaders::SMOOTHIES_CENTRED_FINAL_FRAG_AOV,
-            },
-        };
-        let final_pass = FinalPass::new(ctx, names.final_pass, final_shader, &final_set)?;
+        let pipelines = SmoothiePipelines::new(init, form, &smoothie_set, &records_set)?;
+        let final_set = Self::final_set(
+            init,
+            form,
+            &shadow,
+            [&smoothie_depth, &smoothie_alpha, &falloff],
+            &nearest,
+            &linear,
+        )?;
+        let final_pass = FinalPass::new(
+            ctx,
+            names.final_pass,
+            Self::final_shader(init, form),
+            &final_set,
+        )?;
         let adjacency = silhouette::caster_adjacency(init.scene, |_| true)?;
         // The inner smoothies are built on the CPU only (records, `Side::Inner`).
         let path = match form {
@@ -425,10 +406,10 @@ impl Smoothies {
             shadow,
             smoothie_depth,
             smoothie_alpha,
-            smoothie_pipeline,
+            smoothie_pipeline: pipelines.gpu,
             smoothie_set,
-            records_pipelines,
-            inner_pipelines,
+            records_pipelines: pipelines.records,
+            inner_pipelines: pipelines.inner,
             records_set,
             final_pass,
             final_set,
@@ -443,6 +424,78 @@ impl Smoothies {
             gpu_silhouettes,
             draw_smoothies: false,
         }))
+    }
+
+    /// The smoothie pass's two attachments, both MIN-blended (each keeps the darkest
+    /// smoothie): R32F smoothie depth, and the paper's R16F alpha or the centred form's
+    /// RGBA16F penumbra values (outer visibility, inner occlusion, inner receiver nearness).
+    fn smoothie_targets(ctx: &Context, form: Form, res: u32) -> Result<(Image, Image)> {
+        let (value_name, value_format) = value_target(form);
+        for f in [Format::R32_SFLOAT, value_format] {
+            if !ctx.supports_blend(f) {
+                anyhow::bail!(
+                    "{} cannot MIN-blend {f:?} attachments, which {} needs",
+                    ctx.device_name,
+                    form.smoothie_names().technique
+                );
+            }
+        }
+        let usage = ImageUsageFlags::COLOR_ATTACHMENT
+            | ImageUsageFlags::SAMPLED
+            | ImageUsageFlags::TRANSFER_SRC;
+        let depth = Image::new_2d(ctx, res, res, Format::R32_SFLOAT, usage, "smoothie depth")?;
+        let value = Image::new_2d(ctx, res, res, value_format, usage, value_name)?;
+        Ok((depth, value))
+    }
+
+    /// The final pass's bindings: the shadow map and the smoothie buffer, plus the paper's
+    /// falloff curve (the centred form's disc-chord profile is computed in the shader).
+    /// `images` = (smoothie depth, smoothie value, falloff).
+    fn final_set(
+        init: &TechniqueInit<'_>,
+        form: Form,
+        shadow: &ShadowMap,
+        images: [&Image; 3],
+        nearest: &Sampler,
+        linear: &Sampler,
+    ) -> Result<DescriptorSet> {
+        let [depth, value, falloff] = images;
+        let mut bindings = vec![
+            ("frame", Resource::Uniform(init.ubo)),
+            ("shadow_map", Resource::Sampled(&shadow.depth, nearest)),
+            ("smoothie_depth", Resource::Sampled(depth, nearest)),
+        ];
+        match form {
+            Form::Paper => {
+                bindings.push(("smoothie_alpha", Resource::Sampled(value, nearest)));
+                bindings.push(("falloff", Resource::Sampled(falloff, linear)));
+            }
+            Form::Centred => {
+                bindings.push(("smoothie_penumbra", Resource::Sampled(value, nearest)))
+            }
+        }
+        DescriptorSet::new(init.ctx, &bindings, form.smoothie_names().final_pass)
+    }
+
+    /// The final pass's fragment shader: the paper's (hand-tuned SPIR-V under `--spirv
+    /// tuned`) or the centred form's.
+    fn final_shader(init: &TechniqueInit<'_>, form: Form) -> FinalShader {
+        match form {
+            Form::Paper => init.settings.spirv.pick(
+                FinalShader {
+                    color: shaders::SMOOTHIES_FINAL_FRAG,
+                    aov: shaders::SMOOTHIES_FINAL_FRAG_AOV,
+                },
+                FinalShader {
+                    color: shaders::SMOOTHIES_FINAL_FRAG_SPVASM,
+                    aov: shaders::SMOOTHIES_FINAL_FRAG_SPVASM_AOV,
+                },
+            ),
+            Form::Centred => FinalShader {
+                color: shaders::SMOOTHIES_CENTRED_FINAL_FRAG,
+                aov: shaders::SMOOTHIES_CENTRED_FINAL_FRAG_AOV,
+            },
+        }
     }
 
     /// The GPU path's compute passes and buffers, sized for the scene's own light (`prepare`

@@ -360,13 +360,89 @@ pub(crate) struct BackOccluderMap {
     pub name: String,
 }
 
+/// Passes 1–4 of every soft shadow map form (`ssm`, `ssm2` and the bitmask forms,
+/// src/technique/ssm_bitmask.rs): the occluder map, the back occluder map when two-sided,
+/// the receiver map and the receiver bound, named `NAME/occluder_map`, ...
+pub(crate) struct LightInputs {
+    name: &'static str,
+    pub occluder: ShadowMap,
+    pub back: Option<BackOccluderMap>,
+    pub receivers: ReceiverMap,
+    pub bound: ReceiverBound,
+}
+
+impl LightInputs {
+    pub fn new(
+        init: &TechniqueInit<'_>,
+        name: &'static str,
+        two_sided: bool,
+        nearest: &Sampler,
+    ) -> Result<Self> {
+        let (ctx, res) = (init.ctx, init.settings.occluder_res);
+        let occluder = ShadowMap::new(ctx, init.ubo, res, &format!("{name}/occluder_map"))
+            .with_context(|| format!("{name} occluder map"))?;
+        let back = match two_sided {
+            true => Some(
+                BackOccluderMap::new(ctx, init.ubo, res, name)
+                    .with_context(|| format!("{name} back occluder map"))?,
+            ),
+            false => None,
+        };
+        let receivers = ReceiverMap::new(ctx, init.ubo, res, name)
+            .with_context(|| format!("{name} receiver map"))?;
+        let bound = ReceiverBound::new(ctx, init.ubo, &receivers, nearest, name)
+            .with_context(|| format!("{name} receiver bound"))?;
+        Ok(Self {
+            name,
+            occluder,
+            back,
+            receivers,
+            bound,
+        })
+    }
+
+    fn pass_name(&self, pass: &str) -> String {
+        format!("{}/{pass}", self.name)
+    }
+
+    /// Passes 1–4, each timed.
+    pub fn record(&self, rec: &mut Recorder<'_>, frame: &FrameInput<'_>) -> Result<()> {
+        rec.pass(&self.pass_name("occluder_map"), |rec| {
+            self.occluder.record(rec, frame.gpu);
+            Ok(())
+        })?;
+        if let Some(back) = &self.back {
+            rec.pass(&back.name, |rec| {
+                back.record(rec, frame.gpu);
+                Ok(())
+            })?;
+        }
+        rec.pass(&self.pass_name("receiver_map"), |rec| {
+            self.receivers.record(rec, frame.gpu);
+            Ok(())
+        })?;
+        rec.pass(&self.pass_name("receiver_bound"), |rec| {
+            self.bound.record(rec);
+            Ok(())
+        })
+    }
+
+    /// The names of the passes `record` records, in order.
+    pub fn pass_names(&self) -> Vec<String> {
+        let mut names = vec![self.pass_name("occluder_map")];
+        if let Some(b) = &self.back {
+            names.push(b.name.clone());
+        }
+        names.push(self.pass_name("receiver_map"));
+        names.push(self.pass_name("receiver_bound"));
+        names
+    }
+}
+
 pub struct Ssm {
     name: &'static str,
     res: u32,
-    occluder: ShadowMap,
-    back: Option<BackOccluderMap>,
-    receivers: ReceiverMap,
-    bound: ReceiverBound,
+    inputs: LightInputs,
     soft_pipeline: Pipeline,
     front: SoftShadow,
     back_soft: Option<SoftShadow>,
@@ -397,21 +473,18 @@ impl Ssm {
         let nearest = Sampler::new(ctx, Filter::Nearest).context("ssm sampler")?;
 
         // Passes 1-4: occluder maps, receiver map, receiver bound.
-        let occluder = ShadowMap::new(ctx, init.ubo, res, &format!("{name}/occluder_map"))
-            .context("ssm occluder map")?;
-        let back = match two_sided {
-            true => {
-                Some(BackOccluderMap::new(ctx, init.ubo, res, name).context("back occluder map")?)
-            }
-            false => None,
-        };
-        let receivers = ReceiverMap::new(ctx, init.ubo, res, name).context("ssm receiver map")?;
-        let bound = ReceiverBound::new(ctx, init.ubo, &receivers, &nearest, name)
-            .context("ssm receiver bound")?;
+        let inputs = LightInputs::new(init, name, two_sided, &nearest)?;
+        let LightInputs {
+            occluder,
+            back,
+            receivers,
+            bound,
+            ..
+        } = &inputs;
 
         // Passes 5-6: the micro-patches of each occluder map.
         let soft = |map: &Image, pass: &'static str| {
-            SoftShadow::new(init, map, &receivers, &bound, &nearest, pass)
+            SoftShadow::new(init, map, receivers, bound, &nearest, pass)
         };
         let front = soft(
             &occluder.depth,
@@ -422,7 +495,7 @@ impl Ssm {
             },
         )
         .context("ssm soft shadow map")?;
-        let back_soft = match &back {
+        let back_soft = match back {
             Some(b) => {
                 Some(soft(&b.depth, "ssm2/soft_shadow_back").context("ssm2 back soft shadow map")?)
             }
@@ -450,15 +523,12 @@ impl Ssm {
 
         // Pass 7.
         let (final_pass, final_set) =
-            final_pass(init, name, &receivers, &front, back_soft.as_ref(), &nearest)
+            final_pass(init, name, receivers, &front, back_soft.as_ref(), &nearest)
                 .context("ssm final pass")?;
         Ok(Self {
             name,
             res,
-            occluder,
-            back,
-            receivers,
-            bound,
+            inputs,
             soft_pipeline,
             front,
             back_soft,
@@ -466,10 +536,6 @@ impl Ssm {
             final_set,
             _nearest: nearest,
         })
-    }
-
-    fn pass_name(&self, pass: &str) -> String {
-        format!("{}/{pass}", self.name)
     }
 
     fn record_soft(&self, rec: &mut Recorder<'_>, soft: &SoftShadow) {
@@ -617,24 +683,7 @@ impl Technique for Ssm {
         rec: &mut Recorder<'_>,
         frame: &FrameInput<'_>,
     ) -> Result<()> {
-        rec.pass(&self.pass_name("occluder_map"), |rec| {
-            self.occluder.record(rec, frame.gpu);
-            Ok(())
-        })?;
-        if let Some(back) = &self.back {
-            rec.pass(&back.name, |rec| {
-                back.record(rec, frame.gpu);
-                Ok(())
-            })?;
-        }
-        rec.pass(&self.pass_name("receiver_map"), |rec| {
-            self.receivers.record(rec, frame.gpu);
-            Ok(())
-        })?;
-        rec.pass(&self.pass_name("receiver_bound"), |rec| {
-            self.bound.record(rec);
-            Ok(())
-        })?;
+        self.inputs.record(rec, frame)?;
         rec.pass(self.front.name, |rec| {
             self.record_soft(rec, &self.front);
             Ok(())
@@ -649,12 +698,7 @@ impl Technique for Ssm {
     }
 
     fn light_passes(&self) -> Vec<String> {
-        let mut names = vec![self.pass_name("occluder_map")];
-        if let Some(b) = &self.back {
-            names.push(b.name.clone());
-        }
-        names.push(self.pass_name("receiver_map"));
-        names.push(self.pass_name("receiver_bound"));
+        let mut names = self.inputs.pass_names();
         names.push(self.front.name.into());
         if let Some(b) = &self.back_soft {
             names.push(b.name.into());
@@ -677,8 +721,8 @@ impl Technique for Ssm {
             image,
             channels,
         };
-        let mut out = vec![shadow_map_buffer("occluder_map", &self.occluder)];
-        out.extend(self.receivers.buffers());
+        let mut out = vec![shadow_map_buffer("occluder_map", &self.inputs.occluder)];
+        out.extend(self.inputs.receivers.buffers());
         // Summed micro-patch occlusion of the light, per receiver layer (>= 0, unclamped).
         out.push(buffer("soft_shadow", &self.front.layers[0], &["occlusion"]));
         out.push(buffer(
@@ -686,7 +730,7 @@ impl Technique for Ssm {
             &self.front.layers[1],
             &["occlusion"],
         ));
-        if let Some(b) = &self.back {
+        if let Some(b) = &self.inputs.back {
             out.push(b.buffer());
         }
         if let Some(b) = &self.back_soft {

@@ -9,7 +9,7 @@
 //! *Bitmask Soft Shadows*, CGF 26(3) 2007): per soft-shadow-map texel one bit per light
 //! sample, set when some micro-patch hides that sample, OR-combined; micro-quads that join
 //! neighbouring texels close the gaps. Same occluder, receiver and bound passes as `ssm`
-//! (shared code: `ssm::ReceiverMap`, `ssm::ReceiverBound`, `ssm::BackOccluderMap`).
+//! (shared code: `ssm::LightInputs`, passes 1-4 of both).
 //!
 //! ## Resolution rule: light samples and bits
 //! 128 samples on the disc light, one bit each in a `uvec4` (R32G32B32A32_UINT attachment):
@@ -120,11 +120,9 @@
 //!   up without an offset can read the texel of the caster's nearer part and go dark where
 //!   `hard`'s offset point is lit (docs/DESIGN.md's mae_lit leaves these pixels out).
 
-use super::ssm::{
-    ssm_uniforms, BackOccluderMap, ReceiverBound, ReceiverMap, MAP_USAGE, SELF_GUARD_TEXELS,
-};
+use super::ssm::{ssm_uniforms, LightInputs, MAP_USAGE, SELF_GUARD_TEXELS};
 use super::{shadow_map_buffer, FrameInput, LightBuffer, Technique, TechniqueInfo, TechniqueInit};
-use crate::gpu::passes::{FinalPass, FinalShader, ShadowMap};
+use crate::gpu::passes::{FinalPass, FinalShader};
 use crate::shaders::{self, constants as k};
 use crate::vk::{
     Blend, Buffer, BufferUsageFlags, Context, CullModeFlags, DescriptorSet, Filter, Format,
@@ -220,10 +218,7 @@ struct QuadPass {
 pub struct SsmBitmask {
     name: &'static str,
     res: u32,
-    occluder: ShadowMap,
-    back: Option<BackOccluderMap>,
-    receivers: ReceiverMap,
-    bound: ReceiverBound,
+    inputs: LightInputs,
     /// Layer 0 (nearest receiver) and layer 1 (pure receiver): the hidden light samples.
     masks: [Image; 2],
     _table: Buffer,
@@ -249,19 +244,14 @@ impl SsmBitmask {
         let nearest = Sampler::new(ctx, Filter::Nearest).context("ssm-bitmask sampler")?;
 
         // Passes 1-4, as ssm's.
-        let occluder = ShadowMap::new(ctx, init.ubo, res, &format!("{name}/occluder_map"))
-            .context("ssm-bitmask occluder map")?;
-        let back = match two_sided {
-            true => Some(
-                BackOccluderMap::new(ctx, init.ubo, res, name)
-                    .context("ssm2-bitmask back occluder map")?,
-            ),
-            false => None,
-        };
-        let receivers =
-            ReceiverMap::new(ctx, init.ubo, res, name).context("ssm-bitmask receiver map")?;
-        let bound = ReceiverBound::new(ctx, init.ubo, &receivers, &nearest, name)
-            .context("ssm-bitmask receiver bound")?;
+        let inputs = LightInputs::new(init, name, two_sided, &nearest)?;
+        let LightInputs {
+            occluder,
+            back,
+            receivers,
+            bound,
+            ..
+        } = &inputs;
 
         // Passes 5-6: the micro-quads of each occluder map into one pair of masks.
         let mask = |what: &str| {
@@ -308,7 +298,7 @@ impl SsmBitmask {
             Ok(QuadPass { set, name })
         };
         let front = quads(&occluder.depth, "soft_shadow").context("ssm-bitmask micro-quads")?;
-        let back_quads = match &back {
+        let back_quads = match back {
             Some(b) => {
                 Some(quads(&b.depth, "soft_shadow_back").context("ssm2-bitmask back micro-quads")?)
             }
@@ -362,10 +352,7 @@ impl SsmBitmask {
         Ok(Self {
             name,
             res,
-            occluder,
-            back,
-            receivers,
-            bound,
+            inputs,
             masks,
             _table: table,
             front,
@@ -375,10 +362,6 @@ impl SsmBitmask {
             final_set,
             _nearest: nearest,
         })
-    }
-
-    fn pass_name(&self, pass: &str) -> String {
-        format!("{}/{pass}", self.name)
     }
 
     /// Draws one occluder map's micro-quads; the first pass clears the masks, a second
@@ -417,24 +400,7 @@ impl Technique for SsmBitmask {
         rec: &mut Recorder<'_>,
         frame: &FrameInput<'_>,
     ) -> Result<()> {
-        rec.pass(&self.pass_name("occluder_map"), |rec| {
-            self.occluder.record(rec, frame.gpu);
-            Ok(())
-        })?;
-        if let Some(back) = &self.back {
-            rec.pass(&back.name, |rec| {
-                back.record(rec, frame.gpu);
-                Ok(())
-            })?;
-        }
-        rec.pass(&self.pass_name("receiver_map"), |rec| {
-            self.receivers.record(rec, frame.gpu);
-            Ok(())
-        })?;
-        rec.pass(&self.pass_name("receiver_bound"), |rec| {
-            self.bound.record(rec);
-            Ok(())
-        })?;
+        self.inputs.record(rec, frame)?;
         rec.pass(&self.front.name, |rec| {
             self.record_quads(rec, &self.front, true);
             Ok(())
@@ -449,12 +415,7 @@ impl Technique for SsmBitmask {
     }
 
     fn light_passes(&self) -> Vec<String> {
-        let mut names = vec![self.pass_name("occluder_map")];
-        if let Some(b) = &self.back {
-            names.push(b.name.clone());
-        }
-        names.push(self.pass_name("receiver_map"));
-        names.push(self.pass_name("receiver_bound"));
+        let mut names = self.inputs.pass_names();
         names.push(self.front.name.clone());
         if let Some(b) = &self.back_quads {
             names.push(b.name.clone());
@@ -472,8 +433,8 @@ impl Technique for SsmBitmask {
     }
 
     fn light_buffers(&self) -> Vec<LightBuffer<'_>> {
-        let mut out = vec![shadow_map_buffer("occluder_map", &self.occluder)];
-        out.extend(self.receivers.buffers());
+        let mut out = vec![shadow_map_buffer("occluder_map", &self.inputs.occluder)];
+        out.extend(self.inputs.receivers.buffers());
         // The masks, read back as the fraction of the 128 samples hidden
         // (`Renderer::read_technique_buffer` decodes an RGBA32UI mask so).
         out.push(LightBuffer {
@@ -486,7 +447,7 @@ impl Technique for SsmBitmask {
             image: &self.masks[1],
             channels: &["occluded_fraction"],
         });
-        if let Some(b) = &self.back {
+        if let Some(b) = &self.inputs.back {
             out.push(b.buffer());
         }
         out

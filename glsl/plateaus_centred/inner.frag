@@ -21,23 +21,11 @@
 layout(set = 0, binding = 0) uniform sampler2D coverage;   // R16F: 0 under a drop shadow, 1 elsewhere
 layout(location = 0) out float o_inner;
 
-// How far outside the edge (texels) the hidden-edge test looks: past the texel the edge crosses.
-const float OUT_TEXELS = 1.5;
-// Coarse steps of the thin-blocker march, then bisection steps between the last two.
-const int MARCH_STEPS = 8;
-const int BISECT_STEPS = 3;
+#define INNER_MAP coverage
+#include "common/inner_march.glsl"
 
-ivec2 texel_at(vec2 pos) {
-    ivec2 size = textureSize(coverage, 0);
-    return clamp(ivec2(floor(pos)), ivec2(0), size - 1);
-}
-
-bool inside_map(vec2 pos) {
-    vec2 size = vec2(textureSize(coverage, 0));
-    return all(greaterThanEqual(pos, vec2(0.0))) && all(lessThan(pos, size));
-}
-
-bool shadowed(vec2 pos) {
+// Under a drop shadow (the receiver is the plane itself: z_r plays no part).
+bool blocked_at(vec2 pos, float z_r) {
     return texelFetch(coverage, texel_at(pos), 0).r < 0.5;
 }
 
@@ -50,33 +38,11 @@ void main() {
     vec2 dir = grad / g;
     float w_tex = 1.0 / g;
     vec2 here = gl_FragCoord.xy;
-    if (!(t < 1.0) || !shadowed(here)) discard;
+    if (!(t < 1.0) || !blocked_at(here, 0.0)) discard;
     vec2 outside = here - dir * (t * w_tex + OUT_TEXELS);
-    if (inside_map(outside) && shadowed(outside)) discard;
+    if (inside_map(outside) && blocked_at(outside, 0.0)) discard;
     float v = disc_chord(t);
-    int steps = int(min(float(MARCH_STEPS), ceil(w_tex)));
-    float step_len = w_tex / float(max(steps, 1));
-    float lo = 0.0;
-    float hi = -1.0;
-    for (int k = 1; k <= steps; ++k) {
-        vec2 pos = here + dir * (step_len * float(k));
-        if (!inside_map(pos)) break;
-        if (!shadowed(pos)) {
-            hi = step_len * float(k);
-            break;
-        }
-        lo = step_len * float(k);
-    }
-    if (hi > 0.0) {
-        for (int k = 0; k < BISECT_STEPS; ++k) {
-            float mid = 0.5 * (lo + hi);
-            if (shadowed(here + dir * mid)) {
-                lo = mid;
-            } else {
-                hi = mid;
-            }
-        }
-        v += disc_chord(0.5 * (lo + hi) / w_tex);
-    }
+    float far_edge = far_edge_texels(here, dir, w_tex, 0.0);
+    if (far_edge > 0.0) v += disc_chord(far_edge / w_tex);
     o_inner = clamp(v, 0.0, 1.0);
 }

@@ -22,35 +22,7 @@
 // farthest receiver an inner value was made for.
 #include "smoothies_centred/smoothie.glsl"
 
-// How far outside the edge (texels) the receiver is read: past the texel the edge crosses.
-const float OUT_TEXELS = 1.5;
-// A caster this much (relative) in front of the smoothie's depth hides the edge.
-const float HIDE_EPS = 0.01;
-// A caster counts as in front of the receiver when nearer than this (relative).
-const float COVER_EPS = 0.01;
-// The second receiver sample lies this many texels beyond the first.
-const float PLANE_TEXELS = 4.0;
-// Largest relative depth change between the two samples, and of the extrapolation, that
-// still counts as one plane.
-const float PLANE_LIMIT = 0.05;
-// Coarse steps of the thin-blocker march, then bisection steps between the last two.
-const int MARCH_STEPS = 8;
-const int BISECT_STEPS = 3;
-
-ivec2 texel_at(vec2 pos) {
-    ivec2 size = textureSize(shadow_map, 0);
-    return clamp(ivec2(floor(pos)), ivec2(0), size - 1);
-}
-
-bool inside_map(vec2 pos) {
-    vec2 size = vec2(textureSize(shadow_map, 0));
-    return all(greaterThanEqual(pos, vec2(0.0))) && all(lessThan(pos, size));
-}
-
-// A caster nearer than the receiver depth z_r at `pos` (texels).
-bool covered(vec2 pos, float z_r) {
-    return texelFetch(shadow_map, texel_at(pos), 0).r < z_r * (1.0 - COVER_EPS);
-}
+#include "common/inner_receiver.glsl"
 
 void main() {
     float t = v_width;
@@ -61,54 +33,19 @@ void main() {
     float x = max(smoothie_distance(here * texel, dir), 0.0);
     if (x >= t || dir == vec2(0.0)) discard;
     float x_tex = x / texel;
-    vec2 outside = here - dir * (x_tex + OUT_TEXELS);
-    if (!inside_map(outside)) discard;
-    vec2 out_rg = texelFetch(shadow_map, texel_at(outside), 0).rg;
-    // Nothing beyond the edge to receive a penumbra, or the edge is hidden.
-    if (out_rg.g >= 0.5 * FAR_DEPTH || out_rg.r < b * (1.0 - HIDE_EPS)) discard;
-    float zr = out_rg.g;
-    vec2 far_pos = outside - dir * PLANE_TEXELS;
-    if (inside_map(far_pos)) {
-        float far_g = texelFetch(shadow_map, texel_at(far_pos), 0).g;
-        float d1 = x_tex + OUT_TEXELS;
-        float inv = 1.0 / zr + (1.0 / zr - 1.0 / far_g) * (d1 / PLANE_TEXELS);
-        if (abs(far_g - zr) <= PLANE_LIMIT * zr && inv > 0.0) {
-            zr = clamp(1.0 / inv, zr / (1.0 + PLANE_LIMIT), zr * (1.0 + PLANE_LIMIT));
-        }
-    }
+    float zr;
+    if (!receiver_beyond(here, dir, x_tex, b, zr)) discard;
     float denom = 1.0 - b / zr;
     if (!(denom > REMAP_EPS)) discard;
-    if (!covered(here, zr)) discard;
+    if (!blocked_at(here, zr)) discard;
     float w = t * denom;   // penumbra half-width at Z_R, uv
     float s = x / w;
     if (!(s < 1.0)) discard;
     float v = disc_chord(s);
     // Thin blocker: the far edge within w of this texel.
     float w_tex = w / texel;
-    int steps = int(min(float(MARCH_STEPS), ceil(w_tex)));
-    float step_len = w_tex / float(max(steps, 1));
-    float lo = 0.0;
-    float hi = -1.0;
-    for (int k = 1; k <= steps; ++k) {
-        vec2 pos = here + dir * (step_len * float(k));
-        if (!inside_map(pos)) break;
-        if (!covered(pos, zr)) {
-            hi = step_len * float(k);
-            break;
-        }
-        lo = step_len * float(k);
-    }
-    if (hi > 0.0) {
-        for (int k = 0; k < BISECT_STEPS; ++k) {
-            float mid = 0.5 * (lo + hi);
-            if (covered(here + dir * mid, zr)) {
-                lo = mid;
-            } else {
-                hi = mid;
-            }
-        }
-        v += disc_chord(0.5 * (lo + hi) / w_tex);
-    }
+    float far_edge = far_edge_texels(here, dir, w_tex, zr);
+    if (far_edge > 0.0) v += disc_chord(far_edge / w_tex);
     o_depth = FAR_DEPTH;
     o_penumbra = vec4(1.0, 1.0 - clamp(v, 0.0, 1.0), 1.0 - zr / frame.light_params.y, 1.0);
 }

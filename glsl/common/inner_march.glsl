@@ -1,0 +1,59 @@
+// The inner penumbra's thin-blocker march, shared by the inner passes of the centred forms
+// (penumbra_map_centred, smoothies_centred, plateaus_centred inner.frag). The includer
+// #defines INNER_MAP, the sampler2D the march reads (texels of the light-space map the
+// fragment is drawn into), and defines `blocked_at` after the include.
+#ifndef INNER_MARCH_GLSL
+#define INNER_MARCH_GLSL
+
+// How far outside the edge (texels) the outside is read: past the texel the edge crosses.
+const float OUT_TEXELS = 1.5;
+// Coarse steps of the thin-blocker march, then bisection steps between the last two.
+const int MARCH_STEPS = 8;
+const int BISECT_STEPS = 3;
+
+ivec2 texel_at(vec2 pos) {
+    ivec2 size = textureSize(INNER_MAP, 0);
+    return clamp(ivec2(floor(pos)), ivec2(0), size - 1);
+}
+
+bool inside_map(vec2 pos) {
+    vec2 size = vec2(textureSize(INNER_MAP, 0));
+    return all(greaterThanEqual(pos, vec2(0.0))) && all(lessThan(pos, size));
+}
+
+// Whether the blocker covers the map at `pos` (texels), for a receiver at depth z_r.
+bool blocked_at(vec2 pos, float z_r);
+
+// Thin blocker: the distance (texels) from `here` along the inward direction `dir` to the
+// blocker's far edge, when it lies within the penumbra's half-width w_tex (MARCH_STEPS
+// steps, then BISECT_STEPS bisections between the last blocked and the first open sample);
+// -1 when the blocker is wider. Through a strip between two parallel edges a point sees the
+// disc's segment beyond each edge, so the caller adds disc_chord(distance / w).
+float far_edge_texels(vec2 here, vec2 dir, float w_tex, float z_r) {
+    int steps = int(min(float(MARCH_STEPS), ceil(w_tex)));
+    float step_len = w_tex / float(max(steps, 1));
+    float lo = 0.0;
+    float hi = -1.0;
+    for (int k = 1; k <= steps; ++k) {
+        vec2 pos = here + dir * (step_len * float(k));
+        if (!inside_map(pos)) break;
+        if (!blocked_at(pos, z_r)) {
+            hi = step_len * float(k);
+            break;
+        }
+        lo = step_len * float(k);
+    }
+    if (!(hi > 0.0)) return -1.0;
+    for (int k = 0; k < BISECT_STEPS; ++k) {
+        float mid = 0.5 * (lo + hi);
+        if (blocked_at(here + dir * mid, z_r)) {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    // The far edge lies between the last blocked and the first open sample.
+    return 0.5 * (lo + hi);
+}
+
+#endif

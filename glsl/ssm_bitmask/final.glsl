@@ -6,13 +6,11 @@
 #include "common/frame.glsl"
 #include "ssm/ssm.glsl"
 #include "ssm/constants.glsl"
+#include "ssm/footprint.glsl"
 
 layout(set = 0, binding = 1) uniform sampler2D receiver_front;   // R32F nearest receiver depth
 layout(set = 0, binding = 2) uniform usampler2D mask_front;      // RGBA32UI hidden samples, layer 0
 layout(set = 0, binding = 3) uniform usampler2D mask_pure;       // RGBA32UI hidden samples, layer 1
-
-// As glsl/ssm/final.glsl.
-const float MATCH_TEXELS = 3.0;
 
 float hidden_fraction(uvec4 m) {
     ivec4 c = bitCount(m);
@@ -27,10 +25,7 @@ float visibility(vec3 p, vec3 n) {
     // beside it and shifts every penumbra by a fraction of a texel). Only the depth that
     // picks the layer is the offset point's (ssm's offset, in occluder-map texels), so that a
     // caster's own steep surface is not taken for something behind its texel's receiver.
-    float d0 = -(frame.light_view * vec4(p, 1.0)).z;
-    vec3 l = normalize(frame.light_pos_radius.xyz - p);
-    float slope = clamp(sqrt(max(1.0 - dot(n, l) * dot(n, l), 0.0)), 0.2, 1.0);
-    vec3 po = p + n * (d0 * texel * frame.light_frustum.z * slope);
+    vec3 po = ssm_offset_point(p, n, texel);
     vec4 c = frame.light_view_proj * vec4(p, 1.0);
     if (c.w <= frame.light_params.x) return 1.0;
     vec2 uv = (c.xy / c.w) * 0.5 + 0.5;
@@ -38,9 +33,9 @@ float visibility(vec3 p, vec3 n) {
     float depth = (frame.light_view_proj * vec4(po, 1.0)).w;
 
     vec4 z1 = textureGather(receiver_front, uv, 0);
-    vec4 tol = z1 * (frame.light_frustum.w + MATCH_TEXELS * texel);
-    bvec4 behind = greaterThan(vec4(depth), z1 + tol);
-    vec4 known = vec4(greaterThanEqual(vec4(depth), z1 - tol));
+    bvec4 behind;
+    vec4 known;
+    ssm_layers(depth, z1, texel, behind, known);
     // The texels textureGather read, in its order (i0,j1), (i1,j1), (i1,j0), (i0,j0).
     ivec2 i0 = ivec2(floor(uv * res - 0.5));
     ivec2 last = ivec2(int(res) - 1);
@@ -51,10 +46,6 @@ float visibility(vec3 p, vec3 n) {
         front[k] = hidden_fraction(texelFetch(mask_front, t, 0));
         occl[k] = behind[k] ? hidden_fraction(texelFetch(mask_pure, t, 0)) : front[k];
     }
-    vec2 f = fract(uv * res - 0.5);
-    vec4 w = vec4((1.0 - f.x) * f.y, f.x * f.y, f.x * (1.0 - f.y), (1.0 - f.x) * (1.0 - f.y));
-    vec4 wk = w * known;
-    float sw = wk.x + wk.y + wk.z + wk.w;
-    float o = sw > 1e-4 ? dot(wk, occl) / sw : dot(w, front);
+    float o = ssm_footprint(uv, res, known, occl, front);
     return 1.0 - clamp(o, 0.0, 1.0);
 }

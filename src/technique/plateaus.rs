@@ -779,31 +779,20 @@ impl Plateaus {
             Form::Paper => None,
             Form::Centred => Some(Self::centred(init, &names, &nearest)?),
         };
-        let final_set = match &centred {
-            None => DescriptorSet::new(
-                ctx,
-                &[
-                    ("frame", Resource::Uniform(init.ubo)),
-                    ("plane", Resource::Uniform(&plane_ubo)),
-                    ("plateau_tex", Resource::Sampled(&texture, &nearest)),
-                    ("shadow_map", Resource::Sampled(&shadow.depth, &nearest)),
-                    ("falloff", Resource::Sampled(&falloff, &linear)),
-                ],
-                names.final_pass,
-            )?,
-            Some(c) => DescriptorSet::new(
-                ctx,
-                &[
-                    ("frame", Resource::Uniform(init.ubo)),
-                    ("plane", Resource::Uniform(&plane_ubo)),
-                    ("plateau_tex", Resource::Sampled(&texture, &nearest)),
-                    ("shadow_map", Resource::Sampled(&shadow.depth, &nearest)),
-                    ("coverage", Resource::Sampled(&c.coverage, &nearest)),
-                    ("inner_tex", Resource::Sampled(&c.inner, &nearest)),
-                ],
-                names.final_pass,
-            )?,
-        };
+        let mut bindings = vec![
+            ("frame", Resource::Uniform(init.ubo)),
+            ("plane", Resource::Uniform(&plane_ubo)),
+            ("plateau_tex", Resource::Sampled(&texture, &nearest)),
+            ("shadow_map", Resource::Sampled(&shadow.depth, &nearest)),
+        ];
+        match &centred {
+            None => bindings.push(("falloff", Resource::Sampled(&falloff, &linear))),
+            Some(c) => {
+                bindings.push(("coverage", Resource::Sampled(&c.coverage, &nearest)));
+                bindings.push(("inner_tex", Resource::Sampled(&c.inner, &nearest)));
+            }
+        }
+        let final_set = DescriptorSet::new(ctx, &bindings, names.final_pass)?;
         let final_shader = match form {
             Form::Paper => FinalShader {
                 color: shaders::PLATEAUS_FINAL_FRAG,

@@ -18,12 +18,26 @@ float pcss_search_radius(LightSample s) {
                               frame.light_params.z, PCSS_MAX_RADIUS_TEXELS);
 }
 
+// Steps 2 and 3 for a point whose blocker search found blockers at mean linear depth d_b
+// (pcss's own search below, or pcss-fast's walk of its hierarchy); `rp` as for the search.
+float pcss_filter(LightSample s, ReceiverPlane rp, float d_b) {
+    float res = frame.light_params.z;
+    float d_r = s.depth;
+
+    // Step 2, penumbra estimate (Eq. 1) in world units at the receiver, as uv (Eq. 4).
+    float radius = pcss_filter_texels(PCSS_PENUMBRA_SCALE, d_r, d_b, res, PCSS_MAX_RADIUS_TEXELS);
+
+    // Step 3, PCF over a Poisson disc of that radius; each tap is a 2x2 bilinear footprint.
+    // A point light (R = 0) leaves one 2x2 footprint: the `hard` result, one tap.
+    int samples = radius < 0.01 ? 1 : int(PCSS_FILTER_SAMPLES);
+    rp.max_shift = 8.0 * (radius + 1.0) * d_r * frame.light_frustum.y;
+    return pcf_poisson(shadow_map, s.uv, rp, samples, radius);
+}
+
 // Steps 1 to 3 for a point inside the light frustum; `rp` is its receiver plane over the
 // search disc (`receiver_plane(s, n, search + 1.0)`).
 float pcss_visibility(LightSample s, ReceiverPlane rp, float search) {
     float res = frame.light_params.z;
-    float max_texels = PCSS_MAX_RADIUS_TEXELS;
-    float d_r = s.depth;
 
     // Step 1, blocker search over the disc of Eq. 3, 4 texels per gather.
     // Under half a texel every tap reads the same 2x2 footprint: one is enough (R = 0).
@@ -40,16 +54,7 @@ float pcss_visibility(LightSample s, ReceiverPlane rp, float search) {
     }
     if (blockers == 0.0) return 1.0;              // nothing in front: fully lit, no filter
     if (blockers == float(4 * taps)) return 0.0;  // every texel blocked: umbra
-    float d_b = depth_sum / blockers;
-
-    // Step 2, penumbra estimate (Eq. 1) in world units at the receiver, as uv (Eq. 4).
-    float radius = pcss_filter_texels(PCSS_PENUMBRA_SCALE, d_r, d_b, res, max_texels);
-
-    // Step 3, PCF over a Poisson disc of that radius; each tap is a 2x2 bilinear footprint.
-    // A point light (R = 0) leaves one 2x2 footprint: the `hard` result, one tap.
-    int samples = radius < 0.01 ? 1 : int(PCSS_FILTER_SAMPLES);
-    rp.max_shift = 8.0 * (radius + 1.0) * d_r * frame.light_frustum.y;
-    return pcf_poisson(shadow_map, s.uv, rp, samples, radius);
+    return pcss_filter(s, rp, depth_sum / blockers);
 }
 
 #endif

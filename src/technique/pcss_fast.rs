@@ -1,69 +1,122 @@
-//! # pcss-fast — `pcss` (Fernando 2005) that settles most pixels with a min/max hierarchy
+//! # pcss-fast — `pcss` (Fernando 2005) with its blocker search walking a hierarchy
 //!
-//! The same image as `pcss` (src/technique/pcss.rs: Equations 1–5, sample counts, known
-//! artefacts), for less work. In `pcss` every lit pixel inside the light frustum pays the
-//! whole blocker search (SEARCH_SAMPLES gathers of 4 texels) to learn that nothing is in
-//! front of it, and every umbra pixel pays it to learn that everything is. Here a min/max
-//! hierarchy of the shadow map's caster depths answers both questions first, for the square
-//! of texels the search can touch, with at most nine reads; only the points it cannot settle
-//! (penumbrae, and lit points near a caster) run pcss's search and filter, unchanged.
-//!
-//! ## Why the image is pcss's exactly
-//! Both early answers are conservative bounds on pcss's own test (`lit_test` against the
-//! receiver plane, `glsl/pcf/filter.glsl`), over a superset of the texels pcss reads:
-//! * the texels: a search tap's 2x2 gather reads within `search + 1` texels of the point
-//!   (the Poisson points lie inside the unit disc); the hierarchy's square adds half a texel
-//!   and clamps to the map as the clamp-to-edge sampler does;
-//! * "no blocker" (1): pcss's plane depth is never deeper than the point (`plane_depth` only
-//!   moves it closer), so `min * (1 + bias) >= depth` makes every tap lit;
-//! * "every texel blocked" (0): the plane is closest at `q_max = 1 + (|g_x| + |g_y|) search /
-//!   res`, so `max * (1 + bias) < depth / q_max` (clamped by the plane's `max_shift`, with a
-//!   1e-5 margin for rounding) makes every tap blocked.
-//!
-//! pcss returns exactly 1 and 0 in those two cases (its "no blocker" and "umbra" exits), so
-//! every pixel the hierarchy settles gets pcss's value, and every other pixel runs pcss's
-//! code (`glsl/pcss/search.glsl`, shared). tests/pcss_fast.rs holds the two images equal.
-//! A hierarchical blocker *average* (the "walk the hierarchy instead of 16 gathers"
-//! for the penumbra pixels too) would change the image: the average of pcss's sparse taps is
-//! not the average of a cell's depths. It is not done here.
+//! `pcss` (src/technique/pcss.rs: Equations 1–5, sample counts, known artefacts) whose step 1,
+//! the blocker search, reads a caster-depth hierarchy of the shadow map instead of
+//! SEARCH_SAMPLES scattered gathers: one look at the search square's coarsest cells settles
+//! "no blocker" (1) and "every texel blocked" (0) exactly as pcss would, and the points left
+//! (penumbrae, lit points near a caster) walk the hierarchy for the mean blocker depth d_b,
+//! then run pcss's steps 2 (Eq. 1/4) and 3 (the Poisson PCF) unchanged with it
+//! (`pcss_filter` in `glsl/pcss/search.glsl`, shared with pcss).
 //!
 //! ## Passes, in order
 //! 1. `pcss-fast/shadow_map` — casters from the light (`gpu::passes::ShadowMap`): RG32F,
-//!    r = the nearest caster's linear depth, clear 1e30, MIN blend, no depth attachment.
+//!    r = the nearest caster's linear depth, clear 1e30 (FAR_DEPTH, also what a non-casting
+//!    receiver writes), MIN blend, no depth attachment.
 //! 2. `pcss-fast/minmax` — `glsl/pcss_fast/minmax.comp`, one dispatch per level (8x8
-//!    threads a group): level k (2..=6) is ceil(res / 2^k) cells a side, each the (min, max)
-//!    of the caster depths (r) it covers; level 2 reads the shadow map (four textureGathers
-//!    a cell of 4x4 texels), the others 2x2 cells of the level below. One storage buffer of
-//!    vec2 (`minmax`), levels one after another, row by row
-//!    (`glsl/pcss_fast/hierarchy.glsl`): about res²/12 cells, 0.7 MB at 1024². A buffer
+//!    threads a group): level k (2..=6) is ceil(res / 2^k) cells a side; level 2 reads the
+//!    shadow map (four textureGathers a cell of 4x4 texels), the others 2x2 cells of the
+//!    level below. One storage buffer of vec4 (`minmax`), levels one after another, row by
+//!    row (`glsl/pcss_fast/hierarchy.glsl`): about res²/12 cells, 1.4 MB at 1024². A buffer
 //!    rather than a mipmapped image: no per-level views or layouts, and the final pass reads
 //!    whole cells by index anyway. Barriers between levels come from the dispatches'
 //!    declared accesses (`vk::Recorder`).
 //! 3. `pcss-fast/final` — every object from the camera (`gpu::passes::FinalPass`), fragment
-//!    `glsl/pcss_fast/final.frag`: the search radius (Eq. 3), the square of texels it
-//!    touches, the lowest level at which that square spans at most 3x3 cells, their
-//!    (min, max), the two tests above, else pcss's steps 1–3. 3x3 cells rather than 2x2 one
-//!    level coarser: the cells hug the square closer, and on `cylinder` (320x240) the points
-//!    left to the search fell from 12661 to 10169 (pcss itself finds 2900 penumbra points
-//!    there; the rest are lit points with a blocker in their search disc). Writes colour
-//!    RGBA8, no blending (the untimed AOV pass `pcss-fast/aov` also visibility R32F,
+//!    `glsl/pcss_fast/final.frag`: the early exits, the walk, pcss's steps 2–3. Writes
+//!    colour RGBA8, no blending (the untimed AOV pass `pcss-fast/aov` also visibility R32F,
 //!    position RGBA32F, normal RGBA16F).
 //!
 //! Constants: pcss's (`frame.technique`, `frame.technique2.x`, glsl/pcss/constants.glsl) and
 //! `frame.technique2.y` = the coarsest level (glsl/pcss_fast/constants.glsl).
+//!
+//! ## A cell
+//! vec4 over the texels of the map inside it (r values; a texel with r >= FAR_DEPTH / 2
+//! holds no caster): x = min over every texel (FAR_DEPTH if none holds a caster), y = max
+//! over the caster texels (0 if none), z = sum of the caster depths, w = their count.
+//! Cells along the far edges of a map whose size is not a multiple of 2^k cover fewer
+//! texels (`cell_texels`); minmax.comp skips the clamp-to-edge repeats of its gathers and
+//! the missing children of odd-sized levels, so every texel counts once. The max over every
+//! texel, which the umbra exit needs, is y where w equals the cell's texel count, else
+//! FAR_DEPTH: the same value the former (min, max) cells held.
 //!
 //! ## Levels
 //! The search radius is at most MAX_RADIUS_TEXELS (48), so the square's corners lie at most
 //! 2 (48 + 2) = 100 texels apart, which 3 cells of 2^6 = 64 always cover: levels up to 6,
 //! fewer when the map is smaller (none past one cell). The finest is level 2 (4x4 texels),
 //! not 1: at 1024² a level-1 build (512² threads) took about 5 ms on lavapipe, two thirds of
-//! `hard`'s frame, and level 1 would only serve searches under a texel. The coarser the
-//! level, the likelier a cell holds a caster and the point falls back to the search: a lit
-//! point settles only when no caster lies within its search square.
+//! `hard`'s frame.
+//!
+//! ## The early exits (exact)
+//! The search radius (Eq. 3) gives the square of texels a search tap's 2x2 gather can read:
+//! within `search + 1` texels of the point (the Poisson points lie inside the unit disc),
+//! half a texel more, clamped to the map as the clamp-to-edge sampler does. The lowest
+//! level at which that square spans at most 3x3 cells is read (3x3 rather than 2x2 one level
+//! coarser: the cells hug the square closer). Both tests are conservative bounds on pcss's
+//! own test (`lit_test` against the receiver plane, `glsl/pcf/filter.glsl`):
+//! * "no blocker" (1): pcss's plane depth is never deeper than the point (`plane_depth`
+//!   only moves it closer), so `min * (1 + bias) >= depth` makes every tap lit;
+//! * "every texel blocked" (0): the plane is closest at `q_max = 1 + (|g_x| + |g_y|) search /
+//!   res`, so `max * (1 + bias) < depth / q_max` (clamped by the plane's `max_shift`, with a
+//!   1e-5 margin for rounding) makes every tap blocked.
+//!
+//! pcss returns exactly 1 and 0 in those cases, so those pixels get pcss's value. Under half
+//! a texel of search (R = 0, and points near the light's near plane) pcss's search is one
+//! gather: there pcss's step 1 runs as is, and R = 0 is pcss's image bit for bit.
+//!
+//! ## The walk (step 1 for the points left)
+//! Over the square `[c - search - 1, c + search + 1]` (texels around the point c, clipped to
+//! the map), three sums: the blocked area, its depth-weighted sum, and the open area (no
+//! caster, or a caster behind the receiver plane). A cell is compared with the receiver
+//! plane where it is nearest the light over the cell's part in the square (the corner that
+//! raises q = 1 + g . duv most, `plane_depth`'s formula):
+//! * no caster, or every caster behind it (`min * (1 + bias) >= plane`): open;
+//! * every caster in front (`max caster * (1 + bias) < plane`): blocked, its whole (sum,
+//!   count) scaled by the fraction of the cell inside the square; the cell's empty texels
+//!   open. A silhouette cell (casters and empty texels) is thus exact at any level;
+//! * else mixed: descend to its four children (depth first, without a stack: a cell's
+//!   parent is xy >> 1, so (level, xy) is the whole state), down to level 2, where a mixed
+//!   cell is settled texel by texel (four gathers; each texel against the plane at its
+//!   centre, weighted by its overlap with the square).
+//!
+//! No blocked area: 1. No open area: 0. Else d_b = sum / blocked area, then steps 2 and 3.
+//!
+//! Budget: at most 9 first cells, WALK_READS = 24 more cell reads (6 descents), and
+//! WALK_LEAVES = 4 level-2 cells settled texel by texel (16 gathers, pcss's search count).
+//! Fallback, for a mixed cell the budget does not reach: its caster depths taken as spread
+//! evenly over [min, max caster], the fraction in front of the plane at the centre of the
+//! cell's part in the square blocks, at the mean depth of that fraction; the rest is open.
+//!
+//! Why a square, weighted by area: the cells are squares, so clipping them to a square is
+//! one overlap product per cell, where a disc would need a descent along its whole rim; the
+//! square of half-side `search + 1` holds every texel pcss's taps can read, so the walk
+//! finds no fewer blockers than pcss (its "no blocker" is at least as sure), and every
+//! extra blocker it finds lies outside the filter disc (the filter radius never exceeds the
+//! search radius), where the filter sees none. Area weights make d_b the mean over the
+//! region pcss samples, not over whichever texels 16 taps happen to hit.
+//!
+//! Why no stack: on lavapipe every branch of a loop body runs for the whole SIMD group, and
+//! a local array indexed per invocation became select chains or scratch memory: a 16-entry
+//! stack made the final pass 5x today's (140 ms against 24 on `cylinder` at 1024²); three
+//! nested loops 2.7x; the stackless walk about 1.7x. The level-2 gathers run in their own
+//! loop after the walk, one gather a turn, since llvmpipe runs a loop's first turn even for
+//! a group in which no invocation needs it.
 //!
 //! ## Known artefacts
-//! Those of `pcss`, no more. Points on a caster's own lit surface (the caster is in its own
-//! cells) never settle as lit, and pay the hierarchy's reads on top of the search.
+//! Those of `pcss`, except that d_b is the mean over the search square rather than over 16
+//! taps: nearly every penumbra pixel moves (tests/pcss_fast.rs bounds how many, and holds
+//! mae_lit against the ray-cast reference within 0.003 of pcss's). The mixed test's plane
+//! is the cell's nearest: a caster between that and the plane at its own texel counts as
+//! open, so blockers within one cell's plane span of a sloped receiver are missed, and the
+//! fallback's even spread is a guess (a cell holding a thin blocker over deeper casters
+//! gets too deep a d_b). Where the square's corners reach a blocker that pcss's disc does
+//! not, the pixel pays the filter and gets pcss's 1 from it. Points on a caster's own lit
+//! surface rarely settle early (the caster is in its own cells) and walk.
+//!
+//! ## Cost
+//! On lavapipe the walk is slower than the 16 gathers it replaces (about 1.5–2x pcss's final
+//! pass; BENCHMARKS.md, and the commit that brought the walk, have the numbers): llvmpipe
+//! runs a loop for a whole SIMD group as long as any invocation in it needs another turn, so
+//! the group pays the longest walk among its pixels. On a GPU with divergent-but-independent
+//! lanes the reads are cheap buffer loads and the gathers stay bounded at pcss's 16.
 
 use super::pcss;
 use super::{
@@ -153,7 +206,7 @@ impl PcssFast {
         let cells: u64 = levels.iter().map(|l| u64::from(l.size).pow(2)).sum();
         let minmax = Buffer::new(
             ctx,
-            cells * 8,
+            cells * 16,
             BufferUsageFlags::STORAGE_BUFFER,
             MemoryLocation::GpuOnly,
             "pcss-fast/minmax",

@@ -43,15 +43,16 @@ vec2 overlap(Square sq, vec2 a, vec2 b) {
     return max(min(b, sq.hi) - max(a, sq.lo), vec2(0.0));
 }
 
-// The receiver plane's depth where it is nearest the light over the rectangle [a, b]
-// (texels): plane_depth at the corner that raises q = 1 + g . duv most.
-float nearest_plane(Square sq, vec2 a, vec2 b) {
+// The receiver plane's depths over the rectangle [a, b] (texels): (nearest the light,
+// farthest), plane_depth at the corners that raise and lower q = 1 + g . duv most.
+vec2 plane_range(Square sq, vec2 a, vec2 b) {
     ReceiverPlane rp = sq.rp;
     vec2 ga = rp.g * (a - sq.c) / sq.res;
     vec2 gb = rp.g * (b - sq.c) / sq.res;
-    float q = 1.0 + max(ga.x, gb.x) + max(ga.y, gb.y);
-    float shift = q > 1.0 ? rp.depth * (1.0 / q - 1.0) : 0.0;
-    return rp.depth + max(shift, -rp.max_shift);
+    vec2 q = 1.0 + vec2(max(ga.x, gb.x) + max(ga.y, gb.y), min(ga.x, gb.x) + min(ga.y, gb.y));
+    vec2 shift = vec2(q.x > 1.0 ? rp.depth * (1.0 / q.x - 1.0) : 0.0,
+                      q.y > 1.0 ? rp.depth * (1.0 / q.y - 1.0) : 0.0);
+    return rp.depth + max(shift, vec2(-rp.max_shift));
 }
 
 // One 2x2 quad (q = 0..3) of a level-2 cell, texel by texel: each texel's depth against
@@ -119,13 +120,14 @@ bool mixed(inout Found f, Square sq, int k, ivec2 xy, out vec4 cell) {
     float area = ov.x * ov.y;
     if (area <= 0.0) return false;
     cell = minmax.cells[cell_index(res, k, xy)];
-    // The plane where it is nearest the light over the cell's part in the square.
-    float near_plane = nearest_plane(sq, a, b);
-    if (cell.w == 0.0 || cell.x * sq.bias >= near_plane) {
+    // The plane's depths over the cell's part in the square: every caster behind its
+    // farthest, or in front of its nearest, settles the cell exactly.
+    vec2 plane = plane_range(sq, a, b);
+    if (cell.w == 0.0 || cell.x * sq.bias >= plane.y) {
         f.open += area;
         return false;
     }
-    if (cell.y * sq.bias < near_plane) {
+    if (cell.y * sq.bias < plane.x) {
         float frac = area / float(cell_texels(res, k, xy));
         f.blocked += frac * cell.w;
         f.depth_sum += frac * cell.z;

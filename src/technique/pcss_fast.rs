@@ -66,12 +66,14 @@
 //! Over the square `[c - search - 1, c + search + 1]` (texels around the point c, clipped to
 //! the map), three sums: the blocked area, its depth-weighted sum, and the open area (no
 //! caster, or a caster behind the receiver plane). A cell is compared with the receiver
-//! plane where it is nearest the light over the cell's part in the square (the corner that
-//! raises q = 1 + g . duv most, `plane_depth`'s formula):
-//! * no caster, or every caster behind it (`min * (1 + bias) >= plane`): open;
-//! * every caster in front (`max caster * (1 + bias) < plane`): blocked, its whole (sum,
-//!   count) scaled by the fraction of the cell inside the square; the cell's empty texels
-//!   open. A silhouette cell (casters and empty texels) is thus exact at any level;
+//! plane's depths over the cell's part in the square (`plane_depth`'s formula at the
+//! corners that raise and lower q = 1 + g . duv most), both exact bounds on pcss's per-tap
+//! test:
+//! * no caster, or every caster behind the plane's farthest depth (`min * (1 + bias) >=
+//!   far`): open;
+//! * every caster in front of its nearest depth (`max caster * (1 + bias) < near`):
+//!   blocked, its whole (sum, count) scaled by the fraction of the cell inside the square;
+//!   the cell's empty texels open. A silhouette cell (casters and empty texels) is thus exact at any level;
 //! * else mixed: descend to its four children (depth first, without a stack: a cell's
 //!   parent is xy >> 1, so (level, xy) is the whole state), down to level 2, where a mixed
 //!   cell is settled texel by texel (four gathers; each texel against the plane at its
@@ -94,29 +96,38 @@
 //! region pcss samples, not over whichever texels 16 taps happen to hit.
 //!
 //! Why no stack: on lavapipe every branch of a loop body runs for the whole SIMD group, and
-//! a local array indexed per invocation became select chains or scratch memory: a 16-entry
-//! stack made the final pass 5x today's (140 ms against 24 on `cylinder` at 1024²); three
-//! nested loops 2.7x; the stackless walk about 1.7x. The level-2 gathers run in their own
-//! loop after the walk, one gather a turn, since llvmpipe runs a loop's first turn even for
-//! a group in which no invocation needs it.
+//! a local array indexed per invocation becomes select chains or scratch memory. On
+//! `cylinder` (512², map 1024²) the final pass took 125–140 ms with a 16-entry stack, 64–70
+//! with three nested loops (first cells, children, grandchildren), 48 with the stackless
+//! walk, against 24 for the former hierarchy-then-16-gathers path and 27 for pcss. The
+//! level-2 gathers run in their own loop after the walk, one gather a turn, since llvmpipe
+//! runs a loop's first turn even for a group in which no invocation needs it. Tried and
+//! dropped, no measurable change: classifying the first cells in the bounds loop (fewer walk
+//! turns), and skipping cells outside the inscribed disc.
 //!
 //! ## Known artefacts
 //! Those of `pcss`, except that d_b is the mean over the search square rather than over 16
 //! taps: nearly every penumbra pixel moves (tests/pcss_fast.rs bounds how many, and holds
-//! mae_lit against the ray-cast reference within 0.003 of pcss's). The mixed test's plane
-//! is the cell's nearest: a caster between that and the plane at its own texel counts as
-//! open, so blockers within one cell's plane span of a sloped receiver are missed, and the
-//! fallback's even spread is a guess (a cell holding a thin blocker over deeper casters
-//! gets too deep a d_b). Where the square's corners reach a blocker that pcss's disc does
+//! mae_lit against the ray-cast reference within 0.003 of pcss's). A cell on a receiver
+//! that slopes away from the light holds the receiver's own texels on both sides of the
+//! plane's range, so it is mixed and costs a descent (comparing with the nearest depth only
+//! was cheaper, but called cells open that hid real blockers: 5 to 28 pixels a frame lit
+//! where pcss shadows, on `bunny`, `primitives`, `fence`). Past the budget the fallback's
+//! even spread is a guess: a cell holding a thin blocker over deeper casters gets too deep
+//! a d_b, and a cell of the receiver's own surface counts some of it as blockers at about
+//! the receiver's depth (the filter then runs, finds the surface lit through the receiver
+//! plane, and only a real blocker nearby is filtered with too small a radius). Where the square's corners reach a blocker that pcss's disc does
 //! not, the pixel pays the filter and gets pcss's 1 from it. Points on a caster's own lit
 //! surface rarely settle early (the caster is in its own cells) and walk.
 //!
 //! ## Cost
-//! On lavapipe the walk is slower than the 16 gathers it replaces (about 1.5–2x pcss's final
-//! pass; BENCHMARKS.md, and the commit that brought the walk, have the numbers): llvmpipe
-//! runs a loop for a whole SIMD group as long as any invocation in it needs another turn, so
-//! the group pays the longest walk among its pixels. On a GPU with divergent-but-independent
-//! lanes the reads are cheap buffer loads and the gathers stay bounded at pcss's 16.
+//! On lavapipe the walk is slower than the 16 gathers it replaces: the final pass is 1.4–2.2x
+//! pcss's (512², map 1024², lowest of 3: cylinder 47 against 23 ms, bunny 58/27, overlap
+//! 42/30, dense 141/102), where the former hierarchy-then-search path was 0.7–0.9x. llvmpipe
+//! runs a loop for a whole SIMD group while any invocation in it needs a turn, so a group
+//! pays the longest walk among its pixels, and each cell read is a per-lane load. On a GPU
+//! the reads are cache-friendly buffer loads and the gathers stay bounded at pcss's 16; not
+//! measured here.
 
 use super::pcss;
 use super::{

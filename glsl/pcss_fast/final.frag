@@ -15,7 +15,7 @@ layout(std430, set = 0, binding = 2) readonly buffer MinMax { vec4 cells[]; } mi
 // The walk's budget (pcss_fast.rs, "The walk"): cells read below the first ones (4 a
 // descent), and level-2 cells settled texel by texel (4 gathers each, 16 in all: pcss's
 // search count).
-const int WALK_READS = 24;
+const int WALK_READS = 12;
 const int WALK_LEAVES = 4;
 
 // The blocker search as weights: area (texels) of the search square found blocked, the

@@ -81,7 +81,7 @@
 //!
 //! No blocked area: 1. No open area: 0. Else d_b = sum / blocked area, then steps 2 and 3.
 //!
-//! Budget: at most 9 first cells, WALK_READS = 24 more cell reads (6 descents), and
+//! Budget: at most 9 first cells, WALK_READS = 12 more cell reads (3 descents), and
 //! WALK_LEAVES = 4 level-2 cells settled texel by texel (16 gathers, pcss's search count).
 //! Fallback, for a mixed cell the budget does not reach: its caster depths taken as spread
 //! evenly over [min, max caster], the fraction in front of the plane at the centre of the
@@ -97,13 +97,14 @@
 //!
 //! Why no stack: on lavapipe every branch of a loop body runs for the whole SIMD group, and
 //! a local array indexed per invocation becomes select chains or scratch memory. On
-//! `cylinder` (512², map 1024²) the final pass took 125–140 ms with a 16-entry stack, 64–70
-//! with three nested loops (first cells, children, grandchildren), 48 with the stackless
-//! walk, against 24 for the former hierarchy-then-16-gathers path and 27 for pcss. The
+//! `cylinder` (512², map 1024², 24 reads) the final pass took 125–140 ms with a 16-entry
+//! stack, 64–70 with three nested loops (first cells, children, grandchildren), 48 with the
+//! stackless walk, against 24 for the former hierarchy-then-16-gathers path and 27 for pcss. The
 //! level-2 gathers run in their own loop after the walk, one gather a turn, since llvmpipe
 //! runs a loop's first turn even for a group in which no invocation needs it. Tried and
 //! dropped, no measurable change: classifying the first cells in the bounds loop (fewer walk
-//! turns), and skipping cells outside the inscribed disc.
+//! turns), and skipping cells outside the inscribed disc. 24 reads instead of 12 cost 10–15%
+//! more on `cylinder` and `bunny` for 0.0004 less mae_lit on `bunny` and `primitives`.
 //!
 //! ## Known artefacts
 //! Those of `pcss`, except that d_b is the mean over the search square rather than over 16
@@ -121,9 +122,9 @@
 //! surface rarely settle early (the caster is in its own cells) and walk.
 //!
 //! ## Cost
-//! On lavapipe the walk is slower than the 16 gathers it replaces: the final pass is 1.4–2.2x
-//! pcss's (512², map 1024², lowest of 3: cylinder 47 against 23 ms, bunny 58/27, overlap
-//! 42/30, dense 141/102), where the former hierarchy-then-search path was 0.7–0.9x. llvmpipe
+//! On lavapipe the walk is slower than the 16 gathers it replaces: the final pass is 1.5–2x
+//! pcss's (512², map 1024², lowest of 3: cylinder 41 against 27 ms, bunny 50/25, overlap
+//! 46/28, dense 139/90), where the former hierarchy-then-search path was 0.75–0.93x. llvmpipe
 //! runs a loop for a whole SIMD group while any invocation in it needs a turn, so a group
 //! pays the longest walk among its pixels, and each cell read is a per-lane load. On a GPU
 //! the reads are cache-friendly buffer loads and the gathers stay bounded at pcss's 16; not

@@ -145,7 +145,7 @@ use anyhow::{Context as _, Result};
 
 pub const INFO: TechniqueInfo = TechniqueInfo {
     name: "pcss-fast",
-    summary: "pcss with a min/max hierarchy of the shadow map settling lit and umbra pixels first",
+    summary: "pcss whose blocker search walks a caster-depth hierarchy of the shadow map",
     create: PcssFast::create,
 };
 

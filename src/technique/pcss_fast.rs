@@ -73,7 +73,8 @@
 //!   far`): open;
 //! * every caster in front of its nearest depth (`max caster * (1 + bias) < near`):
 //!   blocked, its whole (sum, count) scaled by the fraction of the cell inside the square;
-//!   the cell's empty texels open. A silhouette cell (casters and empty texels) is thus exact at any level;
+//!   the cell's empty texels open. A silhouette cell (casters and empty texels) is thus
+//!   exact at any level;
 //! * else mixed: descend to its four children (depth first, without a stack: a cell's
 //!   parent is xy >> 1, so (level, xy) is the whole state), down to level 2, where a mixed
 //!   cell is settled texel by texel (four gathers; each texel against the plane at its
@@ -99,9 +100,9 @@
 //! a local array indexed per invocation becomes select chains or scratch memory. On
 //! `cylinder` (512², map 1024², 24 reads) the final pass took 125–140 ms with a 16-entry
 //! stack, 64–70 with three nested loops (first cells, children, grandchildren), 48 with the
-//! stackless walk, against 24 for the former hierarchy-then-16-gathers path and 27 for pcss. The
-//! level-2 gathers run in their own loop after the walk, one gather a turn, since llvmpipe
-//! runs a loop's first turn even for a group in which no invocation needs it. Tried and
+//! stackless walk, against 24 for the former hierarchy-then-16-gathers path and 27 for
+//! pcss. The level-2 gathers run in their own loop after the walk, one gather a turn, since
+//! llvmpipe runs a loop's first turn even for a group in which no invocation needs it. Tried and
 //! dropped, no measurable change: classifying the first cells in the bounds loop (fewer walk
 //! turns), and skipping cells outside the inscribed disc. 24 reads instead of 12 cost 10–15%
 //! more on `cylinder` and `bunny` for 0.0004 less mae_lit on `bunny` and `primitives`.
@@ -117,8 +118,9 @@
 //! even spread is a guess: a cell holding a thin blocker over deeper casters gets too deep
 //! a d_b, and a cell of the receiver's own surface counts some of it as blockers at about
 //! the receiver's depth (the filter then runs, finds the surface lit through the receiver
-//! plane, and only a real blocker nearby is filtered with too small a radius). Where the square's corners reach a blocker that pcss's disc does
-//! not, the pixel pays the filter and gets pcss's 1 from it. Points on a caster's own lit
+//! plane, and only a real blocker nearby is filtered with too small a radius). Where the
+//! square's corners reach a blocker that pcss's disc does not, the pixel pays the filter and
+//! gets pcss's 1 from it. Points on a caster's own lit
 //! surface rarely settle early (the caster is in its own cells) and walk.
 //!
 //! ## Cost

@@ -1,9 +1,10 @@
 #version 450
 #extension GL_GOOGLE_include_directive : require
-// pcss-fast final pass: pcss (pcss/search.glsl) with its blocker search replaced by the
-// caster-depth hierarchy (pcss_fast/hierarchy.glsl). One look at the search square's cells
-// settles "no blocker" (1) and "every texel blocked" (0) exactly as pcss would; the other
-// points walk the hierarchy for the mean blocker depth, then run pcss's steps 2 and 3.
+// pcss-fast and pcss-walk final pass: pcss (pcss/search.glsl) after one look at the
+// caster-depth hierarchy (pcss_fast/hierarchy.glsl). The search square's cells settle "no
+// blocker" (1) and "every texel blocked" (0) exactly as pcss would; the other points run
+// pcss's search (pcss-fast, PCSS_FAST_WALK = 0: pcss's image exactly) or walk the hierarchy
+// for the mean blocker depth (pcss-walk), then pcss's steps 2 and 3.
 // Equation numbers as in src/technique/pcss.rs; the walk, its budget and its fallback as in
 // src/technique/pcss_fast.rs.
 #include "pcss/search.glsl"
@@ -212,6 +213,9 @@ float visibility(vec3 p, vec3 n) {
     float q = 1.0 + (abs(rp.g.x) + abs(rp.g.y)) * (search / res);
     float nearest = rp.depth + max(rp.depth * (1.0 / q - 1.0), -rp.max_shift);
     if (bounds.y * bias < nearest * (1.0 - 1e-5)) return 0.0;
+    // pcss-fast: pcss's own search and filter for the points left, so that its image is
+    // pcss's exactly. A uniform, so every invocation takes the same side.
+    if (PCSS_FAST_WALK < 0.5) return pcss_visibility(s, rp, search);
 
     // Step 1 as a walk of the hierarchy over the search square (pcss_fast.rs, "The walk").
     Square sq;

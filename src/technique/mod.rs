@@ -127,6 +127,7 @@ pub const TECHNIQUES: &[TechniqueInfo] = &[
     pcf::INFO,
     pcss::INFO,
     pcss_fast::INFO,
+    pcss_fast::INFO_WALK,
     smoothies::INFO,
     smoothies_centred::INFO,
     penumbra_map::INFO,

@@ -67,8 +67,9 @@
 //! measured ratios). The shadow-map pass is the shared `ShadowMap` (as `pcf`'s); the final pass
 //! dominates, and in it the blocker search: every lit pixel inside the light frustum pays
 //! SEARCH_SAMPLES gathers before it can exit, and on lavapipe one gather costs about as much
-//! as all of `hard`'s final pass. `pcss-fast` (src/technique/pcss_fast.rs) replaces the
-//! search with a walk of a caster-depth hierarchy of the shadow map and shares steps 2–3
+//! as all of `hard`'s final pass. `pcss-fast` (src/technique/pcss_fast.rs) settles most
+//! pixels with a min/max hierarchy of the shadow map first, for the same image; `pcss-walk`
+//! also replaces the search with a walk of that hierarchy and shares steps 2–3
 //! (`pcss_filter`); its penumbrae differ slightly.
 
 use super::{

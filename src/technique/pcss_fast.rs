@@ -1,12 +1,19 @@
-//! # pcss-fast — `pcss` (Fernando 2005) with its blocker search walking a hierarchy
+//! # pcss-fast and pcss-walk — `pcss` (Fernando 2005) over a hierarchy of the shadow map
 //!
-//! `pcss` (src/technique/pcss.rs: Equations 1–5, sample counts, known artefacts) whose step 1,
-//! the blocker search, reads a caster-depth hierarchy of the shadow map instead of
-//! SEARCH_SAMPLES scattered gathers: one look at the search square's coarsest cells settles
-//! "no blocker" (1) and "every texel blocked" (0) exactly as pcss would, and the points left
-//! (penumbrae, lit points near a caster) walk the hierarchy for the mean blocker depth d_b,
-//! then run pcss's steps 2 (Eq. 1/4) and 3 (the Poisson PCF) unchanged with it
-//! (`pcss_filter` in `glsl/pcss/search.glsl`, shared with pcss).
+//! `pcss` (src/technique/pcss.rs: Equations 1–5, sample counts, known artefacts) with a
+//! caster-depth hierarchy of the shadow map: one look at the search square's coarsest cells
+//! settles "no blocker" (1) and "every texel blocked" (0) exactly as pcss would. Two forms
+//! differ in the points left (penumbrae, lit points near a caster), by one uniform
+//! (`PCSS_FAST_WALK`, the same shaders and passes):
+//! * `pcss-fast` runs pcss's own step 1 (SEARCH_SAMPLES scattered gathers) and steps 2–3 for
+//!   them: pcss's image exactly, for less work wherever the hierarchy settles a point;
+//! * `pcss-walk` walks the hierarchy for the mean blocker depth d_b instead of the gathers,
+//!   then runs pcss's steps 2 (Eq. 1/4) and 3 (the Poisson PCF) unchanged with it
+//!   (`pcss_filter` in `glsl/pcss/search.glsl`, shared with pcss). Its penumbrae differ a
+//!   little from pcss's; on lavapipe it is the slower of the two ("Cost" below), which is why
+//!   both are kept: measure the walk on the GPU you target before you port it.
+//!
+//! Pass names below are `pcss-fast`'s; `pcss-walk`'s are the same under its own name.
 //!
 //! ## Passes, in order
 //! 1. `pcss-fast/shadow_map` — casters from the light (`gpu::passes::ShadowMap`): RG32F,
@@ -62,7 +69,7 @@
 //! a texel of search (R = 0, and points near the light's near plane) pcss's search is one
 //! gather: there pcss's step 1 runs as is, and R = 0 is pcss's image bit for bit.
 //!
-//! ## The walk (step 1 for the points left)
+//! ## The walk (`pcss-walk`: step 1 for the points left)
 //! Over the square `[c - search - 1, c + search + 1]` (texels around the point c, clipped to
 //! the map), three sums: the blocked area, its depth-weighted sum, and the open area (no
 //! caster, or a caster behind the receiver plane). A cell is compared with the receiver
@@ -100,17 +107,17 @@
 //! a local array indexed per invocation becomes select chains or scratch memory. On
 //! `cylinder` (512², map 1024², 24 reads) the final pass took 125–140 ms with a 16-entry
 //! stack, 64–70 with three nested loops (first cells, children, grandchildren), 48 with the
-//! stackless walk, against 24 for the former hierarchy-then-16-gathers path and 27 for
+//! stackless walk, against 24 for `pcss-fast` (hierarchy, then the 16 gathers) and 27 for
 //! pcss. The level-2 gathers run in their own loop after the walk, one gather a turn, since
-//! llvmpipe runs a loop's first turn even for a group in which no invocation needs it. Tried and
-//! dropped, no measurable change: classifying the first cells in the bounds loop (fewer walk
+//! llvmpipe runs a loop's first turn even for a group in which no invocation needs it. Tried
+//! and dropped, no measurable change: classifying the first cells in the bounds loop (fewer walk
 //! turns), and skipping cells outside the inscribed disc. 24 reads instead of 12 cost 10–15%
 //! more on `cylinder` and `bunny` for 0.0004 less mae_lit on `bunny` and `primitives`.
 //!
 //! ## Known artefacts
-//! Those of `pcss`, except that d_b is the mean over the search square rather than over 16
-//! taps: nearly every penumbra pixel moves (tests/pcss_fast.rs bounds how many, and holds
-//! mae_lit against the ray-cast reference within 0.003 of pcss's). A cell on a receiver
+//! `pcss-fast`: those of `pcss`, no more. `pcss-walk`: those of `pcss`, except that d_b is
+//! the mean over the search square rather than over 16 taps: nearly every penumbra pixel
+//! moves (tests/pcss_fast.rs bounds how many, and holds mae_lit against the ray-cast reference within 0.003 of pcss's). A cell on a receiver
 //! that slopes away from the light holds the receiver's own texels on both sides of the
 //! plane's range, so it is mixed and costs a descent (comparing with the nearest depth only
 //! was cheaper, but called cells open that hid real blockers: 5 to 28 pixels a frame lit
@@ -120,13 +127,14 @@
 //! the receiver's depth (the filter then runs, finds the surface lit through the receiver
 //! plane, and only a real blocker nearby is filtered with too small a radius). Where the
 //! square's corners reach a blocker that pcss's disc does not, the pixel pays the filter and
-//! gets pcss's 1 from it. Points on a caster's own lit
-//! surface rarely settle early (the caster is in its own cells) and walk.
+//! gets pcss's 1 from it. Points on a caster's own lit surface rarely settle early (the
+//! caster is in its own cells) and search (`pcss-fast`) or walk (`pcss-walk`).
 //!
 //! ## Cost
-//! On lavapipe the walk is slower than the 16 gathers it replaces: the final pass is 1.5–2x
-//! pcss's (512², map 1024², lowest of 3: cylinder 41 against 27 ms, bunny 50/25, overlap
-//! 46/28, dense 139/90), where the former hierarchy-then-search path was 0.75–0.93x. llvmpipe
+//! `pcss-fast`'s final pass is pcss's, minus the search for the points the hierarchy
+//! settles. On lavapipe the walk is slower than the 16 gathers it replaces: `pcss-walk`'s
+//! final pass is 1.5–2x pcss's (512², map 1024², lowest of 3: cylinder 41 against 27 ms,
+//! bunny 50/25, overlap 46/28, dense 139/90), where `pcss-fast`'s is 0.75–0.93x. llvmpipe
 //! runs a loop for a whole SIMD group while any invocation in it needs a turn, so a group
 //! pays the longest walk among its pixels, and each cell read is a per-lane load. On a GPU
 //! the reads are cache-friendly buffer loads and the gathers stay bounded at pcss's 16; not
@@ -147,9 +155,50 @@ use anyhow::{Context as _, Result};
 
 pub const INFO: TechniqueInfo = TechniqueInfo {
     name: "pcss-fast",
-    summary: "pcss whose blocker search walks a caster-depth hierarchy of the shadow map",
-    create: PcssFast::create,
+    summary: "pcss after a min/max hierarchy settles lit and umbra points (pcss's image exactly)",
+    create: |init| PcssFast::create(init, Search::Taps),
 };
+
+pub const INFO_WALK: TechniqueInfo = TechniqueInfo {
+    name: "pcss-walk",
+    summary: "pcss whose blocker search walks a caster-depth hierarchy of the shadow map",
+    create: |init| PcssFast::create(init, Search::Walk),
+};
+
+/// How the points the early exits leave find their blockers (module header): pcss's own
+/// taps (`pcss-fast`) or the walk of the hierarchy (`pcss-walk`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Search {
+    Taps,
+    Walk,
+}
+
+/// The names of one form's passes (= timestamp and debug labels).
+struct Names {
+    technique: &'static str,
+    shadow_map: &'static str,
+    minmax: &'static str,
+    final_pass: &'static str,
+}
+
+impl Search {
+    fn names(self) -> Names {
+        match self {
+            Search::Taps => Names {
+                technique: INFO.name,
+                shadow_map: "pcss-fast/shadow_map",
+                minmax: "pcss-fast/minmax",
+                final_pass: "pcss-fast/final",
+            },
+            Search::Walk => Names {
+                technique: INFO_WALK.name,
+                shadow_map: "pcss-walk/shadow_map",
+                minmax: "pcss-walk/minmax",
+                final_pass: "pcss-walk/final",
+            },
+        }
+    }
+}
 
 /// Threads a side of a `minmax.comp` workgroup (its `local_size_x/y`).
 const GROUP: u32 = 8;
@@ -195,6 +244,7 @@ struct LevelPush {
 }
 
 pub struct PcssFast {
+    search: Search,
     shadow: ShadowMap,
     levels: Vec<Level>,
     /// Kept alive for the sets that bind it.
@@ -209,13 +259,14 @@ pub struct PcssFast {
 }
 
 impl PcssFast {
-    fn create(init: &TechniqueInit<'_>) -> Result<Box<dyn Technique>> {
+    fn create(init: &TechniqueInit<'_>, search: Search) -> Result<Box<dyn Technique>> {
         let ctx = init.ctx;
+        let names = search.names();
         init.settings.pcf_kernel.check()?;
         let (search_samples, filter_samples) = pcss::sample_counts(init.settings.pcf_kernel);
         let res = init.settings.shadow_res;
-        let shadow = ShadowMap::new(ctx, init.ubo, res, "pcss-fast/shadow_map")
-            .context("pcss-fast shadow map")?;
+        let shadow = ShadowMap::new(ctx, init.ubo, res, names.shadow_map)
+            .with_context(|| format!("{} shadow map", names.technique))?;
         let levels = levels(res);
         let cells: u64 = levels.iter().map(|l| u64::from(l.size).pow(2)).sum();
         let minmax = Buffer::new(
@@ -223,28 +274,29 @@ impl PcssFast {
             cells * 16,
             BufferUsageFlags::STORAGE_BUFFER,
             MemoryLocation::GpuOnly,
-            "pcss-fast/minmax",
+            names.minmax,
         )
-        .context("pcss-fast min/max hierarchy")?;
+        .with_context(|| format!("{} min/max hierarchy", names.technique))?;
         // Nearest: gathers and texelFetch ignore filtering, and no path may blend depths.
-        let sampler = Sampler::new(ctx, Filter::Nearest).context("pcss-fast sampler")?;
+        let sampler = Sampler::new(ctx, Filter::Nearest)
+            .with_context(|| format!("{} sampler", names.technique))?;
         let build_set = DescriptorSet::new(
             ctx,
             &[
                 ("shadow_map", Resource::Sampled(&shadow.depth, &sampler)),
                 ("minmax", Resource::Storage(&minmax)),
             ],
-            "pcss-fast/minmax",
+            names.minmax,
         )
-        .context("pcss-fast minmax descriptor set")?;
+        .with_context(|| format!("{} minmax descriptor set", names.technique))?;
         let build = Pipeline::compute(
             ctx,
-            "pcss-fast/minmax",
+            names.minmax,
             shaders::PCSS_FAST_MINMAX_COMP,
             &[&build_set],
             std::mem::size_of::<LevelPush>() as u32,
         )
-        .context("pcss-fast minmax pipeline")?;
+        .with_context(|| format!("{} minmax pipeline", names.technique))?;
         let final_set = DescriptorSet::new(
             ctx,
             &[
@@ -252,20 +304,21 @@ impl PcssFast {
                 ("shadow_map", Resource::Sampled(&shadow.depth, &sampler)),
                 ("minmax", Resource::Storage(&minmax)),
             ],
-            "pcss-fast/final",
+            names.final_pass,
         )
-        .context("pcss-fast final descriptor set")?;
+        .with_context(|| format!("{} final descriptor set", names.technique))?;
         let final_pass = FinalPass::new(
             ctx,
-            "pcss-fast/final",
+            names.final_pass,
             FinalShader {
                 color: shaders::PCSS_FAST_FINAL_FRAG,
                 aov: shaders::PCSS_FAST_FINAL_FRAG_AOV,
             },
             &final_set,
         )
-        .context("pcss-fast final pass")?;
+        .with_context(|| format!("{} final pass", names.technique))?;
         Ok(Box::new(Self {
+            search,
             shadow,
             levels,
             _minmax: minmax,
@@ -281,7 +334,7 @@ impl PcssFast {
 
     /// Pass 2: every level from the one below, the first from the shadow map.
     fn record_minmax(&self, rec: &mut Recorder<'_>) -> Result<()> {
-        rec.pass("pcss-fast/minmax", |rec| {
+        rec.pass(self.search.names().minmax, |rec| {
             // The first level reads the shadow map (4x4 texels a cell), the others the level
             // below (2x2 cells).
             let mut src = (-1, self.shadow.resolution as i32);
@@ -306,13 +359,14 @@ impl PcssFast {
 
 impl Technique for PcssFast {
     fn name(&self) -> &'static str {
-        INFO.name
+        self.search.names().technique
     }
 
     fn uniforms(&self, frame: &FrameInput<'_>) -> [[f32; 4]; 2] {
         let mut c = pcss::slots(frame, self.search_samples, self.filter_samples);
         // No level (a map of 4 texels or fewer): the loop in final.frag never runs.
         c[k::PCSS_FAST_LAST_LEVEL] = self.levels.last().map_or(1, |l| l.k) as f32;
+        c[k::PCSS_FAST_WALK] = f32::from(u8::from(self.search == Search::Walk));
         technique_constants(c)
     }
 
@@ -327,7 +381,8 @@ impl Technique for PcssFast {
     }
 
     fn light_passes(&self) -> Vec<String> {
-        vec!["pcss-fast/shadow_map".into(), "pcss-fast/minmax".into()]
+        let names = self.search.names();
+        vec![names.shadow_map.into(), names.minmax.into()]
     }
 
     fn record_final(

@@ -42,6 +42,11 @@ def load(path):
     return scenes
 
 
+def label(r):
+    """The row's name as the bench's report prints it (`smoothies t=0.02` for a fixed t)."""
+    return r["technique"] or r["technique_name"]
+
+
 def passes(r):
     out = []
     for k, v in r.items():
@@ -58,7 +63,7 @@ def pareto(rows):
     for r in sorted(rows, key=lambda r: (float(r["ratio_to_hard"]), float(r["mae_lit"]))):
         if float(r["mae_lit"]) < best:
             best = float(r["mae_lit"])
-            front.append(r["technique_name"])
+            front.append(label(r))
     return front
 
 
@@ -69,7 +74,7 @@ def scene_tables(scenes):
         print("|:---|---:|---:|:---|---:|---:|---:|---:|")
         for r in rows:
             print(
-                f"| {r['technique_name']} | {fmt_ms(float(r['frame_ms_median']))} "
+                f"| {label(r)} | {fmt_ms(float(r['frame_ms_median']))} "
                 f"| {float(r['ratio_to_hard']):.2f} | {passes(r)} "
                 f"| {float(r['mae_lit']):.3f} | {float(r['p99_lit']):.2f} "
                 f"| {float(r['flip']):.4f} | {float(r['mae_shadow']):.3f} |"
@@ -77,21 +82,21 @@ def scene_tables(scenes):
         by_err = sorted(rows, key=lambda r: float(r["mae_lit"]))
         by_flip = min(rows, key=lambda r: float(r["flip"]))
         lowest = " then ".join(
-            f"{r['technique_name']} ({float(r['mae_lit']):.3f})" for r in by_err[:2]
+            f"{label(r)} ({float(r['mae_lit']):.3f})" for r in by_err[:2]
         )
         print(
             f"\nR = {float(rows[0]['light_radius']):.4f}. Pareto front: {' → '.join(pareto(rows))}. "
             f"Lowest mae_lit: {lowest}; "
-            f"lowest flip: {by_flip['technique_name']} ({float(by_flip['flip']):.4f}).\n"
+            f"lowest flip: {label(by_flip)} ({float(by_flip['flip']):.4f}).\n"
         )
 
 
 def by_technique(scenes):
     out = OrderedDict()
     for scene, rows in scenes.items():
-        hard = next(r for r in rows if r["technique_name"] == "hard")
+        hard = next(r for r in rows if label(r) == "hard")
         for r in rows:
-            out.setdefault(r["technique_name"], []).append((scene, r, hard))
+            out.setdefault(label(r), []).append((scene, r, hard))
     return out
 
 
@@ -117,6 +122,7 @@ TARGETS = [
     ("ssm-bitmask", "ssm", 1.0, 0.5, None),
     ("ssm2-bitmask", "ssm2", 1.0, 0.5, None),
     ("pcss-fast", "pcss", None, None, 1.5),
+    ("pcss-walk", "pcss", None, None, 1.5),
 ]
 
 

@@ -6,6 +6,5 @@
 #include "common/frame.glsl"
 
 #define PCSS_FAST_LAST_LEVEL frame.technique2.y  // the min/max hierarchy's coarsest level (2..LAST)
-#define PCSS_FAST_WALK frame.technique2.z        // 1: pcss-walk (the walk), 0: pcss-fast (pcss's taps)
 
 #endif

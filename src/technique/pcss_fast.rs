@@ -3,8 +3,9 @@
 //! `pcss` (src/technique/pcss.rs: Equations 1–5, sample counts, known artefacts) with a
 //! caster-depth hierarchy of the shadow map: one look at the search square's coarsest cells
 //! settles "no blocker" (1) and "every texel blocked" (0) exactly as pcss would. Two forms
-//! differ in the points left (penumbrae, lit points near a caster), by one uniform
-//! (`PCSS_FAST_WALK`, the same shaders and passes):
+//! differ in the points left (penumbrae, lit points near a caster), by one define
+//! (`PCSS_FAST_WALK`: glsl/pcss_fast/final.frag and walk.frag build
+//! glsl/pcss_fast/visibility.glsl without and with it; the same passes otherwise):
 //! * `pcss-fast` runs pcss's own step 1 (SEARCH_SAMPLES scattered gathers) and steps 2–3 for
 //!   them: pcss's image exactly, for less work wherever the hierarchy settles a point;
 //! * `pcss-walk` walks the hierarchy for the mean blocker depth d_b instead of the gathers,
@@ -28,8 +29,8 @@
 //!    whole cells by index anyway. Barriers between levels come from the dispatches'
 //!    declared accesses (`vk::Recorder`).
 //! 3. `pcss-fast/final` — every object from the camera (`gpu::passes::FinalPass`), fragment
-//!    `glsl/pcss_fast/final.frag`: the early exits, the walk, pcss's steps 2–3. Writes
-//!    colour RGBA8, no blending (the untimed AOV pass `pcss-fast/aov` also visibility R32F,
+//!    `glsl/pcss_fast/final.frag` (pcss-walk: `walk.frag`), both `visibility.glsl`: the
+//!    early exits, then pcss's search (or the walk), then steps 2–3. Writes colour RGBA8, no blending (the untimed AOV pass `pcss-fast/aov` also visibility R32F,
 //!    position RGBA32F, normal RGBA16F).
 //!
 //! Constants: pcss's (`frame.technique`, `frame.technique2.x`, glsl/pcss/constants.glsl) and
@@ -310,9 +311,15 @@ impl PcssFast {
         let final_pass = FinalPass::new(
             ctx,
             names.final_pass,
-            FinalShader {
-                color: shaders::PCSS_FAST_FINAL_FRAG,
-                aov: shaders::PCSS_FAST_FINAL_FRAG_AOV,
+            match search {
+                Search::Taps => FinalShader {
+                    color: shaders::PCSS_FAST_FINAL_FRAG,
+                    aov: shaders::PCSS_FAST_FINAL_FRAG_AOV,
+                },
+                Search::Walk => FinalShader {
+                    color: shaders::PCSS_FAST_WALK_FRAG,
+                    aov: shaders::PCSS_FAST_WALK_FRAG_AOV,
+                },
             },
             &final_set,
         )
@@ -364,9 +371,8 @@ impl Technique for PcssFast {
 
     fn uniforms(&self, frame: &FrameInput<'_>) -> [[f32; 4]; 2] {
         let mut c = pcss::slots(frame, self.search_samples, self.filter_samples);
-        // No level (a map of 4 texels or fewer): the loop in final.frag never runs.
+        // No level (a map of 4 texels or fewer): the loop in visibility.glsl never runs.
         c[k::PCSS_FAST_LAST_LEVEL] = self.levels.last().map_or(1, |l| l.k) as f32;
-        c[k::PCSS_FAST_WALK] = f32::from(u8::from(self.search == Search::Walk));
         technique_constants(c)
     }
 
@@ -419,7 +425,7 @@ mod tests {
         // No level past one cell.
         let sizes: Vec<u32> = levels(16).iter().map(|l| l.size).collect();
         assert_eq!(sizes, [4, 2, 1]);
-        // At the top level the largest search square (final.frag: corners floor(c -+ (search
+        // At the top level the largest search square (visibility.glsl: corners floor(c -+ (search
         // + 1.5)) apart) spans at most 3 cells, whatever its position.
         let cell = 1i32 << LAST_LEVEL;
         let span = 2 * (MAX_RADIUS_TEXELS as i32 + 2);

@@ -69,7 +69,7 @@ def pareto(rows):
 
 def scene_tables(scenes):
     for scene, rows in scenes.items():
-        print(f"### {scene}\n")
+        print(f"### {scene}")
         print("| technique | frame ms | × hard | passes, median ms | mae_lit | p99_lit | flip | mae_shadow |")
         print("|:---|---:|---:|:---|---:|---:|---:|---:|")
         for r in rows:

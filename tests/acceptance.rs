@@ -13,10 +13,7 @@
 mod common;
 
 use common::Gpu;
-use softshadow::eval::metrics::{errors_at, Errors};
-use softshadow::reference::{visibility_cached, ReferenceParams};
 use softshadow::scene::Scene;
-use softshadow::settings::Settings;
 
 const TECHNIQUES: [&str; 4] = ["hard", "pcss", "smoothies", "ssm"];
 
@@ -29,30 +26,6 @@ const EXPECTED: [(&str, [f64; 4]); 3] = [
 
 const TOLERANCE: f64 = 0.01;
 
-fn mae_lit(gpu: &Gpu, scene: &Scene, technique: &str) -> Errors {
-    let settings = Settings {
-        width: 160,
-        height: 160,
-        ..Settings::default()
-    };
-    let img = gpu.render_frames(scene.clone(), technique, settings, 1).0;
-    let v_ref = visibility_cached(
-        scene,
-        scene.light.radius,
-        &img.position,
-        &img.normal,
-        &ReferenceParams::default(),
-    )
-    .unwrap_or_else(|e| panic!("reference of {}: {e:#}", scene.name));
-    errors_at(
-        &img.visibility,
-        &v_ref,
-        &img.position,
-        &img.normal,
-        scene.light.position,
-    )
-}
-
 #[test]
 fn mae_lit_agrees_with_the_independent_ray_caster() {
     let gpu = Gpu::new();
@@ -61,7 +34,7 @@ fn mae_lit_agrees_with_the_independent_ray_caster() {
     for (name, expected) in EXPECTED {
         let scene = Scene::load(name).unwrap_or_else(|e| panic!("{e:#}"));
         for (technique, want) in TECHNIQUES.iter().zip(expected) {
-            let e = mae_lit(&gpu, &scene, technique);
+            let e = common::errors_160(&gpu, &scene, technique);
             assert!(
                 e.lit_pixels > 200,
                 "{name}/{technique}: too few lit shadow pixels to judge: {e:?}"

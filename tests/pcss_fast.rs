@@ -14,8 +14,6 @@
 mod common;
 
 use common::{covered, small, Gpu};
-use softshadow::eval::metrics::{errors_at, Errors};
-use softshadow::reference::{visibility_cached, ReferenceParams};
 use softshadow::scene::Scene;
 use softshadow::settings::Settings;
 
@@ -186,32 +184,6 @@ fn matches_pcss_with_odd_map_sizes() {
     }
 }
 
-/// tests/acceptance.rs's measurement: 160x160, every other setting at its default, the
-/// scene's light radius.
-fn mae_lit(gpu: &Gpu, scene: &Scene, technique: &str) -> Errors {
-    let settings = Settings {
-        width: 160,
-        height: 160,
-        ..Settings::default()
-    };
-    let img = gpu.render_frames(scene.clone(), technique, settings, 1).0;
-    let v_ref = visibility_cached(
-        scene,
-        scene.light.radius,
-        &img.position,
-        &img.normal,
-        &ReferenceParams::default(),
-    )
-    .unwrap_or_else(|e| panic!("reference of {}: {e:#}", scene.name));
-    errors_at(
-        &img.visibility,
-        &v_ref,
-        &img.position,
-        &img.normal,
-        scene.light.position,
-    )
-}
-
 /// How far above pcss's mae_lit pcss-walk's may be, on each of `cylinder`, `bunny`,
 /// `primitives`. Measured (pcss-walk - pcss): 0.0004, 0.0025, 0.0024.
 const MAE_MARGIN: f64 = 0.003;
@@ -221,8 +193,8 @@ fn mae_lit_near_pcss() {
     let gpu = Gpu::new();
     for name in ["cylinder", "bunny", "primitives"] {
         let scene = Scene::load(name).expect("built-in scene");
-        let p = mae_lit(&gpu, &scene, "pcss").mae_lit;
-        let f = mae_lit(&gpu, &scene, "pcss-walk").mae_lit;
+        let p = common::errors_160(&gpu, &scene, "pcss").mae_lit;
+        let f = common::errors_160(&gpu, &scene, "pcss-walk").mae_lit;
         println!(
             "{name}: mae_lit pcss {p:.4}, pcss-walk {f:.4}, difference {:.4}",
             f - p

@@ -169,3 +169,30 @@ pub fn off_edges(img: &FrameImages, r: i64) -> Vec<usize> {
         })
         .collect()
 }
+
+/// mae_lit and the other errors of `technique` against the ray-cast reference as issue 21's
+/// acceptance measured them (tests/acceptance.rs): 160x160, every other setting at its
+/// default, the scene's light radius.
+pub fn errors_160(gpu: &Gpu, scene: &Scene, technique: &str) -> softshadow::eval::metrics::Errors {
+    let settings = Settings {
+        width: 160,
+        height: 160,
+        ..Settings::default()
+    };
+    let img = gpu.render_frames(scene.clone(), technique, settings, 1).0;
+    let v_ref = softshadow::reference::visibility_cached(
+        scene,
+        scene.light.radius,
+        &img.position,
+        &img.normal,
+        &softshadow::reference::ReferenceParams::default(),
+    )
+    .unwrap_or_else(|e| panic!("reference of {}: {e:#}", scene.name));
+    softshadow::eval::metrics::errors_at(
+        &img.visibility,
+        &v_ref,
+        &img.position,
+        &img.normal,
+        scene.light.position,
+    )
+}

@@ -44,10 +44,26 @@ use anyhow::{Context as _, Result};
 pub const INFO: TechniqueInfo = TechniqueInfo {
     name: "hard",
     summary: "shadow map, one comparison per texel, 2x2 bilinear filter",
-    create: Hard::create,
+    create: |init| Ok(Box::new(Hard::create(init, NAMES)?)),
+};
+
+/// The names of the passes (= timestamp and debug labels) and of the technique: `hard`'s,
+/// or those of a technique that is `hard` at R = 0 (`ssm-bitmask`, whose soft shadow map
+/// has no penumbra to sample under a point light).
+pub(crate) struct Names {
+    pub technique: &'static str,
+    pub shadow_map: &'static str,
+    pub final_pass: &'static str,
+}
+
+const NAMES: Names = Names {
+    technique: "hard",
+    shadow_map: "hard/shadow_map",
+    final_pass: "hard/final",
 };
 
 pub struct Hard {
+    names: Names,
     map: Image,
     map_pipeline: Pipeline,
     map_set: DescriptorSet,
@@ -57,7 +73,7 @@ pub struct Hard {
 }
 
 impl Hard {
-    fn create(init: &TechniqueInit<'_>) -> Result<Box<dyn Technique>> {
+    pub(crate) fn create(init: &TechniqueInit<'_>, names: Names) -> Result<Self> {
         let ctx = init.ctx;
         let res = init.settings.shadow_res;
         let map = Image::new_2d(
@@ -68,17 +84,17 @@ impl Hard {
             ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT
                 | ImageUsageFlags::SAMPLED
                 | ImageUsageFlags::TRANSFER_SRC,
-            "hard/shadow_map depth",
+            &format!("{} depth", names.shadow_map),
         )?;
         let map_set = DescriptorSet::new(
             ctx,
             &[("frame", Resource::Uniform(init.ubo))],
-            "hard/shadow_map",
+            names.shadow_map,
         )?;
         let map_pipeline = Pipeline::graphics(
             ctx,
             &GraphicsPipelineDesc {
-                name: "hard/shadow_map",
+                name: names.shadow_map,
                 vertex: shaders::HARD_SHADOW_MAP_VERT,
                 fragment: None,
                 vertex_stride: SCENE_VERTEX_STRIDE,
@@ -107,31 +123,32 @@ impl Hard {
                 ("frame", Resource::Uniform(init.ubo)),
                 ("shadow_map", Resource::Sampled(&map, &sampler)),
             ],
-            "hard/final",
+            names.final_pass,
         )?;
         let final_pass = FinalPass::new(
             ctx,
-            "hard/final",
+            names.final_pass,
             FinalShader {
                 color: shaders::HARD_FINAL_FRAG,
                 aov: shaders::HARD_FINAL_FRAG_AOV,
             },
             &final_set,
         )?;
-        Ok(Box::new(Self {
+        Ok(Self {
+            names,
             map,
             map_pipeline,
             map_set,
             final_pass,
             final_set,
             _sampler: sampler,
-        }))
+        })
     }
 }
 
 impl Technique for Hard {
     fn name(&self) -> &'static str {
-        INFO.name
+        self.names.technique
     }
 
     fn record_light(
@@ -141,7 +158,7 @@ impl Technique for Hard {
         frame: &FrameInput<'_>,
     ) -> Result<()> {
         let (map, pipeline, set) = (&self.map, &self.map_pipeline, &self.map_set);
-        rec.pass("hard/shadow_map", |rec| {
+        rec.pass(self.names.shadow_map, |rec| {
             rec.begin_rendering(&[], Some((map, Some(1.0))));
             rec.bind_pipeline(pipeline);
             rec.bind_sets(pipeline, &[set]);
@@ -152,7 +169,7 @@ impl Technique for Hard {
     }
 
     fn light_passes(&self) -> Vec<String> {
-        vec!["hard/shadow_map".into()]
+        vec![self.names.shadow_map.into()]
     }
 
     fn record_final(

@@ -24,9 +24,15 @@
 //! point** (`ssm` uses a square of the same area parallel to the map). Each micro-quad corner
 //! is projected from the receiver onto the disc's plane; projection from a point maps lines
 //! to lines, so each of the quad's two triangles is a triangle on the disc and the samples
-//! inside it are the AND of three half-planes. R = 0 (point light): a quad hides every
-//! sample iff its texel covers the receiver's ray, exactly as `ssm` (hard shadows at the
-//! occluder map's resolution).
+//! inside it are the AND of three half-planes.
+//!
+//! ## R = 0
+//! A point light has no penumbra to sample: the masks would hold all or nothing, a hard
+//! shadow at the occluder map's resolution (256² by default), looked up without `hard`'s
+//! normal offset. So at R = 0 (the radius in effect when the technique is created) both
+//! forms *are* `hard` (src/technique/hard.rs: its D32 pass and comparison lookup, under
+//! this technique's name: `ssm-bitmask/shadow_map`, `ssm-bitmask/final`), as every
+//! accurate form gives exactly `hard` at R = 0 (tests/ssm_bitmask.rs).
 //!
 //! ## The edge table (a storage buffer, built once on the CPU, `edge_table`)
 //! 512 rows (line direction phi = (row + 1/2) pi / 512, canonical directions only: +y, or +x
@@ -112,14 +118,15 @@
 //!   surfaces: a little too much occlusion behind small steps.
 //! - 128 samples: visibility in steps of 1/128, the same pattern everywhere (no noise, faint
 //!   1/128 contours in wide penumbrae).
-//! - Occluder-map aliasing at R = 0 and small R (ssm's Sec. 5.2.4), the receiver layers'
+//! - Occluder-map aliasing at small R (ssm's Sec. 5.2.4), the receiver layers'
 //!   limits and the self-occlusion guard: as ssm.
 //! - The disc faces each receiver texel's centre, not the camera pixel's point: the
 //!   bilinear footprint blends four receivers' masks (as ssm blends four sums).
-//! - At R = 0, on a caster's own surface near its terminator (n.l < 0.2), the point looked
-//!   up without an offset can read the texel of the caster's nearer part and go dark where
-//!   `hard`'s offset point is lit (docs/DESIGN.md's mae_lit leaves these pixels out).
+//! - At small R > 0, on a caster's own surface near its terminator (n.l < 0.2), the point
+//!   looked up without an offset can read the texel of the caster's nearer part and go dark
+//!   where `hard`'s offset point is lit (docs/DESIGN.md's mae_lit leaves these pixels out).
 
+use super::hard;
 use super::ssm::{ssm_uniforms, LightInputs, MAP_USAGE, SELF_GUARD_TEXELS};
 use super::{shadow_map_buffer, FrameInput, LightBuffer, Technique, TechniqueInfo, TechniqueInit};
 use crate::gpu::passes::{FinalPass, FinalShader};
@@ -164,11 +171,33 @@ const EXTENT_MARGIN: f32 = 1.05;
 const MASK_FORMAT: Format = Format::R32G32B32A32_UINT;
 
 fn create_one_sided(init: &TechniqueInit<'_>) -> Result<Box<dyn Technique>> {
-    Ok(Box::new(SsmBitmask::create(init, false)?))
+    create_either(init, false)
 }
 
 fn create_two_sided(init: &TechniqueInit<'_>) -> Result<Box<dyn Technique>> {
-    Ok(Box::new(SsmBitmask::create(init, true)?))
+    create_either(init, true)
+}
+
+/// At R = 0 `hard` under this technique's name (module header, "R = 0"), else the soft
+/// shadow map.
+fn create_either(init: &TechniqueInit<'_>, two_sided: bool) -> Result<Box<dyn Technique>> {
+    if init.settings.radius_for(init.scene) == 0.0 {
+        let names = if two_sided {
+            hard::Names {
+                technique: INFO2.name,
+                shadow_map: "ssm2-bitmask/shadow_map",
+                final_pass: "ssm2-bitmask/final",
+            }
+        } else {
+            hard::Names {
+                technique: INFO.name,
+                shadow_map: "ssm-bitmask/shadow_map",
+                final_pass: "ssm-bitmask/final",
+            }
+        };
+        return Ok(Box::new(hard::Hard::create(init, names)?));
+    }
+    Ok(Box::new(SsmBitmask::create(init, two_sided)?))
 }
 
 /// The light samples on the unit disc: a golden-angle spiral, equal area per sample.

@@ -5,6 +5,7 @@
 //! - an inner penumbra: the umbra shrinks as the light grows, as the reference's does;
 //! - thin blockers: no pixel at 0 where the reference lets more than 0.2 through;
 //! - two overlapping blockers: never lighter than the darker single-blocker image;
+//!   (these three also for the other accurate forms, `ssm-bitmask` and `ssm2-bitmask`)
 //! - R = 0: exactly `hard`.
 
 mod common;
@@ -23,6 +24,11 @@ const FORMS: &[(&str, &str)] = &[
     ("penumbra-map-centred", "penumbra-map"),
     ("plateaus-centred", "plateaus"),
 ];
+
+/// The other accurate forms (issue 22 item 3), held to the same umbra, thin-blocker and
+/// overlap rules as the centred forms; their paper forms' failings differ (ssm's umbra does
+/// shrink, it leaks under thin blockers instead: tests/ssm_bitmask.rs).
+const BITMASK: &[&str] = &["ssm-bitmask", "ssm2-bitmask"];
 
 /// How far below its paper form's and `hard`'s mae_lit each centred form is at least, on
 /// each of `cylinder`, `bunny`, `primitives` (160x160, default settings). Measured (paper -
@@ -160,6 +166,26 @@ fn umbra_shrinks_as_the_light_grows() {
             );
         }
     }
+    for &t in BITMASK {
+        let mut counts = Vec::new();
+        for r in [small_r, big_r] {
+            let img = gpu
+                .render_frames(scene.clone(), t, with_radius(small(160, 512), r), 1)
+                .0;
+            let v_ref = reference(&scene, r, &img);
+            counts.push((
+                umbra(&scene, &img, &img.visibility),
+                umbra(&scene, &img, &v_ref),
+            ));
+        }
+        let [(c0, r0), (c1, r1)] = [counts[0], counts[1]];
+        let (shrink, ref_shrink) = (c1 as f64 / c0 as f64, r1 as f64 / r0 as f64);
+        println!("{t}: umbra pixels R {small_r} -> {big_r}: {c0} -> {c1} ({shrink:.2}), reference {r0} -> {r1} ({ref_shrink:.2})");
+        assert!(
+            shrink < 0.8 && (shrink - ref_shrink).abs() < 0.1,
+            "{t}: umbra {c0} -> {c1} ({shrink:.2}), reference {ref_shrink:.2}"
+        );
+    }
 }
 
 /// The centred forms' mean error over the slats' penumbrae, as a share of the paper form's
@@ -231,6 +257,16 @@ fn thin_blocker_is_never_a_full_umbra_where_light_gets_through() {
             mae(&p)
         );
     }
+    for &t in BITMASK {
+        let img = gpu.render_frames(scene.clone(), t, s.clone(), 1).0;
+        let v_ref = reference(&scene, r, &img);
+        let bright = covered(&img)
+            .into_iter()
+            .filter(|&i| v_ref[i] > 0.2 && img.visibility[i] <= 0.0)
+            .count();
+        println!("{t}: {bright} pixels with reference > 0.2 at 0");
+        assert_eq!(bright, 0, "{t}: a thin blocker's full umbra");
+    }
 }
 
 fn pos(img: &FrameImages, i: usize) -> Vec3 {
@@ -249,7 +285,11 @@ fn overlapping_blockers_are_never_lighter_than_either_alone() {
         .map(|(i, _)| i)
         .collect();
     assert_eq!(blockers.len(), 2, "overlap has two blockers");
-    for &(centred, _) in FORMS {
+    let names = FORMS
+        .iter()
+        .map(|&(centred, _)| centred)
+        .chain(BITMASK.iter().copied());
+    for centred in names {
         let render = |scene: Scene| gpu.render_frames(scene, centred, small(192, 512), 1).0;
         let both = render(scene.clone());
         // The other blocker moved under the ground: out of the light's and the camera's view

@@ -14,14 +14,18 @@
 mod common;
 
 use common::{covered, small, Gpu};
+use softshadow::output::FrameImages;
 use softshadow::scene::Scene;
 use softshadow::settings::Settings;
 
-/// pcss-walk against pcss over the covered pixels of one frame.
+/// pcss-fast or pcss-walk against pcss over the covered pixels of one frame.
 #[derive(Debug)]
 struct Comparison {
     covered: usize,
-    /// Pixels where pcss gives exactly 0 or 1, and of those where pcss-walk gives the same.
+    /// pcss's lit (v = 1) and umbra (v = 0) pixels.
+    lit: usize,
+    umbra: usize,
+    /// Pixels where pcss gives exactly 0 or 1, and of those where the other gives the same.
     settled: usize,
     settled_same: usize,
     /// Pixels differing by more than 1/255.
@@ -42,11 +46,19 @@ impl Comparison {
     }
 }
 
-fn compare(gpu: &Gpu, scene: &str, settings: &Settings) -> Comparison {
-    let a = gpu.render(scene, "pcss", settings.clone());
-    let b = gpu.render(scene, "pcss-walk", settings.clone());
+/// Renders `technique` and compares it with `pcss`, the same frame already rendered.
+fn compare(
+    gpu: &Gpu,
+    scene: &str,
+    settings: &Settings,
+    pcss: &FrameImages,
+    technique: &str,
+) -> Comparison {
+    let b = gpu.render(scene, technique, settings.clone());
     let mut c = Comparison {
         covered: 0,
+        lit: 0,
+        umbra: 0,
         settled: 0,
         settled_same: 0,
         off: 0,
@@ -54,13 +66,15 @@ fn compare(gpu: &Gpu, scene: &str, settings: &Settings) -> Comparison {
         worst: 0.0,
         penumbra: 0,
     };
-    for i in covered(&a) {
-        let (va, vb) = (a.visibility[i], b.visibility[i]);
+    for i in covered(pcss) {
+        let (va, vb) = (pcss.visibility[i], b.visibility[i]);
         let d = (va - vb).abs();
         c.covered += 1;
         c.worst = c.worst.max(d);
         c.off += usize::from(d > 1.0 / 255.0);
         c.far_off += usize::from(d > 0.5);
+        c.lit += usize::from(va == 1.0);
+        c.umbra += usize::from(va == 0.0);
         if va == 0.0 || va == 1.0 {
             c.settled += 1;
             c.settled_same += usize::from(va == vb);
@@ -71,10 +85,19 @@ fn compare(gpu: &Gpu, scene: &str, settings: &Settings) -> Comparison {
     c
 }
 
+/// pcss-fast gives pcss's image (its early exits are conservative bounds on pcss's test).
+fn check_fast(c: &Comparison, what: &str) {
+    assert!(
+        c.worst <= 1.0 / 255.0,
+        "{what}: pcss-fast differs from pcss by {}",
+        c.worst
+    );
+}
+
 /// Bounds, per light radius, on the least fraction of pcss's 0/1 pixels where pcss-walk gives
 /// the same value, on the most fraction of covered pixels off by more than 1/255, and on the
 /// pixels off by more than 0.5, over the six scenes of
-/// `matches_pcss_on_every_scene_and_radius` (160², map 512²). Measured (least same, most
+/// `match_pcss_on_every_scene_and_radius` (160², map 512²). Measured (least same, most
 /// off, most far off): the scene's radius 0.9914 (overlap), 0.0437 (cylinder), 0 (largest
 /// difference 0.477, bunny); four times it 0.9570 (overlap), 0.1334 (primitives), one pixel
 /// each on bunny, fence and boxes (largest 0.964, fence). The walk averages over the whole
@@ -118,7 +141,7 @@ fn check(c: &Comparison, bounds: &Bounds, what: &str) {
 }
 
 #[test]
-fn matches_pcss_on_every_scene_and_radius() {
+fn match_pcss_on_every_scene_and_radius() {
     let gpu = Gpu::new();
     for scene in [
         "cylinder",
@@ -135,14 +158,23 @@ fn matches_pcss_on_every_scene_and_radius() {
                 light_radius: Some(radius),
                 ..small(160, 512)
             };
-            let c = compare(&gpu, scene, &settings);
+            let what = format!("{scene} R {radius}");
+            let pcss = gpu.render(scene, "pcss", settings.clone());
+            let fast = compare(&gpu, scene, &settings, &pcss, "pcss-fast");
+            check_fast(&fast, &what);
+            // Not vacuous: the frame has lit and shadowed points, and a penumbra unless R = 0.
+            assert!(
+                fast.lit > 100 && fast.umbra + fast.penumbra > 50,
+                "{what}: {fast:?}"
+            );
+
+            let c = compare(&gpu, scene, &settings, &pcss, "pcss-walk");
             println!(
-                "{scene} R {radius}: settled same {:.4}, off {:.4}, worst {:.3} ({c:?})",
+                "{what}: pcss-walk settled same {:.4}, off {:.4}, worst {:.3} ({c:?})",
                 c.settled_same_fraction(),
                 c.off_fraction(),
                 c.worst
             );
-            let what = format!("{scene} R {radius}");
             if radius == 0.0 {
                 // The walk is skipped under half a texel of search: pcss's code, bit for bit.
                 assert!(c.worst == 0.0, "{what}: differs from pcss by {}", c.worst);
@@ -151,13 +183,9 @@ fn matches_pcss_on_every_scene_and_radius() {
             } else {
                 check(&c, &WIDE_R, &what);
             }
-            // Not vacuous: lit and shadowed points, and a penumbra unless R = 0.
-            assert!(
-                c.settled > 100 && c.settled < c.covered,
-                "{scene} R {radius}: {c:?}"
-            );
+            assert!(c.settled > 100 && c.settled < c.covered, "{what}: {c:?}");
             if radius > 0.0 {
-                assert!(c.penumbra > 20, "{scene} R {radius}: {c:?}");
+                assert!(c.penumbra > 20, "{what}: {c:?}");
             }
         }
     }
@@ -169,18 +197,27 @@ fn matches_pcss_on_every_scene_and_radius() {
 /// 0.9938 and 0.9952, off 0.0486 and 0.0510, largest difference 0.080 and 0.038 at 300² and
 /// 97²).
 #[test]
-fn matches_pcss_with_odd_map_sizes() {
+fn match_pcss_with_odd_map_sizes() {
     let gpu = Gpu::new();
     for res in [300, 97] {
-        let c = compare(&gpu, "cylinder", &small(160, res));
+        let settings = small(160, res);
+        let what = format!("shadow res {res}");
+        let pcss = gpu.render("cylinder", "pcss", settings.clone());
+        let fast = compare(&gpu, "cylinder", &settings, &pcss, "pcss-fast");
+        check_fast(&fast, &what);
+        assert!(
+            fast.lit > 100 && fast.penumbra > 20 && fast.umbra > 20,
+            "{what}: {fast:?}"
+        );
+        let c = compare(&gpu, "cylinder", &settings, &pcss, "pcss-walk");
         println!(
-            "shadow res {res}: settled same {:.4}, off {:.4}, worst {:.3} ({c:?})",
+            "{what}: pcss-walk settled same {:.4}, off {:.4}, worst {:.3} ({c:?})",
             c.settled_same_fraction(),
             c.off_fraction(),
             c.worst
         );
-        check(&c, &SCENE_R, &format!("shadow res {res}"));
-        assert!(c.penumbra > 20 && c.settled > 100, "res {res}: {c:?}");
+        check(&c, &SCENE_R, &what);
+        assert!(c.penumbra > 20 && c.settled > 100, "{what}: {c:?}");
     }
 }
 
@@ -229,81 +266,5 @@ fn penumbra_grows_with_the_light() {
             "R {radius}: {penumbra} penumbra pixels, not 1.5x the {last} of a smaller light"
         );
         last = penumbra;
-    }
-}
-
-// pcss-fast: the early exits, then pcss itself.
-
-/// Largest |pcss-fast - pcss| over covered pixels, and (lit, penumbra, umbra) counts of pcss
-/// among them.
-fn worst_difference(gpu: &Gpu, scene: &str, settings: &Settings) -> (f32, [usize; 3]) {
-    let a = gpu.render(scene, "pcss", settings.clone());
-    let b = gpu.render(scene, "pcss-fast", settings.clone());
-    let mut worst = 0.0f32;
-    let mut counts = [0; 3];
-    for i in covered(&a) {
-        worst = worst.max((a.visibility[i] - b.visibility[i]).abs());
-        let v = a.visibility[i];
-        counts[if v >= 1.0 {
-            0
-        } else if v > 0.0 {
-            1
-        } else {
-            2
-        }] += 1;
-    }
-    (worst, counts)
-}
-
-#[test]
-fn pcss_fast_is_pcss_on_every_scene_and_radius() {
-    let gpu = Gpu::new();
-    for scene in [
-        "cylinder",
-        "bunny",
-        "fence",
-        "overlap",
-        "primitives",
-        "boxes",
-    ] {
-        let r = Scene::load(scene).expect("built-in scene").light.radius;
-        // The scene's light, a point light, and one wide enough to clamp the search.
-        for radius in [r, 0.0, 4.0 * r] {
-            let settings = Settings {
-                light_radius: Some(radius),
-                ..small(160, 512)
-            };
-            let (worst, [lit, penumbra, umbra]) = worst_difference(&gpu, scene, &settings);
-            assert!(
-                worst <= 1.0 / 255.0,
-                "{scene} R {radius}: pcss-fast differs from pcss by {worst}"
-            );
-            // Not vacuous: the frame has lit and shadowed points, and a penumbra unless R = 0.
-            assert!(
-                lit > 100 && umbra + penumbra > 50,
-                "{scene} R {radius}: {lit} lit, {penumbra} penumbra, {umbra} umbra"
-            );
-            if radius > 0.0 {
-                assert!(
-                    penumbra > 20,
-                    "{scene} R {radius}: {penumbra} penumbra points"
-                );
-            }
-        }
-    }
-}
-
-/// A map whose size is not a power of two: odd levels keep their last texel (minmax.comp
-/// clamps, hierarchy.glsl rounds sizes up), so the texels along the far edges are covered.
-#[test]
-fn pcss_fast_is_pcss_with_odd_map_sizes() {
-    let gpu = Gpu::new();
-    for res in [300, 97] {
-        let (worst, [lit, penumbra, umbra]) = worst_difference(&gpu, "cylinder", &small(160, res));
-        assert!(worst <= 1.0 / 255.0, "shadow res {res}: differs by {worst}");
-        assert!(
-            lit > 100 && penumbra > 20 && umbra > 20,
-            "shadow res {res}: {lit} {penumbra} {umbra}"
-        );
     }
 }

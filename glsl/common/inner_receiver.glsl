@@ -1,9 +1,9 @@
 // The receiver hidden behind a caster, for the inner passes that read the shared shadow map
 // (penumbra_map_centred and smoothies_centred inner.frag). The includer declares
-// `uniform sampler2D shadow_map` (RG32F: r nearest caster, g foremost surface) and the
-// constant FAR_DEPTH first.
+// `uniform sampler2D shadow_map` (RG32F: r nearest caster, g foremost surface) first.
 #ifndef INNER_RECEIVER_GLSL
 #define INNER_RECEIVER_GLSL
+#include "common/far_depth.glsl"
 
 #define INNER_MAP shadow_map
 #include "common/inner_march.glsl"

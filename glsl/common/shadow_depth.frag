@@ -11,7 +11,7 @@
 layout(location = 0) in float v_depth;
 layout(location = 0) out vec2 o_depth;
 
-const float FAR_DEPTH = 1.0e30;
+#include "common/far_depth.glsl"
 
 void main() {
     o_depth = vec2(draw.flags.x > 0.5 ? v_depth : FAR_DEPTH, v_depth);

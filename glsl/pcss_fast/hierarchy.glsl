@@ -12,8 +12,7 @@
 #ifndef PCSS_FAST_HIERARCHY_GLSL
 #define PCSS_FAST_HIERARCHY_GLSL
 
-// The shadow map's clear value and a non-caster's depth (gpu::passes::FAR_DEPTH).
-const float FAR_DEPTH = 1.0e30;
+#include "common/far_depth.glsl"
 
 bool is_caster(float r) {
     return r < 0.5 * FAR_DEPTH;

@@ -5,10 +5,10 @@
 // (pcss-fast: pcss's image exactly) or, with PCSS_FAST_WALK defined, walk the hierarchy for
 // the mean blocker depth (pcss-walk), then pcss's steps 2 and 3. A define, not a uniform:
 // llvmpipe runs both sides of a branch even when every invocation takes the same one.
-#ifndef PCSS_FAST_VISIBILITY_GLSL
-#define PCSS_FAST_VISIBILITY_GLSL
 // Equation numbers as in src/technique/pcss.rs; the walk, its budget and its fallback as in
 // src/technique/pcss_fast.rs.
+#ifndef PCSS_FAST_VISIBILITY_GLSL
+#define PCSS_FAST_VISIBILITY_GLSL
 #include "pcss/search.glsl"
 #include "pcss_fast/constants.glsl"
 #include "pcss_fast/hierarchy.glsl"

@@ -5,8 +5,7 @@
 #define PENUMBRA_MAP_WEDGE_GLSL
 #include "common/frame.glsl"
 
-// FAR_DEPTH of src/gpu/passes.rs: texels that see no surface.
-const float FAR_DEPTH = 1.0e30;
+#include "common/far_depth.glsl"
 // Below this Z_P - Z_v (relative to Z_P) the receiver touches the silhouette vertex: no
 // penumbra (contact), and no division by a rounding-sized denominator (no NaN, Inf, speckle).
 const float CONTACT_EPS = 1e-4;

@@ -20,8 +20,7 @@ layout(location = 4) noperspective in float v_width;
 layout(location = 0) out float o_depth;
 layout(location = 1) out vec4 o_penumbra;
 
-// FAR_DEPTH of src/gpu/passes.rs: the depth attachment's clear, neutral under MIN.
-const float FAR_DEPTH = 1.0e30;
+#include "common/far_depth.glsl"
 #include "smoothies_centred/remap.glsl"
 
 // Distance (light uv) of this fragment from its smoothie's hard-edge line (edge quads) or

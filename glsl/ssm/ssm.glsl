@@ -2,9 +2,9 @@
 #ifndef SSM_GLSL
 #define SSM_GLSL
 
-// Clear value of the linear-depth maps (gpu::passes::FAR_DEPTH); anything above EMPTY
-// is "no surface at this texel".
-const float FAR_DEPTH = 1.0e30;
+#include "common/far_depth.glsl"
+
+// Anything above EMPTY is "no surface at this texel".
 const float EMPTY = 0.5e30;
 
 #endif

@@ -4,9 +4,12 @@
 // (visibility, world position, world normal) for the untimed AOV pass. The timed pass
 // writes colour only, as an engine's frame would.
 #include "common/frame.glsl"
+#include "common/shadow.glsl"   // surface_light_clip / _normal, set below
 
 layout(location = 0) in vec3 v_world;
 layout(location = 1) in vec3 v_normal;
+layout(location = 2) in vec4 v_light_clip;
+layout(location = 3) in vec4 v_light_normal;
 layout(location = 0) out vec4 o_color;
 #ifdef AOV
 layout(location = 1) out float o_visibility;
@@ -19,13 +22,16 @@ float visibility(vec3 p, vec3 n);
 void main() {
     vec3 n = normalize(v_normal);
     // Two-sided surfaces (planes, fences): use the side the camera sees.
-    if (dot(n, frame.cam_pos.xyz - v_world) < 0.0) n = -n;
+    float side = dot(n, frame.cam_pos.xyz - v_world) < 0.0 ? -1.0 : 1.0;
+    n *= side;
+    surface_light_clip = v_light_clip;
+    surface_light_normal = v_light_normal * (side * inversesqrt(dot(v_normal, v_normal)));
     float vis = draw.albedo_receives.w > 0.5 ? visibility(v_world, n) : 1.0;
     vec3 to_light = frame.light_pos_radius.xyz - v_world;
     vec3 l = normalize(to_light);
     float ndl = max(dot(n, l), 0.0);
     // Spot cone: dark outside the shadow frustum, as a spotlight's would be.
-    vec4 c = frame.light_view_proj * vec4(v_world, 1.0);
+    vec4 c = v_light_clip;
     vec2 ndc = c.xy / max(c.w, 1e-30);
     float spot = c.w > 0.0 ? 1.0 - smoothstep(0.85, 1.0, max(abs(ndc.x), abs(ndc.y))) : 0.0;
     float k = 0.12 + 0.88 * ndl * vis * spot;

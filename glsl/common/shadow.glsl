@@ -10,16 +10,27 @@ struct LightSample {
     bool inside;    // inside the light frustum
 };
 
+// The light clip coordinates of the point p and of the unit normal n that visibility(p, n)
+// gets: light_view_proj * (p, 1) and light_view_proj * (n, 0). common/final.glsl sets them
+// from the camera pass's varyings (common/scene.vert) before it calls visibility(): the
+// product is affine in p and linear in the unnormalised normal, so interpolating it gives
+// the per-pixel product up to float rounding, and light_sample() below needs no 4x4
+// product of its own (nor the light_view one for the depth: for a perspective light,
+// clip w = -view z). On a CPU driver every pixel pays each product (issue 21 item 5).
+vec4 surface_light_clip;
+vec4 surface_light_normal;
+
 // Normal offset: moves the lookup point along the normal by a fixed number of shadow-map
 // texels at its depth, so a lit surface never compares against its own texel (acne)
 // without the large constant bias that detaches contact shadows.
 LightSample light_sample(vec3 p, vec3 n) {
-    float d0 = -(frame.light_view * vec4(p, 1.0)).z;
+    float d0 = surface_light_clip.w;
     vec3 l = normalize(frame.light_pos_radius.xyz - p);
     // Grazing light needs more offset; clamp so the offset never leaves the texel scale.
     float slope = clamp(sqrt(max(1.0 - dot(n, l) * dot(n, l), 0.0)), 0.2, 1.0);
-    vec3 po = p + n * (d0 * frame.light_frustum.y * frame.light_frustum.z * slope);
-    vec4 c = frame.light_view_proj * vec4(po, 1.0);
+    // light_view_proj * (p + n k, 1), k the offset length.
+    float k = d0 * frame.light_frustum.y * frame.light_frustum.z * slope;
+    vec4 c = surface_light_clip + surface_light_normal * k;
     LightSample s;
     s.depth = c.w;
     s.uv = (c.xy / max(c.w, 1e-30)) * 0.5 + 0.5;

@@ -31,31 +31,45 @@ pub struct FrameUniforms {
     pub technique2: [f32; 4],
 }
 
-fn frame_uniforms(f: &FrameInput<'_>, technique: [[f32; 4]; 2]) -> FrameUniforms {
-    let s = f.settings;
-    let l = f.light;
-    let tan_half = (l.fov_deg.to_radians() * 0.5).tan();
-    FrameUniforms {
-        cam_view_proj: camera_view_proj(f.scene, s.width, s.height).to_cols_array(),
-        light_view: l.view.to_cols_array(),
-        light_view_proj: l.view_proj.to_cols_array(),
-        light_pos_radius: l.position.extend(f.light_radius).to_array(),
-        cam_pos: f.scene.camera.position.extend(1.0).to_array(),
-        light_params: [
-            l.near,
-            l.far,
-            s.shadow_res as f32,
-            1.0 / s.shadow_res as f32,
-        ],
-        light_frustum: [
-            tan_half,
-            2.0 * tan_half / s.shadow_res as f32,
-            s.normal_offset_texels,
-            effective_depth_bias(s.depth_bias, l.depth_span, l.far),
-        ],
-        technique: technique[0],
-        technique2: technique[1],
+impl FrameUniforms {
+    /// The frame constants of `scene` seen at `width` x `height` (`settings`) under `light`
+    /// with radius `light_radius`, and a technique's own two vec4s. Public so that a port
+    /// (or `examples/gl_hard_frame.rs`) can feed its shaders the very same constants.
+    pub fn new(
+        scene: &Scene,
+        settings: &Settings,
+        light: &LightView,
+        light_radius: f32,
+        technique: [[f32; 4]; 2],
+    ) -> Self {
+        let (s, l) = (settings, light);
+        let tan_half = (l.fov_deg.to_radians() * 0.5).tan();
+        Self {
+            cam_view_proj: camera_view_proj(scene, s.width, s.height).to_cols_array(),
+            light_view: l.view.to_cols_array(),
+            light_view_proj: l.view_proj.to_cols_array(),
+            light_pos_radius: l.position.extend(light_radius).to_array(),
+            cam_pos: scene.camera.position.extend(1.0).to_array(),
+            light_params: [
+                l.near,
+                l.far,
+                s.shadow_res as f32,
+                1.0 / s.shadow_res as f32,
+            ],
+            light_frustum: [
+                tan_half,
+                2.0 * tan_half / s.shadow_res as f32,
+                s.normal_offset_texels,
+                effective_depth_bias(s.depth_bias, l.depth_span, l.far),
+            ],
+            technique: technique[0],
+            technique2: technique[1],
+        }
     }
+}
+
+fn frame_uniforms(f: &FrameInput<'_>, technique: [[f32; 4]; 2]) -> FrameUniforms {
+    FrameUniforms::new(f.scene, f.settings, f.light, f.light_radius, technique)
 }
 
 pub struct Renderer<'c> {

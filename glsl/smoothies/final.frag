@@ -15,26 +15,27 @@ float visibility(vec3 p, vec3 n) {
     LightSample s = light_sample(p, n);
     if (!s.inside) return 1.0;
     vec4 lit = lit_test(textureGather(shadow_map, s.uv, 0), s.depth);
-    // Deep umbra: no smoothie can change a 0 (the common case inside shadows).
-    if (all(equal(lit, vec4(0.0)))) return 0.0;
     // t = 0 (a point light, R = 0): exactly `hard`, falloff curve included (it is identity
     // only at 0 and 1, and would reshape the one-texel filtered edge).
     if (SMOOTHIE_T <= 0.0) return bilinear(lit, s.uv);
-    vec4 in_front = lit_test(textureGather(smoothie_depth, s.uv, 0), s.depth);
-    // The alpha fetch is only needed where some texel lies behind a smoothie (penumbrae):
-    // lit areas, the bulk of the image, skip it and the falloff lookup.
-    if (all(equal(in_front, vec4(1.0)))) {
-        float v = bilinear(lit, s.uv);
-        if (v == 1.0) return 1.0;
-        float size = float(textureSize(falloff, 0));
-        return texture(falloff, (v * (size - 1.0) + 0.5) / size).r;
+    // One bilinear sum and one falloff lookup for every case: a CPU driver (lavapipe) runs
+    // both sides of every branch under a mask, so a copy of them per case was paid by every
+    // pixel. The branches only guard fetches, which a GPU then skips.
+    vec4 v4 = lit;
+    // Deep umbra (every texel behind the blocker, the common case inside shadows): no
+    // smoothie can change a 0.
+    if (any(notEqual(lit, vec4(0.0)))) {
+        vec4 in_front = lit_test(textureGather(smoothie_depth, s.uv, 0), s.depth);
+        // The alpha fetch only where some texel lies behind a smoothie (penumbrae). in_front
+        // is 0 or 1, so max(alpha, in_front) is mix(alpha, 1, in_front) in one instruction.
+        if (any(lessThan(in_front, vec4(1.0))))
+            v4 = lit * max(textureGather(smoothie_alpha, s.uv, 0), in_front);
     }
-    vec4 alpha = textureGather(smoothie_alpha, s.uv, 0);
-    vec4 v = lit * mix(alpha, vec4(1.0), in_front);
-    float linear_v = bilinear(v, s.uv);
-    // Texel centres of the LUT: x in [0,1] maps to [0.5, N - 0.5] / N.
+    // The LUT gives exactly 0 and 1 at its end texels, so umbra and lit areas pass unchanged.
+    // Texel centres: x in [0,1] maps to [0.5, N - 0.5] / N.
+    float v = bilinear(v4, s.uv);
     float size = float(textureSize(falloff, 0));
-    return texture(falloff, (linear_v * (size - 1.0) + 0.5) / size).r;
+    return texture(falloff, (v * (size - 1.0) + 0.5) / size).r;
 }
 
 #include "common/final.glsl"

@@ -206,7 +206,10 @@ pub struct FinalShader {
 }
 
 /// The final pass from the camera: the scene's surfaces with a technique's fragment shader
-/// (which defines `visibility()` and includes glsl/common/final.glsl).
+/// (which defines `visibility()` and includes glsl/common/final.glsl). Vertex shader
+/// glsl/common/scene.vert: world position and normal, and their light clip coordinates
+/// (`light_view_proj` times each), which common/shadow.glsl's `light_sample()` uses instead
+/// of two 4x4 products a pixel.
 ///
 /// Timed pass `T/final`: colour RGBA8 (clear dark grey) and depth D32 (clear 1, LESS), no
 /// blending: what an engine's frame writes. The AOV pass `T/aov` (`FrameInput::aov`, run by

@@ -166,43 +166,27 @@ void main() {
 }
 "#;
 
+/// Command line (`--help` lists it).
+#[derive(clap::Parser)]
+#[command(
+    about = "hard's frame through softshadow (Vulkan) and OpenGL 3.3 on the same Mesa, interleaved"
+)]
 struct Args {
+    /// Built-in scene names or scene files, comma-separated
+    #[arg(long, value_delimiter = ',', default_value = "cylinder,overlap,bunny")]
     scenes: Vec<String>,
+    #[arg(long, default_value_t = 640)]
     width: u32,
+    #[arg(long, default_value_t = 480)]
     height: u32,
+    #[arg(long, default_value_t = 1024)]
     shadow_res: u32,
-    frames: usize,
-    rounds: usize,
-}
-
-fn parse_args() -> Result<Args> {
-    let mut a = Args {
-        scenes: vec!["cylinder".into(), "overlap".into(), "bunny".into()],
-        width: 640,
-        height: 480,
-        shadow_res: 1024,
-        frames: 20,
-        rounds: 5,
-    };
-    let mut it = std::env::args().skip(1);
-    while let Some(flag) = it.next() {
-        let value = it.next().ok_or_else(|| anyhow!("{flag} needs a value"))?;
-        let n = || -> Result<u32> {
-            value
-                .parse()
-                .with_context(|| format!("{flag} {value}: not a positive integer"))
-        };
-        match flag.as_str() {
-            "--scenes" => a.scenes = value.split(',').map(str::to_owned).collect(),
-            "--width" => a.width = n()?,
-            "--height" => a.height = n()?,
-            "--shadow-res" => a.shadow_res = n()?,
-            "--frames" => a.frames = n()?.max(1) as usize,
-            "--rounds" => a.rounds = n()?.max(1) as usize,
-            _ => bail!("unknown option {flag}"),
-        }
-    }
-    Ok(a)
+    /// Timed frames a round and side (after 2 warm-up frames)
+    #[arg(long, default_value_t = 20, value_parser = clap::value_parser!(u32).range(1..))]
+    frames: u32,
+    /// Rounds; each side's figure is the lowest of its round medians
+    #[arg(long, default_value_t = 5, value_parser = clap::value_parser!(u32).range(1..))]
+    rounds: u32,
 }
 
 fn median(v: &mut [f64]) -> f64 {
@@ -570,8 +554,14 @@ impl Lowest {
     }
 }
 
-fn main() -> Result<()> {
-    let args = parse_args()?;
+fn main() {
+    if let Err(e) = run(<Args as clap::Parser>::parse()) {
+        eprintln!("error: {e:#}");
+        std::process::exit(1);
+    }
+}
+
+fn run(args: Args) -> Result<()> {
     let ctx = Context::new(&ContextOptions::from_env())?;
     println!("vulkan: {}", ctx.describe());
     println!(

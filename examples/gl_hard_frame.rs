@@ -7,17 +7,21 @@
 //! ```text
 //! cargo run --release --example gl_hard_frame -- [--scenes cylinder,overlap,bunny]
 //!     [--width 640] [--height 480] [--shadow-res 1024] [--frames 20] [--rounds 5]
+//!     [--png DIR]
 //! ```
+//!
+//! A third row draws the GL frame with a lean shader, what a minimal GL shadow-mapping demo
+//! shades (`LEAN_FRAG`): the cost of the per-pixel work itself, not the same image.
 //!
 //! GL side, as an engine draws a hard shadow: pass 1 a depth-only FBO (DEPTH_COMPONENT32F,
 //! clear 1, LESS, no colour, no fragment shader, casters only, no culling); pass 2 the camera
 //! FBO (RGBA8 + DEPTH_COMPONENT32F, clear, LESS, every object), its fragment shader a line for
 //! line GLSL 330 port of glsl/hard/final.frag + common/shadow.glsl + common/final.glsl
-//! sampling the map through a `sampler2DShadow` (LEQUAL, linear). Times are wall clock with
-//! `glFinish` after each pass (per pass) and after a whole frame with one `glFinish` at its
-//! end (frame), as a GL benchmark measures them. Vulkan side: `softshadow`'s GPU timestamps
-//! (the bench's protocol) and, beside them, the wall time of `Renderer::render` (record,
-//! submit, wait). Each side: median of `--frames` frames per round, the lowest of `--rounds`
+//! sampling the map through a `sampler2DShadow` (LEQUAL, linear). GL times are wall clock,
+//! as a GL benchmark measures them: `shadow map`, `camera pass` and `frame` (their sum) with
+//! a `glFinish` after each pass, `frame wall` for whole frames with one `glFinish` at the
+//! end. Vulkan side: `softshadow`'s GPU timestamps (the bench's protocol) and, as `frame
+//! wall`, the wall time of `Renderer::render` (record, submit, wait). Each side: median of `--frames` frames per round, the lowest of `--rounds`
 //! round medians. Both images are compared at the end (largest 8-bit difference, pixels off
 //! by more than 8 of 255) so that the two sides are known to draw the same frame.
 //!
@@ -187,6 +191,9 @@ struct Args {
     /// Rounds; each side's figure is the lowest of its round medians
     #[arg(long, default_value_t = 5, value_parser = clap::value_parser!(u32).range(1..))]
     rounds: u32,
+    /// Also write both sides' images as DIR/SCENE_vulkan.png and DIR/SCENE_gl.png
+    #[arg(long, value_name = "DIR")]
+    png: Option<std::path::PathBuf>,
 }
 
 fn median(v: &mut [f64]) -> f64 {
@@ -668,12 +675,14 @@ fn run(args: Args) -> Result<()> {
         gl.finish();
         let ours = vk.read_color()?;
         let theirs = gl.read_color();
-        if let Ok(dir) = std::env::var("GL_HARD_FRAME_PNG") {
+        if let Some(dir) = &args.png {
             for (side, px) in [("vulkan", &ours), ("gl", &theirs)] {
                 let bytes: Vec<u8> = px.iter().flatten().copied().collect();
+                let path = dir.join(format!("{name}_{side}.png"));
                 image::RgbaImage::from_raw(args.width, args.height, bytes)
                     .ok_or_else(|| anyhow!("image size"))?
-                    .save(format!("{dir}/{name}_{side}.png"))?;
+                    .save(&path)
+                    .with_context(|| format!("writing {}", path.display()))?;
             }
         }
         let (mut max, mut off) = (0u8, 0usize);

@@ -1,8 +1,7 @@
 //! The same-driver yardstick of issue 21 item 5: `hard`'s frame drawn twice on this machine's
-//! Mesa, once by softshadow (Vulkan, lavapipe) and once by a plain OpenGL 3.3 core
-//! implementation (Mesa's llvmpipe behind EGL, no window), with the same scene, camera,
-//! light, frame constants and per-pixel work, interleaved round by round so that both see
-//! the same load.
+//! Mesa, once by softshadow (Vulkan, lavapipe) and once through OpenGL 4.5 core (Mesa's
+//! llvmpipe behind EGL, no window), with the same scene, camera, light, frame constants and
+//! shaders, interleaved round by round so that both see the same load.
 //!
 //! ```text
 //! cargo run --release --example gl_hard_frame -- [--scenes cylinder,overlap,bunny]
@@ -15,18 +14,19 @@
 //!
 //! GL side, as an engine draws a hard shadow: pass 1 a depth-only FBO (DEPTH_COMPONENT32F,
 //! clear 1, LESS, no colour, no fragment shader, casters only, no culling); pass 2 the camera
-//! FBO (RGBA8 + DEPTH_COMPONENT32F, clear, LESS, every object), its fragment shader a line for
-//! line GLSL 330 port of glsl/hard/final.frag + common/shadow.glsl + common/final.glsl
-//! sampling the map through a `sampler2DShadow` (LEQUAL, linear). GL times are wall clock,
-//! as a GL benchmark measures them: `shadow map`, `camera pass` and `frame` (their sum) with
-//! a `glFinish` after each pass, `frame wall` for whole frames with one `glFinish` at the
-//! end. Vulkan side: `softshadow`'s GPU timestamps (the bench's protocol) and, as `frame
-//! wall`, the wall time of `Renderer::render` (record, submit, wait). Each side: median of `--frames` frames per round, the lowest of `--rounds`
+//! FBO (RGBA8 + DEPTH_COMPONENT32F, clear, LESS, every object). Both compile the GLSL files
+//! the Vulkan build compiles (glsl/hard/shadow_map.vert; glsl/common/scene.vert with
+//! glsl/hard/final.frag, which includes common/shadow.glsl and common/final.glsl), with only
+//! the Vulkan-only layout qualifiers mapped to GL's (`gl_source`); the push constants become
+//! a uniform block holding the same `DrawPush`, and `glClipControl` gives GL Vulkan's depth
+//! range. GL times are wall clock, as a GL benchmark measures them: `shadow map`, `camera
+//! pass` and `frame` (their sum) with a `glFinish` after each pass, `frame wall` for whole
+//! frames with one `glFinish` at the end. Vulkan side: `softshadow`'s GPU timestamps (the
+//! bench's protocol) and, as `frame wall`, the wall time of `Renderer::render` (record,
+//! submit, wait). Each side: median of `--frames` frames per round, the lowest of `--rounds`
 //! round medians. Both images are compared at the end (largest 8-bit difference, pixels off
 //! by more than 8 of 255) so that the two sides are known to draw the same frame.
 //!
-//! Clip-space depth: glam's projections give z in [0, 1] (Vulkan); GL maps [-1, 1] to the
-//! depth range, so both vertex shaders write z' = 2z - w to store the same depth values.
 //! Rows: Vulkan rasterizes NDC y = -1 into image row 0, GL into window row 0, which
 //! `glReadPixels` returns first: both images come back in the same row order (and the light
 //! uv = ndc * 0.5 + 0.5 addresses the same texel row of both shadow maps).
@@ -35,6 +35,7 @@ use anyhow::{anyhow, bail, Context as _, Result};
 use glow::HasContext;
 use khronos_egl as egl;
 use softshadow::frustum::fit_light;
+use softshadow::gpu::gpu_scene::{DrawPush, DRAW_PUSH_BYTES};
 use softshadow::render::{FrameUniforms, Renderer};
 use softshadow::scene::Scene;
 use softshadow::settings::Settings;
@@ -46,134 +47,99 @@ const PLATFORM_SURFACELESS_MESA: egl::Enum = 0x31DD;
 /// `CameraTargets::BACKGROUND`, the clear colour of both sides.
 const BACKGROUND: [f32; 4] = [0.05, 0.05, 0.06, 1.0];
 
-const FRAME_BLOCK: &str = r#"
-layout(std140) uniform Frame {
-    mat4 cam_view_proj;
-    mat4 light_view;
-    mat4 light_view_proj;
-    vec4 light_pos_radius;
-    vec4 cam_pos;
-    vec4 light_params;
-    vec4 light_frustum;
-    vec4 technique;
-    vec4 technique2;
-} frame;
-uniform mat4 model;
-uniform vec4 albedo_receives;
-uniform vec4 flags;
-"#;
-
-const SHADOW_VERT: &str = r#"
-layout(location = 0) in vec3 in_pos;
-void main() {
-    vec4 c = frame.light_view_proj * (model * vec4(in_pos, 1.0));
-    gl_Position = vec4(c.xy, 2.0 * c.z - c.w, c.w);
-}
-"#;
-
-const SCENE_VERT: &str = r#"
-layout(location = 0) in vec3 in_pos;
-layout(location = 1) in vec3 in_normal;
-out vec3 v_world;
-out vec3 v_normal;
-out vec4 v_light_clip;
-out vec4 v_light_normal;
-void main() {
-    vec4 world = model * vec4(in_pos, 1.0);
-    v_world = world.xyz;
-    v_normal = transpose(inverse(mat3(model))) * in_normal;
-    v_light_clip = frame.light_view_proj * world;
-    v_light_normal = frame.light_view_proj * vec4(v_normal, 0.0);
-    vec4 c = frame.cam_view_proj * world;
-    gl_Position = vec4(c.xy, 2.0 * c.z - c.w, c.w);
-}
-"#;
-
-const HARD_FRAG: &str = r#"
-uniform sampler2DShadow shadow_map;
-in vec3 v_world;
-in vec3 v_normal;
-in vec4 v_light_clip;
-in vec4 v_light_normal;
-layout(location = 0) out vec4 o_color;
-vec4 surface_light_clip;
-vec4 surface_light_normal;
-struct LightSample { vec2 uv; float depth; bool inside; };
-LightSample light_sample(vec3 p, vec3 n) {
-    float d0 = surface_light_clip.w;
-    vec3 l = normalize(frame.light_pos_radius.xyz - p);
-    float slope = clamp(sqrt(max(1.0 - dot(n, l) * dot(n, l), 0.0)), 0.2, 1.0);
-    float k = d0 * frame.light_frustum.y * frame.light_frustum.z * slope;
-    vec4 c = surface_light_clip + surface_light_normal * k;
-    LightSample s;
-    s.depth = c.w;
-    s.uv = (c.xy / max(c.w, 1e-30)) * 0.5 + 0.5;
-    s.inside = c.w > frame.light_params.x && all(greaterThanEqual(s.uv, vec2(0.0))) && all(lessThanEqual(s.uv, vec2(1.0)));
-    return s;
-}
-float visibility(vec3 p, vec3 n) {
-    LightSample s = light_sample(p, n);
-    if (!s.inside) return 1.0;
-    float near = frame.light_params.x, far = frame.light_params.y;
-    float d = s.depth / (1.0 + frame.light_frustum.w);
-    float z = far / (far - near) * (1.0 - near / d);
-    return texture(shadow_map, vec3(s.uv, z));
-}
-void main() {
-    vec3 n = normalize(v_normal);
-    float side = dot(n, frame.cam_pos.xyz - v_world) < 0.0 ? -1.0 : 1.0;
-    n *= side;
-    surface_light_clip = v_light_clip;
-    surface_light_normal = v_light_normal * (side * inversesqrt(dot(v_normal, v_normal)));
-    float vis = albedo_receives.w > 0.5 ? visibility(v_world, n) : 1.0;
-    vec3 l = normalize(frame.light_pos_radius.xyz - v_world);
-    float ndl = max(dot(n, l), 0.0);
-    vec4 c = v_light_clip;
-    vec2 ndc = c.xy / max(c.w, 1e-30);
-    float spot = c.w > 0.0 ? 1.0 - smoothstep(0.85, 1.0, max(abs(ndc.x), abs(ndc.y))) : 0.0;
-    float k = 0.12 + 0.88 * ndl * vis * spot;
-    o_color = vec4(min(flags.yzw * pow(k, 1.0 / 2.2), vec3(1.0)), 1.0);
-}
-"#;
+/// The GLSL that build.rs compiles for `hard` (glsl/), by the names they `#include` each
+/// other by: the GL side compiles these very sources (`gl_source`), not a copy of them.
+const SOURCES: &[(&str, &str)] = &[
+    (
+        "common/frame.glsl",
+        include_str!("../glsl/common/frame.glsl"),
+    ),
+    (
+        "common/shadow.glsl",
+        include_str!("../glsl/common/shadow.glsl"),
+    ),
+    (
+        "common/final.glsl",
+        include_str!("../glsl/common/final.glsl"),
+    ),
+    (
+        "common/scene.vert",
+        include_str!("../glsl/common/scene.vert"),
+    ),
+    (
+        "hard/shadow_map.vert",
+        include_str!("../glsl/hard/shadow_map.vert"),
+    ),
+    ("hard/final.frag", include_str!("../glsl/hard/final.frag")),
+    ("lean.vert", LEAN_VERT),
+    ("lean.frag", LEAN_FRAG),
+];
 
 /// The lean variant: what a minimal GL shadow-mapping demo draws per pixel (the light
 /// coordinates from the vertex shader, one `textureProj` with a constant depth bias, N.L
 /// diffuse, no normal offset, no spot cone, no gamma): the cost of the per-pixel work
-/// itself, beside the port above. Not the same image.
-const LEAN_VERT: &str = r#"
+/// itself, beside ours. Not the same image.
+const LEAN_VERT: &str = r#"#version 450
+#include "common/frame.glsl"
 layout(location = 0) in vec3 in_pos;
 layout(location = 1) in vec3 in_normal;
-out vec3 v_normal;
-out vec3 v_to_light;
-out vec4 v_shadow;
+layout(location = 0) out vec3 v_normal;
+layout(location = 1) out vec3 v_to_light;
+layout(location = 2) out vec4 v_shadow;
 void main() {
-    vec4 world = model * vec4(in_pos, 1.0);
-    v_normal = mat3(model) * in_normal;
+    vec4 world = draw.model * vec4(in_pos, 1.0);
+    v_normal = mat3(draw.model) * in_normal;
     v_to_light = frame.light_pos_radius.xyz - world.xyz;
     vec4 c = frame.light_view_proj * world;
     v_shadow = vec4((c.xy + c.w) * 0.5, c.z - 1e-3 * c.w, c.w);
-    vec4 p = frame.cam_view_proj * world;
-    gl_Position = vec4(p.xy, 2.0 * p.z - p.w, p.w);
+    gl_Position = frame.cam_view_proj * world;
 }
 "#;
 
-const LEAN_FRAG: &str = r#"
-uniform sampler2DShadow shadow_map;
-in vec3 v_normal;
-in vec3 v_to_light;
-in vec4 v_shadow;
+const LEAN_FRAG: &str = r#"#version 450
+#include "common/frame.glsl"
+layout(set = 0, binding = 1) uniform sampler2DShadow shadow_map;
+layout(location = 0) in vec3 v_normal;
+layout(location = 1) in vec3 v_to_light;
+layout(location = 2) in vec4 v_shadow;
 layout(location = 0) out vec4 o_color;
 void main() {
     float ndl = max(dot(normalize(v_normal), normalize(v_to_light)), 0.0);
     float vis = textureProj(shadow_map, v_shadow);
-    o_color = vec4(albedo_receives.rgb * (0.12 + 0.88 * ndl * vis), 1.0);
+    o_color = vec4(draw.albedo_receives.rgb * (0.12 + 0.88 * ndl * vis), 1.0);
 }
 "#;
+
+/// `name` from `SOURCES` as GL 4.5 core compiles it: `#include`s inlined (their guards
+/// keep one copy), and the Vulkan-only layout pieces mapped to GL's: no descriptor set (the
+/// Frame block stays at binding 0, the map at texture unit 1) and the push constants
+/// (`Draw`) as a std140 uniform block at binding 1 (the same layout: a mat4 and two vec4).
+fn gl_source(name: &str) -> Result<String> {
+    let text = SOURCES
+        .iter()
+        .find(|(n, _)| *n == name)
+        .map(|(_, t)| *t)
+        .ok_or_else(|| anyhow!("no GLSL source {name} in SOURCES"))?;
+    let mut out = String::new();
+    for line in text.lines() {
+        if let Some(rest) = line.trim_start().strip_prefix("#include \"") {
+            let included = rest.split('"').next().unwrap_or_default();
+            out += &gl_source(included)?;
+        } else if !line.starts_with("#extension GL_GOOGLE_include_directive") {
+            out += &line.replace("set = 0, ", "").replace(
+                "layout(push_constant, std430) uniform Draw",
+                "layout(std140, binding = 1) uniform Draw",
+            );
+            out.push('\n');
+        }
+    }
+    Ok(out)
+}
 
 /// Command line (`--help` lists it).
 #[derive(clap::Parser)]
 #[command(
-    about = "hard's frame through softshadow (Vulkan) and OpenGL 3.3 on the same Mesa, interleaved"
+    about = "hard's frame through softshadow (Vulkan) and OpenGL on the same Mesa, interleaved"
 )]
 struct Args {
     /// Built-in scene names or scene files, comma-separated
@@ -201,21 +167,21 @@ fn median(v: &mut [f64]) -> f64 {
     v[v.len() / 2]
 }
 
-/// One object's GL geometry and per-draw constants.
+/// One object's GL geometry, and where its `DrawPush` lies in the draw uniform buffer.
 struct GlObject {
     vao: glow::VertexArray,
     index_count: i32,
-    model: [f32; 16],
-    albedo_receives: [f32; 4],
-    flags: [f32; 4],
+    draw_offset: i32,
     casts: bool,
 }
 
 struct GlFrame {
     gl: glow::Context,
     objects: Vec<GlObject>,
+    /// Every object's `DrawPush`, bound per draw at binding 1 (the push constants' stand-in).
+    draws: glow::Buffer,
     shadow_program: glow::Program,
-    /// The port of `hard`'s camera pass, and the lean variant.
+    /// `hard`'s camera pass, and the lean variant.
     camera_programs: [glow::Program; 2],
     shadow_fbo: glow::Framebuffer,
     camera_fbo: glow::Framebuffer,
@@ -230,27 +196,29 @@ struct GlFrame {
     ),
 }
 
-fn compile(gl: &glow::Context, stages: &[(u32, &str)]) -> Result<glow::Program> {
+/// A program of the named `SOURCES` (`gl_source`), each name's stage by its extension.
+fn compile(gl: &glow::Context, names: &[&str]) -> Result<glow::Program> {
     // SAFETY: a current GL context; every object created here is checked before use.
     unsafe {
         let program = gl.create_program().map_err(|e| anyhow!(e))?;
-        for &(kind, body) in stages {
+        for &name in names {
+            let kind = if name.ends_with(".vert") {
+                glow::VERTEX_SHADER
+            } else {
+                glow::FRAGMENT_SHADER
+            };
             let shader = gl.create_shader(kind).map_err(|e| anyhow!(e))?;
-            gl.shader_source(shader, &format!("#version 330 core\n{FRAME_BLOCK}{body}"));
+            gl.shader_source(shader, &gl_source(name)?);
             gl.compile_shader(shader);
             if !gl.get_shader_compile_status(shader) {
-                bail!("GL shader: {}", gl.get_shader_info_log(shader));
+                bail!("GL shader {name}: {}", gl.get_shader_info_log(shader));
             }
             gl.attach_shader(program, shader);
         }
         gl.link_program(program);
         if !gl.get_program_link_status(program) {
-            bail!("GL program: {}", gl.get_program_info_log(program));
+            bail!("GL program {names:?}: {}", gl.get_program_info_log(program));
         }
-        let block = gl
-            .get_uniform_block_index(program, "Frame")
-            .ok_or_else(|| anyhow!("no Frame block"))?;
-        gl.uniform_block_binding(program, block, 0);
         Ok(program)
     }
 }
@@ -294,15 +262,15 @@ impl GlFrame {
                 None,
                 &[
                     egl::CONTEXT_MAJOR_VERSION,
-                    3,
+                    4,
                     egl::CONTEXT_MINOR_VERSION,
-                    3,
+                    5,
                     egl::CONTEXT_OPENGL_PROFILE_MASK,
                     egl::CONTEXT_OPENGL_CORE_PROFILE_BIT,
                     egl::NONE,
                 ],
             )
-            .context("creating a GL 3.3 core context")?;
+            .context("creating a GL 4.5 core context")?;
         egl.make_current(display, None, None, Some(context))
             .context("eglMakeCurrent (surfaceless)")?;
         // SAFETY: the context is current; glow resolves every entry point through EGL.
@@ -317,23 +285,23 @@ impl GlFrame {
             settings.height as i32,
             settings.shadow_res as i32,
         );
-        let shadow_program = compile(&gl, &[(glow::VERTEX_SHADER, SHADOW_VERT)])?;
+        let shadow_program = compile(&gl, &["hard/shadow_map.vert"])?;
         let camera_programs = [
-            compile(
-                &gl,
-                &[
-                    (glow::VERTEX_SHADER, SCENE_VERT),
-                    (glow::FRAGMENT_SHADER, HARD_FRAG),
-                ],
-            )?,
-            compile(
-                &gl,
-                &[
-                    (glow::VERTEX_SHADER, LEAN_VERT),
-                    (glow::FRAGMENT_SHADER, LEAN_FRAG),
-                ],
-            )?,
+            compile(&gl, &["common/scene.vert", "hard/final.frag"])?,
+            compile(&gl, &["lean.vert", "lean.frag"])?,
         ];
+        // Vulkan's clip space (glam's projections: z in [0, 1], the depth value as is), so
+        // that both sides store and compare the same depths. Core since GL 4.5; glow 0.18
+        // does not wrap it.
+        let clip_control = egl
+            .get_proc_address("glClipControl")
+            .ok_or_else(|| anyhow!("no glClipControl"))?;
+        // SAFETY: glClipControl(GLenum origin, GLenum depth) is the entry point EGL returned
+        // for that name, called with two valid enums on the current context.
+        unsafe {
+            let clip_control: extern "system" fn(u32, u32) = std::mem::transmute(clip_control);
+            clip_control(glow::LOWER_LEFT, glow::ZERO_TO_ONE);
+        }
         // SAFETY: the context is current; the data slices outlive the upload calls.
         unsafe {
             let ubo = gl.create_buffer().map_err(|e| anyhow!(e))?;
@@ -345,8 +313,17 @@ impl GlFrame {
             );
             gl.bind_buffer_base(glow::UNIFORM_BUFFER, 0, Some(ubo));
 
+            // std140 blocks bound by range start at multiples of this.
+            let align = gl
+                .get_parameter_i32(glow::UNIFORM_BUFFER_OFFSET_ALIGNMENT)
+                .max(1) as usize;
+            let stride = DRAW_PUSH_BYTES.div_ceil(align as u32) as usize * align;
+            let mut draw_bytes = vec![0u8; stride * scene.objects.len()];
             let mut objects = Vec::new();
-            for o in &scene.objects {
+            for (i, o) in scene.objects.iter().enumerate() {
+                let push = DrawPush::new(o.transform, o.albedo, o.role);
+                draw_bytes[i * stride..][..DRAW_PUSH_BYTES as usize]
+                    .copy_from_slice(bytemuck::bytes_of(&push));
                 let m = &o.mesh;
                 let vertices: Vec<f32> = m
                     .positions
@@ -374,22 +351,16 @@ impl GlFrame {
                 gl.vertex_attrib_pointer_f32(0, 3, glow::FLOAT, false, 24, 0);
                 gl.enable_vertex_attrib_array(1);
                 gl.vertex_attrib_pointer_f32(1, 3, glow::FLOAT, false, 24, 12);
-                let a = o.albedo;
-                let g = 1.0 / 2.2;
                 objects.push(GlObject {
                     vao,
                     index_count: m.indices.len() as i32,
-                    model: o.transform.to_cols_array(),
-                    albedo_receives: [a.x, a.y, a.z, if o.role.receives() { 1.0 } else { 0.0 }],
-                    flags: [
-                        if o.role.casts() { 1.0 } else { 0.0 },
-                        a.x.powf(g),
-                        a.y.powf(g),
-                        a.z.powf(g),
-                    ],
+                    draw_offset: (i * stride) as i32,
                     casts: o.role.casts(),
                 });
             }
+            let draws = gl.create_buffer().map_err(|e| anyhow!(e))?;
+            gl.bind_buffer(glow::UNIFORM_BUFFER, Some(draws));
+            gl.buffer_data_u8_slice(glow::UNIFORM_BUFFER, &draw_bytes, glow::STATIC_DRAW);
 
             let map = gl.create_texture().map_err(|e| anyhow!(e))?;
             gl.bind_texture(glow::TEXTURE_2D, Some(map));
@@ -449,11 +420,8 @@ impl GlFrame {
             if gl.check_framebuffer_status(glow::FRAMEBUFFER) != glow::FRAMEBUFFER_COMPLETE {
                 bail!("camera FBO incomplete");
             }
-            for program in camera_programs {
-                gl.use_program(Some(program));
-                gl.uniform_1_i32(gl.get_uniform_location(program, "shadow_map").as_ref(), 0);
-            }
-            gl.active_texture(glow::TEXTURE0);
+            // The shaders' `binding = 1` for the map: texture unit 1.
+            gl.active_texture(glow::TEXTURE1);
             gl.bind_texture(glow::TEXTURE_2D, Some(map));
             gl.enable(glow::DEPTH_TEST);
             gl.depth_func(glow::LESS);
@@ -462,6 +430,7 @@ impl GlFrame {
             Ok(Self {
                 gl,
                 objects,
+                draws,
                 shadow_program,
                 camera_programs,
                 shadow_fbo,
@@ -474,17 +443,19 @@ impl GlFrame {
         }
     }
 
-    fn draw(&self, program: glow::Program, casters_only: bool) {
+    fn draw(&self, casters_only: bool) {
         let gl = &self.gl;
-        // SAFETY: the context is current; every object was created by it.
+        // SAFETY: the context is current; every object was created by it, and each range
+        // lies inside `draws`.
         unsafe {
-            let model = gl.get_uniform_location(program, "model");
-            let albedo = gl.get_uniform_location(program, "albedo_receives");
-            let flags = gl.get_uniform_location(program, "flags");
             for o in self.objects.iter().filter(|o| o.casts || !casters_only) {
-                gl.uniform_matrix_4_f32_slice(model.as_ref(), false, &o.model);
-                gl.uniform_4_f32_slice(albedo.as_ref(), &o.albedo_receives);
-                gl.uniform_4_f32_slice(flags.as_ref(), &o.flags);
+                gl.bind_buffer_range(
+                    glow::UNIFORM_BUFFER,
+                    1,
+                    Some(self.draws),
+                    o.draw_offset,
+                    DRAW_PUSH_BYTES as i32,
+                );
                 gl.bind_vertex_array(Some(o.vao));
                 gl.draw_elements(glow::TRIANGLES, o.index_count, glow::UNSIGNED_INT, 0);
             }
@@ -501,10 +472,10 @@ impl GlFrame {
             gl.clear(glow::DEPTH_BUFFER_BIT);
             gl.use_program(Some(self.shadow_program));
         }
-        self.draw(self.shadow_program, true);
+        self.draw(true);
     }
 
-    /// `lean`: the lean variant's program instead of the port's.
+    /// `lean`: the lean variant's program instead of `hard`'s.
     fn camera_pass(&self, lean: bool) {
         let gl = &self.gl;
         let [r, g, b, a] = BACKGROUND;
@@ -516,7 +487,7 @@ impl GlFrame {
             gl.clear(glow::COLOR_BUFFER_BIT | glow::DEPTH_BUFFER_BIT);
             gl.use_program(Some(self.camera_programs[usize::from(lean)]));
         }
-        self.draw(self.camera_programs[usize::from(lean)], false);
+        self.draw(false);
     }
 
     fn finish(&self) {
@@ -638,7 +609,7 @@ fn run(args: Args) -> Result<()> {
             v.camera.push(median(&mut c));
             v.frame.push(median(&mut f));
             v.wall.push(median(&mut w));
-            // GL, the port then the lean variant: glFinish after each pass, then whole
+            // GL, hard's shaders then the lean variant: glFinish after each pass, then whole
             // frames with one glFinish each.
             for (lean, l) in [(false, &mut g), (true, &mut lean_gl)] {
                 let (mut s, mut c, mut f, mut w) = (vec![], vec![], vec![], vec![]);
@@ -669,7 +640,7 @@ fn run(args: Args) -> Result<()> {
                 l.wall.push(median(&mut w));
             }
         }
-        // The port's image, for the comparison.
+        // hard's shaders' image, for the comparison.
         gl.shadow_pass();
         gl.camera_pass(false);
         gl.finish();
@@ -693,9 +664,9 @@ fn run(args: Args) -> Result<()> {
         }
         for (side, l, diff) in [
             ("vulkan (lavapipe), GPU timestamps", &v, String::new()),
-            ("GL 3.3 (llvmpipe), glFinish", &g, format!("{max} | {off}")),
+            ("GL 4.5 (llvmpipe), glFinish", &g, format!("{max} | {off}")),
             (
-                "GL 3.3 (llvmpipe), glFinish, lean shader",
+                "GL 4.5 (llvmpipe), glFinish, lean shader",
                 &lean_gl,
                 String::new(),
             ),

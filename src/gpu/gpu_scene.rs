@@ -48,25 +48,32 @@ pub struct GpuObject {
     pub albedo: glam::Vec3,
 }
 
-impl GpuObject {
-    fn push(&self) -> DrawPush {
-        DrawPush {
-            model: self.model.to_cols_array(),
+impl DrawPush {
+    /// The constants of one object's draws.
+    pub fn new(model: Mat4, albedo: glam::Vec3, role: Role) -> Self {
+        Self {
+            model: model.to_cols_array(),
             albedo_receives: [
-                self.albedo.x,
-                self.albedo.y,
-                self.albedo.z,
-                if self.role.receives() { 1.0 } else { 0.0 },
+                albedo.x,
+                albedo.y,
+                albedo.z,
+                if role.receives() { 1.0 } else { 0.0 },
             ],
             // yzw: albedo^(1/2.2), so that the final pass gamma-encodes with one scalar pow a
             // pixel (glsl/common/final.glsl).
             flags: [
-                if self.role.casts() { 1.0 } else { 0.0 },
-                self.albedo.x.powf(1.0 / 2.2),
-                self.albedo.y.powf(1.0 / 2.2),
-                self.albedo.z.powf(1.0 / 2.2),
+                if role.casts() { 1.0 } else { 0.0 },
+                albedo.x.powf(1.0 / 2.2),
+                albedo.y.powf(1.0 / 2.2),
+                albedo.z.powf(1.0 / 2.2),
             ],
         }
+    }
+}
+
+impl GpuObject {
+    fn push(&self) -> DrawPush {
+        DrawPush::new(self.model, self.albedo, self.role)
     }
 }
 

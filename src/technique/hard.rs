@@ -13,16 +13,16 @@
 //!    `glsl/hard/shadow_map.vert` (the light's view-projection: the buffer holds
 //!    z = f / (f - n) * (1 - n / d) of linear depth d, near n and far f of the light).
 //!    Left in SHADER_READ_ONLY_OPTIMAL.
-//! 2. `hard/final` — every object from the camera (`gpu::passes::FinalPass`).
-//!    Fragment `glsl/hard/final.frag` samples the map through a `sampler2DShadow`
-//!    (compare LESS_OR_EQUAL, linear filter, clamp to edge) at the normal-offset point's
-//!    light uv (`common/shadow.glsl`: 2 texels along the normal, scaled by the light's
-//!    slope; the light clip coordinates of the point and its normal come interpolated from
-//!    `common/scene.vert`), with the reference depth d / (1 + b) mapped to z as above (b the relative bias
-//!    `frame.light_frustum.w`, 5e-4): 1 where the point is at or in front of the stored
-//!    caster, each of the 2x2 texels compared and the results weighted bilinearly by the
-//!    sampler. Writes colour RGBA8 (the untimed AOV pass `hard/aov` also visibility R32F,
-//!    position RGBA32F, normal RGBA16F: `FinalPass`).
+//! 2. `hard/final` — every object from the camera (`gpu::passes::FinalPass`). Fragment
+//!    `glsl/hard/final.frag` samples the map through a `sampler2DShadow` (compare
+//!    LESS_OR_EQUAL, linear filter, clamp to edge) at the normal-offset point's light uv
+//!    (`common/shadow.glsl`: 2 texels along the normal, scaled by the light's slope; the light
+//!    clip coordinates of the point and its normal come interpolated from `common/scene.vert`),
+//!    with the reference depth d / (1 + b) mapped to z as above (b the relative bias
+//!    `frame.light_frustum.w`, 5e-4): 1 where the point is at or in front of the stored caster,
+//!    each of the 2x2 texels compared and the results weighted bilinearly by the sampler.
+//!    Writes colour RGBA8 (the untimed AOV pass `hard/aov` also visibility R32F, position
+//!    RGBA32F, normal RGBA16F: `FinalPass`).
 //!
 //! Bias: the normal offset keeps lit surfaces off their own texel (no acne) without a large
 //! constant offset that would detach contact shadows; the small relative bias absorbs the

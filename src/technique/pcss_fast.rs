@@ -29,9 +29,10 @@
 //!    whole cells by index anyway. Barriers between levels come from the dispatches'
 //!    declared accesses (`vk::Recorder`).
 //! 3. `pcss-fast/final` — every object from the camera (`gpu::passes::FinalPass`), fragment
-//!    `glsl/pcss_fast/final.frag` (pcss-walk: `walk.frag`), both `visibility.glsl`: the
-//!    early exits, then pcss's search (or the walk), then steps 2–3. Writes colour RGBA8, no blending (the untimed AOV pass `pcss-fast/aov` also visibility R32F,
-//!    position RGBA32F, normal RGBA16F).
+//!    `glsl/pcss_fast/final.frag` (pcss-walk: `walk.frag`), both `visibility.glsl`: the early
+//!    exits, then pcss's search (or the walk), then steps 2–3. Writes colour RGBA8, no blending
+//!    (the untimed AOV pass `pcss-fast/aov` also visibility R32F, position RGBA32F, normal
+//!    RGBA16F).
 //!
 //! Constants: pcss's (`frame.technique`, `frame.technique2.x`, glsl/pcss/constants.glsl) and
 //! `frame.technique2.y` = the coarsest level (glsl/pcss_fast/constants.glsl).
@@ -118,18 +119,19 @@
 //! ## Known artefacts
 //! `pcss-fast`: those of `pcss`, no more. `pcss-walk`: those of `pcss`, except that d_b is
 //! the mean over the search square rather than over 16 taps: nearly every penumbra pixel
-//! moves (tests/pcss_fast.rs bounds how many, and holds mae_lit against the ray-cast reference within 0.003 of pcss's). A cell on a receiver
-//! that slopes away from the light holds the receiver's own texels on both sides of the
-//! plane's range, so it is mixed and costs a descent (comparing with the nearest depth only
-//! was cheaper, but called cells open that hid real blockers: 5 to 28 pixels a frame lit
-//! where pcss shadows, on `bunny`, `primitives`, `fence`). Past the budget the fallback's
-//! even spread is a guess: a cell holding a thin blocker over deeper casters gets too deep
-//! a d_b, and a cell of the receiver's own surface counts some of it as blockers at about
-//! the receiver's depth (the filter then runs, finds the surface lit through the receiver
-//! plane, and only a real blocker nearby is filtered with too small a radius). Where the
-//! square's corners reach a blocker that pcss's disc does not, the pixel pays the filter and
-//! gets pcss's 1 from it. Points on a caster's own lit surface rarely settle early (the
-//! caster is in its own cells) and search (`pcss-fast`) or walk (`pcss-walk`).
+//! moves (tests/pcss_fast.rs bounds how many, and holds mae_lit against the ray-cast
+//! reference within 0.003 of pcss's). A cell on a receiver that slopes away from the light
+//! holds the receiver's own texels on both sides of the plane's range, so it is mixed and
+//! costs a descent (comparing with the nearest depth only was cheaper, but called cells open
+//! that hid real blockers: 5 to 28 pixels a frame lit where pcss shadows, on `bunny`,
+//! `primitives`, `fence`). Past the budget the fallback's even spread is a guess: a cell
+//! holding a thin blocker over deeper casters gets too deep a d_b, and a cell of the
+//! receiver's own surface counts some of it as blockers at about the receiver's depth (the
+//! filter then runs, finds the surface lit through the receiver plane, and only a real
+//! blocker nearby is filtered with too small a radius). Where the square's corners reach a
+//! blocker that pcss's disc does not, the pixel pays the filter and gets pcss's 1 from it.
+//! Points on a caster's own lit surface rarely settle early (the caster is in its own cells)
+//! and search (`pcss-fast`) or walk (`pcss-walk`).
 //!
 //! ## Cost
 //! `pcss-fast`'s final pass is pcss's, minus the search for the points the hierarchy

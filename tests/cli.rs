@@ -148,10 +148,12 @@ fn render_writes_png_aovs_and_timings() {
         surface.iter().zip(&caster).any(|(s, c)| s < c),
         "receivers nearer than casters"
     );
-    let alpha = channel(&channels("smoothie_alpha"), "alpha");
+    let smoothie = channels("smoothie_buffer");
+    let alpha = channel(&smoothie, "alpha");
     assert!(alpha.iter().all(|a| (0.0..=1.0).contains(a)));
     assert!(alpha.iter().any(|&a| a < 0.5), "no smoothie drawn");
-    channels("smoothie_depth");
+    let depth = channel(&smoothie, "depth");
+    assert!(depth.iter().any(|&d| d < 1e29), "no smoothie depth written");
 }
 
 /// Exit status by value: 0 for help, 2 for a usage error (the arguments' syntax), 1 for a

@@ -270,16 +270,10 @@ fn smoothie_pass_writes_depth_and_alpha() {
     let mut r =
         softshadow::render::Renderer::new(&gpu.ctx, scene, "smoothies", small(128, 256)).unwrap();
     r.render().unwrap();
-    let depth = r
-        .read_technique_buffer("smoothie_depth")
-        .unwrap()
-        .channels
-        .remove(0);
-    let alpha = r
-        .read_technique_buffer("smoothie_alpha")
-        .unwrap()
-        .channels
-        .remove(0);
+    // One RG32F target: channel 0 the smoothie depth, channel 1 the remapped alpha.
+    let mut smoothie = r.read_technique_buffer("smoothie_buffer").unwrap().channels;
+    let alpha = smoothie.remove(1);
+    let depth = smoothie.remove(0);
     // Channel 1: the nearest surface of any role, the receiver the smoothie shadows.
     let shadow = r
         .read_technique_buffer("shadow_map")

@@ -27,10 +27,10 @@ fn compare(gpu: &Gpu, scene: &str, settings: Settings) -> (Vec<f32>, usize) {
             .unwrap_or_else(|e| panic!("smoothies --spirv {spirv}: {e:#}"));
         r.render().unwrap();
         out.push(r.read_back().unwrap());
-        buffers.push([
-            r.read_technique_buffer("smoothie_depth").unwrap().channels[0].clone(),
-            r.read_technique_buffer("smoothie_alpha").unwrap().channels[0].clone(),
-        ]);
+        let mut smoothie = r.read_technique_buffer("smoothie_buffer").unwrap().channels;
+        assert_eq!(smoothie.len(), 2, "smoothie buffer: depth and alpha");
+        let alpha = smoothie.remove(1);
+        buffers.push([smoothie.remove(0), alpha]);
     }
     let (g, t) = (&out[0], &out[1]);
     let mut worst_color = 0;

@@ -7,9 +7,8 @@
 #include "smoothies/constants.glsl"
 
 layout(set = 0, binding = 1) uniform sampler2D shadow_map;       // RG32F: r = nearest caster depth
-layout(set = 0, binding = 2) uniform sampler2D smoothie_depth;   // R32F smoothie depth (MIN)
-layout(set = 0, binding = 3) uniform sampler2D smoothie_alpha;   // R16F remapped alpha (MIN)
-layout(set = 0, binding = 4) uniform sampler1D falloff;          // R32F 0.5 - 0.5 cos(pi x)
+layout(set = 0, binding = 2) uniform sampler2D smoothie_buffer;  // RG32F (depth b, alpha), MIN
+layout(set = 0, binding = 3) uniform sampler1D falloff;          // R32F 0.5 - 0.5 cos(pi x)
 
 float visibility(vec3 p, vec3 n) {
     LightSample s = light_sample(p, n);
@@ -25,11 +24,11 @@ float visibility(vec3 p, vec3 n) {
     // Deep umbra (every texel behind the blocker, the common case inside shadows): no
     // smoothie can change a 0.
     if (any(notEqual(lit, vec4(0.0)))) {
-        vec4 in_front = lit_test(textureGather(smoothie_depth, s.uv, 0), s.depth);
+        vec4 in_front = lit_test(textureGather(smoothie_buffer, s.uv, 0), s.depth);
         // The alpha fetch only where some texel lies behind a smoothie (penumbrae). in_front
         // is 0 or 1, so max(alpha, in_front) is mix(alpha, 1, in_front) in one instruction.
         if (any(lessThan(in_front, vec4(1.0))))
-            v4 = lit * max(textureGather(smoothie_alpha, s.uv, 0), in_front);
+            v4 = lit * max(textureGather(smoothie_buffer, s.uv, 1), in_front);
     }
     // The LUT gives exactly 0 and 1 at its end texels, so umbra and lit areas pass unchanged.
     // Texel centres: x in [0,1] maps to [0.5, N - 0.5] / N.

@@ -1,7 +1,7 @@
 #version 450
 #extension GL_GOOGLE_include_directive : require
-// Smoothie MRT pass (Chan & Durand Sec. 3.1): writes the smoothie's linear depth b (R32F)
-// and its remapped alpha (R16F), both MIN-blended (clears: far, 1.0).
+// Smoothie pass (Chan & Durand Sec. 3.1): writes the smoothie's linear depth b and its
+// remapped alpha into the RG32F smoothie buffer, MIN-blended per channel (clear: far, 1.0).
 #include "common/frame.glsl"
 #include "smoothies/alpha.glsl"
 
@@ -13,8 +13,7 @@ layout(location = 2) flat in vec2 v_anchor;
 layout(location = 3) flat in vec2 v_dir;
 layout(location = 4) noperspective in float v_width;
 
-layout(location = 0) out float o_depth;
-layout(location = 1) out float o_alpha;
+layout(location = 0) out vec2 o_smoothie;   // (b, alpha)
 
 void main() {
     float t = v_width;
@@ -26,6 +25,5 @@ void main() {
     float dist = v_kind < 0.5 ? dot(q, v_dir) : length(q);
     float alpha;
     if (!smoothie_alpha(b / r, dist, t, alpha)) discard;
-    o_alpha = alpha;
-    o_depth = b;
+    o_smoothie = vec2(b, alpha);
 }

@@ -80,7 +80,7 @@ pub trait Technique {
 
 /// One light-space buffer of a technique.
 pub struct LightBuffer<'a> {
-    /// File name and `Renderer::read_technique_buffer` name: `shadow_map`, `smoothie_alpha`...
+    /// File name and `Renderer::read_technique_buffer` name: `shadow_map`, `smoothie_buffer`...
     pub name: &'static str,
     pub image: &'a Image,
     /// What each channel of `image` holds, in channel order: the EXR's channel names.

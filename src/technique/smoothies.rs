@@ -13,9 +13,9 @@
 //! - `smoothies/silhouettes` (CPU, or compute on the GPU path): silhouette edges, then
 //!   smoothie quads and corner fans in light uv;
 //! - `smoothies/shadow_map`: R32G32_SFLOAT (clear 1e30, blend MIN), no depth attachment;
-//! - `smoothies/smoothie`: R32_SFLOAT smoothie depth (clear 1e30, MIN) + R16_SFLOAT alpha
-//!   (clear 1.0, MIN), no depth attachment, culling off;
-//! - `smoothies/final`: the camera pass; reads the three buffers and a falloff LUT, writes
+//! - `smoothies/smoothie`: the smoothie buffer, R32G32_SFLOAT (depth, alpha; clear (1e30,
+//!   1), MIN per channel), no depth attachment, culling off;
+//! - `smoothies/final`: the camera pass; reads the two buffers and a falloff LUT, writes
 //!   the colour target (RGBA8).
 //!
 //! **What to port**: the passes below, with pass 0's geometry from the reference
@@ -56,7 +56,7 @@
 //!    blend MIN, no depth attachment; r = nearest caster's linear depth (the umbra test),
 //!    g = nearest surface of any role (the receiver depth r of Eq. 1). Linear depth, not
 //!    the depth buffer's, because Eq. 1 needs b/r.
-//! 2. `smoothies/smoothie` — ONE pass, two colour attachments, no depth attachment.
+//! 2. `smoothies/smoothie` — ONE pass, one colour attachment, no depth attachment.
 //!    Pipelines of that name per path, all with the same fragment shader:
 //!    GPU path: glsl/smoothies/smoothie.vert reads `SmoothieVertex` attributes (stride 36:
 //!    locations 0 uv, 1 1/depth, 2 kind, 3 anchor, 4 dir, 5 width), one indirect draw.
@@ -64,10 +64,13 @@
 //!    smoothie_fans.vert (3 per fan segment) pull the records from the storage buffer at
 //!    set 1 binding 0 (no vertex input): two draws per caster, push constants = first
 //!    16-byte unit, vertex, edge and fan record counts; both emit smoothie.vert's varyings
-//!    exactly (glsl/smoothies/records.glsl). Attachments:
-//!    location 0 = smoothie linear depth b, R32_SFLOAT, clear 1e30, blend MIN;
-//!    location 1 = remapped alpha, R16_SFLOAT, clear 1.0, blend MIN (the paper's "minimum
-//!    blending" of overlapping smoothies, Sec. 3.1; the min depth keeps the nearest smoothie).
+//!    exactly (glsl/smoothies/records.glsl). Attachment: location 0 = the smoothie buffer,
+//!    R32G32_SFLOAT, clear (1e30, 1.0), blend MIN (per channel, so r and g blend as two
+//!    targets would): r = smoothie linear depth b (the min keeps the nearest smoothie),
+//!    g = remapped alpha (the paper's "minimum blending" of overlapping smoothies, Sec.
+//!    3.1). One two-channel target rather than the paper's two: half the blend work on a
+//!    CPU driver, and the final pass's two gathers of it share one texel address
+//!    computation; 32-bit alpha where 16 bits would do costs nothing on top.
 //!    `glsl/smoothies/smoothie.frag` reads the shadow map's g at its own texel for the
 //!    receiver depth r, discards when b/r > 1 (smoothie behind a blocker), computes the
 //!    linear alpha (edge: distance from the edge along the outward normal / t; corner:
@@ -78,8 +81,8 @@
 //!    alpha' = clamp(alpha / (1 - b/r)), with alpha' = 1 when 1 - b/r < 1e-4 (Volokh 3.5:
 //!    no NaN, no Inf, no speckles where b ~ r).
 //! 3. `smoothies/final` — from the camera (`FinalPass`), `glsl/smoothies/final.frag`: at
-//!    each of the 4 nearest texels v = 0 behind the blocker, else alpha behind the smoothie,
-//!    else 1 (Sec. 3 step 5); bilinear weights (the 2x2 tent of the paper's hardware PCF);
+//!    each of the 4 nearest texels v = 0 behind the blocker (shadow map r), else alpha
+//!    behind the smoothie (smoothie buffer r, then g), else 1 (Sec. 3 step 5); bilinear weights (the 2x2 tent of the paper's hardware PCF);
 //!    then the sinusoidal falloff 0.5 - 0.5 cos(pi v) from a 256-texel R32F 1-D texture.
 //!
 //! `--spirv tuned` (`Settings::spirv`) runs hand-written SPIR-V for passes 2 and 3 instead
@@ -206,12 +209,54 @@ pub fn smoothie_width(fixed: Option<f32>, scene: &Scene, light: &LightView, radi
     width.at(light.linear_depth((b.min + b.max) * 0.5).max(light.near))
 }
 
-/// The smoothie pass's value attachment: the paper's remapped alpha, or the centred form's
-/// penumbra values (see `Smoothies::smoothie_targets`).
-fn value_target(form: Form) -> (&'static str, Format) {
+/// One attachment of the smoothie pass, MIN-blended (each texel keeps the darkest
+/// smoothie).
+struct SmoothieTarget {
+    /// `--buffers` file and `Renderer::read_technique_buffer` name, and debug label.
+    name: &'static str,
+    format: Format,
+    clear: [f32; 4],
+    /// What each channel holds, for `--buffers`.
+    channels: &'static [&'static str],
+}
+
+/// The smoothie pass's attachments. The paper's smoothie buffer is one RG32F target: MIN
+/// blends each channel on its own, as two targets would, and one target halves the blend
+/// work and lets the final pass's two gathers share one texel address computation. The
+/// centred form keeps its depth apart from its penumbra values, which RGBA16F holds.
+fn smoothie_targets(form: Form) -> &'static [SmoothieTarget] {
     match form {
-        Form::Paper => ("smoothie alpha", Format::R16_SFLOAT),
-        Form::Centred => ("smoothie penumbra", Format::R16G16B16A16_SFLOAT),
+        Form::Paper => &[SmoothieTarget {
+            name: "smoothie_buffer",
+            format: Format::R32G32_SFLOAT,
+            clear: [FAR_DEPTH, 1.0, 0.0, 0.0],
+            // The nearest smoothie's linear depth b (1e30: no smoothie); the remapped alpha
+            // alpha / (1 - b/r), MIN over smoothies (1: none).
+            channels: &["depth", "alpha"],
+        }],
+        Form::Centred => &[
+            SmoothieTarget {
+                name: "smoothie_depth",
+                format: Format::R32_SFLOAT,
+                clear: [FAR_DEPTH; 4],
+                // The nearest outer smoothie's linear depth (1e30: none).
+                channels: &["depth"],
+            },
+            SmoothieTarget {
+                name: "smoothie_penumbra",
+                format: Format::R16G16B16A16_SFLOAT,
+                clear: [1.0; 4],
+                // The darkest outer visibility (1 = lit), the least inner occlusion (1 =
+                // umbra) and 1 - the farthest inner receiver depth / far, all MIN
+                // (smoothies_centred.rs).
+                channels: &[
+                    "outer_visibility",
+                    "inner_occlusion",
+                    "inner_receiver_nearness",
+                    "unused",
+                ],
+            },
+        ],
     }
 }
 
@@ -246,10 +291,10 @@ impl SmoothiePipelines {
                 Some(shaders::SMOOTHIES_CENTRED_INNER_FRAG),
             ),
         };
-        let colors = [
-            (Format::R32_SFLOAT, Blend::Min),
-            (value_target(form).1, Blend::Min),
-        ];
+        let colors: Vec<_> = smoothie_targets(form)
+            .iter()
+            .map(|target| (target.format, Blend::Min))
+            .collect();
         let pipeline = |vertex: &[u8],
                         fragment: &[u8],
                         input: (u32, &[crate::vk::Attribute]),
@@ -318,10 +363,9 @@ impl SmoothiePipelines {
 pub struct Smoothies {
     form: Form,
     shadow: ShadowMap,
-    smoothie_depth: Image,
-    /// The paper's remapped alpha (R16F); the centred form's penumbra values (RGBA16F:
-    /// outer visibility, inner occlusion, inner receiver nearness, unused).
-    smoothie_alpha: Image,
+    /// The smoothie pass's attachments, as `smoothie_targets(form)` lists them: the paper's
+    /// RG32F smoothie buffer (depth, alpha); the centred form's depth and penumbra values.
+    smoothie: Vec<Image>,
     /// GPU path: expanded `SmoothieVertex` buffer written by the silhouette compute pass
     /// (paper form only).
     smoothie_pipeline: Option<Pipeline>,
@@ -362,7 +406,7 @@ impl Smoothies {
         let res = init.settings.shadow_res;
         let names = form.smoothie_names();
         let shadow = ShadowMap::new(ctx, init.ubo, res, names.shadow_map)?;
-        let (smoothie_depth, smoothie_alpha) = Self::smoothie_targets(ctx, form, res)?;
+        let smoothie = Self::smoothie_images(ctx, form, res)?;
         let nearest = Sampler::new(ctx, Filter::Nearest)?;
         let linear = Sampler::new(ctx, Filter::Linear)?;
         let falloff = falloff_lut(ctx)?;
@@ -377,14 +421,8 @@ impl Smoothies {
         let records = DynamicVertices::storage(ctx, "smoothie records")?;
         let records_set = Self::records_set(ctx, &records)?;
         let pipelines = SmoothiePipelines::new(init, form, &smoothie_set, &records_set)?;
-        let final_set = Self::final_set(
-            init,
-            form,
-            &shadow,
-            [&smoothie_depth, &smoothie_alpha, &falloff],
-            &nearest,
-            &linear,
-        )?;
+        let final_set =
+            Self::final_set(init, form, &shadow, &smoothie, &falloff, &nearest, &linear)?;
         let final_pass = FinalPass::new(
             ctx,
             names.final_pass,
@@ -404,8 +442,7 @@ impl Smoothies {
         Ok(Box::new(Self {
             form,
             shadow,
-            smoothie_depth,
-            smoothie_alpha,
+            smoothie,
             smoothie_pipeline: pipelines.gpu,
             smoothie_set,
             records_pipelines: pipelines.records,
@@ -426,53 +463,53 @@ impl Smoothies {
         }))
     }
 
-    /// The smoothie pass's two attachments, both MIN-blended (each keeps the darkest
-    /// smoothie): R32F smoothie depth, and the paper's R16F alpha or the centred form's
-    /// RGBA16F penumbra values (outer visibility, inner occlusion, inner receiver nearness).
-    fn smoothie_targets(ctx: &Context, form: Form, res: u32) -> Result<(Image, Image)> {
-        let (value_name, value_format) = value_target(form);
-        for f in [Format::R32_SFLOAT, value_format] {
-            if !ctx.supports_blend(f) {
-                anyhow::bail!(
-                    "{} cannot MIN-blend {f:?} attachments, which {} needs",
-                    ctx.device_name,
-                    form.smoothie_names().technique
-                );
-            }
-        }
+    /// The smoothie pass's attachments (`smoothie_targets`), each checked for MIN blending.
+    fn smoothie_images(ctx: &Context, form: Form, res: u32) -> Result<Vec<Image>> {
         let usage = ImageUsageFlags::COLOR_ATTACHMENT
             | ImageUsageFlags::SAMPLED
             | ImageUsageFlags::TRANSFER_SRC;
-        let depth = Image::new_2d(ctx, res, res, Format::R32_SFLOAT, usage, "smoothie depth")?;
-        let value = Image::new_2d(ctx, res, res, value_format, usage, value_name)?;
-        Ok((depth, value))
+        smoothie_targets(form)
+            .iter()
+            .map(|target| {
+                let format = target.format;
+                if !ctx.supports_blend(format) {
+                    anyhow::bail!(
+                        "{} cannot MIN-blend {format:?} attachments, which {} needs",
+                        ctx.device_name,
+                        form.smoothie_names().technique
+                    );
+                }
+                Image::new_2d(ctx, res, res, format, usage, target.name)
+            })
+            .collect()
     }
 
-    /// The final pass's bindings: the shadow map and the smoothie buffer, plus the paper's
-    /// falloff curve (the centred form's disc-chord profile is computed in the shader).
-    /// `images` = (smoothie depth, smoothie value, falloff).
+    /// The final pass's bindings: the shadow map and the smoothie pass's targets, plus the
+    /// paper's falloff curve (the centred form's disc-chord profile is computed in the
+    /// shader).
     fn final_set(
         init: &TechniqueInit<'_>,
         form: Form,
         shadow: &ShadowMap,
-        images: [&Image; 3],
+        smoothie: &[Image],
+        falloff: &Image,
         nearest: &Sampler,
         linear: &Sampler,
     ) -> Result<DescriptorSet> {
-        let [depth, value, falloff] = images;
         let mut bindings = vec![
             ("frame", Resource::Uniform(init.ubo)),
             ("shadow_map", Resource::Sampled(&shadow.depth, nearest)),
-            ("smoothie_depth", Resource::Sampled(depth, nearest)),
         ];
-        match form {
-            Form::Paper => {
-                bindings.push(("smoothie_alpha", Resource::Sampled(value, nearest)));
+        match (form, smoothie) {
+            (Form::Paper, [buffer]) => {
+                bindings.push(("smoothie_buffer", Resource::Sampled(buffer, nearest)));
                 bindings.push(("falloff", Resource::Sampled(falloff, linear)));
             }
-            Form::Centred => {
-                bindings.push(("smoothie_penumbra", Resource::Sampled(value, nearest)))
+            (Form::Centred, [depth, penumbra]) => {
+                bindings.push(("smoothie_depth", Resource::Sampled(depth, nearest)));
+                bindings.push(("smoothie_penumbra", Resource::Sampled(penumbra, nearest)));
             }
+            _ => anyhow::bail!("{} smoothie targets for {form:?}", smoothie.len()),
         }
         DescriptorSet::new(init.ctx, &bindings, form.smoothie_names().final_pass)
     }
@@ -639,13 +676,13 @@ impl Technique for Smoothies {
 
         self.shadow.pass(rec, frame.gpu)?;
         rec.pass(names.smoothie, |rec| {
-            rec.begin_rendering(
-                &[
-                    (&self.smoothie_depth, Some([FAR_DEPTH; 4])),
-                    (&self.smoothie_alpha, Some([1.0; 4])),
-                ],
-                None,
-            );
+            let targets: Vec<_> = self
+                .smoothie
+                .iter()
+                .zip(smoothie_targets(self.form))
+                .map(|(image, target)| (image, Some(target.clear)))
+                .collect();
+            rec.begin_rendering(&targets, None);
             if self.draw_smoothies {
                 match (&self.gpu_silhouettes, &self.smoothie_pipeline, self.path) {
                     (Some(gpu), Some(pipeline), _) => {
@@ -700,36 +737,19 @@ impl Technique for Smoothies {
     }
 
     fn light_buffers(&self) -> Vec<LightBuffer<'_>> {
-        vec![
-            shadow_map_buffer("shadow_map", &self.shadow),
-            // The nearest smoothie's linear depth b (1e30: no smoothie).
-            LightBuffer {
-                name: "smoothie_depth",
-                image: &self.smoothie_depth,
-                channels: &["depth"],
-            },
-            match self.form {
-                // The remapped alpha alpha / (1 - b/r), MIN over smoothies (1: none).
-                Form::Paper => LightBuffer {
-                    name: "smoothie_alpha",
-                    image: &self.smoothie_alpha,
-                    channels: &["alpha"],
-                },
-                // The darkest outer visibility (1 = lit), the least inner occlusion (1 =
-                // umbra) and 1 - the farthest inner receiver depth / far, all MIN
-                // (smoothies_centred.rs).
-                Form::Centred => LightBuffer {
-                    name: "smoothie_penumbra",
-                    image: &self.smoothie_alpha,
-                    channels: &[
-                        "outer_visibility",
-                        "inner_occlusion",
-                        "inner_receiver_nearness",
-                        "unused",
-                    ],
-                },
-            },
-        ]
+        [shadow_map_buffer("shadow_map", &self.shadow)]
+            .into_iter()
+            .chain(
+                self.smoothie
+                    .iter()
+                    .zip(smoothie_targets(self.form))
+                    .map(|(image, target)| LightBuffer {
+                        name: target.name,
+                        image,
+                        channels: target.channels,
+                    }),
+            )
+            .collect()
     }
 
     fn gpu_silhouettes(&self) -> Option<&GpuSilhouettes> {

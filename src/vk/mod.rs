@@ -38,7 +38,7 @@
 //! # Names across the Rust-GLSL line
 //!
 //! Binding numbers are written once, in the GLSL a porter reads
-//! (`layout(set = 0, binding = 3) uniform sampler2D smoothie_alpha;`). Each `DescriptorSet`
+//! (`layout(set = 0, binding = 2) uniform sampler2D smoothie_buffer;`). Each `DescriptorSet`
 //! names the shader variable of every binding it fills, and every pipeline creation reads
 //! the bindings its shaders declare from their SPIR-V (`reflect`, with the spirq crate) and
 //! compares name and kind binding by binding: a list reordered on either side is an error at

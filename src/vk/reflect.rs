@@ -139,9 +139,8 @@ mod tests {
             [
                 (0, 0, UniformBuffer, Some("frame")),
                 (0, 1, SampledImage, Some("shadow_map")),
-                (0, 2, SampledImage, Some("smoothie_depth")),
-                (0, 3, SampledImage, Some("smoothie_alpha")),
-                (0, 4, SampledImage, Some("falloff")),
+                (0, 2, SampledImage, Some("smoothie_buffer")),
+                (0, 3, SampledImage, Some("falloff")),
             ]
         );
     }
@@ -169,23 +168,19 @@ mod tests {
         let right = [
             frame,
             sampled("shadow_map"),
-            sampled("smoothie_depth"),
-            sampled("smoothie_alpha"),
+            sampled("smoothie_buffer"),
             sampled("falloff"),
         ];
         check(&shader, &[&right]).unwrap();
         let swapped = [
             frame,
             sampled("shadow_map"),
-            sampled("smoothie_alpha"),
-            sampled("smoothie_depth"),
             sampled("falloff"),
+            sampled("smoothie_buffer"),
         ];
         let e = check(&shader, &[&swapped]).unwrap_err().to_string();
         assert!(
-            e.contains("binding 2")
-                && e.contains("'smoothie_depth'")
-                && e.contains("'smoothie_alpha'"),
+            e.contains("binding 2") && e.contains("'smoothie_buffer'") && e.contains("'falloff'"),
             "{e}"
         );
         let wrong_kind = [HostBinding {
@@ -198,10 +193,7 @@ mod tests {
             "{e}"
         );
         let e = check(&shader, &[&right[..3]]).unwrap_err().to_string();
-        assert!(
-            e.contains("binding 3") && e.contains("smoothie_alpha"),
-            "{e}"
-        );
+        assert!(e.contains("binding 3") && e.contains("falloff"), "{e}");
     }
 
     /// The hand-tuned module has no debug names: kinds are still read, and agree with its

@@ -13,6 +13,9 @@
 //! Frame time is the sum of the passes that ran (`FrameTimings::gpu_total_ms`); the ratio to
 //! `hard` divides by hard's median on the same scene, image size, buffer resolution, radius
 //! and motion in the same run, which is why `hard` is always swept even when not listed.
+//! The points of one table (one scene, radius, motion and buffer size: `hard` and every row
+//! timed against it) are timed together, frame by frame in turn (`time_table`), so that a
+//! slow spell of a shared machine falls on every row alike and the ratios to `hard` hold.
 //!
 //! `smoothies` is reported twice: `smoothies` with its width t calibrated from the light
 //! radius (`Settings::smoothie_t = None`) and `smoothies t=0.02` with the paper's fixed
@@ -414,6 +417,15 @@ struct Case {
     shadow_res: u32,
     radius: usize,
     motion: Motion,
+}
+
+impl Case {
+    /// The table a sweep point belongs to: the points with the same scene, radius, motion
+    /// and buffer size, `hard` among them, whose frame times are compared. `prepare` lists
+    /// each table's points one after the other.
+    fn table(&self) -> (usize, usize, Motion, u32) {
+        (self.scene, self.radius, self.motion, self.shadow_res)
+    }
 }
 
 /// A checked sweep, ready to run: scenes loaded, rows expanded, output folder prepared.
@@ -984,87 +996,81 @@ pub fn run(ctx: &Context, plan: Plan) -> Result<Outcome> {
     let fail_at: Option<usize> = std::env::var("SOFTSHADOW_BENCH_FAIL_AT")
         .ok()
         .and_then(|v| v.parse().ok());
-    for (i, case) in plan.cases.iter().enumerate() {
-        if fail_at == Some(i) {
-            bail!("bench sweep point {i}: failure injected by SOFTSHADOW_BENCH_FAIL_AT");
-        }
-        let base = &plan.scenes[case.scene];
-        let variant = &plan.variants[case.variant];
-        let settings = plan.settings(case);
-        let radius = settings.radius_for(base);
-        let what = format!(
-            "{} / {} / buffer {} / R {radius:.4} / {}",
-            base.name,
-            variant.label,
-            case.shadow_res,
-            case.motion.name()
-        );
-        bar.set_message(what.clone());
-
-        let mut r = Renderer::new(ctx, base.clone(), variant.technique, settings.clone())
-            .with_context(|| format!("bench {what}"))?;
-        let mut timed = Vec::new();
-        for f in 0..cfg.warmup + cfg.frames {
-            r.scene = case.motion.apply(base, f);
-            let t = r
-                .render()
-                .with_context(|| format!("bench {what}, frame {f}"))?;
-            if f >= cfg.warmup {
-                timed.push(t);
+    // One table at a time (`time_table`): its points are timed together, then each is
+    // read back, compared with the reference and written out in turn.
+    let mut start = 0;
+    while start < plan.cases.len() {
+        let end = start
+            + plan.cases[start..]
+                .iter()
+                .take_while(|c| c.table() == plan.cases[start].table())
+                .count();
+        let points: Vec<Point> = plan.cases[start..end]
+            .iter()
+            .map(|case| Point::new(&plan, case))
+            .collect();
+        let timed_points = time_table(ctx, &plan, &points, &bar)?;
+        for (offset, (point, (mut r, timed))) in points.iter().zip(timed_points).enumerate() {
+            let i = start + offset;
+            if fail_at == Some(i) {
+                bail!("bench sweep point {i}: failure injected by SOFTSHADOW_BENCH_FAIL_AT");
             }
-        }
-        if case.motion != Motion::Static {
-            r.scene = base.clone();
-            r.render()
-                .with_context(|| format!("bench {what}, frame at rest"))?;
-        }
-        let images = r
-            .read_back()
-            .with_context(|| format!("bench {what}: reading back"))?;
-        let smoothie_t = (variant.technique == "smoothies")
-            .then(|| smoothie_width(settings.smoothie_t, &r.scene, &r.light, radius));
-        drop(r);
+            let (case, base, variant, what) = (point.case, point.base, point.variant, &point.what);
+            let (radius, settings) = (point.radius, point.settings.clone());
+            bar.set_message(what.clone());
+            if case.motion != Motion::Static {
+                r.scene = base.clone();
+                r.render()
+                    .with_context(|| format!("bench {what}, frame at rest"))?;
+            }
+            let images = r
+                .read_back()
+                .with_context(|| format!("bench {what}: reading back"))?;
+            let smoothie_t = (variant.technique == "smoothies")
+                .then(|| smoothie_width(settings.smoothie_t, &r.scene, &r.light, radius));
+            drop(r);
 
-        let key = (case.scene, case.radius);
-        if reference.as_ref().map(|r| r.key) != Some(key) {
-            // Sweep points are ordered by scene and radius, so one reference is live at a time.
-            drop(reference.take());
-            bar.set_message(format!(
-                "{}: reference, {}x{}, R {radius:.4}, {} samples",
-                base.name, cfg.width, cfg.height, cfg.samples
-            ));
-            let r = render_reference(ctx, base, &settings, cfg)
-                .with_context(|| format!("reference of {} at R {radius}", base.name))?;
-            let stem = format!(
-                "images/{}_r{}_reference",
-                slug(&base.name),
-                slug(&cfg.radii[case.radius].to_string())
-            );
-            let (vis_name, color_name) = (format!("{stem}.png"), format!("{stem}_shaded.png"));
-            write_gray(
-                &plan.staging.path(&vis_name),
-                cfg.width,
-                cfg.height,
-                &r.visibility,
-            )?;
-            write_rgba(&plan.staging.path(&color_name), &r, &r.color)?;
-            files.push(vis_name.clone());
-            files.push(color_name.clone());
-            reference = Some(LiveReference {
-                key,
-                images: r,
-                visibility_image: vis_name,
-                color_image: color_name,
-            });
-        }
-        let Some(live) = reference.as_ref() else {
-            bail!("no reference for {what}");
-        };
-        // The reference's own camera pass gives the same surface points as every technique's;
-        // should one differ, its reference is ray cast at its own points.
-        let own;
-        let v_ref =
-            if images.position == live.images.position && images.normal == live.images.normal {
+            let key = (case.scene, case.radius);
+            if reference.as_ref().map(|r| r.key) != Some(key) {
+                // Sweep points are ordered by scene and radius, so one reference is live at a time.
+                drop(reference.take());
+                bar.set_message(format!(
+                    "{}: reference, {}x{}, R {radius:.4}, {} samples",
+                    base.name, cfg.width, cfg.height, cfg.samples
+                ));
+                let r = render_reference(ctx, base, &settings, cfg)
+                    .with_context(|| format!("reference of {} at R {radius}", base.name))?;
+                let stem = format!(
+                    "images/{}_r{}_reference",
+                    slug(&base.name),
+                    slug(&cfg.radii[case.radius].to_string())
+                );
+                let (vis_name, color_name) = (format!("{stem}.png"), format!("{stem}_shaded.png"));
+                write_gray(
+                    &plan.staging.path(&vis_name),
+                    cfg.width,
+                    cfg.height,
+                    &r.visibility,
+                )?;
+                write_rgba(&plan.staging.path(&color_name), &r, &r.color)?;
+                files.push(vis_name.clone());
+                files.push(color_name.clone());
+                reference = Some(LiveReference {
+                    key,
+                    images: r,
+                    visibility_image: vis_name,
+                    color_image: color_name,
+                });
+            }
+            let Some(live) = reference.as_ref() else {
+                bail!("no reference for {what}");
+            };
+            // The reference's own camera pass gives the same surface points as every technique's;
+            // should one differ, its reference is ray cast at its own points.
+            let own;
+            let v_ref = if images.position == live.images.position
+                && images.normal == live.images.normal
+            {
                 &live.images.visibility
             } else {
                 own = reference::visibility_cached(
@@ -1077,81 +1083,84 @@ pub fn run(ctx: &Context, plan: Plan) -> Result<Outcome> {
                 .with_context(|| format!("reference visibility of {} at R {radius}", base.name))?;
                 &own
             };
-        if v_ref.len() != images.visibility.len() {
-            bail!(
-                "reference visibility of {} has {} pixels, the image {}",
-                base.name,
-                v_ref.len(),
-                images.visibility.len()
-            );
-        }
+            if v_ref.len() != images.visibility.len() {
+                bail!(
+                    "reference visibility of {} has {} pixels, the image {}",
+                    base.name,
+                    v_ref.len(),
+                    images.visibility.len()
+                );
+            }
 
-        let covered: Vec<bool> = images.position.iter().map(|p| p[3] > 0.5).collect();
-        let facing = metrics::faces_light(&images.position, &images.normal, base.light.position);
-        let errors = metrics::errors(&images.visibility, v_ref, &covered, &facing);
-        let flip = metrics::flip(&images.color, &live.images.color, cfg.width, cfg.height)
-            .with_context(|| format!("FLIP of {what}"))?;
-        let stem = format!(
-            "images/{}_{}_s{}_r{}_{}",
-            slug(&base.name),
-            slug(&variant.label),
-            case.shadow_res,
-            slug(&cfg.radii[case.radius].to_string()),
-            case.motion.name()
-        );
-        let image = format!("{stem}.png");
-        let error_image = format!("{stem}_error.png");
-        let flip_image = format!("{stem}_flip.png");
-        write_rgba(&plan.staging.path(&image), &images, &images.color)?;
-        let err = metrics::error_image(&images.visibility, v_ref, &covered, ERROR_SCALE);
-        write_rgba(&plan.staging.path(&error_image), &images, &err)?;
-        write_rgb(&plan.staging.path(&flip_image), &images, &flip.map)?;
-        files.push(image.clone());
-        files.push(error_image.clone());
-        files.push(flip_image.clone());
-
-        let timing = summarise(&timed);
-        let record = Record {
-            scene: base.name.clone(),
-            technique: variant.label.clone(),
-            technique_name: variant.technique.into(),
-            width: cfg.width,
-            height: cfg.height,
-            shadow_res: case.shadow_res,
-            radius_spec: cfg.radii[case.radius].to_string(),
-            light_radius: radius,
-            motion: case.motion,
-            smoothie_t,
-            smoothie_t_fixed: variant.smoothie_t.is_some(),
-            spirv: variant.spirv,
-            silhouettes: variant.silhouettes.resolve(ctx).name(),
-            frames: cfg.frames,
-            warmup: cfg.warmup,
-            frame_ms: timing.frame_ms,
-            ratio_to_hard: None,
-            cpu_ms: timing.cpu_ms,
-            passes: timing.passes,
-            cpu: timing.cpu,
-            errors,
-            flip: flip.mean,
-            image,
-            error_image,
-            flip_image,
-            reference_image: live.visibility_image.clone(),
-            reference_shaded_image: live.color_image.clone(),
-        };
-        if lines {
-            eprintln!(
-                "[{}/{}] {what}: {:.3} ms, mae_lit {:.4}, flip {:.4}",
-                i + 1,
-                plan.cases.len(),
-                record.frame_ms.median,
-                record.errors.mae_lit,
-                record.flip
+            let covered: Vec<bool> = images.position.iter().map(|p| p[3] > 0.5).collect();
+            let facing =
+                metrics::faces_light(&images.position, &images.normal, base.light.position);
+            let errors = metrics::errors(&images.visibility, v_ref, &covered, &facing);
+            let flip = metrics::flip(&images.color, &live.images.color, cfg.width, cfg.height)
+                .with_context(|| format!("FLIP of {what}"))?;
+            let stem = format!(
+                "images/{}_{}_s{}_r{}_{}",
+                slug(&base.name),
+                slug(&variant.label),
+                case.shadow_res,
+                slug(&cfg.radii[case.radius].to_string()),
+                case.motion.name()
             );
+            let image = format!("{stem}.png");
+            let error_image = format!("{stem}_error.png");
+            let flip_image = format!("{stem}_flip.png");
+            write_rgba(&plan.staging.path(&image), &images, &images.color)?;
+            let err = metrics::error_image(&images.visibility, v_ref, &covered, ERROR_SCALE);
+            write_rgba(&plan.staging.path(&error_image), &images, &err)?;
+            write_rgb(&plan.staging.path(&flip_image), &images, &flip.map)?;
+            files.push(image.clone());
+            files.push(error_image.clone());
+            files.push(flip_image.clone());
+
+            let timing = summarise(&timed);
+            let record = Record {
+                scene: base.name.clone(),
+                technique: variant.label.clone(),
+                technique_name: variant.technique.into(),
+                width: cfg.width,
+                height: cfg.height,
+                shadow_res: case.shadow_res,
+                radius_spec: cfg.radii[case.radius].to_string(),
+                light_radius: radius,
+                motion: case.motion,
+                smoothie_t,
+                smoothie_t_fixed: variant.smoothie_t.is_some(),
+                spirv: variant.spirv,
+                silhouettes: variant.silhouettes.resolve(ctx).name(),
+                frames: cfg.frames,
+                warmup: cfg.warmup,
+                frame_ms: timing.frame_ms,
+                ratio_to_hard: None,
+                cpu_ms: timing.cpu_ms,
+                passes: timing.passes,
+                cpu: timing.cpu,
+                errors,
+                flip: flip.mean,
+                image,
+                error_image,
+                flip_image,
+                reference_image: live.visibility_image.clone(),
+                reference_shaded_image: live.color_image.clone(),
+            };
+            if lines {
+                eprintln!(
+                    "[{}/{}] {what}: {:.3} ms, mae_lit {:.4}, flip {:.4}",
+                    i + 1,
+                    plan.cases.len(),
+                    record.frame_ms.median,
+                    record.errors.mae_lit,
+                    record.flip
+                );
+            }
+            records.push(record);
+            bar.inc(1);
         }
-        records.push(record);
-        bar.inc(1);
+        start = end;
     }
     bar.finish_and_clear();
     set_ratios(&mut records);
@@ -1223,6 +1232,90 @@ pub fn run(ctx: &Context, plan: Plan) -> Result<Outcome> {
         records,
         files,
     })
+}
+
+/// One sweep point, resolved: its scene, row, settings, light radius and progress label.
+struct Point<'a> {
+    case: &'a Case,
+    base: &'a Scene,
+    variant: &'a Variant,
+    settings: Settings,
+    radius: f32,
+    what: String,
+}
+
+impl<'a> Point<'a> {
+    fn new(plan: &'a Plan, case: &'a Case) -> Self {
+        let base = &plan.scenes[case.scene];
+        let variant = &plan.variants[case.variant];
+        let settings = plan.settings(case);
+        let radius = settings.radius_for(base);
+        let what = format!(
+            "{} / {} / buffer {} / R {radius:.4} / {}",
+            base.name,
+            variant.label,
+            case.shadow_res,
+            case.motion.name()
+        );
+        Self {
+            case,
+            base,
+            variant,
+            settings,
+            radius,
+            what,
+        }
+    }
+}
+
+/// Times the sweep points of one table (`Case::table`: `hard` and every row timed against
+/// it): each gets its renderer and its warm-up frames, then the timed frames go round the
+/// table, one frame of each point in turn. A slow spell of a shared machine then falls on
+/// every row alike instead of on the row that happened to be running, so the ratios to
+/// `hard` hold even when the absolute figures drift. Returns each point's renderer (for
+/// the read-back) with its timed frames.
+fn time_table<'c>(
+    ctx: &'c Context,
+    plan: &Plan,
+    points: &[Point<'_>],
+    bar: &ProgressBar,
+) -> Result<Vec<(Renderer<'c>, Vec<FrameTimings>)>> {
+    let cfg = &plan.config;
+    let mut live = Vec::with_capacity(points.len());
+    for p in points {
+        bar.set_message(format!("{}: warm-up", p.what));
+        let mut r = Renderer::new(ctx, p.base.clone(), p.variant.technique, p.settings.clone())
+            .with_context(|| format!("bench {}", p.what))?;
+        for f in 0..cfg.warmup {
+            r.scene = p.case.motion.apply(p.base, f);
+            r.render()
+                .with_context(|| format!("bench {}, frame {f}", p.what))?;
+        }
+        live.push((r, Vec::with_capacity(cfg.frames as usize)));
+    }
+    if let Some(first) = points.first() {
+        bar.set_message(format!(
+            "{}: {} rows, {} frames each in turn",
+            first.base.name,
+            points.len(),
+            cfg.frames
+        ));
+    }
+    for (i, f) in timed_order(points.len(), cfg.warmup, cfg.frames) {
+        let ((r, timed), p) = (&mut live[i], &points[i]);
+        r.scene = p.case.motion.apply(p.base, f);
+        let t = r
+            .render()
+            .with_context(|| format!("bench {}, frame {f}", p.what))?;
+        timed.push(t);
+    }
+    Ok(live)
+}
+
+/// The order of a table's timed frames: (point, frame number), frame by frame, each point
+/// in turn; frame numbers count on from the `warmup` untimed ones (the motions' phase).
+fn timed_order(points: usize, warmup: u32, frames: u32) -> impl Iterator<Item = (usize, u32)> {
+    (warmup..warmup + frames).flat_map(move |f| (0..points).map(move |i| (i, f)))
 }
 
 /// The timing figures of a sweep point.
@@ -1378,4 +1471,74 @@ fn write_gray(path: &Path, width: u32, height: u32, v: &[f32]) -> Result<()> {
         .context("image size does not match its pixels")?;
     img.save_with_format(path, image::ImageFormat::Png)
         .with_context(|| format!("writing {}", path.display()))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Between two timed frames of a point, every other point of its table takes exactly
+    /// one: a slow stretch of time can only fall on all rows of a table alike.
+    #[test]
+    fn a_table_takes_its_timed_frames_in_turn() {
+        let order: Vec<_> = timed_order(3, 2, 4).collect();
+        assert_eq!(order.len(), 12);
+        assert_eq!(&order[..4], &[(0, 2), (1, 2), (2, 2), (0, 3)]);
+        for p in 0..3 {
+            let at: Vec<usize> = (0..order.len()).filter(|&k| order[k].0 == p).collect();
+            let frames: Vec<u32> = at.iter().map(|&k| order[k].1).collect();
+            assert_eq!(frames, [2, 3, 4, 5], "point {p}");
+            for w in at.windows(2) {
+                let mut between: Vec<usize> = order[w[0] + 1..w[1]].iter().map(|o| o.0).collect();
+                between.sort();
+                assert_eq!(
+                    between,
+                    [0, 1, 2]
+                        .into_iter()
+                        .filter(|&q| q != p)
+                        .collect::<Vec<_>>()
+                );
+            }
+        }
+    }
+
+    /// `run` times a table's points together, so each table's points must come one after the
+    /// other, `hard` among them: two scenes, two radii, two buffer sizes, three rows.
+    #[test]
+    fn each_table_is_one_run_of_points_with_hard() {
+        let out = std::env::temp_dir().join(format!("softshadow-tables-{}", std::process::id()));
+        let config = BenchConfig {
+            scenes: vec!["cylinder".into(), "boxes".into()],
+            techniques: vec!["smoothies".into(), "pcss".into()],
+            resolutions: vec![256, 512],
+            radii: vec![Radius::Scene, Radius::Times(0.5)],
+            out: out.clone(),
+            ..BenchConfig::default()
+        };
+        let plan = prepare(config).expect("a valid sweep");
+        let mut seen = Vec::new();
+        let mut start = 0;
+        while start < plan.cases.len() {
+            let table = plan.cases[start].table();
+            let end = start
+                + plan.cases[start..]
+                    .iter()
+                    .take_while(|c| c.table() == table)
+                    .count();
+            assert!(!seen.contains(&table), "table {table:?} split in two");
+            seen.push(table);
+            let rows: Vec<&str> = plan.cases[start..end]
+                .iter()
+                .map(|c| plan.variants[c.variant].technique)
+                .collect();
+            assert!(
+                rows.contains(&BASELINE),
+                "table {table:?} without hard: {rows:?}"
+            );
+            start = end;
+        }
+        assert_eq!(seen.len(), 2 * 2 * 2);
+        drop(plan);
+        let _ = std::fs::remove_dir_all(&out);
+    }
 }

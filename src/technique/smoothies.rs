@@ -70,7 +70,7 @@
 //!    g = remapped alpha (the paper's "minimum blending" of overlapping smoothies, Sec.
 //!    3.1). One two-channel target rather than the paper's two: half the blend work on a
 //!    CPU driver, and the final pass's two gathers of it share one texel address
-//!    computation; 32-bit alpha where 16 bits would do costs nothing on top.
+//!    computation (the alpha gets 32 bits where 16 would do).
 //!    `glsl/smoothies/smoothie.frag` reads the shadow map's g at its own texel for the
 //!    receiver depth r, discards when b/r > 1 (smoothie behind a blocker), computes the
 //!    linear alpha (edge: distance from the edge along the outward normal / t; corner:
@@ -82,8 +82,9 @@
 //!    no NaN, no Inf, no speckles where b ~ r).
 //! 3. `smoothies/final` — from the camera (`FinalPass`), `glsl/smoothies/final.frag`: at
 //!    each of the 4 nearest texels v = 0 behind the blocker (shadow map r), else alpha
-//!    behind the smoothie (smoothie buffer r, then g), else 1 (Sec. 3 step 5); bilinear weights (the 2x2 tent of the paper's hardware PCF);
-//!    then the sinusoidal falloff 0.5 - 0.5 cos(pi v) from a 256-texel R32F 1-D texture.
+//!    behind the smoothie (smoothie buffer r, then g), else 1 (Sec. 3 step 5); bilinear
+//!    weights (the 2x2 tent of the paper's hardware PCF); then the sinusoidal falloff
+//!    0.5 - 0.5 cos(pi v) from a 256-texel R32F 1-D texture.
 //!
 //! `--spirv tuned` (`Settings::spirv`) runs hand-written SPIR-V for passes 2 and 3 instead
 //! of glslang's: glsl/smoothies/smoothie.frag.spvasm and final.frag.spvasm, same bindings,

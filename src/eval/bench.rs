@@ -440,6 +440,11 @@ pub struct Plan {
 }
 
 impl Plan {
+    /// The sweep points table by table (`Case::table`), each table's points in a row.
+    fn tables(&self) -> impl Iterator<Item = &[Case]> {
+        self.cases.chunk_by(|a, b| a.table() == b.table())
+    }
+
     /// The number of sweep points.
     pub fn len(&self) -> usize {
         self.cases.len()
@@ -998,25 +1003,16 @@ pub fn run(ctx: &Context, plan: Plan) -> Result<Outcome> {
         .and_then(|v| v.parse().ok());
     // One table at a time (`time_table`): its points are timed together, then each is
     // read back, compared with the reference and written out in turn.
-    let mut start = 0;
-    while start < plan.cases.len() {
-        let end = start
-            + plan.cases[start..]
-                .iter()
-                .take_while(|c| c.table() == plan.cases[start].table())
-                .count();
-        let points: Vec<Point> = plan.cases[start..end]
-            .iter()
-            .map(|case| Point::new(&plan, case))
-            .collect();
+    let mut i = 0;
+    for table in plan.tables() {
+        let points: Vec<Point> = table.iter().map(|case| Point::new(&plan, case)).collect();
         let timed_points = time_table(ctx, &plan, &points, &bar)?;
-        for (offset, (point, (mut r, timed))) in points.iter().zip(timed_points).enumerate() {
-            let i = start + offset;
+        for (point, (mut r, timed)) in points.iter().zip(timed_points) {
             if fail_at == Some(i) {
                 bail!("bench sweep point {i}: failure injected by SOFTSHADOW_BENCH_FAIL_AT");
             }
             let (case, base, variant, what) = (point.case, point.base, point.variant, &point.what);
-            let (radius, settings) = (point.radius, point.settings.clone());
+            let (radius, settings) = (point.radius, &point.settings);
             bar.set_message(what.clone());
             if case.motion != Motion::Static {
                 r.scene = base.clone();
@@ -1038,7 +1034,7 @@ pub fn run(ctx: &Context, plan: Plan) -> Result<Outcome> {
                     "{}: reference, {}x{}, R {radius:.4}, {} samples",
                     base.name, cfg.width, cfg.height, cfg.samples
                 ));
-                let r = render_reference(ctx, base, &settings, cfg)
+                let r = render_reference(ctx, base, settings, cfg)
                     .with_context(|| format!("reference of {} at R {radius}", base.name))?;
                 let stem = format!(
                     "images/{}_r{}_reference",
@@ -1159,8 +1155,8 @@ pub fn run(ctx: &Context, plan: Plan) -> Result<Outcome> {
             }
             records.push(record);
             bar.inc(1);
+            i += 1;
         }
-        start = end;
     }
     bar.finish_and_clear();
     set_ratios(&mut records);
@@ -1517,26 +1513,22 @@ mod tests {
         };
         let plan = prepare(config).expect("a valid sweep");
         let mut seen = Vec::new();
-        let mut start = 0;
-        while start < plan.cases.len() {
-            let table = plan.cases[start].table();
-            let end = start
-                + plan.cases[start..]
-                    .iter()
-                    .take_while(|c| c.table() == table)
-                    .count();
-            assert!(!seen.contains(&table), "table {table:?} split in two");
-            seen.push(table);
-            let rows: Vec<&str> = plan.cases[start..end]
+        let mut points = 0;
+        for table in plan.tables() {
+            let key = table[0].table();
+            assert!(!seen.contains(&key), "table {key:?} split in two");
+            seen.push(key);
+            let rows: Vec<&str> = table
                 .iter()
                 .map(|c| plan.variants[c.variant].technique)
                 .collect();
             assert!(
                 rows.contains(&BASELINE),
-                "table {table:?} without hard: {rows:?}"
+                "table {key:?} without hard: {rows:?}"
             );
-            start = end;
+            points += table.len();
         }
+        assert_eq!(points, plan.cases.len());
         assert_eq!(seen.len(), 2 * 2 * 2);
         drop(plan);
         let _ = std::fs::remove_dir_all(&out);

@@ -988,12 +988,11 @@ pub fn run(ctx: &Context, plan: Plan) -> Result<Outcome> {
     // On a terminal the bar shows progress; elsewhere (CI logs) one line per sweep point.
     let lines = cfg.progress && bar.is_hidden();
 
-    let mut records = Vec::new();
-    let mut files = Vec::new();
-    let mut reference: Option<LiveReference> = None;
-    let params = ReferenceParams {
-        samples: cfg.samples,
-        seed: cfg.seed,
+    let mut sweep = Sweep {
+        plan: &plan,
+        records: Vec::new(),
+        files: Vec::new(),
+        reference: None,
     };
     // Test hook (tests/bench.rs): SOFTSHADOW_BENCH_FAIL_AT=N fails sweep point N as a
     // runtime error would, so a test can show that a sweep failing part-way, after earlier
@@ -1003,161 +1002,36 @@ pub fn run(ctx: &Context, plan: Plan) -> Result<Outcome> {
         .and_then(|v| v.parse().ok());
     // One table at a time (`time_table`): its points are timed together, then each is
     // read back, compared with the reference and written out in turn.
-    let mut i = 0;
     for table in plan.tables() {
         let points: Vec<Point> = table.iter().map(|case| Point::new(&plan, case)).collect();
         let timed_points = time_table(ctx, &plan, &points, &bar)?;
-        for (point, (mut r, timed)) in points.iter().zip(timed_points) {
+        for (point, (r, timed)) in points.iter().zip(timed_points) {
+            let i = sweep.records.len();
             if fail_at == Some(i) {
                 bail!("bench sweep point {i}: failure injected by SOFTSHADOW_BENCH_FAIL_AT");
             }
-            let (case, base, variant, what) = (point.case, point.base, point.variant, &point.what);
-            let (radius, settings) = (point.radius, &point.settings);
-            bar.set_message(what.clone());
-            if case.motion != Motion::Static {
-                r.scene = base.clone();
-                r.render()
-                    .with_context(|| format!("bench {what}, frame at rest"))?;
-            }
-            let images = r
-                .read_back()
-                .with_context(|| format!("bench {what}: reading back"))?;
-            let smoothie_t = (variant.technique == "smoothies")
-                .then(|| smoothie_width(settings.smoothie_t, &r.scene, &r.light, radius));
-            drop(r);
-
-            let key = (case.scene, case.radius);
-            if reference.as_ref().map(|r| r.key) != Some(key) {
-                // Sweep points are ordered by scene and radius, so one reference is live at a time.
-                drop(reference.take());
-                bar.set_message(format!(
-                    "{}: reference, {}x{}, R {radius:.4}, {} samples",
-                    base.name, cfg.width, cfg.height, cfg.samples
-                ));
-                let r = render_reference(ctx, base, settings, cfg)
-                    .with_context(|| format!("reference of {} at R {radius}", base.name))?;
-                let stem = format!(
-                    "images/{}_r{}_reference",
-                    slug(&base.name),
-                    slug(&cfg.radii[case.radius].to_string())
-                );
-                let (vis_name, color_name) = (format!("{stem}.png"), format!("{stem}_shaded.png"));
-                write_gray(
-                    &plan.staging.path(&vis_name),
-                    cfg.width,
-                    cfg.height,
-                    &r.visibility,
-                )?;
-                write_rgba(&plan.staging.path(&color_name), &r, &r.color)?;
-                files.push(vis_name.clone());
-                files.push(color_name.clone());
-                reference = Some(LiveReference {
-                    key,
-                    images: r,
-                    visibility_image: vis_name,
-                    color_image: color_name,
-                });
-            }
-            let Some(live) = reference.as_ref() else {
-                bail!("no reference for {what}");
-            };
-            // The reference's own camera pass gives the same surface points as every technique's;
-            // should one differ, its reference is ray cast at its own points.
-            let own;
-            let v_ref = if images.position == live.images.position
-                && images.normal == live.images.normal
-            {
-                &live.images.visibility
-            } else {
-                own = reference::visibility_cached(
-                    base,
-                    radius,
-                    &images.position,
-                    &images.normal,
-                    &params,
-                )
-                .with_context(|| format!("reference visibility of {} at R {radius}", base.name))?;
-                &own
-            };
-            if v_ref.len() != images.visibility.len() {
-                bail!(
-                    "reference visibility of {} has {} pixels, the image {}",
-                    base.name,
-                    v_ref.len(),
-                    images.visibility.len()
-                );
-            }
-
-            let covered: Vec<bool> = images.position.iter().map(|p| p[3] > 0.5).collect();
-            let facing =
-                metrics::faces_light(&images.position, &images.normal, base.light.position);
-            let errors = metrics::errors(&images.visibility, v_ref, &covered, &facing);
-            let flip = metrics::flip(&images.color, &live.images.color, cfg.width, cfg.height)
-                .with_context(|| format!("FLIP of {what}"))?;
-            let stem = format!(
-                "images/{}_{}_s{}_r{}_{}",
-                slug(&base.name),
-                slug(&variant.label),
-                case.shadow_res,
-                slug(&cfg.radii[case.radius].to_string()),
-                case.motion.name()
-            );
-            let image = format!("{stem}.png");
-            let error_image = format!("{stem}_error.png");
-            let flip_image = format!("{stem}_flip.png");
-            write_rgba(&plan.staging.path(&image), &images, &images.color)?;
-            let err = metrics::error_image(&images.visibility, v_ref, &covered, ERROR_SCALE);
-            write_rgba(&plan.staging.path(&error_image), &images, &err)?;
-            write_rgb(&plan.staging.path(&flip_image), &images, &flip.map)?;
-            files.push(image.clone());
-            files.push(error_image.clone());
-            files.push(flip_image.clone());
-
-            let timing = summarise(&timed);
-            let record = Record {
-                scene: base.name.clone(),
-                technique: variant.label.clone(),
-                technique_name: variant.technique.into(),
-                width: cfg.width,
-                height: cfg.height,
-                shadow_res: case.shadow_res,
-                radius_spec: cfg.radii[case.radius].to_string(),
-                light_radius: radius,
-                motion: case.motion,
-                smoothie_t,
-                smoothie_t_fixed: variant.smoothie_t.is_some(),
-                spirv: variant.spirv,
-                silhouettes: variant.silhouettes.resolve(ctx).name(),
-                frames: cfg.frames,
-                warmup: cfg.warmup,
-                frame_ms: timing.frame_ms,
-                ratio_to_hard: None,
-                cpu_ms: timing.cpu_ms,
-                passes: timing.passes,
-                cpu: timing.cpu,
-                errors,
-                flip: flip.mean,
-                image,
-                error_image,
-                flip_image,
-                reference_image: live.visibility_image.clone(),
-                reference_shaded_image: live.color_image.clone(),
-            };
+            bar.set_message(point.what.clone());
+            let record = sweep.measure(ctx, point, r, &timed, &bar)?;
             if lines {
                 eprintln!(
-                    "[{}/{}] {what}: {:.3} ms, mae_lit {:.4}, flip {:.4}",
+                    "[{}/{}] {}: {:.3} ms, mae_lit {:.4}, flip {:.4}",
                     i + 1,
                     plan.cases.len(),
+                    point.what,
                     record.frame_ms.median,
                     record.errors.mae_lit,
                     record.flip
                 );
             }
-            records.push(record);
+            sweep.records.push(record);
             bar.inc(1);
-            i += 1;
         }
     }
+    let Sweep {
+        mut records,
+        mut files,
+        ..
+    } = sweep;
     bar.finish_and_clear();
     set_ratios(&mut records);
 
@@ -1168,28 +1042,6 @@ pub fn run(ctx: &Context, plan: Plan) -> Result<Outcome> {
             msgs.len(),
             msgs[0]
         );
-    }
-
-    let mut notes = Vec::new();
-    if plan.hard_added {
-        notes.push(format!(
-            "`{BASELINE}` was not in --techniques and was added: every ratio is to its frame time on the same scene, sizes, radius and motion."
-        ));
-    } else {
-        notes.push(format!(
-            "Ratios are to `{BASELINE}`'s median frame time on the same scene, sizes, radius and motion in this run."
-        ));
-    }
-    if plan.variants.iter().any(|v| v.technique == "smoothies") {
-        notes.push("`smoothies` calibrates its width t from the light radius; `smoothies t=...` uses the paper's fixed screen-space width (fraction of the shadow map).".into());
-    }
-    notes.push(if cfg.reuse_light_passes {
-        "Light-space passes were reused while the light and objects stayed put (--reuse-light-passes): a static or camera-only frame times only the final pass; skipped passes are listed as skipped.".into()
-    } else {
-        "Every timed frame ran every pass (no reuse of light-space passes): a frame time is the whole frame's cost.".into()
-    });
-    if plan.config.motions.iter().any(|m| *m != Motion::Static) {
-        notes.push("Moving sweeps time the frames while moving; their errors are measured on the scene at rest.".into());
     }
 
     let results = Results {
@@ -1207,7 +1059,7 @@ pub fn run(ctx: &Context, plan: Plan) -> Result<Outcome> {
         reference_samples: cfg.samples,
         reference_seed: cfg.seed,
         error_image_scale: ERROR_SCALE,
-        notes,
+        notes: notes(&plan),
         settings: SweepSettings::new(&plan),
         results: &records,
         spirv: &costs,
@@ -1228,6 +1080,202 @@ pub fn run(ctx: &Context, plan: Plan) -> Result<Outcome> {
         records,
         files,
     })
+}
+
+/// What a sweep has produced so far: its records, the files staged for the commit, and the
+/// reference of the scene and radius being run.
+struct Sweep<'p> {
+    plan: &'p Plan,
+    records: Vec<Record>,
+    files: Vec<String>,
+    reference: Option<LiveReference>,
+}
+
+impl Sweep<'_> {
+    /// Makes the reference of `point`'s scene and radius the live one, rendering it and
+    /// staging its two images when the sweep reaches a new pair (points are ordered by
+    /// scene and radius, so one reference is live at a time).
+    fn enter_reference(
+        &mut self,
+        ctx: &Context,
+        point: &Point<'_>,
+        bar: &ProgressBar,
+    ) -> Result<()> {
+        let (cfg, case, base, radius) = (&self.plan.config, point.case, point.base, point.radius);
+        let key = (case.scene, case.radius);
+        if self.reference.as_ref().map(|r| r.key) == Some(key) {
+            return Ok(());
+        }
+        drop(self.reference.take());
+        bar.set_message(format!(
+            "{}: reference, {}x{}, R {radius:.4}, {} samples",
+            base.name, cfg.width, cfg.height, cfg.samples
+        ));
+        let r = render_reference(ctx, base, &point.settings, cfg)
+            .with_context(|| format!("reference of {} at R {radius}", base.name))?;
+        let stem = format!(
+            "images/{}_r{}_reference",
+            slug(&base.name),
+            slug(&cfg.radii[case.radius].to_string())
+        );
+        let (vis_name, color_name) = (format!("{stem}.png"), format!("{stem}_shaded.png"));
+        let staging = &self.plan.staging;
+        write_gray(
+            &staging.path(&vis_name),
+            cfg.width,
+            cfg.height,
+            &r.visibility,
+        )?;
+        write_rgba(&staging.path(&color_name), &r, &r.color)?;
+        self.files.push(vis_name.clone());
+        self.files.push(color_name.clone());
+        self.reference = Some(LiveReference {
+            key,
+            images: r,
+            visibility_image: vis_name,
+            color_image: color_name,
+        });
+        Ok(())
+    }
+
+    /// One timed sweep point's record: its renderer's frame (at rest) read back and
+    /// compared with the reference (mae_lit and the other errors, ꟻLIP), its image, error
+    /// map and ꟻLIP map staged, its timed frames summarised.
+    fn measure(
+        &mut self,
+        ctx: &Context,
+        point: &Point<'_>,
+        mut r: Renderer<'_>,
+        timed: &[FrameTimings],
+        bar: &ProgressBar,
+    ) -> Result<Record> {
+        let cfg = &self.plan.config;
+        let (case, base, variant, what) = (point.case, point.base, point.variant, &point.what);
+        let (radius, settings) = (point.radius, &point.settings);
+        if case.motion != Motion::Static {
+            r.scene = base.clone();
+            r.render()
+                .with_context(|| format!("bench {what}, frame at rest"))?;
+        }
+        let images = r
+            .read_back()
+            .with_context(|| format!("bench {what}: reading back"))?;
+        let smoothie_t = (variant.technique == "smoothies")
+            .then(|| smoothie_width(settings.smoothie_t, &r.scene, &r.light, radius));
+        drop(r);
+
+        self.enter_reference(ctx, point, bar)?;
+        let Some(live) = self.reference.as_ref() else {
+            bail!("no reference for {what}");
+        };
+        // The reference's own camera pass gives the same surface points as every technique's;
+        // should one differ, its reference is ray cast at its own points.
+        let own;
+        let v_ref =
+            if images.position == live.images.position && images.normal == live.images.normal {
+                &live.images.visibility
+            } else {
+                let params = ReferenceParams {
+                    samples: cfg.samples,
+                    seed: cfg.seed,
+                };
+                own = reference::visibility_cached(
+                    base,
+                    radius,
+                    &images.position,
+                    &images.normal,
+                    &params,
+                )
+                .with_context(|| format!("reference visibility of {} at R {radius}", base.name))?;
+                &own
+            };
+        if v_ref.len() != images.visibility.len() {
+            bail!(
+                "reference visibility of {} has {} pixels, the image {}",
+                base.name,
+                v_ref.len(),
+                images.visibility.len()
+            );
+        }
+
+        let covered: Vec<bool> = images.position.iter().map(|p| p[3] > 0.5).collect();
+        let facing = metrics::faces_light(&images.position, &images.normal, base.light.position);
+        let errors = metrics::errors(&images.visibility, v_ref, &covered, &facing);
+        let flip = metrics::flip(&images.color, &live.images.color, cfg.width, cfg.height)
+            .with_context(|| format!("FLIP of {what}"))?;
+        let stem = format!(
+            "images/{}_{}_s{}_r{}_{}",
+            slug(&base.name),
+            slug(&variant.label),
+            case.shadow_res,
+            slug(&cfg.radii[case.radius].to_string()),
+            case.motion.name()
+        );
+        let image = format!("{stem}.png");
+        let error_image = format!("{stem}_error.png");
+        let flip_image = format!("{stem}_flip.png");
+        let staging = &self.plan.staging;
+        write_rgba(&staging.path(&image), &images, &images.color)?;
+        let err = metrics::error_image(&images.visibility, v_ref, &covered, ERROR_SCALE);
+        write_rgba(&staging.path(&error_image), &images, &err)?;
+        write_rgb(&staging.path(&flip_image), &images, &flip.map)?;
+        self.files.push(image.clone());
+        self.files.push(error_image.clone());
+        self.files.push(flip_image.clone());
+
+        let timing = summarise(timed);
+        Ok(Record {
+            scene: base.name.clone(),
+            technique: variant.label.clone(),
+            technique_name: variant.technique.into(),
+            width: cfg.width,
+            height: cfg.height,
+            shadow_res: case.shadow_res,
+            radius_spec: cfg.radii[case.radius].to_string(),
+            light_radius: radius,
+            motion: case.motion,
+            smoothie_t,
+            smoothie_t_fixed: variant.smoothie_t.is_some(),
+            spirv: variant.spirv,
+            silhouettes: variant.silhouettes.resolve(ctx).name(),
+            frames: cfg.frames,
+            warmup: cfg.warmup,
+            frame_ms: timing.frame_ms,
+            ratio_to_hard: None,
+            cpu_ms: timing.cpu_ms,
+            passes: timing.passes,
+            cpu: timing.cpu,
+            errors,
+            flip: flip.mean,
+            image,
+            error_image,
+            flip_image,
+            reference_image: live.visibility_image.clone(),
+            reference_shaded_image: live.color_image.clone(),
+        })
+    }
+}
+
+/// The notes of a sweep's report: what its ratios are to and how its frames were run.
+fn notes(plan: &Plan) -> Vec<String> {
+    let cfg = &plan.config;
+    let mut notes = vec![if plan.hard_added {
+        format!("`{BASELINE}` was not in --techniques and was added: every ratio is to its frame time on the same scene, sizes, radius and motion.")
+    } else {
+        format!("Ratios are to `{BASELINE}`'s median frame time on the same scene, sizes, radius and motion in this run.")
+    }];
+    if plan.variants.iter().any(|v| v.technique == "smoothies") {
+        notes.push("`smoothies` calibrates its width t from the light radius; `smoothies t=...` uses the paper's fixed screen-space width (fraction of the shadow map).".into());
+    }
+    notes.push(if cfg.reuse_light_passes {
+        "Light-space passes were reused while the light and objects stayed put (--reuse-light-passes): a static or camera-only frame times only the final pass; skipped passes are listed as skipped.".into()
+    } else {
+        "Every timed frame ran every pass (no reuse of light-space passes): a frame time is the whole frame's cost.".into()
+    });
+    if cfg.motions.iter().any(|m| *m != Motion::Static) {
+        notes.push("Moving sweeps time the frames while moving; their errors are measured on the scene at rest.".into());
+    }
+    notes
 }
 
 /// One sweep point, resolved: its scene, row, settings, light radius and progress label.

@@ -7,7 +7,7 @@ use common::{small, Gpu};
 use glam::{Mat4, Vec3};
 use softshadow::render::Renderer;
 use softshadow::scene::Scene;
-use softshadow::settings::Settings;
+use softshadow::settings::{Settings, SilhouettePath};
 use softshadow::technique::TECHNIQUES;
 use softshadow::vk::FrameTimings;
 
@@ -111,6 +111,70 @@ fn camera_moves_reuse_light_passes_light_moves_rebuild_them() {
             skipped(&moved_caster).is_empty(),
             "{name}: caster move skipped {:?}",
             skipped(&moved_caster)
+        );
+    }
+}
+
+/// The smoothie pass clears only the texels its smoothies can reach this frame or could
+/// last frame (CPU path; `Smoothies::smoothie_area`). While the caster slides off its old
+/// smoothies, frame after frame, every smoothie buffer and the image equal those of a new
+/// renderer's first frame of the same scene, which clears the whole buffer; and some texels
+/// that held a smoothie one frame hold none the next, so stale ones would show.
+#[test]
+fn smoothie_pass_clears_what_its_last_frame_drew() {
+    let gpu = Gpu::new();
+    let settings = Settings {
+        silhouettes: SilhouettePath::Cpu,
+        ..small(96, 256)
+    };
+    for name in ["smoothies", "smoothies-centred"] {
+        let mut r = Renderer::new(
+            &gpu.ctx,
+            Scene::load("cylinder").unwrap(),
+            name,
+            settings.clone(),
+        )
+        .unwrap();
+        r.render().unwrap();
+        // The smoothie depth: channel 0 of `smoothie_buffer` (paper) or `smoothie_depth`.
+        let depth = r
+            .technique_buffer_names()
+            .into_iter()
+            .find(|b| b.starts_with("smoothie"))
+            .expect("a smoothie buffer");
+        let mut last = r.read_technique_buffer(depth).unwrap().channels[0].clone();
+        let mut uncovered = 0;
+        for step in 1..=3 {
+            r.scene.objects[1].transform =
+                Mat4::from_translation(Vec3::X * 0.5) * r.scene.objects[1].transform;
+            r.render().unwrap();
+            let mut fresh =
+                Renderer::new(&gpu.ctx, r.scene.clone(), name, settings.clone()).unwrap();
+            fresh.render().unwrap();
+            for buffer in r.technique_buffer_names() {
+                let kept = r.read_technique_buffer(buffer).unwrap();
+                let new = fresh.read_technique_buffer(buffer).unwrap();
+                assert!(
+                    kept.channels == new.channels,
+                    "{name}/{buffer}, step {step}: differs from a fresh renderer's"
+                );
+            }
+            assert_eq!(
+                r.read_back().unwrap().color,
+                fresh.read_back().unwrap().color,
+                "{name}, step {step}: image"
+            );
+            let now = r.read_technique_buffer(depth).unwrap().channels[0].clone();
+            uncovered += last
+                .iter()
+                .zip(&now)
+                .filter(|(a, b)| **a < 1e29 && **b >= 1e29)
+                .count();
+            last = now;
+        }
+        assert!(
+            uncovered > 100,
+            "{name}: only {uncovered} texels lost their smoothie"
         );
     }
 }

@@ -52,7 +52,9 @@
 //!    one MIN blend state for all the values (MIN on some and MAX on others would need
 //!    independentBlend), one clear, and 16 bits are enough for fractions and for the
 //!    receiver depth at the final pass's 5 % tolerance; b keeps its own 32-bit attachment
-//!    because the b/r tests need it (REMAP_EPS 1e-4). 12 bytes per texel.
+//!    because the b/r tests need it (REMAP_EPS 1e-4). 12 bytes per texel. Both cleared and
+//!    drawn only inside the box the paper form's pass uses (this frame's records, inner
+//!    ones included, and last frame's: `smoothies.rs`, pass 2).
 //!    Four pipelines, all with glsl/smoothies/smoothie_edges.vert or smoothie_fans.vert
 //!    (the paper form's vertex pulling, records at set 1 binding 0, push constants = first
 //!    16-byte unit, vertex, edge and fan record counts); per caster two draws per side:

@@ -347,6 +347,8 @@ struct RenderScope {
     colors: Vec<Attachment>,
     depth: Option<Attachment>,
     extent: vk::Extent2D,
+    /// The texels the scope may touch: the render area and the scissor.
+    area: vk::Rect2D,
     ops: Vec<Op>,
     uses: Vec<Use>,
 }
@@ -615,6 +617,20 @@ impl Recorder<'_> {
         colors: &[(&Image, Clear)],
         depth: Option<(&Image, Option<f32>)>,
     ) {
+        self.begin_rendering_in(colors, depth, None);
+    }
+
+    /// `begin_rendering` confined to `area` (texels; the whole target when `None`): the
+    /// clears and every draw touch only the texels inside it (render area and scissor; the
+    /// viewport still spans the whole target, so coordinates mean what they do without it),
+    /// and the texels outside keep what they held, so a partial area never lets the old
+    /// contents go. An area that does not lie inside the target, or is empty, is an error.
+    pub fn begin_rendering_in(
+        &mut self,
+        colors: &[(&Image, Clear)],
+        depth: Option<(&Image, Option<f32>)>,
+        area: Option<vk::Rect2D>,
+    ) {
         if !self.outside_rendering("begin_rendering") {
             return;
         }
@@ -623,6 +639,25 @@ impl Recorder<'_> {
             .map(|c| c.0.extent)
             .or(depth.map(|d| d.0.extent))
             .unwrap_or_default();
+        let whole = vk::Rect2D {
+            offset: vk::Offset2D::default(),
+            extent,
+        };
+        let area = area.unwrap_or(whole);
+        let inside = area.offset.x >= 0
+            && area.offset.y >= 0
+            && area.extent.width > 0
+            && area.extent.height > 0
+            && area.offset.x as u64 + area.extent.width as u64 <= extent.width as u64
+            && area.offset.y as u64 + area.extent.height as u64 <= extent.height as u64;
+        if !inside {
+            self.fail(anyhow::anyhow!(
+                "rendering area {area:?} is empty or not inside the {}x{} target",
+                extent.width,
+                extent.height
+            ));
+            return;
+        }
         self.scope = Some(RenderScope {
             colors: colors
                 .iter()
@@ -643,6 +678,7 @@ impl Recorder<'_> {
                 Attachment::new(img, clear)
             }),
             extent,
+            area,
             ops: Vec::new(),
             uses: Vec::new(),
         });
@@ -681,7 +717,10 @@ impl Recorder<'_> {
             return;
         };
         // Attachments first: blending and LOAD read them, every draw may write them; a clear
-        // overwrites every texel, so their old contents may go.
+        // of the whole target overwrites every texel, so their old contents may go (not
+        // those of a partial area: the texels outside it keep theirs).
+        let whole =
+            scope.area.offset == vk::Offset2D::default() && scope.area.extent == scope.extent;
         let mut uses = Vec::with_capacity(scope.uses.len() + scope.colors.len() + 1);
         for a in &scope.colors {
             let mut u = Use::image(
@@ -690,7 +729,7 @@ impl Recorder<'_> {
                 A::COLOR_ATTACHMENT_READ | A::COLOR_ATTACHMENT_WRITE,
                 L::COLOR_ATTACHMENT_OPTIMAL,
             );
-            u.discard = a.clear.is_some();
+            u.discard = whole && a.clear.is_some();
             uses.push(u);
         }
         if let Some(a) = &scope.depth {
@@ -700,7 +739,7 @@ impl Recorder<'_> {
                 A::DEPTH_STENCIL_ATTACHMENT_READ | A::DEPTH_STENCIL_ATTACHMENT_WRITE,
                 L::DEPTH_ATTACHMENT_OPTIMAL,
             );
-            u.discard = a.clear.is_some();
+            u.discard = whole && a.clear.is_some();
             uses.push(u);
         }
         uses.extend(scope.uses.iter().cloned());
@@ -717,10 +756,7 @@ impl Recorder<'_> {
             .map(|a| a.info(L::DEPTH_ATTACHMENT_OPTIMAL));
         let extent = scope.extent;
         let mut info = vk::RenderingInfo::default()
-            .render_area(vk::Rect2D {
-                offset: vk::Offset2D::default(),
-                extent,
-            })
+            .render_area(scope.area)
             .layer_count(1)
             .color_attachments(&color_infos);
         if let Some(d) = depth_info.as_ref() {
@@ -734,10 +770,7 @@ impl Recorder<'_> {
             min_depth: 0.0,
             max_depth: 1.0,
         }];
-        let scissor = [vk::Rect2D {
-            offset: vk::Offset2D::default(),
-            extent,
-        }];
+        let scissor = [scope.area];
         // SAFETY: recording; the attachments are alive and were moved to attachment
         // layouts by the barriers above.
         unsafe {

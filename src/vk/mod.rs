@@ -63,8 +63,8 @@ mod reflect;
 mod sync;
 
 pub use ash::vk::{
-    AccessFlags2, BufferUsageFlags, CompareOp, CullModeFlags, Format, ImageLayout, ImageUsageFlags,
-    PhysicalDeviceType, PipelineStageFlags2, PrimitiveTopology,
+    AccessFlags2, BufferUsageFlags, CompareOp, CullModeFlags, Extent2D, Format, ImageLayout,
+    ImageUsageFlags, Offset2D, PhysicalDeviceType, PipelineStageFlags2, PrimitiveTopology, Rect2D,
 };
 pub use cmd::{
     read_buffer, read_image, CasterRebuilds, Clear, FrameRunner, FrameTimings, PassTiming, Recorder,

@@ -201,6 +201,25 @@ impl SmoothieRecords {
         (6 * self.edges.len() + 3 * self.segments.len()) as u32
     }
 
+    /// The light-uv box every vertex `expand` makes lies in, for either side (`mirrored`
+    /// turns the directions, not the vertices): an edge quad reaches t along its unit
+    /// direction, a fan's spokes t / cos(phi / 2) with phi <= MAX_SEGMENT, each from its
+    /// vertex record, t being that record's width. So the box is every vertex record's uv
+    /// plus and minus t / cos(MAX_SEGMENT / 2). A non-finite uv or width gives the infinite
+    /// box; no vertex record, `None`.
+    pub fn uv_bounds(&self) -> Option<(Vec2, Vec2)> {
+        let reach = 1.0 / (MAX_SEGMENT * 0.5).cos();
+        self.vertices.iter().fold(None, |acc, v| {
+            let (uv, t) = (Vec2::from(v.uv), v.width);
+            let (lo, hi) = if uv.is_finite() && t.is_finite() {
+                (uv - t.abs() * reach, uv + t.abs() * reach)
+            } else {
+                (Vec2::NEG_INFINITY, Vec2::INFINITY)
+            };
+            Some(acc.map_or((lo, hi), |(a, b): (Vec2, Vec2)| (a.min(lo), b.max(hi))))
+        })
+    }
+
     /// 32-bit words of the records as laid out in the storage buffer: a multiple of 4
     /// (the segment words are padded to whole 16-byte units).
     pub fn words(&self) -> usize {
@@ -859,6 +878,48 @@ mod tests {
             }
         }
         assert!(specials > 1000, "{specials} special vertices");
+    }
+
+    /// `uv_bounds` holds every vertex the draw makes, outer and inner, on every built-in
+    /// scene's casters at the widths the renderer uses (fixed and calibrated), and is not
+    /// the whole map: the smoothie pass clears and draws only inside it.
+    #[test]
+    fn uv_bounds_hold_every_expanded_vertex() {
+        use crate::frustum::fit_light;
+        use crate::scene::{Scene, BUILTIN_SCENES};
+        for &name in BUILTIN_SCENES.iter().filter(|&&n| n != "dense-1m") {
+            let scene = Scene::load(name).expect("built-in scene");
+            let light = fit_light(&scene);
+            let calibrated = Width::Calibrated {
+                radius: scene.light.radius,
+                tan_half_fov: (light.fov_deg.to_radians() * 0.5).tan(),
+            };
+            for width in [Width::Fixed(0.02), Width::Fixed(0.2), calibrated] {
+                for o in scene.objects.iter().filter(|o| o.role.casts()) {
+                    let adj = Adjacency::build(&o.mesh).expect("adjacency");
+                    let sil = crate::silhouette::extract(&adj, o.transform, light.position);
+                    let rec = build_records(&adj, &sil, o.transform, &light, width);
+                    let Some((lo, hi)) = rec.uv_bounds() else {
+                        assert_eq!(rec.draw_vertices(), 0, "{name}: vertices without bounds");
+                        continue;
+                    };
+                    assert!(lo.is_finite() && hi.is_finite(), "{name}: {lo} {hi}");
+                    for side in [rec.clone(), rec.mirrored()] {
+                        for v in side.expand() {
+                            let uv = Vec2::from(v.uv);
+                            assert!(
+                                uv.cmpge(lo).all() && uv.cmple(hi).all(),
+                                "{name} {width:?}: vertex {uv} outside {lo}..{hi}"
+                            );
+                        }
+                    }
+                    let area = (hi - lo).max(Vec2::ZERO);
+                    if width == Width::Fixed(0.02) {
+                        assert!(area.x * area.y < 0.5, "{name}: box {lo}..{hi}");
+                    }
+                }
+            }
+        }
     }
 
     #[test]

@@ -931,4 +931,32 @@ mod tests {
         assert_eq!(smoothie_width(None, &scene, &light, 0.0), 0.0);
         assert_eq!(smoothie_width(Some(0.02), &scene, &light, 1e3), 0.02);
     }
+
+    /// The smoothie pass's area: a uv box grows by a texel each side for rounding and is
+    /// clipped to the buffer, an infinite box is the whole buffer, an empty box adds
+    /// nothing to a union and becomes the 1x1 area a render area must at least be.
+    #[test]
+    fn texel_boxes_cover_their_uv_box_and_stay_inside_the_buffer() {
+        let b = TexelBox::of_uv(1024, Vec2::new(0.25, 0.5), Vec2::new(0.5, 0.75));
+        assert_eq!((b.x0, b.y0, b.x1, b.y1), (255, 511, 513, 769));
+        let inf = TexelBox::of_uv(1024, Vec2::NEG_INFINITY, Vec2::INFINITY);
+        assert_eq!(inf, TexelBox::whole(1024));
+        let edge = TexelBox::of_uv(1024, Vec2::new(-0.5, 0.999), Vec2::new(0.001, 1.5));
+        assert_eq!((edge.x0, edge.y0, edge.x1, edge.y1), (0, 1021, 3, 1024));
+        assert!(TexelBox::EMPTY.is_empty());
+        assert_eq!(TexelBox::EMPTY.union(b), b);
+        assert_eq!(b.union(TexelBox::EMPTY), b);
+        let u = b.union(edge);
+        assert_eq!((u.x0, u.y0, u.x1, u.y1), (0, 511, 513, 1024));
+        let r = TexelBox::EMPTY.rect();
+        assert_eq!(
+            (r.offset.x, r.offset.y, r.extent.width, r.extent.height),
+            (0, 0, 1, 1)
+        );
+        let r = b.rect();
+        assert_eq!(
+            (r.offset.x, r.offset.y, r.extent.width, r.extent.height),
+            (255, 511, 258, 258)
+        );
+    }
 }

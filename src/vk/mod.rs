@@ -15,7 +15,8 @@
 //!   to the binding, and whether a store, atomic or image write goes through it), plus the
 //!   bound vertex buffer (if the pipeline has vertex input), the index buffer of an
 //!   indexed draw and the argument buffer of an indirect draw; a rendering scope, its
-//!   attachments (a clear load op lets the old contents go: old layout UNDEFINED); fills,
+//!   attachments (a clear load op over the whole target lets the old contents go: old
+//!   layout UNDEFINED; one confined to a smaller area keeps them); fills,
 //!   copies and host readback, their source and destination.
 //! - For each access: a read waits for the last write only if that write is not yet
 //!   visible to the reading stage (source: the writing stage and access; destination: the

@@ -132,6 +132,40 @@ fn every_technique_lists_its_light_buffers_with_named_channels() {
     }
 }
 
+/// The casters-only shadow map of the techniques that compare against the nearest caster
+/// alone (pcf, pcss, pcss-fast, plateaus) holds, texel for texel, the r channel of the map
+/// of every object (smoothies, penumbra maps): the receivers it leaves out never write r.
+/// And they were there to leave out: the full map's g is nearer than its r somewhere.
+#[test]
+fn casters_only_shadow_map_is_the_full_maps_caster_channel() {
+    let gpu = Gpu::new();
+    let settings = small(32, 128);
+    for name in ["cylinder", "bunny", "fence"] {
+        let scene = Scene::load(name).unwrap();
+        let mut r = Renderer::new(&gpu.ctx, scene.clone(), "smoothies", settings.clone()).unwrap();
+        r.render().unwrap();
+        let full = r.read_technique_buffer("shadow_map").unwrap();
+        assert_eq!(full.channel_names, ["caster_depth", "surface_depth"]);
+        assert!(
+            full.channels[1]
+                .iter()
+                .zip(&full.channels[0])
+                .any(|(g, r)| g < r),
+            "{name}: no receiver in front of the casters"
+        );
+        for t in ["pcf", "pcss", "pcss-fast", "plateaus"] {
+            let mut r = Renderer::new(&gpu.ctx, scene.clone(), t, settings.clone()).unwrap();
+            r.render().unwrap();
+            let casters = r.read_technique_buffer("shadow_map").unwrap();
+            assert_eq!(casters.channel_names, ["caster_depth"], "{t}");
+            assert!(
+                casters.channels[0] == full.channels[0],
+                "{name}/{t}: the caster depths differ from the full map's"
+            );
+        }
+    }
+}
+
 fn exr_channels(path: &std::path::Path) -> Vec<String> {
     let image = exr::prelude::read_all_flat_layers_from_file(path)
         .unwrap_or_else(|e| panic!("{}: {e}", path.display()));

@@ -5,8 +5,8 @@
 #include "pcf/filter.glsl"
 #include "pcf/constants.glsl"
 
-// RG32F, MIN-blended, no depth attachment (gpu::passes::ShadowMap): r = nearest caster's
-// linear depth, the one compared here.
+// R32F, casters only, MIN-blended, no depth attachment (gpu::passes::ShadowMap::casters):
+// the nearest caster's linear depth, the one compared here.
 layout(set = 0, binding = 1) uniform sampler2D shadow_map;
 
 float visibility(vec3 p, vec3 n) {

@@ -7,8 +7,8 @@
 #include "pcss/constants.glsl"
 #include "pcss/radii.glsl"
 
-// RG32F, MIN-blended, no depth attachment (gpu::passes::ShadowMap): r = nearest caster's
-// linear depth, the one searched and compared here.
+// R32F, casters only, MIN-blended, no depth attachment (gpu::passes::ShadowMap::casters):
+// the nearest caster's linear depth, the one searched and compared here.
 layout(set = 0, binding = 1) uniform sampler2D shadow_map;
 
 // Blocker-search radius in texels (Eq. 3): the light's projection through the receiver onto

@@ -7,7 +7,8 @@
 
 layout(local_size_x = 8, local_size_y = 8) in;
 
-// RG32F, r = the nearest caster's linear depth (FAR_DEPTH where none).
+// R32F (gpu::passes::ShadowMap::casters): the nearest caster's linear depth (FAR_DEPTH where
+// none).
 layout(set = 0, binding = 0) uniform sampler2D shadow_map;
 // Read (the level below) and written (this level) in one dispatch: disjoint ranges.
 layout(std430, set = 0, binding = 1) buffer MinMax { vec4 cells[]; } minmax;

@@ -16,36 +16,76 @@ use rayon::prelude::*;
 /// so that ratios like b / r stay finite.
 pub const FAR_DEPTH: f32 = 1.0e30;
 
-/// Linear light-space depths from the light, every object drawn, MIN-blended (Volokh 3.2).
+/// Linear light-space depths from the light, MIN-blended (Volokh 3.2), in one of two
+/// layouts (`ShadowMap::new`, `ShadowMap::casters`):
 ///
-/// Attachment: `depth` R32G32_SFLOAT, clear (FAR_DEPTH, FAR_DEPTH), blend MIN, no depth
-/// attachment. r = nearest caster (what shadow comparisons test, read as component 0 by
-/// `textureGather`), g = nearest surface of any role (the receiver depth behind smoothies
-/// and penumbra-map geometry: a receiver-only ground plane must be there, or the
-/// smoothie remap alpha / (1 - b/r) sees no receiver and never hardens at contacts).
-/// Reads: every object's positions, the frame UBO, the draw's cast flag.
+/// - every object drawn: `depth` R32G32_SFLOAT, clear (FAR_DEPTH, FAR_DEPTH), blend MIN, no
+///   depth attachment. r = nearest caster (what shadow comparisons test, read as component
+///   0 by `textureGather`), g = nearest surface of any role (the receiver depth behind
+///   smoothies and penumbra-map geometry: a receiver-only ground plane must be there, or
+///   the smoothie remap alpha / (1 - b/r) sees no receiver and never hardens at contacts).
+///   Fragment `common/shadow_depth.frag` (the draw's cast flag picks r's value);
+/// - casters only, for techniques that read r alone (pcf, pcss, pcss-fast, plateaus):
+///   `depth` R32_SFLOAT, clear FAR_DEPTH, blend MIN, no depth attachment; the same r texel
+///   for texel, without drawing the receivers (a ground fills the whole map: 0.7-1.5 ms on
+///   lavapipe at 1024^2) or clearing a second channel. Fragment `common/caster_depth.frag`.
+///
+/// Reads: the drawn objects' positions, the frame UBO, the draw's cast flag.
 pub struct ShadowMap {
     pub depth: Image,
     pipeline: Pipeline,
     set: DescriptorSet,
     pub resolution: u32,
+    /// What r and g hold, for `--buffers`: `["caster_depth", "surface_depth"]`, or
+    /// `["caster_depth"]` for the casters-only map.
+    pub channels: &'static [&'static str],
+    casters_only: bool,
 }
 
 impl ShadowMap {
+    /// The map of every object: r = nearest caster, g = nearest surface.
     pub fn new(ctx: &Context, ubo: &Buffer, resolution: u32, name: &str) -> Result<Self> {
+        Self::create(ctx, ubo, resolution, name, false)
+    }
+
+    /// The map of the casters alone: r = nearest caster.
+    pub fn casters(ctx: &Context, ubo: &Buffer, resolution: u32, name: &str) -> Result<Self> {
+        Self::create(ctx, ubo, resolution, name, true)
+    }
+
+    fn create(
+        ctx: &Context,
+        ubo: &Buffer,
+        resolution: u32,
+        name: &str,
+        casters_only: bool,
+    ) -> Result<Self> {
+        let (format, fragment, channels): (_, _, &'static [&'static str]) = if casters_only {
+            (
+                Format::R32_SFLOAT,
+                shaders::COMMON_CASTER_DEPTH_FRAG,
+                &["caster_depth"],
+            )
+        } else {
+            (
+                Format::R32G32_SFLOAT,
+                shaders::COMMON_SHADOW_DEPTH_FRAG,
+                &["caster_depth", "surface_depth"],
+            )
+        };
         let depth = Image::new_2d(
             ctx,
             resolution,
             resolution,
-            Format::R32G32_SFLOAT,
+            format,
             ImageUsageFlags::COLOR_ATTACHMENT
                 | ImageUsageFlags::SAMPLED
                 | ImageUsageFlags::TRANSFER_SRC,
             &format!("{name} shadow map"),
         )?;
-        if !ctx.supports_blend(Format::R32G32_SFLOAT) {
+        if !ctx.supports_blend(format) {
             anyhow::bail!(
-                "{} cannot MIN-blend R32G32_SFLOAT attachments, which the shadow map needs",
+                "{} cannot MIN-blend {format:?} attachments, which the shadow map needs",
                 ctx.device_name
             );
         }
@@ -54,8 +94,8 @@ impl ShadowMap {
             ctx,
             &depth_only_pipeline(DepthOnly {
                 name,
-                fragment: shaders::COMMON_SHADOW_DEPTH_FRAG,
-                colors: &[(Format::R32G32_SFLOAT, Blend::Min)],
+                fragment,
+                colors: &[(format, Blend::Min)],
                 depth: None,
                 sets: &[&set],
             }),
@@ -65,6 +105,8 @@ impl ShadowMap {
             pipeline,
             set,
             resolution,
+            channels,
+            casters_only,
         })
     }
 
@@ -76,12 +118,13 @@ impl ShadowMap {
         })
     }
 
-    /// Draws every object from the light into `depth`.
+    /// Draws every object (or every caster) from the light into `depth`.
     pub fn record(&self, rec: &mut Recorder<'_>, scene: &GpuScene) {
         rec.begin_rendering(&[(&self.depth, Some([FAR_DEPTH; 4]))], None);
         rec.bind_pipeline(&self.pipeline);
         rec.bind_sets(&self.pipeline, &[&self.set]);
-        scene.draw(rec, &self.pipeline, |_| true);
+        let casters_only = self.casters_only;
+        scene.draw(rec, &self.pipeline, |o| !casters_only || o.role.casts());
         rec.end_rendering();
     }
 }

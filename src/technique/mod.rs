@@ -94,7 +94,7 @@ pub fn shadow_map_buffer<'a>(name: &'static str, map: &'a ShadowMap) -> LightBuf
     LightBuffer {
         name,
         image: &map.depth,
-        channels: &["caster_depth", "surface_depth"],
+        channels: map.channels,
     }
 }
 

@@ -27,9 +27,10 @@
 //! footprint, so box1 still compares at the point's depth: `box1` = `hard` exactly.
 //!
 //! ## Passes, in order
-//! 1. `pcf/shadow_map` — casters from the light (`gpu::passes::ShadowMap`).
-//!    Attachments: R32_SFLOAT linear depth (clear 1e30, no blend) + D32_SFLOAT (clear 1.0,
-//!    LESS). Vertex `glsl/common/shadow_depth.vert`, fragment `glsl/common/shadow_depth.frag`.
+//! 1. `pcf/shadow_map` — casters from the light (`gpu::passes::ShadowMap::casters`).
+//!    Attachment: R32_SFLOAT linear depth, clear 1e30 (`FAR_DEPTH`), blend MIN, no depth
+//!    attachment; receivers are not drawn. Vertex `glsl/common/shadow_depth.vert`, fragment
+//!    `glsl/common/caster_depth.frag`.
 //! 2. `pcf/final` — every object from the camera (`gpu::passes::FinalPass`), fragment
 //!    `glsl/pcf/final.frag`: reads the shadow map (nearest sampler, gathers) at the
 //!    normal-offset point's light uv, compares each texel with the point's linear depth
@@ -100,7 +101,7 @@ impl Pcf {
         // Renderer::new validated the settings already; a technique built another way must
         // not run a kernel the shader's loops and table do not cover.
         kernel.check()?;
-        let shadow = ShadowMap::new(ctx, init.ubo, init.settings.shadow_res, "pcf/shadow_map")
+        let shadow = ShadowMap::casters(ctx, init.ubo, init.settings.shadow_res, "pcf/shadow_map")
             .context("pcf shadow map")?;
         // Nearest: gathers ignore filtering, and no path may blend depths.
         let sampler = Sampler::new(ctx, Filter::Nearest).context("pcf sampler")?;

@@ -24,9 +24,10 @@
 //!   `glsl/pcf/filter.glsl`), so the receiver's own texels are neither blockers nor shadow.
 //!
 //! ## Passes, in order
-//! 1. `pcss/shadow_map` — casters from the light (`gpu::passes::ShadowMap`).
-//!    Attachments: R32_SFLOAT linear depth (clear 1e30, no blend) + D32_SFLOAT (clear 1.0,
-//!    LESS). Vertex `glsl/common/shadow_depth.vert`, fragment `glsl/common/shadow_depth.frag`.
+//! 1. `pcss/shadow_map` — casters from the light (`gpu::passes::ShadowMap::casters`).
+//!    Attachment: R32_SFLOAT linear depth, clear 1e30 (`FAR_DEPTH`), blend MIN, no depth
+//!    attachment; receivers are not drawn. Vertex `glsl/common/shadow_depth.vert`, fragment
+//!    `glsl/common/caster_depth.frag`.
 //!    Linear depths are what Eq. 1, 3 and 4 take.
 //! 2. `pcss/final` — every object from the camera (`gpu::passes::FinalPass`), fragment
 //!    `glsl/pcss/final.frag`, the steps in `glsl/pcss/search.glsl`. As in Fernando's
@@ -132,7 +133,7 @@ impl Pcss {
         // The counts index the shader's 64-point table: never run an unchecked kernel.
         init.settings.pcf_kernel.check()?;
         let (search_samples, filter_samples) = sample_counts(init.settings.pcf_kernel);
-        let shadow = ShadowMap::new(ctx, init.ubo, init.settings.shadow_res, "pcss/shadow_map")
+        let shadow = ShadowMap::casters(ctx, init.ubo, init.settings.shadow_res, "pcss/shadow_map")
             .context("pcss shadow map")?;
         // Nearest: gathers ignore filtering, and no path may blend depths.
         let sampler = Sampler::new(ctx, Filter::Nearest).context("pcss sampler")?;

@@ -17,9 +17,9 @@
 //! Pass names below are `pcss-fast`'s; `pcss-walk`'s are the same under its own name.
 //!
 //! ## Passes, in order
-//! 1. `pcss-fast/shadow_map` — casters from the light (`gpu::passes::ShadowMap`): RG32F,
-//!    r = the nearest caster's linear depth, clear 1e30 (FAR_DEPTH, also what a non-casting
-//!    receiver writes), MIN blend, no depth attachment.
+//! 1. `pcss-fast/shadow_map` — casters from the light (`gpu::passes::ShadowMap::casters`):
+//!    R32_SFLOAT, the nearest caster's linear depth, clear 1e30 (FAR_DEPTH), MIN blend, no
+//!    depth attachment; receivers are not drawn. Fragment `glsl/common/caster_depth.frag`.
 //! 2. `pcss-fast/minmax` — `glsl/pcss_fast/minmax.comp`, one dispatch per level (8x8
 //!    threads a group): level k (2..=6) is ceil(res / 2^k) cells a side; level 2 reads the
 //!    shadow map (four textureGathers a cell of 4x4 texels), the others 2x2 cells of the
@@ -268,7 +268,7 @@ impl PcssFast {
         init.settings.pcf_kernel.check()?;
         let (search_samples, filter_samples) = pcss::sample_counts(init.settings.pcf_kernel);
         let res = init.settings.shadow_res;
-        let shadow = ShadowMap::new(ctx, init.ubo, res, names.shadow_map)
+        let shadow = ShadowMap::casters(ctx, init.ubo, res, names.shadow_map)
             .with_context(|| format!("{} shadow map", names.technique))?;
         let levels = levels(res);
         let cells: u64 = levels.iter().map(|l| u64::from(l.size).pow(2)).sum();

@@ -87,9 +87,11 @@
 //!    writes its own depth as colour (Sec. 3: "use the Z-buffer depth values directly as
 //!    grayscale"), so colour and depth test agree exactly. Only the OUTER penumbra is drawn:
 //!    inside the drop shadow, depth 0 always wins (Sec. 2).
-//! 3. `plateaus/shadow_map` — the shared `ShadowMap`: R32G32_SFLOAT, clear 1e30, blend MIN,
-//!    no depth attachment (r = nearest caster's linear depth, g = nearest surface's), for
-//!    receivers other than the plane.
+//! 3. `plateaus/shadow_map` — `ShadowMap::casters`: R32_SFLOAT, the nearest caster's linear
+//!    depth, clear 1e30, blend MIN, no depth attachment, casters only (fragment
+//!    `glsl/common/caster_depth.frag`), for receivers other than the plane.
+//!    (`plateaus-centred` takes the map of every object, `ShadowMap::new`: R32G32_SFLOAT,
+//!    g = the nearest surface's depth, which its inner receivers read.)
 //! 4. `plateaus/final` — `FinalPass` with `glsl/plateaus/final.frag`: a point ON the plane
 //!    (|height| <= `ON_PLANE_TOLERANCE` x the plane's diagonal and its normal within ~11 deg
 //!    of the plane's) takes the bilinear filter of the 4 nearest texels of the fraction f and
@@ -771,7 +773,12 @@ impl Plateaus {
                 sets: &[],
             },
         )?;
-        let shadow = ShadowMap::new(ctx, init.ubo, res, names.shadow_map)?;
+        // The paper form's final pass reads r alone; the centred form's inner receivers
+        // read g too (common/inner_receiver.glsl).
+        let shadow = match form {
+            Form::Paper => ShadowMap::casters(ctx, init.ubo, res, names.shadow_map)?,
+            Form::Centred => ShadowMap::new(ctx, init.ubo, res, names.shadow_map)?,
+        };
         let nearest = Sampler::new(ctx, Filter::Nearest)?;
         let linear = Sampler::new(ctx, Filter::Linear)?;
         let falloff = falloff_lut(ctx)?;

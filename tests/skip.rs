@@ -115,11 +115,12 @@ fn camera_moves_reuse_light_passes_light_moves_rebuild_them() {
     }
 }
 
-/// The smoothie pass clears only the texels its smoothies can reach this frame or could
-/// last frame (CPU path; `Smoothies::smoothie_area`). While the caster slides off its old
-/// smoothies, frame after frame, every smoothie buffer and the image equal those of a new
-/// renderer's first frame of the same scene, which clears the whole buffer; and some texels
-/// that held a smoothie one frame hold none the next, so stale ones would show.
+/// The smoothie pass and the shadow map clear only the texels their draws can reach this
+/// frame or could last frame (CPU path; `Smoothies::light_areas`). While the caster slides
+/// off its old smoothies, frame after frame, every light-space buffer (shadow map included)
+/// and the image equal those of a new renderer's first frame of the same scene, which
+/// clears the whole buffers; and some texels that held a smoothie one frame hold none the
+/// next, so stale ones would show.
 #[test]
 fn smoothie_pass_clears_what_its_last_frame_drew() {
     let gpu = Gpu::new();

@@ -1,12 +1,14 @@
 //! Building blocks several techniques share: the linear-depth shadow map pass, the camera
 //! targets, the final camera pass, and the sinusoidal falloff lookup texture.
 
-use super::gpu_scene::{GpuScene, DRAW_PUSH_BYTES, SCENE_ATTRIBUTES, SCENE_VERTEX_STRIDE};
+use super::gpu_scene::{
+    GpuObject, GpuScene, DRAW_PUSH_BYTES, SCENE_ATTRIBUTES, SCENE_VERTEX_STRIDE,
+};
 use crate::shaders;
 use crate::vk::{
     Blend, Buffer, BufferUsageFlags, CompareOp, Context, CullModeFlags, DepthState, DescriptorSet,
     Format, FrameRunner, GraphicsPipelineDesc, Image, ImageUsageFlags, Pipeline, PrimitiveTopology,
-    Recorder, Resource,
+    Recorder, Rect2D, Resource,
 };
 use anyhow::Result;
 use glam::Mat4;
@@ -112,21 +114,70 @@ impl ShadowMap {
 
     /// `record` as one timed pass named as the pipeline (the name given to `new`).
     pub fn pass(&self, rec: &mut Recorder<'_>, scene: &GpuScene) -> Result<()> {
+        self.pass_in(rec, scene, &MapArea::WHOLE)
+    }
+
+    /// `record_in` as one timed pass named as the pipeline.
+    pub fn pass_in(&self, rec: &mut Recorder<'_>, scene: &GpuScene, area: &MapArea) -> Result<()> {
         rec.pass(&self.pipeline.name, |rec| {
-            self.record(rec, scene);
+            self.record_in(rec, scene, area);
             Ok(())
         })
     }
 
-    /// Draws every object (or every caster) from the light into `depth`.
+    /// Draws every object (or every caster) from the light into the whole of `depth`.
     pub fn record(&self, rec: &mut Recorder<'_>, scene: &GpuScene) {
-        rec.begin_rendering(&[(&self.depth, Some([FAR_DEPTH; 4]))], None);
+        self.record_in(rec, scene, &MapArea::WHOLE);
+    }
+
+    /// Clears `area.all` and draws the casters into it, then the receivers that cast
+    /// nothing where `area.receivers` says (MIN blending: the order changes no texel).
+    pub fn record_in(&self, rec: &mut Recorder<'_>, scene: &GpuScene, area: &MapArea) {
+        rec.begin_rendering_in(&[(&self.depth, Some([FAR_DEPTH; 4]))], None, area.all);
         rec.bind_pipeline(&self.pipeline);
         rec.bind_sets(&self.pipeline, &[&self.set]);
-        let casters_only = self.casters_only;
-        scene.draw(rec, &self.pipeline, |o| !casters_only || o.role.casts());
+        scene.draw(rec, &self.pipeline, |o| o.role.casts());
+        if !self.casters_only {
+            let receivers = |o: &GpuObject| !o.role.casts();
+            match area.receivers {
+                Receivers::Everywhere => scene.draw(rec, &self.pipeline, receivers),
+                Receivers::Within(r) => {
+                    rec.set_scissor(Some(r));
+                    scene.draw(rec, &self.pipeline, receivers);
+                    rec.set_scissor(None);
+                }
+                Receivers::Nowhere => {}
+            }
+        }
         rec.end_rendering();
     }
+}
+
+/// Where a shadow-map pass clears and draws (`ShadowMap::record_in`): a technique that
+/// reads the receivers' depth (g) only in part of the map, and knows where its casters
+/// are, confines the pass to those texels; every texel outside must then already hold the
+/// clear value (nothing drawn there since its last clear), which is the caller's to keep.
+pub struct MapArea {
+    /// Cleared, and where the casters are drawn; `None`: the whole map.
+    pub all: Option<Rect2D>,
+    /// Where the objects that receive but cast nothing are drawn, inside `all`.
+    pub receivers: Receivers,
+}
+
+/// See `MapArea::receivers`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Receivers {
+    Everywhere,
+    Within(Rect2D),
+    Nowhere,
+}
+
+impl MapArea {
+    /// The whole map, every object.
+    pub const WHOLE: MapArea = MapArea {
+        all: None,
+        receivers: Receivers::Everywhere,
+    };
 }
 
 /// What differs between the depth-only pipelines (scene geometry drawn from the light,

@@ -12,7 +12,8 @@
 //! At a glance (each pass in full below):
 //! - `smoothies/silhouettes` (CPU, or compute on the GPU path): silhouette edges, then
 //!   smoothie quads and corner fans in light uv;
-//! - `smoothies/shadow_map`: R32G32_SFLOAT (clear 1e30, blend MIN), no depth attachment;
+//! - `smoothies/shadow_map`: R32G32_SFLOAT (clear 1e30, blend MIN), no depth attachment,
+//!   the receivers drawn only under smoothies (CPU path);
 //! - `smoothies/smoothie`: the smoothie buffer, R32G32_SFLOAT (depth, alpha; clear (1e30,
 //!   1), MIN per channel), no depth attachment, culling off, cleared and drawn only where
 //!   smoothies can be (CPU path);
@@ -56,7 +57,12 @@
 //! 1. `smoothies/shadow_map` — `gpu::passes::ShadowMap`: R32G32_SFLOAT, clear 1e30,
 //!    blend MIN, no depth attachment; r = nearest caster's linear depth (the umbra test),
 //!    g = nearest surface of any role (the receiver depth r of Eq. 1). Linear depth, not
-//!    the depth buffer's, because Eq. 1 needs b/r.
+//!    the depth buffer's, because Eq. 1 needs b/r. r is read everywhere (pass 3), g only
+//!    under smoothies (pass 2). So on the CPU path (paper form) the pass clears and draws
+//!    only the casters' projected boxes and the smoothies' texels (pass 2's box), joined
+//!    with last frame's, and draws the objects that receive but cast nothing (a ground
+//!    that fills the map) only inside the smoothies' texels (`light_areas`): g holds 1e30
+//!    elsewhere. A porter can draw every object into the whole map instead: same image.
 //! 2. `smoothies/smoothie` — ONE pass, one colour attachment, no depth attachment.
 //!    Pipelines of that name per path, all with the same fragment shader:
 //!    GPU path: glsl/smoothies/smoothie.vert reads `SmoothieVertex` attributes (stride 36:
@@ -74,7 +80,7 @@
 //!    computation (the alpha gets 32 bits where 16 would do). Render area and scissor, on
 //!    the CPU path: the texels this frame's smoothies can reach, each vertex record's uv
 //!    plus and minus t / cos(15 deg) (`SmoothieRecords::uv_bounds`), joined with last
-//!    frame's, so that every texel outside still holds the clear value (`smoothie_area`).
+//!    frame's, so that every texel outside still holds the clear value (`light_areas`).
 //!    That is 16-17 % of the map on `cylinder`, `bunny` and `overlap`, and the clear of the
 //!    rest was lavapipe's largest fixed cost here (0.5-0.6 ms a frame at 1024^2). A porter
 //!    can clear the whole buffer instead: same image. The GPU path does, as its geometry's
@@ -124,7 +130,8 @@ use super::{
 };
 use crate::frustum::fit_light;
 use crate::gpu::passes::{
-    falloff_lut, CasterCacheOf, DynamicVertices, FinalPass, FinalShader, ShadowMap, FAR_DEPTH,
+    falloff_lut, CasterCacheOf, DynamicVertices, FinalPass, FinalShader, MapArea, Receivers,
+    ShadowMap, FAR_DEPTH,
 };
 use crate::scene::{LightView, Scene};
 use crate::settings::SilhouettePath;
@@ -412,6 +419,8 @@ pub struct Smoothies {
     /// The texels the last smoothie pass may have drawn (`TexelBox`; `None`: not known, on
     /// the GPU path or before the first pass). The next pass clears them with its own.
     smoothie_drawn: Option<TexelBox>,
+    /// The same for the last shadow-map pass (`light_areas`).
+    map_drawn: Option<TexelBox>,
 }
 
 impl Smoothies {
@@ -475,6 +484,7 @@ impl Smoothies {
             gpu_silhouettes,
             draw_smoothies: false,
             smoothie_drawn: None,
+            map_drawn: None,
         }))
     }
 
@@ -629,15 +639,23 @@ impl Smoothies {
         )
     }
 
-    /// The smoothie pass's render area: the texels this pass may draw and those the last
-    /// one may have, for every texel outside must hold the clear value. The CPU path knows
-    /// its records' reach (`SmoothieRecords::uv_bounds`), a box around the casters'
-    /// silhouettes, so the clear, lavapipe's largest fixed cost in this pass, covers only
-    /// that much of the buffer; the GPU path builds its geometry on the device and clears
-    /// the whole buffer.
-    fn smoothie_area(&mut self) -> Rect2D {
+    /// Where the two light-space passes clear and draw. Every texel outside an area must
+    /// hold the clear value, so each area is what its pass may draw now joined with what it
+    /// may have drawn last time:
+    /// - the smoothie pass: the texels this frame's smoothies can reach, on the CPU path
+    ///   (`SmoothieRecords::uv_bounds`); the GPU path builds its geometry on the device and
+    ///   clears the whole buffer;
+    /// - the shadow map (paper form, CPU path): the casters' projected boxes, where r is
+    ///   read, and the smoothies' texels, where the smoothie pass reads g; the receivers that
+    ///   cast nothing (a ground filling the whole map) are drawn only inside the latter, or
+    ///   not at all without smoothies. The centred form's inner receivers read g anywhere,
+    ///   so it draws the whole map.
+    ///
+    /// The clears and the ground's fill outside these boxes were lavapipe's largest fixed
+    /// costs in both passes.
+    fn light_areas(&mut self, frame: &FrameInput<'_>) -> (MapArea, Rect2D) {
         let res = self.smoothie.first().map_or(1, |i| i.extent.width);
-        let drawn = if !self.draw_smoothies {
+        let smoothies = if !self.draw_smoothies {
             Some(TexelBox::EMPTY)
         } else if self.gpu_silhouettes.is_some() {
             None
@@ -651,13 +669,72 @@ impl Smoothies {
                     }),
             )
         };
-        let area = match (self.smoothie_drawn, drawn) {
+        let smoothie_area = match (self.smoothie_drawn, smoothies) {
             (Some(last), Some(now)) => last.union(now),
             _ => TexelBox::whole(res),
         };
-        self.smoothie_drawn = drawn;
-        area.rect()
+        self.smoothie_drawn = smoothies;
+
+        let (map_now, receivers) = match (self.form, smoothies) {
+            (Form::Paper, Some(s)) => (
+                casters_box(frame, res).map(|c| c.union(s)),
+                if s.is_empty() {
+                    Receivers::Nowhere
+                } else {
+                    Receivers::Within(s.rect())
+                },
+            ),
+            _ => (None, Receivers::Everywhere),
+        };
+        let map_area = match (self.map_drawn, map_now) {
+            (Some(last), Some(now)) => Some(last.union(now).rect()),
+            _ => None,
+        };
+        // The receivers' box lies inside the area only when the casters' box is known.
+        let receivers = if map_now.is_some() {
+            receivers
+        } else {
+            Receivers::Everywhere
+        };
+        self.map_drawn = map_now;
+        (
+            MapArea {
+                all: map_area,
+                receivers,
+            },
+            smoothie_area.rect(),
+        )
     }
+}
+
+/// The texels the casters in the light can cover: each one's world box projected by the
+/// light; `None` when a box reaches to or behind the light's eye plane, where the
+/// projection is unbounded.
+fn casters_box(frame: &FrameInput<'_>, res: u32) -> Option<TexelBox> {
+    let mut b = TexelBox::EMPTY;
+    for o in frame
+        .gpu
+        .objects
+        .iter()
+        .filter(|o| o.in_light && o.role.casts())
+    {
+        let (mut lo, mut hi) = (Vec2::INFINITY, Vec2::NEG_INFINITY);
+        for c in o.local_bounds.corners() {
+            let p = frame.light.view_proj * o.model * c.extend(1.0);
+            // Clip w is the depth along the light's axis: a box corner at or behind the
+            // eye plane projects anywhere.
+            if p.w <= 0.0 {
+                return None;
+            }
+            let uv = p.truncate().truncate() / p.w * 0.5 + 0.5;
+            if !uv.is_finite() {
+                return None;
+            }
+            (lo, hi) = (lo.min(uv), hi.max(uv));
+        }
+        b = b.union(TexelBox::of_uv(res, lo, hi));
+    }
+    Some(b)
 }
 
 /// Texels [x0, x1) x [y0, y1) of a square light-space buffer; empty when x0 >= x1 or
@@ -803,8 +880,8 @@ impl Technique for Smoothies {
             self.upload_records(ctx)?;
         }
 
-        self.shadow.pass(rec, frame.gpu)?;
-        let area = self.smoothie_area();
+        let (map_area, area) = self.light_areas(frame);
+        self.shadow.pass_in(rec, frame.gpu, &map_area)?;
         rec.pass(names.smoothie, |rec| {
             let targets: Vec<_> = self
                 .smoothie

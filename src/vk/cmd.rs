@@ -402,6 +402,7 @@ enum Op {
     Draw(u32, u32),
     DrawIndexed(u32),
     DrawIndirect(vk::Buffer, u64),
+    SetScissor(vk::Rect2D),
 }
 
 /// Where vkCmdFillBuffer writes. The specification lists it among the clear commands
@@ -520,6 +521,7 @@ impl Recorder<'_> {
                 Op::Draw(v, i) => d.cmd_draw(self.cmd, *v, *i, 0, 0),
                 Op::DrawIndexed(n) => d.cmd_draw_indexed(self.cmd, *n, 1, 0, 0, 0),
                 Op::DrawIndirect(b, offset) => d.cmd_draw_indirect(self.cmd, *b, *offset, 1, 0),
+                Op::SetScissor(r) => d.cmd_set_scissor(self.cmd, 0, &[*r]),
             }
         }
     }
@@ -806,6 +808,30 @@ impl Recorder<'_> {
         bound.sets = sets.iter().map(|s| s.bindings.clone()).collect();
         let raw = sets.iter().map(|s| s.set).collect();
         self.op(Op::BindSets(p.bind_point, p.layout, raw));
+    }
+
+    /// Confines the scope's next draws to `area`, which must lie inside the scope's own
+    /// (`begin_rendering_in`); the scope's area again with `None`.
+    pub fn set_scissor(&mut self, area: Option<vk::Rect2D>) {
+        let Some(scope) = self.scope.as_ref() else {
+            self.fail(anyhow::anyhow!("set_scissor outside a rendering scope"));
+            return;
+        };
+        let outer = scope.area;
+        let area = area.unwrap_or(outer);
+        let inside = area.offset.x >= outer.offset.x
+            && area.offset.y >= outer.offset.y
+            && area.offset.x as i64 + area.extent.width as i64
+                <= outer.offset.x as i64 + outer.extent.width as i64
+            && area.offset.y as i64 + area.extent.height as i64
+                <= outer.offset.y as i64 + outer.extent.height as i64;
+        if !inside {
+            self.fail(anyhow::anyhow!(
+                "scissor {area:?} is not inside the rendering area {outer:?}"
+            ));
+            return;
+        }
+        self.op(Op::SetScissor(area));
     }
 
     pub fn push_constants(&mut self, p: &Pipeline, bytes: &[u8]) {

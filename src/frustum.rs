@@ -4,7 +4,7 @@
 
 use crate::scene::{LightView, Scene};
 use anyhow::{bail, Result};
-use glam::{Mat4, Vec3};
+use glam::{Mat4, Vec3, Vec4};
 
 /// The camera's view-projection for a `width` x `height` image, y flipped so that row 0 of
 /// the image is the top (Vulkan's framebuffer y points down).
@@ -212,6 +212,302 @@ pub fn effective_depth_bias(depth_bias: f32, depth_span: f32, far: f32) -> f32 {
     (depth_bias * (4.0 * span).min(1.0)).max(8.0 * f32::EPSILON)
 }
 
+/// Pixels [x0, x1) x [y0, y1) of a camera image, row 0 at the top.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct PixelBox {
+    pub x0: u32,
+    pub y0: u32,
+    pub x1: u32,
+    pub y1: u32,
+}
+
+impl PixelBox {
+    pub fn whole(width: u32, height: u32) -> Self {
+        Self {
+            x0: 0,
+            y0: 0,
+            x1: width,
+            y1: height,
+        }
+    }
+
+    pub fn is_empty(self) -> bool {
+        self.x0 >= self.x1 || self.y0 >= self.y1
+    }
+
+    pub fn area(self) -> u64 {
+        if self.is_empty() {
+            0
+        } else {
+            (self.x1 - self.x0) as u64 * (self.y1 - self.y0) as u64
+        }
+    }
+
+    pub fn union(self, o: Self) -> Self {
+        Self {
+            x0: self.x0.min(o.x0),
+            y0: self.y0.min(o.y0),
+            x1: self.x1.max(o.x1),
+            y1: self.y1.max(o.y1),
+        }
+    }
+
+    pub fn intersection(self, o: Self) -> Self {
+        Self {
+            x0: self.x0.max(o.x0),
+            y0: self.y0.max(o.y0),
+            x1: self.x1.min(o.x1),
+            y1: self.y1.min(o.y1),
+        }
+    }
+
+    pub fn intersects(self, o: Self) -> bool {
+        self.x0 < o.x1 && o.x0 < self.x1 && self.y0 < o.y1 && o.y0 < self.y1
+    }
+
+    /// What of `whole` lies outside `self` (inside `whole`), as at most four boxes: the
+    /// rows above and below, then the columns left and right of it.
+    pub fn around(self, whole: Self) -> Vec<Self> {
+        let (y0, y1) = (
+            self.y0.clamp(whole.y0, whole.y1),
+            self.y1.clamp(whole.y0, whole.y1),
+        );
+        let (x0, x1) = (
+            self.x0.clamp(whole.x0, whole.x1),
+            self.x1.clamp(whole.x0, whole.x1),
+        );
+        if self.is_empty() || x0 >= x1 || y0 >= y1 {
+            return vec![whole];
+        }
+        [
+            Self { y1: y0, ..whole },
+            Self { y0: y1, ..whole },
+            Self {
+                x0: whole.x0,
+                x1: x0,
+                y0,
+                y1,
+            },
+            Self {
+                x0: x1,
+                x1: whole.x1,
+                y0,
+                y1,
+            },
+        ]
+        .into_iter()
+        .filter(|b| !b.is_empty())
+        .collect()
+    }
+}
+
+/// A convex polytope as its faces' polygons: what `screen_box` projects after `clip`
+/// has cut it down (an object's box to the part a light-space box can shadow, and to
+/// what lies in front of the camera's near plane).
+#[derive(Clone, Debug)]
+pub struct Polytope {
+    faces: Vec<Vec<Vec3>>,
+}
+
+impl Polytope {
+    /// The hexahedron with these corners, corner i's bits 0, 1 and 2 choosing its x, y and
+    /// z side (`Aabb::corners`' order; a box through any affine map).
+    pub fn hexahedron(c: &[Vec3; 8]) -> Self {
+        let quad = |i: [usize; 4]| i.iter().map(|&k| c[k]).collect();
+        Self {
+            faces: vec![
+                quad([0, 2, 6, 4]),
+                quad([1, 3, 7, 5]),
+                quad([0, 1, 5, 4]),
+                quad([2, 3, 7, 6]),
+                quad([0, 1, 3, 2]),
+                quad([4, 5, 7, 6]),
+            ],
+        }
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.faces.is_empty()
+    }
+
+    #[cfg(test)]
+    fn vertices(&self) -> impl Iterator<Item = &Vec3> {
+        self.faces.iter().flatten()
+    }
+
+    /// Keeps the part where `plane` · (x, 1) >= 0: each face clipped (Sutherland-Hodgman),
+    /// and the cut closed by a face on the plane, so that later cuts see a closed solid.
+    pub fn clip(&mut self, plane: Vec4) {
+        let side = |p: Vec3| plane.dot(p.extend(1.0));
+        let mut cut = Vec::new();
+        let mut faces = Vec::with_capacity(self.faces.len() + 1);
+        for face in &self.faces {
+            let mut kept = Vec::with_capacity(face.len() + 2);
+            for (i, &a) in face.iter().enumerate() {
+                let b = face[(i + 1) % face.len()];
+                let (sa, sb) = (side(a), side(b));
+                if sa >= 0.0 {
+                    kept.push(a);
+                }
+                if (sa >= 0.0) != (sb >= 0.0) {
+                    let x = a.lerp(b, sa / (sa - sb));
+                    kept.push(x);
+                    cut.push(x);
+                }
+            }
+            if kept.len() >= 3 {
+                faces.push(kept);
+            }
+        }
+        if cut.len() >= 3 {
+            // The crossings in order around their centroid, in a basis of the plane.
+            let n = plane.truncate().normalize_or_zero();
+            let centre = cut.iter().sum::<Vec3>() / cut.len() as f32;
+            let u = n.any_orthonormal_vector();
+            let v = n.cross(u);
+            let angle = |p: &Vec3| (p - centre).dot(v).atan2((p - centre).dot(u));
+            cut.sort_by(|a, b| angle(a).total_cmp(&angle(b)));
+            faces.push(cut);
+        }
+        self.faces = faces;
+    }
+
+    /// The pixels of a `width` x `height` image drawn through `view_proj`
+    /// (`camera_view_proj`: Vulkan clip space, z in \[0, w\], y down) that can see a
+    /// point of the polytope: the screen bounds of its part in front of the near plane,
+    /// one pixel wider each side for rounding, clipped to the image. `None` when nothing
+    /// of it is in front of the near plane or in the image.
+    pub fn screen_box(&self, view_proj: Mat4, width: u32, height: u32) -> Option<PixelBox> {
+        let mut front = self.clone();
+        // Clip z >= 0: the near plane, as a world-space plane (the matrix's third row).
+        front.clip(view_proj.row(2));
+        let size = glam::Vec2::new(width as f32, height as f32);
+        let (mut lo, mut hi) = (glam::Vec2::INFINITY, glam::Vec2::NEG_INFINITY);
+        for p in front.faces.iter().flatten() {
+            let c = view_proj * p.extend(1.0);
+            if c.w <= 0.0 {
+                // Not a perspective camera's clip point: assume every pixel.
+                return Some(PixelBox::whole(width, height));
+            }
+            let px = (c.truncate().truncate() / c.w * 0.5 + 0.5) * size;
+            (lo, hi) = (lo.min(px), hi.max(px));
+        }
+        if front.is_empty() {
+            return None;
+        }
+        if !(lo.is_finite() && hi.is_finite()) {
+            return Some(PixelBox::whole(width, height));
+        }
+        // f32 -> u32 `as` saturates below 0; the min keeps the box inside the image.
+        let pixel = |v: f32, n: u32| (v as u32).min(n);
+        let b = PixelBox {
+            x0: pixel(lo.x.floor() - 1.0, width),
+            y0: pixel(lo.y.floor() - 1.0, height),
+            x1: pixel(hi.x.ceil() + 1.0, width),
+            y1: pixel(hi.y.ceil() + 1.0, height),
+        };
+        (!b.is_empty()).then_some(b)
+    }
+}
+
+/// How one object's pixels divide between a final pass's two shaders
+/// (`gpu::passes::FinalPass::split`): boxes that tile the object's screen box (`Polytope::
+/// screen_box` of its world `corners`), each `true` where a point of the object inside
+/// every half-space of `planes` (plane · (x, 1) >= 0: where its visibility can be below 1)
+/// may be seen, `false` where none can. Cut into up to `bands` rows, each with its own
+/// shadowed columns, which follow a slanted shadow closer than one box; `bands` 0 keeps the
+/// whole screen box shadowed when any of it is (a heavy mesh, whose vertices each part
+/// would shade again). Empty when the object is not on screen.
+pub fn split_object(
+    corners: &[Vec3; 8],
+    planes: &[Vec4],
+    view_proj: Mat4,
+    width: u32,
+    height: u32,
+    bands: u32,
+) -> Vec<(bool, PixelBox)> {
+    let full = Polytope::hexahedron(corners);
+    let Some(screen) = full.screen_box(view_proj, width, height) else {
+        return Vec::new();
+    };
+    let side = |p: &Vec4, c: &Vec3| p.dot(c.extend(1.0));
+    if planes
+        .iter()
+        .any(|p| corners.iter().all(|c| side(p, c) < 0.0))
+    {
+        return vec![(false, screen)];
+    }
+    if bands == 0
+        || corners
+            .iter()
+            .all(|c| planes.iter().all(|p| side(p, c) >= 0.0))
+    {
+        return vec![(true, screen)];
+    }
+    let mut shadowed = full;
+    for &p in planes {
+        shadowed.clip(p);
+    }
+    let Some(sb) = shadowed.screen_box(view_proj, width, height) else {
+        return vec![(false, screen)];
+    };
+    let sb = sb.intersection(screen);
+    if sb.is_empty() {
+        return vec![(false, screen)];
+    }
+    let mut parts = vec![
+        (
+            false,
+            PixelBox {
+                y1: sb.y0,
+                ..screen
+            },
+        ),
+        (
+            false,
+            PixelBox {
+                y0: sb.y1,
+                ..screen
+            },
+        ),
+    ];
+    // Pixel row y <-> clip y / w = 2 y / height - 1 (y down in `camera_view_proj`).
+    let ndc = |y: f32| 2.0 * y / height as f32 - 1.0;
+    let (ry, rw) = (view_proj.row(1), view_proj.row(3));
+    let rows = sb.y1 - sb.y0;
+    let n = bands.min(rows);
+    for k in 0..n {
+        let band = PixelBox {
+            y0: sb.y0 + rows * k / n,
+            y1: sb.y0 + rows * (k + 1) / n,
+            ..screen
+        };
+        let mut b = shadowed.clone();
+        // A pixel wider each way: points of the band's edge rows stay in.
+        b.clip(ry - rw * ndc(band.y0 as f32 - 1.0));
+        b.clip(rw * ndc(band.y1 as f32 + 1.0) - ry);
+        let mid = match b.screen_box(view_proj, width, height) {
+            Some(bb) => PixelBox {
+                x0: bb.x0.max(band.x0),
+                x1: bb.x1.min(band.x1),
+                ..band
+            },
+            None => PixelBox {
+                x1: band.x0,
+                ..band
+            },
+        };
+        if mid.is_empty() {
+            parts.push((false, band));
+        } else {
+            parts.push((true, mid));
+            parts.extend(mid.around(band).into_iter().map(|b| (false, b)));
+        }
+    }
+    parts.retain(|(_, b)| !b.is_empty());
+    parts
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -275,5 +571,146 @@ mod tests {
         let after = fit_light(&scene);
         assert_eq!((before.near, before.far), (after.near, after.far));
         assert!(after.far < 100.0, "far {}", after.far);
+    }
+
+    fn unit_cube() -> [Vec3; 8] {
+        Aabb::new(Vec3::ZERO, Vec3::ONE).corners()
+    }
+
+    /// Clipping keeps exactly the part on the plane's positive side, and closes each cut,
+    /// so that a second and third cut still find every corner of the solid.
+    #[test]
+    fn clipped_polytopes_keep_the_part_inside_every_plane() {
+        let mut p = Polytope::hexahedron(&unit_cube());
+        // x <= 0.5, then x + y <= 1 (through the first cut's face), then z <= 0.25.
+        let planes = [
+            Vec4::new(-1.0, 0.0, 0.0, 0.5),
+            Vec4::new(-1.0, -1.0, 0.0, 1.0),
+            Vec4::new(0.0, 0.0, -1.0, 0.25),
+        ];
+        for q in planes {
+            p.clip(q);
+        }
+        let (mut lo, mut hi) = (Vec3::INFINITY, Vec3::NEG_INFINITY);
+        for v in p.vertices() {
+            for q in planes {
+                assert!(q.dot(v.extend(1.0)) >= -1e-6, "{v} outside {q}");
+            }
+            (lo, hi) = (lo.min(*v), hi.max(*v));
+        }
+        assert!(lo.abs_diff_eq(Vec3::ZERO, 1e-6), "{lo}");
+        assert!(hi.abs_diff_eq(Vec3::new(0.5, 1.0, 0.25), 1e-6), "{hi}");
+        // (0.5, 0.5, z) is a corner made by two cuts: only the closed cut faces hold it.
+        assert!(
+            p.vertices()
+                .any(|v| v.abs_diff_eq(Vec3::new(0.5, 0.5, 0.25), 1e-6)),
+            "the corner of the first two cuts is missing"
+        );
+        p.clip(Vec4::new(0.0, 0.0, 1.0, -2.0));
+        assert!(p.is_empty());
+    }
+
+    /// A thin ground box, a camera above it and a slanted slab of "shadow" across it (the
+    /// shape the final pass splits): the parts tile the ground's screen box without
+    /// overlap, every point of the ground inside the slab lands in a shadowed part, and the
+    /// bands follow the slant with less area than one box.
+    #[test]
+    fn split_parts_tile_the_screen_box_and_hold_every_shadowed_point() {
+        let (w, h) = (320, 240);
+        let view = Mat4::look_at_rh(Vec3::new(0.0, 4.0, 6.0), Vec3::ZERO, Vec3::Y);
+        let mut proj = Mat4::perspective_rh(50f32.to_radians(), w as f32 / h as f32, 0.1, 50.0);
+        proj.y_axis.y = -proj.y_axis.y;
+        let view_proj = proj * view;
+        let ground = Aabb::new(Vec3::new(-5.0, -0.01, -5.0), Vec3::new(5.0, 0.0, 5.0)).corners();
+        // A diagonal strip 1 wide: |x - z| <= 0.5, and x >= -2.
+        let planes = [
+            Vec4::new(-1.0, 0.0, 1.0, 0.5),
+            Vec4::new(1.0, 0.0, -1.0, 0.5),
+            Vec4::new(1.0, 0.0, 0.0, 2.0),
+        ];
+        let screen = Polytope::hexahedron(&ground)
+            .screen_box(view_proj, w, h)
+            .unwrap();
+        let mut shadowed_area = Vec::new();
+        for bands in [1, 8] {
+            let parts = split_object(&ground, &planes, view_proj, w, h, bands);
+            let total: u64 = parts.iter().map(|(_, b)| b.area()).sum();
+            assert_eq!(total, screen.area(), "{bands} bands: {parts:?}");
+            for (i, (_, a)) in parts.iter().enumerate() {
+                assert!(a.intersection(screen) == *a, "{a:?} outside {screen:?}");
+                for (_, b) in &parts[i + 1..] {
+                    assert!(!a.intersects(*b), "{a:?} and {b:?} overlap");
+                }
+            }
+            // Points of the ground inside the strip, on a fine grid.
+            let mut checked = 0;
+            for i in 0..=400 {
+                for j in 0..=400 {
+                    let p = Vec3::new(-5.0 + i as f32 / 40.0, 0.0, -5.0 + j as f32 / 40.0);
+                    if planes.iter().any(|q| q.dot(p.extend(1.0)) < 0.0) {
+                        continue;
+                    }
+                    let c = view_proj * p.extend(1.0);
+                    let px = (c.truncate().truncate() / c.w * 0.5 + 0.5)
+                        * glam::Vec2::new(w as f32, h as f32);
+                    if px.x < 0.0 || px.y < 0.0 || px.x >= w as f32 || px.y >= h as f32 {
+                        continue;
+                    }
+                    let (x, y) = (px.x as u32, px.y as u32);
+                    let inside = |b: &PixelBox| x >= b.x0 && x < b.x1 && y >= b.y0 && y < b.y1;
+                    assert!(
+                        parts.iter().any(|(s, b)| *s && inside(b)),
+                        "{bands} bands: shadowed point {p} at pixel ({x}, {y}) in no shadowed part"
+                    );
+                    checked += 1;
+                }
+            }
+            assert!(checked > 1000, "{checked}");
+            shadowed_area.push(
+                parts
+                    .iter()
+                    .filter(|(s, _)| *s)
+                    .map(|(_, b)| b.area())
+                    .sum::<u64>(),
+            );
+        }
+        assert!(
+            (shadowed_area[1] as f64) < 0.7 * shadowed_area[0] as f64,
+            "bands do not follow the slant: {shadowed_area:?}"
+        );
+        assert!((shadowed_area[0] as f64) < 0.9 * screen.area() as f64);
+        // Outside one plane entirely: one unshadowed part; no bands: one shadowed part.
+        let away = [Vec4::new(1.0, 0.0, 0.0, -9.0)];
+        assert_eq!(
+            split_object(&ground, &away, view_proj, w, h, 8),
+            vec![(false, screen)]
+        );
+        assert_eq!(
+            split_object(&ground, &planes, view_proj, w, h, 0),
+            vec![(true, screen)]
+        );
+    }
+
+    /// A box reaching behind the camera is cut at the near plane, not dropped or
+    /// projected through the eye; one wholly behind is off screen.
+    #[test]
+    fn screen_boxes_cut_at_the_near_plane() {
+        let (w, h) = (200, 100);
+        let view = Mat4::look_at_rh(Vec3::new(0.0, 1.0, 0.0), Vec3::new(0.0, 1.0, -1.0), Vec3::Y);
+        let mut proj = Mat4::perspective_rh(60f32.to_radians(), 2.0, 0.1, 100.0);
+        proj.y_axis.y = -proj.y_axis.y;
+        let vp = proj * view;
+        // The ground from behind the camera to far ahead: the lower half of the image.
+        let ground = Aabb::new(Vec3::new(-50.0, -0.01, -50.0), Vec3::new(50.0, 0.0, 50.0));
+        let b = Polytope::hexahedron(&ground.corners())
+            .screen_box(vp, w, h)
+            .unwrap();
+        assert_eq!((b.x0, b.x1, b.y1), (0, w, h), "{b:?}");
+        assert!((48..=52).contains(&b.y0), "{b:?}");
+        let behind = Aabb::new(Vec3::new(-1.0, 0.0, 1.0), Vec3::new(1.0, 2.0, 3.0));
+        assert_eq!(
+            Polytope::hexahedron(&behind.corners()).screen_box(vp, w, h),
+            None
+        );
     }
 }

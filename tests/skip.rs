@@ -277,3 +277,67 @@ fn culling_changes_no_pixel() {
         }
     }
 }
+
+/// smoothies' timed final pass runs its shader only on the pixels where a shadow can fall
+/// (the receivers' boxes cut to the light's frustum over the texels its light passes
+/// drew) and a shader without lookups elsewhere. Its colour must equal the AOV pass's,
+/// which runs the shader on every pixel, bit for bit: for both forms, on every built-in
+/// scene but the million-triangle one, from the scene's camera, from one orbited round the
+/// scene and from one low over the ground (which reaches behind it: the near plane cuts
+/// the boxes), and at light radius 0. And the split must happen: on most of these frames
+/// well under all of the area drawn runs the shader.
+#[test]
+fn split_final_pass_shades_as_the_whole_one() {
+    let gpu = Gpu::new();
+    let (mut frames, mut split) = (0, 0);
+    for name in ["smoothies", "smoothies-centred"] {
+        let cases = [
+            ("cylinder", None),
+            ("cylinder", Some(0.0)),
+            ("boxes", None),
+            ("bunny", None),
+            ("primitives", None),
+            ("fence", None),
+            ("overlap", None),
+            ("dense", None),
+        ];
+        for (scene_name, radius) in cases {
+            let scene = Scene::load(scene_name).unwrap();
+            let settings = Settings {
+                light_radius: radius,
+                ..small(128, 512)
+            };
+            let mut r = Renderer::new(&gpu.ctx, scene, name, settings).unwrap();
+            let own = r.scene.camera;
+            let b = r.scene.bounds();
+            let (centre, size) = ((b.min + b.max) * 0.5, (b.max - b.min).length());
+            let orbit = Mat4::from_rotation_y(2.0).transform_point3(own.position - centre) + centre;
+            let low = Vec3::new(centre.x, b.min.y + 0.03 * size, centre.z)
+                + (own.position - centre).with_y(0.0).normalize() * 0.2 * size;
+            for (view, position) in [("own", own.position), ("orbit", orbit), ("low", low)] {
+                r.scene.camera.position = position;
+                r.scene.camera.target = if view == "low" {
+                    centre.with_y(b.min.y)
+                } else {
+                    own.target
+                };
+                let timings = r.render().unwrap();
+                let img = r.read_back().unwrap();
+                let whole = r.read_color().unwrap();
+                let differing = img.color.iter().zip(&whole).filter(|(a, b)| a != b).count();
+                assert_eq!(
+                    differing, 0,
+                    "{name} on {scene_name} (R {radius:?}, {view} camera): {differing} pixels differ"
+                );
+                let area = timings
+                    .lookup_area_of(&format!("{name}/final"))
+                    .unwrap_or(1.0);
+                frames += 1;
+                if area < 0.8 {
+                    split += 1;
+                }
+            }
+        }
+    }
+    assert!(split * 3 >= frames * 2, "{split} of {frames} frames split");
+}

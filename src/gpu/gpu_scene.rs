@@ -48,6 +48,15 @@ pub struct GpuObject {
     pub albedo: glam::Vec3,
 }
 
+impl GpuObject {
+    /// The corners of the object's box in the world (`Aabb::corners`' order).
+    pub fn world_corners(&self) -> [glam::Vec3; 8] {
+        self.local_bounds
+            .corners()
+            .map(|c| self.model.transform_point3(c))
+    }
+}
+
 impl DrawPush {
     /// The constants of one object's draws.
     pub fn new(model: Mat4, albedo: glam::Vec3, role: Role) -> Self {
@@ -127,6 +136,13 @@ impl GpuScene {
         self.draw_where(rec, p, |o| o.in_camera);
     }
 
+    /// Draws object `i`, whatever its culling flags.
+    pub fn draw_object(&self, rec: &mut Recorder<'_>, p: &Pipeline, i: usize) {
+        if let Some(o) = self.objects.get(i) {
+            Self::draw_one(rec, p, o);
+        }
+    }
+
     fn draw_where(
         &self,
         rec: &mut Recorder<'_>,
@@ -134,11 +150,15 @@ impl GpuScene {
         filter: impl Fn(&GpuObject) -> bool,
     ) {
         for o in self.objects.iter().filter(|o| filter(o)) {
-            rec.push_constants(p, bytemuck::bytes_of(&o.push()));
-            rec.bind_vertex_buffer(&o.vertices);
-            rec.bind_index_buffer(&o.indices);
-            rec.draw_indexed(o.index_count);
+            Self::draw_one(rec, p, o);
         }
+    }
+
+    fn draw_one(rec: &mut Recorder<'_>, p: &Pipeline, o: &GpuObject) {
+        rec.push_constants(p, bytemuck::bytes_of(&o.push()));
+        rec.bind_vertex_buffer(&o.vertices);
+        rec.bind_index_buffer(&o.indices);
+        rec.draw_indexed(o.index_count);
     }
 }
 

@@ -4,14 +4,15 @@
 use super::gpu_scene::{
     GpuObject, GpuScene, DRAW_PUSH_BYTES, SCENE_ATTRIBUTES, SCENE_VERTEX_STRIDE,
 };
+use crate::frustum::{camera_view_proj, split_object, PixelBox};
 use crate::shaders;
 use crate::vk::{
     Blend, Buffer, BufferUsageFlags, CompareOp, Context, CullModeFlags, DepthState, DescriptorSet,
-    Format, FrameRunner, GraphicsPipelineDesc, Image, ImageUsageFlags, Pipeline, PrimitiveTopology,
-    Recorder, Rect2D, Resource,
+    Extent2D, Format, FrameRunner, GraphicsPipelineDesc, Image, ImageUsageFlags, Offset2D,
+    Pipeline, PrimitiveTopology, Recorder, Rect2D, Resource,
 };
 use anyhow::Result;
-use glam::Mat4;
+use glam::{Mat4, Vec4};
 use rayon::prelude::*;
 
 /// Clear value of linear-depth targets: "nothing here", farther than any far plane, finite
@@ -310,9 +311,27 @@ pub struct FinalShader {
 /// `Renderer::read_back`, untimed) draws the same geometry with the same shader source built
 /// with `-DAOV`, so its colour and visibility are bit-identical to the timed pass's, into
 /// colour, visibility R32F (clear 1), position RGBA32F (clear 0), normal RGBA16F (clear 0).
+///
+/// A technique that knows where its visibility can be below 1 builds it with `split` and
+/// records it with `pass_in`: the timed pass then draws each object with the technique's
+/// shader only where a shadow can fall on it and with glsl/common/unshadowed.frag elsewhere
+/// (`record_split`); same image, and the AOV pass still runs the shader everywhere.
 pub struct FinalPass {
     pipeline: Pipeline,
     aov: Pipeline,
+    /// `FinalPass::split`'s: the same pass with `visibility()` = 1 (glsl/common/unshadowed.frag),
+    /// drawn where the technique's shader would give exactly 1.
+    unshadowed: Option<Pipeline>,
+}
+
+/// Where a final pass's `visibility()` can be below 1 (`FinalPass::pass_in`).
+#[derive(Clone, Debug, PartialEq)]
+pub enum Shadowed {
+    Everywhere,
+    /// Only at points inside every one of these world-space half-spaces, where
+    /// plane · (x, 1) is at least 0 (such as the light's frustum over the texels a
+    /// technique drew); everywhere else its shader gives exactly 1. No plane: everywhere.
+    Inside(Vec<Vec4>),
 }
 
 impl FinalPass {
@@ -323,27 +342,7 @@ impl FinalPass {
         set: &DescriptorSet,
     ) -> Result<Self> {
         let desc = |name: &str, fragment: &[u8], colors: &[(Format, Blend)]| {
-            Pipeline::graphics(
-                ctx,
-                &GraphicsPipelineDesc {
-                    name,
-                    vertex: shaders::COMMON_SCENE_VERT,
-                    fragment: Some(fragment),
-                    vertex_stride: SCENE_VERTEX_STRIDE,
-                    attributes: SCENE_ATTRIBUTES,
-                    topology: PrimitiveTopology::TRIANGLE_LIST,
-                    cull: CullModeFlags::NONE,
-                    colors,
-                    depth: Some(DepthState {
-                        format: Format::D32_SFLOAT,
-                        test: true,
-                        write: true,
-                        compare: CompareOp::LESS,
-                    }),
-                    push_constant_bytes: DRAW_PUSH_BYTES,
-                    sets: &[set],
-                },
-            )
+            Self::pipeline(ctx, name, fragment, colors, set)
         };
         let pipeline = desc(name, fragment.color, &CameraTargets::AOV_FORMATS[..1])?;
         let aov_name = match name.strip_suffix("/final") {
@@ -351,7 +350,65 @@ impl FinalPass {
             None => format!("{name}/aov"),
         };
         let aov = desc(&aov_name, fragment.aov, &CameraTargets::AOV_FORMATS)?;
-        Ok(Self { pipeline, aov })
+        Ok(Self {
+            pipeline,
+            aov,
+            unshadowed: None,
+        })
+    }
+
+    /// `new`, for a technique that knows where its visibility can be below 1
+    /// (`pass_in`): the timed pass then runs the shader only there and a shader without
+    /// shadow lookups elsewhere. On a CPU driver (lavapipe) that is most of the pass's cost
+    /// wherever the shadows are small on screen: it runs both sides of a branch, so the
+    /// technique's own early-outs save nothing.
+    pub fn split(
+        ctx: &Context,
+        name: &str,
+        fragment: FinalShader,
+        set: &DescriptorSet,
+    ) -> Result<Self> {
+        let mut pass = Self::new(ctx, name, fragment, set)?;
+        pass.unshadowed = Some(Self::pipeline(
+            ctx,
+            &format!("{name} (unshadowed)"),
+            shaders::COMMON_UNSHADOWED_FRAG,
+            &CameraTargets::AOV_FORMATS[..1],
+            set,
+        )?);
+        Ok(pass)
+    }
+
+    /// One camera pipeline: scene.vert, `fragment`, depth test LESS with writes, no
+    /// culling (two-sided surfaces), the draw push constants.
+    fn pipeline(
+        ctx: &Context,
+        name: &str,
+        fragment: &[u8],
+        colors: &[(Format, Blend)],
+        set: &DescriptorSet,
+    ) -> Result<Pipeline> {
+        Pipeline::graphics(
+            ctx,
+            &GraphicsPipelineDesc {
+                name,
+                vertex: shaders::COMMON_SCENE_VERT,
+                fragment: Some(fragment),
+                vertex_stride: SCENE_VERTEX_STRIDE,
+                attributes: SCENE_ATTRIBUTES,
+                topology: PrimitiveTopology::TRIANGLE_LIST,
+                cull: CullModeFlags::NONE,
+                colors,
+                depth: Some(DepthState {
+                    format: Format::D32_SFLOAT,
+                    test: true,
+                    write: true,
+                    compare: CompareOp::LESS,
+                }),
+                push_constant_bytes: DRAW_PUSH_BYTES,
+                sets: &[set],
+            },
+        )
     }
 
     /// `record` as one pass named as the pipeline: `T/final` (timed), or `T/aov` when
@@ -362,11 +419,91 @@ impl FinalPass {
         frame: &crate::gpu::FrameInput<'_>,
         set: &DescriptorSet,
     ) -> Result<()> {
+        self.pass_in(rec, frame, set, Shadowed::Everywhere)
+    }
+
+    /// `pass`, with the technique's shader only where `shadowed` says (a `split` pass;
+    /// others, and the AOV pass, run it everywhere).
+    pub fn pass_in(
+        &self,
+        rec: &mut Recorder<'_>,
+        frame: &crate::gpu::FrameInput<'_>,
+        set: &DescriptorSet,
+        shadowed: Shadowed,
+    ) -> Result<()> {
         let pipeline = if frame.aov { &self.aov } else { &self.pipeline };
         rec.pass(&pipeline.name, |rec| {
-            self.record(rec, frame.targets, frame.gpu, set, frame.aov);
+            match (&self.unshadowed, frame.aov, shadowed) {
+                (Some(unshadowed), false, Shadowed::Inside(planes)) => {
+                    self.record_split(rec, frame, set, unshadowed, &planes)
+                }
+                _ => self.record(rec, frame.targets, frame.gpu, set, frame.aov),
+            }
             Ok(())
         })
+    }
+
+    /// Each object with the technique's pipeline where it can be shadowed and the
+    /// unshadowed one elsewhere (`frustum::split_object`), each part a scissor of one
+    /// rendering scope. The objects are drawn in the scene's order and each pixel of an
+    /// object in exactly one part, so the depth test keeps the same fragment as one
+    /// whole-image draw would. Meshes are cut into fewer parts the more triangles they
+    /// have: every part shades all of its vertices again.
+    fn record_split(
+        &self,
+        rec: &mut Recorder<'_>,
+        frame: &crate::gpu::FrameInput<'_>,
+        set: &DescriptorSet,
+        unshadowed: &Pipeline,
+        planes: &[Vec4],
+    ) {
+        let t = frame.targets;
+        let view_proj = camera_view_proj(frame.scene, t.width, t.height);
+        self.begin(rec, t, false);
+        let mut bound: Option<bool> = None;
+        let mut area = [0u64; 2];
+        for (i, o) in frame.gpu.objects.iter().enumerate() {
+            if !o.in_camera {
+                continue;
+            }
+            let parts = if o.role.receives() {
+                let bands = match o.index_count / 3 {
+                    0..=256 => SPLIT_BANDS,
+                    257..=4096 => 1,
+                    _ => 0,
+                };
+                split_object(
+                    &o.world_corners(),
+                    planes,
+                    view_proj,
+                    t.width,
+                    t.height,
+                    bands,
+                )
+            } else {
+                // visibility() is never called for it.
+                vec![(false, PixelBox::whole(t.width, t.height))]
+            };
+            for (shadowed, part) in parts {
+                area[shadowed as usize] += part.area();
+                let pipeline = if shadowed { &self.pipeline } else { unshadowed };
+                if bound != Some(shadowed) {
+                    rec.bind_pipeline(pipeline);
+                    rec.bind_sets(pipeline, &[set]);
+                    bound = Some(shadowed);
+                }
+                rec.set_scissor(Some(rect_of(part)));
+                frame.gpu.draw_object(rec, pipeline, i);
+            }
+        }
+        rec.end_rendering();
+        let drawn = area[0] + area[1];
+        let fraction = if drawn == 0 {
+            0.0
+        } else {
+            area[1] as f64 / drawn as f64
+        };
+        rec.lookup_area(&self.pipeline.name, fraction);
     }
 
     /// Draws the camera view: colour only, or with `aov` the colour and the AOVs.
@@ -378,8 +515,30 @@ impl FinalPass {
         set: &DescriptorSet,
         aov: bool,
     ) {
+        let pipeline = if aov { &self.aov } else { &self.pipeline };
+        self.record_with(rec, t, scene, set, pipeline, aov);
+    }
+
+    fn record_with(
+        &self,
+        rec: &mut Recorder<'_>,
+        t: &CameraTargets,
+        scene: &GpuScene,
+        set: &DescriptorSet,
+        pipeline: &Pipeline,
+        aov: bool,
+    ) {
+        self.begin(rec, t, aov);
+        rec.bind_pipeline(pipeline);
+        rec.bind_sets(pipeline, &[set]);
+        scene.draw_camera(rec, pipeline);
+        rec.end_rendering();
+    }
+
+    /// Opens the rendering scope: the colour (with `aov` the AOVs) and depth, cleared.
+    fn begin(&self, rec: &mut Recorder<'_>, t: &CameraTargets, aov: bool) {
         let depth = Some((&t.depth, Some(1.0)));
-        let pipeline = if aov {
+        if aov {
             rec.begin_rendering(
                 &[
                     (&t.color, Some(CameraTargets::BACKGROUND)),
@@ -389,19 +548,31 @@ impl FinalPass {
                 ],
                 depth,
             );
-            &self.aov
         } else {
             rec.begin_rendering(&[(&t.color, Some(CameraTargets::BACKGROUND))], depth);
-            &self.pipeline
-        };
+        }
         // The depth buffer only serves this scope's depth test.
         rec.discard_after(&t.depth);
-        rec.bind_pipeline(pipeline);
-        rec.bind_sets(pipeline, &[set]);
-        scene.draw_camera(rec, pipeline);
-        rec.end_rendering();
     }
 }
+
+/// A pixel box as a scissor or render area.
+pub fn rect_of(b: PixelBox) -> Rect2D {
+    Rect2D {
+        offset: Offset2D {
+            x: b.x0 as i32,
+            y: b.y0 as i32,
+        },
+        extent: Extent2D {
+            width: b.x1.saturating_sub(b.x0),
+            height: b.y1.saturating_sub(b.y0),
+        },
+    }
+}
+
+/// Rows a light mesh (a ground) is cut into by `FinalPass::record_split`, each with its
+/// own shadowed columns: a slanted shadow's screen box holds much lit ground.
+const SPLIT_BANDS: u32 = 8;
 
 /// Number of texels of the falloff lookup texture.
 pub const FALLOFF_TEXELS: u32 = 256;

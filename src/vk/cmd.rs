@@ -40,6 +40,9 @@ pub struct FrameTimings {
     pub cpu: Vec<(String, f64)>,
     /// Partial rebuilds, printed after the `cpu` line of the same name.
     pub rebuilt: Vec<CasterRebuilds>,
+    /// Per final pass drawn in parts (`gpu::passes::FinalPass::split`): the fraction of its
+    /// drawn area given to the technique's shader (the rest had no shadow lookup).
+    pub lookup_area: Vec<(String, f64)>,
     /// GPU milliseconds from the frame's first stamp to its last: the passes that ran lie
     /// inside it, one after another, so their sum never exceeds it.
     pub gpu_frame_ms: Option<f64>,
@@ -70,6 +73,15 @@ impl FrameTimings {
             .unwrap_or_default()
     }
 
+    /// The fraction of final pass `name`'s drawn area that ran the technique's shader, when
+    /// the pass was drawn in parts.
+    pub fn lookup_area_of(&self, name: &str) -> Option<f64> {
+        self.lookup_area
+            .iter()
+            .find(|(n, _)| n == name)
+            .map(|(_, f)| *f)
+    }
+
     /// The `--timings` block of docs/DESIGN.md.
     pub fn report(&self) -> String {
         let mut s = String::new();
@@ -87,6 +99,9 @@ impl FrameTimings {
                 (Some(ms), None) => {
                     s += &format!("pass {:<width$} {ms:8.3} ms", p.name);
                     s += &self.rebuilt_suffix(&p.name);
+                    if let Some(f) = self.lookup_area_of(&p.name) {
+                        s += &format!(" (shadow lookups in {:.0} % of the area drawn)", f * 100.0);
+                    }
                     s += "\n";
                 }
                 (None, None) => s += &format!("pass {:<width$}      n/a\n", p.name),
@@ -198,6 +213,7 @@ impl FrameRunner {
             passes: Vec::new(),
             cpu: Vec::new(),
             rebuilt: Vec::new(),
+            lookup_area: Vec::new(),
             graphics: Bound::default(),
             compute: Bound::default(),
             vertex_buffer: None,
@@ -215,6 +231,7 @@ impl FrameRunner {
         let passes = std::mem::take(&mut rec.passes);
         let cpu = std::mem::take(&mut rec.cpu);
         let rebuilt = std::mem::take(&mut rec.rebuilt);
+        let lookup_area = std::mem::take(&mut rec.lookup_area);
         let used = rec.next_query;
         // SAFETY: recording began above; ending is required even when `f` failed.
         let ended = unsafe { device.end_command_buffer(self.cmd) };
@@ -273,6 +290,7 @@ impl FrameRunner {
             passes,
             cpu,
             rebuilt,
+            lookup_area,
             gpu_frame_ms,
         })
     }
@@ -322,6 +340,7 @@ pub struct Recorder<'a> {
     passes: Vec<RecordedPass>,
     cpu: Vec<(String, f64)>,
     rebuilt: Vec<CasterRebuilds>,
+    lookup_area: Vec<(String, f64)>,
     graphics: Bound,
     compute: Bound,
     vertex_buffer: Option<Target>,
@@ -609,6 +628,12 @@ impl Recorder<'_> {
             rebuilt,
             casters,
         });
+    }
+
+    /// Records that final pass `name` ran the technique's shader on `fraction` of the area
+    /// it drew (`--timings` prints it after the pass's line).
+    pub fn lookup_area(&mut self, name: &str, fraction: f64) {
+        self.lookup_area.push((name.to_string(), fraction));
     }
 
     /// Begins dynamic rendering into `colors` (and `depth`), each cleared or loaded, with a

@@ -412,15 +412,15 @@ impl Polytope {
 
 /// How one object's pixels divide between a final pass's two shaders
 /// (`gpu::passes::FinalPass::split`): boxes that tile the object's screen box (`Polytope::
-/// screen_box` of its world `corners`), each `true` where a point of the object inside
-/// every half-space of `planes` (plane · (x, 1) >= 0: where its visibility can be below 1)
-/// may be seen, `false` where none can. Cut into up to `bands` rows, each with its own
-/// shadowed columns, which follow a slanted shadow closer than one box; `bands` 0 keeps the
-/// whole screen box shadowed when any of it is (a heavy mesh, whose vertices each part
-/// would shade again). Empty when the object is not on screen.
+/// screen_box` of its world `corners`), each `true` where a point of the object inside one
+/// of `regions` (each the intersection of its half-spaces plane · (x, 1) >= 0: where
+/// visibility can be below 1) may be seen, `false` where none can. Cut into up to `bands`
+/// rows, each with its own shadowed columns, which follow a slanted shadow closer than one
+/// box; `bands` 0 keeps the whole screen box shadowed when any of it is (a heavy mesh, whose
+/// vertices each part would shade again). Empty when the object is not on screen.
 pub fn split_object(
     corners: &[Vec3; 8],
-    planes: &[Vec4],
+    regions: &[Vec<Vec4>],
     view_proj: Mat4,
     width: u32,
     height: u32,
@@ -431,30 +431,40 @@ pub fn split_object(
         return Vec::new();
     };
     let side = |p: &Vec4, c: &Vec3| p.dot(c.extend(1.0));
-    if planes
+    // The regions the box may reach: none of their planes has every corner outside.
+    let reached: Vec<&Vec<Vec4>> = regions
         .iter()
-        .any(|p| corners.iter().all(|c| side(p, c) < 0.0))
-    {
+        .filter(|r| !r.iter().any(|p| corners.iter().all(|c| side(p, c) < 0.0)))
+        .collect();
+    if reached.is_empty() {
         return vec![(false, screen)];
     }
-    if bands == 0
-        || corners
-            .iter()
-            .all(|c| planes.iter().all(|p| side(p, c) >= 0.0))
-    {
+    let inside = |r: &&Vec<Vec4>| corners.iter().all(|c| r.iter().all(|p| side(p, c) >= 0.0));
+    if bands == 0 || reached.iter().any(inside) {
         return vec![(true, screen)];
     }
-    let mut shadowed = full;
-    for &p in planes {
-        shadowed.clip(p);
-    }
-    let Some(sb) = shadowed.screen_box(view_proj, width, height) else {
+    let cuts: Vec<Polytope> = reached
+        .iter()
+        .map(|r| {
+            let mut cut = full.clone();
+            for &p in r.iter() {
+                cut.clip(p);
+            }
+            cut
+        })
+        .filter(|c| !c.is_empty())
+        .collect();
+    // The union of the cuts' screen boxes inside `within` (rows of it), if any.
+    let seen = |cuts: &[Polytope], within: PixelBox| {
+        cuts.iter()
+            .filter_map(|c| c.screen_box(view_proj, width, height))
+            .map(|b| b.intersection(within))
+            .filter(|b| !b.is_empty())
+            .reduce(PixelBox::union)
+    };
+    let Some(sb) = seen(&cuts, screen) else {
         return vec![(false, screen)];
     };
-    let sb = sb.intersection(screen);
-    if sb.is_empty() {
-        return vec![(false, screen)];
-    }
     let mut parts = vec![
         (
             false,
@@ -482,26 +492,28 @@ pub fn split_object(
             y1: sb.y0 + rows * (k + 1) / n,
             ..screen
         };
-        let mut b = shadowed.clone();
-        // A pixel wider each way: points of the band's edge rows stay in.
-        b.clip(ry - rw * ndc(band.y0 as f32 - 1.0));
-        b.clip(rw * ndc(band.y1 as f32 + 1.0) - ry);
-        let mid = match b.screen_box(view_proj, width, height) {
-            Some(bb) => PixelBox {
-                x0: bb.x0.max(band.x0),
-                x1: bb.x1.min(band.x1),
-                ..band
-            },
-            None => PixelBox {
-                x1: band.x0,
-                ..band
-            },
-        };
-        if mid.is_empty() {
-            parts.push((false, band));
-        } else {
-            parts.push((true, mid));
-            parts.extend(mid.around(band).into_iter().map(|b| (false, b)));
+        let in_band: Vec<Polytope> = cuts
+            .iter()
+            .map(|c| {
+                let mut b = c.clone();
+                // A pixel wider each way: points of the band's edge rows stay in.
+                b.clip(ry - rw * ndc(band.y0 as f32 - 1.0));
+                b.clip(rw * ndc(band.y1 as f32 + 1.0) - ry);
+                b
+            })
+            .collect();
+        match seen(&in_band, band) {
+            // Whole rows: the band's columns only.
+            Some(b) => {
+                let mid = PixelBox {
+                    y0: band.y0,
+                    y1: band.y1,
+                    ..b
+                };
+                parts.push((true, mid));
+                parts.extend(mid.around(band).into_iter().map(|b| (false, b)));
+            }
+            None => parts.push((false, band)),
         }
     }
     parts.retain(|(_, b)| !b.is_empty());
@@ -633,7 +645,7 @@ mod tests {
             .unwrap();
         let mut shadowed_area = Vec::new();
         for bands in [1, 8] {
-            let parts = split_object(&ground, &planes, view_proj, w, h, bands);
+            let parts = split_object(&ground, &[planes.to_vec()], view_proj, w, h, bands);
             let total: u64 = parts.iter().map(|(_, b)| b.area()).sum();
             assert_eq!(total, screen.area(), "{bands} bands: {parts:?}");
             for (i, (_, a)) in parts.iter().enumerate() {
@@ -682,12 +694,79 @@ mod tests {
         // Outside one plane entirely: one unshadowed part; no bands: one shadowed part.
         let away = [Vec4::new(1.0, 0.0, 0.0, -9.0)];
         assert_eq!(
-            split_object(&ground, &away, view_proj, w, h, 8),
+            split_object(&ground, &[away.to_vec()], view_proj, w, h, 8),
             vec![(false, screen)]
         );
         assert_eq!(
-            split_object(&ground, &planes, view_proj, w, h, 0),
+            split_object(&ground, &[planes.to_vec()], view_proj, w, h, 0),
             vec![(true, screen)]
+        );
+    }
+
+    /// Two regions (two casters' shadows): a point inside either lands in a shadowed
+    /// part, and the parts still tile the screen box.
+    #[test]
+    fn split_parts_hold_the_points_of_every_region() {
+        let (w, h) = (240, 160);
+        let view = Mat4::look_at_rh(Vec3::new(0.0, 5.0, 5.0), Vec3::ZERO, Vec3::Y);
+        let mut proj = Mat4::perspective_rh(60f32.to_radians(), 1.5, 0.1, 50.0);
+        proj.y_axis.y = -proj.y_axis.y;
+        let vp = proj * view;
+        let ground = Aabb::new(Vec3::new(-4.0, -0.01, -4.0), Vec3::new(4.0, 0.0, 4.0)).corners();
+        // x in [-3, -2] and z in [1, 2]; x + z in [2, 3].
+        let regions = vec![
+            vec![
+                Vec4::new(1.0, 0.0, 0.0, 3.0),
+                Vec4::new(-1.0, 0.0, 0.0, -2.0),
+            ],
+            vec![
+                Vec4::new(1.0, 0.0, 1.0, -2.0),
+                Vec4::new(-1.0, 0.0, -1.0, 3.0),
+            ],
+            vec![
+                Vec4::new(0.0, 0.0, 1.0, -1.0),
+                Vec4::new(0.0, 0.0, -1.0, 2.0),
+            ],
+        ];
+        let screen = Polytope::hexahedron(&ground).screen_box(vp, w, h).unwrap();
+        let parts = split_object(&ground, &regions, vp, w, h, 8);
+        assert_eq!(
+            parts.iter().map(|(_, b)| b.area()).sum::<u64>(),
+            screen.area()
+        );
+        let mut checked = 0;
+        for i in 0..=320 {
+            for j in 0..=320 {
+                let p = Vec3::new(-4.0 + i as f32 / 40.0, 0.0, -4.0 + j as f32 / 40.0);
+                let within = |r: &Vec<Vec4>| r.iter().all(|q| q.dot(p.extend(1.0)) >= 0.0);
+                if !regions.iter().any(within) {
+                    continue;
+                }
+                let c = vp * p.extend(1.0);
+                let px = (c.truncate().truncate() / c.w * 0.5 + 0.5)
+                    * glam::Vec2::new(w as f32, h as f32);
+                let (x, y) = (px.x as u32, px.y as u32);
+                if px.x < 0.0 || px.y < 0.0 || x >= w || y >= h {
+                    continue;
+                }
+                let inside = |b: &PixelBox| x >= b.x0 && x < b.x1 && y >= b.y0 && y < b.y1;
+                assert!(
+                    parts.iter().any(|(s, b)| *s && inside(b)),
+                    "{p} at ({x}, {y})"
+                );
+                checked += 1;
+            }
+        }
+        assert!(checked > 1000, "{checked}");
+        let shadowed: u64 = parts
+            .iter()
+            .filter(|(s, _)| *s)
+            .map(|(_, b)| b.area())
+            .sum();
+        assert!(
+            (shadowed as f64) < 0.8 * screen.area() as f64,
+            "{shadowed} of {}",
+            screen.area()
         );
     }
 

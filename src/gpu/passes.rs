@@ -328,10 +328,12 @@ pub struct FinalPass {
 #[derive(Clone, Debug, PartialEq)]
 pub enum Shadowed {
     Everywhere,
-    /// Only at points inside every one of these world-space half-spaces, where
-    /// plane · (x, 1) is at least 0 (such as the light's frustum over the texels a
-    /// technique drew); everywhere else its shader gives exactly 1. No plane: everywhere.
-    Inside(Vec<Vec4>),
+    /// Only at points inside one of these convex regions, each the intersection of
+    /// world-space half-spaces where plane · (x, 1) is at least 0 (such as the light's
+    /// frustum over the texels a caster and its smoothies drew); everywhere else the
+    /// technique's shader gives exactly 1. No region: nowhere; a region without a plane:
+    /// everywhere.
+    Inside(Vec<Vec<Vec4>>),
 }
 
 impl FinalPass {
@@ -434,8 +436,8 @@ impl FinalPass {
         let pipeline = if frame.aov { &self.aov } else { &self.pipeline };
         rec.pass(&pipeline.name, |rec| {
             match (&self.unshadowed, frame.aov, shadowed) {
-                (Some(unshadowed), false, Shadowed::Inside(planes)) => {
-                    self.record_split(rec, frame, set, unshadowed, &planes)
+                (Some(unshadowed), false, Shadowed::Inside(regions)) => {
+                    self.record_split(rec, frame, set, unshadowed, &regions)
                 }
                 _ => self.record(rec, frame.targets, frame.gpu, set, frame.aov),
             }
@@ -455,7 +457,7 @@ impl FinalPass {
         frame: &crate::gpu::FrameInput<'_>,
         set: &DescriptorSet,
         unshadowed: &Pipeline,
-        planes: &[Vec4],
+        regions: &[Vec<Vec4>],
     ) {
         let t = frame.targets;
         let view_proj = camera_view_proj(frame.scene, t.width, t.height);
@@ -474,7 +476,7 @@ impl FinalPass {
                 };
                 split_object(
                     &o.world_corners(),
-                    planes,
+                    regions,
                     view_proj,
                     t.width,
                     t.height,
@@ -705,6 +707,11 @@ impl<K: PartialEq + Copy, T> CasterCacheOf<K, T> {
     /// Every cached object's geometry, in object order.
     pub fn iter(&self) -> impl Iterator<Item = &T> {
         self.entries.iter().flatten().map(|e| &e.2)
+    }
+
+    /// Object `i`'s cached geometry, if it has any.
+    pub fn get(&self, i: usize) -> Option<&T> {
+        self.entries.get(i)?.as_ref().map(|e| &e.2)
     }
 }
 

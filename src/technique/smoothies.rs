@@ -99,18 +99,20 @@
 //!    behind the smoothie (smoothie buffer r, then g), else 1 (Sec. 3 step 5); bilinear
 //!    weights (the 2x2 tent of the paper's hardware PCF); then the sinusoidal falloff
 //!    0.5 - 0.5 cos(pi v) from a 256-texel R32F 1-D texture. Outside the texels passes 1
-//!    and 2 drew (the casters' boxes and the smoothies' texels), every lookup reads "far"
+//!    and 2 drew (each caster's projection and its smoothies), every lookup reads "far"
 //!    and v is exactly 1. So on the CPU path, where those texels are known, the timed pass
-//!    (`FinalPass::split`, `shadowed_region`) cuts each receiver's world box to the light
-//!    frustum over them (widened by the normal offset and the gather's footprint), and
-//!    draws the object with this shader only in the screen boxes of that cut (up to 8 rows
-//!    of columns for a light mesh such as a ground, one box for a heavy one), with
-//!    glsl/common/unshadowed.frag (visibility 1, no lookup) in the rest of its screen box:
-//!    scissors of one rendering scope, objects in the scene's order, so the image is the
-//!    whole pass's bit for bit (tests/skip.rs). On lavapipe the lookups then run on 35-56 %
-//!    of the area drawn on `cylinder`, `overlap` and `bunny`, and the pass costs about what
-//!    `hard`'s does: a CPU driver runs both sides of a branch, so the shader's own
-//!    early-outs save nothing there. On a GPU, where a warp skips what none of its threads
+//!    (`FinalPass::split`) takes per caster a 16-sided polygon in light uv around its
+//!    box's projected corners and its smoothies' reach (`shadow_regions`), cuts each
+//!    receiver's world box to the light frustum over each polygon (widened by the normal
+//!    offset and the gather's footprint, `shadowed_region`), and draws the object with this
+//!    shader only in the screen boxes of those cuts (up to 8 rows of columns for a light
+//!    mesh such as a ground, one box for a heavy one), with glsl/common/unshadowed.frag
+//!    (visibility 1, no lookup) in the rest of its screen box: scissors of one rendering
+//!    scope, objects in the scene's order, so the image is the whole pass's bit for bit
+//!    (tests/skip.rs). On lavapipe the lookups then run on 31-48 % of the area drawn on
+//!    `cylinder`, `overlap` and `bunny`, and the pass costs not much more than `hard`'s: a
+//!    CPU driver runs both sides of a branch, so the shader's own early-outs save nothing
+//!    there. On a GPU, where a warp skips what none of its threads
 //!    takes, a porter can draw the whole pass with this shader: same image.
 //!
 //! `--spirv tuned` (`Settings::spirv`) runs hand-written SPIR-V for passes 2 and 3 instead
@@ -434,10 +436,11 @@ pub struct Smoothies {
     smoothie_drawn: Option<TexelBox>,
     /// The same for the last shadow-map pass (`light_areas`).
     map_drawn: Option<TexelBox>,
-    /// The texels of the last light passes where r or the smoothie buffer can hold
-    /// anything but the clear value (casters' boxes and smoothies' texels; `None`: not
-    /// known). Outside them the final shader's visibility is exactly 1 (`record_final`).
-    shadowed: Option<TexelBox>,
+    /// Where the last light passes can have left r or the smoothie buffer holding anything
+    /// but the clear value: per caster, a convex polygon in light uv as its support in
+    /// `REGION_DIRECTIONS` (`shadow_regions`; `None`: not known). Outside them the final
+    /// shader's visibility is exactly 1 (`record_final`).
+    shadowed: Option<Vec<[f32; REGION_DIRECTIONS]>>,
 }
 
 impl Smoothies {
@@ -671,6 +674,40 @@ impl Smoothies {
     ///
     /// The clears and the ground's fill outside these boxes were lavapipe's largest fixed
     /// costs in both passes.
+    /// Per caster, the light-uv polygon its texels in r and the smoothie buffer lie in: the
+    /// support, in each of `REGION_DIRECTIONS`, of its world box's corners projected by the
+    /// light (the r texels) and of its smoothies (`SmoothieRecords::uv_support`). A
+    /// 16-gon follows a slanted caster and its smoothies where one box around all of them
+    /// holds much lit ground. `None` when a caster's box reaches to or behind the light's
+    /// eye plane, where the projection is unbounded.
+    fn shadow_regions(&self, frame: &FrameInput<'_>) -> Option<Vec<[f32; REGION_DIRECTIONS]>> {
+        let dirs = region_directions();
+        let max = |a: Option<[f32; REGION_DIRECTIONS]>, b: [f32; REGION_DIRECTIONS]| {
+            Some(a.map_or(b, |a| std::array::from_fn(|k| a[k].max(b[k]))))
+        };
+        let mut regions = Vec::new();
+        for (i, o) in frame.gpu.objects.iter().enumerate() {
+            let mut support = None;
+            if o.in_light && o.role.casts() {
+                for c in o.world_corners() {
+                    let p = frame.light.view_proj * c.extend(1.0);
+                    let uv = p.truncate().truncate() / p.w * 0.5 + 0.5;
+                    if p.w <= 0.0 || !uv.is_finite() {
+                        return None;
+                    }
+                    support = max(support, dirs.map(|d| d.dot(uv)));
+                }
+            }
+            // With no smoothie drawn (t = 0) the cache's records are not in the buffer.
+            let records = self.cpu_cache.get(i).filter(|_| self.draw_smoothies);
+            if let Some(s) = records.and_then(|r| r.uv_support(&dirs)) {
+                support = max(support, s);
+            }
+            regions.extend(support);
+        }
+        Some(regions)
+    }
+
     fn light_areas(&mut self, frame: &FrameInput<'_>) -> (MapArea, Rect2D) {
         let res = self.smoothie.first().map_or(1, |i| i.extent.width);
         let smoothies = if !self.draw_smoothies {
@@ -715,7 +752,7 @@ impl Smoothies {
             Receivers::Everywhere
         };
         self.map_drawn = map_now;
-        self.shadowed = smoothies.and_then(|s| casters_box(frame, res).map(|c| c.union(s)));
+        self.shadowed = smoothies.and_then(|_| self.shadow_regions(frame));
         (
             MapArea {
                 all: map_area,
@@ -756,38 +793,57 @@ fn casters_box(frame: &FrameInput<'_>, res: u32) -> Option<TexelBox> {
     Some(b)
 }
 
-/// The pixels whose final-pass lookups can reach texels of `b` (in a side-`res` light
-/// buffer): the screen bounds of each receiving object's box cut to the light's frustum
-/// over `b`, widened by the normal offset (the lookup point moves by up to
-/// `normal_offset_texels` texels across the light's rays and as much again by its depth
-/// change) and the gather's footprint. Outside them every lookup reads clear texels, the
-/// caster and smoothie depths "far", so the paper's and the centred shader both give
+/// Directions of the half-planes that bound each caster's light-uv polygon
+/// (`Smoothies::shadow_regions`), evenly spaced round the circle.
+const REGION_DIRECTIONS: usize = 16;
+
+fn region_directions() -> [Vec2; REGION_DIRECTIONS] {
+    std::array::from_fn(|k| {
+        let a = k as f32 * std::f32::consts::TAU / REGION_DIRECTIONS as f32;
+        Vec2::new(a.cos(), a.sin())
+    })
+}
+
+/// Where the final pass's lookups can read texels inside the casters' light-uv polygons
+/// (`supports`, in a side-`res` light buffer): each polygon as the light frustum over it,
+/// widened by the normal offset (the lookup point moves by up to `normal_offset_texels`
+/// texels across the light's rays and as much again by its depth change) and the gather's
+/// footprint (its texels lie within 1.5 texels of the point along each axis), in front
+/// of half the light's near plane. Outside every region each lookup reads clear texels,
+/// the caster and smoothie depths "far", so the paper's and the centred shader both give
 /// exactly 1; objects that receive no shadow get 1 anyway.
-fn shadowed_region(frame: &FrameInput<'_>, b: TexelBox, res: u32) -> Shadowed {
-    if b.is_empty() {
-        // No plane holds a point: nothing is shadowed.
-        return Shadowed::Inside(vec![Vec4::new(0.0, 0.0, 0.0, -1.0)]);
-    }
+fn shadowed_region(
+    frame: &FrameInput<'_>,
+    supports: &[[f32; REGION_DIRECTIONS]],
+    res: u32,
+) -> Shadowed {
     let offset = frame.settings.normal_offset_texels;
     if !(offset.is_finite() && offset >= 0.0 && offset < res as f32) {
         return Shadowed::Everywhere;
     }
-    let margin = (2.0 * offset).ceil() + 2.0;
-    let n = res as f32;
-    // uv in [lo, hi] as planes on the light's clip coordinates: ndc = 2 uv - 1 = x / w.
-    let ndc = |texel: f32| 2.0 * texel / n - 1.0;
+    let margin = ((2.0 * offset).ceil() + 3.0) / res as f32;
     let m = frame.light.view_proj;
     let (x, y, w) = (m.row(0), m.row(1), m.row(3));
-    let planes = [
-        x - w * ndc(b.x0 as f32 - margin),
-        w * ndc(b.x1 as f32 + margin) - x,
-        y - w * ndc(b.y0 as f32 - margin),
-        w * ndc(b.y1 as f32 + margin) - y,
-        // In front of the light's near plane every lookup is "outside" (visibility 1);
-        // half of it, as the lookup point is offset.
-        w - Vec4::new(0.0, 0.0, 0.0, frame.light.near * 0.5),
-    ];
-    Shadowed::Inside(planes.to_vec())
+    let dirs = region_directions();
+    // In front of the light's near plane every lookup is "outside" (visibility 1); half
+    // of it, as the lookup point is offset.
+    let near = w - Vec4::new(0.0, 0.0, 0.0, frame.light.near * 0.5);
+    let regions = supports
+        .iter()
+        .map(|support| {
+            support
+                .iter()
+                .map(|s| s + margin)
+                .zip(dirs)
+                // An unbounded side bounds nothing.
+                .filter(|(s, _)| s.is_finite())
+                // d · uv <= s with uv = (x / w + 1) / 2, times 2 w > 0.
+                .map(|(s, d)| w * (2.0 * s - d.x - d.y) - x * d.x - y * d.y)
+                .chain([near])
+                .collect()
+        })
+        .collect();
+    Shadowed::Inside(regions)
 }
 
 /// Texels [x0, x1) x [y0, y1) of a square light-space buffer; empty when x0 >= x1 or
@@ -993,8 +1049,8 @@ impl Technique for Smoothies {
         rec: &mut Recorder<'_>,
         frame: &FrameInput<'_>,
     ) -> Result<()> {
-        let shadowed = match self.shadowed {
-            Some(b) => shadowed_region(frame, b, self.shadow.resolution),
+        let shadowed = match &self.shadowed {
+            Some(regions) => shadowed_region(frame, regions, self.shadow.resolution),
             None => Shadowed::Everywhere,
         };
         self.final_pass

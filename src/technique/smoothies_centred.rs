@@ -82,7 +82,7 @@
 //!    point behind a second caster, e.g. the ground under two stacked boxes, stays in the
 //!    umbra). Bilinear weights as `hard`; no falloff texture (the profile is in the
 //!    values). R = 0 draws no smoothie and returns `hard`'s bilinear value: `hard`'s image
-//!    exactly. Outside the casters' boxes and the smoothies' texels every lookup reads "far"
+//!    exactly. Outside the casters' projections and their smoothies every lookup reads "far"
 //!    and the shader returns 1, so the timed pass runs it only where a shadow can fall, as
 //!    the paper form's does (src/technique/smoothies.rs, pass 3).
 //!

@@ -220,6 +220,25 @@ impl SmoothieRecords {
         })
     }
 
+    /// `uv_bounds` in any directions: per unit direction d, the largest d · p over the
+    /// points p the smoothies can cover (each vertex record's uv plus t / cos(MAX_SEGMENT
+    /// / 2) towards d, by the same argument); +inf for a non-finite uv or width. `None`
+    /// without vertex records.
+    pub fn uv_support<const N: usize>(&self, dirs: &[Vec2; N]) -> Option<[f32; N]> {
+        let reach = 1.0 / (MAX_SEGMENT * 0.5).cos();
+        self.vertices.iter().fold(None, |acc, v| {
+            let (uv, t) = (Vec2::from(v.uv), v.width);
+            let s = dirs.map(|d| {
+                if uv.is_finite() && t.is_finite() {
+                    d.dot(uv) + t.abs() * reach
+                } else {
+                    f32::INFINITY
+                }
+            });
+            Some(acc.map_or(s, |a: [f32; N]| std::array::from_fn(|k| a[k].max(s[k]))))
+        })
+    }
+
     /// 32-bit words of the records as laid out in the storage buffer: a multiple of 4
     /// (the segment words are padded to whole 16-byte units).
     pub fn words(&self) -> usize {
@@ -904,6 +923,19 @@ mod tests {
                         continue;
                     };
                     assert!(lo.is_finite() && hi.is_finite(), "{name}: {lo} {hi}");
+                    // The support in 16 directions holds them too (the final pass's
+                    // regions), and in the axes' directions it is the box.
+                    let dirs: [Vec2; 16] = std::array::from_fn(|k| {
+                        Vec2::from_angle(k as f32 * std::f32::consts::TAU / 16.0)
+                    });
+                    let support = rec.uv_support(&dirs).expect("support");
+                    let axes = [hi.x, hi.y, -lo.x, -lo.y];
+                    for (k, a) in [0, 4, 8, 12].into_iter().zip(axes) {
+                        assert!(
+                            (support[k] - a).abs() < 1e-5,
+                            "{name}: {support:?} {lo} {hi}"
+                        );
+                    }
                     for side in [rec.clone(), rec.mirrored()] {
                         for v in side.expand() {
                             let uv = Vec2::from(v.uv);
@@ -911,6 +943,12 @@ mod tests {
                                 uv.cmpge(lo).all() && uv.cmple(hi).all(),
                                 "{name} {width:?}: vertex {uv} outside {lo}..{hi}"
                             );
+                            for (d, s) in dirs.iter().zip(support) {
+                                assert!(
+                                    d.dot(uv) <= s + 1e-6,
+                                    "{name} {width:?}: vertex {uv} beyond {s} towards {d}"
+                                );
+                            }
                         }
                     }
                     let area = (hi - lo).max(Vec2::ZERO);

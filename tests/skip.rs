@@ -6,7 +6,7 @@ mod common;
 use common::{small, Gpu};
 use glam::{Mat4, Vec3};
 use softshadow::render::Renderer;
-use softshadow::scene::Scene;
+use softshadow::scene::{Role, Scene};
 use softshadow::settings::{Settings, SilhouettePath};
 use softshadow::technique::TECHNIQUES;
 use softshadow::vk::FrameTimings;
@@ -284,8 +284,9 @@ fn culling_changes_no_pixel() {
 /// which runs the shader on every pixel, bit for bit: for both forms, on every built-in
 /// scene but the million-triangle one, from the scene's camera, from one orbited round the
 /// scene and from one low over the ground (which reaches behind it: the near plane cuts
-/// the boxes), and at light radius 0. And the split must happen: on most of these frames
-/// well under all of the area drawn runs the shader.
+/// the boxes), at light radius 0, and with a caster that receives nothing (never split).
+/// And the split must happen: on most of these frames well under all of the area drawn
+/// runs the shader.
 #[test]
 fn split_final_pass_shades_as_the_whole_one() {
     let gpu = Gpu::new();
@@ -294,6 +295,8 @@ fn split_final_pass_shades_as_the_whole_one() {
         let cases = [
             ("cylinder", None),
             ("cylinder", Some(0.0)),
+            // The cylinder casting only: drawn unshadowed wherever it is.
+            ("caster-only cylinder", None),
             ("boxes", None),
             ("bunny", None),
             ("primitives", None),
@@ -302,7 +305,12 @@ fn split_final_pass_shades_as_the_whole_one() {
             ("dense", None),
         ];
         for (scene_name, radius) in cases {
-            let scene = Scene::load(scene_name).unwrap();
+            let mut scene = Scene::load(scene_name.trim_start_matches("caster-only ")).unwrap();
+            if scene_name.starts_with("caster-only") {
+                for o in scene.objects.iter_mut().filter(|o| o.role.casts()) {
+                    o.role = Role::Caster;
+                }
+            }
             let settings = Settings {
                 light_radius: radius,
                 ..small(128, 512)

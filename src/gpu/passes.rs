@@ -4,7 +4,7 @@
 use super::gpu_scene::{
     GpuObject, GpuScene, DRAW_PUSH_BYTES, SCENE_ATTRIBUTES, SCENE_VERTEX_STRIDE,
 };
-use crate::frustum::{camera_view_proj, split_object, PixelBox};
+use crate::frustum::{camera_view_proj, split_object, PixelBox, Polytope};
 use crate::shaders;
 use crate::vk::{
     Blend, Buffer, BufferUsageFlags, CompareOp, Context, CullModeFlags, DepthState, DescriptorSet,
@@ -483,8 +483,11 @@ impl FinalPass {
                     bands,
                 )
             } else {
-                // visibility() is never called for it.
-                vec![(false, PixelBox::whole(t.width, t.height))]
+                // visibility() is never called for it: its screen box, unshadowed.
+                Polytope::hexahedron(&o.world_corners())
+                    .screen_box(view_proj, t.width, t.height)
+                    .map(|b| vec![(false, b)])
+                    .unwrap_or_default()
             };
             for (shadowed, part) in parts {
                 area[shadowed as usize] += part.area();

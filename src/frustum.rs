@@ -212,7 +212,8 @@ pub fn effective_depth_bias(depth_bias: f32, depth_span: f32, far: f32) -> f32 {
     (depth_bias * (4.0 * span).min(1.0)).max(8.0 * f32::EPSILON)
 }
 
-/// Pixels [x0, x1) x [y0, y1) of a camera image, row 0 at the top.
+/// Pixels [x0, x1) x [y0, y1) of a camera image (row 0 at the top), or texels of a light
+/// buffer; empty when x0 >= x1 or y0 >= y1.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct PixelBox {
     pub x0: u32,
@@ -222,6 +223,28 @@ pub struct PixelBox {
 }
 
 impl PixelBox {
+    pub const EMPTY: Self = Self {
+        x0: u32::MAX,
+        y0: u32::MAX,
+        x1: 0,
+        y1: 0,
+    };
+
+    /// The texels of a side-`res` buffer whose centres can fall inside the light-uv box
+    /// `lo..hi` (uv 0..1 spans the buffer), one texel wider on each side for rounding,
+    /// clipped to the buffer. An infinite box gives the whole buffer.
+    pub fn of_uv(res: u32, lo: glam::Vec2, hi: glam::Vec2) -> Self {
+        let n = res as f32;
+        // f32 -> u32 `as` saturates: below 0 (and -inf) gives 0; the min keeps +inf in.
+        let texel = |u: f32| (u as u32).min(res);
+        Self {
+            x0: texel((lo.x * n).floor() - 1.0),
+            y0: texel((lo.y * n).floor() - 1.0),
+            x1: texel((hi.x * n).ceil() + 1.0),
+            y1: texel((hi.y * n).ceil() + 1.0),
+        }
+    }
+
     pub fn whole(width: u32, height: u32) -> Self {
         Self {
             x0: 0,
@@ -243,12 +266,17 @@ impl PixelBox {
         }
     }
 
+    /// The smallest box holding both; an empty box adds nothing.
     pub fn union(self, o: Self) -> Self {
-        Self {
-            x0: self.x0.min(o.x0),
-            y0: self.y0.min(o.y0),
-            x1: self.x1.max(o.x1),
-            y1: self.y1.max(o.y1),
+        match (self.is_empty(), o.is_empty()) {
+            (true, _) => o,
+            (_, true) => self,
+            _ => Self {
+                x0: self.x0.min(o.x0),
+                y0: self.y0.min(o.y0),
+                x1: self.x1.max(o.x1),
+                y1: self.y1.max(o.y1),
+            },
         }
     }
 

@@ -421,7 +421,7 @@ impl FinalPass {
         frame: &crate::gpu::FrameInput<'_>,
         set: &DescriptorSet,
     ) -> Result<()> {
-        self.pass_in(rec, frame, set, Shadowed::Everywhere)
+        self.pass_in(rec, frame, set, &Shadowed::Everywhere)
     }
 
     /// `pass`, with the technique's shader only where `shadowed` says (a `split` pass;
@@ -431,13 +431,13 @@ impl FinalPass {
         rec: &mut Recorder<'_>,
         frame: &crate::gpu::FrameInput<'_>,
         set: &DescriptorSet,
-        shadowed: Shadowed,
+        shadowed: &Shadowed,
     ) -> Result<()> {
         let pipeline = if frame.aov { &self.aov } else { &self.pipeline };
         rec.pass(&pipeline.name, |rec| {
             match (&self.unshadowed, frame.aov, shadowed) {
                 (Some(unshadowed), false, Shadowed::Inside(regions)) => {
-                    self.record_split(rec, frame, set, unshadowed, &regions)
+                    self.record_split(rec, frame, set, unshadowed, regions)
                 }
                 _ => self.record(rec, frame.targets, frame.gpu, set, frame.aov),
             }
@@ -521,18 +521,6 @@ impl FinalPass {
         aov: bool,
     ) {
         let pipeline = if aov { &self.aov } else { &self.pipeline };
-        self.record_with(rec, t, scene, set, pipeline, aov);
-    }
-
-    fn record_with(
-        &self,
-        rec: &mut Recorder<'_>,
-        t: &CameraTargets,
-        scene: &GpuScene,
-        set: &DescriptorSet,
-        pipeline: &Pipeline,
-        aov: bool,
-    ) {
         self.begin(rec, t, aov);
         rec.bind_pipeline(pipeline);
         rec.bind_sets(pipeline, &[set]);

@@ -143,10 +143,10 @@ use super::{
     shadow_map_buffer, technique_constants, Form, FrameInput, LightBuffer, Technique,
     TechniqueInfo, TechniqueInit,
 };
-use crate::frustum::fit_light;
+use crate::frustum::{fit_light, PixelBox};
 use crate::gpu::passes::{
-    falloff_lut, CasterCacheOf, DynamicVertices, FinalPass, FinalShader, MapArea, Receivers,
-    ShadowMap, Shadowed, FAR_DEPTH,
+    falloff_lut, rect_of, CasterCacheOf, DynamicVertices, FinalPass, FinalShader, MapArea,
+    Receivers, ShadowMap, Shadowed, FAR_DEPTH,
 };
 use crate::scene::{LightView, Scene};
 use crate::settings::SilhouettePath;
@@ -156,9 +156,8 @@ use crate::silhouette::smoothie::records::{build_records, SmoothieRecords};
 use crate::silhouette::smoothie::{GeometryKey, SmoothieVertex, Width};
 use crate::silhouette::{self, Adjacency, Side};
 use crate::vk::{
-    Blend, Context, CullModeFlags, DescriptorSet, Extent2D, Filter, Format, GraphicsPipelineDesc,
-    Image, ImageUsageFlags, Offset2D, Pipeline, PrimitiveTopology, Recorder, Rect2D, Resource,
-    Sampler,
+    Blend, Context, CullModeFlags, DescriptorSet, Filter, Format, GraphicsPipelineDesc, Image,
+    ImageUsageFlags, Pipeline, PrimitiveTopology, Recorder, Rect2D, Resource, Sampler,
 };
 use anyhow::Result;
 use glam::{Vec2, Vec4};
@@ -431,16 +430,15 @@ pub struct Smoothies {
     gpu_silhouettes: Option<GpuSilhouettes>,
     /// Whether the smoothie pass draws anything (false at t = 0).
     draw_smoothies: bool,
-    /// The texels the last smoothie pass may have drawn (`TexelBox`; `None`: not known, on
+    /// The texels the last smoothie pass may have drawn (`PixelBox`; `None`: not known, on
     /// the GPU path or before the first pass). The next pass clears them with its own.
-    smoothie_drawn: Option<TexelBox>,
+    smoothie_drawn: Option<PixelBox>,
     /// The same for the last shadow-map pass (`light_areas`).
-    map_drawn: Option<TexelBox>,
-    /// Where the last light passes can have left r or the smoothie buffer holding anything
-    /// but the clear value: per caster, a convex polygon in light uv as its support in
-    /// `REGION_DIRECTIONS` (`shadow_regions`; `None`: not known). Outside them the final
-    /// shader's visibility is exactly 1 (`record_final`).
-    shadowed: Option<Vec<[f32; REGION_DIRECTIONS]>>,
+    map_drawn: Option<PixelBox>,
+    /// Where the final pass's visibility can be below 1, from where the last light passes
+    /// can have left r or the smoothie buffer holding anything but the clear value
+    /// (`shadow_regions`, `shadowed_region`; `Everywhere`: not known).
+    shadowed: Shadowed,
 }
 
 impl Smoothies {
@@ -505,7 +503,7 @@ impl Smoothies {
             draw_smoothies: false,
             smoothie_drawn: None,
             map_drawn: None,
-            shadowed: None,
+            shadowed: Shadowed::Everywhere,
         }))
     }
 
@@ -678,40 +676,43 @@ impl Smoothies {
     /// support, in each of `REGION_DIRECTIONS`, of its world box's corners projected by the
     /// light (the r texels) and of its smoothies (`SmoothieRecords::uv_support`). A
     /// 16-gon follows a slanted caster and its smoothies where one box around all of them
-    /// holds much lit ground. `None` when a caster's box reaches to or behind the light's
-    /// eye plane, where the projection is unbounded.
-    fn shadow_regions(&self, frame: &FrameInput<'_>) -> Option<Vec<[f32; REGION_DIRECTIONS]>> {
+    /// holds much lit ground.
+    fn shadow_regions(
+        &self,
+        frame: &FrameInput<'_>,
+        corners: &[(usize, [Vec2; 8])],
+    ) -> Vec<[f32; REGION_DIRECTIONS]> {
         let dirs = region_directions();
         let max = |a: Option<[f32; REGION_DIRECTIONS]>, b: [f32; REGION_DIRECTIONS]| {
             Some(a.map_or(b, |a| std::array::from_fn(|k| a[k].max(b[k]))))
         };
-        let mut regions = Vec::new();
-        for (i, o) in frame.gpu.objects.iter().enumerate() {
-            let mut support = None;
-            if o.in_light && o.role.casts() {
-                for c in o.world_corners() {
-                    let p = frame.light.view_proj * c.extend(1.0);
-                    let uv = p.truncate().truncate() / p.w * 0.5 + 0.5;
-                    if p.w <= 0.0 || !uv.is_finite() {
-                        return None;
-                    }
-                    support = max(support, dirs.map(|d| d.dot(uv)));
-                }
-            }
-            // With no smoothie drawn (t = 0) the cache's records are not in the buffer.
-            let records = self.cpu_cache.get(i).filter(|_| self.draw_smoothies);
-            if let Some(s) = records.and_then(|r| r.uv_support(&dirs)) {
-                support = max(support, s);
-            }
-            regions.extend(support);
+        let mut boxes = vec![None; frame.gpu.objects.len()];
+        for (i, uvs) in corners {
+            boxes[*i] = Some(uvs);
         }
-        Some(regions)
+        boxes
+            .iter()
+            .enumerate()
+            .filter_map(|(i, uvs)| {
+                let mut support = None;
+                for uv in uvs.iter().copied().flatten() {
+                    support = max(support, dirs.map(|d| d.dot(*uv)));
+                }
+                // With no smoothie drawn (t = 0) the cache's records are not in the buffer.
+                let records = self.cpu_cache.get(i).filter(|_| self.draw_smoothies);
+                if let Some(s) = records.and_then(|r| r.uv_support(&dirs)) {
+                    support = max(support, s);
+                }
+                support
+            })
+            .collect()
     }
 
     fn light_areas(&mut self, frame: &FrameInput<'_>) -> (MapArea, Rect2D) {
         let res = self.smoothie.first().map_or(1, |i| i.extent.width);
+        let corners = caster_corner_uvs(frame);
         let smoothies = if !self.draw_smoothies {
-            Some(TexelBox::EMPTY)
+            Some(PixelBox::EMPTY)
         } else if self.gpu_silhouettes.is_some() {
             None
         } else {
@@ -719,30 +720,30 @@ impl Smoothies {
                 self.cpu_cache
                     .iter()
                     .filter_map(SmoothieRecords::uv_bounds)
-                    .fold(TexelBox::EMPTY, |b, (lo, hi)| {
-                        b.union(TexelBox::of_uv(res, lo, hi))
+                    .fold(PixelBox::EMPTY, |b, (lo, hi)| {
+                        b.union(PixelBox::of_uv(res, lo, hi))
                     }),
             )
         };
         let smoothie_area = match (self.smoothie_drawn, smoothies) {
             (Some(last), Some(now)) => last.union(now),
-            _ => TexelBox::whole(res),
+            _ => PixelBox::whole(res, res),
         };
         self.smoothie_drawn = smoothies;
 
         let (map_now, receivers) = match (self.form, smoothies) {
             (Form::Paper, Some(s)) => (
-                casters_box(frame, res).map(|c| c.union(s)),
+                corners.as_ref().map(|c| casters_box(c, res).union(s)),
                 if s.is_empty() {
                     Receivers::Nowhere
                 } else {
-                    Receivers::Within(s.rect())
+                    Receivers::Within(render_area(s))
                 },
             ),
             _ => (None, Receivers::Everywhere),
         };
         let map_area = match (self.map_drawn, map_now) {
-            (Some(last), Some(now)) => Some(last.union(now).rect()),
+            (Some(last), Some(now)) => Some(render_area(last.union(now))),
             _ => None,
         };
         // The receivers' box lies inside the area only when the casters' box is known.
@@ -752,45 +753,53 @@ impl Smoothies {
             Receivers::Everywhere
         };
         self.map_drawn = map_now;
-        self.shadowed = smoothies.and_then(|_| self.shadow_regions(frame));
+        self.shadowed = match (smoothies, &corners) {
+            (Some(_), Some(c)) => shadowed_region(
+                frame,
+                &self.shadow_regions(frame, c),
+                self.shadow.resolution,
+            ),
+            _ => Shadowed::Everywhere,
+        };
         (
             MapArea {
                 all: map_area,
                 receivers,
             },
-            smoothie_area.rect(),
+            render_area(smoothie_area),
         )
     }
 }
 
-/// The texels the casters in the light can cover: each one's world box projected by the
-/// light; `None` when a box reaches to or behind the light's eye plane, where the
-/// projection is unbounded.
-fn casters_box(frame: &FrameInput<'_>, res: u32) -> Option<TexelBox> {
-    let mut b = TexelBox::EMPTY;
-    for o in frame
-        .gpu
-        .objects
-        .iter()
-        .filter(|o| o.in_light && o.role.casts())
-    {
-        let (mut lo, mut hi) = (Vec2::INFINITY, Vec2::NEG_INFINITY);
-        for c in o.local_bounds.corners() {
-            let p = frame.light.view_proj * o.model * c.extend(1.0);
-            // Clip w is the depth along the light's axis: a box corner at or behind the
-            // eye plane projects anywhere.
-            if p.w <= 0.0 {
-                return None;
+/// Each caster in the light's world box corners in light uv, with its object index;
+/// `None` when a box reaches to or behind the light's eye plane (clip w is the depth along
+/// the light's axis), where the projection is unbounded.
+fn caster_corner_uvs(frame: &FrameInput<'_>) -> Option<Vec<(usize, [Vec2; 8])>> {
+    let casters = frame.gpu.objects.iter().enumerate();
+    casters
+        .filter(|(_, o)| o.in_light && o.role.casts())
+        .map(|(i, o)| {
+            let mut uvs = [Vec2::ZERO; 8];
+            for (uv, c) in uvs.iter_mut().zip(o.world_corners()) {
+                let p = frame.light.view_proj * c.extend(1.0);
+                *uv = p.truncate().truncate() / p.w * 0.5 + 0.5;
+                if p.w <= 0.0 || !uv.is_finite() {
+                    return None;
+                }
             }
-            let uv = p.truncate().truncate() / p.w * 0.5 + 0.5;
-            if !uv.is_finite() {
-                return None;
-            }
-            (lo, hi) = (lo.min(uv), hi.max(uv));
-        }
-        b = b.union(TexelBox::of_uv(res, lo, hi));
-    }
-    Some(b)
+            Some((i, uvs))
+        })
+        .collect()
+}
+
+/// The texels the casters in the light can cover: each one's projected box
+/// (`caster_corner_uvs`).
+fn casters_box(corners: &[(usize, [Vec2; 8])], res: u32) -> PixelBox {
+    corners.iter().fold(PixelBox::EMPTY, |b, (_, uvs)| {
+        let lo = uvs.iter().fold(Vec2::INFINITY, |a, &u| a.min(u));
+        let hi = uvs.iter().fold(Vec2::NEG_INFINITY, |a, &u| a.max(u));
+        b.union(PixelBox::of_uv(res, lo, hi))
+    })
 }
 
 /// Directions of the half-planes that bound each caster's light-uv polygon
@@ -846,88 +855,13 @@ fn shadowed_region(
     Shadowed::Inside(regions)
 }
 
-/// Texels [x0, x1) x [y0, y1) of a square light-space buffer; empty when x0 >= x1 or
-/// y0 >= y1.
-#[derive(Clone, Copy, Debug, PartialEq)]
-struct TexelBox {
-    x0: u32,
-    y0: u32,
-    x1: u32,
-    y1: u32,
-}
-
-impl TexelBox {
-    const EMPTY: Self = Self {
-        x0: u32::MAX,
-        y0: u32::MAX,
-        x1: 0,
-        y1: 0,
-    };
-
-    fn whole(res: u32) -> Self {
-        Self {
-            x0: 0,
-            y0: 0,
-            x1: res,
-            y1: res,
-        }
+/// `b` as a render area, which may not be empty: an empty box gives the texel at the
+/// origin, harmlessly cleared (every texel outside what was drawn holds the clear value).
+fn render_area(b: PixelBox) -> Rect2D {
+    if b.is_empty() {
+        return rect_of(PixelBox::whole(1, 1));
     }
-
-    /// The texels of a side-`res` buffer whose centres can fall inside the light-uv box
-    /// `lo..hi` (uv 0..1 spans the buffer), one texel wider on each side for rounding,
-    /// clipped to the buffer. An infinite box gives the whole buffer.
-    fn of_uv(res: u32, lo: Vec2, hi: Vec2) -> Self {
-        let n = res as f32;
-        // f32 -> u32 `as` saturates: below 0 (and -inf) gives 0; the min keeps +inf in.
-        let texel = |u: f32| (u as u32).min(res);
-        Self {
-            x0: texel((lo.x * n).floor() - 1.0),
-            y0: texel((lo.y * n).floor() - 1.0),
-            x1: texel((hi.x * n).ceil() + 1.0),
-            y1: texel((hi.y * n).ceil() + 1.0),
-        }
-    }
-
-    fn is_empty(self) -> bool {
-        self.x0 >= self.x1 || self.y0 >= self.y1
-    }
-
-    fn union(self, o: Self) -> Self {
-        match (self.is_empty(), o.is_empty()) {
-            (true, _) => o,
-            (_, true) => self,
-            _ => Self {
-                x0: self.x0.min(o.x0),
-                y0: self.y0.min(o.y0),
-                x1: self.x1.max(o.x1),
-                y1: self.y1.max(o.y1),
-            },
-        }
-    }
-
-    /// As a render area, which may not be empty: an empty box gives the texel at the
-    /// origin, harmlessly cleared (every texel outside what was drawn holds the clear value).
-    fn rect(self) -> Rect2D {
-        if self.is_empty() {
-            return Rect2D {
-                offset: Offset2D { x: 0, y: 0 },
-                extent: Extent2D {
-                    width: 1,
-                    height: 1,
-                },
-            };
-        }
-        Rect2D {
-            offset: Offset2D {
-                x: self.x0 as i32,
-                y: self.y0 as i32,
-            },
-            extent: Extent2D {
-                width: self.x1 - self.x0,
-                height: self.y1 - self.y0,
-            },
-        }
-    }
+    rect_of(b)
 }
 
 impl Technique for Smoothies {
@@ -1049,12 +983,8 @@ impl Technique for Smoothies {
         rec: &mut Recorder<'_>,
         frame: &FrameInput<'_>,
     ) -> Result<()> {
-        let shadowed = match &self.shadowed {
-            Some(regions) => shadowed_region(frame, regions, self.shadow.resolution),
-            None => Shadowed::Everywhere,
-        };
         self.final_pass
-            .pass_in(rec, frame, &self.final_set, shadowed)
+            .pass_in(rec, frame, &self.final_set, &self.shadowed)
     }
 
     fn light_buffers(&self) -> Vec<LightBuffer<'_>> {
@@ -1128,23 +1058,23 @@ mod tests {
     /// nothing to a union and becomes the 1x1 area a render area must at least be.
     #[test]
     fn texel_boxes_cover_their_uv_box_and_stay_inside_the_buffer() {
-        let b = TexelBox::of_uv(1024, Vec2::new(0.25, 0.5), Vec2::new(0.5, 0.75));
+        let b = PixelBox::of_uv(1024, Vec2::new(0.25, 0.5), Vec2::new(0.5, 0.75));
         assert_eq!((b.x0, b.y0, b.x1, b.y1), (255, 511, 513, 769));
-        let inf = TexelBox::of_uv(1024, Vec2::NEG_INFINITY, Vec2::INFINITY);
-        assert_eq!(inf, TexelBox::whole(1024));
-        let edge = TexelBox::of_uv(1024, Vec2::new(-0.5, 0.999), Vec2::new(0.001, 1.5));
+        let inf = PixelBox::of_uv(1024, Vec2::NEG_INFINITY, Vec2::INFINITY);
+        assert_eq!(inf, PixelBox::whole(1024, 1024));
+        let edge = PixelBox::of_uv(1024, Vec2::new(-0.5, 0.999), Vec2::new(0.001, 1.5));
         assert_eq!((edge.x0, edge.y0, edge.x1, edge.y1), (0, 1021, 3, 1024));
-        assert!(TexelBox::EMPTY.is_empty());
-        assert_eq!(TexelBox::EMPTY.union(b), b);
-        assert_eq!(b.union(TexelBox::EMPTY), b);
+        assert!(PixelBox::EMPTY.is_empty());
+        assert_eq!(PixelBox::EMPTY.union(b), b);
+        assert_eq!(b.union(PixelBox::EMPTY), b);
         let u = b.union(edge);
         assert_eq!((u.x0, u.y0, u.x1, u.y1), (0, 511, 513, 1024));
-        let r = TexelBox::EMPTY.rect();
+        let r = render_area(PixelBox::EMPTY);
         assert_eq!(
             (r.offset.x, r.offset.y, r.extent.width, r.extent.height),
             (0, 0, 1, 1)
         );
-        let r = b.rect();
+        let r = render_area(b);
         assert_eq!(
             (r.offset.x, r.offset.y, r.extent.width, r.extent.height),
             (255, 511, 258, 258)

@@ -3,7 +3,7 @@
 
 mod common;
 
-use common::{small, Gpu};
+use common::{covered, small, Gpu};
 use glam::{Mat4, Vec3};
 use softshadow::render::Renderer;
 use softshadow::scene::{Role, Scene};
@@ -278,10 +278,11 @@ fn culling_changes_no_pixel() {
     }
 }
 
-/// smoothies' timed final pass runs its shader only on the pixels where a shadow can fall
-/// (the receivers' boxes cut to the light's frustum over the texels its light passes
-/// drew) and a shader without lookups elsewhere. Its colour must equal the AOV pass's,
-/// which runs the shader on every pixel, bit for bit: for both forms, on every built-in
+/// The split techniques' timed final pass runs their shader only on the pixels where a
+/// shadow can fall (the receivers' boxes cut to the light's frustum over the texels their
+/// lookups can reach in what the light passes drew) and a shader without lookups
+/// elsewhere. Its colour must equal the AOV pass's, which runs the shader on every pixel,
+/// bit for bit: for both smoothies forms and the three pcss searches, on every built-in
 /// scene but the million-triangle one, from the scene's camera, from one orbited round the
 /// scene and from one low over the ground (which reaches behind it: the near plane cuts
 /// the boxes), at light radius 0, and with a caster that receives nothing (never split).
@@ -291,10 +292,19 @@ fn culling_changes_no_pixel() {
 fn split_final_pass_shades_as_the_whole_one() {
     let gpu = Gpu::new();
     let (mut frames, mut split) = (0, 0);
-    for name in ["smoothies", "smoothies-centred"] {
+    for name in [
+        "smoothies",
+        "smoothies-centred",
+        "pcss",
+        "pcss-fast",
+        "pcss-walk",
+    ] {
         let cases = [
             ("cylinder", None),
             ("cylinder", Some(0.0)),
+            // A light large enough that penumbrae reach as far as lookups can.
+            ("cylinder", Some(1.5)),
+            ("boxes", Some(1.5)),
             // The cylinder casting only: drawn unshadowed wherever it is.
             ("caster-only cylinder", None),
             ("boxes", None),
@@ -333,6 +343,19 @@ fn split_final_pass_shades_as_the_whole_one() {
                 let img = r.read_back().unwrap();
                 let whole = r.read_color().unwrap();
                 let differing = img.color.iter().zip(&whole).filter(|(a, b)| a != b).count();
+                // Sharper than the colours, which the screen boxes' slack hides: every point
+                // the shader shades below 1 lies inside a region. Below 1 by more than the
+                // rounding of a bilinear sum of four lit texels' weights (smoothies at R 0).
+                let shadowed = r.shadowed().unwrap();
+                let outside = covered(&img)
+                    .into_iter()
+                    .filter(|&i| img.visibility[i] < 1.0 - 1e-6)
+                    .filter(|&i| !shadowed.contains(Vec3::from_slice(&img.position[i][..3])))
+                    .count();
+                assert_eq!(
+                    outside, 0,
+                    "{name} on {scene_name} (R {radius:?}, {view} camera): {outside} shadowed points outside its regions"
+                );
                 assert_eq!(
                     differing, 0,
                     "{name} on {scene_name} (R {radius:?}, {view} camera): {differing} pixels differ"

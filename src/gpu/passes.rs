@@ -12,7 +12,7 @@ use crate::vk::{
     Pipeline, PrimitiveTopology, Recorder, Rect2D, Resource,
 };
 use anyhow::Result;
-use glam::{Mat4, Vec4};
+use glam::{Mat4, Vec3, Vec4};
 use rayon::prelude::*;
 
 /// Clear value of linear-depth targets: "nothing here", farther than any far plane, finite
@@ -334,6 +334,18 @@ pub enum Shadowed {
     /// technique's shader gives exactly 1. No region: nowhere; a region without a plane:
     /// everywhere.
     Inside(Vec<Vec<Vec4>>),
+}
+
+impl Shadowed {
+    /// Whether the technique's shader may give less than 1 at world point `p`.
+    pub fn contains(&self, p: Vec3) -> bool {
+        match self {
+            Shadowed::Everywhere => true,
+            Shadowed::Inside(regions) => regions
+                .iter()
+                .any(|planes| planes.iter().all(|q| q.dot(p.extend(1.0)) >= 0.0)),
+        }
+    }
 }
 
 impl FinalPass {

@@ -145,6 +145,12 @@ impl<'c> Renderer<'c> {
         self.technique.name()
     }
 
+    /// Where the last frame's timed final pass ran the technique's shader
+    /// (`Technique::shadowed`).
+    pub fn shadowed(&self) -> Option<&crate::gpu::passes::Shadowed> {
+        self.technique.shadowed()
+    }
+
     /// The light radius in effect.
     pub fn light_radius(&self) -> f32 {
         self.settings.radius_for(&self.scene)

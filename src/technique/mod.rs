@@ -10,6 +10,7 @@ pub mod penumbra_map_centred;
 pub mod plateaus;
 pub mod plateaus_centred;
 pub mod reference;
+pub mod regions;
 pub mod smoothies;
 pub mod smoothies_centred;
 pub mod ssm;
@@ -74,6 +75,13 @@ pub trait Technique {
     /// The GPU silhouette passes' state, for the CPU-vs-GPU tests (smoothies and penumbra-map on
     /// the GPU path).
     fn gpu_silhouettes(&self) -> Option<&crate::silhouette::gpu::GpuSilhouettes> {
+        None
+    }
+
+    /// Where the last frame's timed final pass ran the technique's shader (`FinalPass::split`,
+    /// regions.rs): `None` for a technique that runs it everywhere. For the tests, which
+    /// hold every point shadowed in the AOV pass to lie inside.
+    fn shadowed(&self) -> Option<&crate::gpu::passes::Shadowed> {
         None
     }
 }

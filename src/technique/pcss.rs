@@ -47,6 +47,15 @@
 //!    from `frame.light_params`. Writes colour RGBA8, no blending (the untimed AOV pass
 //!    `pcss/aov` also visibility R32F, position RGBA32F, normal RGBA16F: `FinalPass`).
 //!
+//!    Where no caster texel lies within a search's reach (`search_reach_texels`: Eq. 3 for
+//!    a receiver at infinity, clamped) the search finds nothing and v is exactly 1. So
+//!    the timed pass (`FinalPass::split`, src/technique/regions.rs) runs this shader only
+//!    on the receivers' parts inside the light frustum over each caster's projected box
+//!    widened by that reach, the normal offset and a gather's footprint, and
+//!    glsl/common/unshadowed.frag (no lookup) elsewhere: the same image (tests/skip.rs),
+//!    for a fraction of the pass on lavapipe, which runs every branch for every fragment,
+//!    and on a GPU too, which pays the search before it can exit.
+//!
 //! ## Sample counts
 //! `--pcf-kernel poissonN` sets both the search and the filter to N samples. A box kernel
 //! (the default, meant for `pcf`) does not apply: then SEARCH_SAMPLES and FILTER_SAMPLES.
@@ -74,10 +83,10 @@
 //! (`pcss_filter`); its penumbrae differ slightly.
 
 use super::{
-    shadow_map_buffer, technique_constants, FrameInput, LightBuffer, Technique, TechniqueInfo,
-    TechniqueInit,
+    regions, shadow_map_buffer, technique_constants, FrameInput, LightBuffer, Technique,
+    TechniqueInfo, TechniqueInit,
 };
-use crate::gpu::passes::{FinalPass, FinalShader, ShadowMap};
+use crate::gpu::passes::{FinalPass, FinalShader, ShadowMap, Shadowed};
 use crate::settings::PcfKernel;
 use crate::shaders::{self, constants as k};
 use crate::vk::{Context, DescriptorSet, Filter, Recorder, Resource, Sampler};
@@ -118,10 +127,22 @@ pub(crate) fn slots(frame: &FrameInput<'_>, search_samples: u32, filter_samples:
     c
 }
 
+/// The farthest from its point, in texels, that a blocker-search tap reads: Eq. 3 for a
+/// receiver infinitely far, clamped as the shader clamps it (the Poisson points lie inside
+/// the unit disc; a tap's 2x2 footprint is `regions::shadowed`'s). Outside that reach of
+/// every caster's texels the search finds no blocker and the pass returns exactly 1.
+pub(crate) fn search_reach_texels(frame: &FrameInput<'_>, res: u32) -> f32 {
+    let r = frame.light_radius.max(0.0);
+    let two_tan = 2.0 * (frame.light.fov_deg.to_radians() * 0.5).tan();
+    (r / (two_tan * frame.light.near) * res as f32).min(MAX_RADIUS_TEXELS)
+}
+
 pub struct Pcss {
     shadow: ShadowMap,
     final_pass: FinalPass,
     final_set: DescriptorSet,
+    /// Where a blocker can be found, built with the light pass (`regions::around_casters`).
+    shadowed: Shadowed,
     search_samples: u32,
     filter_samples: u32,
     _sampler: Sampler,
@@ -146,7 +167,8 @@ impl Pcss {
             "pcss/final",
         )
         .context("pcss final descriptor set")?;
-        let final_pass = FinalPass::new(
+        // Split: the shader runs only within a search's reach of a caster (regions.rs).
+        let final_pass = FinalPass::split(
             ctx,
             "pcss/final",
             FinalShader {
@@ -160,6 +182,7 @@ impl Pcss {
             shadow,
             final_pass,
             final_set,
+            shadowed: Shadowed::Everywhere,
             search_samples,
             filter_samples,
             _sampler: sampler,
@@ -183,6 +206,8 @@ impl Technique for Pcss {
         frame: &FrameInput<'_>,
     ) -> Result<()> {
         self.shadow.pass(rec, frame.gpu)?;
+        let res = self.shadow.resolution;
+        self.shadowed = regions::around_casters(frame, res, search_reach_texels(frame, res));
         Ok(())
     }
 
@@ -196,7 +221,12 @@ impl Technique for Pcss {
         rec: &mut Recorder<'_>,
         frame: &FrameInput<'_>,
     ) -> Result<()> {
-        self.final_pass.pass(rec, frame, &self.final_set)
+        self.final_pass
+            .pass_in(rec, frame, &self.final_set, &self.shadowed)
+    }
+
+    fn shadowed(&self) -> Option<&Shadowed> {
+        Some(&self.shadowed)
     }
 
     fn light_buffers(&self) -> Vec<LightBuffer<'_>> {

@@ -32,7 +32,8 @@
 //!    `glsl/pcss_fast/final.frag` (pcss-walk: `walk.frag`), both `visibility.glsl`: the early
 //!    exits, then pcss's search (or the walk), then steps 2–3. Writes colour RGBA8, no blending
 //!    (the untimed AOV pass `pcss-fast/aov` also visibility R32F, position RGBA32F, normal
-//!    RGBA16F).
+//!    RGBA16F). Split as pcss's (`FinalPass::split`, src/technique/regions.rs): the shader
+//!    only within its reach of a caster's texels (`PcssFast::reach`), no lookup elsewhere.
 //!
 //! Constants: pcss's (`frame.technique`, `frame.technique2.x`, glsl/pcss/constants.glsl) and
 //! `frame.technique2.y` = the coarsest level (glsl/pcss_fast/constants.glsl).
@@ -143,12 +144,12 @@
 //! the reads are cache-friendly buffer loads and the gathers stay bounded at pcss's 16; not
 //! measured here.
 
-use super::pcss;
+use super::{pcss, regions};
 use super::{
     shadow_map_buffer, technique_constants, FrameInput, LightBuffer, Technique, TechniqueInfo,
     TechniqueInit,
 };
-use crate::gpu::passes::{FinalPass, FinalShader, ShadowMap};
+use crate::gpu::passes::{FinalPass, FinalShader, ShadowMap, Shadowed};
 use crate::shaders::{self, constants as k};
 use crate::vk::{
     Buffer, BufferUsageFlags, Context, DescriptorSet, Filter, MemoryLocation, Pipeline, Recorder,
@@ -256,6 +257,8 @@ pub struct PcssFast {
     build_set: DescriptorSet,
     final_pass: FinalPass,
     final_set: DescriptorSet,
+    /// Where a blocker can be found, built with the light passes (`regions::around_casters`).
+    shadowed: Shadowed,
     search_samples: u32,
     filter_samples: u32,
     _sampler: Sampler,
@@ -310,7 +313,8 @@ impl PcssFast {
             names.final_pass,
         )
         .with_context(|| format!("{} final descriptor set", names.technique))?;
-        let final_pass = FinalPass::new(
+        // Split: the shader runs only within the search's reach of a caster (regions.rs).
+        let final_pass = FinalPass::split(
             ctx,
             names.final_pass,
             match search {
@@ -335,10 +339,26 @@ impl PcssFast {
             build_set,
             final_pass,
             final_set,
+            shadowed: Shadowed::Everywhere,
             search_samples,
             filter_samples,
             _sampler: sampler,
         }))
+    }
+
+    /// How far from its point, in texels, a caster texel can change what the final shader
+    /// gives. `pcss-fast`: `pcss`'s search reach, as its image is pcss's. `pcss-walk`: its
+    /// cells reach past the search square and count casters outside it into the blocker
+    /// estimate, but that only sets d_b; a point is then shaded below 1 only by real caster
+    /// texels under pcss's filter taps (radius at most MAX_RADIUS_TEXELS) or, for the umbra
+    /// exit, under the whole square (`search + 1` texels round the point, whose corners lie
+    /// sqrt(2) times as far).
+    fn reach(&self, frame: &FrameInput<'_>) -> f32 {
+        let search = pcss::search_reach_texels(frame, self.shadow.resolution);
+        match self.search {
+            Search::Taps => search,
+            Search::Walk => std::f32::consts::SQRT_2 * (search + 1.0).max(pcss::MAX_RADIUS_TEXELS),
+        }
     }
 
     /// Pass 2: every level from the one below, the first from the shadow map.
@@ -385,6 +405,7 @@ impl Technique for PcssFast {
         frame: &FrameInput<'_>,
     ) -> Result<()> {
         self.shadow.pass(rec, frame.gpu)?;
+        self.shadowed = regions::around_casters(frame, self.shadow.resolution, self.reach(frame));
         self.record_minmax(rec)
     }
 
@@ -399,7 +420,12 @@ impl Technique for PcssFast {
         rec: &mut Recorder<'_>,
         frame: &FrameInput<'_>,
     ) -> Result<()> {
-        self.final_pass.pass(rec, frame, &self.final_set)
+        self.final_pass
+            .pass_in(rec, frame, &self.final_set, &self.shadowed)
+    }
+
+    fn shadowed(&self) -> Option<&Shadowed> {
+        Some(&self.shadowed)
     }
 
     fn light_buffers(&self) -> Vec<LightBuffer<'_>> {

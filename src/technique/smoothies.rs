@@ -104,7 +104,7 @@
 //!    (`FinalPass::split`) takes per caster a 16-sided polygon in light uv around its
 //!    box's projected corners and its smoothies' reach (`shadow_regions`), cuts each
 //!    receiver's world box to the light frustum over each polygon (widened by the normal
-//!    offset and the gather's footprint, `shadowed_region`), and draws the object with this
+//!    offset and the gather's footprint, `regions::shadowed`), and draws the object with this
 //!    shader only in the screen boxes of those cuts (up to 8 rows of columns for a light
 //!    mesh such as a ground, one box for a heavy one), with glsl/common/unshadowed.frag
 //!    (visibility 1, no lookup) in the rest of its screen box: scissors of one rendering
@@ -140,7 +140,7 @@
 //! the shadow also detaches the smoothie (Volokh Fig. 8), hence normal offset.
 
 use super::{
-    shadow_map_buffer, technique_constants, Form, FrameInput, LightBuffer, Technique,
+    regions, shadow_map_buffer, technique_constants, Form, FrameInput, LightBuffer, Technique,
     TechniqueInfo, TechniqueInit,
 };
 use crate::frustum::{fit_light, PixelBox};
@@ -160,7 +160,7 @@ use crate::vk::{
     ImageUsageFlags, Pipeline, PrimitiveTopology, Recorder, Rect2D, Resource, Sampler,
 };
 use anyhow::Result;
-use glam::{Vec2, Vec4};
+use glam::Vec2;
 use std::sync::Arc;
 
 pub const INFO: TechniqueInfo = TechniqueInfo {
@@ -437,7 +437,7 @@ pub struct Smoothies {
     map_drawn: Option<PixelBox>,
     /// Where the final pass's visibility can be below 1, from where the last light passes
     /// can have left r or the smoothie buffer holding anything but the clear value
-    /// (`shadow_regions`, `shadowed_region`; `Everywhere`: not known).
+    /// (`shadow_regions`, `regions::shadowed`; `Everywhere`: not known).
     shadowed: Shadowed,
 }
 
@@ -673,44 +673,36 @@ impl Smoothies {
     /// The clears and the ground's fill outside these boxes were lavapipe's largest fixed
     /// costs in both passes.
     /// Per caster, the light-uv polygon its texels in r and the smoothie buffer lie in: the
-    /// support, in each of `REGION_DIRECTIONS`, of its world box's corners projected by the
-    /// light (the r texels) and of its smoothies (`SmoothieRecords::uv_support`). A
-    /// 16-gon follows a slanted caster and its smoothies where one box around all of them
-    /// holds much lit ground.
+    /// support of its world box's corners projected by the light (the r texels; casters in
+    /// the light's frustum) and of its smoothies (`SmoothieRecords::uv_support`; every
+    /// caster's are drawn).
     fn shadow_regions(
         &self,
         frame: &FrameInput<'_>,
         corners: &[(usize, [Vec2; 8])],
-    ) -> Vec<[f32; REGION_DIRECTIONS]> {
-        let dirs = region_directions();
-        let max = |a: Option<[f32; REGION_DIRECTIONS]>, b: [f32; REGION_DIRECTIONS]| {
-            Some(a.map_or(b, |a| std::array::from_fn(|k| a[k].max(b[k]))))
-        };
+    ) -> Vec<regions::Support> {
+        let dirs = regions::directions();
         let mut boxes = vec![None; frame.gpu.objects.len()];
         for (i, uvs) in corners {
-            boxes[*i] = Some(uvs);
+            boxes[*i] = regions::support_of(uvs);
         }
         boxes
-            .iter()
+            .into_iter()
             .enumerate()
-            .filter_map(|(i, uvs)| {
-                let mut support = None;
-                for uv in uvs.iter().copied().flatten() {
-                    support = max(support, dirs.map(|d| d.dot(*uv)));
-                }
+            .filter_map(|(i, support)| {
                 // With no smoothie drawn (t = 0) the cache's records are not in the buffer.
                 let records = self.cpu_cache.get(i).filter(|_| self.draw_smoothies);
-                if let Some(s) = records.and_then(|r| r.uv_support(&dirs)) {
-                    support = max(support, s);
+                match (support, records.and_then(|r| r.uv_support(&dirs))) {
+                    (Some(a), Some(b)) => Some(regions::union(a, b)),
+                    (a, b) => a.or(b),
                 }
-                support
             })
             .collect()
     }
 
     fn light_areas(&mut self, frame: &FrameInput<'_>) -> (MapArea, Rect2D) {
         let res = self.smoothie.first().map_or(1, |i| i.extent.width);
-        let corners = caster_corner_uvs(frame);
+        let corners = regions::caster_corner_uvs(frame);
         let smoothies = if !self.draw_smoothies {
             Some(PixelBox::EMPTY)
         } else if self.gpu_silhouettes.is_some() {
@@ -754,11 +746,10 @@ impl Smoothies {
         };
         self.map_drawn = map_now;
         self.shadowed = match (smoothies, &corners) {
-            (Some(_), Some(c)) => shadowed_region(
-                frame,
-                &self.shadow_regions(frame, c),
-                self.shadow.resolution,
-            ),
+            (Some(_), Some(c)) => {
+                let supports = self.shadow_regions(frame, c);
+                regions::shadowed(frame, &supports, self.shadow.resolution, 0.0)
+            }
             _ => Shadowed::Everywhere,
         };
         (
@@ -771,88 +762,14 @@ impl Smoothies {
     }
 }
 
-/// Each caster in the light's world box corners in light uv, with its object index;
-/// `None` when a box reaches to or behind the light's eye plane (clip w is the depth along
-/// the light's axis), where the projection is unbounded.
-fn caster_corner_uvs(frame: &FrameInput<'_>) -> Option<Vec<(usize, [Vec2; 8])>> {
-    let casters = frame.gpu.objects.iter().enumerate();
-    casters
-        .filter(|(_, o)| o.in_light && o.role.casts())
-        .map(|(i, o)| {
-            let mut uvs = [Vec2::ZERO; 8];
-            for (uv, c) in uvs.iter_mut().zip(o.world_corners()) {
-                let p = frame.light.view_proj * c.extend(1.0);
-                *uv = p.truncate().truncate() / p.w * 0.5 + 0.5;
-                if p.w <= 0.0 || !uv.is_finite() {
-                    return None;
-                }
-            }
-            Some((i, uvs))
-        })
-        .collect()
-}
-
 /// The texels the casters in the light can cover: each one's projected box
-/// (`caster_corner_uvs`).
+/// (`regions::caster_corner_uvs`).
 fn casters_box(corners: &[(usize, [Vec2; 8])], res: u32) -> PixelBox {
     corners.iter().fold(PixelBox::EMPTY, |b, (_, uvs)| {
         let lo = uvs.iter().fold(Vec2::INFINITY, |a, &u| a.min(u));
         let hi = uvs.iter().fold(Vec2::NEG_INFINITY, |a, &u| a.max(u));
         b.union(PixelBox::of_uv(res, lo, hi))
     })
-}
-
-/// Directions of the half-planes that bound each caster's light-uv polygon
-/// (`Smoothies::shadow_regions`), evenly spaced round the circle.
-const REGION_DIRECTIONS: usize = 16;
-
-fn region_directions() -> [Vec2; REGION_DIRECTIONS] {
-    std::array::from_fn(|k| {
-        let a = k as f32 * std::f32::consts::TAU / REGION_DIRECTIONS as f32;
-        Vec2::new(a.cos(), a.sin())
-    })
-}
-
-/// Where the final pass's lookups can read texels inside the casters' light-uv polygons
-/// (`supports`, in a side-`res` light buffer): each polygon as the light frustum over it,
-/// widened by the normal offset (the lookup point moves by up to `normal_offset_texels`
-/// texels across the light's rays and as much again by its depth change) and the gather's
-/// footprint (its texels lie within 1.5 texels of the point along each axis), in front
-/// of half the light's near plane. Outside every region each lookup reads clear texels,
-/// the caster and smoothie depths "far", so the paper's and the centred shader both give
-/// exactly 1; objects that receive no shadow get 1 anyway.
-fn shadowed_region(
-    frame: &FrameInput<'_>,
-    supports: &[[f32; REGION_DIRECTIONS]],
-    res: u32,
-) -> Shadowed {
-    let offset = frame.settings.normal_offset_texels;
-    if !(offset.is_finite() && offset >= 0.0 && offset < res as f32) {
-        return Shadowed::Everywhere;
-    }
-    let margin = ((2.0 * offset).ceil() + 3.0) / res as f32;
-    let m = frame.light.view_proj;
-    let (x, y, w) = (m.row(0), m.row(1), m.row(3));
-    let dirs = region_directions();
-    // In front of the light's near plane every lookup is "outside" (visibility 1); half
-    // of it, as the lookup point is offset.
-    let near = w - Vec4::new(0.0, 0.0, 0.0, frame.light.near * 0.5);
-    let regions = supports
-        .iter()
-        .map(|support| {
-            support
-                .iter()
-                .map(|s| s + margin)
-                .zip(dirs)
-                // An unbounded side bounds nothing.
-                .filter(|(s, _)| s.is_finite())
-                // d · uv <= s with uv = (x / w + 1) / 2, times 2 w > 0.
-                .map(|(s, d)| w * (2.0 * s - d.x - d.y) - x * d.x - y * d.y)
-                .chain([near])
-                .collect()
-        })
-        .collect();
-    Shadowed::Inside(regions)
 }
 
 /// `b` as a render area, which may not be empty: an empty box gives the texel at the
@@ -985,6 +902,10 @@ impl Technique for Smoothies {
     ) -> Result<()> {
         self.final_pass
             .pass_in(rec, frame, &self.final_set, &self.shadowed)
+    }
+
+    fn shadowed(&self) -> Option<&Shadowed> {
+        Some(&self.shadowed)
     }
 
     fn light_buffers(&self) -> Vec<LightBuffer<'_>> {

@@ -1,0 +1,155 @@
+//! Where a shadow can fall, for `FinalPass::split`: per caster, a convex polygon in light
+//! uv around the texels it can write in a casters-only light buffer (its world box's
+//! corners, projected), and the light frustum over that polygon, widened by how far from
+//! its own texel a technique's lookups reach, as world half-spaces (`Shadowed::Inside`).
+//!
+//! A technique may use it when its final shader gives exactly 1 wherever every texel it
+//! reads holds the buffer's clear value ("far"): `smoothies` and `smoothies-centred` (with
+//! their smoothies' reach added to each polygon), `pcss`, `pcss-fast` and `pcss-walk` (the
+//! blocker search finds nothing and returns 1 before any filter). Not `pcf`: its filter
+//! sums bilinear weights, 1 only up to rounding, so its lit pixels are not exactly those of
+//! a shader without lookups.
+
+use super::FrameInput;
+use crate::gpu::passes::Shadowed;
+use glam::{Vec2, Vec4};
+
+/// Directions of the half-planes that bound each caster's polygon, evenly spaced round
+/// the circle: a 16-gon follows a slanted caster's projection where one box around all
+/// casters holds much lit ground.
+pub const DIRECTIONS: usize = 16;
+
+/// A convex polygon in light uv as its support in each of `directions()`: the points uv
+/// with d_k · uv <= support[k] for every k.
+pub type Support = [f32; DIRECTIONS];
+
+pub fn directions() -> [Vec2; DIRECTIONS] {
+    std::array::from_fn(|k| {
+        let a = k as f32 * std::f32::consts::TAU / DIRECTIONS as f32;
+        Vec2::new(a.cos(), a.sin())
+    })
+}
+
+/// The support of a set of points.
+pub fn support_of(points: &[Vec2]) -> Option<Support> {
+    let dirs = directions();
+    points.iter().map(|p| dirs.map(|d| d.dot(*p))).reduce(union)
+}
+
+/// The support of the union of two polygons (of the convex hull around both).
+pub fn union(a: Support, b: Support) -> Support {
+    std::array::from_fn(|k| a[k].max(b[k]))
+}
+
+/// Each caster in the light's world box corners in light uv, with its object index;
+/// `None` when a box reaches to or behind the light's eye plane (clip w is the depth along
+/// the light's axis), where the projection is unbounded.
+pub fn caster_corner_uvs(frame: &FrameInput<'_>) -> Option<Vec<(usize, [Vec2; 8])>> {
+    let casters = frame.gpu.objects.iter().enumerate();
+    casters
+        .filter(|(_, o)| o.in_light && o.role.casts())
+        .map(|(i, o)| {
+            let mut uvs = [Vec2::ZERO; 8];
+            for (uv, c) in uvs.iter_mut().zip(o.world_corners()) {
+                let p = frame.light.view_proj * c.extend(1.0);
+                *uv = p.truncate().truncate() / p.w * 0.5 + 0.5;
+                if p.w <= 0.0 || !uv.is_finite() {
+                    return None;
+                }
+            }
+            Some((i, uvs))
+        })
+        .collect()
+}
+
+/// Where a technique reading only a casters' buffer of side `res` can see a caster: each
+/// caster's projected box, with lookups reaching up to `reach_texels` texels from the
+/// point's own (beyond the normal offset and a gather's footprint, which `shadowed` adds).
+/// Everywhere when a caster's box reaches behind the light.
+pub fn around_casters(frame: &FrameInput<'_>, res: u32, reach_texels: f32) -> Shadowed {
+    match caster_corner_uvs(frame) {
+        Some(corners) => {
+            let supports: Vec<Support> = corners
+                .iter()
+                .filter_map(|(_, uvs)| support_of(uvs))
+                .collect();
+            shadowed(frame, &supports, res, reach_texels)
+        }
+        None => Shadowed::Everywhere,
+    }
+}
+
+/// Where the final pass's lookups can read texels inside the polygons `supports` (in a
+/// side-`res` light buffer): each polygon as the light frustum over it, widened by the
+/// lookups' reach (`reach_texels`, from the lookup point), the normal offset (the lookup
+/// point moves by up to `normal_offset_texels` texels across the light's rays and as much
+/// again by its depth change) and a gather's footprint (its texels lie within 1.5 texels of
+/// the point along each axis), in front of half the light's near plane. Outside every
+/// region each lookup reads clear texels only; objects that receive no shadow get 1 anyway.
+pub fn shadowed(
+    frame: &FrameInput<'_>,
+    supports: &[Support],
+    res: u32,
+    reach_texels: f32,
+) -> Shadowed {
+    let offset = frame.settings.normal_offset_texels;
+    let sane = |x: f32| x.is_finite() && x >= 0.0 && x < res as f32;
+    if !(sane(offset) && sane(reach_texels)) {
+        return Shadowed::Everywhere;
+    }
+    let margin = ((2.0 * offset).ceil() + 3.0 + reach_texels.ceil()) / res as f32;
+    let m = frame.light.view_proj;
+    let (x, y, w) = (m.row(0), m.row(1), m.row(3));
+    let dirs = directions();
+    // In front of the light's near plane every lookup is "outside" (visibility 1); half
+    // of it, as the lookup point is offset.
+    let near = w - Vec4::new(0.0, 0.0, 0.0, frame.light.near * 0.5);
+    let regions = supports
+        .iter()
+        .map(|support| {
+            support
+                .iter()
+                .map(|s| s + margin)
+                .zip(dirs)
+                // An unbounded side bounds nothing.
+                .filter(|(s, _)| s.is_finite())
+                // d · uv <= s with uv = (x / w + 1) / 2, times 2 w > 0.
+                .map(|(s, d)| w * (2.0 * s - d.x - d.y) - x * d.x - y * d.y)
+                .chain([near])
+                .collect()
+        })
+        .collect();
+    Shadowed::Inside(regions)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The polygon of a support holds the points it was taken of and a union holds both
+    /// polygons' points; a point past one corner by more than rounding is outside.
+    #[test]
+    fn supports_bound_their_points() {
+        let holds = |s: &Support, p: Vec2| {
+            directions()
+                .iter()
+                .zip(s)
+                .all(|(d, h)| d.dot(p) <= h + 1e-6)
+        };
+        let a = [
+            Vec2::new(0.1, 0.2),
+            Vec2::new(0.3, 0.25),
+            Vec2::new(0.2, 0.4),
+        ];
+        let b = [Vec2::new(0.7, 0.7), Vec2::new(0.8, 0.6)];
+        let (sa, sb) = (support_of(&a).unwrap(), support_of(&b).unwrap());
+        let both = union(sa, sb);
+        for p in a.iter().chain(&b) {
+            assert!(holds(&both, *p));
+        }
+        assert!(a.iter().all(|p| holds(&sa, *p)));
+        assert!(!holds(&sa, Vec2::new(0.31, 0.25)));
+        assert!(!holds(&sa, b[0]));
+        assert!(support_of(&[]).is_none());
+    }
+}

@@ -286,7 +286,7 @@ impl<'c> Renderer<'c> {
 
     /// How many objects the last frame's culling kept for the light-space passes and for the
     /// camera pass: (in the light's frustum, in the camera's). Every object when culling is
-    /// off (tests/skip.rs).
+    /// off (tests/avoided_work.rs).
     pub fn objects_in_frusta(&self) -> (usize, usize) {
         self.gpu.in_frusta()
     }

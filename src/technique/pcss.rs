@@ -52,7 +52,7 @@
 //!    the timed pass (`FinalPass::split`, src/technique/regions.rs) runs this shader only
 //!    on the receivers' parts inside the light frustum over each caster's projected box
 //!    widened by that reach, the normal offset and a gather's footprint, and
-//!    glsl/common/unshadowed.frag (no lookup) elsewhere: the same image (tests/skip.rs),
+//!    glsl/common/unshadowed.frag (no lookup) elsewhere: the same image (tests/avoided_work.rs),
 //!    for a fraction of the pass on lavapipe, which runs every branch for every fragment,
 //!    and on a GPU too, which pays the search before it can exit.
 //!
@@ -119,7 +119,7 @@ pub(crate) fn slots(frame: &FrameInput<'_>, search_samples: u32, filter_samples:
     let r = frame.light_radius.max(0.0);
     let two_tan = 2.0 * (frame.light.fov_deg.to_radians() * 0.5).tan();
     let mut c = [0.0; 8];
-    c[k::PCSS_LIGHT_UV_NEAR] = r / (two_tan * frame.light.near); // Eq. 2
+    c[k::PCSS_LIGHT_UV_NEAR] = light_uv_near(frame);
     c[k::PCSS_PENUMBRA_SCALE] = r / two_tan; // Eq. 4 without its depths
     c[k::PCSS_MAX_RADIUS_TEXELS] = MAX_RADIUS_TEXELS;
     c[k::PCSS_FILTER_SAMPLES] = filter_samples as f32;
@@ -132,9 +132,13 @@ pub(crate) fn slots(frame: &FrameInput<'_>, search_samples: u32, filter_samples:
 /// the unit disc; a tap's 2x2 footprint is `regions::shadowed`'s). Outside that reach of
 /// every caster's texels the search finds no blocker and the pass returns exactly 1.
 pub(crate) fn search_reach_texels(frame: &FrameInput<'_>, res: u32) -> f32 {
-    let r = frame.light_radius.max(0.0);
+    (light_uv_near(frame) * res as f32).min(MAX_RADIUS_TEXELS)
+}
+
+/// Eq. 2: the light's radius in shadow-map uv at the near plane.
+fn light_uv_near(frame: &FrameInput<'_>) -> f32 {
     let two_tan = 2.0 * (frame.light.fov_deg.to_radians() * 0.5).tan();
-    (r / (two_tan * frame.light.near) * res as f32).min(MAX_RADIUS_TEXELS)
+    frame.light_radius.max(0.0) / (two_tan * frame.light.near)
 }
 
 pub struct Pcss {

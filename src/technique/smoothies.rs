@@ -109,7 +109,7 @@
 //!    mesh such as a ground, one box for a heavy one), with glsl/common/unshadowed.frag
 //!    (visibility 1, no lookup) in the rest of its screen box: scissors of one rendering
 //!    scope, objects in the scene's order, so the image is the whole pass's bit for bit
-//!    (tests/skip.rs). On lavapipe the lookups then run on 31-48 % of the area drawn on
+//!    (tests/avoided_work.rs). On lavapipe the lookups then run on 31-48 % of the area drawn on
 //!    `cylinder`, `overlap` and `bunny`, and the pass costs not much more than `hard`'s: a
 //!    CPU driver runs both sides of a branch, so the shader's own early-outs save nothing
 //!    there. On a GPU, where a warp skips what none of its threads

@@ -115,20 +115,26 @@ fn camera_moves_reuse_light_passes_light_moves_rebuild_them() {
     }
 }
 
-/// The smoothie pass and the shadow map clear only the texels their draws can reach this
-/// frame or could last frame (CPU path; `Smoothies::light_areas`). While the caster slides
-/// off its old smoothies, frame after frame, every light-space buffer (shadow map included)
-/// and the image equal those of a new renderer's first frame of the same scene, which
-/// clears the whole buffers; and some texels that held a smoothie one frame hold none the
-/// next, so stale ones would show.
+/// The smoothie pass, the penumbra pass and the shadow map clear only the texels their
+/// draws can reach this frame or could last frame (CPU path; `Smoothies::light_areas`,
+/// `PenumbraMap::light_areas`). While the caster slides off its old smoothies (cones and
+/// sheets), frame after frame, every light-space buffer (shadow map included) and the
+/// image equal those of a new renderer's first frame of the same scene, which clears the
+/// whole buffers; and some texels that held a smoothie (a penumbra) one frame hold none
+/// the next, so stale ones would show.
 #[test]
-fn smoothie_pass_clears_what_its_last_frame_drew() {
+fn light_passes_clear_what_their_last_frame_drew() {
     let gpu = Gpu::new();
     let settings = Settings {
         silhouettes: SilhouettePath::Cpu,
         ..small(96, 256)
     };
-    for name in ["smoothies", "smoothies-centred"] {
+    for name in [
+        "smoothies",
+        "smoothies-centred",
+        "penumbra-map",
+        "penumbra-map-centred",
+    ] {
         let mut r = Renderer::new(
             &gpu.ctx,
             Scene::load("cylinder").unwrap(),
@@ -137,12 +143,14 @@ fn smoothie_pass_clears_what_its_last_frame_drew() {
         )
         .unwrap();
         r.render().unwrap();
-        // The smoothie depth: channel 0 of `smoothie_buffer` (paper) or `smoothie_depth`.
+        // The smoothie depth: channel 0 of `smoothie_buffer` (paper) or `smoothie_depth`,
+        // clear 1e30; the penumbra map's outer intensity, clear 1.
         let depth = r
             .technique_buffer_names()
             .into_iter()
-            .find(|b| b.starts_with("smoothie"))
-            .expect("a smoothie buffer");
+            .find(|b| b.starts_with("smoothie") || *b == "penumbra_map")
+            .expect("a smoothie buffer or a penumbra map");
+        let clear = if depth == "penumbra_map" { 1.0 } else { 1e29 };
         let mut last = r.read_technique_buffer(depth).unwrap().channels[0].clone();
         let mut uncovered = 0;
         for step in 1..=3 {
@@ -169,13 +177,13 @@ fn smoothie_pass_clears_what_its_last_frame_drew() {
             uncovered += last
                 .iter()
                 .zip(&now)
-                .filter(|(a, b)| **a < 1e29 && **b >= 1e29)
+                .filter(|(a, b)| **a < clear && **b >= clear)
                 .count();
             last = now;
         }
         assert!(
             uncovered > 100,
-            "{name}: only {uncovered} texels lost their smoothie"
+            "{name}: only {uncovered} texels lost their smoothie or penumbra"
         );
     }
 }
@@ -282,7 +290,8 @@ fn culling_changes_no_pixel() {
 /// shadow can fall (the receivers' boxes cut to the light's frustum over the texels their
 /// lookups can reach in what the light passes drew) and a shader without lookups
 /// elsewhere. Its colour must equal the AOV pass's, which runs the shader on every pixel,
-/// bit for bit: for both smoothies forms and the three pcss searches, on every built-in
+/// bit for bit: for both smoothies forms, the three pcss searches and both penumbra-map
+/// forms, on every built-in
 /// scene but the million-triangle one, from the scene's camera, from one orbited round the
 /// scene and from one low over the ground (which reaches behind it: the near plane cuts
 /// the boxes), at light radius 0, and with a caster that receives nothing (never split).
@@ -298,6 +307,8 @@ fn split_final_pass_shades_as_the_whole_one() {
         "pcss",
         "pcss-fast",
         "pcss-walk",
+        "penumbra-map",
+        "penumbra-map-centred",
     ] {
         let cases = [
             ("cylinder", None),

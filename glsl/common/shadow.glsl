@@ -45,6 +45,13 @@ float bilinear(vec4 g, vec2 uv) {
     return dot(g, w);
 }
 
+// `bilinear`, but exactly 1 where all four texels are 1: the weights sum to 1 only up to
+// rounding, and a final pass drawn in parts (`FinalPass::split`) must give there what its
+// lookup-free shader (common/unshadowed.frag) gives elsewhere.
+float bilinear_lit(vec4 g, vec2 uv) {
+    return all(equal(g, vec4(1.0))) ? 1.0 : bilinear(g, uv);
+}
+
 // 1 where the point is in front of (or on) the stored depth, else 0. The relative bias
 // absorbs float rounding of the linear depths, which grows with depth.
 vec4 lit_test(vec4 stored, float depth) {

@@ -17,7 +17,7 @@ float visibility(vec3 p, vec3 n) {
     // Component 1: the foremost surface of any role.
     vec4 own = own_surface(textureGather(shadow_map, s.uv, 1), s, p, n);
     vec4 intensity = mix(vec4(1.0), textureGather(penumbra_map, s.uv, 0), own);
-    return clamp(bilinear(lit * intensity, s.uv), 0.0, 1.0);
+    return clamp(bilinear_lit(lit * intensity, s.uv), 0.0, 1.0);
 }
 
 #include "common/final.glsl"

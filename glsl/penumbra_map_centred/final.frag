@@ -31,7 +31,7 @@ float visibility(vec3 p, vec3 n) {
     vec4 receiver = (1.0 - textureGather(penumbra_map, s.uv, 2)) * frame.light_params.y;
     vec4 inner = (1.0 - textureGather(penumbra_map, s.uv, 1)) * step(s.depth, receiver * (1.0 + RECEIVER_EPS));
     vec4 behind = min(inner, outer);
-    return clamp(bilinear(mix(behind, in_front, lit), s.uv), 0.0, 1.0);
+    return clamp(bilinear_lit(mix(behind, in_front, lit), s.uv), 0.0, 1.0);
 }
 
 #include "common/final.glsl"

@@ -26,7 +26,7 @@ float visibility(vec3 p, vec3 n) {
     if (!s.inside) return 1.0;
     vec4 lit = lit_test(textureGather(shadow_map, s.uv, 0), s.depth);
     // R = 0: no smoothie was drawn, exactly `hard`.
-    if (SMOOTHIE_T <= 0.0) return bilinear(lit, s.uv);
+    if (SMOOTHIE_T <= 0.0) return bilinear_lit(lit, s.uv);
     vec4 in_front = lit_test(textureGather(smoothie_depth, s.uv, 0), s.depth);
     // Lit and in front of every smoothie (the bulk of the image): no penumbra fetch.
     if (all(equal(lit * in_front, vec4(1.0)))) return 1.0;
@@ -34,7 +34,7 @@ float visibility(vec3 p, vec3 n) {
     vec4 receiver = (1.0 - textureGather(smoothie_penumbra, s.uv, 2)) * frame.light_params.y;
     vec4 inner = (1.0 - textureGather(smoothie_penumbra, s.uv, 1)) * step(s.depth, receiver * (1.0 + RECEIVER_EPS));
     vec4 behind = min(inner, outer);
-    return clamp(bilinear(mix(behind, outer, lit), s.uv), 0.0, 1.0);
+    return clamp(bilinear_lit(mix(behind, outer, lit), s.uv), 0.0, 1.0);
 }
 
 #include "common/final.glsl"

@@ -42,10 +42,18 @@
 //!    attachment; r = the nearest caster's linear depth (the shadow map of the final test),
 //!    g = the nearest surface of any role (Z_P of Eq. 1: the foremost surface, casting or
 //!    not). The paper's shadow map holds every object; our scenes have receive-only grounds,
-//!    which need a depth for Eq. 1 but must not cast, hence the two channels.
+//!    which need a depth for Eq. 1 but must not cast, hence the two channels. r is read
+//!    everywhere, g only where the penumbra map is below 1 (passes 2 and 3). So on the CPU
+//!    path the pass clears and draws only the casters' projected boxes and the cones' and
+//!    sheets' texels, joined with last frame's, and draws the objects that receive but cast
+//!    nothing (a ground that fills the map) only inside the cones' and sheets' texels
+//!    (`light_areas`): g holds 1e30 elsewhere. A porter can draw every object into the
+//!    whole map instead: same image.
 //! 2. `penumbra-map/penumbra` — cones and sheets from the light, culling off, no depth
 //!    attachment; one colour attachment, the penumbra map: R16_SFLOAT intensity, clear 1.0
-//!    (the paper's "clear to white"), blend MIN. `glsl/penumbra_map/penumbra.vert` projects
+//!    (the paper's "clear to white"), blend MIN; on the CPU path cleared and drawn only in
+//!    the cones' and sheets' texels joined with last frame's (every texel outside holds
+//!    the clear value; a porter can clear the whole map). `glsl/penumbra_map/penumbra.vert` projects
 //!    with the light's view-projection and passes the linear depth Z_F and (Zv k, k)
 //!    perspective-correctly; `penumbra.frag` (its tests and bound in
 //!    glsl/penumbra_map/wedge.glsl, shared with the centred form) reads Z_P = the shadow
@@ -72,7 +80,17 @@
 //!    surface (the ground just outside a caster's silhouette), which the bilinear footprint
 //!    would otherwise smear over grazing caster faces only a texel or two wide. (A single
 //!    window at the point's depth misreads sloped receivers: moire, stress case
-//!    `blocker-near-light`.) Writes the standard camera targets.
+//!    `blocker-near-light`.) Writes colour RGBA8 (the untimed AOV pass `penumbra-map/aov`
+//!    also visibility, position and normal: `FinalPass`). Where all four texels are lit
+//!    and read intensity 1, v is exactly 1 (`bilinear_lit`: the weights' sum is 1 only up
+//!    to rounding), and outside the texels a caster or its cones and sheets project to,
+//!    every texel is so. So on the CPU path, where that geometry is known, the timed pass
+//!    (`FinalPass::split`, src/technique/regions.rs) runs this shader only on the
+//!    receivers' parts inside the light frustum over each caster's polygon (its box's
+//!    projected corners and its cones' and sheets' vertices, `light_uvs`) and
+//!    glsl/common/unshadowed.frag elsewhere: the same image (tests/avoided_work.rs), for a
+//!    fraction of the pass on lavapipe, which runs every branch for every fragment. A
+//!    porter can draw the whole pass with this shader: same image.
 //!
 //! ## Equations
 //! Sec. 3: C_r = (Z_far - Z_v) L_r / Z_v (cone radius). Eq. 1 (in linear, "world-space"
@@ -93,11 +111,13 @@
 //! from the light) hides the penumbra of whatever lies behind it.
 
 use super::{
-    shadow_map_buffer, technique_constants, Form, FrameInput, LightBuffer, Technique,
+    regions, shadow_map_buffer, technique_constants, Form, FrameInput, LightBuffer, Technique,
     TechniqueInfo, TechniqueInit,
 };
-use crate::frustum::fit_light;
-use crate::gpu::passes::{CasterCacheOf, DynamicVertices, FinalPass, FinalShader, ShadowMap};
+use crate::frustum::{fit_light, PixelBox};
+use crate::gpu::passes::{
+    CasterCacheOf, DynamicVertices, FinalPass, FinalShader, MapArea, Receivers, ShadowMap, Shadowed,
+};
 use crate::scene::LightView;
 use crate::settings::SilhouettePath;
 use crate::shaders::{self, constants as k};
@@ -106,9 +126,10 @@ use crate::silhouette::penumbra::{build_penumbra_sides, PenumbraKey, PenumbraVer
 use crate::silhouette::{self, Adjacency};
 use crate::vk::{
     Blend, Context, CullModeFlags, DescriptorSet, Filter, Format, GraphicsPipelineDesc, Image,
-    ImageUsageFlags, Pipeline, PrimitiveTopology, Recorder, Resource, Sampler,
+    ImageUsageFlags, Pipeline, PrimitiveTopology, Recorder, Rect2D, Resource, Sampler,
 };
 use anyhow::{Context as _, Result};
+use glam::{Vec2, Vec3};
 use std::sync::Arc;
 
 pub const INFO: TechniqueInfo = TechniqueInfo {
@@ -192,6 +213,24 @@ pub struct PenumbraMap {
     gpu_silhouettes: Option<GpuSilhouettes>,
     /// Whether the penumbra pass draws anything this frame (R > 0).
     draw_geometry: bool,
+    /// Where the final shader can give less than 1, built with the light passes
+    /// (`light_areas`; `Everywhere`: not known).
+    shadowed: Shadowed,
+    /// The texels the last penumbra pass may have drawn (`None`: not known, on the GPU path
+    /// or before the first pass); the next pass clears them with its own.
+    penumbra_drawn: Option<PixelBox>,
+    /// The same for the last shadow-map pass (paper form).
+    map_drawn: Option<PixelBox>,
+}
+
+/// What the casters and their cones and sheets cover in light uv (`PenumbraMap::light_uvs`).
+struct LightUvs {
+    /// Per caster, the polygon around its box's corners and its geometry.
+    supports: Vec<regions::Support>,
+    /// The texels of the casters' projected boxes.
+    casters: PixelBox,
+    /// The texels of the cones and sheets.
+    geometry: PixelBox,
 }
 
 impl PenumbraMap {
@@ -289,7 +328,8 @@ impl PenumbraMap {
                 aov: shaders::PENUMBRA_MAP_CENTRED_FINAL_FRAG_AOV,
             },
         };
-        let final_pass = FinalPass::new(ctx, names.final_pass, final_shader, &final_set)?;
+        // Split: the shader runs only where a caster or its cones and sheets project.
+        let final_pass = FinalPass::split(ctx, names.final_pass, final_shader, &final_set)?;
         let adjacency = silhouette::caster_adjacency(init.scene, |_| true)?;
         // The GPU silhouette passes build the outer side only: the centred form always
         // builds on the CPU.
@@ -331,6 +371,9 @@ impl PenumbraMap {
             inner_vertices: DynamicVertices::new("penumbra-map inner cones and sheets"),
             gpu_silhouettes,
             draw_geometry: false,
+            shadowed: Shadowed::Everywhere,
+            penumbra_drawn: None,
+            map_drawn: None,
         }))
     }
 
@@ -376,6 +419,94 @@ impl PenumbraMap {
                     .map(|g| g.vertices),
                 }
             },
+        )
+    }
+
+    /// Per object, the light-uv points that bound what it draws into the light buffers:
+    /// its box's projected corners (a caster in the light) and its cones' and sheets'
+    /// vertices (a projected triangle lies inside its vertices' hull; every cached
+    /// caster's geometry is drawn, also one just outside the light's frustum, whose cones
+    /// can reach into it). `None` on the GPU path, whose geometry only the device knows,
+    /// and when a box or a vertex reaches behind the light.
+    fn light_uvs(&self, frame: &FrameInput<'_>) -> Option<LightUvs> {
+        if self.draw_geometry && self.gpu_silhouettes.is_some() {
+            return None;
+        }
+        let corners = regions::caster_corner_uvs(frame)?;
+        let mut points = vec![Vec::new(); frame.gpu.objects.len()];
+        for (i, uvs) in &corners {
+            points[*i].extend(uvs);
+        }
+        let (mut lo, mut hi) = (Vec2::INFINITY, Vec2::NEG_INFINITY);
+        for (i, caster) in points.iter_mut().enumerate() {
+            let sides = self.cache.get(i).filter(|_| self.draw_geometry);
+            for v in sides.into_iter().flatten().flatten() {
+                let p = frame.light.view_proj * Vec3::from(v.position).extend(1.0);
+                let uv = p.truncate().truncate() / p.w * 0.5 + 0.5;
+                if p.w <= 0.0 || !uv.is_finite() {
+                    return None;
+                }
+                (lo, hi) = (lo.min(uv), hi.max(uv));
+                caster.push(uv);
+            }
+        }
+        let res = self.shadow.resolution;
+        Some(LightUvs {
+            supports: points
+                .iter()
+                .filter_map(|p| regions::support_of(p))
+                .collect(),
+            casters: regions::casters_box(&corners, res),
+            geometry: if lo.x <= hi.x {
+                PixelBox::of_uv(res, lo, hi)
+            } else {
+                PixelBox::EMPTY
+            },
+        })
+    }
+
+    /// This frame's areas, from `light_uvs`, as smoothies' (`Smoothies::light_areas`):
+    /// the penumbra map is cleared and drawn only where the cones and sheets project,
+    /// joined with where they did last frame, so that every texel outside holds the clear
+    /// value; the paper form's shadow map likewise around the casters and the geometry,
+    /// with the objects that receive but cast nothing (a ground filling the map) drawn only
+    /// under the geometry: the final pass reads the foremost surface (g) only where the
+    /// penumbra map is below 1, and the penumbra pass only under itself. (The centred
+    /// form's inner pass marches the map for hidden receivers: its map stays whole.) Sets
+    /// where the final shader can give less than 1: each caster's polygon
+    /// (`regions::shadowed` adds the normal offset and the gather's footprint).
+    fn light_areas(&mut self, frame: &FrameInput<'_>) -> (MapArea, Rect2D) {
+        let uvs = self.light_uvs(frame);
+        let res = self.shadow.resolution;
+        self.shadowed = match &uvs {
+            Some(u) => regions::shadowed(frame, &u.supports, res, 0.0),
+            None => Shadowed::Everywhere,
+        };
+        let geometry = uvs.as_ref().map(|u| u.geometry);
+        let penumbra_area = match (self.penumbra_drawn, geometry) {
+            (Some(last), Some(now)) => last.union(now),
+            _ => PixelBox::whole(res, res),
+        };
+        self.penumbra_drawn = geometry;
+        let (map_now, receivers) = match (self.form, &uvs) {
+            (Form::Paper, Some(u)) => (
+                Some(u.casters.union(u.geometry)),
+                if u.geometry.is_empty() {
+                    Receivers::Nowhere
+                } else {
+                    Receivers::Within(regions::render_area(u.geometry))
+                },
+            ),
+            _ => (None, Receivers::Everywhere),
+        };
+        let all = match (self.map_drawn, map_now) {
+            (Some(last), Some(now)) => Some(regions::render_area(last.union(now))),
+            _ => None,
+        };
+        self.map_drawn = map_now;
+        (
+            MapArea { all, receivers },
+            regions::render_area(penumbra_area),
         )
     }
 
@@ -445,10 +576,15 @@ impl Technique for PenumbraMap {
             }
         }
 
-        self.shadow.pass(rec, frame.gpu)?;
+        let (map_area, penumbra_area) = self.light_areas(frame);
+        self.shadow.pass_in(rec, frame.gpu, &map_area)?;
         rec.pass(names.penumbra, |rec| {
             // The paper's "clear to white"; the centred form's inner occlusion starts at 1.
-            rec.begin_rendering(&[(&self.penumbra, Some([1.0; 4]))], None);
+            rec.begin_rendering_in(
+                &[(&self.penumbra, Some([1.0; 4]))],
+                None,
+                Some(penumbra_area),
+            );
             if self.draw_geometry {
                 rec.bind_pipeline(&self.penumbra_pipeline);
                 rec.bind_sets(&self.penumbra_pipeline, &[&self.penumbra_set]);
@@ -485,7 +621,12 @@ impl Technique for PenumbraMap {
         rec: &mut Recorder<'_>,
         frame: &FrameInput<'_>,
     ) -> Result<()> {
-        self.final_pass.pass(rec, frame, &self.final_set)
+        self.final_pass
+            .pass_in(rec, frame, &self.final_set, &self.shadowed)
+    }
+
+    fn shadowed(&self) -> Option<&Shadowed> {
+        Some(&self.shadowed)
     }
 
     fn light_buffers(&self) -> Vec<LightBuffer<'_>> {

@@ -65,7 +65,11 @@
 //!    farthest receiver depth of the inner values there, else 0 (a point behind a second caster, e.g. the ground under
 //!    two stacked boxes, stays in the umbra), and never more than the outer visibility.
 //!    Bilinear weights as `hard`. R = 0 draws no cones or sheets: the map stays (1, 1, 1, 1),
-//!    and the result is `hard`'s exactly.
+//!    and the result is `hard`'s exactly. Where the penumbra map holds its clear value and no
+//!    caster is in front, v is exactly 1 (`bilinear_lit`), so the timed pass is split as the
+//!    paper form's (its header, pass 3: the shader only over each caster's box and its outer
+//!    and inner cones and sheets), and the penumbra map cleared and drawn as the paper form's;
+//!    the shadow map stays whole, as the inner pass marches it for hidden receivers.
 //!
 //! ## Combining edges (what the centring approximates)
 //! - Several outer wedges at a texel: the darkest (MIN), as the paper. Exact for one edge;

@@ -6,12 +6,16 @@
 //! A technique may use it when its final shader gives exactly 1 wherever every texel it
 //! reads holds the buffer's clear value ("far"): `smoothies` and `smoothies-centred` (with
 //! their smoothies' reach added to each polygon), `pcss`, `pcss-fast` and `pcss-walk` (the
-//! blocker search finds nothing and returns 1 before any filter). Not `pcf`: its filter
-//! sums bilinear weights, 1 only up to rounding, so its lit pixels are not exactly those of
-//! a shader without lookups.
+//! blocker search finds nothing and returns 1 before any filter), `penumbra-map` and
+//! `penumbra-map-centred` (with their cones' and sheets' vertices added to each polygon;
+//! `bilinear_lit` in glsl/common/shadow.glsl makes four lit texels exactly 1). Not `pcf`:
+//! its filter sums bilinear weights, 1 only up to rounding, so its lit pixels are not
+//! exactly those of a shader without lookups.
 
 use super::FrameInput;
-use crate::gpu::passes::Shadowed;
+use crate::frustum::PixelBox;
+use crate::gpu::passes::{rect_of, Shadowed};
+use crate::vk::Rect2D;
 use glam::{Vec2, Vec4};
 
 /// Directions of the half-planes that bound each caster's polygon, evenly spaced round
@@ -60,6 +64,25 @@ pub fn caster_corner_uvs(frame: &FrameInput<'_>) -> Option<Vec<(usize, [Vec2; 8]
             Some((i, uvs))
         })
         .collect()
+}
+
+/// The texels the casters in the light can cover: each one's projected box
+/// (`caster_corner_uvs`).
+pub fn casters_box(corners: &[(usize, [Vec2; 8])], res: u32) -> PixelBox {
+    corners.iter().fold(PixelBox::EMPTY, |b, (_, uvs)| {
+        let lo = uvs.iter().fold(Vec2::INFINITY, |a, &u| a.min(u));
+        let hi = uvs.iter().fold(Vec2::NEG_INFINITY, |a, &u| a.max(u));
+        b.union(PixelBox::of_uv(res, lo, hi))
+    })
+}
+
+/// `b` as a render area, which may not be empty: an empty box gives the texel at the
+/// origin, harmlessly cleared (every texel outside what was drawn holds the clear value).
+pub fn render_area(b: PixelBox) -> Rect2D {
+    if b.is_empty() {
+        return rect_of(PixelBox::whole(1, 1));
+    }
+    rect_of(b)
 }
 
 /// Where a technique reading only a casters' buffer of side `res` can see a caster: each

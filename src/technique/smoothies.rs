@@ -145,8 +145,8 @@ use super::{
 };
 use crate::frustum::{fit_light, PixelBox};
 use crate::gpu::passes::{
-    falloff_lut, rect_of, CasterCacheOf, DynamicVertices, FinalPass, FinalShader, MapArea,
-    Receivers, ShadowMap, Shadowed, FAR_DEPTH,
+    falloff_lut, CasterCacheOf, DynamicVertices, FinalPass, FinalShader, MapArea, Receivers,
+    ShadowMap, Shadowed, FAR_DEPTH,
 };
 use crate::scene::{LightView, Scene};
 use crate::settings::SilhouettePath;
@@ -725,17 +725,19 @@ impl Smoothies {
 
         let (map_now, receivers) = match (self.form, smoothies) {
             (Form::Paper, Some(s)) => (
-                corners.as_ref().map(|c| casters_box(c, res).union(s)),
+                corners
+                    .as_ref()
+                    .map(|c| regions::casters_box(c, res).union(s)),
                 if s.is_empty() {
                     Receivers::Nowhere
                 } else {
-                    Receivers::Within(render_area(s))
+                    Receivers::Within(regions::render_area(s))
                 },
             ),
             _ => (None, Receivers::Everywhere),
         };
         let map_area = match (self.map_drawn, map_now) {
-            (Some(last), Some(now)) => Some(render_area(last.union(now))),
+            (Some(last), Some(now)) => Some(regions::render_area(last.union(now))),
             _ => None,
         };
         // The receivers' box lies inside the area only when the casters' box is known.
@@ -757,28 +759,9 @@ impl Smoothies {
                 all: map_area,
                 receivers,
             },
-            render_area(smoothie_area),
+            regions::render_area(smoothie_area),
         )
     }
-}
-
-/// The texels the casters in the light can cover: each one's projected box
-/// (`regions::caster_corner_uvs`).
-fn casters_box(corners: &[(usize, [Vec2; 8])], res: u32) -> PixelBox {
-    corners.iter().fold(PixelBox::EMPTY, |b, (_, uvs)| {
-        let lo = uvs.iter().fold(Vec2::INFINITY, |a, &u| a.min(u));
-        let hi = uvs.iter().fold(Vec2::NEG_INFINITY, |a, &u| a.max(u));
-        b.union(PixelBox::of_uv(res, lo, hi))
-    })
-}
-
-/// `b` as a render area, which may not be empty: an empty box gives the texel at the
-/// origin, harmlessly cleared (every texel outside what was drawn holds the clear value).
-fn render_area(b: PixelBox) -> Rect2D {
-    if b.is_empty() {
-        return rect_of(PixelBox::whole(1, 1));
-    }
-    rect_of(b)
 }
 
 impl Technique for Smoothies {
@@ -990,12 +973,12 @@ mod tests {
         assert_eq!(b.union(PixelBox::EMPTY), b);
         let u = b.union(edge);
         assert_eq!((u.x0, u.y0, u.x1, u.y1), (0, 511, 513, 1024));
-        let r = render_area(PixelBox::EMPTY);
+        let r = regions::render_area(PixelBox::EMPTY);
         assert_eq!(
             (r.offset.x, r.offset.y, r.extent.width, r.extent.height),
             (0, 0, 1, 1)
         );
-        let r = render_area(b);
+        let r = regions::render_area(b);
         assert_eq!(
             (r.offset.x, r.offset.y, r.extent.width, r.extent.height),
             (255, 511, 258, 258)

@@ -290,8 +290,8 @@ fn culling_changes_no_pixel() {
 /// shadow can fall (the receivers' boxes cut to the light's frustum over the texels their
 /// lookups can reach in what the light passes drew) and a shader without lookups
 /// elsewhere. Its colour must equal the AOV pass's, which runs the shader on every pixel,
-/// bit for bit: for both smoothies forms, the three pcss searches and both penumbra-map
-/// forms, on every built-in
+/// bit for bit: for both smoothies forms, the three pcss searches, both penumbra-map
+/// forms and pcf, on every built-in
 /// scene but the million-triangle one, from the scene's camera, from one orbited round the
 /// scene and from one low over the ground (which reaches behind it: the near plane cuts
 /// the boxes), at light radius 0, and with a caster that receives nothing (never split).
@@ -309,7 +309,14 @@ fn split_final_pass_shades_as_the_whole_one() {
         "pcss-walk",
         "penumbra-map",
         "penumbra-map-centred",
+        // pcf with its widest kernels, whose reach the regions must hold.
+        "pcf box15",
+        "pcf poisson64",
     ] {
+        let (name, kernel) = match name.split_once(' ') {
+            Some((name, kernel)) => (name, kernel.parse().unwrap()),
+            None => (name, Settings::default().pcf_kernel),
+        };
         let cases = [
             ("cylinder", None),
             ("cylinder", Some(0.0)),
@@ -334,6 +341,7 @@ fn split_final_pass_shades_as_the_whole_one() {
             }
             let settings = Settings {
                 light_radius: radius,
+                pcf_kernel: kernel,
                 ..small(128, 512)
             };
             let mut r = Renderer::new(&gpu.ctx, scene, name, settings).unwrap();

@@ -73,6 +73,7 @@ float pcf_box(sampler2D sm, vec2 uv, ReceiverPlane rp, int n) {
     vec2 f = t - i0;
     int h = (n - 1) / 2;
     float sum = 0.0;
+    bool every_lit = true;
     for (int b = 0; b <= n; b += 2) {
         // Texel rows b and b + 1 of the footprint (relative to i0 - h).
         float wy0 = (b < n ? 1.0 - f.y : 0.0) + (b > 0 ? f.y : 0.0);
@@ -86,10 +87,13 @@ float pcf_box(sampler2D sm, vec2 uv, ReceiverPlane rp, int n) {
             vec4 lit = lit_test(textureGather(sm, (k + 1.0) / res, 0), d);
             // Gather order: (k, l+1), (k+1, l+1), (k+1, l), (k, l).
             sum += dot(lit, vec4(wx0 * wy1, wx1 * wy1, wx1 * wy0, wx0 * wy0));
+            every_lit = every_lit && all(equal(lit, vec4(1.0)));
         }
     }
-    // The weights sum to n^2 only up to rounding; visibility must stay in [0,1].
-    return clamp(sum / float(n * n), 0.0, 1.0);
+    // The weights sum to n^2 only up to rounding; visibility must stay in [0,1], and be
+    // exactly 1 where every texel is lit, as the lookup-free shader of a split final pass
+    // (FinalPass::split) gives.
+    return every_lit ? 1.0 : clamp(sum / float(n * n), 0.0, 1.0);
 }
 
 // Poisson-disc PCF: the first n points of POISSON scaled to `radius` texels, each a 2x2
@@ -99,7 +103,8 @@ float pcf_poisson(sampler2D sm, vec2 uv, ReceiverPlane rp, int n, float radius) 
     float sum = 0.0;
     for (int i = 0; i < n; ++i) {
         vec2 q = uv + POISSON[i] * scale;
-        sum += bilinear(lit_test(textureGather(sm, q, 0), plane_depth(rp, q - uv)), q);
+        // bilinear_lit: n lit taps sum to exactly n, so the result is exactly 1.
+        sum += bilinear_lit(lit_test(textureGather(sm, q, 0), plane_depth(rp, q - uv)), q);
     }
     return clamp(sum / float(n), 0.0, 1.0);
 }

@@ -37,7 +37,13 @@
 //!    (relative bias `frame.light_frustum.w`) and filters with the kernel above.
 //!    Inputs: `frame.technique` = (kind: 0 box / 1 Poisson, N, Poisson radius in texels, 0).
 //!    Writes colour RGBA8, no blending (the untimed AOV pass `pcf/aov` also visibility R32F,
-//!    position RGBA32F, normal RGBA16F: `FinalPass`).
+//!    position RGBA32F, normal RGBA16F: `FinalPass`). Where every texel the kernel reads is
+//!    lit the filter returns exactly 1 (it would be 1 only up to rounding as a weighted
+//!    sum), and beyond the kernel's reach of every caster's projected box every texel is
+//!    the clear value. So the timed pass (`FinalPass::split`, src/technique/regions.rs,
+//!    reach `reach_texels`) runs this shader only within that reach and
+//!    glsl/common/unshadowed.frag elsewhere: the same image (tests/avoided_work.rs), for a
+//!    fraction of the pass on lavapipe, which runs every branch for every fragment.
 //!
 //! ## Known artefacts
 //! Penumbra of constant width in texels (too wide at contacts, too narrow far from them);
@@ -52,10 +58,10 @@
 //! of the final pass.
 
 use super::{
-    shadow_map_buffer, technique_constants, FrameInput, LightBuffer, Technique, TechniqueInfo,
-    TechniqueInit,
+    regions, shadow_map_buffer, technique_constants, FrameInput, LightBuffer, Technique,
+    TechniqueInfo, TechniqueInit,
 };
-use crate::gpu::passes::{FinalPass, FinalShader, ShadowMap};
+use crate::gpu::passes::{FinalPass, FinalShader, ShadowMap, Shadowed};
 use crate::settings::PcfKernel;
 use crate::shaders::{self, constants as k};
 use crate::vk::{Context, DescriptorSet, Filter, Recorder, Resource, Sampler};
@@ -70,6 +76,17 @@ pub const INFO: TechniqueInfo = TechniqueInfo {
 /// Poisson kernel radius in texels for N samples (Eq. 2): one sample per texel of area.
 pub fn poisson_radius_texels(samples: u32) -> f32 {
     (samples as f32 / std::f32::consts::PI).sqrt()
+}
+
+/// How far beyond the point's own 2x2 footprint, in texels, the kernel's gathers read:
+/// box N reads (N - 1) / 2 texels before it and (N + 1) / 2 after; a Poisson tap lies
+/// within the radius of the point (the points lie inside the unit disc) and its gather's
+/// footprint is `regions::shadowed`'s.
+pub fn reach_texels(kernel: PcfKernel) -> f32 {
+    match kernel {
+        PcfKernel::Box(n) => (n as f32 + 1.0) * 0.5,
+        PcfKernel::Poisson(n) => poisson_radius_texels(n),
+    }
 }
 
 /// The constants of `glsl/pcf/constants.glsl` for `kernel`.
@@ -90,6 +107,9 @@ pub struct Pcf {
     shadow: ShadowMap,
     final_pass: FinalPass,
     final_set: DescriptorSet,
+    /// Where a caster texel lies within the kernel's reach, built with the light pass
+    /// (`regions::around_casters`).
+    shadowed: Shadowed,
     kernel: PcfKernel,
     _sampler: Sampler,
 }
@@ -114,7 +134,8 @@ impl Pcf {
             "pcf/final",
         )
         .context("pcf final descriptor set")?;
-        let final_pass = FinalPass::new(
+        // Split: the shader runs only within the kernel's reach of a caster (regions.rs).
+        let final_pass = FinalPass::split(
             ctx,
             "pcf/final",
             FinalShader {
@@ -128,6 +149,7 @@ impl Pcf {
             shadow,
             final_pass,
             final_set,
+            shadowed: Shadowed::Everywhere,
             kernel,
             _sampler: sampler,
         }))
@@ -150,6 +172,8 @@ impl Technique for Pcf {
         frame: &FrameInput<'_>,
     ) -> Result<()> {
         self.shadow.pass(rec, frame.gpu)?;
+        let res = self.shadow.resolution;
+        self.shadowed = regions::around_casters(frame, res, reach_texels(self.kernel));
         Ok(())
     }
 
@@ -163,7 +187,12 @@ impl Technique for Pcf {
         rec: &mut Recorder<'_>,
         frame: &FrameInput<'_>,
     ) -> Result<()> {
-        self.final_pass.pass(rec, frame, &self.final_set)
+        self.final_pass
+            .pass_in(rec, frame, &self.final_set, &self.shadowed)
+    }
+
+    fn shadowed(&self) -> Option<&Shadowed> {
+        Some(&self.shadowed)
     }
 
     fn light_buffers(&self) -> Vec<LightBuffer<'_>> {

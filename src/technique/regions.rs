@@ -8,9 +8,8 @@
 //! their smoothies' reach added to each polygon), `pcss`, `pcss-fast` and `pcss-walk` (the
 //! blocker search finds nothing and returns 1 before any filter), `penumbra-map` and
 //! `penumbra-map-centred` (with their cones' and sheets' vertices added to each polygon;
-//! `bilinear_lit` in glsl/common/shadow.glsl makes four lit texels exactly 1). Not `pcf`:
-//! its filter sums bilinear weights, 1 only up to rounding, so its lit pixels are not
-//! exactly those of a shader without lookups.
+//! `bilinear_lit` in glsl/common/shadow.glsl makes four lit texels exactly 1), and `pcf`
+//! (its kernel's reach; every texel lit gives exactly 1).
 
 use super::FrameInput;
 use crate::frustum::PixelBox;

@@ -291,10 +291,10 @@ fn culling_changes_no_pixel() {
 /// lookups can reach in what the light passes drew) and a shader without lookups
 /// elsewhere. Its colour must equal the AOV pass's, which runs the shader on every pixel,
 /// bit for bit: for both smoothies forms, the three pcss searches, both penumbra-map
-/// forms and pcf, on every built-in
-/// scene but the million-triangle one, from the scene's camera, from one orbited round the
-/// scene and from one low over the ground (which reaches behind it: the near plane cuts
-/// the boxes), at light radius 0, and with a caster that receives nothing (never split).
+/// forms and pcf, on every built-in scene but the million-triangle one, from the scene's
+/// camera, from one orbited round the scene and from one low over the ground (which
+/// reaches behind it: the near plane cuts the boxes), at light radius 0, and with a
+/// caster that receives nothing (never split).
 /// And the split must happen: on most of these frames well under all of the area drawn
 /// runs the shader.
 #[test]
@@ -313,6 +313,7 @@ fn split_final_pass_shades_as_the_whole_one() {
         "pcf box15",
         "pcf poisson64",
     ] {
+        let label = name;
         let (name, kernel) = match name.split_once(' ') {
             Some((name, kernel)) => (name, kernel.parse().unwrap()),
             None => (name, Settings::default().pcf_kernel),
@@ -373,11 +374,11 @@ fn split_final_pass_shades_as_the_whole_one() {
                     .count();
                 assert_eq!(
                     outside, 0,
-                    "{name} on {scene_name} (R {radius:?}, {view} camera): {outside} shadowed points outside its regions"
+                    "{label} on {scene_name} (R {radius:?}, {view} camera): {outside} shadowed points outside its regions"
                 );
                 assert_eq!(
                     differing, 0,
-                    "{name} on {scene_name} (R {radius:?}, {view} camera): {differing} pixels differ"
+                    "{label} on {scene_name} (R {radius:?}, {view} camera): {differing} pixels differ"
                 );
                 let area = timings
                     .lookup_area_of(&format!("{name}/final"))

@@ -53,9 +53,9 @@
 //! remains, slightly smoothed.
 //!
 //! ## Cost (lavapipe, 2 busy cores, 1024^2 image and map, `primitives`)
-//! `pcf/final` box3 about 2.3x `hard/final` (4 gathers a pixel against 1), box5 about 3x
-//! (9 gathers), poisson16 about 3.5x: on lavapipe a gather costs about as much as the rest
-//! of the final pass.
+//! Where its shader runs, `pcf/final` box3 costs about 2.3x `hard/final` (4 gathers a
+//! pixel against 1), box5 about 3x (9 gathers), poisson16 about 3.5x: on lavapipe a gather
+//! costs about as much as the rest of the final pass.
 
 use super::{
     regions, shadow_map_buffer, technique_constants, FrameInput, LightBuffer, Technique,

@@ -216,11 +216,11 @@ pub struct PenumbraMap {
     /// Where the final shader can give less than 1, built with the light passes
     /// (`light_areas`; `Everywhere`: not known).
     shadowed: Shadowed,
-    /// The texels the last penumbra pass may have drawn (`None`: not known, on the GPU path
-    /// or before the first pass); the next pass clears them with its own.
-    penumbra_drawn: Option<PixelBox>,
+    /// The texels the last penumbra pass may have drawn; the next pass clears them with its
+    /// own (`light_areas`).
+    penumbra_drawn: regions::LastDrawn,
     /// The same for the last shadow-map pass (paper form).
-    map_drawn: Option<PixelBox>,
+    map_drawn: regions::LastDrawn,
 }
 
 /// What the casters and their cones and sheets cover in light uv (`PenumbraMap::light_uvs`).
@@ -372,8 +372,8 @@ impl PenumbraMap {
             gpu_silhouettes,
             draw_geometry: false,
             shadowed: Shadowed::Everywhere,
-            penumbra_drawn: None,
-            map_drawn: None,
+            penumbra_drawn: regions::LastDrawn::default(),
+            map_drawn: regions::LastDrawn::default(),
         }))
     }
 
@@ -441,11 +441,7 @@ impl PenumbraMap {
         for (i, caster) in points.iter_mut().enumerate() {
             let sides = self.cache.get(i).filter(|_| self.draw_geometry);
             for v in sides.into_iter().flatten().flatten() {
-                let p = frame.light.view_proj * Vec3::from(v.position).extend(1.0);
-                let uv = p.truncate().truncate() / p.w * 0.5 + 0.5;
-                if p.w <= 0.0 || !uv.is_finite() {
-                    return None;
-                }
+                let uv = regions::light_uv(frame, Vec3::from(v.position))?;
                 (lo, hi) = (lo.min(uv), hi.max(uv));
                 caster.push(uv);
             }
@@ -483,11 +479,10 @@ impl PenumbraMap {
             None => Shadowed::Everywhere,
         };
         let geometry = uvs.as_ref().map(|u| u.geometry);
-        let penumbra_area = match (self.penumbra_drawn, geometry) {
-            (Some(last), Some(now)) => last.union(now),
-            _ => PixelBox::whole(res, res),
-        };
-        self.penumbra_drawn = geometry;
+        let penumbra_area = self
+            .penumbra_drawn
+            .area(geometry)
+            .unwrap_or(PixelBox::whole(res, res));
         let (map_now, receivers) = match (self.form, &uvs) {
             (Form::Paper, Some(u)) => (
                 Some(u.casters.union(u.geometry)),
@@ -499,11 +494,7 @@ impl PenumbraMap {
             ),
             _ => (None, Receivers::Everywhere),
         };
-        let all = match (self.map_drawn, map_now) {
-            (Some(last), Some(now)) => Some(regions::render_area(last.union(now))),
-            _ => None,
-        };
-        self.map_drawn = map_now;
+        let all = self.map_drawn.area(map_now).map(regions::render_area);
         (
             MapArea { all, receivers },
             regions::render_area(penumbra_area),

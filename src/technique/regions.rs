@@ -15,7 +15,7 @@ use super::FrameInput;
 use crate::frustum::PixelBox;
 use crate::gpu::passes::{rect_of, Shadowed};
 use crate::vk::Rect2D;
-use glam::{Vec2, Vec4};
+use glam::{Vec2, Vec3, Vec4};
 
 /// Directions of the half-planes that bound each caster's polygon, evenly spaced round
 /// the circle: a 16-gon follows a slanted caster's projection where one box around all
@@ -44,9 +44,16 @@ pub fn union(a: Support, b: Support) -> Support {
     std::array::from_fn(|k| a[k].max(b[k]))
 }
 
+/// World point `p` in light uv; `None` at or behind the light's eye plane (clip w is the
+/// depth along the light's axis), where the projection is unbounded.
+pub fn light_uv(frame: &FrameInput<'_>, p: Vec3) -> Option<Vec2> {
+    let c = frame.light.view_proj * p.extend(1.0);
+    let uv = c.truncate().truncate() / c.w * 0.5 + 0.5;
+    (c.w > 0.0 && uv.is_finite()).then_some(uv)
+}
+
 /// Each caster in the light's world box corners in light uv, with its object index;
-/// `None` when a box reaches to or behind the light's eye plane (clip w is the depth along
-/// the light's axis), where the projection is unbounded.
+/// `None` when a box reaches to or behind the light's eye plane (`light_uv`).
 pub fn caster_corner_uvs(frame: &FrameInput<'_>) -> Option<Vec<(usize, [Vec2; 8])>> {
     let casters = frame.gpu.objects.iter().enumerate();
     casters
@@ -54,11 +61,7 @@ pub fn caster_corner_uvs(frame: &FrameInput<'_>) -> Option<Vec<(usize, [Vec2; 8]
         .map(|(i, o)| {
             let mut uvs = [Vec2::ZERO; 8];
             for (uv, c) in uvs.iter_mut().zip(o.world_corners()) {
-                let p = frame.light.view_proj * c.extend(1.0);
-                *uv = p.truncate().truncate() / p.w * 0.5 + 0.5;
-                if p.w <= 0.0 || !uv.is_finite() {
-                    return None;
-                }
+                *uv = light_uv(frame, c)?;
             }
             Some((i, uvs))
         })
@@ -73,6 +76,25 @@ pub fn casters_box(corners: &[(usize, [Vec2; 8])], res: u32) -> PixelBox {
         let hi = uvs.iter().fold(Vec2::NEG_INFINITY, |a, &u| a.max(u));
         b.union(PixelBox::of_uv(res, lo, hi))
     })
+}
+
+/// The texels a light pass may have drawn last frame, for a pass that clears and draws
+/// only where it draws this frame: it must clear last frame's texels too, so that every
+/// texel outside holds the clear value.
+#[derive(Default)]
+pub struct LastDrawn(Option<PixelBox>);
+
+impl LastDrawn {
+    /// This frame's area: `now` joined with last frame's, or `None` (the whole buffer) when
+    /// either is not known (the GPU path, the first frame). Remembers `now`.
+    pub fn area(&mut self, now: Option<PixelBox>) -> Option<PixelBox> {
+        let area = match (self.0, now) {
+            (Some(last), Some(now)) => Some(last.union(now)),
+            _ => None,
+        };
+        self.0 = now;
+        area
+    }
 }
 
 /// `b` as a render area, which may not be empty: an empty box gives the texel at the
@@ -173,5 +195,19 @@ mod tests {
         assert!(!holds(&sa, Vec2::new(0.31, 0.25)));
         assert!(!holds(&sa, b[0]));
         assert!(support_of(&[]).is_none());
+    }
+
+    /// A pass's area joins last frame's box with this one's, and is the whole buffer when
+    /// either is not known.
+    #[test]
+    fn last_drawn_joins_the_previous_box() {
+        let a = PixelBox::of_uv(64, Vec2::new(0.1, 0.1), Vec2::new(0.2, 0.2));
+        let b = PixelBox::of_uv(64, Vec2::new(0.6, 0.5), Vec2::new(0.7, 0.9));
+        let mut last = LastDrawn::default();
+        assert_eq!(last.area(Some(a)), None);
+        assert_eq!(last.area(Some(b)), Some(a.union(b)));
+        assert_eq!(last.area(None), None);
+        assert_eq!(last.area(Some(a)), None);
+        assert_eq!(last.area(Some(PixelBox::EMPTY)), Some(a));
     }
 }

@@ -430,11 +430,11 @@ pub struct Smoothies {
     gpu_silhouettes: Option<GpuSilhouettes>,
     /// Whether the smoothie pass draws anything (false at t = 0).
     draw_smoothies: bool,
-    /// The texels the last smoothie pass may have drawn (`PixelBox`; `None`: not known, on
-    /// the GPU path or before the first pass). The next pass clears them with its own.
-    smoothie_drawn: Option<PixelBox>,
-    /// The same for the last shadow-map pass (`light_areas`).
-    map_drawn: Option<PixelBox>,
+    /// The texels the last smoothie pass may have drawn; the next pass clears them with its
+    /// own (`light_areas`).
+    smoothie_drawn: regions::LastDrawn,
+    /// The same for the last shadow-map pass.
+    map_drawn: regions::LastDrawn,
     /// Where the final pass's visibility can be below 1, from where the last light passes
     /// can have left r or the smoothie buffer holding anything but the clear value
     /// (`shadow_regions`, `regions::shadowed`; `Everywhere`: not known).
@@ -501,8 +501,8 @@ impl Smoothies {
             record_draws: Vec::new(),
             gpu_silhouettes,
             draw_smoothies: false,
-            smoothie_drawn: None,
-            map_drawn: None,
+            smoothie_drawn: regions::LastDrawn::default(),
+            map_drawn: regions::LastDrawn::default(),
             shadowed: Shadowed::Everywhere,
         }))
     }
@@ -717,11 +717,10 @@ impl Smoothies {
                     }),
             )
         };
-        let smoothie_area = match (self.smoothie_drawn, smoothies) {
-            (Some(last), Some(now)) => last.union(now),
-            _ => PixelBox::whole(res, res),
-        };
-        self.smoothie_drawn = smoothies;
+        let smoothie_area = self
+            .smoothie_drawn
+            .area(smoothies)
+            .unwrap_or(PixelBox::whole(res, res));
 
         let (map_now, receivers) = match (self.form, smoothies) {
             (Form::Paper, Some(s)) => (
@@ -736,17 +735,13 @@ impl Smoothies {
             ),
             _ => (None, Receivers::Everywhere),
         };
-        let map_area = match (self.map_drawn, map_now) {
-            (Some(last), Some(now)) => Some(regions::render_area(last.union(now))),
-            _ => None,
-        };
+        let map_area = self.map_drawn.area(map_now).map(regions::render_area);
         // The receivers' box lies inside the area only when the casters' box is known.
         let receivers = if map_now.is_some() {
             receivers
         } else {
             Receivers::Everywhere
         };
-        self.map_drawn = map_now;
         self.shadowed = match (smoothies, &corners) {
             (Some(_), Some(c)) => {
                 let supports = self.shadow_regions(frame, c);

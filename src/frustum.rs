@@ -280,6 +280,19 @@ impl PixelBox {
         }
     }
 
+    /// `n` texels wider on each side, clipped to a side-`res` buffer; empty stays empty.
+    pub fn grown(self, n: u32, res: u32) -> Self {
+        if self.is_empty() {
+            return self;
+        }
+        Self {
+            x0: self.x0.saturating_sub(n),
+            y0: self.y0.saturating_sub(n),
+            x1: self.x1.saturating_add(n).min(res),
+            y1: self.y1.saturating_add(n).min(res),
+        }
+    }
+
     pub fn intersection(self, o: Self) -> Self {
         Self {
             x0: self.x0.max(o.x0),

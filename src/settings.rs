@@ -34,6 +34,11 @@ pub struct Settings {
     /// Frustum culling: objects outside the light's frustum are not drawn from the light,
     /// objects outside the camera's are not drawn from the camera.
     pub culling: bool,
+    /// Light passes that know which of their texels a frame reads (smoothies, penumbra
+    /// maps: `light_areas` in their modules) clear and draw only those. Off: they clear
+    /// and draw their whole targets with every object, a porter's plain form, which
+    /// tests/avoided_work.rs holds to the same image.
+    pub light_areas: bool,
     /// Accumulation format of the soft shadow map (Atty et al. Appendix A: R16F breaks above ~256^2).
     pub accum_format: AccumFormat,
     /// Shadow rays per pixel of the `reference` technique (docs/DESIGN.md: at least 256).
@@ -237,6 +242,7 @@ impl Default for Settings {
             accum_format: AccumFormat::R32F,
             cache_light_passes: true,
             culling: true,
+            light_areas: true,
             reference_samples: crate::reference::MIN_SAMPLES,
             reference_seed: crate::reference::DEFAULT_SEED,
             silhouettes: SilhouettePath::Auto,

@@ -188,6 +188,86 @@ fn light_passes_clear_what_their_last_frame_drew() {
     }
 }
 
+/// The light passes that clear and draw only the texels a frame reads (`light_areas` of
+/// smoothies and penumbra maps: the casters' boxes, the smoothies' or cones' texels, the
+/// receivers only where their depth is read, for the centred forms also just outside the
+/// edges, where the inner fragments look for the hidden receiver) give the frame that
+/// clearing and drawing everything gives: the same image and visibility, the same
+/// smoothie and penumbra buffers, the same casters' depth. Two frames, every pass
+/// rebuilt: the second is the confined one (a first frame clears the whole buffers). With
+/// thin smoothies (a fixed small t) the inner fragments' receiver samples reach past the
+/// smoothies' own box.
+#[test]
+fn light_areas_change_no_pixel() {
+    let gpu = Gpu::new();
+    let cases = [
+        ("cylinder", None, None),
+        ("cylinder", Some(1.5), None),
+        ("cylinder", None, Some(0.01)),
+        ("boxes", None, None),
+        ("boxes", None, Some(0.01)),
+        ("bunny", None, None),
+        ("overlap", None, None),
+        ("fence", None, None),
+    ];
+    for name in [
+        "smoothies",
+        "smoothies-centred",
+        "penumbra-map",
+        "penumbra-map-centred",
+    ] {
+        for (scene_name, light_radius, smoothie_t) in cases {
+            if smoothie_t.is_some() && !name.starts_with("smoothies") {
+                continue;
+            }
+            let case = format!("{name} on {scene_name}, R {light_radius:?}, t {smoothie_t:?}");
+            let render = |light_areas: bool| {
+                let s = Settings {
+                    light_areas,
+                    light_radius,
+                    smoothie_t,
+                    silhouettes: SilhouettePath::Cpu,
+                    cache_light_passes: false,
+                    ..small(96, 256)
+                };
+                let mut r =
+                    Renderer::new(&gpu.ctx, Scene::load(scene_name).unwrap(), name, s).unwrap();
+                r.render().unwrap();
+                r.render().unwrap();
+                let buffers: Vec<(&str, Vec<Vec<f32>>)> = r
+                    .technique_buffer_names()
+                    .into_iter()
+                    .map(|b| {
+                        let mut channels = r.read_technique_buffer(b).unwrap().channels;
+                        // The receivers' depth (g) is drawn only where it is read.
+                        if b == "shadow_map" {
+                            channels.truncate(1);
+                        }
+                        (b, channels)
+                    })
+                    .collect();
+                (r.read_back().unwrap(), buffers)
+            };
+            let (on, on_buffers) = render(true);
+            let (off, off_buffers) = render(false);
+            assert!(!on_buffers.is_empty(), "{case}: no light buffer");
+            for ((b, a), (_, w)) in on_buffers.iter().zip(&off_buffers) {
+                let off_by = a
+                    .iter()
+                    .zip(w)
+                    .map(|(a, w)| a.iter().zip(w).filter(|(x, y)| x != y).count())
+                    .sum::<usize>();
+                assert!(off_by == 0, "{case}: {b} differs in {off_by} values");
+            }
+            assert!(on.color == off.color, "{case}: the image differs");
+            assert!(
+                on.visibility == off.visibility,
+                "{case}: the visibility differs"
+            );
+        }
+    }
+}
+
 #[test]
 fn light_without_casters_records_no_shadow_pass() {
     let gpu = Gpu::new();

@@ -471,6 +471,7 @@ impl PenumbraMap {
     /// form's inner pass marches the map for hidden receivers: its map stays whole.) Sets
     /// where the final shader can give less than 1: each caster's polygon
     /// (`regions::shadowed` adds the normal offset and the gather's footprint).
+    /// `Settings::light_areas` off: both passes whole, every object (the same image).
     fn light_areas(&mut self, frame: &FrameInput<'_>) -> (MapArea, Rect2D) {
         let uvs = self.light_uvs(frame);
         let res = self.shadow.resolution;
@@ -495,6 +496,12 @@ impl PenumbraMap {
             _ => (None, Receivers::Everywhere),
         };
         let all = self.map_drawn.area(map_now).map(regions::render_area);
+        if !frame.settings.light_areas {
+            return (
+                MapArea::WHOLE,
+                regions::render_area(PixelBox::whole(res, res)),
+            );
+        }
         (
             MapArea { all, receivers },
             regions::render_area(penumbra_area),

@@ -58,11 +58,12 @@
 //!    blend MIN, no depth attachment; r = nearest caster's linear depth (the umbra test),
 //!    g = nearest surface of any role (the receiver depth r of Eq. 1). Linear depth, not
 //!    the depth buffer's, because Eq. 1 needs b/r. r is read everywhere (pass 3), g only
-//!    under smoothies (pass 2). So on the CPU path (paper form) the pass clears and draws
-//!    only the casters' projected boxes and the smoothies' texels (pass 2's box), joined
-//!    with last frame's, and draws the objects that receive but cast nothing (a ground
-//!    that fills the map) only inside the smoothies' texels (`light_areas`): g holds 1e30
-//!    elsewhere. A porter can draw every object into the whole map instead: same image.
+//!    under smoothies (pass 2). So on the CPU path the pass clears and draws only the
+//!    casters' projected boxes and the smoothies' texels (pass 2's box), joined with last
+//!    frame's, and draws the objects that receive but cast nothing (a ground that fills the
+//!    map) only inside the smoothies' texels (`light_areas`): g holds 1e30 elsewhere. A
+//!    porter can draw every object into the whole map instead: same image
+//!    (tests/avoided_work.rs, `Settings::light_areas`).
 //! 2. `smoothies/smoothie` — ONE pass, one colour attachment, no depth attachment.
 //!    Pipelines of that name per path, all with the same fragment shader:
 //!    GPU path: glsl/smoothies/smoothie.vert reads `SmoothieVertex` attributes (stride 36:
@@ -214,6 +215,13 @@ const SMOOTHIE_ATTRIBUTES: &[crate::vk::Attribute] = &[
 /// Push constants of glsl/smoothies/records.glsl, per caster: first 16-byte unit
 /// of its records, vertex, edge and fan record counts.
 const RECORDS_PUSH_BYTES: u32 = 16;
+
+/// How far beyond the smoothies' box (texels) the centred form's inner fragments read the
+/// shadow map's g: glsl/common/inner_receiver.glsl samples the hidden receiver OUT_TEXELS
+/// and OUT_TEXELS + PLANE_TEXELS (1.5 and 5.5) texels outside the edge, from the foot of
+/// the fragment on its edge (or from its silhouette vertex), which lies in the box; plus
+/// the texel the sample floors into. A unit test reads both constants from the shader.
+const INNER_RECEIVER_TEXELS: u32 = 7;
 
 /// The smoothie widths: the fixed knob when given, else calibrated per silhouette vertex
 /// from the light radius and the vertex's depth (see the module header).
@@ -658,20 +666,6 @@ impl Smoothies {
         )
     }
 
-    /// Where the two light-space passes clear and draw. Every texel outside an area must
-    /// hold the clear value, so each area is what its pass may draw now joined with what it
-    /// may have drawn last time:
-    /// - the smoothie pass: the texels this frame's smoothies can reach, on the CPU path
-    ///   (`SmoothieRecords::uv_bounds`); the GPU path builds its geometry on the device and
-    ///   clears the whole buffer;
-    /// - the shadow map (paper form, CPU path): the casters' projected boxes, where r is
-    ///   read, and the smoothies' texels, where the smoothie pass reads g; the receivers that
-    ///   cast nothing (a ground filling the whole map) are drawn only inside the latter, or
-    ///   not at all without smoothies. The centred form's inner receivers read g anywhere,
-    ///   so it draws the whole map.
-    ///
-    /// The clears and the ground's fill outside these boxes were lavapipe's largest fixed
-    /// costs in both passes.
     /// Per caster, the light-uv polygon its texels in r and the smoothie buffer lie in: the
     /// support of its world box's corners projected by the light (the r texels; casters in
     /// the light's frustum) and of its smoothies (`SmoothieRecords::uv_support`; every
@@ -700,6 +694,20 @@ impl Smoothies {
             .collect()
     }
 
+    /// Where the two light-space passes clear and draw. Every texel outside an area must
+    /// hold the clear value, so each area is what its pass may draw now joined with what it
+    /// may have drawn last time:
+    /// - the smoothie pass: the texels this frame's smoothies can reach, on the CPU path
+    ///   (`SmoothieRecords::uv_bounds`); the GPU path builds its geometry on the device and
+    ///   clears the whole buffer;
+    /// - the shadow map (CPU path): the casters' projected boxes, where r is read, and the
+    ///   texels where the smoothie pass reads g: the smoothies' texels, for the centred form
+    ///   grown by `INNER_RECEIVER_TEXELS` (its inner fragments read the hidden receiver just
+    ///   outside their edge); the receivers that cast nothing (a ground filling the whole
+    ///   map) are drawn only inside the latter, or not at all without smoothies.
+    ///
+    /// The clears and the ground's fill outside these boxes were lavapipe's largest fixed
+    /// costs in both passes. `Settings::light_areas` off: both whole, every object.
     fn light_areas(&mut self, frame: &FrameInput<'_>) -> (MapArea, Rect2D) {
         let res = self.smoothie.first().map_or(1, |i| i.extent.width);
         let corners = regions::caster_corner_uvs(frame);
@@ -722,18 +730,27 @@ impl Smoothies {
             .area(smoothies)
             .unwrap_or(PixelBox::whole(res, res));
 
-        let (map_now, receivers) = match (self.form, smoothies) {
-            (Form::Paper, Some(s)) => (
-                corners
-                    .as_ref()
-                    .map(|c| regions::casters_box(c, res).union(s)),
-                if s.is_empty() {
-                    Receivers::Nowhere
-                } else {
-                    Receivers::Within(regions::render_area(s))
-                },
-            ),
-            _ => (None, Receivers::Everywhere),
+        // Where the smoothie pass reads g: the paper form's fragments (and the centred
+        // form's outer ones) at their own texel, inside the smoothies' box; the centred
+        // form's inner ones also just outside their edge (`INNER_RECEIVER_TEXELS`).
+        let (map_now, receivers) = match smoothies {
+            Some(s) => {
+                let g_read = match self.form {
+                    Form::Paper => s,
+                    Form::Centred => s.grown(INNER_RECEIVER_TEXELS, res),
+                };
+                (
+                    corners
+                        .as_ref()
+                        .map(|c| regions::casters_box(c, res).union(g_read)),
+                    if g_read.is_empty() {
+                        Receivers::Nowhere
+                    } else {
+                        Receivers::Within(regions::render_area(g_read))
+                    },
+                )
+            }
+            None => (None, Receivers::Everywhere),
         };
         let map_area = self.map_drawn.area(map_now).map(regions::render_area);
         // The receivers' box lies inside the area only when the casters' box is known.
@@ -749,6 +766,12 @@ impl Smoothies {
             }
             _ => Shadowed::Everywhere,
         };
+        if !frame.settings.light_areas {
+            return (
+                MapArea::WHOLE,
+                regions::render_area(PixelBox::whole(res, res)),
+            );
+        }
         (
             MapArea {
                 all: map_area,
@@ -977,6 +1000,40 @@ mod tests {
         assert_eq!(
             (r.offset.x, r.offset.y, r.extent.width, r.extent.height),
             (255, 511, 258, 258)
+        );
+        // The centred form's receiver area: wider by n each side, still inside the buffer.
+        let g = b.grown(7, 1024);
+        assert_eq!((g.x0, g.y0, g.x1, g.y1), (248, 504, 520, 776));
+        let g = edge.grown(7, 1024);
+        assert_eq!((g.x0, g.y0, g.x1, g.y1), (0, 1014, 10, 1024));
+        assert!(PixelBox::EMPTY.grown(7, 1024).is_empty());
+    }
+
+    /// `INNER_RECEIVER_TEXELS` holds the inner fragments' farthest read of g outside their
+    /// edge, read from the shaders themselves: OUT_TEXELS + PLANE_TEXELS, plus the texel
+    /// a sample floors into.
+    #[test]
+    fn centred_receiver_area_reaches_the_inner_samples() {
+        let constant = |src: &str, name: &str| -> f32 {
+            let line = src
+                .lines()
+                .find(|l| l.starts_with(&format!("const float {name} = ")))
+                .unwrap_or_else(|| panic!("{name} not in the shader"));
+            let value = line
+                .rsplit('=')
+                .next()
+                .unwrap()
+                .trim()
+                .trim_end_matches(';');
+            value.parse().unwrap_or_else(|_| panic!("{name}: {value}"))
+        };
+        let march = include_str!("../../glsl/common/inner_march.glsl");
+        let receiver = include_str!("../../glsl/common/inner_receiver.glsl");
+        let reach = constant(march, "OUT_TEXELS") + constant(receiver, "PLANE_TEXELS");
+        assert!(reach > 0.0, "{reach}");
+        assert!(
+            INNER_RECEIVER_TEXELS as f32 >= reach.ceil() + 1.0,
+            "{INNER_RECEIVER_TEXELS} texels for samples {reach} texels out"
         );
     }
 }

@@ -35,8 +35,9 @@ pub struct Settings {
     /// objects outside the camera's are not drawn from the camera.
     pub culling: bool,
     /// Light passes that know which of their texels a frame reads (smoothies, penumbra
-    /// maps: `light_areas` in their modules) clear and draw only those. Off: they clear
-    /// and draw their whole targets with every object, a porter's plain form, which
+    /// maps: `light_areas` in their modules) clear and draw only those, and
+    /// smoothies-centred's inner smoothies only as wide as a penumbra can be. Off: whole
+    /// targets, every object, full-width smoothies, a porter's plain form, which
     /// tests/avoided_work.rs holds to the same image.
     pub light_areas: bool,
     /// Accumulation format of the soft shadow map (Atty et al. Appendix A: R16F breaks above ~256^2).

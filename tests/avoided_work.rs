@@ -190,13 +190,14 @@ fn light_passes_clear_what_their_last_frame_drew() {
 
 /// The light passes that clear and draw only the texels a frame reads (`light_areas` of
 /// smoothies and penumbra maps: the casters' boxes, the smoothies' or cones' texels, the
-/// receivers only where their depth is read, for the centred forms also just outside the
-/// edges, where the inner fragments look for the hidden receiver) give the frame that
-/// clearing and drawing everything gives: the same image and visibility, the same
-/// smoothie and penumbra buffers, the same casters' depth. Two frames, every pass
-/// rebuilt: the second is the confined one (a first frame clears the whole buffers). With
-/// thin smoothies (a fixed small t) the inner fragments' receiver samples reach past the
-/// smoothies' own box.
+/// receivers only where their depth is read, for smoothies-centred also just outside the
+/// edges, where the inner fragments look for the hidden receiver, and its inner smoothies
+/// only as wide as a penumbra can be) give the frame that clearing and drawing everything
+/// gives: the same image and visibility, the same smoothie and penumbra buffers, the same
+/// casters' depth (smoothies-centred's inner values up to interpolation rounding). Two
+/// frames, every pass rebuilt: the second is the confined one (a first frame clears the
+/// whole buffers). With thin smoothies (a fixed small t) the inner fragments' receiver
+/// samples reach past the smoothies' own box.
 #[test]
 fn light_areas_change_no_pixel() {
     let gpu = Gpu::new();
@@ -251,18 +252,51 @@ fn light_areas_change_no_pixel() {
             let (on, on_buffers) = render(true);
             let (off, off_buffers) = render(false);
             assert!(!on_buffers.is_empty(), "{case}: no light buffer");
+            // The centred form's shortened inner smoothies interpolate t and 1/b over other
+            // triangles: its penumbra values may move by their rounding (a few 16-bit
+            // ulps), on a few texels; everything else is bit for bit.
+            let rounding = name == "smoothies-centred";
             for ((b, a), (_, w)) in on_buffers.iter().zip(&off_buffers) {
-                let off_by = a
+                let tolerance = if rounding && *b == "smoothie_penumbra" {
+                    4e-3
+                } else {
+                    0.0
+                };
+                let diffs: Vec<f32> = a
                     .iter()
                     .zip(w)
-                    .map(|(a, w)| a.iter().zip(w).filter(|(x, y)| x != y).count())
-                    .sum::<usize>();
-                assert!(off_by == 0, "{case}: {b} differs in {off_by} values");
+                    .flat_map(|(a, w)| a.iter().zip(w).map(|(x, y)| (x - y).abs()))
+                    .filter(|d| *d > 0.0)
+                    .collect();
+                let worst = diffs.iter().copied().fold(0.0, f32::max);
+                let values: usize = a.iter().map(Vec::len).sum();
+                assert!(
+                    worst <= tolerance && diffs.len() * 1000 <= values,
+                    "{case}: {b} differs in {} of {values} values, by up to {worst}",
+                    diffs.len()
+                );
             }
-            assert!(on.color == off.color, "{case}: the image differs");
+            let off_by = |x: &[f32], y: &[f32]| {
+                x.iter()
+                    .zip(y)
+                    .map(|(a, b)| (a - b).abs())
+                    .fold(0.0, f32::max)
+            };
+            let vis = off_by(&on.visibility, &off.visibility);
             assert!(
-                on.visibility == off.visibility,
-                "{case}: the visibility differs"
+                vis <= if rounding { 1e-3 } else { 0.0 },
+                "{case}: the visibility differs by up to {vis}"
+            );
+            let levels = on
+                .color
+                .iter()
+                .zip(&off.color)
+                .flat_map(|(a, b)| a.iter().zip(b).map(|(x, y)| x.abs_diff(*y)))
+                .max()
+                .unwrap_or(0);
+            assert!(
+                levels <= u8::from(rounding),
+                "{case}: the image differs by up to {levels} levels"
             );
         }
     }

@@ -20,6 +20,10 @@ layout(push_constant) uniform Caster {
     uint vertices;  // vertex records
     uint edges;     // edge records
     uint fans;      // fan records
+    // smoothies-centred's inner side: the farthest receiver depth an inner fragment can
+    // find, Z; 0 elsewhere (the full width t). See `extent`.
+    float extent_depth;
+    float extent_pad;   // light uv added to a shrunk extent: a rasterisation margin
 } pc;
 
 layout(location = 0) noperspective out float v_inv_depth;
@@ -34,6 +38,19 @@ const float FAN_OVERLAP = 0.034906585;
 
 vec4 vertex_record(uint i) {
     return uintBitsToFloat(units[pc.base + i]);
+}
+
+// How far a vertex record's smoothie reaches from the silhouette: its width t, or on the
+// inner side t (1 - b / Z) plus the margin. An inner fragment x from the hard edge is
+// discarded unless x < t (1 - b / z_r) (its penumbra's half-width), and the receiver depth
+// z_r it finds is at most Z, so nothing past that reach is ever written: the shorter quads
+// and fans only leave out fragments that would be discarded. The varyings are those of
+// the full-width geometry (t and 1/b vary along the edge only), up to interpolation
+// rounding.
+float extent(vec4 v) {
+    if (pc.extent_depth <= 0.0) return v.w;
+    float k = max(1.0 - 1.0 / (v.z * pc.extent_depth), 0.0);
+    return min(v.w, v.w * k + pc.extent_pad);
 }
 
 #endif

@@ -17,7 +17,7 @@ void main() {
     bool at_b = corner == 1u || corner == 2u || corner == 4u;
     bool outer = corner == 2u || corner == 4u || corner == 5u;
     vec4 v = at_b ? b : a;
-    uv = outer ? v.xy + v.w * d : v.xy;
+    uv = outer ? v.xy + extent(v) * d : v.xy;
     v_inv_depth = v.z;
     v_kind = 0.0;
     v_anchor = a.xy;

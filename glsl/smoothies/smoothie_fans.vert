@@ -19,7 +19,7 @@ void main() {
     float sweep = uintBitsToFloat(f.w);
     float pad = sweep < 0.0 ? -FAN_OVERLAP : FAN_OVERLAP;
     float phi = (sweep + 2.0 * pad) / float(n);
-    float r = c.w / cos(phi * 0.5);
+    float r = extent(c) / cos(phi * 0.5);
     float ang = -pad + phi * float(spoke);
     vec2 dir = from * cos(ang) + vec2(-from.y, from.x) * sin(ang);
     uv = j % 3u == 0u ? c.xy : c.xy + r * dir;

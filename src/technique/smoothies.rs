@@ -214,7 +214,36 @@ const SMOOTHIE_ATTRIBUTES: &[crate::vk::Attribute] = &[
 
 /// Push constants of glsl/smoothies/records.glsl, per caster: first 16-byte unit
 /// of its records, vertex, edge and fan record counts.
-const RECORDS_PUSH_BYTES: u32 = 16;
+const RECORDS_PUSH_BYTES: u32 = std::mem::size_of::<RecordsPush>() as u32;
+
+/// The push constants of the records' vertex shaders (`Caster` in
+/// glsl/smoothies/records.glsl).
+#[repr(C)]
+#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
+struct RecordsPush {
+    /// The caster's first 16-byte unit, then its vertex, edge and fan record counts.
+    counts: [u32; 4],
+    /// The centred form's inner side: the farthest receiver depth an inner fragment can
+    /// find (`inner_extent_depth`), to which its quads and fans are shortened; 0: full
+    /// width.
+    extent_depth: f32,
+    /// Light uv added to a shortened extent (a rasterisation margin: one texel).
+    extent_pad: f32,
+}
+
+/// The farthest receiver depth z_r an inner fragment of the centred form can find
+/// (glsl/common/inner_receiver.glsl): a depth the shadow map holds, at most the light's
+/// far plane, extrapolated by at most PLANE_LIMIT (5 %); 0.1 % more for the rounding of
+/// the stored depths. Its penumbra's half-width t (1 - b / z_r) is then at most
+/// t (1 - b / Z), and every fragment beyond is discarded, so the inner smoothies are drawn
+/// only that far (records.glsl `extent`; the same image up to the rounding of the
+/// interpolated t and 1/b).
+fn inner_extent_depth(light: &LightView) -> f32 {
+    light.far * (1.0 + INNER_PLANE_LIMIT) * 1.001
+}
+
+/// PLANE_LIMIT of glsl/common/inner_receiver.glsl (a unit test reads it there).
+const INNER_PLANE_LIMIT: f32 = 0.05;
 
 /// How far beyond the smoothies' box (texels) the centred form's inner fragments read the
 /// shadow map's g: glsl/common/inner_receiver.glsl samples the hidden receiver OUT_TEXELS
@@ -707,7 +736,8 @@ impl Smoothies {
     ///   map) are drawn only inside the latter, or not at all without smoothies.
     ///
     /// The clears and the ground's fill outside these boxes were lavapipe's largest fixed
-    /// costs in both passes. `Settings::light_areas` off: both whole, every object.
+    /// costs in both passes. `Settings::light_areas` off: both whole, every object (and
+    /// the centred form's inner smoothies at their full width, `inner_extent_depth`).
     fn light_areas(&mut self, frame: &FrameInput<'_>) -> (MapArea, Rect2D) {
         let res = self.smoothie.first().map_or(1, |i| i.extent.width);
         let corners = regions::caster_corner_uvs(frame);
@@ -863,13 +893,25 @@ impl Technique for Smoothies {
                             .into_iter()
                             .chain([self.inner_pipelines.as_ref().map(|p| (Side::Inner, p))])
                             .flatten();
+                        let res = self.smoothie.first().map_or(1, |i| i.extent.width);
                         for (side, pipelines) in sides {
+                            let extent_depth = match side {
+                                Side::Inner if frame.settings.light_areas => {
+                                    inner_extent_depth(frame.light)
+                                }
+                                _ => 0.0,
+                            };
                             for (i, pipeline) in pipelines.iter().enumerate() {
                                 rec.bind_pipeline(pipeline);
                                 rec.bind_sets(pipeline, &[&self.smoothie_set, &self.records_set]);
-                                for (s, push, counts) in &self.record_draws {
+                                for (s, counts_push, counts) in &self.record_draws {
                                     if *s == side && counts[i] > 0 {
-                                        rec.push_constants(pipeline, bytemuck::bytes_of(push));
+                                        let push = RecordsPush {
+                                            counts: *counts_push,
+                                            extent_depth,
+                                            extent_pad: 1.0 / res as f32,
+                                        };
+                                        rec.push_constants(pipeline, bytemuck::bytes_of(&push));
                                         rec.draw(counts[i], 1);
                                     }
                                 }
@@ -1011,7 +1053,7 @@ mod tests {
 
     /// `INNER_RECEIVER_TEXELS` holds the inner fragments' farthest read of g outside their
     /// edge, read from the shaders themselves: OUT_TEXELS + PLANE_TEXELS, plus the texel
-    /// a sample floors into.
+    /// a sample floors into; `INNER_PLANE_LIMIT` is the shader's PLANE_LIMIT.
     #[test]
     fn centred_receiver_area_reaches_the_inner_samples() {
         let constant = |src: &str, name: &str| -> f32 {
@@ -1029,6 +1071,7 @@ mod tests {
         };
         let march = include_str!("../../glsl/common/inner_march.glsl");
         let receiver = include_str!("../../glsl/common/inner_receiver.glsl");
+        assert_eq!(constant(receiver, "PLANE_LIMIT"), INNER_PLANE_LIMIT);
         let reach = constant(march, "OUT_TEXELS") + constant(receiver, "PLANE_TEXELS");
         assert!(reach > 0.0, "{reach}");
         assert!(

@@ -78,7 +78,15 @@
 //!      inner penumbra through it), when this texel is not behind a caster 1 % nearer than
 //!      Z_R, or when s = x / (t (1 - b/Z_R)) >= 1 (umbra). Else v = disc_chord(s) in
 //!      [0, 0.5], plus the thin-blocker term below; writes b = 1e30 (neutral) and
-//!      (1, 1 - v, 1 - Z_R / far, 1).
+//!      (1, 1 - v, 1 - Z_R / far, 1). Z_R is at most Z = 1.05 x the light's far plane
+//!      (a depth the map holds, extrapolated by at most 5 %), so nothing is written
+//!      beyond t (1 - b/Z) from the edge: the inner quads and fans are drawn only that
+//!      wide, plus a texel (push constant `extent_depth` = Z, glsl/smoothies/records.glsl
+//!      `extent`; `inner_extent_depth`). The inner fragments' receiver samples and march
+//!      are most of this pass's cost on lavapipe, and the narrower geometry made the pass
+//!      31-40 % cheaper on `cylinder`, `bunny`, `dense`. The varyings are the full-width
+//!      geometry's up to interpolation rounding (tests/avoided_work.rs): a porter may draw
+//!      the full width t.
 //! 3. `smoothies-centred/final` — `FinalPass` with `glsl/smoothies_centred/final.frag`:
 //!    per texel of the 2x2 footprint (textureGather of the shadow map's r, the smoothie
 //!    depth and the penumbra values' r, g, b at the normal-offset point): outer = the outer

@@ -48,7 +48,7 @@
 //!    sheets' texels, joined with last frame's, and draws the objects that receive but cast
 //!    nothing (a ground that fills the map) only inside the cones' and sheets' texels
 //!    (`light_areas`): g holds 1e30 elsewhere. A porter can draw every object into the
-//!    whole map instead: same image.
+//!    whole map instead: same image (tests/avoided_work.rs, `Settings::light_areas`).
 //! 2. `penumbra-map/penumbra` — cones and sheets from the light, culling off, no depth
 //!    attachment; one colour attachment, the penumbra map: R16_SFLOAT intensity, clear 1.0
 //!    (the paper's "clear to white"), blend MIN; on the CPU path cleared and drawn only in
@@ -155,6 +155,23 @@ pub fn cone_base_depth(light: &LightView) -> f32 {
     light.far * Z_FAR_OF_FAR
 }
 
+/// How far (texels) from the cones and sheets the centred form's inner fragments read
+/// the shadow map's g (glsl/penumbra_map_centred/inner.frag): a fragment u tangent units
+/// inside the hard edge samples u / per_texel + 1.5 and + 5.5 texels away along its
+/// gradient (`regions::INNER_RECEIVER_TEXELS`), and u = Lr (1/Zv - 1/Z_F) is at most
+/// Lr (1/zv_min - 1/z_far): its depth Z_F on a cone or sheet lies between its silhouette
+/// point's Zv and the cone base `cone_base_depth`. `None` for a non-finite reach.
+fn inner_read_texels(frame: &FrameInput<'_>, zv_min: f32, res: u32) -> Option<u32> {
+    let per_texel = 2.0 * (frame.light.fov_deg.to_radians() * 0.5).tan() / res as f32;
+    let u_max = frame.light_radius * (1.0 / zv_min - 1.0 / cone_base_depth(frame.light));
+    let texels = (u_max.max(0.0) / per_texel).ceil();
+    // Beyond the map's side it reaches everywhere: the whole map, as `grown` clips.
+    let texels = texels
+        .is_finite()
+        .then_some(texels.min(res as f32) as u32)?;
+    Some(texels + regions::INNER_RECEIVER_TEXELS)
+}
+
 /// The names of one form's passes (= timestamp and debug labels).
 struct Names {
     technique: &'static str,
@@ -231,6 +248,9 @@ struct LightUvs {
     casters: PixelBox,
     /// The texels of the cones and sheets.
     geometry: PixelBox,
+    /// The centred form: how far (texels) around the cones and sheets the inner fragments
+    /// read the shadow map's g (`inner_read_texels`); 0 for the paper form.
+    inner_reach: u32,
 }
 
 impl PenumbraMap {
@@ -438,6 +458,7 @@ impl PenumbraMap {
             points[*i].extend(uvs);
         }
         let (mut lo, mut hi) = (Vec2::INFINITY, Vec2::NEG_INFINITY);
+        let mut zv_min = f32::INFINITY;
         for (i, caster) in points.iter_mut().enumerate() {
             let sides = self.cache.get(i).filter(|_| self.draw_geometry);
             for v in sides.into_iter().flatten().flatten() {
@@ -445,8 +466,17 @@ impl PenumbraMap {
                 (lo, hi) = (lo.min(uv), hi.max(uv));
                 caster.push(uv);
             }
+            if let Some([_, inner]) = sides {
+                zv_min = inner
+                    .iter()
+                    .fold(zv_min, |z, v| z.min(v.zv_h[0] / v.zv_h[1]));
+            }
         }
         let res = self.shadow.resolution;
+        let inner_reach = match self.form {
+            Form::Centred if zv_min.is_finite() => inner_read_texels(frame, zv_min, res)?,
+            _ => 0,
+        };
         Some(LightUvs {
             supports: points
                 .iter()
@@ -458,17 +488,19 @@ impl PenumbraMap {
             } else {
                 PixelBox::EMPTY
             },
+            inner_reach,
         })
     }
 
     /// This frame's areas, from `light_uvs`, as smoothies' (`Smoothies::light_areas`):
     /// the penumbra map is cleared and drawn only where the cones and sheets project,
     /// joined with where they did last frame, so that every texel outside holds the clear
-    /// value; the paper form's shadow map likewise around the casters and the geometry,
-    /// with the objects that receive but cast nothing (a ground filling the map) drawn only
-    /// under the geometry: the final pass reads the foremost surface (g) only where the
-    /// penumbra map is below 1, and the penumbra pass only under itself. (The centred
-    /// form's inner pass marches the map for hidden receivers: its map stays whole.) Sets
+    /// value; the shadow map likewise around the casters and the geometry, with the
+    /// objects that receive but cast nothing (a ground filling the map) drawn only under
+    /// the geometry: the final pass reads the foremost surface (g) only where the penumbra
+    /// map is below 1, and the penumbra pass under itself and, for the centred form's
+    /// inner fragments, up to `inner_read_texels` around it (the receiver hidden behind the
+    /// caster is read just outside the hard edge). Sets
     /// where the final shader can give less than 1: each caster's polygon
     /// (`regions::shadowed` adds the normal offset and the gather's footprint).
     /// `Settings::light_areas` off: both passes whole, every object (the same image).
@@ -484,16 +516,22 @@ impl PenumbraMap {
             .penumbra_drawn
             .area(geometry)
             .unwrap_or(PixelBox::whole(res, res));
-        let (map_now, receivers) = match (self.form, &uvs) {
-            (Form::Paper, Some(u)) => (
-                Some(u.casters.union(u.geometry)),
-                if u.geometry.is_empty() {
-                    Receivers::Nowhere
-                } else {
-                    Receivers::Within(regions::render_area(u.geometry))
-                },
-            ),
-            _ => (None, Receivers::Everywhere),
+        let (map_now, receivers) = match &uvs {
+            Some(u) => {
+                // Where g is read: under the geometry (the final pass, where the outer
+                // value is below 1; the fragments' own texels), and for the centred form's
+                // inner fragments up to `inner_reach` around it.
+                let g_read = u.geometry.grown(u.inner_reach, res);
+                (
+                    Some(u.casters.union(g_read)),
+                    if g_read.is_empty() {
+                        Receivers::Nowhere
+                    } else {
+                        Receivers::Within(regions::render_area(g_read))
+                    },
+                )
+            }
+            None => (None, Receivers::Everywhere),
         };
         let all = self.map_drawn.area(map_now).map(regions::render_area);
         if !frame.settings.light_areas {

@@ -30,7 +30,11 @@
 //!    `PenumbraVertex`, as the paper form), uploaded to two host-visible vertex buffers.
 //! 1. `penumbra-map-centred/shadow_map` — the shared `ShadowMap`: R32G32_SFLOAT, clear 1e30,
 //!    blend MIN, no depth attachment; r = nearest caster's linear depth, g = nearest
-//!    surface's of any role.
+//!    surface's of any role. Cleared and drawn as the paper form's, the receivers that
+//!    cast nothing only under the cones and sheets grown by how far an inner fragment
+//!    reads g beside them (`inner_read_texels`: its distance inside the hard edge, at most
+//!    the widest inner cone, plus 7 texels): on `cylinder` at 640x480, 1024^2 this pass
+//!    took 1.96 ms instead of 5.26 (medians of 4 interleaved rounds on lavapipe).
 //! 2. `penumbra-map-centred/penumbra` — one rendering scope, no depth attachment, culling
 //!    off, one colour attachment, the penumbra map: R16G16B16A16_SFLOAT, clear (1, 1, 1, 1),
 //!    blend MIN; r = the outer visibility (darkest wins, the paper's rule), g = the inner
@@ -68,8 +72,8 @@
 //!    and the result is `hard`'s exactly. Where the penumbra map holds its clear value and no
 //!    caster is in front, v is exactly 1 (`bilinear_lit`), so the timed pass is split as the
 //!    paper form's (its header, pass 3: the shader only over each caster's box and its outer
-//!    and inner cones and sheets), and the penumbra map cleared and drawn as the paper form's;
-//!    the shadow map stays whole, as the inner pass marches it for hidden receivers.
+//!    and inner cones and sheets), and both light buffers cleared and drawn as the paper
+//!    form's (pass 1).
 //!
 //! ## Combining edges (what the centring approximates)
 //! - Several outer wedges at a texel: the darkest (MIN), as the paper. Exact for one edge;

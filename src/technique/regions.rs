@@ -97,6 +97,20 @@ impl LastDrawn {
     }
 }
 
+/// How far (texels) from a centred form's inner fragment, beyond its distance from the
+/// hard edge, the fragment reads the shadow map's g: glsl/common/inner_receiver.glsl
+/// samples the hidden receiver OUT_TEXELS and OUT_TEXELS + PLANE_TEXELS (1.5 and 5.5)
+/// texels outside the edge; plus the texel a sample floors into. The receivers need
+/// drawing into the map that far around the inner geometry (smoothies-centred,
+/// penumbra-map-centred: their `light_areas`). A unit test reads both constants from the
+/// shaders.
+pub const INNER_RECEIVER_TEXELS: u32 = 7;
+
+/// PLANE_LIMIT of glsl/common/inner_receiver.glsl: an inner fragment's receiver depth is a
+/// depth the shadow map holds, extrapolated by at most this fraction (a unit test reads it
+/// there).
+pub const INNER_PLANE_LIMIT: f32 = 0.05;
+
 /// `b` as a render area, which may not be empty: an empty box gives the texel at the
 /// origin, harmlessly cleared (every texel outside what was drawn holds the clear value).
 pub fn render_area(b: PixelBox) -> Rect2D {
@@ -169,6 +183,35 @@ pub fn shadowed(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// `INNER_RECEIVER_TEXELS` holds the inner fragments' farthest read of g outside their
+    /// edge, read from the shaders themselves: OUT_TEXELS + PLANE_TEXELS, plus the texel
+    /// a sample floors into; `INNER_PLANE_LIMIT` is the shader's PLANE_LIMIT.
+    #[test]
+    fn inner_receiver_constants_are_the_shaders() {
+        let constant = |src: &str, name: &str| -> f32 {
+            let line = src
+                .lines()
+                .find(|l| l.starts_with(&format!("const float {name} = ")))
+                .unwrap_or_else(|| panic!("{name} not in the shader"));
+            let value = line
+                .rsplit('=')
+                .next()
+                .unwrap()
+                .trim()
+                .trim_end_matches(';');
+            value.parse().unwrap_or_else(|_| panic!("{name}: {value}"))
+        };
+        let march = include_str!("../../glsl/common/inner_march.glsl");
+        let receiver = include_str!("../../glsl/common/inner_receiver.glsl");
+        assert_eq!(constant(receiver, "PLANE_LIMIT"), INNER_PLANE_LIMIT);
+        let reach = constant(march, "OUT_TEXELS") + constant(receiver, "PLANE_TEXELS");
+        assert!(reach > 0.0, "{reach}");
+        assert!(
+            INNER_RECEIVER_TEXELS as f32 >= reach.ceil() + 1.0,
+            "{INNER_RECEIVER_TEXELS} texels for samples {reach} texels out"
+        );
+    }
 
     /// The polygon of a support holds the points it was taken of and a union holds both
     /// polygons' points; a point past one corner by more than rounding is outside.

@@ -239,18 +239,8 @@ struct RecordsPush {
 /// only that far (records.glsl `extent`; the same image up to the rounding of the
 /// interpolated t and 1/b).
 fn inner_extent_depth(light: &LightView) -> f32 {
-    light.far * (1.0 + INNER_PLANE_LIMIT) * 1.001
+    light.far * (1.0 + regions::INNER_PLANE_LIMIT) * 1.001
 }
-
-/// PLANE_LIMIT of glsl/common/inner_receiver.glsl (a unit test reads it there).
-const INNER_PLANE_LIMIT: f32 = 0.05;
-
-/// How far beyond the smoothies' box (texels) the centred form's inner fragments read the
-/// shadow map's g: glsl/common/inner_receiver.glsl samples the hidden receiver OUT_TEXELS
-/// and OUT_TEXELS + PLANE_TEXELS (1.5 and 5.5) texels outside the edge, from the foot of
-/// the fragment on its edge (or from its silhouette vertex), which lies in the box; plus
-/// the texel the sample floors into. A unit test reads both constants from the shader.
-const INNER_RECEIVER_TEXELS: u32 = 7;
 
 /// The smoothie widths: the fixed knob when given, else calibrated per silhouette vertex
 /// from the light radius and the vertex's depth (see the module header).
@@ -731,9 +721,10 @@ impl Smoothies {
     ///   clears the whole buffer;
     /// - the shadow map (CPU path): the casters' projected boxes, where r is read, and the
     ///   texels where the smoothie pass reads g: the smoothies' texels, for the centred form
-    ///   grown by `INNER_RECEIVER_TEXELS` (its inner fragments read the hidden receiver just
-    ///   outside their edge); the receivers that cast nothing (a ground filling the whole
-    ///   map) are drawn only inside the latter, or not at all without smoothies.
+    ///   grown by `regions::INNER_RECEIVER_TEXELS` (its inner fragments read the hidden
+    ///   receiver just outside their edge); the receivers that cast nothing (a ground
+    ///   filling the whole map) are drawn only inside the latter, or not at all without
+    ///   smoothies.
     ///
     /// The clears and the ground's fill outside these boxes were lavapipe's largest fixed
     /// costs in both passes. `Settings::light_areas` off: both whole, every object (and
@@ -762,12 +753,13 @@ impl Smoothies {
 
         // Where the smoothie pass reads g: the paper form's fragments (and the centred
         // form's outer ones) at their own texel, inside the smoothies' box; the centred
-        // form's inner ones also just outside their edge (`INNER_RECEIVER_TEXELS`).
+        // form's inner ones also just outside their edge
+        // (`regions::INNER_RECEIVER_TEXELS`).
         let (map_now, receivers) = match smoothies {
             Some(s) => {
                 let g_read = match self.form {
                     Form::Paper => s,
-                    Form::Centred => s.grown(INNER_RECEIVER_TEXELS, res),
+                    Form::Centred => s.grown(regions::INNER_RECEIVER_TEXELS, res),
                 };
                 (
                     corners
@@ -1049,34 +1041,5 @@ mod tests {
         let g = edge.grown(7, 1024);
         assert_eq!((g.x0, g.y0, g.x1, g.y1), (0, 1014, 10, 1024));
         assert!(PixelBox::EMPTY.grown(7, 1024).is_empty());
-    }
-
-    /// `INNER_RECEIVER_TEXELS` holds the inner fragments' farthest read of g outside their
-    /// edge, read from the shaders themselves: OUT_TEXELS + PLANE_TEXELS, plus the texel
-    /// a sample floors into; `INNER_PLANE_LIMIT` is the shader's PLANE_LIMIT.
-    #[test]
-    fn centred_receiver_area_reaches_the_inner_samples() {
-        let constant = |src: &str, name: &str| -> f32 {
-            let line = src
-                .lines()
-                .find(|l| l.starts_with(&format!("const float {name} = ")))
-                .unwrap_or_else(|| panic!("{name} not in the shader"));
-            let value = line
-                .rsplit('=')
-                .next()
-                .unwrap()
-                .trim()
-                .trim_end_matches(';');
-            value.parse().unwrap_or_else(|_| panic!("{name}: {value}"))
-        };
-        let march = include_str!("../../glsl/common/inner_march.glsl");
-        let receiver = include_str!("../../glsl/common/inner_receiver.glsl");
-        assert_eq!(constant(receiver, "PLANE_LIMIT"), INNER_PLANE_LIMIT);
-        let reach = constant(march, "OUT_TEXELS") + constant(receiver, "PLANE_TEXELS");
-        assert!(reach > 0.0, "{reach}");
-        assert!(
-            INNER_RECEIVER_TEXELS as f32 >= reach.ceil() + 1.0,
-            "{INNER_RECEIVER_TEXELS} texels for samples {reach} texels out"
-        );
     }
 }

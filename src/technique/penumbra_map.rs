@@ -500,9 +500,9 @@ impl PenumbraMap {
     /// the geometry: the final pass reads the foremost surface (g) only where the penumbra
     /// map is below 1, and the penumbra pass under itself and, for the centred form's
     /// inner fragments, up to `inner_read_texels` around it (the receiver hidden behind the
-    /// caster is read just outside the hard edge). Sets
-    /// where the final shader can give less than 1: each caster's polygon
-    /// (`regions::shadowed` adds the normal offset and the gather's footprint).
+    /// caster is read just outside the hard edge). Sets where the final shader can give
+    /// less than 1: each caster's polygon (`regions::shadowed` adds the normal offset and
+    /// the gather's footprint).
     /// `Settings::light_areas` off: both passes whole, every object (the same image).
     fn light_areas(&mut self, frame: &FrameInput<'_>) -> (MapArea, Rect2D) {
         let uvs = self.light_uvs(frame);

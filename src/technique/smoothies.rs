@@ -71,8 +71,9 @@
 //!    CPU path: glsl/smoothies/smoothie_edges.vert (6 vertices per edge record), then
 //!    smoothie_fans.vert (3 per fan segment) pull the records from the storage buffer at
 //!    set 1 binding 0 (no vertex input): two draws per caster, push constants = first
-//!    16-byte unit, vertex, edge and fan record counts; both emit smoothie.vert's varyings
-//!    exactly (glsl/smoothies/records.glsl). Attachment: location 0 = the smoothie buffer,
+//!    16-byte unit, vertex, edge and fan record counts (and the centred form's inner
+//!    extent, 0 here: `RecordsPush`); both emit smoothie.vert's varyings exactly
+//!    (glsl/smoothies/records.glsl). Attachment: location 0 = the smoothie buffer,
 //!    R32G32_SFLOAT, clear (1e30, 1.0), blend MIN (per channel, so r and g blend as two
 //!    targets would): r = smoothie linear depth b (the min keeps the nearest smoothie),
 //!    g = remapped alpha (the paper's "minimum blending" of overlapping smoothies, Sec.
@@ -212,8 +213,7 @@ const SMOOTHIE_ATTRIBUTES: &[crate::vk::Attribute] = &[
     (5, Format::R32_SFLOAT, 32),
 ];
 
-/// Push constants of glsl/smoothies/records.glsl, per caster: first 16-byte unit
-/// of its records, vertex, edge and fan record counts.
+/// The size of the records' push constants, `RecordsPush`.
 const RECORDS_PUSH_BYTES: u32 = std::mem::size_of::<RecordsPush>() as u32;
 
 /// The push constants of the records' vertex shaders (`Caster` in
@@ -450,8 +450,8 @@ pub struct Smoothies {
     cpu_cache: CasterCacheOf<GeometryKey, SmoothieRecords>,
     /// Every caster's records, back to back (`SmoothieRecords::write_words`).
     records: DynamicVertices,
-    /// Per caster with geometry and side: push constants (first 16-byte unit, vertex, edge,
-    /// fan records) and the vertex counts of its edge and fan draws.
+    /// Per caster with geometry and side: `RecordsPush::counts` (first 16-byte unit,
+    /// vertex, edge, fan records) and the vertex counts of its edge and fan draws.
     record_draws: Vec<(Side, [u32; 4], [u32; 2])>,
     /// GPU path: silhouettes and geometry by compute, drawn indirectly.
     gpu_silhouettes: Option<GpuSilhouettes>,

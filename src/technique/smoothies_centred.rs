@@ -63,7 +63,8 @@
 //!    ones included, and last frame's: `smoothies.rs`, pass 2).
 //!    Four pipelines, all with glsl/smoothies/smoothie_edges.vert or smoothie_fans.vert
 //!    (the paper form's vertex pulling, records at set 1 binding 0, push constants = first
-//!    16-byte unit, vertex, edge and fan record counts); per caster two draws per side:
+//!    16-byte unit, vertex, edge and fan record counts, then the inner extent below);
+//!    per caster two draws per side:
 //!    - outer records, `glsl/smoothies_centred/outer.frag`: the paper's fragment program
 //!      (receiver r = the shadow map's g at its texel, discard when b/r > 1 or past the
 //!      smoothie's outer side), s = alpha' clamped to [0, 1] (1 where 1 - b/r < 1e-4),

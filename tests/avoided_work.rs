@@ -5,7 +5,7 @@
 
 mod common;
 
-use common::{covered, small, Gpu};
+use common::{covered, max_colour_diff, small, Gpu};
 use glam::{Mat4, Vec3};
 use softshadow::render::Renderer;
 use softshadow::scene::{Role, Scene};
@@ -289,13 +289,7 @@ fn light_areas_change_no_pixel() {
                 vis <= if rounding { 1e-3 } else { 0.0 },
                 "{case}: the visibility differs by up to {vis}"
             );
-            let levels = on
-                .color
-                .iter()
-                .zip(&off.color)
-                .flat_map(|(a, b)| a.iter().zip(b).map(|(x, y)| x.abs_diff(*y)))
-                .max()
-                .unwrap_or(0);
+            let levels = max_colour_diff(&on, &off);
             assert!(
                 levels <= u8::from(rounding),
                 "{case}: the image differs by up to {levels} levels"

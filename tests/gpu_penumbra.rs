@@ -5,7 +5,7 @@
 
 mod common;
 
-use common::{bowl, covered, cube, pixel_at, small, softshadow, with_caster, Gpu};
+use common::{bowl, covered, cube, max_colour_diff, pixel_at, small, softshadow, with_caster, Gpu};
 use glam::{Mat4, Vec3};
 use softshadow::frustum::fit_light;
 use softshadow::output::FrameImages;
@@ -202,13 +202,7 @@ fn gpu_and_cpu_penumbra_maps_render_the_same_image() {
             max_diff <= 2.0 / 255.0 && over <= 2,
             "{name}: GPU and CPU penumbra maps differ by {max_diff} ({over} pixels over one level)"
         );
-        let max_colour = cpu
-            .color
-            .iter()
-            .zip(&on_gpu.color)
-            .flat_map(|(a, b)| a.iter().zip(b).map(|(x, y)| x.abs_diff(*y)))
-            .max()
-            .unwrap_or(0);
+        let max_colour = max_colour_diff(&cpu, &on_gpu);
         assert!(max_colour <= 2, "{name}: colours differ by {max_colour}");
         // Both drew a penumbra that hard shadows do not have.
         for (path, img) in [("cpu", &cpu), ("gpu", &on_gpu)] {

@@ -4,7 +4,7 @@
 
 mod common;
 
-use common::{bowl, cube, small, softshadow, with_caster, Gpu};
+use common::{bowl, cube, max_colour_diff, small, softshadow, with_caster, Gpu};
 use glam::{Mat4, Vec3};
 use softshadow::frustum::fit_light;
 use softshadow::render::Renderer;
@@ -136,13 +136,7 @@ fn gpu_and_cpu_paths_render_the_same_image() {
             max_diff <= 1.0 / 255.0,
             "{name}: GPU and CPU smoothies differ by {max_diff}"
         );
-        let max_colour = cpu
-            .color
-            .iter()
-            .zip(&on_gpu.color)
-            .flat_map(|(a, b)| a.iter().zip(b).map(|(x, y)| x.abs_diff(*y)))
-            .max()
-            .unwrap_or(0);
+        let max_colour = max_colour_diff(&cpu, &on_gpu);
         assert!(
             max_colour <= 1,
             "{name}: colours differ by {max_colour} levels"

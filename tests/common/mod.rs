@@ -79,6 +79,16 @@ pub fn small(width: u32, shadow_res: u32) -> Settings {
     }
 }
 
+/// The largest difference of two images' colours, in 8-bit levels over every channel.
+pub fn max_colour_diff(a: &FrameImages, b: &FrameImages) -> u8 {
+    a.color
+        .iter()
+        .zip(&b.color)
+        .flat_map(|(p, q)| p.iter().zip(q).map(|(x, y)| x.abs_diff(*y)))
+        .max()
+        .unwrap_or(0)
+}
+
 /// Pixels that hit a receiving surface (position alpha 1).
 pub fn covered(img: &FrameImages) -> Vec<usize> {
     (0..img.visibility.len())

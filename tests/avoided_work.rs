@@ -264,11 +264,14 @@ fn light_areas_change_no_pixel() {
                 } else {
                     0.0
                 };
+                // NaN on one side only counts as an infinite difference.
                 let diffs: Vec<f32> = a
                     .iter()
                     .zip(w)
-                    .flat_map(|(a, w)| a.iter().zip(w).map(|(x, y)| (x - y).abs()))
-                    .filter(|d| *d > 0.0)
+                    .flat_map(|(a, w)| a.iter().zip(w))
+                    .filter(|(x, y)| !(x == y || x.is_nan() && y.is_nan()))
+                    .map(|(x, y)| (x - y).abs())
+                    .map(|d| if d.is_nan() { f32::INFINITY } else { d })
                     .collect();
                 let worst = diffs.iter().copied().fold(0.0, f32::max);
                 let values: usize = a.iter().map(Vec::len).sum();
@@ -281,7 +284,9 @@ fn light_areas_change_no_pixel() {
             let off_by = |x: &[f32], y: &[f32]| {
                 x.iter()
                     .zip(y)
+                    .filter(|(a, b)| !(a == b || a.is_nan() && b.is_nan()))
                     .map(|(a, b)| (a - b).abs())
+                    .map(|d| if d.is_nan() { f32::INFINITY } else { d })
                     .fold(0.0, f32::max)
             };
             let vis = off_by(&on.visibility, &off.visibility);

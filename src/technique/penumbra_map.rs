@@ -524,21 +524,14 @@ impl PenumbraMap {
                 let g_read = u.geometry.grown(u.inner_reach, res);
                 (
                     Some(u.casters.union(g_read)),
-                    if g_read.is_empty() {
-                        Receivers::Nowhere
-                    } else {
-                        Receivers::Within(regions::render_area(g_read))
-                    },
+                    regions::receivers_within(g_read),
                 )
             }
             None => (None, Receivers::Everywhere),
         };
         let all = self.map_drawn.area(map_now).map(regions::render_area);
         if !frame.settings.light_areas {
-            return (
-                MapArea::WHOLE,
-                regions::render_area(PixelBox::whole(res, res)),
-            );
+            return regions::whole_areas(res);
         }
         (
             MapArea { all, receivers },

@@ -13,7 +13,7 @@
 
 use super::FrameInput;
 use crate::frustum::PixelBox;
-use crate::gpu::passes::{rect_of, Shadowed};
+use crate::gpu::passes::{rect_of, MapArea, Receivers, Shadowed};
 use crate::vk::Rect2D;
 use glam::{Vec2, Vec3, Vec4};
 
@@ -118,6 +118,22 @@ pub fn render_area(b: PixelBox) -> Rect2D {
         return rect_of(PixelBox::whole(1, 1));
     }
     rect_of(b)
+}
+
+/// Where a shadow map draws the objects that receive but cast nothing, for a technique
+/// that reads their depth only inside `b`: there, or nowhere when `b` is empty.
+pub fn receivers_within(b: PixelBox) -> Receivers {
+    if b.is_empty() {
+        Receivers::Nowhere
+    } else {
+        Receivers::Within(render_area(b))
+    }
+}
+
+/// The areas of `Settings::light_areas` off: a side-`res` shadow map and light buffer
+/// cleared and drawn whole, every object in them.
+pub fn whole_areas(res: u32) -> (MapArea, Rect2D) {
+    (MapArea::WHOLE, render_area(PixelBox::whole(res, res)))
 }
 
 /// Where a technique reading only a casters' buffer of side `res` can see a caster: each

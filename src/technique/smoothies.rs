@@ -765,11 +765,7 @@ impl Smoothies {
                     corners
                         .as_ref()
                         .map(|c| regions::casters_box(c, res).union(g_read)),
-                    if g_read.is_empty() {
-                        Receivers::Nowhere
-                    } else {
-                        Receivers::Within(regions::render_area(g_read))
-                    },
+                    regions::receivers_within(g_read),
                 )
             }
             None => (None, Receivers::Everywhere),
@@ -789,10 +785,7 @@ impl Smoothies {
             _ => Shadowed::Everywhere,
         };
         if !frame.settings.light_areas {
-            return (
-                MapArea::WHOLE,
-                regions::render_area(PixelBox::whole(res, res)),
-            );
+            return regions::whole_areas(res);
         }
         (
             MapArea {

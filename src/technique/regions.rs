@@ -4,8 +4,9 @@
 //! its own texel a technique's lookups reach, as world half-spaces (`Shadowed::Inside`).
 //!
 //! A technique may use it when its final shader gives exactly 1 wherever every texel it
-//! reads holds the buffer's clear value ("far"): `smoothies` and `smoothies-centred` (with
-//! their smoothies' reach added to each polygon), `pcss`, `pcss-fast` and `pcss-walk` (the
+//! reads holds the buffer's clear value ("far"): `smoothies` and `smoothies-centred` (their
+//! smoothies' reach, which holds the caster's silhouette vertices and so its projection,
+//! `SmoothieRecords::holds_caster`, in place of the box where it can), `pcss`, `pcss-fast` and `pcss-walk` (the
 //! blocker search finds nothing and returns 1 before any filter), `penumbra-map` and
 //! `penumbra-map-centred` (with their cones' and sheets' vertices added to each polygon;
 //! `bilinear_lit` in glsl/common/shadow.glsl makes four lit texels exactly 1), and `pcf`

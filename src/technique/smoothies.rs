@@ -59,8 +59,9 @@
 //!    g = nearest surface of any role (the receiver depth r of Eq. 1). Linear depth, not
 //!    the depth buffer's, because Eq. 1 needs b/r. r is read everywhere (pass 3), g only
 //!    under smoothies (pass 2). So on the CPU path the pass clears and draws only the
-//!    casters' projected boxes and the smoothies' texels (pass 2's box), joined with last
-//!    frame's, and draws the objects that receive but cast nothing (a ground that fills the
+//!    smoothies' texels (pass 2's box) and the projected box of each caster they do not
+//!    hold (an edge dropped at the near plane, `SmoothieRecords::holds_caster`), joined
+//!    with last frame's, and draws the objects that receive but cast nothing (a ground that fills the
 //!    map) only inside the smoothies' texels (`light_areas`): g holds 1e30 elsewhere. A
 //!    porter can draw every object into the whole map instead: same image
 //!    (tests/avoided_work.rs, `Settings::light_areas`).
@@ -104,14 +105,16 @@
 //!    and 2 drew (each caster's projection and its smoothies), every lookup reads "far"
 //!    and v is exactly 1. So on the CPU path, where those texels are known, the timed pass
 //!    (`FinalPass::split`) takes per caster a 16-sided polygon in light uv around its
-//!    box's projected corners and its smoothies' reach (`shadow_regions`), cuts each
+//!    smoothies' reach, which holds the caster's own projection too (the convex hull of a
+//!    projected mesh is its silhouette vertices'; else its box's projected corners are
+//!    added: `shadow_regions`), cuts each
 //!    receiver's world box to the light frustum over each polygon (widened by the normal
 //!    offset and the gather's footprint, `regions::shadowed`), and draws the object with this
 //!    shader only in the screen boxes of those cuts (up to 8 rows of columns for a light
 //!    mesh such as a ground, one box for a heavy one), with glsl/common/unshadowed.frag
 //!    (visibility 1, no lookup) in the rest of its screen box: scissors of one rendering
 //!    scope, objects in the scene's order, so the image is the whole pass's bit for bit
-//!    (tests/avoided_work.rs). On lavapipe the lookups then run on 31-48 % of the area drawn on
+//!    (tests/avoided_work.rs). On lavapipe the lookups then run on 31-38 % of the area drawn on
 //!    `cylinder`, `overlap` and `bunny`, and the pass costs not much more than `hard`'s: a
 //!    CPU driver runs both sides of a branch, so the shader's own early-outs save nothing
 //!    there. On a GPU, where a warp skips what none of its threads
@@ -685,27 +688,42 @@ impl Smoothies {
         )
     }
 
+    /// Caster `i`'s records this frame, when its smoothies are drawn from them (CPU path,
+    /// t > 0: otherwise the cache may be another light's, and is not in the buffer).
+    fn records(&self, i: usize) -> Option<&SmoothieRecords> {
+        self.cpu_cache.get(i).filter(|_| self.draw_smoothies)
+    }
+
+    /// The texels of r the casters can write outside their smoothies' (which the shadow
+    /// map's area holds anyway): the projected box of each caster whose records do not
+    /// hold it (`SmoothieRecords::holds_caster`).
+    fn casters_texels(&self, corners: &[(usize, [Vec2; 8])], res: u32) -> PixelBox {
+        let beyond: Vec<_> = corners
+            .iter()
+            .filter(|(i, _)| !self.records(*i).is_some_and(SmoothieRecords::holds_caster))
+            .copied()
+            .collect();
+        regions::casters_box(&beyond, res)
+    }
+
     /// Per caster, the light-uv polygon its texels in r and the smoothie buffer lie in: the
-    /// support of its world box's corners projected by the light (the r texels; casters in
-    /// the light's frustum) and of its smoothies (`SmoothieRecords::uv_support`; every
-    /// caster's are drawn).
-    fn shadow_regions(
-        &self,
-        frame: &FrameInput<'_>,
-        corners: &[(usize, [Vec2; 8])],
-    ) -> Vec<regions::Support> {
+    /// support of its smoothies (`SmoothieRecords::uv_support`; every caster's are drawn),
+    /// which holds the caster's own texels too when every silhouette edge was kept
+    /// (`SmoothieRecords::holds_caster`: the convex hull of a projected mesh is its
+    /// silhouette vertices'), and else of its world box's corners projected by the light
+    /// (the r texels; casters in the light's frustum) as well. On `bunny` that takes the
+    /// lookups from 48 % to 38 % of the area drawn: it fills little of its box.
+    fn shadow_regions(&self, corners: &[(usize, [Vec2; 8])]) -> Vec<regions::Support> {
         let dirs = regions::directions();
-        let mut boxes = vec![None; frame.gpu.objects.len()];
-        for (i, uvs) in corners {
-            boxes[*i] = regions::support_of(uvs);
-        }
-        boxes
-            .into_iter()
-            .enumerate()
-            .filter_map(|(i, support)| {
-                // With no smoothie drawn (t = 0) the cache's records are not in the buffer.
-                let records = self.cpu_cache.get(i).filter(|_| self.draw_smoothies);
-                match (support, records.and_then(|r| r.uv_support(&dirs))) {
+        corners
+            .iter()
+            .filter_map(|(i, uvs)| {
+                let records = self.records(*i);
+                let smoothies = records.and_then(|r| r.uv_support(&dirs));
+                if records.is_some_and(SmoothieRecords::holds_caster) {
+                    return smoothies;
+                }
+                match (regions::support_of(uvs), smoothies) {
                     (Some(a), Some(b)) => Some(regions::union(a, b)),
                     (a, b) => a.or(b),
                 }
@@ -719,8 +737,8 @@ impl Smoothies {
     /// - the smoothie pass: the texels this frame's smoothies can reach, on the CPU path
     ///   (`SmoothieRecords::uv_bounds`); the GPU path builds its geometry on the device and
     ///   clears the whole buffer;
-    /// - the shadow map (CPU path): the casters' projected boxes, where r is read, and the
-    ///   texels where the smoothie pass reads g: the smoothies' texels, for the centred form
+    /// - the shadow map (CPU path): the casters' texels of r beyond their smoothies'
+    ///   (`casters_texels`), where r is read, and the texels where the smoothie pass reads g: the smoothies' texels, for the centred form
     ///   grown by `regions::INNER_RECEIVER_TEXELS` (its inner fragments read the hidden
     ///   receiver just outside their edge); the receivers that cast nothing (a ground
     ///   filling the whole map) are drawn only inside the latter, or not at all without
@@ -764,7 +782,7 @@ impl Smoothies {
                 (
                     corners
                         .as_ref()
-                        .map(|c| regions::casters_box(c, res).union(g_read)),
+                        .map(|c| self.casters_texels(c, res).union(g_read)),
                     regions::receivers_within(g_read),
                 )
             }
@@ -779,7 +797,7 @@ impl Smoothies {
         };
         self.shadowed = match (smoothies, &corners) {
             (Some(_), Some(c)) => {
-                let supports = self.shadow_regions(frame, c);
+                let supports = self.shadow_regions(c);
                 regions::shadowed(frame, &supports, self.shadow.resolution, 0.0)
             }
             _ => Shadowed::Everywhere,

@@ -44,8 +44,9 @@
 //!    not). The paper's shadow map holds every object; our scenes have receive-only grounds,
 //!    which need a depth for Eq. 1 but must not cast, hence the two channels. r is read
 //!    everywhere, g only where the penumbra map is below 1 (passes 2 and 3). So on the CPU
-//!    path the pass clears and draws only the casters' projected boxes and the cones' and
-//!    sheets' texels, joined with last frame's, and draws the objects that receive but cast
+//!    path the pass clears and draws only the cones' and sheets' texels and the projected
+//!    box of each caster they do not hold (a silhouette vertex without a cone,
+//!    `CasterGeometry::holds_caster`), joined with last frame's, and draws the objects that receive but cast
 //!    nothing (a ground that fills the map) only inside the cones' and sheets' texels
 //!    (`light_areas`): g holds 1e30 elsewhere. A porter can draw every object into the
 //!    whole map instead: same image (tests/avoided_work.rs, `Settings::light_areas`).
@@ -86,8 +87,9 @@
 //!    to rounding), and outside the texels a caster or its cones and sheets project to,
 //!    every texel is so. So on the CPU path, where that geometry is known, the timed pass
 //!    (`FinalPass::split`, src/technique/regions.rs) runs this shader only on the
-//!    receivers' parts inside the light frustum over each caster's polygon (its box's
-//!    projected corners and its cones' and sheets' vertices, `light_uvs`) and
+//!    receivers' parts inside the light frustum over each caster's polygon (its cones' and
+//!    sheets' vertices, whose tips on the silhouette bound the caster's projection, and
+//!    else its box's projected corners too, `light_uvs`) and
 //!    glsl/common/unshadowed.frag elsewhere: the same image (tests/avoided_work.rs), for a
 //!    fraction of the pass on lavapipe, which runs every branch for every fragment. A
 //!    porter can draw the whole pass with this shader: same image.
@@ -205,6 +207,15 @@ impl Form {
 /// One caster's outer cones and sheets, then its inner ones (empty in the paper form).
 type Sides = [Vec<PenumbraVertex>; 2];
 
+/// One caster's per-light geometry on the CPU path, rebuilt when it or the light moves.
+struct CasterGeometry {
+    sides: Sides,
+    /// Every silhouette vertex got its cones, whose tips lie on it: the geometry's points
+    /// then bound the caster's own projection ("The silhouette bounds the projection" in
+    /// `crate::silhouette`), and its box adds nothing.
+    holds_caster: bool,
+}
+
 pub struct PenumbraMap {
     form: Form,
     shadow: ShadowMap,
@@ -222,7 +233,7 @@ pub struct PenumbraMap {
     adjacency: Vec<Option<Arc<Adjacency>>>,
     /// CPU path: per caster, its cones and sheets and what they were built for: a moved
     /// caster rebuilds only its own.
-    cache: CasterCacheOf<PenumbraKey, Sides>,
+    cache: CasterCacheOf<PenumbraKey, CasterGeometry>,
     vertices: DynamicVertices,
     inner_vertices: DynamicVertices,
     /// GPU path: silhouettes, cones and sheets by compute, drawn indirectly (None on the CPU
@@ -242,9 +253,9 @@ pub struct PenumbraMap {
 
 /// What the casters and their cones and sheets cover in light uv (`PenumbraMap::light_uvs`).
 struct LightUvs {
-    /// Per caster, the polygon around its box's corners and its geometry.
+    /// Per caster, the polygon around its geometry (and its box's corners, `light_uvs`).
     supports: Vec<regions::Support>,
-    /// The texels of the casters' projected boxes.
+    /// The texels of the projected boxes of the casters their geometry does not hold.
     casters: PixelBox,
     /// The texels of the cones and sheets.
     geometry: PixelBox,
@@ -414,36 +425,31 @@ impl PenumbraMap {
             force,
             |adj, model| {
                 let sil = silhouette::extract(adj, model, light.position);
-                match form {
+                let (l, r, z) = (light, radius, z_far);
+                let (outer, inner) = match form {
                     Form::Paper => {
-                        let [outer] = build_penumbra_sides(
-                            adj,
-                            &sil,
-                            model,
-                            light,
-                            radius,
-                            z_far,
-                            [Side::Outer],
-                        );
-                        [outer.vertices, Vec::new()]
+                        let [outer] =
+                            build_penumbra_sides(adj, &sil, model, l, r, z, [Side::Outer]);
+                        (outer, Vec::new())
                     }
-                    Form::Centred => build_penumbra_sides(
-                        adj,
-                        &sil,
-                        model,
-                        light,
-                        radius,
-                        z_far,
-                        [Side::Outer, Side::Inner],
-                    )
-                    .map(|g| g.vertices),
+                    Form::Centred => {
+                        let sides = [Side::Outer, Side::Inner];
+                        let [outer, inner] = build_penumbra_sides(adj, &sil, model, l, r, z, sides);
+                        (outer, inner.vertices)
+                    }
+                };
+                CasterGeometry {
+                    // The inner cones have the same tips as the outer ones.
+                    holds_caster: outer.skipped_vertices == 0 && outer.cones > 0,
+                    sides: [outer.vertices, inner],
                 }
             },
         )
     }
 
     /// Per object, the light-uv points that bound what it draws into the light buffers:
-    /// its box's projected corners (a caster in the light) and its cones' and sheets'
+    /// its box's projected corners (a caster in the light, unless its geometry holds it:
+    /// `CasterGeometry::holds_caster`) and its cones' and sheets'
     /// vertices (a projected triangle lies inside its vertices' hull; every cached
     /// caster's geometry is drawn, also one just outside the light's frustum, whose cones
     /// can reach into it). `None` on the GPU path, whose geometry only the device knows,
@@ -452,7 +458,9 @@ impl PenumbraMap {
         if self.draw_geometry && self.gpu_silhouettes.is_some() {
             return None;
         }
-        let corners = regions::caster_corner_uvs(frame)?;
+        let mut corners = regions::caster_corner_uvs(frame)?;
+        let cached = |i: usize| self.cache.get(i).filter(|_| self.draw_geometry);
+        corners.retain(|(i, _)| !cached(*i).is_some_and(|c| c.holds_caster));
         let mut points = vec![Vec::new(); frame.gpu.objects.len()];
         for (i, uvs) in &corners {
             points[*i].extend(uvs);
@@ -460,7 +468,7 @@ impl PenumbraMap {
         let (mut lo, mut hi) = (Vec2::INFINITY, Vec2::NEG_INFINITY);
         let mut zv_min = f32::INFINITY;
         for (i, caster) in points.iter_mut().enumerate() {
-            let sides = self.cache.get(i).filter(|_| self.draw_geometry);
+            let sides = cached(i).map(|c| &c.sides);
             for v in sides.into_iter().flatten().flatten() {
                 let uv = regions::light_uv(frame, Vec3::from(v.position))?;
                 (lo, hi) = (lo.min(uv), hi.max(uv));
@@ -541,10 +549,10 @@ impl PenumbraMap {
 
     /// Every caster's cached geometry of one side, in object order.
     fn concat(&self, side: usize) -> Vec<PenumbraVertex> {
-        let n = self.cache.iter().map(|s| s[side].len()).sum();
+        let n = self.cache.iter().map(|c| c.sides[side].len()).sum();
         let mut out = Vec::with_capacity(n);
-        for s in self.cache.iter() {
-            out.extend_from_slice(&s[side]);
+        for c in self.cache.iter() {
+            out.extend_from_slice(&c.sides[side]);
         }
         out
     }

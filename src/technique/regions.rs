@@ -8,7 +8,8 @@
 //! smoothies' reach, which holds the caster's silhouette vertices and so its projection,
 //! `SmoothieRecords::holds_caster`, in place of the box where it can), `pcss`, `pcss-fast` and `pcss-walk` (the
 //! blocker search finds nothing and returns 1 before any filter), `penumbra-map` and
-//! `penumbra-map-centred` (with their cones' and sheets' vertices added to each polygon;
+//! `penumbra-map-centred` (their cones' and sheets' vertices, with the box only where a
+//! silhouette vertex got no cone, whose tip would hold it;
 //! `bilinear_lit` in glsl/common/shadow.glsl makes four lit texels exactly 1), and `pcf`
 //! (its kernel's reach; every texel lit gives exactly 1).
 

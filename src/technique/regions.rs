@@ -6,12 +6,12 @@
 //! A technique may use it when its final shader gives exactly 1 wherever every texel it
 //! reads holds the buffer's clear value ("far"): `smoothies` and `smoothies-centred` (their
 //! smoothies' reach, which holds the caster's silhouette vertices and so its projection,
-//! `SmoothieRecords::holds_caster`, in place of the box where it can), `pcss`, `pcss-fast` and `pcss-walk` (the
-//! blocker search finds nothing and returns 1 before any filter), `penumbra-map` and
-//! `penumbra-map-centred` (their cones' and sheets' vertices, with the box only where a
-//! silhouette vertex got no cone, whose tip would hold it;
-//! `bilinear_lit` in glsl/common/shadow.glsl makes four lit texels exactly 1), and `pcf`
-//! (its kernel's reach; every texel lit gives exactly 1).
+//! in place of the box where it can: `SmoothieRecords::holds_caster`), `pcss`, `pcss-fast`
+//! and `pcss-walk` (the blocker search finds nothing and returns 1 before any filter),
+//! `penumbra-map` and `penumbra-map-centred` (their cones' and sheets' vertices, with the
+//! box only where a silhouette vertex got no cone, whose tip would hold it; `bilinear_lit`
+//! in glsl/common/shadow.glsl makes four lit texels exactly 1), and `pcf` (its kernel's
+//! reach; every texel lit gives exactly 1).
 
 use super::FrameInput;
 use crate::frustum::PixelBox;

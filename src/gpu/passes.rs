@@ -462,7 +462,9 @@ impl FinalPass {
     /// rendering scope. The objects are drawn in the scene's order and each pixel of an
     /// object in exactly one part, so the depth test keeps the same fragment as one
     /// whole-image draw would. Meshes are cut into fewer parts the more triangles they
-    /// have: every part shades all of its vertices again.
+    /// have: every part shades all of its vertices again. A caster in the light is not cut
+    /// at all: every region is built around its caster's own texels, so the caster lies in
+    /// its own, and the parts around a cut would hold none of its pixels.
     fn record_split(
         &self,
         rec: &mut Recorder<'_>,
@@ -480,7 +482,13 @@ impl FinalPass {
             if !o.in_camera {
                 continue;
             }
-            let parts = if o.role.receives() {
+            let parts = if o.role.receives() && o.role.casts() && o.in_light {
+                // In its own region (see above): one part, the technique's shader.
+                Polytope::hexahedron(&o.world_corners())
+                    .screen_box(view_proj, t.width, t.height)
+                    .map(|b| vec![(true, b)])
+                    .unwrap_or_default()
+            } else if o.role.receives() {
                 let bands = match o.index_count / 3 {
                     0..=256 => SPLIT_BANDS,
                     257..=4096 => 1,

@@ -41,15 +41,16 @@
 //!    the light into one R32G32_SFLOAT target, clear 1e30 (`FAR_DEPTH`), blend MIN, no depth
 //!    attachment; r = the nearest caster's linear depth (the shadow map of the final test),
 //!    g = the nearest surface of any role (Z_P of Eq. 1: the foremost surface, casting or
-//!    not). The paper's shadow map holds every object; our scenes have receive-only grounds,
-//!    which need a depth for Eq. 1 but must not cast, hence the two channels. r is read
-//!    everywhere, g only where the penumbra map is below 1 (passes 2 and 3). So on the CPU
-//!    path the pass clears and draws only the cones' and sheets' texels and the projected
-//!    box of each caster they do not hold (a silhouette vertex without a cone,
-//!    `CasterGeometry::holds_caster`), joined with last frame's, and draws the objects that receive but cast
-//!    nothing (a ground that fills the map) only inside the cones' and sheets' texels
-//!    (`light_areas`): g holds 1e30 elsewhere. A porter can draw every object into the
-//!    whole map instead: same image (tests/avoided_work.rs, `Settings::light_areas`).
+//!    not). The paper's shadow map holds every object; our scenes have receive-only
+//!    grounds, which need a depth for Eq. 1 but must not cast, hence the two channels. r is
+//!    read everywhere, g only where the penumbra map is below 1 (passes 2 and 3). So on the
+//!    CPU path the pass clears and draws only the cones' and sheets' texels and the
+//!    projected box of each caster they do not hold (a silhouette vertex without a cone,
+//!    `CasterGeometry::holds_caster`), joined with last frame's, and draws the objects that
+//!    receive but cast nothing (a ground that fills the map) only inside the cones' and
+//!    sheets' texels (`light_areas`): g holds 1e30 elsewhere. A porter can draw every
+//!    object into the whole map instead: same image (tests/avoided_work.rs,
+//!    `Settings::light_areas`).
 //! 2. `penumbra-map/penumbra` — cones and sheets from the light, culling off, no depth
 //!    attachment; one colour attachment, the penumbra map: R16_SFLOAT intensity, clear 1.0
 //!    (the paper's "clear to white"), blend MIN; on the CPU path cleared and drawn only in
@@ -89,10 +90,10 @@
 //!    (`FinalPass::split`, src/technique/regions.rs) runs this shader only on the
 //!    receivers' parts inside the light frustum over each caster's polygon (its cones' and
 //!    sheets' vertices, whose tips on the silhouette bound the caster's projection, and
-//!    else its box's projected corners too, `light_uvs`) and
-//!    glsl/common/unshadowed.frag elsewhere: the same image (tests/avoided_work.rs), for a
-//!    fraction of the pass on lavapipe, which runs every branch for every fragment. A
-//!    porter can draw the whole pass with this shader: same image.
+//!    else its box's projected corners too, `light_uvs`) and glsl/common/unshadowed.frag
+//!    elsewhere: the same image (tests/avoided_work.rs), for a fraction of the pass on
+//!    lavapipe, which runs every branch for every fragment. A porter can draw the whole
+//!    pass with this shader: same image.
 //!
 //! ## Equations
 //! Sec. 3: C_r = (Z_far - Z_v) L_r / Z_v (cone radius). Eq. 1 (in linear, "world-space"
@@ -447,13 +448,13 @@ impl PenumbraMap {
         )
     }
 
-    /// Per object, the light-uv points that bound what it draws into the light buffers:
-    /// its box's projected corners (a caster in the light, unless its geometry holds it:
-    /// `CasterGeometry::holds_caster`) and its cones' and sheets'
-    /// vertices (a projected triangle lies inside its vertices' hull; every cached
-    /// caster's geometry is drawn, also one just outside the light's frustum, whose cones
-    /// can reach into it). `None` on the GPU path, whose geometry only the device knows,
-    /// and when a box or a vertex reaches behind the light.
+    /// Per object, the light-uv points that bound what it draws into the light buffers: its
+    /// box's projected corners (a caster in the light, unless its geometry holds it:
+    /// `CasterGeometry::holds_caster`) and its cones' and sheets' vertices (a projected
+    /// triangle lies inside its vertices' hull; every cached caster's geometry is drawn,
+    /// also one just outside the light's frustum, whose cones can reach into it). `None` on
+    /// the GPU path, whose geometry only the device knows, and when a box or a vertex
+    /// reaches behind the light.
     fn light_uvs(&self, frame: &FrameInput<'_>) -> Option<LightUvs> {
         if self.draw_geometry && self.gpu_silhouettes.is_some() {
             return None;

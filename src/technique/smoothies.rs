@@ -61,9 +61,9 @@
 //!    under smoothies (pass 2). So on the CPU path the pass clears and draws only the
 //!    smoothies' texels (pass 2's box) and the projected box of each caster they do not
 //!    hold (an edge dropped at the near plane, `SmoothieRecords::holds_caster`), joined
-//!    with last frame's, and draws the objects that receive but cast nothing (a ground that fills the
-//!    map) only inside the smoothies' texels (`light_areas`): g holds 1e30 elsewhere. A
-//!    porter can draw every object into the whole map instead: same image
+//!    with last frame's, and draws the objects that receive but cast nothing (a ground that
+//!    fills the map) only inside the smoothies' texels (`light_areas`): g holds 1e30
+//!    elsewhere. A porter can draw every object into the whole map instead: same image
 //!    (tests/avoided_work.rs, `Settings::light_areas`).
 //! 2. `smoothies/smoothie` — ONE pass, one colour attachment, no depth attachment.
 //!    Pipelines of that name per path, all with the same fragment shader:
@@ -107,18 +107,18 @@
 //!    (`FinalPass::split`) takes per caster a 16-sided polygon in light uv around its
 //!    smoothies' reach, which holds the caster's own projection too (the convex hull of a
 //!    projected mesh is its silhouette vertices'; else its box's projected corners are
-//!    added: `shadow_regions`), cuts each
-//!    receiver's world box to the light frustum over each polygon (widened by the normal
-//!    offset and the gather's footprint, `regions::shadowed`), and draws the object with this
-//!    shader only in the screen boxes of those cuts (up to 8 rows of columns for a light
-//!    mesh such as a ground, one box for a heavy one), with glsl/common/unshadowed.frag
-//!    (visibility 1, no lookup) in the rest of its screen box: scissors of one rendering
-//!    scope, objects in the scene's order, so the image is the whole pass's bit for bit
-//!    (tests/avoided_work.rs). On lavapipe the lookups then run on 31-38 % of the area drawn on
-//!    `cylinder`, `overlap` and `bunny`, and the pass costs not much more than `hard`'s: a
-//!    CPU driver runs both sides of a branch, so the shader's own early-outs save nothing
-//!    there. On a GPU, where a warp skips what none of its threads
-//!    takes, a porter can draw the whole pass with this shader: same image.
+//!    added: `shadow_regions`), cuts each receiver's world box to the light frustum over
+//!    each polygon (widened by the normal offset and the gather's footprint,
+//!    `regions::shadowed`), and draws the object with this shader only in the screen boxes
+//!    of those cuts (up to 8 rows of columns for a light mesh such as a ground, one box for
+//!    a heavy one), with glsl/common/unshadowed.frag (visibility 1, no lookup) in the rest
+//!    of its screen box: scissors of one rendering scope, objects in the scene's order, so
+//!    the image is the whole pass's bit for bit (tests/avoided_work.rs). On lavapipe the
+//!    lookups then run on 31-38 % of the area drawn on `cylinder`, `overlap` and `bunny`,
+//!    and the pass costs not much more than `hard`'s: a CPU driver runs both sides of a
+//!    branch, so the shader's own early-outs save nothing there. On a GPU, where a warp
+//!    skips what none of its threads takes, a porter can draw the whole pass with this
+//!    shader: same image.
 //!
 //! `--spirv tuned` (`Settings::spirv`) runs hand-written SPIR-V for passes 2 and 3 instead
 //! of glslang's: glsl/smoothies/smoothie.frag.spvasm and final.frag.spvasm, same bindings,

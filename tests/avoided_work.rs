@@ -507,3 +507,66 @@ fn split_final_pass_shades_as_the_whole_one() {
     }
     assert!(split * 3 >= frames * 2, "{split} of {frames} frames split");
 }
+
+/// The regions are rebuilt from per-caster outlines kept between frames (smoothies'
+/// records, penumbra maps' cones and sheets, `regions::AroundCasters` for the pcss family
+/// and pcf): when the bunny slides and turns, and then the light moves, every point shaded
+/// below 1 still lies inside a region and the timed colour equals the AOV pass's, frame
+/// after frame.
+#[test]
+fn regions_follow_a_moving_caster_and_light() {
+    let gpu = Gpu::new();
+    let settings = Settings {
+        silhouettes: SilhouettePath::Cpu,
+        ..small(128, 512)
+    };
+    for name in ["smoothies", "penumbra-map", "pcss", "pcf"] {
+        let mut r = Renderer::new(
+            &gpu.ctx,
+            Scene::load("bunny").unwrap(),
+            name,
+            settings.clone(),
+        )
+        .unwrap();
+        let bunny = r
+            .scene
+            .objects
+            .iter()
+            .position(|o| o.name == "bunny")
+            .unwrap();
+        let mut split = 0;
+        for step in 0..5 {
+            if step > 0 && step < 4 {
+                let centre = r.scene.objects[bunny].world_bounds().center();
+                r.scene.objects[bunny].transform = Mat4::from_translation(centre + Vec3::X * 0.4)
+                    * Mat4::from_rotation_y(0.6)
+                    * Mat4::from_translation(-centre)
+                    * r.scene.objects[bunny].transform;
+            } else if step == 4 {
+                r.scene.light.position += Vec3::new(0.8, 0.3, -0.5);
+            }
+            let timings = r.render().unwrap();
+            let img = r.read_back().unwrap();
+            let whole = r.read_color().unwrap();
+            let shadowed = r.shadowed().unwrap();
+            let outside = covered(&img)
+                .into_iter()
+                .filter(|&i| img.visibility[i] < 1.0 - 1e-6)
+                .filter(|&i| !shadowed.contains(Vec3::from_slice(&img.position[i][..3])))
+                .count();
+            assert_eq!(
+                outside, 0,
+                "{name}, step {step}: shadowed points outside the regions"
+            );
+            assert!(
+                img.color == whole,
+                "{name}, step {step}: the split pass's colour differs"
+            );
+            let area = timings
+                .lookup_area_of(&format!("{name}/final"))
+                .unwrap_or(1.0);
+            split += usize::from(area < 0.9);
+        }
+        assert_eq!(split, 5, "{name}: a frame not split");
+    }
+}

@@ -39,11 +39,12 @@
 //!    Writes colour RGBA8, no blending (the untimed AOV pass `pcf/aov` also visibility R32F,
 //!    position RGBA32F, normal RGBA16F: `FinalPass`). Where every texel the kernel reads is
 //!    lit the filter returns exactly 1 (it would be 1 only up to rounding as a weighted
-//!    sum), and beyond the kernel's reach of every caster's projected box every texel is
-//!    the clear value. So the timed pass (`FinalPass::split`, src/technique/regions.rs,
-//!    reach `reach_texels`) runs this shader only within that reach and
-//!    glsl/common/unshadowed.frag elsewhere: the same image (tests/avoided_work.rs), for a
-//!    fraction of the pass on lavapipe, which runs every branch for every fragment.
+//!    sum), and beyond the kernel's reach of every caster's projected outline (the hull of
+//!    its projected vertices, `regions::AroundCasters`) every texel is the clear value. So
+//!    the timed pass (`FinalPass::split`, src/technique/regions.rs, reach `reach_texels`)
+//!    runs this shader only within that reach and glsl/common/unshadowed.frag elsewhere:
+//!    the same image (tests/avoided_work.rs), for a fraction of the pass on lavapipe, which
+//!    runs every branch for every fragment.
 //!
 //! ## Known artefacts
 //! Penumbra of constant width in texels (too wide at contacts, too narrow far from them);
@@ -108,8 +109,10 @@ pub struct Pcf {
     final_pass: FinalPass,
     final_set: DescriptorSet,
     /// Where a caster texel lies within the kernel's reach, built with the light pass
-    /// (`regions::around_casters`).
+    /// (`regions::AroundCasters`).
     shadowed: Shadowed,
+    /// The casters' outlines `shadowed` is built from.
+    around: regions::AroundCasters,
     kernel: PcfKernel,
     _sampler: Sampler,
 }
@@ -150,6 +153,7 @@ impl Pcf {
             final_pass,
             final_set,
             shadowed: Shadowed::Everywhere,
+            around: regions::AroundCasters::default(),
             kernel,
             _sampler: sampler,
         }))
@@ -173,7 +177,7 @@ impl Technique for Pcf {
     ) -> Result<()> {
         self.shadow.pass(rec, frame.gpu)?;
         let res = self.shadow.resolution;
-        self.shadowed = regions::around_casters(frame, res, reach_texels(self.kernel));
+        self.shadowed = self.around.shadowed(frame, res, reach_texels(self.kernel));
         Ok(())
     }
 

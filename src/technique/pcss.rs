@@ -48,13 +48,14 @@
 //!    `pcss/aov` also visibility R32F, position RGBA32F, normal RGBA16F: `FinalPass`).
 //!
 //!    Where no caster texel lies within a search's reach (`search_reach_texels`: Eq. 3 for
-//!    a receiver at infinity, clamped) the search finds nothing and v is exactly 1. So
-//!    the timed pass (`FinalPass::split`, src/technique/regions.rs) runs this shader only
-//!    on the receivers' parts inside the light frustum over each caster's projected box
-//!    widened by that reach, the normal offset and a gather's footprint, and
-//!    glsl/common/unshadowed.frag (no lookup) elsewhere: the same image (tests/avoided_work.rs),
-//!    for a fraction of the pass on lavapipe, which runs every branch for every fragment,
-//!    and on a GPU too, which pays the search before it can exit.
+//!    a receiver at infinity, clamped) the search finds nothing and v is exactly 1. So the
+//!    timed pass (`FinalPass::split`, src/technique/regions.rs) runs this shader only on
+//!    the receivers' parts inside the light frustum over each caster's outline (the hull of
+//!    its projected vertices, `regions::AroundCasters`) widened by that reach, the normal
+//!    offset and a gather's footprint, and glsl/common/unshadowed.frag (no lookup)
+//!    elsewhere: the same image (tests/avoided_work.rs), for a fraction of the pass on
+//!    lavapipe, which runs every branch for every fragment, and on a GPU too, which pays
+//!    the search before it can exit.
 //!
 //! ## Sample counts
 //! `--pcf-kernel poissonN` sets both the search and the filter to N samples. A box kernel
@@ -145,8 +146,10 @@ pub struct Pcss {
     shadow: ShadowMap,
     final_pass: FinalPass,
     final_set: DescriptorSet,
-    /// Where a blocker can be found, built with the light pass (`regions::around_casters`).
+    /// Where a blocker can be found, built with the light pass (`regions::AroundCasters`).
     shadowed: Shadowed,
+    /// The casters' outlines `shadowed` is built from.
+    around: regions::AroundCasters,
     search_samples: u32,
     filter_samples: u32,
     _sampler: Sampler,
@@ -187,6 +190,7 @@ impl Pcss {
             final_pass,
             final_set,
             shadowed: Shadowed::Everywhere,
+            around: regions::AroundCasters::default(),
             search_samples,
             filter_samples,
             _sampler: sampler,
@@ -211,7 +215,9 @@ impl Technique for Pcss {
     ) -> Result<()> {
         self.shadow.pass(rec, frame.gpu)?;
         let res = self.shadow.resolution;
-        self.shadowed = regions::around_casters(frame, res, search_reach_texels(frame, res));
+        self.shadowed = self
+            .around
+            .shadowed(frame, res, search_reach_texels(frame, res));
         Ok(())
     }
 

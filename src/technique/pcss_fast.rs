@@ -257,8 +257,10 @@ pub struct PcssFast {
     build_set: DescriptorSet,
     final_pass: FinalPass,
     final_set: DescriptorSet,
-    /// Where a blocker can be found, built with the light passes (`regions::around_casters`).
+    /// Where a blocker can be found, built with the light passes (`regions::AroundCasters`).
     shadowed: Shadowed,
+    /// The casters' outlines `shadowed` is built from.
+    around: regions::AroundCasters,
     search_samples: u32,
     filter_samples: u32,
     _sampler: Sampler,
@@ -340,6 +342,7 @@ impl PcssFast {
             final_pass,
             final_set,
             shadowed: Shadowed::Everywhere,
+            around: regions::AroundCasters::default(),
             search_samples,
             filter_samples,
             _sampler: sampler,
@@ -405,7 +408,8 @@ impl Technique for PcssFast {
         frame: &FrameInput<'_>,
     ) -> Result<()> {
         self.shadow.pass(rec, frame.gpu)?;
-        self.shadowed = regions::around_casters(frame, self.shadow.resolution, self.reach(frame));
+        let reach = self.reach(frame);
+        self.shadowed = self.around.shadowed(frame, self.shadow.resolution, reach);
         self.record_minmax(rec)
     }
 

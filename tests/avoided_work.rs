@@ -478,15 +478,8 @@ fn split_final_pass_shades_as_the_whole_one() {
                 let img = r.read_back().unwrap();
                 let whole = r.read_color().unwrap();
                 let differing = img.color.iter().zip(&whole).filter(|(a, b)| a != b).count();
-                // Sharper than the colours, which the screen boxes' slack hides: every point
-                // the shader shades below 1 lies inside a region. Below 1 by more than the
-                // rounding of a bilinear sum of four lit texels' weights (smoothies at R 0).
-                let shadowed = r.shadowed().unwrap();
-                let outside = covered(&img)
-                    .into_iter()
-                    .filter(|&i| img.visibility[i] < 1.0 - 1e-6)
-                    .filter(|&i| !shadowed.contains(Vec3::from_slice(&img.position[i][..3])))
-                    .count();
+                // Sharper than the colours, which the screen boxes' slack hides.
+                let outside = shaded_outside_regions(&r, &img);
                 assert_eq!(
                     outside, 0,
                     "{label} on {scene_name} (R {radius:?}, {view} camera): {outside} shadowed points outside its regions"
@@ -506,6 +499,18 @@ fn split_final_pass_shades_as_the_whole_one() {
         }
     }
     assert!(split * 3 >= frames * 2, "{split} of {frames} frames split");
+}
+
+/// How many points the technique's shader shades below 1 lie outside its regions
+/// (`Renderer::shadowed`), in the AOVs `img` of its last frame: none may. Below 1 by more
+/// than the rounding of a bilinear sum of four lit texels' weights (smoothies at R 0).
+fn shaded_outside_regions(r: &Renderer, img: &softshadow::output::FrameImages) -> usize {
+    let shadowed = r.shadowed().expect("a split final pass");
+    covered(img)
+        .into_iter()
+        .filter(|&i| img.visibility[i] < 1.0 - 1e-6)
+        .filter(|&i| !shadowed.contains(Vec3::from_slice(&img.position[i][..3])))
+        .count()
 }
 
 /// The regions are rebuilt from per-caster outlines kept between frames (smoothies'
@@ -548,12 +553,7 @@ fn regions_follow_a_moving_caster_and_light() {
             let timings = r.render().unwrap();
             let img = r.read_back().unwrap();
             let whole = r.read_color().unwrap();
-            let shadowed = r.shadowed().unwrap();
-            let outside = covered(&img)
-                .into_iter()
-                .filter(|&i| img.visibility[i] < 1.0 - 1e-6)
-                .filter(|&i| !shadowed.contains(Vec3::from_slice(&img.position[i][..3])))
-                .count();
+            let outside = shaded_outside_regions(&r, &img);
             assert_eq!(
                 outside, 0,
                 "{name}, step {step}: shadowed points outside the regions"

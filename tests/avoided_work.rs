@@ -406,7 +406,7 @@ fn culling_changes_no_pixel() {
 /// lookups can reach in what the light passes drew) and a shader without lookups
 /// elsewhere. Its colour must equal the AOV pass's, which runs the shader on every pixel,
 /// bit for bit: for both smoothies forms, the three pcss searches, both penumbra-map
-/// forms and pcf, on every built-in scene but the million-triangle one, from the scene's
+/// forms, pcf and both plateaus forms, on every built-in scene but the million-triangle one, from the scene's
 /// camera, from one orbited round the scene and from one low over the ground (which
 /// reaches behind it: the near plane cuts the boxes), at light radius 0, and with a
 /// caster that receives nothing (never split).
@@ -427,6 +427,8 @@ fn split_final_pass_shades_as_the_whole_one() {
         // pcf with its widest kernels, whose reach the regions must hold.
         "pcf box15",
         "pcf poisson64",
+        "plateaus",
+        "plateaus-centred",
     ] {
         let label = name;
         let (name, kernel) = match name.split_once(' ') {
@@ -515,7 +517,7 @@ fn shaded_outside_regions(r: &Renderer, img: &softshadow::output::FrameImages) -
 
 /// The regions are rebuilt from per-caster outlines kept between frames (smoothies'
 /// records, penumbra maps' cones and sheets, `regions::AroundCasters` for the pcss family
-/// and pcf): when the bunny slides and turns, and then the light moves, every point shaded
+/// and pcf, plateaus' discs and outlines): when the bunny slides and turns, and then the light moves, every point shaded
 /// below 1 still lies inside a region and the timed colour equals the AOV pass's, frame
 /// after frame.
 #[test]
@@ -525,7 +527,7 @@ fn regions_follow_a_moving_caster_and_light() {
         silhouettes: SilhouettePath::Cpu,
         ..small(128, 512)
     };
-    for name in ["smoothies", "penumbra-map", "pcss", "pcf"] {
+    for name in ["smoothies", "penumbra-map", "pcss", "pcf", "plateaus"] {
         let mut r = Renderer::new(
             &gpu.ctx,
             Scene::load("bunny").unwrap(),

@@ -101,6 +101,20 @@
 //!    comparison of the shadow map's r (`textureGather`, `lit_test`, `bilinear` of
 //!    glsl/common/shadow.glsl: the filter `hard` gets from its comparison sampler). Points
 //!    outside the light frustum get 1, as in `hard`.
+//!    Where neither lookup can find anything but the clear values, v is exactly 1. So at
+//!    R > 0 the timed pass (`FinalPass::split`) takes per caster a 16-sided polygon in
+//!    light uv (`shadow_regions`): on the plane, the hull of its silhouette vertices' discs
+//!    (P1, P2), which holds its drop shadow (the central projection of a mesh below the
+//!    light is its silhouette vertices' hull) and its cones and sheets (each in the hull of
+//!    its discs), grown by the bilinear footprint and by the parallax of points up to the
+//!    on-plane tolerance off the plane, its corners taken to light uv (`plane_region`);
+//!    joined, for a caster in the light, with its outline there (`regions::AroundCasters`),
+//!    which the shadow map's lookups see. It draws this shader only over the receivers'
+//!    parts in the light frustum over those polygons, and glsl/common/unshadowed.frag
+//!    elsewhere: the whole pass's image bit for bit (tests/avoided_work.rs). On lavapipe
+//!    the lookups then run on 24-35 % of the area drawn on `cylinder`, `overlap` and
+//!    `bunny`; a CPU driver pays both of the shader's paths on every pixel. On a GPU a
+//!    porter can draw the whole pass with this shader: same image.
 //!
 //! ## Known artefacts
 //! Umbrae are the full hard shadow at any light size: no inner penumbra, shadows too dark and
@@ -112,12 +126,13 @@
 //! plane (a table top) gets them too. R = 0 gives the drop shadow alone, which matches `hard`
 //! on the plane up to each method's one-texel edge aliasing (the texel grids differ).
 
+use super::regions::{self, Support};
 use super::{
     shadow_map_buffer, Form, FrameInput, LightBuffer, Technique, TechniqueInfo, TechniqueInit,
 };
 use crate::gpu::gpu_scene::{GpuObject, DRAW_PUSH_BYTES, SCENE_ATTRIBUTES, SCENE_VERTEX_STRIDE};
 use crate::gpu::passes::{
-    falloff_lut, CasterCacheOf, DynamicVertices, FinalPass, FinalShader, ShadowMap,
+    falloff_lut, CasterCacheOf, DynamicVertices, FinalPass, FinalShader, ShadowMap, Shadowed,
 };
 use crate::scene::{normal_matrix, Aabb, LightView, Mesh, Scene};
 use crate::shaders;
@@ -471,6 +486,35 @@ impl PlaneFrame {
     }
 }
 
+/// The light-uv polygon around the plane's texels that a caster's drop shadow and
+/// plateaus can darken, from the support `reach` of its silhouette vertices' discs in
+/// plane coordinates (`PlateauBuilder::reach`), grown by what the final pass reads around
+/// a point: the 2x2 bilinear footprint (within 1.5 texels; 2 here), and the parallax of an
+/// on-plane point up to `tolerance` off the plane, which reads the texture at its foot f
+/// while the light sees it at f + (f - foot of the light) h / (H - h). The plane polygon's
+/// corners go to the light's uv, whose projective map keeps the polygon convex in front of
+/// the light. `None` when unbounded or not all in front of the light.
+fn plane_region(frame: &FrameInput<'_>, plane: &PlaneFrame, reach: Support) -> Option<Support> {
+    let grow = |s: Support, by: f32| s.map(|x| x + by);
+    let footprint = grow(reach, 2.0 * plane.texel());
+    let foot = plane.coords(plane.light);
+    let far = regions::support_corners(&footprint)?
+        .iter()
+        .map(|c| c.distance(foot))
+        .fold(0.0, f32::max);
+    let room = plane.light_height - plane.tolerance;
+    // Also false for NaN.
+    if room.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
+        return None;
+    }
+    let corners = regions::support_corners(&grow(footprint, far * plane.tolerance / room))?;
+    let uvs = corners
+        .iter()
+        .map(|c| regions::light_uv(frame, plane.origin + plane.u * c.x + plane.v * c.y))
+        .collect::<Option<Vec<_>>>()?;
+    regions::support_of(&uvs)
+}
+
 /// Cones and sheets of one frame, in texture clip space.
 pub struct PlateauBuilder<'a> {
     plane: &'a PlaneFrame,
@@ -481,6 +525,10 @@ pub struct PlateauBuilder<'a> {
     pub vertices: Vec<PlateauVertex>,
     pub cones: usize,
     pub sheets: usize,
+    /// The support, in plane coordinates, of every silhouette vertex's disc (P1, P2) seen
+    /// by `silhouette` (`regions::directions()`); `None` once a vertex got no disc (above
+    /// `MAX_HEIGHT_FRACTION` of the light). Cones and sheets lie in the discs' hull.
+    pub reach: Option<Support>,
     /// `spokes[n]`: the unit directions (cos, sin) of angle TAU i / n, i = 0..=n, for a cone
     /// of n segments; filled on first use, so a build takes its sines and cosines once per
     /// segment count instead of twice per cone triangle.
@@ -503,6 +551,7 @@ impl<'a> PlateauBuilder<'a> {
             vertices: Vec::new(),
             cones: 0,
             sheets: 0,
+            reach: Some([f32::NEG_INFINITY; regions::DIRECTIONS]),
             spokes: vec![Vec::new(); MAX_CONE_SEGMENTS as usize + 1],
             points: Vec::new(),
         }
@@ -618,6 +667,7 @@ impl<'a> PlateauBuilder<'a> {
         mailbox: &mut [u64],
         stamp: u64,
     ) {
+        let dirs = regions::directions();
         for e in sil {
             let disc = |i: u32| {
                 adj.positions.get(i as usize).and_then(|&x| {
@@ -626,6 +676,12 @@ impl<'a> PlateauBuilder<'a> {
                 })
             };
             let (da, db) = (disc(e.a), disc(e.b));
+            self.reach = match (self.reach, da, db) {
+                (Some(s), Some((ca, ra)), Some((cb, rb))) => Some(std::array::from_fn(|k| {
+                    s[k].max(dirs[k].dot(ca) + ra).max(dirs[k].dot(cb) + rb)
+                })),
+                _ => None,
+            };
             for (i, d) in [(e.a, da), (e.b, db)] {
                 let (Some((c, r)), Some(slot)) = (d, mailbox.get_mut(i as usize)) else {
                     continue;
@@ -642,9 +698,14 @@ impl<'a> PlateauBuilder<'a> {
     }
 }
 
-/// One caster's cones and outer sheets, then (centred form; empty in the paper form) its
-/// cones and inner sheets.
-type Sides = [Vec<PlateauVertex>; 2];
+/// One caster's plateaus.
+struct CasterPlateaus {
+    /// Its cones and outer sheets, then (centred form; empty in the paper form) its cones
+    /// and inner sheets.
+    sides: [Vec<PlateauVertex>; 2],
+    /// `PlateauBuilder::reach`: where on the plane its plateaus, and its drop shadow, lie.
+    reach: Option<Support>,
+}
 
 /// The centred form's extra images and pipeline (plateaus_centred.rs).
 struct Centred {
@@ -680,8 +741,13 @@ pub struct Plateaus {
     casters: usize,
     /// Per caster, its cones and sheets and the plane frame and radius they were built for:
     /// a moved caster rebuilds only its own.
-    cache: CasterCacheOf<GeometryKey, Sides>,
+    cache: CasterCacheOf<GeometryKey, CasterPlateaus>,
     vertices: DynamicVertices,
+    /// The casters' outlines in the light, for the shadow map's part of the final pass.
+    around: regions::AroundCasters,
+    /// Where the final pass's visibility can be below 1 (`shadow_regions`; `Everywhere`:
+    /// not known).
+    shadowed: Shadowed,
 }
 
 /// What a caster's cones and sheets depend on besides its model: the plane frame (the
@@ -810,7 +876,7 @@ impl Plateaus {
                 aov: shaders::PLATEAUS_CENTRED_FINAL_FRAG_AOV,
             },
         };
-        let final_pass = FinalPass::new(ctx, names.final_pass, final_shader, &final_set)?;
+        let final_pass = FinalPass::split(ctx, names.final_pass, final_shader, &final_set)?;
         let adjacency = // The plane is never a caster of its own plateaus.
         silhouette::caster_adjacency(init.scene, |i| i != receiver.object)?;
         let casters = adjacency.iter().flatten().count();
@@ -834,6 +900,8 @@ impl Plateaus {
             adjacency,
             casters,
             vertices: DynamicVertices::new("plateau vertices"),
+            around: regions::AroundCasters::default(),
+            shadowed: Shadowed::Everywhere,
         }))
     }
 
@@ -898,6 +966,49 @@ impl Plateaus {
         ))
     }
 
+    /// Per caster, the light-uv polygon outside which the final pass gives exactly 1: the
+    /// plane's texels under its drop shadow and plateaus (`plane_region`), joined, for a
+    /// caster in the light, with its outline there (`regions::AroundCasters`), where the
+    /// shadow map's lookups can see it. `None` where one is not bounded, or a caster has no
+    /// plateaus built for this frame. The caller's geometry must be this frame's (R > 0).
+    fn shadow_regions(
+        &mut self,
+        frame: &FrameInput<'_>,
+        plane: &PlaneFrame,
+    ) -> Option<Vec<Support>> {
+        let mut outlines: Vec<Option<Support>> = vec![None; frame.scene.objects.len()];
+        for (i, s) in self.around.outlines(frame)? {
+            outlines[i] = Some(s);
+        }
+        let mut supports = Vec::with_capacity(outlines.len());
+        for (i, o) in frame.gpu.objects.iter().enumerate() {
+            if !o.role.casts() {
+                continue;
+            }
+            let outline = outlines[i];
+            if i == self.receiver.object {
+                // The plane casts no plateaus; a casting plane is in the shadow map only.
+                supports.extend(outline);
+                continue;
+            }
+            // The drop shadow is the central projection of the caster, bounded by its
+            // silhouette vertices' only while every point of it is below the light (h < H).
+            let below = o
+                .world_corners()
+                .iter()
+                .all(|&c| plane.height(c) < plane.light_height * MAX_HEIGHT_FRACTION);
+            if !below {
+                return None;
+            }
+            let on_plane = plane_region(frame, plane, self.cache.get(i)?.reach?)?;
+            supports.push(match outline {
+                Some(s) => regions::union(s, on_plane),
+                None => on_plane,
+            });
+        }
+        Some(supports)
+    }
+
     /// Silhouettes, cones and sheets of every caster that moved since theirs were built (of
     /// all when the plane frame or the radius changed, or when `force`); returns how many
     /// were rebuilt.
@@ -920,11 +1031,17 @@ impl Plateaus {
                     // Each caster's own mailbox: the casters build in parallel.
                     let mut mailbox = vec![0u64; adj.positions.len()];
                     b.silhouette(adj, &sil, model, &mut mailbox, 1);
-                    b.vertices
+                    (b.vertices, b.reach)
                 };
-                match form {
-                    Form::Paper => [build(Side::Outer), Vec::new()],
-                    Form::Centred => [build(Side::Outer), build(Side::Inner)],
+                // Both sides' discs are the same silhouette vertices'.
+                let (outer, reach) = build(Side::Outer);
+                let inner = match form {
+                    Form::Paper => Vec::new(),
+                    Form::Centred => build(Side::Inner).0,
+                };
+                CasterPlateaus {
+                    sides: [outer, inner],
+                    reach,
                 }
             },
         )
@@ -949,10 +1066,10 @@ impl Technique for Plateaus {
         let lit_plane = plane.light_height > plane.texel() * 1e-3;
         let soft = lit_plane && frame.light_radius > 0.0;
         let names = self.form.plateau_names();
-        let concat = |cache: &CasterCacheOf<GeometryKey, Sides>, side: usize| {
+        let concat = |cache: &CasterCacheOf<GeometryKey, CasterPlateaus>, side: usize| {
             let mut out = Vec::new();
             for v in cache.iter() {
-                out.extend_from_slice(&v[side]);
+                out.extend_from_slice(&v.sides[side]);
             }
             out
         };
@@ -968,6 +1085,14 @@ impl Technique for Plateaus {
             (Vec::new(), Vec::new())
         };
         self.vertices.upload(ctx, &vertices)?;
+        self.shadowed = if soft {
+            self.shadow_regions(frame, &plane)
+                .map_or(Shadowed::Everywhere, |supports| {
+                    regions::shadowed(frame, &supports, self.shadow.resolution, 0.0)
+                })
+        } else {
+            Shadowed::Everywhere
+        };
         if let Some(c) = self.centred.as_mut() {
             c.inner_vertices.upload(ctx, &inner_vertices)?;
         }
@@ -1063,7 +1188,12 @@ impl Technique for Plateaus {
         rec: &mut Recorder<'_>,
         frame: &FrameInput<'_>,
     ) -> Result<()> {
-        self.final_pass.pass(rec, frame, &self.final_set)
+        self.final_pass
+            .pass_in(rec, frame, &self.final_set, &self.shadowed)
+    }
+
+    fn shadowed(&self) -> Option<&Shadowed> {
+        Some(&self.shadowed)
     }
 
     fn light_buffers(&self) -> Vec<LightBuffer<'_>> {

@@ -48,7 +48,8 @@
 //!    lightened). Bilinear weights, no falloff texture (the profile is in the values). Every
 //!    other point, and every point at R = 0, gets the shadow map's 2x2 bilinear comparison:
 //!    R = 0 is `hard`'s image exactly (unlike the paper form, whose drop shadow only
-//!    matches hard up to the texel grids' aliasing).
+//!    matches hard up to the texel grids' aliasing). At R > 0 split as the paper form's
+//!    (`Plateaus::shadow_regions`): the inner cones and sheets lie in the same discs' hull.
 //!
 //! ## Combining edges (what the centring approximates)
 //! - Outer: the darkest (LESS on depth t), as the paper. Exact for one edge; two casters'

@@ -11,8 +11,10 @@
 //! and `pcss-walk` (the blocker search finds nothing and returns 1 before any filter),
 //! `penumbra-map` and `penumbra-map-centred` (their cones' and sheets' vertices, with the
 //! box only where a silhouette vertex got no cone, whose tip would hold it; `bilinear_lit`
-//! in glsl/common/shadow.glsl makes four lit texels exactly 1), and `pcf` (its kernel's
-//! reach; every texel lit gives exactly 1).
+//! in glsl/common/shadow.glsl makes four lit texels exactly 1), `pcf` (its kernel's
+//! reach; every texel lit gives exactly 1), and `plateaus` and `plateaus-centred` (the
+//! plateau texture holds 1 outside the drop shadows and plateaus, whose plane polygons
+//! join the casters' outlines: `Plateaus::shadow_regions`).
 
 use super::FrameInput;
 use crate::frustum::PixelBox;
@@ -51,6 +53,26 @@ pub fn support_of(points: &[Vec2]) -> Option<Support> {
 /// The support of the union of two polygons (of the convex hull around both).
 pub fn union(a: Support, b: Support) -> Support {
     std::array::from_fn(|k| a[k].max(b[k]))
+}
+
+/// The corners of the polygon `support`, corner k where the sides of directions k and
+/// k + 1 meet (in order round it); `None` where a side is unbounded.
+pub fn support_corners(support: &Support) -> Option<[Vec2; DIRECTIONS]> {
+    let dirs = directions();
+    let mut corners = [Vec2::ZERO; DIRECTIONS];
+    for (k, corner) in corners.iter_mut().enumerate() {
+        let l = (k + 1) % DIRECTIONS;
+        let (a, b) = (dirs[k], dirs[l]);
+        // Cramer's rule for a . x = s_k, b . x = s_l; neighbouring directions are 22.5
+        // degrees apart, so det = sin(22.5 deg) is never small.
+        let det = a.x * b.y - a.y * b.x;
+        let (sa, sb) = (support[k], support[l]);
+        *corner = Vec2::new(sa * b.y - sb * a.y, a.x * sb - b.x * sa) / det;
+        if !corner.is_finite() {
+            return None;
+        }
+    }
+    Some(corners)
 }
 
 /// World point `p` in light uv; `None` at or behind the light's eye plane (clip w is the
@@ -167,9 +189,17 @@ impl AroundCasters {
     /// box where the outline is unbounded. Everywhere when a caster's box reaches behind
     /// the light.
     pub fn shadowed(&mut self, frame: &FrameInput<'_>, res: u32, reach_texels: f32) -> Shadowed {
-        let Some(corners) = caster_corner_uvs(frame) else {
+        let Some(outlines) = self.outlines(frame) else {
             return Shadowed::Everywhere;
         };
+        let supports: Vec<Support> = outlines.into_iter().map(|(_, s)| s).collect();
+        shadowed(frame, &supports, res, reach_texels)
+    }
+
+    /// Each caster in the light with its outline, or its projected box's support where the
+    /// outline is unbounded; `None` when a caster's box reaches behind the light.
+    pub fn outlines(&mut self, frame: &FrameInput<'_>) -> Option<Vec<(usize, Support)>> {
+        let corners = caster_corner_uvs(frame)?;
         self.outlines.resize(frame.scene.objects.len(), None);
         let view_proj = frame.light.view_proj;
         // The casters that moved (all of them when the light did), in parallel: `dense-1m`'s
@@ -196,14 +226,14 @@ impl AroundCasters {
         for (i, outline) in fresh {
             self.outlines[i] = Some((objects[i].transform, view_proj, outline));
         }
-        let supports: Vec<Support> = corners
+        let outlines = corners
             .iter()
             .filter_map(|(i, uvs)| {
                 let outline = self.outlines[*i].as_ref().and_then(|s| s.2);
-                outline.or_else(|| support_of(uvs))
+                outline.or_else(|| support_of(uvs)).map(|s| (*i, s))
             })
             .collect();
-        shadowed(frame, &supports, res, reach_texels)
+        Some(outlines)
     }
 }
 
@@ -362,6 +392,42 @@ mod tests {
         assert!(!holds(&sa, Vec2::new(0.31, 0.25)));
         assert!(!holds(&sa, b[0]));
         assert!(support_of(&[]).is_none());
+    }
+
+    /// The corners of a support bound the same polygon: each lies on its two sides and
+    /// inside every other, and their own support is the one they came from.
+    #[test]
+    fn support_corners_span_the_support() {
+        let points = [
+            Vec2::new(0.1, 0.2),
+            Vec2::new(0.5, 0.15),
+            Vec2::new(0.45, 0.6),
+            Vec2::new(0.2, 0.5),
+        ];
+        let s = support_of(&points).unwrap();
+        let corners = support_corners(&s).unwrap();
+        let dirs = directions();
+        for (k, c) in corners.iter().enumerate() {
+            for (j, d) in dirs.iter().enumerate() {
+                let gap = s[j] - d.dot(*c);
+                assert!(gap > -1e-5, "corner {k} outside side {j} by {gap}");
+                if j == k || j == (k + 1) % DIRECTIONS {
+                    assert!(gap.abs() < 1e-5, "corner {k} off its side {j} by {gap}");
+                }
+            }
+        }
+        let again = support_of(&corners).unwrap();
+        for k in 0..DIRECTIONS {
+            assert!(
+                (again[k] - s[k]).abs() < 1e-5,
+                "{k}: {} vs {}",
+                again[k],
+                s[k]
+            );
+        }
+        let mut unbounded = s;
+        unbounded[3] = f32::INFINITY;
+        assert!(support_corners(&unbounded).is_none());
     }
 
     /// A pass's area joins last frame's box with this one's, and is the whole buffer when

@@ -31,6 +31,9 @@
 //!    Attachment: R32_SFLOAT linear depth, clear 1e30 (`FAR_DEPTH`), blend MIN, no depth
 //!    attachment; receivers are not drawn. Vertex `glsl/common/shadow_depth.vert`, fragment
 //!    `glsl/common/caster_depth.frag`.
+//!    Cleared and drawn only over the casters' projected boxes, joined with last frame's
+//!    (`regions::AroundCasters::map_area`): every texel outside holds the clear value, as in
+//!    a whole map (a porter can clear and draw the whole map: same image).
 //! 2. `pcf/final` — every object from the camera (`gpu::passes::FinalPass`), fragment
 //!    `glsl/pcf/final.frag`: reads the shadow map (nearest sampler, gathers) at the
 //!    normal-offset point's light uv, compares each texel with the point's linear depth
@@ -175,7 +178,8 @@ impl Technique for Pcf {
         rec: &mut Recorder<'_>,
         frame: &FrameInput<'_>,
     ) -> Result<()> {
-        self.shadow.pass(rec, frame.gpu)?;
+        let area = self.around.map_area(frame, self.shadow.resolution);
+        self.shadow.pass_in(rec, frame.gpu, &area)?;
         let res = self.shadow.resolution;
         self.shadowed = self.around.shadowed(frame, res, reach_texels(self.kernel));
         Ok(())

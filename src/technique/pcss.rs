@@ -29,6 +29,9 @@
 //!    attachment; receivers are not drawn. Vertex `glsl/common/shadow_depth.vert`, fragment
 //!    `glsl/common/caster_depth.frag`.
 //!    Linear depths are what Eq. 1, 3 and 4 take.
+//!    Cleared and drawn only over the casters' projected boxes, joined with last frame's
+//!    (`regions::AroundCasters::map_area`): every texel outside holds the clear value, as in
+//!    a whole map (a porter can clear and draw the whole map: same image).
 //! 2. `pcss/final` — every object from the camera (`gpu::passes::FinalPass`), fragment
 //!    `glsl/pcss/final.frag`, the steps in `glsl/pcss/search.glsl`. As in Fernando's
 //!    original, all three steps run in this one fragment shader (no separate blocker-search
@@ -213,7 +216,8 @@ impl Technique for Pcss {
         rec: &mut Recorder<'_>,
         frame: &FrameInput<'_>,
     ) -> Result<()> {
-        self.shadow.pass(rec, frame.gpu)?;
+        let area = self.around.map_area(frame, self.shadow.resolution);
+        self.shadow.pass_in(rec, frame.gpu, &area)?;
         let res = self.shadow.resolution;
         self.shadowed = self
             .around

@@ -20,6 +20,9 @@
 //! 1. `pcss-fast/shadow_map` — casters from the light (`gpu::passes::ShadowMap::casters`):
 //!    R32_SFLOAT, the nearest caster's linear depth, clear 1e30 (FAR_DEPTH), MIN blend, no
 //!    depth attachment; receivers are not drawn. Fragment `glsl/common/caster_depth.frag`.
+//!    Cleared and drawn only over the casters' projected boxes, joined with last frame's
+//!    (`regions::AroundCasters::map_area`): every texel outside holds the clear value, as in
+//!    a whole map (a porter can clear and draw the whole map: same image).
 //! 2. `pcss-fast/minmax` — `glsl/pcss_fast/minmax.comp`, one dispatch per level (8x8
 //!    threads a group): level k (2..=6) is ceil(res / 2^k) cells a side; level 2 reads the
 //!    shadow map (four textureGathers a cell of 4x4 texels), the others 2x2 cells of the
@@ -407,7 +410,8 @@ impl Technique for PcssFast {
         rec: &mut Recorder<'_>,
         frame: &FrameInput<'_>,
     ) -> Result<()> {
-        self.shadow.pass(rec, frame.gpu)?;
+        let area = self.around.map_area(frame, self.shadow.resolution);
+        self.shadow.pass_in(rec, frame.gpu, &area)?;
         let reach = self.reach(frame);
         self.shadowed = self.around.shadowed(frame, self.shadow.resolution, reach);
         self.record_minmax(rec)

@@ -90,6 +90,9 @@
 //! 3. `plateaus/shadow_map` — `ShadowMap::casters`: R32_SFLOAT, the nearest caster's linear
 //!    depth, clear 1e30, blend MIN, no depth attachment, casters only (fragment
 //!    `glsl/common/caster_depth.frag`), for receivers other than the plane.
+//!    Cleared and drawn only over the casters' projected boxes, joined with last frame's
+//!    (`regions::AroundCasters::map_area`): every texel outside holds the clear value, as in
+//!    a whole map (a porter can clear and draw the whole map: same image).
 //!    (`plateaus-centred` takes the map of every object, `ShadowMap::new`: R32G32_SFLOAT,
 //!    g = the nearest surface's depth, which its inner receivers read.)
 //! 4. `plateaus/final` — `FinalPass` with `glsl/plateaus/final.frag`: a point ON the plane
@@ -1169,7 +1172,8 @@ impl Technique for Plateaus {
             _ if !soft => rec.skip("plateaus/plateaus", "point light (R = 0)"),
             _ => rec.skip("plateaus/plateaus", "no silhouette edge"),
         }
-        self.shadow.pass(rec, frame.gpu)?;
+        let area = self.around.map_area(frame, self.shadow.resolution);
+        self.shadow.pass_in(rec, frame.gpu, &area)?;
         Ok(())
     }
 

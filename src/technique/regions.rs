@@ -180,9 +180,28 @@ pub struct AroundCasters {
     /// Per object: the model and light matrices its outline was taken for, and the
     /// outline (`None` when a vertex lies at or behind the light's eye plane).
     outlines: Vec<Option<(Mat4, Mat4, Option<Support>)>>,
+    /// The texels the last casters-only map pass may have drawn (`map_area`).
+    map_drawn: LastDrawn,
 }
 
 impl AroundCasters {
+    /// Where a casters-only map (`ShadowMap::casters`) clears and draws: the casters'
+    /// projected boxes, joined with last frame's (`LastDrawn`), so that every texel outside
+    /// holds the clear value as a whole map's would; the whole map when either is not known
+    /// or `Settings::light_areas` is off. Clearing the whole 1024^2 R32F map was most of
+    /// the pass on lavapipe.
+    pub fn map_area(&mut self, frame: &FrameInput<'_>, res: u32) -> MapArea {
+        let now = caster_corner_uvs(frame).map(|c| casters_box(&c, res));
+        let all = self.map_drawn.area(now).map(render_area);
+        if !frame.settings.light_areas {
+            return MapArea::WHOLE;
+        }
+        MapArea {
+            all,
+            receivers: Receivers::Nowhere,
+        }
+    }
+
     /// Where the final pass's lookups can see a caster in a buffer of side `res`, reaching
     /// up to `reach_texels` texels from the point's own (beyond the normal offset and a
     /// gather's footprint, which `shadowed` adds): each caster's outline, or its projected

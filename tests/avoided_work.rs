@@ -527,7 +527,14 @@ fn regions_follow_a_moving_caster_and_light() {
         silhouettes: SilhouettePath::Cpu,
         ..small(128, 512)
     };
-    for name in ["smoothies", "penumbra-map", "pcss", "pcf", "plateaus"] {
+    for name in [
+        "smoothies",
+        "penumbra-map",
+        "pcss",
+        "pcf",
+        "plateaus",
+        "plateaus-centred",
+    ] {
         let mut r = Renderer::new(
             &gpu.ctx,
             Scene::load("bunny").unwrap(),

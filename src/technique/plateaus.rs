@@ -81,7 +81,12 @@
 //!    penumbra fraction, clear 1.0 (lit), no blend; D32_SFLOAT, clear 1.0, LESS, write.
 //!    `glsl/plateaus/drop_shadow.vert` reads the scene vertices, the model push constant and
 //!    the plane UBO; `drop_shadow.frag` writes 0 and discards the parts of casters below the
-//!    plane (height interpolated perspective-correctly).
+//!    plane (height interpolated perspective-correctly). At R > 0 both attachments are
+//!    cleared and drawn only over the texels the final pass can read (`texture_texels`: its
+//!    regions taken back onto the plane, which hold every drop shadow, cone and sheet),
+//!    joined with last frame's, as are pass 2's and the centred form's coverage and inner
+//!    images: every texel outside holds the clear value, as in whole passes (a porter can
+//!    clear and draw the whole texture: same image).
 //! 2. `plateaus/plateaus` (skipped when R = 0) — the cones and sheets into the same two
 //!    attachments (loaded): `plateau.vert` passes the clip position through, `plateau.frag`
 //!    writes its own depth as colour (Sec. 3: "use the Z-buffer depth values directly as
@@ -133,6 +138,7 @@ use super::regions::{self, Support};
 use super::{
     shadow_map_buffer, Form, FrameInput, LightBuffer, Technique, TechniqueInfo, TechniqueInit,
 };
+use crate::frustum::PixelBox;
 use crate::gpu::gpu_scene::{GpuObject, DRAW_PUSH_BYTES, SCENE_ATTRIBUTES, SCENE_VERTEX_STRIDE};
 use crate::gpu::passes::{
     falloff_lut, CasterCacheOf, DynamicVertices, FinalPass, FinalShader, ShadowMap, Shadowed,
@@ -518,6 +524,51 @@ fn plane_region(frame: &FrameInput<'_>, plane: &PlaneFrame, reach: Support) -> O
     regions::support_of(&uvs)
 }
 
+/// The plateau texture's texels (side `plane.res`) that the final pass's shader can read
+/// in the regions around `supports` (light uv polygons, widened by `margin` as
+/// `regions::shadowed` widens them): each polygon's corners taken back onto the plane
+/// along the light's rays (a projective map: the polygon's points land in their corners'
+/// hull), grown by the on-plane parallax (a point up to `tolerance` off the plane reads at
+/// its foot, up to |f - foot of the light| tolerance / H from where its ray meets the
+/// plane) and the bilinear footprint. Every drop shadow, cone and sheet lies inside (each
+/// caster's `plane_region` is in its polygon), so clearing and drawing the plateau textures
+/// there only gives the texels the whole passes give wherever the shader reads. `None` (the
+/// whole texture) where a corner's ray does not meet the plane in front of the light.
+fn texture_texels(
+    frame: &FrameInput<'_>,
+    plane: &PlaneFrame,
+    supports: &[Support],
+    margin: f32,
+) -> Option<PixelBox> {
+    let to_world = frame.light.view_proj.inverse();
+    let foot = plane.coords(plane.light);
+    let mut texels = PixelBox::EMPTY;
+    for support in supports {
+        let corners = regions::support_corners(&support.map(|s| s + margin))?;
+        let (mut lo, mut hi, mut far) = (Vec2::INFINITY, Vec2::NEG_INFINITY, 0.0f32);
+        for uv in corners {
+            let ndc = uv * 2.0 - Vec2::ONE;
+            let dir = to_world.project_point3(ndc.extend(1.0)) - plane.light;
+            // The ray L + t dir meets the plane at t = -H / (n . dir), in front if t > 0.
+            let down = plane.n.dot(dir);
+            if down.partial_cmp(&0.0) != Some(std::cmp::Ordering::Less) {
+                return None;
+            }
+            let at = plane.coords(plane.light - dir * (plane.light_height / down));
+            far = far.max(at.distance(foot));
+            lo = lo.min(at);
+            hi = hi.max(at);
+        }
+        let grow = far * plane.tolerance / plane.light_height + 2.0 * plane.texel();
+        let (lo, hi) = (plane.uv(lo - grow), plane.uv(hi + grow));
+        if !(lo.is_finite() && hi.is_finite()) {
+            return None;
+        }
+        texels = texels.union(PixelBox::of_uv(plane.res, lo, hi));
+    }
+    Some(texels)
+}
+
 /// Cones and sheets of one frame, in texture clip space.
 pub struct PlateauBuilder<'a> {
     plane: &'a PlaneFrame,
@@ -751,6 +802,9 @@ pub struct Plateaus {
     /// Where the final pass's visibility can be below 1 (`shadow_regions`; `Everywhere`:
     /// not known).
     shadowed: Shadowed,
+    /// The plateau textures' texels the last light passes may have drawn: the next ones
+    /// clear them with their own (`texture_texels`).
+    texture_drawn: regions::LastDrawn,
 }
 
 /// What a caster's cones and sheets depend on besides its model: the plane frame (the
@@ -905,6 +959,7 @@ impl Plateaus {
             vertices: DynamicVertices::new("plateau vertices"),
             around: regions::AroundCasters::default(),
             shadowed: Shadowed::Everywhere,
+            texture_drawn: regions::LastDrawn::default(),
         }))
     }
 
@@ -1088,14 +1143,20 @@ impl Technique for Plateaus {
             (Vec::new(), Vec::new())
         };
         self.vertices.upload(ctx, &vertices)?;
-        self.shadowed = if soft {
-            self.shadow_regions(frame, &plane)
-                .map_or(Shadowed::Everywhere, |supports| {
-                    regions::shadowed(frame, &supports, self.shadow.resolution, 0.0)
-                })
-        } else {
-            Shadowed::Everywhere
-        };
+        let res = self.shadow.resolution;
+        let supports = soft.then(|| self.shadow_regions(frame, &plane)).flatten();
+        self.shadowed = supports.as_ref().map_or(Shadowed::Everywhere, |supports| {
+            regions::shadowed(frame, supports, res, 0.0)
+        });
+        // The plateau textures' texels the final pass can read, joined with last frame's.
+        let read = supports.as_ref().and_then(|supports| {
+            let margin = regions::lookup_margin(frame, res, 0.0)?;
+            texture_texels(frame, &plane, supports, margin)
+        });
+        let area = Some(self.texture_drawn.area(read))
+            .filter(|_| frame.settings.light_areas)
+            .flatten()
+            .map(regions::render_area);
         if let Some(c) = self.centred.as_mut() {
             c.inner_vertices.upload(ctx, &inner_vertices)?;
         }
@@ -1111,7 +1172,7 @@ impl Technique for Plateaus {
         };
         if let Some(c) = &self.centred {
             rec.pass(names.drop_shadow, |rec| {
-                rec.begin_rendering(&[(&c.coverage, Some([1.0; 4]))], None);
+                rec.begin_rendering_in(&[(&c.coverage, Some([1.0; 4]))], None, area);
                 if lit_plane {
                     draw_drop(rec);
                 }
@@ -1122,9 +1183,10 @@ impl Technique for Plateaus {
             // then the inner ones; both passes run at R = 0 too, so that the final pass
             // always reads written images.
             rec.pass(names.plateaus, |rec| {
-                rec.begin_rendering(
+                rec.begin_rendering_in(
                     &[(&self.texture, Some([1.0; 4]))],
                     Some((&self.zbuffer, Some(1.0))),
+                    area,
                 );
                 rec.discard_after(&self.zbuffer);
                 if !self.vertices.is_empty() {
@@ -1135,7 +1197,7 @@ impl Technique for Plateaus {
                 Ok(())
             })?;
             rec.pass(names.inner, |rec| {
-                rec.begin_rendering(&[(&c.inner, Some([0.0; 4]))], None);
+                rec.begin_rendering_in(&[(&c.inner, Some([0.0; 4]))], None, area);
                 if !c.inner_vertices.is_empty() {
                     rec.bind_pipeline(&c.inner_pipeline);
                     rec.bind_sets(&c.inner_pipeline, &[&c.inner_set]);
@@ -1148,9 +1210,10 @@ impl Technique for Plateaus {
             return Ok(());
         }
         rec.pass(names.drop_shadow, |rec| {
-            rec.begin_rendering(
+            rec.begin_rendering_in(
                 &[(&self.texture, Some([1.0; 4]))],
                 Some((&self.zbuffer, Some(1.0))),
+                area,
             );
             if lit_plane {
                 draw_drop(rec);
@@ -1161,7 +1224,7 @@ impl Technique for Plateaus {
         match self.vertices.is_empty() {
             false => rec.pass("plateaus/plateaus", |rec| {
                 // Load: the drop shadow's colour and depth stay in place under the plateaus.
-                rec.begin_rendering(&[(&self.texture, None)], Some((&self.zbuffer, None)));
+                rec.begin_rendering_in(&[(&self.texture, None)], Some((&self.zbuffer, None)), area);
                 rec.discard_after(&self.zbuffer);
                 rec.bind_pipeline(&self.plateau_pipeline);
                 self.vertices.draw(rec);

@@ -282,6 +282,16 @@ pub fn projected_support(positions: &[Vec3], model: Mat4, view_proj: Mat4) -> Op
         .then(|| std::array::from_fn(|k| if k < HALF { hi[k] } else { -lo[k - HALF] }))
 }
 
+/// How far (light uv) around a polygon `shadowed` widens its region: the lookups' reach,
+/// the normal offset and a gather's footprint (see there); `None` when either is not a
+/// sane number of texels.
+pub fn lookup_margin(frame: &FrameInput<'_>, res: u32, reach_texels: f32) -> Option<f32> {
+    let offset = frame.settings.normal_offset_texels;
+    let sane = |x: f32| x.is_finite() && x >= 0.0 && x < res as f32;
+    (sane(offset) && sane(reach_texels))
+        .then(|| ((2.0 * offset).ceil() + 3.0 + reach_texels.ceil()) / res as f32)
+}
+
 /// Where the final pass's lookups can read texels inside the polygons `supports` (in a
 /// side-`res` light buffer): each polygon as the light frustum over it, widened by the
 /// lookups' reach (`reach_texels`, from the lookup point), the normal offset (the lookup
@@ -295,12 +305,9 @@ pub fn shadowed(
     res: u32,
     reach_texels: f32,
 ) -> Shadowed {
-    let offset = frame.settings.normal_offset_texels;
-    let sane = |x: f32| x.is_finite() && x >= 0.0 && x < res as f32;
-    if !(sane(offset) && sane(reach_texels)) {
+    let Some(margin) = lookup_margin(frame, res, reach_texels) else {
         return Shadowed::Everywhere;
-    }
-    let margin = ((2.0 * offset).ceil() + 3.0 + reach_texels.ceil()) / res as f32;
+    };
     let m = frame.light.view_proj;
     let (x, y, w) = (m.row(0), m.row(1), m.row(3));
     let dirs = directions();

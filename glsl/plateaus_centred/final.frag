@@ -12,8 +12,8 @@
 #include "plateaus/plane.glsl"
 
 layout(set = 0, binding = 2) uniform sampler2D plateau_tex;   // R32F outer fraction, 1 = lit
-// RG32F, MIN-blended, no depth attachment (gpu::passes::ShadowMap): r = nearest caster's
-// linear depth.
+// R32F, casters only, MIN-blended, no depth attachment (gpu::passes::ShadowMap::casters):
+// the nearest caster's linear depth.
 layout(set = 0, binding = 3) uniform sampler2D shadow_map;
 layout(set = 0, binding = 4) uniform sampler2D coverage;      // R16F: 0 under a drop shadow, 1 elsewhere
 layout(set = 0, binding = 5) uniform sampler2D inner_tex;     // R16F lightest inner visibility (MAX)

@@ -98,8 +98,6 @@
 //!    Cleared and drawn only over the casters' projected boxes, joined with last frame's
 //!    (`regions::AroundCasters::map_area`): every texel outside holds the clear value, as in
 //!    a whole map (a porter can clear and draw the whole map: same image).
-//!    (`plateaus-centred` takes the map of every object, `ShadowMap::new`: R32G32_SFLOAT,
-//!    g = the nearest surface's depth, which its inner receivers read.)
 //! 4. `plateaus/final` — `FinalPass` with `glsl/plateaus/final.frag`: a point ON the plane
 //!    (|height| <= `ON_PLANE_TOLERANCE` x the plane's diagonal and its normal within ~11 deg
 //!    of the plane's) takes the bilinear filter of the 4 nearest texels of the fraction f and
@@ -896,12 +894,9 @@ impl Plateaus {
                 sets: &[],
             },
         )?;
-        // The paper form's final pass reads r alone; the centred form's inner receivers
-        // read g too (common/inner_receiver.glsl).
-        let shadow = match form {
-            Form::Paper => ShadowMap::casters(ctx, init.ubo, res, names.shadow_map)?,
-            Form::Centred => ShadowMap::new(ctx, init.ubo, res, names.shadow_map)?,
-        };
+        // Both forms' final passes read r alone (the centred form's inner plateaus are
+        // built on the plane, from the drop shadow's coverage, not from receiver depths).
+        let shadow = ShadowMap::casters(ctx, init.ubo, res, names.shadow_map)?;
         let nearest = Sampler::new(ctx, Filter::Nearest)?;
         let linear = Sampler::new(ctx, Filter::Linear)?;
         let falloff = falloff_lut(ctx)?;
@@ -1206,7 +1201,8 @@ impl Technique for Plateaus {
                 rec.end_rendering();
                 Ok(())
             })?;
-            self.shadow.pass(rec, frame.gpu)?;
+            let area = self.around.map_area(frame, self.shadow.resolution);
+            self.shadow.pass_in(rec, frame.gpu, &area)?;
             return Ok(());
         }
         rec.pass(names.drop_shadow, |rec| {

@@ -39,8 +39,8 @@
 //!    farther one blocks what the edge lets through, and one MAX image cannot take the
 //!    minimum over casters: the union's outline draws the inner penumbra instead). Else
 //!    v = disc_chord(t) plus the thin-blocker term below.
-//! 4. `plateaus-centred/shadow_map` — the shared `ShadowMap` (receivers other than the
-//!    plane), as the paper form.
+//! 4. `plateaus-centred/shadow_map` — the casters-only `ShadowMap` (for receivers other
+//!    than the plane), as the paper form's: its final pass reads r alone.
 //! 5. `plateaus-centred/final` — `FinalPass` with `glsl/plateaus_centred/final.frag`: a
 //!    point on the plane (the paper form's test) takes, at each of the 4 nearest texels,
 //!    outer = disc_chord(-f) (1 where no plateau: lit); outside every drop shadow: outer;

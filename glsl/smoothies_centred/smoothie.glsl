@@ -1,5 +1,5 @@
 // What smoothies-centred's two smoothie fragment shaders (outer.frag, inner.frag) share: the
-// varyings of glsl/smoothies/records.glsl (the paper form's vertex shaders, unchanged), the
+// varyings of glsl/smoothies/smoothie.vert (the paper form's vertex shader, unchanged), the
 // MRT outputs and the smoothie's own distance from its hard-edge line
 // (src/technique/smoothies_centred.rs).
 #ifndef SMOOTHIES_CENTRED_SMOOTHIE_GLSL

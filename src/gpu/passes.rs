@@ -621,15 +621,14 @@ pub fn falloff_lut(ctx: &Context) -> Result<Image> {
     Ok(image)
 }
 
-/// Vertices rebuilt on the CPU whenever the light or a caster moves (smoothie records,
-/// penumbra-map cones and sheets, plateaus), in one host-visible buffer that grows by half
-/// again when too small, so a light sweeping over a mesh does not reallocate every frame.
-/// A vertex buffer by default; `storage` makes a storage buffer for vertex pulling.
+/// Vertices rebuilt on the CPU whenever the light or a caster moves (smoothies,
+/// penumbra-map cones and sheets, plateaus), in one host-visible vertex buffer that grows
+/// by half again when too small, so a light sweeping over a mesh does not reallocate every
+/// frame.
 pub struct DynamicVertices {
     buffer: Option<Buffer>,
     count: u32,
     name: &'static str,
-    usage: BufferUsageFlags,
 }
 
 impl DynamicVertices {
@@ -638,23 +637,11 @@ impl DynamicVertices {
             buffer: None,
             count: 0,
             name,
-            usage: BufferUsageFlags::VERTEX_BUFFER,
         }
     }
 
-    /// A storage buffer (read by a vertex shader, no vertex input), allocated now at its
-    /// minimum size so that a descriptor set can point at it before the first upload.
-    pub fn storage(ctx: &Context, name: &'static str) -> Result<Self> {
-        let mut v = Self {
-            usage: BufferUsageFlags::STORAGE_BUFFER,
-            ..Self::new(name)
-        };
-        v.upload::<u32>(ctx, &[])?;
-        Ok(v)
-    }
-
     /// Replaces the contents (the GPU finished with the old ones: frames wait on their
-    /// fence); returns whether the buffer was reallocated (descriptors must be rewritten).
+    /// fence); returns whether the buffer was reallocated.
     pub fn upload<T: bytemuck::Pod>(&mut self, ctx: &Context, vertices: &[T]) -> Result<bool> {
         let bytes: &[u8] = bytemuck::cast_slice(vertices);
         let fits = self
@@ -666,7 +653,7 @@ impl DynamicVertices {
             self.buffer = Some(Buffer::new(
                 ctx,
                 size,
-                self.usage,
+                BufferUsageFlags::VERTEX_BUFFER,
                 crate::vk::MemoryLocation::CpuToGpu,
                 self.name,
             )?);
@@ -680,11 +667,6 @@ impl DynamicVertices {
 
     pub fn is_empty(&self) -> bool {
         self.count == 0
-    }
-
-    /// The buffer (None before the first upload of a vertex buffer).
-    pub fn buffer(&self) -> Option<&Buffer> {
-        self.buffer.as_ref()
     }
 
     /// Binds the buffer and draws every vertex with the bound pipeline (nothing when empty).

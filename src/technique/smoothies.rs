@@ -47,10 +47,15 @@
 //!      no readback, no upload but the casters' transforms. A timed pass.
 //!    - CPU (default on lavapipe, where the "GPU" is the same two cores, several times
 //!      slower at this): `silhouette::extract` + `smoothie::records::build_records`, the
-//!      casters in parallel (rayon, `CasterCacheOf::update`): compact
-//!      records (16 bytes per silhouette vertex, edge and corner, 4 per fan segment; layout
-//!      in src/silhouette/smoothie/records.rs) uploaded to one host-visible storage buffer,
-//!      caster after caster; the vertex shader expands them (pass 2). A `cpu` timing.
+//!      casters in parallel (rayon, `CasterCacheOf::update`): compact records (layout in
+//!      src/silhouette/smoothie/records.rs, which the final pass's regions bound), each
+//!      expanded there into its `SmoothieVertex` triangle list
+//!      (`SmoothieRecords::expand_side`), kept per caster and uploaded caster after
+//!      caster to a host-visible vertex buffer. A `cpu` timing. (A vertex shader pulling
+//!      the records from a storage buffer, 16 bytes per silhouette vertex, edge and corner
+//!      instead of 36 per triangle corner, made lavapipe's smoothie pass 1.3-1.6x longer
+//!      on `bunny` and `dense`: its vertex shading is the same CPU, with a bounds-checked
+//!      gather per load.)
 //!
 //!    Both find the same edges (tests/gpu_silhouettes.rs) and keep each caster's geometry
 //!    until its model or the light changes: a moved caster rebuilds only its own smoothies.
@@ -66,15 +71,10 @@
 //!    elsewhere. A porter can draw every object into the whole map instead: same image
 //!    (tests/avoided_work.rs, `Settings::light_areas`).
 //! 2. `smoothies/smoothie` — ONE pass, one colour attachment, no depth attachment.
-//!    Pipelines of that name per path, all with the same fragment shader:
-//!    GPU path: glsl/smoothies/smoothie.vert reads `SmoothieVertex` attributes (stride 36:
-//!    locations 0 uv, 1 1/depth, 2 kind, 3 anchor, 4 dir, 5 width), one indirect draw.
-//!    CPU path: glsl/smoothies/smoothie_edges.vert (6 vertices per edge record), then
-//!    smoothie_fans.vert (3 per fan segment) pull the records from the storage buffer at
-//!    set 1 binding 0 (no vertex input): two draws per caster, push constants = first
-//!    16-byte unit, vertex, edge and fan record counts (and the centred form's inner
-//!    extent, 0 here: `RecordsPush`); both emit smoothie.vert's varyings exactly
-//!    (glsl/smoothies/records.glsl). Attachment: location 0 = the smoothie buffer,
+//!    One pipeline for both paths: glsl/smoothies/smoothie.vert reads `SmoothieVertex`
+//!    attributes (stride 36: locations 0 uv, 1 1/depth, 2 kind, 3 anchor, 4 dir, 5 width)
+//!    and passes the light uv through; one indirect draw on the GPU path, one draw of
+//!    every caster's triangles on the CPU path. Attachment: location 0 = the smoothie buffer,
 //!    R32G32_SFLOAT, clear (1e30, 1.0), blend MIN (per channel, so r and g blend as two
 //!    targets would): r = smoothie linear depth b (the min keeps the nearest smoothie),
 //!    g = remapped alpha (the paper's "minimum blending" of overlapping smoothies, Sec.
@@ -157,7 +157,7 @@ use crate::scene::{LightView, Scene};
 use crate::settings::SilhouettePath;
 use crate::shaders::{self, constants as k};
 use crate::silhouette::gpu::GpuSilhouettes;
-use crate::silhouette::smoothie::records::{build_records, SmoothieRecords};
+use crate::silhouette::smoothie::records::{build_records, Extent, SmoothieRecords};
 use crate::silhouette::smoothie::{GeometryKey, SmoothieVertex, Width};
 use crate::silhouette::{self, Adjacency, Side};
 use crate::vk::{
@@ -216,31 +216,13 @@ const SMOOTHIE_ATTRIBUTES: &[crate::vk::Attribute] = &[
     (5, Format::R32_SFLOAT, 32),
 ];
 
-/// The size of the records' push constants, `RecordsPush`.
-const RECORDS_PUSH_BYTES: u32 = std::mem::size_of::<RecordsPush>() as u32;
-
-/// The push constants of the records' vertex shaders (`Caster` in
-/// glsl/smoothies/records.glsl).
-#[repr(C)]
-#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
-struct RecordsPush {
-    /// The caster's first 16-byte unit, then its vertex, edge and fan record counts.
-    counts: [u32; 4],
-    /// The centred form's inner side: the farthest receiver depth an inner fragment can
-    /// find (`inner_extent_depth`), to which its quads and fans are shortened; 0: full
-    /// width.
-    extent_depth: f32,
-    /// Light uv added to a shortened extent (a rasterisation margin: one texel).
-    extent_pad: f32,
-}
-
 /// The farthest receiver depth z_r an inner fragment of the centred form can find
 /// (glsl/common/inner_receiver.glsl): a depth the shadow map holds, at most the light's
 /// far plane, extrapolated by at most PLANE_LIMIT (5 %); 0.1 % more for the rounding of
 /// the stored depths. Its penumbra's half-width t (1 - b / z_r) is then at most
 /// t (1 - b / Z), and every fragment beyond is discarded, so the inner smoothies are drawn
-/// only that far (records.glsl `extent`; the same image up to the rounding of the
-/// interpolated t and 1/b).
+/// only that far (`Extent`; the same image up to the rounding of the interpolated t and
+/// 1/b).
 fn inner_extent_depth(light: &LightView) -> f32 {
     light.far * (1.0 + regions::INNER_PLANE_LIMIT) * 1.001
 }
@@ -322,23 +304,18 @@ fn smoothie_targets(form: Form) -> &'static [SmoothieTarget] {
     }
 }
 
-/// The smoothie pass's pipelines, all drawing into `smoothie_targets` with MIN blending: the
-/// GPU path's (paper form; expanded `SmoothieVertex`es as vertex input), the CPU path's two
-/// (edge quads, then corner fans, pulled from the records) and, for the centred form, the
-/// same two with the inner smoothies' fragment shader.
+/// The smoothie pass's pipelines, both drawing `SmoothieVertex` triangle lists (the GPU
+/// path's from its compute passes, the CPU path's expanded from the records) through
+/// glsl/smoothies/smoothie.vert into `smoothie_targets` with MIN blending: the outer
+/// smoothies' (the paper's, or the centred form's outer fragment shader) and the centred
+/// form's inner ones.
 struct SmoothiePipelines {
-    gpu: Option<Pipeline>,
-    records: [Pipeline; 2],
-    inner: Option<[Pipeline; 2]>,
+    outer: Pipeline,
+    inner: Option<Pipeline>,
 }
 
 impl SmoothiePipelines {
-    fn new(
-        init: &TechniqueInit<'_>,
-        form: Form,
-        smoothie_set: &DescriptorSet,
-        records_set: &DescriptorSet,
-    ) -> Result<Self> {
+    fn new(init: &TechniqueInit<'_>, form: Form, smoothie_set: &DescriptorSet) -> Result<Self> {
         let name = form.smoothie_names().smoothie;
         let (outer, inner) = match form {
             Form::Paper => {
@@ -357,69 +334,40 @@ impl SmoothiePipelines {
             .iter()
             .map(|target| (target.format, Blend::Min))
             .collect();
-        let pipeline = |vertex: &[u8],
-                        fragment: &[u8],
-                        input: (u32, &[crate::vk::Attribute]),
-                        push: u32,
-                        sets: &[&DescriptorSet]| {
+        let pipeline = |fragment: &[u8]| {
             Pipeline::graphics(
                 init.ctx,
                 &GraphicsPipelineDesc {
                     name,
-                    vertex,
+                    vertex: shaders::SMOOTHIES_SMOOTHIE_VERT,
                     fragment: Some(fragment),
-                    vertex_stride: input.0,
-                    attributes: input.1,
+                    vertex_stride: SMOOTHIE_VERTEX_BYTES,
+                    attributes: SMOOTHIE_ATTRIBUTES,
                     topology: PrimitiveTopology::TRIANGLE_LIST,
                     // Smoothie quads and fans are built in 2-D with either winding.
                     cull: CullModeFlags::NONE,
                     colors: &colors,
                     depth: None,
-                    push_constant_bytes: push,
-                    sets,
+                    push_constant_bytes: 0,
+                    sets: &[smoothie_set],
                 },
             )
         };
-        let gpu = match form {
-            Form::Paper => Some(pipeline(
-                shaders::SMOOTHIES_SMOOTHIE_VERT,
-                outer,
-                (SMOOTHIE_VERTEX_BYTES, SMOOTHIE_ATTRIBUTES),
-                0,
-                &[smoothie_set],
-            )?),
-            Form::Centred => None,
-        };
-        // Vertex pulling from the records: no vertex input.
-        let records_with = |fragment: &[u8]| -> Result<[Pipeline; 2]> {
-            let sets = [smoothie_set, records_set];
-            Ok([
-                pipeline(
-                    shaders::SMOOTHIES_SMOOTHIE_EDGES_VERT,
-                    fragment,
-                    (0, &[]),
-                    RECORDS_PUSH_BYTES,
-                    &sets,
-                )?,
-                pipeline(
-                    shaders::SMOOTHIES_SMOOTHIE_FANS_VERT,
-                    fragment,
-                    (0, &[]),
-                    RECORDS_PUSH_BYTES,
-                    &sets,
-                )?,
-            ])
-        };
-        let inner = match inner {
-            Some(fragment) => Some(records_with(fragment)?),
-            None => None,
-        };
         Ok(Self {
-            gpu,
-            records: records_with(outer)?,
-            inner,
+            outer: pipeline(outer)?,
+            inner: inner.map(pipeline).transpose()?,
         })
     }
+}
+
+/// One caster's smoothies on the CPU path, rebuilt when it or the light moves.
+struct CasterSmoothies {
+    /// The compact construction (`silhouette::smoothie::records`), which the regions
+    /// bound (`SmoothieRecords::uv_support`, `holds_caster`).
+    records: SmoothieRecords,
+    /// Its triangle lists (`SmoothieRecords::expand_side`): the outer side, then (centred
+    /// form; empty in the paper form) the inner side, shortened by `inner_extent_depth`.
+    sides: [Vec<SmoothieVertex>; 2],
 }
 
 pub struct Smoothies {
@@ -428,17 +376,12 @@ pub struct Smoothies {
     /// The smoothie pass's attachments, as `smoothie_targets(form)` lists them: the paper's
     /// RG32F smoothie buffer (depth, alpha); the centred form's depth and penumbra values.
     smoothie: Vec<Image>,
-    /// GPU path: expanded `SmoothieVertex` buffer written by the silhouette compute pass
-    /// (paper form only).
-    smoothie_pipeline: Option<Pipeline>,
+    /// The outer smoothies' pipeline (both paths; the paper's smoothies), drawing
+    /// `SmoothieVertex`es.
+    smoothie_pipeline: Pipeline,
+    /// Centred form: the inner smoothies' pipeline.
+    inner_pipeline: Option<Pipeline>,
     smoothie_set: DescriptorSet,
-    /// CPU path: records pulled from a storage buffer by smoothie_edges.vert and
-    /// smoothie_fans.vert (in that order); the centred form's outer smoothies.
-    records_pipelines: [Pipeline; 2],
-    /// Centred form: the same two vertex shaders with the inner smoothies' fragment shader.
-    inner_pipelines: Option<[Pipeline; 2]>,
-    /// Rewritten whenever `records` reallocates its buffer.
-    records_set: DescriptorSet,
     final_pass: FinalPass,
     final_set: DescriptorSet,
     _falloff: Image,
@@ -450,12 +393,10 @@ pub struct Smoothies {
     path: SilhouettePath,
     /// CPU path: per object, the geometry and what it was built for (model, light key), so
     /// that a frame rebuilds only the casters that moved.
-    cpu_cache: CasterCacheOf<GeometryKey, SmoothieRecords>,
-    /// Every caster's records, back to back (`SmoothieRecords::write_words`).
-    records: DynamicVertices,
-    /// Per caster with geometry and side: `RecordsPush::counts` (first 16-byte unit,
-    /// vertex, edge, fan records) and the vertex counts of its edge and fan draws.
-    record_draws: Vec<(Side, [u32; 4], [u32; 2])>,
+    cpu_cache: CasterCacheOf<GeometryKey, CasterSmoothies>,
+    /// CPU path: every caster's outer smoothie triangles, then (centred form) every
+    /// caster's inner ones, in host-visible vertex buffers.
+    vertices: [DynamicVertices; 2],
     /// GPU path: silhouettes and geometry by compute, drawn indirectly.
     gpu_silhouettes: Option<GpuSilhouettes>,
     /// Whether the smoothie pass draws anything (false at t = 0).
@@ -489,9 +430,7 @@ impl Smoothies {
             ],
             names.smoothie,
         )?;
-        let records = DynamicVertices::storage(ctx, "smoothie records")?;
-        let records_set = Self::records_set(ctx, &records)?;
-        let pipelines = SmoothiePipelines::new(init, form, &smoothie_set, &records_set)?;
+        let pipelines = SmoothiePipelines::new(init, form, &smoothie_set)?;
         let final_set =
             Self::final_set(init, form, &shadow, &smoothie, &falloff, &nearest, &linear)?;
         let final_pass = FinalPass::split(
@@ -501,7 +440,7 @@ impl Smoothies {
             &final_set,
         )?;
         let adjacency = silhouette::caster_adjacency(init.scene, |_| true)?;
-        // The inner smoothies are built on the CPU only (records, `Side::Inner`).
+        // The inner smoothies are built on the CPU only (`Side::Inner`).
         let path = match form {
             Form::Paper => init.settings.silhouettes.resolve(ctx),
             Form::Centred => SilhouettePath::Cpu,
@@ -514,11 +453,9 @@ impl Smoothies {
             form,
             shadow,
             smoothie,
-            smoothie_pipeline: pipelines.gpu,
+            smoothie_pipeline: pipelines.outer,
+            inner_pipeline: pipelines.inner,
             smoothie_set,
-            records_pipelines: pipelines.records,
-            inner_pipelines: pipelines.inner,
-            records_set,
             final_pass,
             final_set,
             _falloff: falloff,
@@ -527,8 +464,10 @@ impl Smoothies {
             cpu_cache: CasterCacheOf::new(adjacency.len()),
             adjacency,
             path,
-            records,
-            record_draws: Vec::new(),
+            vertices: [
+                DynamicVertices::new("smoothie vertices"),
+                DynamicVertices::new("inner smoothie vertices"),
+            ],
             gpu_silhouettes,
             draw_smoothies: false,
             smoothie_drawn: regions::LastDrawn::default(),
@@ -628,46 +567,16 @@ impl Smoothies {
         )
     }
 
-    /// Set 1 of the records pipeline: the records (set 0 is `smoothie_set`, shared with
-    /// the GPU path's pipeline). Its own set so that a reallocated buffer only rewrites it.
-    fn records_set(ctx: &Context, records: &DynamicVertices) -> Result<DescriptorSet> {
-        let Some(buffer) = records.buffer() else {
-            anyhow::bail!("smoothie records buffer missing");
-        };
-        DescriptorSet::new(
-            ctx,
-            &[("Records", Resource::Storage(buffer))],
-            "smoothies/smoothie records",
-        )
-    }
-
-    /// CPU path: uploads every cached caster's records into one storage buffer and notes
-    /// each caster's draw.
-    fn upload_records(&mut self, ctx: &Context) -> Result<()> {
-        let sides: &[Side] = match self.form {
-            Form::Paper => &[Side::Outer],
-            // Every caster's outer records, then every caster's inner ones (mirrored on
-            // the way into the buffer).
-            Form::Centred => &[Side::Outer, Side::Inner],
-        };
-        let words: usize = self.cpu_cache.iter().map(SmoothieRecords::words).sum();
-        let mut all = Vec::with_capacity(words * sides.len());
-        self.record_draws.clear();
-        for &side in sides {
-            for r in self.cpu_cache.iter() {
-                let count = [6 * r.edges.len(), 3 * r.segments.len()].map(|n| n as u32);
-                if r.draw_vertices() > 0 {
-                    let counts = [r.vertices.len(), r.edges.len(), r.fans.len()].map(|n| n as u32);
-                    // `write_words` keeps every caster on a 16-byte unit.
-                    let unit = (all.len() / 4) as u32;
-                    self.record_draws
-                        .push((side, [unit, counts[0], counts[1], counts[2]], count));
-                }
-                r.write_words_side(side, &mut all);
-            }
-        }
-        if self.records.upload(ctx, &all)? {
-            self.records_set = Self::records_set(ctx, &self.records)?;
+    /// CPU path: uploads every cached caster's triangles, the outer sides into one vertex
+    /// buffer and the inner ones into another.
+    fn upload_vertices(&mut self, ctx: &Context) -> Result<()> {
+        for (side, buffer) in self.vertices.iter_mut().enumerate() {
+            let all: Vec<SmoothieVertex> = self
+                .cpu_cache
+                .iter()
+                .flat_map(|c| c.sides[side].iter().copied())
+                .collect();
+            buffer.upload(ctx, &all)?;
         }
         Ok(())
     }
@@ -676,6 +585,16 @@ impl Smoothies {
     /// them when the light changed) for this light; returns how many were rebuilt.
     fn build_geometry(&mut self, frame: &FrameInput<'_>, width: Width, force: bool) -> usize {
         let light = frame.light;
+        let form = self.form;
+        let res = self.smoothie.first().map_or(1, |i| i.extent.width);
+        let inner = Extent {
+            depth: if frame.settings.light_areas {
+                inner_extent_depth(light)
+            } else {
+                0.0
+            },
+            pad: 1.0 / res as f32,
+        };
         self.cpu_cache.update(
             &frame.scene.objects,
             &self.adjacency,
@@ -683,7 +602,16 @@ impl Smoothies {
             force,
             |adj, model| {
                 let sil = silhouette::extract(adj, model, light.position);
-                build_records(adj, &sil, model, light, width)
+                let records = build_records(adj, &sil, model, light, width);
+                let (mut outer, mut inner_side) = (Vec::new(), Vec::new());
+                records.expand_side(Side::Outer, Extent::FULL, &mut outer);
+                if form == Form::Centred {
+                    records.expand_side(Side::Inner, inner, &mut inner_side);
+                }
+                CasterSmoothies {
+                    records,
+                    sides: [outer, inner_side],
+                }
             },
         )
     }
@@ -691,7 +619,10 @@ impl Smoothies {
     /// Caster `i`'s records this frame, when its smoothies are drawn from them (CPU path,
     /// t > 0: otherwise the cache may be another light's, and is not in the buffer).
     fn records(&self, i: usize) -> Option<&SmoothieRecords> {
-        self.cpu_cache.get(i).filter(|_| self.draw_smoothies)
+        self.cpu_cache
+            .get(i)
+            .filter(|_| self.draw_smoothies)
+            .map(|c| &c.records)
     }
 
     /// The texels of r the casters can write outside their smoothies' (which the shadow
@@ -758,7 +689,7 @@ impl Smoothies {
             Some(
                 self.cpu_cache
                     .iter()
-                    .filter_map(SmoothieRecords::uv_bounds)
+                    .filter_map(|c| c.records.uv_bounds())
                     .fold(PixelBox::EMPTY, |b, (lo, hi)| {
                         b.union(PixelBox::of_uv(res, lo, hi))
                     }),
@@ -871,7 +802,7 @@ impl Technique for Smoothies {
                 self.build_geometry(frame, width, force)
             });
             rec.rebuilt(names.silhouettes, rebuilt, casters);
-            self.upload_records(ctx)?;
+            self.upload_vertices(ctx)?;
         }
 
         let (map_area, area) = self.light_areas(frame);
@@ -885,39 +816,19 @@ impl Technique for Smoothies {
                 .collect();
             rec.begin_rendering_in(&targets, None, Some(area));
             if self.draw_smoothies {
-                match (&self.gpu_silhouettes, &self.smoothie_pipeline, self.path) {
-                    (Some(gpu), Some(pipeline), _) => {
-                        rec.bind_pipeline(pipeline);
-                        rec.bind_sets(pipeline, &[&self.smoothie_set]);
+                let pipelines = [Some(&self.smoothie_pipeline), self.inner_pipeline.as_ref()];
+                match (&self.gpu_silhouettes, self.path) {
+                    (Some(gpu), _) => {
+                        rec.bind_pipeline(&self.smoothie_pipeline);
+                        rec.bind_sets(&self.smoothie_pipeline, &[&self.smoothie_set]);
                         gpu.draw(rec);
                     }
-                    (None, _, SilhouettePath::Cpu) if !self.record_draws.is_empty() => {
-                        let sides = [Some((Side::Outer, &self.records_pipelines))]
-                            .into_iter()
-                            .chain([self.inner_pipelines.as_ref().map(|p| (Side::Inner, p))])
-                            .flatten();
-                        let res = self.smoothie.first().map_or(1, |i| i.extent.width);
-                        for (side, pipelines) in sides {
-                            let extent_depth = match side {
-                                Side::Inner if frame.settings.light_areas => {
-                                    inner_extent_depth(frame.light)
-                                }
-                                _ => 0.0,
-                            };
-                            for (i, pipeline) in pipelines.iter().enumerate() {
+                    (None, SilhouettePath::Cpu) => {
+                        for (pipeline, vertices) in pipelines.into_iter().zip(&self.vertices) {
+                            if let Some(pipeline) = pipeline.filter(|_| !vertices.is_empty()) {
                                 rec.bind_pipeline(pipeline);
-                                rec.bind_sets(pipeline, &[&self.smoothie_set, &self.records_set]);
-                                for (s, counts_push, counts) in &self.record_draws {
-                                    if *s == side && counts[i] > 0 {
-                                        let push = RecordsPush {
-                                            counts: *counts_push,
-                                            extent_depth,
-                                            extent_pad: 1.0 / res as f32,
-                                        };
-                                        rec.push_constants(pipeline, bytemuck::bytes_of(&push));
-                                        rec.draw(counts[i], 1);
-                                    }
-                                }
+                                rec.bind_sets(pipeline, &[&self.smoothie_set]);
+                                vertices.draw(rec);
                             }
                         }
                     }

@@ -21,7 +21,7 @@
 //! src/silhouette/smoothie.rs, "Inner smoothies"). The renderer draws the compact records of
 //! `smoothie::records` for both sides: the inner records are the outer ones with each
 //! edge's direction and each fan's first spoke negated (`SmoothieRecords::mirrored`,
-//! written straight into the buffer by `write_words_side`), held to the inner reference by
+//! expanded without the copy by `expand_side`), held to the inner reference by
 //! `silhouette::smoothie::equivalence`. CPU silhouettes only: `--silhouettes gpu` (the
 //! compute path, glsl/silhouette/) is not implemented for the inner side, and this form
 //! builds on the CPU whatever the setting.
@@ -35,8 +35,9 @@
 //! ## Passes, in order
 //! 0. CPU `smoothies-centred/silhouettes` (R > 0) — per moved caster: silhouette from the
 //!    light centre, then the smoothie records (`build_records`, as the paper form's CPU
-//!    path); uploaded to one host-visible storage buffer, every caster's outer records then
-//!    every caster's inner (mirrored) records.
+//!    path), expanded into the outer smoothies' triangles and the inner (mirrored) ones'
+//!    (`SmoothieRecords::expand_side`); every caster's outer triangles are uploaded to one
+//!    host-visible vertex buffer, every caster's inner ones to another.
 //! 1. `smoothies-centred/shadow_map` — the shared `ShadowMap`: R32G32_SFLOAT, clear 1e30,
 //!    blend MIN, no depth attachment; r = nearest caster's linear depth, g = nearest
 //!    surface's of any role. g is read only by pass 2, at the smoothie fragment's own
@@ -61,15 +62,14 @@
 //!    because the b/r tests need it (REMAP_EPS 1e-4). 12 bytes per texel. Both cleared and
 //!    drawn only inside the box the paper form's pass uses (this frame's records, inner
 //!    ones included, and last frame's: `smoothies.rs`, pass 2).
-//!    Four pipelines, all with glsl/smoothies/smoothie_edges.vert or smoothie_fans.vert
-//!    (the paper form's vertex pulling, records at set 1 binding 0, push constants = first
-//!    16-byte unit, vertex, edge and fan record counts, then the inner extent below);
-//!    per caster two draws per side:
-//!    - outer records, `glsl/smoothies_centred/outer.frag`: the paper's fragment program
+//!    Two pipelines, both with glsl/smoothies/smoothie.vert over the CPU path's expanded
+//!    triangles (`SmoothieRecords::expand_side`), one draw each: every caster's outer
+//!    smoothies, then every caster's inner ones (the same records mirrored):
+//!    - outer smoothies, `glsl/smoothies_centred/outer.frag`: the paper's fragment program
 //!      (receiver r = the shadow map's g at its texel, discard when b/r > 1 or past the
 //!      smoothie's outer side), s = alpha' clamped to [0, 1] (1 where 1 - b/r < 1e-4),
 //!      v = disc_chord(-s) in [0.5, 1]; writes b and (v, 1, 1, 1).
-//!    - inner records, `glsl/smoothies_centred/inner.frag`: x = the fragment's distance
+//!    - inner smoothies, `glsl/smoothies_centred/inner.frag`: x = the fragment's distance
 //!      inside the hard-edge line (corner: from the vertex), `dir` inward. The receiver
 //!      behind this texel is hidden from the light, so its depth Z_R is estimated from the
 //!      shadow map's g 1.5 and 5.5 texels outside the edge along -dir: the plane through
@@ -82,8 +82,7 @@
 //!      (1, 1 - v, 1 - Z_R / far, 1). Z_R is at most Z = 1.05 x the light's far plane
 //!      (a depth the map holds, extrapolated by at most 5 %), so nothing is written
 //!      beyond t (1 - b/Z) from the edge: the inner quads and fans are drawn only that
-//!      wide, plus a texel (push constant `extent_depth` = Z, glsl/smoothies/records.glsl
-//!      `extent`; `inner_extent_depth`). The inner fragments' receiver samples and march
+//!      wide, plus a texel (`records::Extent` with depth Z, `inner_extent_depth`). The inner fragments' receiver samples and march
 //!      are most of this pass's cost on lavapipe, and the narrower geometry made the pass
 //!      31-40 % cheaper on `cylinder`, `bunny`, `dense`. The varyings are the full-width
 //!      geometry's up to interpolation rounding (tests/avoided_work.rs): a porter may draw

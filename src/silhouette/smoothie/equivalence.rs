@@ -3,7 +3,8 @@
 //!   against [`extract_reference`];
 //! - smoothies: the parallel split of `build_impl` against the serial
 //!   [`build_smoothies_width`], the reference construction (smoothie.rs), bit for bit; the
-//!   records (records.rs) expanded as glsl/smoothies/records.glsl expands them against it:
+//!   records (records.rs) expanded as the renderer draws them (`SmoothieRecords::expand`)
+//!   against it:
 //!   the same edge quads bit for bit, the same two-edge corner fans within `FAN_TOL`, the same
 //!   coverage at special vertices (see `records_match`).
 //!
@@ -12,7 +13,7 @@
 //! `gpu_finds_exactly_the_cpu_silhouette_edges`) and the same images within one 8-bit level
 //! (`gpu_and_cpu_paths_render_the_same_image`).
 
-use super::records::{build_records, SmoothieRecords};
+use super::records::{build_records, Extent, SmoothieRecords};
 use super::MIN_CORNER_ANGLE;
 use super::{
     build_impl, build_smoothies_side, build_smoothies_width, SmoothieGeometry, SmoothieVertex,
@@ -115,13 +116,11 @@ fn same(adj: &Adjacency, model: Mat4, lv: &LightView, width: Width) -> (usize, u
         [reference.edges, reference.corners, reference.skipped_edges]
     );
     let mirrored = records.mirrored();
-    let mut words = Vec::new();
-    records.write_words_side(Side::Inner, &mut words);
-    let mut expect = Vec::new();
-    mirrored.write_words(&mut expect);
-    assert_eq!(
-        words, expect,
-        "write_words_side(Inner) is mirrored()'s words"
+    let mut inner_side = Vec::new();
+    records.expand_side(Side::Inner, Extent::FULL, &mut inner_side);
+    assert!(
+        inner_side == mirrored.expand(),
+        "expand_side(Inner) is mirrored()'s expansion"
     );
     let fallbacks = records_match(&mirrored, &inner);
     assert!(

@@ -1,6 +1,5 @@
-//! Compact smoothie records, expanded into triangles by the vertex shaders
-//! (glsl/smoothies/smoothie_edges.vert and smoothie_fans.vert, vertex pulling): what the
-//! renderer's CPU path (`--silhouettes cpu`) builds and draws. An optimisation of the
+//! Compact smoothie records, expanded into triangles ([`SmoothieRecords::expand_side`]):
+//! what the renderer's CPU path (`--silhouettes cpu`) builds and draws. An optimisation of the
 //! reference construction in smoothie.rs ([`super::build_smoothies_width`]), held to it by
 //! `silhouette::smoothie::equivalence` (what agrees how: below and there). The GPU path
 //! (`silhouette::gpu`) writes expanded [`SmoothieVertex`]es and draws them with
@@ -8,12 +7,12 @@
 //!
 //! The expanded triangle list of [`super::build_smoothies_width`] costs, per light on
 //! `dense`, 145k 36-byte vertices (5.2 MB) and ~57k libm calls (atan2 per corner, cos per
-//! fan, sin/cos per spoke). Here the CPU keeps the decisions (which edges, which side,
-//! which arc, how many segments) and writes 16-byte records (~0.6 MB on `dense`); the
-//! vertex shader does the per-vertex arithmetic and the trigonometry.
+//! fan, sin/cos per spoke). Here the decisions (which edges, which side, which arc, how
+//! many segments) are taken once into 16-byte records (~0.6 MB on `dense`), and the
+//! expansion is plain per-vertex arithmetic and one sin/cos per spoke.
 //!
-//! # Records (16-byte units, one storage buffer per frame)
-//! Per caster, four arrays back to back, in this order (the shader loads whole units):
+//! # Records (16-byte units)
+//! Per caster, four arrays, in this order (`words` counts them back to back):
 //! - [`VertexRecord`] per silhouette vertex, projected once: uv, 1 / linear depth, width t
 //!   (bit for bit `build_smoothies_width`'s). Vertices the projection rejects (at or
 //!   behind the near plane) get zeros and are never referenced.
@@ -70,12 +69,12 @@
 //! load.
 //!
 //! # Draw
-//! Per caster, one draw of `6 * edges` vertices (smoothie_edges.vert) and one of
-//! `3 * segments` (smoothie_fans.vert), no vertex buffer, push constants: the caster's
-//! first 16-byte unit, and its vertex, edge and fan record counts. Two shaders, not one
-//! branching on the vertex index: lavapipe shades vertices on one thread, 8 at a time,
-//! through both sides of a divergent branch. [`SmoothieRecords::expand`] is the shaders
-//! on the CPU (for the tests and for porters).
+//! [`SmoothieRecords::expand_side`] writes each caster's triangle list once per build
+//! (edges' quads, then fan segments), and the renderer draws every caster's in one draw
+//! through glsl/smoothies/smoothie.vert, as the GPU path's. Vertex shaders pulling these
+//! records from a storage buffer (6 invocations per edge, 3 per fan segment) ran the
+//! smoothie pass 1.3-1.6x longer on lavapipe, whose vertex shading is the same CPU with
+//! a bounds-checked gather per load; on a GPU they would save the upload's bandwidth.
 
 use super::{
     hairpin_ccw, undecided_dir, Projected, Projector, SilVertex, SmoothieVertex, Width,
@@ -249,22 +248,11 @@ impl SmoothieRecords {
         self.skipped_edges == 0 && !self.vertices.is_empty()
     }
 
-    /// 32-bit words of the records as laid out in the storage buffer: a multiple of 4
-    /// (the segment words are padded to whole 16-byte units).
+    /// 32-bit words of the records laid back to back (module header): a multiple of 4,
+    /// the segment words padded to whole 16-byte units.
     pub fn words(&self) -> usize {
         4 * (self.vertices.len() + self.edges.len() + self.fans.len())
             + self.segments.len().next_multiple_of(4)
-    }
-
-    /// Appends the records to `out` in buffer order (vertices, edges, fans, segments,
-    /// zeros up to a multiple of 4 words).
-    pub fn write_words(&self, out: &mut Vec<u32>) {
-        out.extend_from_slice(bytemuck::cast_slice(&self.vertices));
-        out.extend_from_slice(bytemuck::cast_slice(&self.edges));
-        out.extend_from_slice(bytemuck::cast_slice(&self.fans));
-        out.extend_from_slice(&self.segments);
-        let pad = self.segments.len().next_multiple_of(4) - self.segments.len();
-        out.extend(std::iter::repeat_n(0, pad));
     }
 
     /// The inner smoothies (`Side::Inner`, smoothies-centred) of the same silhouette: each
@@ -279,31 +267,6 @@ impl SmoothieRecords {
             f.from = (-Vec2::from(f.from)).to_array();
         }
         m
-    }
-
-    /// `write_words` of these records (`Side::Outer`) or of `mirrored()` (`Side::Inner`),
-    /// without building the mirrored copy.
-    pub fn write_words_side(&self, side: Side, out: &mut Vec<u32>) {
-        if side == Side::Outer {
-            return self.write_words(out);
-        }
-        out.extend_from_slice(bytemuck::cast_slice(&self.vertices));
-        out.extend(self.edges.iter().flat_map(|e| {
-            let d = (-Vec2::from(e.dir)).to_array();
-            [e.a, e.b, d[0].to_bits(), d[1].to_bits()]
-        }));
-        out.extend(self.fans.iter().flat_map(|f| {
-            let from = (-Vec2::from(f.from)).to_array();
-            [
-                f.centre,
-                from[0].to_bits(),
-                from[1].to_bits(),
-                f.sweep.to_bits(),
-            ]
-        }));
-        out.extend_from_slice(&self.segments);
-        let pad = self.segments.len().next_multiple_of(4) - self.segments.len();
-        out.extend(std::iter::repeat_n(0, pad));
     }
 
     /// Appends a fan of sweep `sweep` and its `n` (= `segment_count(sweep)`) segment words.
@@ -335,10 +298,25 @@ impl SmoothieRecords {
         self.segments.truncate(len + n as usize);
     }
 
-    /// The triangle list the vertex shader draws, computed as the shader computes it
-    /// (same order: edges' 6 vertices, then each segment's centre, spoke k, spoke k + 1).
+    /// The triangle list the smoothie pass draws (`expand_side` of the outer side at full
+    /// width).
     pub fn expand(&self) -> Vec<SmoothieVertex> {
         let mut out = Vec::with_capacity(self.draw_vertices() as usize);
+        self.expand_side(Side::Outer, Extent::FULL, &mut out);
+        out
+    }
+
+    /// Appends the triangle list of one side's smoothies to `out`: per edge its quad's 6
+    /// vertices, then per fan segment the centre, spoke k and spoke k + 1 (module header).
+    /// `Side::Inner` expands `mirrored()` without building it; `extent` shortens how far
+    /// each vertex record's quads and fans reach (the centred form's inner side), the
+    /// varyings staying the full-width geometry's.
+    pub fn expand_side(&self, side: Side, extent: Extent, out: &mut Vec<SmoothieVertex>) {
+        let sign = match side {
+            Side::Outer => 1.0,
+            Side::Inner => -1.0,
+        };
+        out.reserve(self.draw_vertices() as usize);
         let vtx = |uv: Vec2, r: &VertexRecord, kind: f32, anchor: Vec2, dir: Vec2| SmoothieVertex {
             uv: uv.to_array(),
             inv_depth: r.inv_depth,
@@ -349,8 +327,8 @@ impl SmoothieRecords {
         };
         for e in &self.edges {
             let (a, b) = (&self.vertices[e.a as usize], &self.vertices[e.b as usize]);
-            let (s0, s1, d) = (Vec2::from(a.uv), Vec2::from(b.uv), Vec2::from(e.dir));
-            let (o0, o1) = (s0 + a.width * d, s1 + b.width * d);
+            let (s0, s1, d) = (Vec2::from(a.uv), Vec2::from(b.uv), sign * Vec2::from(e.dir));
+            let (o0, o1) = (s0 + extent.of(a) * d, s1 + extent.of(b) * d);
             out.extend_from_slice(&[
                 vtx(s0, a, 0.0, s0, d),
                 vtx(s1, b, 0.0, s0, d),
@@ -365,10 +343,10 @@ impl SmoothieRecords {
             let f = &self.fans[fan as usize];
             let c = &self.vertices[f.centre as usize];
             let s = Vec2::from(c.uv);
-            let from = Vec2::from(f.from);
+            let from = sign * Vec2::from(f.from);
             let pad = pad_of(f.sweep);
             let phi = (f.sweep + 2.0 * pad) / n as f32;
-            let r = c.width / (phi * 0.5).cos();
+            let r = extent.of(c) / (phi * 0.5).cos();
             let spoke = |i: u32| {
                 let a = -pad + phi * i as f32;
                 let (sin, cos) = a.sin_cos();
@@ -381,7 +359,36 @@ impl SmoothieRecords {
                 vtx(spoke(k + 1), c, 1.0, s, z),
             ]);
         }
-        out
+    }
+}
+
+/// How far a side's smoothies reach from the silhouette (`SmoothieRecords::expand_side`):
+/// each vertex record's width t, or the centred form's inner side shortened to
+/// t (1 - b / depth) plus `pad`: an inner fragment x from the hard edge is discarded unless
+/// x < t (1 - b / z_r) (its penumbra's half-width), and the receiver depth z_r it finds is
+/// at most `depth`, so the shorter quads and fans only leave out fragments that would be
+/// discarded.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Extent {
+    /// The farthest receiver depth an inner fragment can find; 0: the full width t.
+    pub depth: f32,
+    /// Light uv added to a shortened extent (a rasterisation margin: one texel).
+    pub pad: f32,
+}
+
+impl Extent {
+    pub const FULL: Extent = Extent {
+        depth: 0.0,
+        pad: 0.0,
+    };
+
+    /// The reach of vertex record `v`.
+    fn of(self, v: &VertexRecord) -> f32 {
+        if self.depth <= 0.0 {
+            return v.width;
+        }
+        let k = (1.0 - 1.0 / (v.inv_depth * self.depth)).max(0.0);
+        v.width.min(v.width * k + self.pad)
     }
 }
 

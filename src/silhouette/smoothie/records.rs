@@ -164,7 +164,7 @@ pub fn fast_atan2(y: f32, x: f32) -> f32 {
 }
 
 /// The padding of a fan of sweep `sweep`: FAN_OVERLAP on the side the fan turns to.
-/// (The shader's `sweep < 0.0 ? -OVERLAP : OVERLAP`.)
+/// (glsl/silhouette/corners.comp's `sweep < 0.0 ? -FAN_OVERLAP : FAN_OVERLAP`, the GPU path.)
 fn pad_of(sweep: f32) -> f32 {
     if sweep < 0.0 {
         -FAN_OVERLAP

@@ -641,8 +641,8 @@ impl DynamicVertices {
     }
 
     /// Replaces the contents (the GPU finished with the old ones: frames wait on their
-    /// fence); returns whether the buffer was reallocated.
-    pub fn upload<T: bytemuck::Pod>(&mut self, ctx: &Context, vertices: &[T]) -> Result<bool> {
+    /// fence), reallocating the buffer when they do not fit.
+    pub fn upload<T: bytemuck::Pod>(&mut self, ctx: &Context, vertices: &[T]) -> Result<()> {
         let bytes: &[u8] = bytemuck::cast_slice(vertices);
         let fits = self
             .buffer
@@ -662,7 +662,7 @@ impl DynamicVertices {
             b.write(0, bytes)?;
         }
         self.count = vertices.len() as u32;
-        Ok(!fits)
+        Ok(())
     }
 
     pub fn is_empty(&self) -> bool {

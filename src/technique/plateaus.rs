@@ -1148,6 +1148,8 @@ impl Technique for Plateaus {
             let margin = regions::lookup_margin(frame, res, 0.0)?;
             texture_texels(frame, &plane, supports, margin)
         });
+        // The casters-only map's texels, joined with last frame's (both forms).
+        let map_area = self.around.map_area(frame, res);
         let area = Some(self.texture_drawn.area(read))
             .filter(|_| frame.settings.light_areas)
             .flatten()
@@ -1201,8 +1203,7 @@ impl Technique for Plateaus {
                 rec.end_rendering();
                 Ok(())
             })?;
-            let area = self.around.map_area(frame, self.shadow.resolution);
-            self.shadow.pass_in(rec, frame.gpu, &area)?;
+            self.shadow.pass_in(rec, frame.gpu, &map_area)?;
             return Ok(());
         }
         rec.pass(names.drop_shadow, |rec| {
@@ -1231,8 +1232,7 @@ impl Technique for Plateaus {
             _ if !soft => rec.skip("plateaus/plateaus", "point light (R = 0)"),
             _ => rec.skip("plateaus/plateaus", "no silhouette edge"),
         }
-        let area = self.around.map_area(frame, self.shadow.resolution);
-        self.shadow.pass_in(rec, frame.gpu, &area)?;
+        self.shadow.pass_in(rec, frame.gpu, &map_area)?;
         Ok(())
     }
 

@@ -669,8 +669,9 @@ impl Smoothies {
     ///   (`SmoothieRecords::uv_bounds`); the GPU path builds its geometry on the device and
     ///   clears the whole buffer;
     /// - the shadow map (CPU path): the casters' texels of r beyond their smoothies'
-    ///   (`casters_texels`), where r is read, and the texels where the smoothie pass reads g: the smoothies' texels, for the centred form
-    ///   grown by `regions::INNER_RECEIVER_TEXELS` (its inner fragments read the hidden
+    ///   (`casters_texels`), where r is read, and the texels where the smoothie pass
+    ///   reads g: the smoothies' texels, for the centred form grown by
+    ///   `regions::INNER_RECEIVER_TEXELS` (its inner fragments read the hidden
     ///   receiver just outside their edge); the receivers that cast nothing (a ground
     ///   filling the whole map) are drawn only inside the latter, or not at all without
     ///   smoothies.

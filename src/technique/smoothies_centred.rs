@@ -82,11 +82,11 @@
 //!      (1, 1 - v, 1 - Z_R / far, 1). Z_R is at most Z = 1.05 x the light's far plane
 //!      (a depth the map holds, extrapolated by at most 5 %), so nothing is written
 //!      beyond t (1 - b/Z) from the edge: the inner quads and fans are drawn only that
-//!      wide, plus a texel (`records::Extent` with depth Z, `inner_extent_depth`). The inner fragments' receiver samples and march
-//!      are most of this pass's cost on lavapipe, and the narrower geometry made the pass
-//!      31-40 % cheaper on `cylinder`, `bunny`, `dense`. The varyings are the full-width
-//!      geometry's up to interpolation rounding (tests/avoided_work.rs): a porter may draw
-//!      the full width t.
+//!      wide, plus a texel (`records::Extent` with depth Z, `inner_extent_depth`). The
+//!      inner fragments' receiver samples and march are most of this pass's cost on
+//!      lavapipe, and the narrower geometry made the pass 31-40 % cheaper on `cylinder`,
+//!      `bunny`, `dense`. The varyings are the full-width geometry's up to interpolation
+//!      rounding (tests/avoided_work.rs): a porter may draw the full width t.
 //! 3. `smoothies-centred/final` — `FinalPass` with `glsl/smoothies_centred/final.frag`:
 //!    per texel of the 2x2 footprint (textureGather of the shadow map's r, the smoothie
 //!    depth and the penumbra values' r, g, b at the normal-offset point): outer = the outer

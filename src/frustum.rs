@@ -371,8 +371,8 @@ impl Polytope {
         self.faces.is_empty()
     }
 
-    #[cfg(test)]
-    fn vertices(&self) -> impl Iterator<Item = &Vec3> {
+    /// Its faces' corners (each vertex once per face it is on).
+    pub fn vertices(&self) -> impl Iterator<Item = &Vec3> {
         self.faces.iter().flatten()
     }
 

@@ -196,7 +196,7 @@ fn light_passes_clear_what_their_last_frame_drew() {
 /// edges, where the inner fragments look for the hidden receiver, and its inner smoothies
 /// only as wide as a penumbra can be) give the frame that clearing and drawing everything
 /// gives: the same image and visibility, the same smoothie and penumbra buffers, the same
-/// casters' depth (smoothies-centred's inner values up to interpolation rounding). Two
+/// casters' depth (the shortened smoothies' values up to interpolation rounding). Two
 /// frames, every pass rebuilt: the second is the confined one (a first frame clears the
 /// whole buffers). With thin smoothies (a fixed small t) the inner fragments' receiver
 /// samples reach past the smoothies' own box.
@@ -254,15 +254,18 @@ fn light_areas_change_no_pixel() {
             let (on, on_buffers) = render(true);
             let (off, off_buffers) = render(false);
             assert!(!on_buffers.is_empty(), "{case}: no light buffer");
-            // The centred form's shortened inner smoothies interpolate t and 1/b over other
-            // triangles: its penumbra values may move by their rounding (a few 16-bit
-            // ulps), on a few texels; everything else is bit for bit.
-            let rounding = name == "smoothies-centred";
+            // Shortened smoothies (the paper form's outer ones, the centred form's inner
+            // ones: `records::Extent`) interpolate t and 1/b over other triangles: their
+            // values may move by that rounding (alpha and b by up to 6e-5 on up to 0.9 %
+            // of the paper form's values, measured; a few 16-bit ulps of the centred
+            // penumbra on fewer); no texel is written in one and not the other, and
+            // everything else is bit for bit.
+            let rounding = name.starts_with("smoothies");
             for ((b, a), (_, w)) in on_buffers.iter().zip(&off_buffers) {
-                let tolerance = if rounding && *b == "smoothie_penumbra" {
-                    4e-3
-                } else {
-                    0.0
+                let tolerance = match *b {
+                    "smoothie_penumbra" if rounding => 4e-3,
+                    "smoothie_buffer" if rounding => 1e-4,
+                    _ => 0.0,
                 };
                 // NaN on one side only counts as an infinite difference.
                 let diffs: Vec<f32> = a
@@ -276,7 +279,7 @@ fn light_areas_change_no_pixel() {
                 let worst = diffs.iter().copied().fold(0.0, f32::max);
                 let values: usize = a.iter().map(Vec::len).sum();
                 assert!(
-                    worst <= tolerance && diffs.len() * 1000 <= values,
+                    worst <= tolerance && diffs.len() * if rounding { 50 } else { 1000 } <= values,
                     "{case}: {b} differs in {} of {values} values, by up to {worst}",
                     diffs.len()
                 );

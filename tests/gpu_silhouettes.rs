@@ -141,13 +141,19 @@ fn gpu_and_cpu_paths_render_the_same_image() {
             max_colour <= 1,
             "{name}: colours differ by {max_colour} levels"
         );
-        // Both drew smoothies: a penumbra that hard shadows do not have.
-        let soft = |v: &[f32]| v.iter().filter(|&&x| x > 0.05 && x < 0.95).count();
+        // Both drew smoothies: an outer penumbra, darker than hard shadows just outside
+        // the hard edge (225 to 542 of the 16384 pixels on these scenes, measured).
+        let outer = |v: &[f32]| {
+            v.iter()
+                .zip(&hard.visibility)
+                .filter(|&(&s, &h)| s < h - 0.05)
+                .count()
+        };
         assert!(
-            soft(&on_gpu.visibility) > soft(&hard.visibility) + 20,
-            "{name}: GPU smoothies drew no penumbra ({} vs hard {})",
-            soft(&on_gpu.visibility),
-            soft(&hard.visibility)
+            outer(&on_gpu.visibility) > 100 && outer(&cpu.visibility) > 100,
+            "{name}: smoothies drew no outer penumbra (GPU {}, CPU {} pixels darker than hard)",
+            outer(&on_gpu.visibility),
+            outer(&cpu.visibility)
         );
     }
 }

@@ -6,7 +6,7 @@
 //!   below 1e-4 Z_P, is discarded. Without it Eq. 1 divides a rounding error by a rounding
 //!   error and speckles the caster's own lit top and the ground at a contact.
 //! - smoothies' `REMAP_EPS` (glsl/smoothies/alpha.glsl, `smoothie_alpha`): a smoothie within 1e-4 of the
-//!   depth it shades touches it and casts nothing (alpha' = 1).
+//!   depth it shades touches it and casts nothing (the fragment is discarded).
 //! - pcss's no-blocker return (glsl/pcss/final.frag, `blockers == 0.0`): the mean blocker
 //!   depth is formed only when the search found one; without it 0/0 darkens every lit pixel
 //!   near the box (this test fails: all 56 ground pixels beside it below 0.9).
@@ -18,8 +18,8 @@
 //!   positions x 6 sizes), and every stress row the same: the fragments it drops lie within a
 //!   rounding error of their own silhouette vertex, where a penumbra has no width, and
 //!   rasterise to no texel;
-//! - setting smoothies' guarded value to 0 (a touching smoothie casts full shadow) changes no
-//!   pixel either, even for the sheet hovering at 1 - b/r = 1.4e-5: the final pass's depth
+//! - setting smoothies' guarded value to 0 (a touching smoothie casts full shadow; measured
+//!   when the guard wrote alpha' = 1, before it discarded) changes no pixel either, even for the sheet hovering at 1 - b/r = 1.4e-5: the final pass's depth
 //!   bias (5e-4 relative) already ignores a smoothie that close.
 //!
 //! So this test cannot fail for those two deletions (tests/shader_guards.rs runs the guarded

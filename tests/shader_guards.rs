@@ -123,35 +123,61 @@ fn penumbra_map_contact_guard() {
     );
 }
 
-/// Smoothies (`smoothie_alpha`, smoothies/smoothie.frag): a smoothie behind the surface
-/// (f = b / r > 1) or at or past its outer side (distance >= t) is discarded; within
-/// REMAP_EPS of b = r the remap is not trusted and alpha' = 1, elsewhere alpha' =
-/// min(alpha / (1 - f), 1).
+/// Smoothies (`smoothie_alpha`, smoothies/smoothie.frag): a fragment is written only
+/// where it darkens a surface. Discarded: no surface at its texel (r the clear value
+/// FAR_DEPTH), a smoothie behind the surface (f = b / r > 1), one within REMAP_EPS of
+/// b = r (the remap is not trusted: it casts nothing), and a fragment at or past Eq. 1's
+/// reach t (1 - f), where alpha' = alpha / (1 - f) would be 1 (this holds the smoothie's
+/// outer side, distance >= t). Elsewhere alpha' = distance / (t (1 - f)). Inputs: (b, r,
+/// distance, t); r = 1 makes b the ratio f.
 #[test]
 fn smoothie_remap_guards() {
     let gpu = Gpu::new();
     let t = 0.5f32;
     let cases: &[([f32; 4], Option<f32>, &str)] = &[
-        ([1.01, 0.0, t, 0.0], None, "f = 1.01: behind the surface"),
-        ([1.0, 0.0, t, 0.0], Some(1.0), "f = 1: contact, alpha' = 1"),
+        ([1.01, 1.0, 0.0, t], None, "f = 1.01: behind the surface"),
+        ([1.0, 1.0, 0.0, t], None, "f = 1: contact"),
         (
-            [1.0 - REMAP_EPS / 2.0, 0.0, t, 0.0],
-            Some(1.0),
-            "1 - f = eps / 2",
+            [1.0 - REMAP_EPS / 2.0, 1.0, 0.0, t],
+            None,
+            "1 - f = eps / 2: touching",
         ),
         (
-            [1.0 - 2.0 * REMAP_EPS, 0.0, t, 0.0],
+            [1.0 - 2.0 * REMAP_EPS, 1.0, 0.0, t],
             Some(0.0),
             "1 - f = 2 eps: remapped",
         ),
-        ([0.5, 0.1, t, 0.0], Some(0.4), "f = 0.5: alpha 0.2 / 0.5"),
         (
-            [0.5, 0.4, t, 0.0],
-            Some(1.0),
-            "f = 0.5: alpha 0.8 / 0.5, clamped",
+            [1.0 - 2.0 * REMAP_EPS, 1.0, 1.5 * REMAP_EPS * t, t],
+            // 1 - f in f32 is 2 eps up to its rounding.
+            Some(1.5 * REMAP_EPS / (1.0 - (1.0 - 2.0 * REMAP_EPS))),
+            "1 - f = 2 eps: three quarters of its reach",
         ),
-        ([0.5, t, t, 0.0], None, "at the outer side"),
-        ([0.5, 1.01 * t, t, 0.0], None, "past the outer side"),
+        ([0.5, 1.0, 0.1, t], Some(0.4), "f = 0.5: alpha 0.2 / 0.5"),
+        ([2.0, 4.0, 0.1, t], Some(0.4), "b 2, r 4: alpha 0.2 / 0.5"),
+        (
+            [0.5, 1.0, -0.01, t],
+            Some(0.0),
+            "just inside the silhouette",
+        ),
+        ([0.5, 1.0, 0.24, t], Some(0.96), "f = 0.5: alpha 0.48 / 0.5"),
+        ([0.5, 1.0, 0.25, t], None, "f = 0.5: at its reach t / 2"),
+        (
+            [0.5, 1.0, 0.4, t],
+            None,
+            "f = 0.5: alpha 0.8 / 0.5, saturated",
+        ),
+        ([0.0, 1.0, 0.49, t], Some(0.98), "f = 0: alpha itself"),
+        ([0.5, 1.0, t, t], None, "at the outer side"),
+        ([0.0, 1.0, t, t], None, "f = 0: at the outer side"),
+        ([0.5, 1.0, 1.01 * t, t], None, "past the outer side"),
+        ([f32::NAN, 1.0, 0.1, t], None, "b NaN"),
+        ([5.0, 1e30, 0.1, t], None, "no surface (g cleared)"),
+        (
+            [5.0, 4.9e29, 0.1, t],
+            Some(0.2),
+            "a surface just short of the clear value",
+        ),
     ];
     let inputs: Vec<[f32; 4]> = cases.iter().map(|c| c.0).collect();
     let out = run(
@@ -167,7 +193,7 @@ fn smoothie_remap_guards() {
             Some(a) => {
                 assert_eq!(o[0], 1.0, "{what}: {input:?} discarded: {o:?}");
                 assert!(
-                    (o[1] - a).abs() < 1e-6,
+                    (o[1] - a).abs() < 1e-5,
                     "{what}: {input:?} gave {o:?}, not {a}"
                 );
             }
@@ -182,19 +208,29 @@ fn next_down(x: f32) -> f32 {
     f32::from_bits(x.to_bits() - 1)
 }
 
-/// Over depths from 1e-3 to 1e4 at and one ulp either side of contact: every kept smoothie
-/// fragment writes a finite alpha' in [0, 1], and only a smoothie behind the surface or
-/// past its outer side is discarded; every kept penumbra-map fragment has a positive,
-/// finite denominator (also with a degenerate k, which `fragment_zv` bounds).
+/// Over depths from 1e-3 to 1e4, at and one ulp either side of contact and just past the
+/// guard: every kept smoothie fragment writes a finite alpha' in [0, 1), and a fragment is
+/// discarded only within the guard or at or past its reach t (1 - f) (a smoothie behind or
+/// touching the surface is all of that), and some are kept; every kept penumbra-map
+/// fragment has a positive, finite denominator (also with a degenerate k, which
+/// `fragment_zv` bounds).
 #[test]
 fn guards_keep_outputs_finite_at_contact() {
     let gpu = Gpu::new();
     let t = 0.02f32;
     let mut inputs = Vec::new();
     for r in [1e-3f32, 0.5, 1.0, 7.0, 1e4] {
-        for b in [r, next_down(r), next_up(r), next_down(next_down(r))] {
-            for dist in [0.0f32, 1e-7, 0.01, 0.5, 1.0, 5.0] {
-                inputs.push([b / r, dist, t, 0.0]);
+        let guard = r * (1.0 - 2.0 * REMAP_EPS);
+        for b in [
+            r,
+            next_down(r),
+            next_up(r),
+            next_down(next_down(r)),
+            guard,
+            0.5 * r,
+        ] {
+            for dist in [0.0f32, 1e-7, 1e-6, 0.01, 0.5, 1.0, 5.0] {
+                inputs.push([b, r, dist, t]);
             }
         }
     }
@@ -205,16 +241,23 @@ fn guards_keep_outputs_finite_at_contact() {
         false,
         &inputs,
     );
+    let mut kept = 0;
     for (x, o) in inputs.iter().zip(&out) {
         if o[0] == 1.0 {
             assert!(
-                o[1].is_finite() && (0.0..=1.0).contains(&o[1]),
+                o[1].is_finite() && (0.0..1.0).contains(&o[1]),
                 "{x:?}: {o:?}"
             );
+            kept += 1;
         } else {
-            assert!(x[0] > 1.0 || x[1] >= t, "{x:?} discarded");
+            let denom = 1.0 - x[0] / x[1];
+            assert!(
+                denom <= REMAP_EPS || x[2] >= t * denom * (1.0 - 1e-6),
+                "{x:?} discarded"
+            );
         }
     }
+    assert!(kept >= 20, "only {kept} kept");
     let mut inputs = Vec::new();
     for zp in [1e-3f32, 1.0, 10.0, 1e4] {
         for zv in [zp, next_down(zp), next_up(zp), zp * (1.0 - 1e-5), 0.0] {

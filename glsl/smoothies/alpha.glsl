@@ -4,25 +4,37 @@
 #ifndef SMOOTHIES_ALPHA_GLSL
 #define SMOOTHIES_ALPHA_GLSL
 
+#include "common/far_depth.glsl"
+
 // Below this 1 - b/r the remap alpha / (1 - b/r) is not trusted (Volokh Sec. 3.5: b ~ r):
 // the smoothie touches what it shadows, so it casts nothing (alpha' = 1). 1e-4 is above
 // the relative rounding of the two R32F depths, so no speckles where b and r agree.
 const float REMAP_EPS = 1e-4;
 
-// Eq. 1's alpha' = alpha / (1 - b/r), clamped to [0, 1], for a fragment at `dist` from the
-// silhouette (along the outward normal, or radially at a corner) of a smoothie of width
-// `t`, with f = b / r; false where the fragment is discarded.
-bool smoothie_alpha(float f, float dist, float t, out float alpha_out) {
-    // Smoothie behind the surface seen at this texel: it shadows nothing there (paper: discard).
-    if (f > 1.0) return false;
-    // At or past the smoothie's outer side (alpha >= 1) it adds no shadow: not written, so
-    // that its b does not MIN-blend into a texel that another smoothie shades. A corner's
-    // polygon overshoots its disc of radius t (chords at t / cos(phi / 2)); without this the
-    // overshoot's depths showed, and the image depended on how a corner is split into fans.
-    if (dist >= t) return false;
-    float alpha = clamp(dist / t, 0.0, 1.0);
-    float denom = 1.0 - f;
-    alpha_out = denom > REMAP_EPS ? min(alpha / denom, 1.0) : 1.0;
+// Eq. 1's alpha' = alpha / (1 - b/r) for a fragment of a smoothie at depth `b`, over the
+// surface at depth `r` (the shadow map's g at its texel), at `dist` from the silhouette
+// (along the outward normal, or radially at a corner), of width `t`; false where the
+// fragment is discarded. A fragment is written only where it darkens a surface:
+// alpha' < 1. A fully lit fragment casts nothing, and its b must not MIN-blend into a
+// texel that another smoothie shades (that b made the receivers between the two
+// smoothies' depths take the farther one's alpha).
+bool smoothie_alpha(float b, float r, float dist, float t, out float alpha_out) {
+    // No surface at this texel (g holds the clear value): nothing to shade, and the shadow
+    // map's r there is lit too.
+    if (!(r < 0.5 * FAR_DEPTH)) return false;
+    float denom = 1.0 - b / r;
+    // Smoothie behind the surface seen at this texel (b > r: it shadows nothing there,
+    // paper: discard), or touching it (Volokh Sec. 3.5, b ~ r: the remap is not trusted,
+    // the smoothie casts nothing); also a NaN b / r.
+    if (!(denom > REMAP_EPS)) return false;
+    // Eq. 1 reaches alpha' = 1 at dist = t (1 - b/r): from there on, including past the
+    // smoothie's outer side (dist >= t), the fragment adds no shadow. A corner's polygon
+    // overshoots its disc of radius t (chords at t / cos(phi / 2)); discarding there makes
+    // the image independent of how a corner is split into fans, and of how far short of t
+    // the CPU path stops its quads (`records::Extent`).
+    float reach = t * denom;
+    if (!(dist < reach)) return false;
+    alpha_out = max(dist, 0.0) / reach;
     return true;
 }
 

@@ -24,6 +24,6 @@ void main() {
     // Edges: distance from the silhouette edge along the outward normal; corners: radial.
     float dist = v_kind < 0.5 ? dot(q, v_dir) : length(q);
     float alpha;
-    if (!smoothie_alpha(b / r, dist, t, alpha)) discard;
+    if (!smoothie_alpha(b, r, dist, t, alpha)) discard;
     o_smoothie = vec2(b, alpha);
 }

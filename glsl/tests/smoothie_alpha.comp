@@ -2,8 +2,8 @@
 #extension GL_GOOGLE_include_directive : require
 // Test harness (tests/shader_guards.rs): smoothies' `smoothie_alpha` from the production
 // glsl/smoothies/alpha.glsl at each input, so that a change to its discards or to the
-// REMAP_EPS guard fails the test. Input: (b / r, distance, width t, unused); output: (1
-// where kept else 0, alpha', 0, 0).
+// REMAP_EPS guard fails the test. Input: (smoothie depth b, surface depth r, distance,
+// width t); output: (1 where kept else 0, alpha', 0, 0).
 #include "smoothies/alpha.glsl"
 
 layout(local_size_x = 1) in;
@@ -14,6 +14,6 @@ void main() {
     uint i = gl_GlobalInvocationID.x;
     vec4 x = inputs[i];
     float alpha = -1.0;
-    bool kept = smoothie_alpha(x.x, x.y, x.z, alpha);
+    bool kept = smoothie_alpha(x.x, x.y, x.z, x.w, alpha);
     outputs[i] = vec4(kept ? 1.0 : 0.0, alpha, 0.0, 0.0);
 }

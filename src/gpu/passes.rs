@@ -708,6 +708,13 @@ impl<K: PartialEq + Copy, T> CasterCacheOf<K, T> {
     }
 }
 
+impl<K: Send, T: Send> CasterCacheOf<K, T> {
+    /// Every cached object's geometry, to change in parallel (rayon).
+    pub fn par_values_mut(&mut self) -> impl ParallelIterator<Item = &mut T> {
+        self.entries.par_iter_mut().flatten().map(|e| &mut e.2)
+    }
+}
+
 impl<K: PartialEq + Copy + Send + Sync, T: Send> CasterCacheOf<K, T> {
     /// Rebuilds, with `build(adjacency, model)`, every caster (object with an adjacency)
     /// whose slot is stale (all of them when `force`); returns how many were rebuilt. The

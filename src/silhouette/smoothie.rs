@@ -7,8 +7,9 @@
 //! The renderer draws two optimisations of it, each held to it by a test:
 //! - CPU path, [`records`] (`build_records`): compact records (a vertex record per
 //!   silhouette vertex, an edge record per quad, a fan record per corner, a word per fan
-//!   segment) that glsl/smoothies/smoothie_{edges,fans}.vert expand on the GPU; no
-//!   trigonometry and no 36-byte vertices on the CPU. The same edge quads bit for bit, the
+//!   segment), expanded per caster into this triangle list (`expand_side`) and kept until
+//!   the caster or the light moves; no atan2 per corner, no cos per fan. The same edge
+//!   quads bit for bit, the
 //!   same two-edge corners (fan vertices within 1e-5 t), and the same discs at special
 //!   vertices drawn as one fan instead of one per gap between spokes; the smoothie pass
 //!   discards alpha >= 1, where the two differ, so both draw the same texels. Test:

@@ -332,6 +332,44 @@ pub fn shadowed(
     Shadowed::Inside(regions)
 }
 
+/// The farthest linear depth from the light of any surface a light pass can draw over the
+/// light-uv box `lo..hi`: each object in the light's frustum, its world box cut to the
+/// light's frustum over the box (in front of the near plane); at most the far plane, which
+/// clips what the passes draw. `None` when the box is not finite. The smoothies' receiver
+/// depth g holds the nearest of these surfaces at each texel, so it is at most this
+/// (`records::Extent`).
+pub fn deepest_surface(frame: &FrameInput<'_>, lo: Vec2, hi: Vec2) -> Option<f32> {
+    if !(lo.is_finite() && hi.is_finite()) {
+        return None;
+    }
+    let m = frame.light.view_proj;
+    let (x, y, w) = (m.row(0), m.row(1), m.row(3));
+    // u >= lo.x with u = (x / w + 1) / 2, times 2 w > 0: x - (2 lo.x - 1) w >= 0; and so on.
+    let planes = [
+        x - w * (2.0 * lo.x - 1.0),
+        w * (2.0 * hi.x - 1.0) - x,
+        y - w * (2.0 * lo.y - 1.0),
+        w * (2.0 * hi.y - 1.0) - y,
+        w - Vec4::new(0.0, 0.0, 0.0, frame.light.near),
+    ];
+    let deepest = frame
+        .gpu
+        .objects
+        .iter()
+        .filter(|o| o.in_light)
+        .filter_map(|o| {
+            let mut cut = crate::frustum::Polytope::hexahedron(&o.world_corners());
+            for p in planes {
+                cut.clip(p);
+            }
+            cut.vertices()
+                .map(|&p| frame.light.linear_depth(p))
+                .reduce(f32::max)
+        })
+        .fold(0.0, f32::max);
+    Some(deepest.min(frame.light.far))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

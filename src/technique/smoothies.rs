@@ -25,8 +25,8 @@
 //! extraction `silhouette::extract_reference`), whose header gives every rule (edge quads,
 //! corner fans, special vertices, widths). The renderer draws two optimisations of it,
 //! interchangeable: the CPU path's compact records (`silhouette/smoothie/records.rs`,
-//! expanded by glsl/smoothies/smoothie_{edges,fans}.vert) and the GPU path's compute passes
-//! (glsl/silhouette/). `silhouette::smoothie::equivalence` holds the records to the
+//! expanded into the same triangles on the CPU, `SmoothieRecords::expand_side`) and the GPU
+//! path's compute passes (glsl/silhouette/). `silhouette::smoothie::equivalence` holds the records to the
 //! reference (edges bit for bit, corners within 1e-5 t) and tests/gpu_silhouettes.rs the
 //! compute passes to the records (same edges, same image).
 //!
@@ -80,23 +80,40 @@
 //!    g = remapped alpha (the paper's "minimum blending" of overlapping smoothies, Sec.
 //!    3.1). One two-channel target rather than the paper's two: half the blend work on a
 //!    CPU driver, and the final pass's two gathers of it share one texel address
-//!    computation (the alpha gets 32 bits where 16 would do). Render area and scissor, on
-//!    the CPU path: the texels this frame's smoothies can reach, each vertex record's uv
-//!    plus and minus t / cos(15 deg) (`SmoothieRecords::uv_bounds`), joined with last
-//!    frame's, so that every texel outside still holds the clear value (`light_areas`).
-//!    That is 16-17 % of the map on `cylinder`, `bunny` and `overlap`, and the clear of the
-//!    rest was lavapipe's largest fixed cost here (0.5-0.6 ms a frame at 1024^2). A porter
-//!    can clear the whole buffer instead: same image. The GPU path does, as its geometry's
-//!    extent is only known on the device.
+//!    computation (the alpha gets 32 bits where 16 would do).
 //!    `glsl/smoothies/smoothie.frag` reads the shadow map's g at its own texel for the
-//!    receiver depth r, discards when b/r > 1 (smoothie behind a blocker), computes the
-//!    linear alpha (edge: distance from the edge along the outward normal / t; corner:
-//!    radial / t), discards where it is >= 1 (past the smoothie's outer side it casts
-//!    nothing, and its b must not MIN-blend into a texel another smoothie shades; a corner's
-//!    polygon overshoots its disc of radius t, so this also makes the image independent of
-//!    how a corner is split into fans) and remaps it with Eq. 1,
-//!    alpha' = clamp(alpha / (1 - b/r)), with alpha' = 1 when 1 - b/r < 1e-4 (Volokh 3.5:
-//!    no NaN, no Inf, no speckles where b ~ r).
+//!    receiver depth r, computes the distance x from the silhouette (edge: along the
+//!    outward normal; corner: radial) and Eq. 1's alpha' = (x / t) / (1 - b/r), written
+//!    only where the smoothie darkens a surface (`glsl/smoothies/alpha.glsl`). Discarded:
+//!    g = 1e30 (no surface at the texel: nothing to shade, and r is lit there), b/r > 1
+//!    (smoothie behind the surface seen there), 1 - b/r < 1e-4 (Volokh 3.5: b ~ r, the
+//!    smoothie touches what it shades; no NaN, no Inf, no speckles), and alpha' >= 1, i.e.
+//!    x >= t (1 - b/r), which holds everything at or past the smoothie's outer side x = t.
+//!    A fully lit fragment casts nothing, and its b must not MIN-blend into a texel that
+//!    another smoothie shades: the paper writes it, and then a receiver between the two
+//!    smoothies' depths takes the farther one's alpha (mae_lit fell on `bunny`,
+//!    `primitives`, `fence` and `dense` when those fragments went, 0.060 -> 0.047 on
+//!    `dense`). A corner's polygon overshoots its disc of radius t, so this also makes the
+//!    image independent of how a corner is split into fans.
+//!    Geometry and area on the CPU path, where the texels are known:
+//!    - the quads and fans stop where every fragment further out is discarded:
+//!      t (1 - b / Z) plus a texel, with Z the deepest surface under the smoothies' box
+//!      (`regions::deepest_surface`), since r <= Z (`records::Extent`; an edge takes its
+//!      nearer end's b at both ends, as b is convex along it). A blocker resting on its
+//!      receiver has b close to r, and Eq. 1 saturates close to the silhouette: on `bunny`
+//!      the triangles' area falls from 360k to 102k texels of the 1024^2 map, and the
+//!      pass from 2.6 to 1.3 ms (lowest of 8 frames at 640x480, lavapipe).
+//!      A porter can draw the full width t instead: the same image up to the rounding
+//!      of t and 1/b interpolated over other triangles (tests/avoided_work.rs);
+//!    - render area and scissor: the texels those triangles can reach, each vertex
+//!      record's uv plus and minus its reach (`SmoothieRecords::uv_bounds`), joined with
+//!      last frame's, so that every texel outside still holds the clear value
+//!      (`light_areas`). That is 12-13 % of the map on `cylinder`, `bunny` and `overlap`,
+//!      and the clear of the rest was lavapipe's largest fixed cost here (0.5-0.6 ms a
+//!      frame at 1024^2). A porter can clear the whole buffer instead: same image.
+//!
+//!    The GPU path draws the full width and clears the whole buffer, as its geometry's
+//!    extent is only known on the device.
 //! 3. `smoothies/final` — from the camera (`FinalPass`), `glsl/smoothies/final.frag`: at
 //!    each of the 4 nearest texels v = 0 behind the blocker (shadow map r), else alpha
 //!    behind the smoothie (smoothie buffer r, then g), else 1 (Sec. 3 step 5); bilinear
@@ -114,7 +131,7 @@
 //!    a heavy one), with glsl/common/unshadowed.frag (visibility 1, no lookup) in the rest
 //!    of its screen box: scissors of one rendering scope, objects in the scene's order, so
 //!    the image is the whole pass's bit for bit (tests/avoided_work.rs). On lavapipe the
-//!    lookups then run on 31-38 % of the area drawn on `cylinder`, `overlap` and `bunny`,
+//!    lookups then run on 25-35 % of the area drawn on `cylinder`, `overlap` and `bunny`,
 //!    and the pass costs not much more than `hard`'s: a CPU driver runs both sides of a
 //!    branch, so the shader's own early-outs save nothing there. On a GPU, where a warp
 //!    skips what none of its threads takes, a porter can draw the whole pass with this
@@ -166,6 +183,7 @@ use crate::vk::{
 };
 use anyhow::Result;
 use glam::Vec2;
+use rayon::prelude::*;
 use std::sync::Arc;
 
 pub const INFO: TechniqueInfo = TechniqueInfo {
@@ -360,14 +378,18 @@ impl SmoothiePipelines {
     }
 }
 
-/// One caster's smoothies on the CPU path, rebuilt when it or the light moves.
+/// One caster's smoothies on the CPU path: records rebuilt when it or the light moves,
+/// triangles also when the extent they were expanded with changes.
 struct CasterSmoothies {
     /// The compact construction (`silhouette::smoothie::records`), which the regions
     /// bound (`SmoothieRecords::uv_support`, `holds_caster`).
     records: SmoothieRecords,
-    /// Its triangle lists (`SmoothieRecords::expand_side`): the outer side, then (centred
-    /// form; empty in the paper form) the inner side, shortened by `inner_extent_depth`.
+    /// Its triangle lists (`SmoothieRecords::expand_side`): the outer side (the paper
+    /// form's shortened by `outer_extent`), then (centred form; empty in the paper form)
+    /// the inner side, shortened by `inner_extent_depth`.
     sides: [Vec<SmoothieVertex>; 2],
+    /// The outer and inner extents `sides` were expanded with; `None` after a rebuild.
+    expanded: Option<[Extent; 2]>,
 }
 
 pub struct Smoothies {
@@ -394,6 +416,9 @@ pub struct Smoothies {
     /// CPU path: per object, the geometry and what it was built for (model, light key), so
     /// that a frame rebuilds only the casters that moved.
     cpu_cache: CasterCacheOf<GeometryKey, CasterSmoothies>,
+    /// CPU path: how far this frame's outer smoothies reach (`outer_extent`), which the
+    /// light areas and regions bound.
+    outer_extent: Extent,
     /// CPU path: every caster's outer smoothie triangles, then (centred form) every
     /// caster's inner ones, in host-visible vertex buffers.
     vertices: [DynamicVertices; 2],
@@ -462,6 +487,7 @@ impl Smoothies {
             _nearest: nearest,
             _linear: linear,
             cpu_cache: CasterCacheOf::new(adjacency.len()),
+            outer_extent: Extent::FULL,
             adjacency,
             path,
             vertices: [
@@ -581,39 +607,88 @@ impl Smoothies {
         Ok(())
     }
 
-    /// CPU path: silhouettes and smoothie geometry of every caster that moved (or of all of
-    /// them when the light changed) for this light; returns how many were rebuilt.
+    /// CPU path: silhouettes and smoothie records of every caster that moved (or of all of
+    /// them when the light changed) for this light, then the triangles of every caster
+    /// rebuilt or whose extents changed; returns how many were rebuilt.
     fn build_geometry(&mut self, frame: &FrameInput<'_>, width: Width, force: bool) -> usize {
         let light = frame.light;
-        let form = self.form;
-        let res = self.smoothie.first().map_or(1, |i| i.extent.width);
-        let inner = Extent {
-            depth: if frame.settings.light_areas {
-                inner_extent_depth(light)
-            } else {
-                0.0
-            },
-            pad: 1.0 / res as f32,
-        };
-        self.cpu_cache.update(
+        let rebuilt = self.cpu_cache.update(
             &frame.scene.objects,
             &self.adjacency,
             GeometryKey::new(light, width),
             force,
             |adj, model| {
                 let sil = silhouette::extract(adj, model, light.position);
-                let records = build_records(adj, &sil, model, light, width);
-                let (mut outer, mut inner_side) = (Vec::new(), Vec::new());
-                records.expand_side(Side::Outer, Extent::FULL, &mut outer);
-                if form == Form::Centred {
-                    records.expand_side(Side::Inner, inner, &mut inner_side);
-                }
                 CasterSmoothies {
-                    records,
-                    sides: [outer, inner_side],
+                    records: build_records(adj, &sil, model, light, width),
+                    sides: Default::default(),
+                    expanded: None,
                 }
             },
-        )
+        );
+        let res = self.smoothie.first().map_or(1, |i| i.extent.width);
+        let pad = 1.0 / res as f32;
+        let areas = frame.settings.light_areas;
+        self.outer_extent = match self.form {
+            Form::Paper if areas => self.outer_extent(frame, pad),
+            _ => Extent::FULL,
+        };
+        let inner = Extent {
+            depth: if areas {
+                inner_extent_depth(light)
+            } else {
+                0.0
+            },
+            pad,
+        };
+        let extents = [self.outer_extent, inner];
+        let form = self.form;
+        self.cpu_cache.par_values_mut().for_each(|c| {
+            if c.expanded == Some(extents) {
+                return;
+            }
+            let [outer, inner_side] = &mut c.sides;
+            outer.clear();
+            inner_side.clear();
+            c.records.expand_side(Side::Outer, extents[0], outer);
+            if form == Form::Centred {
+                c.records.expand_side(Side::Inner, extents[1], inner_side);
+            }
+            c.expanded = Some(extents);
+        });
+        rebuilt
+    }
+
+    /// The paper form's outer smoothies, shortened to where Eq. 1 saturates for the
+    /// deepest receiver they can find (`records::Extent`): the deepest surface under the
+    /// full-width smoothies' box (`regions::deepest_surface`), 0.1 % more for the rounding
+    /// of the stored depths, rounded up to a 1/256 of the light's far plane so that a
+    /// moving object leaves the other casters' triangles alone while the bound holds.
+    /// Where that depth is not known, the full width.
+    fn outer_extent(&self, frame: &FrameInput<'_>, pad: f32) -> Extent {
+        // Each caster's full-width box inside the map (a caster outside the light's view
+        // adds nothing, culled or not).
+        let full = self
+            .cpu_cache
+            .iter()
+            .filter_map(|c| c.records.uv_bounds(Extent::FULL))
+            .map(|(lo, hi)| (lo.max(Vec2::ZERO), hi.min(Vec2::ONE)))
+            .filter(|(lo, hi)| lo.cmple(*hi).all())
+            .reduce(|(a, b), (c, d)| (a.min(c), b.max(d)));
+        let Some(deepest) = full.and_then(|(lo, hi)| {
+            // The texel a fragment's centre lies in, beyond the box by rounding.
+            regions::deepest_surface(frame, lo - pad, hi + pad)
+        }) else {
+            return Extent::FULL;
+        };
+        let far = frame.light.far;
+        let step = far / 256.0;
+        let depth = ((deepest * 1.001 / step).ceil() * step).min(far * 1.001);
+        if depth > 0.0 && depth.is_finite() {
+            Extent { depth, pad }
+        } else {
+            Extent::FULL
+        }
     }
 
     /// Caster `i`'s records this frame, when its smoothies are drawn from them (CPU path,
@@ -643,14 +718,15 @@ impl Smoothies {
     /// (`SmoothieRecords::holds_caster`: the convex hull of a projected mesh is its
     /// silhouette vertices'), and else of its world box's corners projected by the light
     /// (the r texels; casters in the light's frustum) as well. On `bunny` that takes the
-    /// lookups from 48 % to 38 % of the area drawn: it fills little of its box.
+    /// lookups from 48 % to 38 % of the area drawn (full-width smoothies): it fills little
+    /// of its box.
     fn shadow_regions(&self, corners: &[(usize, [Vec2; 8])]) -> Vec<regions::Support> {
         let dirs = regions::directions();
         corners
             .iter()
             .filter_map(|(i, uvs)| {
                 let records = self.records(*i);
-                let smoothies = records.and_then(|r| r.uv_support(&dirs));
+                let smoothies = records.and_then(|r| r.uv_support(&dirs, self.outer_extent));
                 if records.is_some_and(SmoothieRecords::holds_caster) {
                     return smoothies;
                 }
@@ -690,7 +766,7 @@ impl Smoothies {
             Some(
                 self.cpu_cache
                     .iter()
-                    .filter_map(|c| c.records.uv_bounds())
+                    .filter_map(|c| c.records.uv_bounds(self.outer_extent))
                     .fold(PixelBox::EMPTY, |b, (lo, hi)| {
                         b.union(PixelBox::of_uv(res, lo, hi))
                     }),

@@ -200,42 +200,75 @@ impl SmoothieRecords {
         (6 * self.edges.len() + 3 * self.segments.len()) as u32
     }
 
-    /// The light-uv box every vertex `expand` makes lies in, for either side (`mirrored`
-    /// turns the directions, not the vertices): an edge quad reaches t along its unit
-    /// direction, a fan's spokes t / cos(phi / 2) with phi <= MAX_SEGMENT, each from its
-    /// vertex record, t being that record's width. So the box is every vertex record's uv
-    /// plus and minus t / cos(MAX_SEGMENT / 2). A non-finite uv or width gives the infinite
-    /// box; no vertex record, `None`.
-    pub fn uv_bounds(&self) -> Option<(Vec2, Vec2)> {
-        let reach = 1.0 / (MAX_SEGMENT * 0.5).cos();
-        self.vertices.iter().fold(None, |acc, v| {
-            let (uv, t) = (Vec2::from(v.uv), v.width);
-            let (lo, hi) = if uv.is_finite() && t.is_finite() {
-                (uv - t.abs() * reach, uv + t.abs() * reach)
-            } else {
-                (Vec2::NEG_INFINITY, Vec2::INFINITY)
-            };
-            Some(acc.map_or((lo, hi), |(a, b): (Vec2, Vec2)| (a.min(lo), b.max(hi))))
-        })
-    }
-
-    /// `uv_bounds` in any directions: per unit direction d, the largest d · p over the
-    /// points p the smoothies can cover (each vertex record's uv plus t / cos(MAX_SEGMENT
-    /// / 2) towards d, by the same argument); +inf for a non-finite uv or width. `None`
-    /// without vertex records.
-    pub fn uv_support<const N: usize>(&self, dirs: &[Vec2; N]) -> Option<[f32; N]> {
-        let reach = 1.0 / (MAX_SEGMENT * 0.5).cos();
-        self.vertices.iter().fold(None, |acc, v| {
-            let (uv, t) = (Vec2::from(v.uv), v.width);
-            let s = dirs.map(|d| {
-                if uv.is_finite() && t.is_finite() {
-                    d.dot(uv) + t.abs() * reach
+    /// Per vertex record, how far from its uv the triangles `expand_side` makes with
+    /// `extent` reach, for either side (`mirrored` turns the directions, not the vertices):
+    /// a fan's spokes `Extent::of` / cos(phi / 2) with phi <= MAX_SEGMENT, an edge quad
+    /// `Extent::of_edge` along its unit direction. With `Extent::FULL`, t / cos(MAX_SEGMENT
+    /// / 2) for every record. Not finite for a non-finite uv or width.
+    fn reaches(&self, extent: Extent) -> Vec<f32> {
+        let spoke = 1.0 / (MAX_SEGMENT * 0.5).cos();
+        let mut r: Vec<f32> = self
+            .vertices
+            .iter()
+            .map(|v| {
+                let uv = Vec2::from(v.uv);
+                if uv.is_finite() && v.width.is_finite() {
+                    extent.of(v).abs() * spoke
                 } else {
                     f32::INFINITY
                 }
-            });
-            Some(acc.map_or(s, |a: [f32; N]| std::array::from_fn(|k| a[k].max(s[k]))))
-        })
+            })
+            .collect();
+        if extent.depth > 0.0 {
+            for e in &self.edges {
+                let (a, b) = (e.a as usize, e.b as usize);
+                let (ea, eb) = extent.of_edge(&self.vertices[a], &self.vertices[b]);
+                r[a] = r[a].max(ea.abs());
+                r[b] = r[b].max(eb.abs());
+            }
+        }
+        r
+    }
+
+    /// The light-uv box every vertex `expand_side` makes with `extent` lies in: every
+    /// vertex record's uv plus and minus its reach (`reaches`). A non-finite uv or width
+    /// gives the infinite box; no vertex record, `None`.
+    pub fn uv_bounds(&self, extent: Extent) -> Option<(Vec2, Vec2)> {
+        let reaches = self.reaches(extent);
+        self.vertices
+            .iter()
+            .zip(reaches)
+            .fold(None, |acc, (v, reach)| {
+                let uv = Vec2::from(v.uv);
+                let (lo, hi) = if reach.is_finite() {
+                    (uv - reach, uv + reach)
+                } else {
+                    (Vec2::NEG_INFINITY, Vec2::INFINITY)
+                };
+                Some(acc.map_or((lo, hi), |(a, b): (Vec2, Vec2)| (a.min(lo), b.max(hi))))
+            })
+    }
+
+    /// `uv_bounds` in any directions: per unit direction d, the largest d · p over the
+    /// points p the smoothies can cover (each vertex record's uv plus its reach towards d,
+    /// by the same argument); +inf for a non-finite uv or width. `None` without vertex
+    /// records.
+    pub fn uv_support<const N: usize>(&self, dirs: &[Vec2; N], extent: Extent) -> Option<[f32; N]> {
+        let reaches = self.reaches(extent);
+        self.vertices
+            .iter()
+            .zip(reaches)
+            .fold(None, |acc, (v, reach)| {
+                let uv = Vec2::from(v.uv);
+                let s = dirs.map(|d| {
+                    if reach.is_finite() {
+                        d.dot(uv) + reach
+                    } else {
+                        f32::INFINITY
+                    }
+                });
+                Some(acc.map_or(s, |a: [f32; N]| std::array::from_fn(|k| a[k].max(s[k]))))
+            })
     }
 
     /// Whether `uv_support` (at any width t >= 0) holds every texel the caster itself
@@ -328,7 +361,8 @@ impl SmoothieRecords {
         for e in &self.edges {
             let (a, b) = (&self.vertices[e.a as usize], &self.vertices[e.b as usize]);
             let (s0, s1, d) = (Vec2::from(a.uv), Vec2::from(b.uv), sign * Vec2::from(e.dir));
-            let (o0, o1) = (s0 + extent.of(a) * d, s1 + extent.of(b) * d);
+            let (e0, e1) = extent.of_edge(a, b);
+            let (o0, o1) = (s0 + e0 * d, s1 + e1 * d);
             out.extend_from_slice(&[
                 vtx(s0, a, 0.0, s0, d),
                 vtx(s1, b, 0.0, s0, d),
@@ -363,14 +397,22 @@ impl SmoothieRecords {
 }
 
 /// How far a side's smoothies reach from the silhouette (`SmoothieRecords::expand_side`):
-/// each vertex record's width t, or the centred form's inner side shortened to
-/// t (1 - b / depth) plus `pad`: an inner fragment x from the hard edge is discarded unless
-/// x < t (1 - b / z_r) (its penumbra's half-width), and the receiver depth z_r it finds is
-/// at most `depth`, so the shorter quads and fans only leave out fragments that would be
-/// discarded.
+/// each vertex record's width t, or shortened to where the smoothie pass discards every
+/// fragment further out. A fragment x from the silhouette, where the interpolated width
+/// and blocker depth are t and b and the receiver depth it finds is z_r, is kept only when
+/// x < t (1 - b / z_r): for the paper form's outer smoothies past that Eq. 1 reaches
+/// alpha' = 1 (glsl/smoothies/alpha.glsl), for the centred form's inner ones that is its
+/// penumbra's half-width. When z_r is at most `depth`, the quads and fans may stop at
+/// t (1 - b / depth) plus `pad`.
+///
+/// Along an edge t is linear but b = 1 / (interpolated 1 / b) is convex, so t (1 - b /
+/// depth) is not linear and the line between the two ends' values would cut into it. An
+/// edge therefore takes the smaller b of its two ends at both (`of_edge`): each end's t
+/// times one factor, linear along the edge and at least the bound everywhere on it. A fan
+/// has one b, its centre's (`of`).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Extent {
-    /// The farthest receiver depth an inner fragment can find; 0: the full width t.
+    /// The farthest receiver depth a fragment can find; 0: the full width t.
     pub depth: f32,
     /// Light uv added to a shortened extent (a rasterisation margin: one texel).
     pub pad: f32,
@@ -382,13 +424,27 @@ impl Extent {
         pad: 0.0,
     };
 
-    /// The reach of vertex record `v`.
+    /// 1 - b / depth for the largest 1 / b, at least 0.
+    fn factor(self, inv_depth: f32) -> f32 {
+        (1.0 - 1.0 / (inv_depth * self.depth)).max(0.0)
+    }
+
+    /// The reach of a fan centred on vertex record `v`.
     fn of(self, v: &VertexRecord) -> f32 {
         if self.depth <= 0.0 {
             return v.width;
         }
-        let k = (1.0 - 1.0 / (v.inv_depth * self.depth)).max(0.0);
-        v.width.min(v.width * k + self.pad)
+        v.width.min(v.width * self.factor(v.inv_depth) + self.pad)
+    }
+
+    /// The reach of edge a -> b's quad at its two ends.
+    fn of_edge(self, a: &VertexRecord, b: &VertexRecord) -> (f32, f32) {
+        if self.depth <= 0.0 {
+            return (a.width, b.width);
+        }
+        let k = self.factor(a.inv_depth.max(b.inv_depth));
+        let end = |v: &VertexRecord| v.width.min(v.width * k + self.pad);
+        (end(a), end(b))
     }
 }
 
@@ -916,13 +972,15 @@ mod tests {
         assert!(specials > 1000, "{specials} special vertices");
     }
 
-    /// `uv_bounds` holds every vertex the draw makes, outer and inner, on every built-in
-    /// scene's casters at the widths the renderer uses (fixed and calibrated), and is not
-    /// the whole map: the smoothie pass clears and draws only inside it.
+    /// `uv_bounds` holds every vertex the draw makes, outer and inner, full width or
+    /// shortened (`Extent`), on every built-in scene's casters at the widths the renderer
+    /// uses (fixed and calibrated), and is not the whole map: the smoothie pass clears and
+    /// draws only inside it. The shortened box lies inside the full one.
     #[test]
     fn uv_bounds_hold_every_expanded_vertex() {
         use crate::frustum::fit_light;
         use crate::scene::{Scene, BUILTIN_SCENES};
+        let mut shrunk = 0;
         for &name in BUILTIN_SCENES.iter().filter(|&&n| n != "dense-1m") {
             let scene = Scene::load(name).expect("built-in scene");
             let light = fit_light(&scene);
@@ -930,41 +988,56 @@ mod tests {
                 radius: scene.light.radius,
                 tan_half_fov: (light.fov_deg.to_radians() * 0.5).tan(),
             };
+            let short = Extent {
+                depth: light.far,
+                pad: 1.0 / 1024.0,
+            };
             for width in [Width::Fixed(0.02), Width::Fixed(0.2), calibrated] {
                 for o in scene.objects.iter().filter(|o| o.role.casts()) {
                     let adj = Adjacency::build(&o.mesh).expect("adjacency");
                     let sil = crate::silhouette::extract(&adj, o.transform, light.position);
                     let rec = build_records(&adj, &sil, o.transform, &light, width);
-                    let Some((lo, hi)) = rec.uv_bounds() else {
+                    let Some((lo, hi)) = rec.uv_bounds(Extent::FULL) else {
                         assert_eq!(rec.draw_vertices(), 0, "{name}: vertices without bounds");
                         continue;
                     };
-                    assert!(lo.is_finite() && hi.is_finite(), "{name}: {lo} {hi}");
-                    // The support in 16 directions holds them too (the final pass's
-                    // regions), and in the axes' directions it is the box.
+                    let (slo, shi) = rec.uv_bounds(short).expect("shortened bounds");
+                    assert!(
+                        slo.cmpge(lo).all() && shi.cmple(hi).all(),
+                        "{name}: {slo}..{shi} beyond {lo}..{hi}"
+                    );
+                    shrunk += usize::from((shi - slo).cmplt(hi - lo).any());
                     let dirs: [Vec2; 16] = std::array::from_fn(|k| {
                         Vec2::from_angle(k as f32 * std::f32::consts::TAU / 16.0)
                     });
-                    let support = rec.uv_support(&dirs).expect("support");
-                    let axes = [hi.x, hi.y, -lo.x, -lo.y];
-                    for (k, a) in [0, 4, 8, 12].into_iter().zip(axes) {
-                        assert!(
-                            (support[k] - a).abs() < 1e-5,
-                            "{name}: {support:?} {lo} {hi}"
-                        );
-                    }
-                    for side in [rec.clone(), rec.mirrored()] {
-                        for v in side.expand() {
-                            let uv = Vec2::from(v.uv);
+                    for extent in [Extent::FULL, short] {
+                        let (lo, hi) = rec.uv_bounds(extent).expect("bounds");
+                        assert!(lo.is_finite() && hi.is_finite(), "{name}: {lo} {hi}");
+                        // The support in 16 directions holds them too (the final pass's
+                        // regions), and in the axes' directions it is the box.
+                        let support = rec.uv_support(&dirs, extent).expect("support");
+                        let axes = [hi.x, hi.y, -lo.x, -lo.y];
+                        for (k, a) in [0, 4, 8, 12].into_iter().zip(axes) {
                             assert!(
-                                uv.cmpge(lo).all() && uv.cmple(hi).all(),
-                                "{name} {width:?}: vertex {uv} outside {lo}..{hi}"
+                                (support[k] - a).abs() < 1e-5,
+                                "{name}: {support:?} {lo} {hi}"
                             );
-                            for (d, s) in dirs.iter().zip(support) {
+                        }
+                        for side in [Side::Outer, Side::Inner] {
+                            let mut vertices = Vec::new();
+                            rec.expand_side(side, extent, &mut vertices);
+                            for v in vertices {
+                                let uv = Vec2::from(v.uv);
                                 assert!(
-                                    d.dot(uv) <= s + 1e-6,
-                                    "{name} {width:?}: vertex {uv} beyond {s} towards {d}"
+                                    uv.cmpge(lo).all() && uv.cmple(hi).all(),
+                                    "{name} {width:?} {extent:?}: vertex {uv} outside {lo}..{hi}"
                                 );
+                                for (d, s) in dirs.iter().zip(support) {
+                                    assert!(
+                                        d.dot(uv) <= s + 1e-6,
+                                        "{name} {width:?}: vertex {uv} beyond {s} towards {d}"
+                                    );
+                                }
                             }
                         }
                     }
@@ -975,6 +1048,49 @@ mod tests {
                 }
             }
         }
+        assert!(shrunk > 20, "only {shrunk} boxes shrank");
+    }
+
+    /// A shortened edge quad reaches at least t (1 - b / depth) at every point along the
+    /// edge, where t is interpolated linearly and b is 1 / (interpolated 1 / b), as the
+    /// smoothie pass interpolates them: the fragments it leaves out are all discarded.
+    /// With each end's own factor (1 - b_end / depth) instead of the nearer end's, the
+    /// line between the ends cuts into the convex b and this fails: by 0.002 uv (two
+    /// texels of a 1024^2 map, more than the pad) midway along ends at 4 and 8 of one t.
+    #[test]
+    fn shortened_edges_reach_what_the_shader_keeps() {
+        let depth = 10.0f32;
+        let extent = Extent { depth, pad: 0.0 };
+        let record = |b: f32, t: f32| VertexRecord {
+            uv: [0.0; 2],
+            inv_depth: 1.0 / b,
+            width: t,
+        };
+        for (b0, b1, t0, t1) in [
+            (4.0, 8.0, 0.03, 0.03),
+            (4.0, 8.0, 0.05, 0.02),
+            (8.0, 4.0, 0.02, 0.05),
+            (5.0, 5.5, 0.03, 0.03),
+            (2.0, 9.9, 0.1, 0.02),
+            (6.0, 6.0, 0.04, 0.04),
+        ] {
+            let (a, b) = (record(b0, t0), record(b1, t1));
+            let (e0, e1) = extent.of_edge(&a, &b);
+            for i in 0..=100 {
+                let x = i as f32 / 100.0;
+                let inv = a.inv_depth + (b.inv_depth - a.inv_depth) * x;
+                let t = t0 + (t1 - t0) * x;
+                let needed = t * (1.0 - 1.0 / (inv * depth));
+                let drawn = e0 + (e1 - e0) * x;
+                assert!(
+                    drawn >= needed * (1.0 - 1e-6),
+                    "ends {b0}, {b1} at {x}: quad reaches {drawn}, fragments kept to {needed}"
+                );
+            }
+        }
+        // The full width is each end's own t.
+        let (a, b) = (record(4.0, 0.05), record(8.0, 0.02));
+        assert_eq!(Extent::FULL.of_edge(&a, &b), (0.05, 0.02));
     }
 
     #[test]

@@ -322,6 +322,8 @@ pub struct FinalPass {
     /// `FinalPass::split`'s: the same pass with `visibility()` = 1 (glsl/common/unshadowed.frag),
     /// drawn where the technique's shader would give exactly 1.
     unshadowed: Option<Pipeline>,
+    /// Rows a light mesh (a ground) is cut into by `record_split` (`with_bands`).
+    bands: u32,
 }
 
 /// Where a final pass's `visibility()` can be below 1 (`FinalPass::pass_in`).
@@ -368,6 +370,7 @@ impl FinalPass {
             pipeline,
             aov,
             unshadowed: None,
+            bands: SPLIT_BANDS,
         })
     }
 
@@ -391,6 +394,14 @@ impl FinalPass {
             set,
         )?);
         Ok(pass)
+    }
+
+    /// A split pass that cuts a light mesh (a ground) into `bands` rows instead of
+    /// `SPLIT_BANDS`: each row is a draw of its own, whose overhead (lavapipe: the
+    /// scissored tiles, the pipeline switches) a cheap lookup does not win back.
+    pub fn with_bands(mut self, bands: u32) -> Self {
+        self.bands = bands;
+        self
     }
 
     /// One camera pipeline: scene.vert, `fragment`, depth test LESS with writes, no
@@ -490,7 +501,7 @@ impl FinalPass {
                     .unwrap_or_default()
             } else if o.role.receives() {
                 let bands = match o.index_count / 3 {
-                    0..=256 => SPLIT_BANDS,
+                    0..=256 => self.bands,
                     257..=4096 => 1,
                     _ => 0,
                 };
@@ -584,7 +595,8 @@ pub fn rect_of(b: PixelBox) -> Rect2D {
 }
 
 /// Rows a light mesh (a ground) is cut into by `FinalPass::record_split`, each with its
-/// own shadowed columns: a slanted shadow's screen box holds much lit ground.
+/// own shadowed columns: a slanted shadow's screen box holds much lit ground. Unless the
+/// technique says otherwise (`FinalPass::with_bands`).
 const SPLIT_BANDS: u32 = 8;
 
 /// Number of texels of the falloff lookup texture.

@@ -127,11 +127,12 @@
 //!    added: `shadow_regions`), cuts each receiver's world box to the light frustum over
 //!    each polygon (widened by the normal offset and the gather's footprint,
 //!    `regions::shadowed`), and draws the object with this shader only in the screen boxes
-//!    of those cuts (up to 8 rows of columns for a light mesh such as a ground, one box for
-//!    a heavy one), with glsl/common/unshadowed.frag (visibility 1, no lookup) in the rest
+//!    of those cuts (for a light mesh such as a ground, 2 rows of columns in the paper form,
+//!    `PAPER_SPLIT_BANDS`, 8 in the centred one; one box for a heavy mesh), with
+//!    glsl/common/unshadowed.frag (visibility 1, no lookup) in the rest
 //!    of its screen box: scissors of one rendering scope, objects in the scene's order, so
 //!    the image is the whole pass's bit for bit (tests/avoided_work.rs). On lavapipe the
-//!    lookups then run on 25-35 % of the area drawn on `cylinder`, `overlap` and `bunny`,
+//!    lookups then run on 28-37 % of the area drawn on `cylinder`, `overlap` and `bunny`,
 //!    and the pass costs not much more than `hard`'s: a CPU driver runs both sides of a
 //!    branch, so the shader's own early-outs save nothing there. On a GPU, where a warp
 //!    skips what none of its threads takes, a porter can draw the whole pass with this
@@ -221,6 +222,14 @@ impl Form {
         }
     }
 }
+
+/// Rows the paper form's split final pass cuts a ground into (`FinalPass::with_bands`),
+/// not the default 8: its lookup (three gathers) costs little against a draw per part on
+/// lavapipe. Its final pass against `hard`'s in the same bench run (median of 30 frames,
+/// 640x480, 1024^2, 6 runs): bunny +0.64 ms with 8 rows, +0.03 with 2; cylinder +0.02 and
+/// -0.31; overlap +0.04 and -0.21. `pcss`, whose lookup is several times dearer, gained
+/// nothing from fewer rows.
+const PAPER_SPLIT_BANDS: u32 = 2;
 
 const SMOOTHIE_VERTEX_BYTES: u32 = std::mem::size_of::<SmoothieVertex>() as u32;
 
@@ -458,12 +467,15 @@ impl Smoothies {
         let pipelines = SmoothiePipelines::new(init, form, &smoothie_set)?;
         let final_set =
             Self::final_set(init, form, &shadow, &smoothie, &falloff, &nearest, &linear)?;
-        let final_pass = FinalPass::split(
+        let mut final_pass = FinalPass::split(
             ctx,
             names.final_pass,
             Self::final_shader(init, form),
             &final_set,
         )?;
+        if form == Form::Paper {
+            final_pass = final_pass.with_bands(PAPER_SPLIT_BANDS);
+        }
         let adjacency = silhouette::caster_adjacency(init.scene, |_| true)?;
         // The inner smoothies are built on the CPU only (`Side::Inner`).
         let path = match form {

@@ -645,13 +645,10 @@ impl Smoothies {
             Form::Paper if areas => self.outer_extent(frame, pad),
             _ => Extent::FULL,
         };
-        let inner = Extent {
-            depth: if areas {
-                inner_extent_depth(light)
-            } else {
-                0.0
-            },
-            pad,
+        let inner = if areas {
+            Extent::at_most(inner_extent_depth(light), pad)
+        } else {
+            Extent::FULL
         };
         let extents = [self.outer_extent, inner];
         let form = self.form;
@@ -674,9 +671,9 @@ impl Smoothies {
     /// The paper form's outer smoothies, shortened to where Eq. 1 saturates for the
     /// deepest receiver they can find (`records::Extent`): the deepest surface under the
     /// full-width smoothies' box (`regions::deepest_surface`), 0.1 % more for the rounding
-    /// of the stored depths, rounded up to a 1/256 of the light's far plane so that a
-    /// moving object leaves the other casters' triangles alone while the bound holds.
-    /// Where that depth is not known, the full width.
+    /// of the stored depths, rounded up to its grid (`Extent::at_most`) so that a moving
+    /// object leaves the other casters' triangles alone while the bound holds. Where that
+    /// depth is not known, the full width.
     fn outer_extent(&self, frame: &FrameInput<'_>, pad: f32) -> Extent {
         // Each caster's full-width box inside the map (a caster outside the light's view
         // adds nothing, culled or not).
@@ -693,14 +690,7 @@ impl Smoothies {
         }) else {
             return Extent::FULL;
         };
-        let far = frame.light.far;
-        let step = far / 256.0;
-        let depth = ((deepest * 1.001 / step).ceil() * step).min(far * 1.001);
-        if depth > 0.0 && depth.is_finite() {
-            Extent { depth, pad }
-        } else {
-            Extent::FULL
-        }
+        Extent::at_most(deepest * 1.001, pad)
     }
 
     /// Caster `i`'s records this frame, when its smoothies are drawn from them (CPU path,

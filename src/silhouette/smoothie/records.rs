@@ -424,6 +424,20 @@ impl Extent {
         pad: 0.0,
     };
 
+    /// The extent for receivers at most `depth` deep, with `pad`: the depth rounded up to a
+    /// grid of 1/64 octave (1.1 %), so that a bound that moves a little (an object moving,
+    /// and the light's far plane with it) keeps the triangles already expanded. Not
+    /// positive or not finite: the full width.
+    pub fn at_most(depth: f32, pad: f32) -> Extent {
+        let grid = (depth.log2() * 64.0).ceil() / 64.0;
+        let depth = grid.exp2().max(depth);
+        if depth > 0.0 && depth.is_finite() {
+            Extent { depth, pad }
+        } else {
+            Extent::FULL
+        }
+    }
+
     /// 1 - b / depth for the largest 1 / b, at least 0.
     fn factor(self, inv_depth: f32) -> f32 {
         (1.0 - 1.0 / (inv_depth * self.depth)).max(0.0)
@@ -1091,6 +1105,29 @@ mod tests {
         // The full width is each end's own t.
         let (a, b) = (record(4.0, 0.05), record(8.0, 0.02));
         assert_eq!(Extent::FULL.of_edge(&a, &b), (0.05, 0.02));
+    }
+
+    /// `Extent::at_most` never shortens below the bound it is given, lengthens by at most
+    /// 1/64 octave, keeps one value for a bound that moves within a grid cell, and gives
+    /// the full width for a bound that is no bound.
+    #[test]
+    fn extent_bounds_round_up_to_a_grid() {
+        for d in [1e-3f32, 0.7, 1.0, 7.694, 13.39, 1e4, 3e30] {
+            let e = Extent::at_most(d, 0.5);
+            assert!(
+                e.depth >= d && e.depth <= d * 1.0109 * (1.0 + 1e-6),
+                "{d}: {e:?}"
+            );
+            assert_eq!(e.pad, 0.5);
+        }
+        // Mid-cell: 0.5 % either way stays in the cell.
+        let mid = (10.5f32 / 64.0).exp2() * 8.0;
+        let e = Extent::at_most(mid, 0.0);
+        assert_eq!(Extent::at_most(mid * 0.995, 0.0), e);
+        assert_eq!(Extent::at_most(mid * 1.005, 0.0), e);
+        for d in [0.0, -1.0, f32::NAN, f32::INFINITY, f32::MAX] {
+            assert_eq!(Extent::at_most(d, 0.5), Extent::FULL, "{d}");
+        }
     }
 
     #[test]

@@ -231,28 +231,17 @@ impl SmoothieRecords {
     }
 
     /// The light-uv box every vertex `expand_side` makes with `extent` lies in: every
-    /// vertex record's uv plus and minus its reach (`reaches`). A non-finite uv or width
-    /// gives the infinite box; no vertex record, `None`.
+    /// vertex record's uv plus and minus its reach (`reaches`), i.e. `uv_support` towards
+    /// the axes. A non-finite uv or width gives the infinite box; no vertex record, `None`.
     pub fn uv_bounds(&self, extent: Extent) -> Option<(Vec2, Vec2)> {
-        let reaches = self.reaches(extent);
-        self.vertices
-            .iter()
-            .zip(reaches)
-            .fold(None, |acc, (v, reach)| {
-                let uv = Vec2::from(v.uv);
-                let (lo, hi) = if reach.is_finite() {
-                    (uv - reach, uv + reach)
-                } else {
-                    (Vec2::NEG_INFINITY, Vec2::INFINITY)
-                };
-                Some(acc.map_or((lo, hi), |(a, b): (Vec2, Vec2)| (a.min(lo), b.max(hi))))
-            })
+        // The support towards +x, +y, -x, -y: x + reach and -x + reach, exactly.
+        let s = self.uv_support(&[Vec2::X, Vec2::Y, Vec2::NEG_X, Vec2::NEG_Y], extent)?;
+        Some((Vec2::new(-s[2], -s[3]), Vec2::new(s[0], s[1])))
     }
 
-    /// `uv_bounds` in any directions: per unit direction d, the largest d · p over the
-    /// points p the smoothies can cover (each vertex record's uv plus its reach towards d,
-    /// by the same argument); +inf for a non-finite uv or width. `None` without vertex
-    /// records.
+    /// Per unit direction d, the largest d · p over the points p the smoothies `expand_side`
+    /// makes with `extent` can cover: each vertex record's uv plus its reach towards d
+    /// (`reaches`); +inf for a non-finite uv or width. `None` without vertex records.
     pub fn uv_support<const N: usize>(&self, dirs: &[Vec2; N], extent: Extent) -> Option<[f32; N]> {
         let reaches = self.reaches(extent);
         self.vertices

@@ -399,6 +399,15 @@ struct CasterSmoothies {
     sides: [Vec<SmoothieVertex>; 2],
     /// The outer and inner extents `sides` were expanded with; `None` after a rebuild.
     expanded: Option<[Extent; 2]>,
+    /// The full-width smoothies' light-uv box (`SmoothieRecords::uv_bounds`), from the
+    /// records: where `outer_extent` looks for the deepest surface.
+    full_box: Option<(Vec2, Vec2)>,
+    /// The box and the support (`regions::directions`) of the triangles in `sides`' outer
+    /// side, from the records and its extent: where the smoothie pass draws
+    /// (`light_areas`) and the final pass looks (`shadow_regions`). Kept with `sides`, so
+    /// a frame that moves nothing computes neither.
+    drawn_box: Option<(Vec2, Vec2)>,
+    drawn_support: Option<regions::Support>,
 }
 
 pub struct Smoothies {
@@ -425,9 +434,6 @@ pub struct Smoothies {
     /// CPU path: per object, the geometry and what it was built for (model, light key), so
     /// that a frame rebuilds only the casters that moved.
     cpu_cache: CasterCacheOf<GeometryKey, CasterSmoothies>,
-    /// CPU path: how far this frame's outer smoothies reach (`outer_extent`), which the
-    /// light areas and regions bound.
-    outer_extent: Extent,
     /// CPU path: every caster's outer smoothie triangles, then (centred form) every
     /// caster's inner ones, in host-visible vertex buffers.
     vertices: [DynamicVertices; 2],
@@ -499,7 +505,6 @@ impl Smoothies {
             _nearest: nearest,
             _linear: linear,
             cpu_cache: CasterCacheOf::new(adjacency.len()),
-            outer_extent: Extent::FULL,
             adjacency,
             path,
             vertices: [
@@ -631,17 +636,21 @@ impl Smoothies {
             force,
             |adj, model| {
                 let sil = silhouette::extract(adj, model, light.position);
+                let records = build_records(adj, &sil, model, light, width);
                 CasterSmoothies {
-                    records: build_records(adj, &sil, model, light, width),
+                    full_box: records.uv_bounds(Extent::FULL),
+                    records,
                     sides: Default::default(),
                     expanded: None,
+                    drawn_box: None,
+                    drawn_support: None,
                 }
             },
         );
         let res = self.smoothie.first().map_or(1, |i| i.extent.width);
         let pad = 1.0 / res as f32;
         let areas = frame.settings.light_areas;
-        self.outer_extent = match self.form {
+        let outer = match self.form {
             Form::Paper if areas => self.outer_extent(frame, pad),
             _ => Extent::FULL,
         };
@@ -650,7 +659,7 @@ impl Smoothies {
         } else {
             Extent::FULL
         };
-        let extents = [self.outer_extent, inner];
+        let extents = [outer, inner];
         let form = self.form;
         self.cpu_cache.par_values_mut().for_each(|c| {
             if c.expanded == Some(extents) {
@@ -664,6 +673,8 @@ impl Smoothies {
                 c.records.expand_side(Side::Inner, extents[1], inner_side);
             }
             c.expanded = Some(extents);
+            c.drawn_box = c.records.uv_bounds(extents[0]);
+            c.drawn_support = c.records.uv_support(&regions::directions(), extents[0]);
         });
         rebuilt
     }
@@ -680,7 +691,7 @@ impl Smoothies {
         let full = self
             .cpu_cache
             .iter()
-            .filter_map(|c| c.records.uv_bounds(Extent::FULL))
+            .filter_map(|c| c.full_box)
             .map(|(lo, hi)| (lo.max(Vec2::ZERO), hi.min(Vec2::ONE)))
             .filter(|(lo, hi)| lo.cmple(*hi).all())
             .reduce(|(a, b), (c, d)| (a.min(c), b.max(d)));
@@ -693,13 +704,10 @@ impl Smoothies {
         Extent::at_most(deepest * 1.001, pad)
     }
 
-    /// Caster `i`'s records this frame, when its smoothies are drawn from them (CPU path,
+    /// Caster `i`'s smoothies this frame, when they are drawn from the cache (CPU path,
     /// t > 0: otherwise the cache may be another light's, and is not in the buffer).
-    fn records(&self, i: usize) -> Option<&SmoothieRecords> {
-        self.cpu_cache
-            .get(i)
-            .filter(|_| self.draw_smoothies)
-            .map(|c| &c.records)
+    fn caster(&self, i: usize) -> Option<&CasterSmoothies> {
+        self.cpu_cache.get(i).filter(|_| self.draw_smoothies)
     }
 
     /// The texels of r the casters can write outside their smoothies' (which the shadow
@@ -708,7 +716,7 @@ impl Smoothies {
     fn casters_texels(&self, corners: &[(usize, [Vec2; 8])], res: u32) -> PixelBox {
         let beyond: Vec<_> = corners
             .iter()
-            .filter(|(i, _)| !self.records(*i).is_some_and(SmoothieRecords::holds_caster))
+            .filter(|(i, _)| !self.caster(*i).is_some_and(|c| c.records.holds_caster()))
             .copied()
             .collect();
         regions::casters_box(&beyond, res)
@@ -723,13 +731,12 @@ impl Smoothies {
     /// lookups from 48 % to 38 % of the area drawn (full-width smoothies): it fills little
     /// of its box.
     fn shadow_regions(&self, corners: &[(usize, [Vec2; 8])]) -> Vec<regions::Support> {
-        let dirs = regions::directions();
         corners
             .iter()
             .filter_map(|(i, uvs)| {
-                let records = self.records(*i);
-                let smoothies = records.and_then(|r| r.uv_support(&dirs, self.outer_extent));
-                if records.is_some_and(SmoothieRecords::holds_caster) {
+                let caster = self.caster(*i);
+                let smoothies = caster.and_then(|c| c.drawn_support);
+                if caster.is_some_and(|c| c.records.holds_caster()) {
                     return smoothies;
                 }
                 match (regions::support_of(uvs), smoothies) {
@@ -768,7 +775,7 @@ impl Smoothies {
             Some(
                 self.cpu_cache
                     .iter()
-                    .filter_map(|c| c.records.uv_bounds(self.outer_extent))
+                    .filter_map(|c| c.drawn_box)
                     .fold(PixelBox::EMPTY, |b, (lo, hi)| {
                         b.union(PixelBox::of_uv(res, lo, hi))
                     }),

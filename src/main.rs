@@ -256,6 +256,19 @@ struct BenchArgs {
     full: bool,
 }
 
+/// A run that has said why it fails on its own `warning:` line: exit status 1, no `error:`
+/// line after it.
+#[derive(Debug)]
+struct Warned;
+
+impl std::fmt::Display for Warned {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("see the warning above")
+    }
+}
+
+impl std::error::Error for Warned {}
+
 fn main() -> ExitCode {
     let cli = match Cli::try_parse() {
         Ok(c) => c,
@@ -273,6 +286,7 @@ fn main() -> ExitCode {
     };
     match run(cli) {
         Ok(()) => ExitCode::SUCCESS,
+        Err(e) if e.is::<Warned>() => ExitCode::FAILURE,
         Err(e) => {
             eprintln!("error: {}", error_line(&e));
             ExitCode::FAILURE
@@ -622,8 +636,20 @@ fn compare(a: &CompareArgs) -> Result<()> {
         test_image: a.test_image.clone(),
     })?;
     print!("{}", c.report());
+    for w in &c.warnings {
+        eprintln!("warning: {w}");
+    }
     compare::write_diff(&a.out, &c)?;
     println!("wrote {}", a.out.display());
+    if c.facing_pixels == 0 {
+        // Any bound would pass on nothing: a comparison that judged no pixel is no pass.
+        eprintln!(
+            "warning: no pixel to judge: none is on a surface inside the light's cone and \
+             facing the light (n.l >= {}); check --light / --scene and normal.exr",
+            softshadow::eval::metrics::LIT_COS
+        );
+        return Err(Warned.into());
+    }
     if let Some(m) = a.max_mae_lit {
         if c.errors.mae_lit > m {
             bail!("mae_lit {:.6} is above --max-mae-lit {m}", c.errors.mae_lit);

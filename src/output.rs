@@ -250,6 +250,9 @@ pub struct FrameImages {
     pub visibility: Vec<f32>,
     pub position: Vec<[f32; 4]>,
     pub normal: Vec<[f32; 3]>,
+    /// The spot factor the final pass shaded each pixel with, in [0, 1]: 0 outside the
+    /// light's cone (where no light falls) and on the background.
+    pub spot: Vec<f32>,
 }
 
 /// The image crate wraps I/O errors and returns the same error as its source, so `{:#}`
@@ -314,7 +317,7 @@ pub fn write_exr(
 }
 
 /// Stages `DIR/visibility.exr` (one channel `Y`), `DIR/position.exr` (RGBA) and
-/// `DIR/normal.exr` (RGB) into `publish`.
+/// `DIR/normal.exr` (RGB the normal, A the spot factor) into `publish`.
 pub fn stage_aovs(publish: &mut Publish, dir: &Path, frame: &FrameImages) -> Result<()> {
     publish.create_dir(dir)?;
     let (w, h) = (frame.width, frame.height);
@@ -327,11 +330,12 @@ pub fn stage_aovs(publish: &mut Publish, dir: &Path, frame: &FrameImages) -> Res
     publish.stage(&dir.join("position.exr"), |t| {
         encode_exr(t, w, h, &["R", "G", "B", "A"], pos)
     })?;
-    let nrm: Vec<Vec<f32>> = (0..3)
+    let mut nrm: Vec<Vec<f32>> = (0..3)
         .map(|c| frame.normal.iter().map(|p| p[c]).collect())
         .collect();
+    nrm.push(frame.spot.clone());
     publish.stage(&dir.join("normal.exr"), |t| {
-        encode_exr(t, w, h, &["R", "G", "B"], nrm)
+        encode_exr(t, w, h, &["R", "G", "B", "A"], nrm)
     })
 }
 

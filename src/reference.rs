@@ -15,21 +15,26 @@
 //! L, visibility 0 or 1.
 //!
 //! ## Rays
-//! Through an obvhs compressed wide BVH (PLOC build, 8-wide SIMD node tests). Self-hit
-//! guard: the origin is moved along the pixel's normal (the AOV's, which faces the camera)
-//! by `EPS_REL` times the bounding radius of the objects in the light's cone
-//! (`frustum::light_seen_bounds`), and hits closer than that distance are
-//! ignored. Rasterised positions are off their triangle's plane by about 1e-6 of their
-//! magnitude, so 1e-4 of the scene size clears them while staying far below any contact
-//! gap a shadow-map technique could resolve. Points on a surface's side facing away from the
-//! light keep their geometric visibility: their rays hit their own object.
+//! Through an obvhs compressed wide BVH (PLOC build, 8-wide SIMD node tests) in the casting
+//! frame, world coordinates times a power of two that puts the scale of what the light sees
+//! near 2^20 (`frame_scale`; exact, and it keeps obvhs's absolute 1e-4 node cut negligible at
+//! every legal scene scale). Each candidate triangle is tested in f64.
+//!
+//! Self-hit guard, tied to the pixel's own surface and not to the scene's extent: one camera
+//! ray per pixel (else a short probe along the AOV normal) finds the triangle the pixel shows;
+//! the point is moved onto that triangle's plane in f64 (rasterised positions lie off it by a
+//! few f32 ulps of the triangle's coordinates), and the rays start 2^-32 of the magnitude of
+//! the point and the triangle's vertices off the plane, on the side the camera sees
+//! (`PLANE_OFFSET_REL`). A light sample behind that plane is hidden by the surface itself when
+//! the surface casts, so points on a side facing away from the light keep their geometric
+//! visibility. A pixel whose triangle is not found (a ray slipping past a silhouette edge by
+//! rounding) starts 2^-16 of its point's magnitude along the AOV normal and ignores hits
+//! closer than that.
 //!
 //! ## Who receives
-//! The AOVs do not say which object a pixel shows, so when the scene has objects that do not
-//! receive (role `caster`), each covered pixel casts one ray from the camera to its point
-//! against every triangle; the closest hit's object decides, and a non-receiving object's
-//! pixels get 1, as every technique's final pass writes there. Background pixels (position
-//! alpha 0) get 1. Scenes where everything receives skip this step.
+//! The AOVs do not say which object a pixel shows: the camera ray that finds a pixel's
+//! triangle (above) tells. A pixel of an object that does not receive (role `caster`) gets 1,
+//! as every technique's final pass writes there; a background pixel (position alpha 0) gets 1.
 //!
 //! ## Cache
 //! `visibility_cached` keys a file under `cache_dir()` by an FNV-1a 64 hash of this file's
@@ -41,7 +46,7 @@
 
 use crate::scene::Scene;
 use anyhow::{bail, Context as _, Result};
-use glam::{Vec2, Vec3};
+use glam::{DVec3, Vec2, Vec3};
 use glam34::Vec3A;
 use obvhs::cwbvh::builder::build_cwbvh_from_tris;
 use obvhs::cwbvh::CwBvh;
@@ -59,11 +64,8 @@ pub const MIN_SAMPLES: u32 = 256;
 pub const MAX_SAMPLES: u32 = 65536;
 /// Default jitter seed.
 pub const DEFAULT_SEED: u64 = 0x5EED_50F7_5AD0;
-/// Ray origin offset along the normal, and shortest accepted hit distance, as a fraction
-/// of the scene's bounding radius.
-pub const EPS_REL: f32 = 1e-4;
 /// Bumped whenever the estimator changes, so stale cache files are never read.
-const CACHE_VERSION: &[u8] = b"softshadow-reference-v2";
+const CACHE_VERSION: &[u8] = b"softshadow-reference-v3";
 /// The cache file format (see `CACHE_HEADER`).
 const CACHE_MAGIC: &[u8; 8] = b"SSREF002";
 
@@ -124,24 +126,53 @@ pub fn cache_dir() -> PathBuf {
     dir
 }
 
-/// Triangles in a BVH, stored in the BVH's leaf order, each with its caller's id.
+/// Triangles in a BVH, stored in the BVH's leaf order, each with its caller's id, in the
+/// casting frame: world coordinates times `scale`, a power of two, so the frame is exact.
+///
+/// obvhs's node test skips every node whose exit lies closer than 1e-4 along the ray
+/// (`cwbvh::node::EPSILON`, an absolute distance): in a scene of radius 1e-4 that is every
+/// node. The frame puts the scale of what the light sees near 2^20, where that cut is 1e-10 of
+/// it, at every legal scene scale; a power of two changes no bit of any coordinate's mantissa.
+/// The BVH is built and traversed in f32; each candidate triangle is then tested in f64
+/// (`intersect64`) against the f64 ray, so a hit's side of a surface is decided at 1e-16 of
+/// the coordinates, not at f32's 6e-8.
 struct TriangleBvh {
     bvh: CwBvh,
-    tris: Vec<Triangle>,
+    tris: Vec<[DVec3; 3]>,
     ids: Vec<u32>,
 }
 
-fn a3(v: Vec3) -> Vec3A {
-    Vec3A::new(v.x, v.y, v.z)
+fn a3(v: DVec3) -> Vec3A {
+    Vec3A::new(v.x as f32, v.y as f32, v.z as f32)
+}
+
+/// The casting frame's scale for a scene whose light sees a radius `seen` and whose
+/// coordinates reach `extent` (largest |component|): 2^(20 - ceil log2 seen), lowered when
+/// that would push the farthest coordinate past 2^100 (f32's range ends at 2^128).
+fn frame_scale(seen: f32, extent: f32) -> f64 {
+    let seen = if seen.is_finite() && seen > 0.0 {
+        seen
+    } else {
+        1.0
+    };
+    let mut k = 20 - (seen as f64).log2().ceil() as i32;
+    if extent.is_finite() && extent > 0.0 {
+        k = k.min(100 - (extent as f64).log2().ceil() as i32);
+    }
+    2f64.powi(k.clamp(-120, 120))
 }
 
 impl TriangleBvh {
-    /// `None` for an empty list.
-    fn new(tris: &[[Vec3; 3]], ids: &[u32]) -> Option<Self> {
+    /// `None` for an empty list. `tris` in world coordinates; stored times `scale`.
+    fn new(tris: &[[Vec3; 3]], ids: &[u32], scale: f64) -> Option<Self> {
         if tris.is_empty() {
             return None;
         }
-        let prims: Vec<Triangle> = tris
+        let scaled: Vec<[DVec3; 3]> = tris
+            .iter()
+            .map(|t| t.map(|p| p.as_dvec3() * scale))
+            .collect();
+        let prims: Vec<Triangle> = scaled
             .iter()
             .map(|t| Triangle {
                 v0: a3(t[0]),
@@ -159,7 +190,7 @@ impl TriangleBvh {
         let tris = bvh
             .primitive_indices
             .iter()
-            .map(|&i| prims[i as usize])
+            .map(|&i| scaled[i as usize])
             .collect();
         let ids = bvh
             .primitive_indices
@@ -169,22 +200,206 @@ impl TriangleBvh {
         Some(Self { bvh, tris, ids })
     }
 
-    /// Whether anything lies on the segment origin + t dir, t in [tmin, tmax] (dir unit).
-    fn occluded(&self, origin: Vec3, dir: Vec3, tmin: f32, tmax: f32) -> bool {
-        let ray = Ray::new(a3(origin), a3(dir), tmin, tmax);
-        !self
-            .bvh
-            .ray_traverse_miss(ray, |r, i| self.tris[i].intersect(r))
+    /// The f32 ray the traversal walks for the f64 segment origin + t dir, t <= tmax: its
+    /// far end a little past tmax, so f32 rounding never ends the walk before a candidate.
+    fn walk_ray(origin: DVec3, dir: DVec3, tmax: f64) -> Ray {
+        Ray::new(a3(origin), a3(dir), 0.0, (tmax * (1.0 + 1e-5)) as f32)
     }
 
-    /// The id of the closest triangle along origin + t dir, t in [tmin, tmax].
-    fn closest(&self, origin: Vec3, dir: Vec3, tmin: f32, tmax: f32) -> Option<u32> {
-        let ray = Ray::new(a3(origin), a3(dir), tmin, tmax);
+    /// Whether a triangle lies on the segment origin + t dir, tmin < t < tmax (dir unit,
+    /// casting frame).
+    fn occluded(&self, origin: DVec3, dir: DVec3, tmin: f64, tmax: f64) -> bool {
+        !self
+            .bvh
+            .ray_traverse_miss(Self::walk_ray(origin, dir, tmax), |_, i| match intersect64(
+                &self.tris[i],
+                origin,
+                dir,
+            ) {
+                Some(t) if t > tmin && t < tmax => 0.0,
+                _ => f32::INFINITY,
+            })
+    }
+
+    /// The id and leaf index of the closest triangle along origin + t dir, 0 < t < tmax.
+    fn closest(&self, origin: DVec3, dir: DVec3, tmax: f64) -> Option<(u32, usize)> {
         let mut hit = RayHit::none();
         self.bvh
-            .ray_traverse(ray, &mut hit, |r, i| self.tris[i].intersect(r))
-            .then(|| self.ids[hit.primitive_id as usize])
+            .ray_traverse(
+                Self::walk_ray(origin, dir, tmax),
+                &mut hit,
+                |_, i| match intersect64(&self.tris[i], origin, dir) {
+                    Some(t) if t > 0.0 && t < tmax => t as f32,
+                    _ => f32::INFINITY,
+                },
+            )
+            .then(|| {
+                let k = hit.primitive_id as usize;
+                (self.ids[k], k)
+            })
     }
+}
+
+/// How far outside its edges, in barycentric units, a triangle still counts as hit: rays
+/// through a shared edge or vertex would otherwise slip between two f64 tests (a point at a
+/// quad's centre lies on its diagonal); 1e-12 of a triangle is well above f64 rounding and
+/// below the rays' offset off their own plane.
+const EDGE_SLACK: f64 = 1e-12;
+
+/// Möller–Trumbore in f64: the ray parameter of the hit of origin + t dir with `tri` (grown
+/// by `EDGE_SLACK`), `None` when it misses or lies in the triangle's plane.
+fn intersect64(tri: &[DVec3; 3], origin: DVec3, dir: DVec3) -> Option<f64> {
+    let e1 = tri[1] - tri[0];
+    let e2 = tri[2] - tri[0];
+    let p = dir.cross(e2);
+    let det = e1.dot(p);
+    if det == 0.0 || !det.is_finite() {
+        return None;
+    }
+    let inv = 1.0 / det;
+    let s = origin - tri[0];
+    let u = s.dot(p) * inv;
+    if !(-EDGE_SLACK..=1.0 + EDGE_SLACK).contains(&u) {
+        return None;
+    }
+    let q = s.cross(e1);
+    let v = dir.dot(q) * inv;
+    if v < -EDGE_SLACK || u + v > 1.0 + EDGE_SLACK {
+        return None;
+    }
+    Some(e2.dot(q) * inv)
+}
+
+/// Largest |component| of a point.
+fn magnitude(p: DVec3) -> f64 {
+    p.abs().max_element()
+}
+
+/// Where the shadow rays of one pixel start, in the casting frame.
+#[derive(Clone, Copy, Debug)]
+enum Start {
+    /// Background, or an object that does not receive: visibility 1 without a ray.
+    Skip,
+    /// The pixel's point moved onto its own triangle's plane (`point`), that plane's unit
+    /// normal turned to the side the camera sees (`side`), and whether that triangle casts.
+    /// The rays start `offset` off the plane on that side; a light sample behind the plane is
+    /// hidden by the surface itself when it casts.
+    OnTriangle {
+        point: DVec3,
+        side: DVec3,
+        offset: f64,
+        casts: bool,
+    },
+    /// No triangle of the scene holds the point within rounding (a pixel on a silhouette
+    /// whose ray slips past its triangle's edge): the rays start `offset` along the AOV's
+    /// normal and ignore hits closer than that.
+    Offset { origin: DVec3, offset: f64 },
+}
+
+/// How far, as a fraction of the coordinates' magnitude, a rasterised point may lie off its
+/// triangle's plane and still be taken as on it. Interpolated positions are off by a few f32
+/// ulps (about 1e-7) of the triangle's vertex coordinates; a triangle farther than this from
+/// the point is not the one the pixel shows.
+const ON_PLANE_REL: f64 = 1.0 / 4096.0;
+
+/// The rays' offset off the pixel's own plane, as a fraction of the magnitude of the point
+/// and its triangle's vertices: far above the f64 rounding of the projected point (about
+/// 1e-16 of it) and of the intersection tests, far below any gap a shadow map resolves.
+const PLANE_OFFSET_REL: f64 = 1.0 / (1u64 << 32) as f64;
+
+/// The offset of a pixel whose triangle was not found, as a fraction of its point's magnitude:
+/// well above the rasterised point's distance from its plane (about 1e-7 of the coordinates).
+const FALLBACK_OFFSET_REL: f64 = 1.0 / 65536.0;
+
+/// Each pixel's `Start`. One camera ray per covered pixel finds the triangle it shows (the
+/// closest hit just past the point); when that misses, a short probe along the AOV normal.
+fn starts(scene: &Scene, scale: f64, positions: &[[f32; 4]], normals: &[[f32; 3]]) -> Vec<Start> {
+    let mut tris = Vec::new();
+    let mut ids = Vec::new();
+    for (k, o) in scene.objects.iter().enumerate() {
+        for t in o.world_triangles() {
+            tris.push(t);
+            ids.push(k as u32);
+        }
+    }
+    let every_object_receives = scene.objects.iter().all(|o| o.role.receives());
+    let bvh = TriangleBvh::new(&tris, &ids, scale);
+    let cam = scene.camera.position.as_dvec3() * scale;
+    positions
+        .par_iter()
+        .zip(normals.par_iter())
+        .map(|(p, n)| {
+            if p[3] <= 0.5 {
+                return Start::Skip;
+            }
+            let point = DVec3::new(p[0] as f64, p[1] as f64, p[2] as f64) * scale;
+            let aov_normal = Vec3::from(*n).as_dvec3().normalize_or_zero();
+            if !point.is_finite() {
+                return Start::Skip;
+            }
+            let tol = ON_PLANE_REL * magnitude(point);
+            let Some(bvh) = bvh.as_ref() else {
+                return Start::Skip;
+            };
+            let to = point - cam;
+            let dist = to.length();
+            let from_camera = (dist > 0.0 && dist.is_finite())
+                .then(|| bvh.closest(cam, to / dist, dist + 2.0 * tol))
+                .flatten();
+            // The closest object along the camera ray is the one the pixel shows, even when
+            // rounding puts the point off that object's nearest triangle.
+            if let Some((id, _)) = from_camera {
+                if !every_object_receives && !scene.objects[id as usize].role.receives() {
+                    return Start::Skip;
+                }
+            }
+            let on_plane = |(id, k): (u32, usize)| {
+                let t = &bvh.tris[k];
+                let nrm = (t[1] - t[0]).cross(t[2] - t[0]).normalize_or_zero();
+                let m = t.iter().fold(magnitude(point), |m, v| m.max(magnitude(*v)));
+                let d = nrm.dot(point - t[0]);
+                (nrm != DVec3::ZERO && d.abs() <= ON_PLANE_REL * m).then_some((
+                    id,
+                    nrm,
+                    point - nrm * d,
+                    m,
+                ))
+            };
+            let probe = || {
+                (aov_normal != DVec3::ZERO)
+                    .then(|| bvh.closest(point + aov_normal * tol, -aov_normal, 2.0 * tol))
+                    .flatten()
+            };
+            let found = from_camera
+                .and_then(on_plane)
+                .or_else(|| probe().and_then(on_plane));
+            match found {
+                Some((id, nrm, on, m)) => {
+                    let object = &scene.objects[id as usize];
+                    // The side the camera sees, as the final pass shades it.
+                    let facing = if aov_normal != DVec3::ZERO {
+                        aov_normal
+                    } else {
+                        cam - on
+                    };
+                    let side = if nrm.dot(facing) < 0.0 { -nrm } else { nrm };
+                    Start::OnTriangle {
+                        point: on,
+                        side,
+                        offset: PLANE_OFFSET_REL * m,
+                        casts: object.role.casts(),
+                    }
+                }
+                None => {
+                    let offset = FALLBACK_OFFSET_REL * magnitude(point).max(f64::MIN_POSITIVE);
+                    Start::Offset {
+                        origin: point + aov_normal * offset,
+                        offset,
+                    }
+                }
+            }
+        })
+        .collect()
 }
 
 /// SplitMix64's finaliser: a bijective mix whose outputs for consecutive inputs are
@@ -219,45 +434,6 @@ pub fn concentric_disc(u: Vec2) -> Vec2 {
     Vec2::new(r * phi.cos(), r * phi.sin())
 }
 
-/// Which covered pixels show a receiving object (see the module header); all true when
-/// every object receives.
-pub fn receiving_pixels(scene: &Scene, positions: &[[f32; 4]]) -> Vec<bool> {
-    if scene.objects.iter().all(|o| o.role.receives()) {
-        return vec![true; positions.len()];
-    }
-    let mut tris = Vec::new();
-    let mut ids = Vec::new();
-    for (k, o) in scene.objects.iter().enumerate() {
-        for t in o.world_triangles() {
-            tris.push(t);
-            ids.push(k as u32);
-        }
-    }
-    let Some(bvh) = TriangleBvh::new(&tris, &ids) else {
-        return vec![true; positions.len()];
-    };
-    let cam = scene.camera.position;
-    positions
-        .par_iter()
-        .map(|p| {
-            if p[3] <= 0.5 {
-                return true;
-            }
-            let to = Vec3::new(p[0], p[1], p[2]) - cam;
-            let dist = to.length();
-            if dist <= 0.0 || !dist.is_finite() {
-                return true;
-            }
-            // A little past the point, so the surface the pixel shows is hit even with
-            // rasterisation round-off.
-            match bvh.closest(cam, to / dist, 0.0, dist * 1.001) {
-                Some(k) => scene.objects[k as usize].role.receives(),
-                None => true,
-            }
-        })
-        .collect()
-}
-
 /// Exact visibility of the docs/DESIGN.md disc light (centre `scene.light.position`, radius
 /// `radius`, facing each point) at each covered pixel (`positions[i][3] > 0.5`). Background
 /// pixels and pixels of non-receiving objects get 1. Rays are cast against the casters'
@@ -281,45 +457,60 @@ pub fn visibility_at(
             normals.len()
         );
     }
-    let receives = receiving_pixels(scene, positions);
     let casters = scene.world_triangles(true);
+    let extent = scene
+        .bounds()
+        .min
+        .abs()
+        .max(scene.bounds().max.abs())
+        .max(scene.light.position.abs())
+        .max(scene.camera.position.abs())
+        .max_element()
+        + radius;
+    let scale = frame_scale(crate::frustum::light_seen_bounds(scene).radius(), extent);
     let ids: Vec<u32> = (0..casters.len() as u32).collect();
-    let Some(bvh) = TriangleBvh::new(&casters, &ids) else {
+    let Some(bvh) = TriangleBvh::new(&casters, &ids, scale) else {
         return Ok(vec![1.0; positions.len()]);
     };
-    // The size of what the light sees, not of the whole scene: one object far away would
-    // otherwise push the guard past every contact gap.
-    let eps = EPS_REL * crate::frustum::light_seen_bounds(scene).radius().max(1e-30);
-    let light = scene.light.position;
+    let starts = starts(scene, scale, positions, normals);
+    let light = scene.light.position.as_dvec3() * scale;
+    let radius = radius as f64 * scale;
     let (rows, cols) = params.grid();
     let n = rows * cols;
     let seed = params.seed;
-    let out = positions
+    let out = starts
         .par_iter()
-        .zip(normals.par_iter())
-        .zip(receives.par_iter())
         .enumerate()
-        .map(|(pixel, ((pos, nrm), &recv))| {
-            if pos[3] <= 0.5 || !recv {
-                return 1.0;
-            }
-            let p = Vec3::new(pos[0], pos[1], pos[2]);
-            let to_light = light - p;
+        .map(|(pixel, start)| {
+            let (origin, tmin, plane) = match *start {
+                Start::Skip => return 1.0,
+                Start::OnTriangle {
+                    point,
+                    side,
+                    offset,
+                    casts,
+                } => (point + side * offset, 0.0, casts.then_some((point, side))),
+                Start::Offset { origin, offset } => (origin, offset, None),
+            };
+            let to_light = light - origin;
             let dist = to_light.length();
-            if !p.is_finite() || dist <= eps {
+            if !(dist > tmin) {
                 return 1.0;
             }
-            let w = to_light / dist;
-            let nn = Vec3::from(*nrm).normalize_or(w);
-            let origin = p + nn * eps;
-            let ray_to = |target: Vec3| {
+            let ray_to = |target: DVec3| {
+                // A sample behind the pixel's own casting surface is hidden by it: the ray
+                // would cross that surface at its start, closer than any traversal resolves.
+                if plane.is_some_and(|(p, s)| s.dot(target - p) < 0.0) {
+                    return false;
+                }
                 let d = target - origin;
                 let len = d.length();
-                len <= eps || !bvh.occluded(origin, d / len, eps, len)
+                !(len > tmin) || !bvh.occluded(origin, d / len, tmin, len)
             };
             if radius == 0.0 {
                 return if ray_to(light) { 1.0 } else { 0.0 };
             }
+            let w = to_light / dist;
             let (u, v) = w.any_orthonormal_pair();
             let mut lit = 0u32;
             for k in 0..n {
@@ -329,7 +520,7 @@ pub fn visibility_at(
                     (i as f32 + jit.x) / cols as f32,
                     (j as f32 + jit.y) / rows as f32,
                 );
-                let d = concentric_disc(cell) * radius;
+                let d = concentric_disc(cell).as_dvec2() * radius;
                 if ray_to(light + u * d.x + v * d.y) {
                     lit += 1;
                 }

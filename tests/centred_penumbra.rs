@@ -75,6 +75,7 @@ fn mae_lit(gpu: &Gpu, scene: &Scene, technique: &str) -> Errors {
         &v_ref,
         &img.position,
         &img.normal,
+        &img.spot,
         scene.light.position,
     )
 }

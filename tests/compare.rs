@@ -44,10 +44,17 @@ fn figure(stdout: &str, name: &str) -> f64 {
 
 /// A 10x10 frame of the plane y = 0 seen from above: row 0 is background, rows 1..=9 are
 /// covered; normals +Y except row 9, which faces away from the light (at (0, 10, 0)). The
-/// reference visibility is 0.5 in columns 0..5 (shadow) and 1 elsewhere.
+/// reference visibility is 0.5 in columns 0..5 (shadow) and 1 elsewhere. The spot factor
+/// (normal.exr's A) is 1 on every covered pixel.
 fn write_aovs(dir: &Path) -> Vec<f32> {
+    write_aovs_with(dir, |_, _| 1.0, true)
+}
+
+/// `write_aovs` with the spot factor of pixel (x, y) from `spot`, and normal.exr without
+/// its A channel when `with_spot` is false.
+fn write_aovs_with(dir: &Path, spot: impl Fn(usize, usize) -> f32, with_spot: bool) -> Vec<f32> {
     let n = (W * H) as usize;
-    let (mut pos, mut nrm, mut vis) = (vec![vec![0.0; n]; 4], vec![vec![0.0; n]; 3], vec![1.0; n]);
+    let (mut pos, mut nrm, mut vis) = (vec![vec![0.0; n]; 4], vec![vec![0.0; n]; 4], vec![1.0; n]);
     for y in 0..H as usize {
         for x in 0..W as usize {
             let i = y * W as usize + x;
@@ -58,6 +65,7 @@ fn write_aovs(dir: &Path) -> Vec<f32> {
             pos[2][i] = y as f32 * 0.1;
             pos[3][i] = 1.0;
             nrm[1][i] = if y == 9 { -1.0 } else { 1.0 };
+            nrm[3][i] = spot(x, y);
             if x < 5 {
                 vis[i] = 0.5;
             }
@@ -66,7 +74,15 @@ fn write_aovs(dir: &Path) -> Vec<f32> {
     std::fs::create_dir_all(dir).unwrap();
     write_exr(&dir.join("visibility.exr"), W, H, &["Y"], vec![vis.clone()]).unwrap();
     write_exr(&dir.join("position.exr"), W, H, &["R", "G", "B", "A"], pos).unwrap();
-    write_exr(&dir.join("normal.exr"), W, H, &["R", "G", "B"], nrm).unwrap();
+    if !with_spot {
+        nrm.pop();
+    }
+    let names: &[&str] = if with_spot {
+        &["R", "G", "B", "A"]
+    } else {
+        &["R", "G", "B"]
+    };
+    write_exr(&dir.join("normal.exr"), W, H, names, nrm).unwrap();
     vis
 }
 
@@ -100,7 +116,9 @@ fn identical_inputs_give_zero_and_a_perturbation_gives_the_expected_numbers() {
     }
     // 90 covered pixels, 45 in shadow, 40 of them facing the light (row 9 faces away).
     assert!(
-        out.contains("90 covered pixels, 45 in the shadow region, 40 of them facing"),
+        out.contains(
+            "90 covered pixels where light can fall, 45 in the shadow region, 40 of them facing"
+        ),
         "{out}"
     );
     let img = image::open(&png).unwrap().to_rgba8();
@@ -219,5 +237,117 @@ fn bad_inputs_are_one_clear_error() {
     std::fs::write(&junk, b"not an exr").unwrap();
     check(&junk, "not a readable EXR");
     check(&d.join("missing.exr"), "no such file");
+    let _ = std::fs::remove_dir_all(&d);
+}
+
+/// Pixels outside the light's cone (spot factor 0, normal.exr's A) count in no figure: there
+/// every technique writes 1 and the reference the true occlusion, and the shading hides
+/// both. Without the A channel every covered pixel counts, with one warning.
+#[test]
+fn only_pixels_where_light_can_fall_are_judged() {
+    let d = scratch("cone");
+    // Columns 0 and 1 lie outside the cone: the port writes 1 there, the reference 0.5.
+    let ours = d.join("ours");
+    let v_ref = write_aovs_with(&ours, |x, _| if x < 2 { 0.0 } else { 1.0 }, true);
+    let mut v = v_ref.clone();
+    for y in 1..H as usize {
+        for x in 0..2 {
+            v[y * W as usize + x] = 1.0;
+        }
+    }
+    let port = d.join("port/visibility.exr");
+    write_vis(&port, v);
+    let png = d.join("diff.png");
+    let run = |aov: &Path| {
+        compare(&[
+            "--reference",
+            ours.join("visibility.exr").to_str().unwrap(),
+            "--test",
+            port.to_str().unwrap(),
+            "--aov",
+            aov.to_str().unwrap(),
+            "--light",
+            "0,10,0",
+            "--out",
+            png.to_str().unwrap(),
+            "--max-mae-lit",
+            "0",
+        ])
+    };
+    let o = run(&ours);
+    let (out, err) = text(&o);
+    assert!(o.status.success(), "{out}{err}");
+    assert_eq!(figure(&out, "mae_lit"), 0.0, "{out}");
+    assert_eq!(figure(&out, "mae_shadow"), 0.0, "{out}");
+    // 9 rows x 8 columns inside the cone; 3 shadow columns of them; row 9 faces away.
+    assert!(
+        out.contains(
+            "72 covered pixels where light can fall, 27 in the shadow region, 24 of them facing"
+        ),
+        "{out}"
+    );
+    assert!(err.is_empty(), "{err}");
+    // The same frame without the spot factor: all 90 covered pixels count, 16 of the 40
+    // facing shadow pixels are off by 0.5, and one warning says why.
+    let rgb = d.join("rgb");
+    write_aovs_with(&rgb, |_, _| 1.0, false);
+    let o = run(&rgb);
+    let (out, err) = text(&o);
+    assert_eq!(o.status.code(), Some(1), "{out}{err}");
+    assert!(
+        (figure(&out, "mae_lit") - 16.0 * 0.5 / 40.0).abs() < 1e-6,
+        "{out}"
+    );
+    assert!(
+        err.lines()
+            .next()
+            .is_some_and(|l| l.starts_with("warning:") && l.contains("no A channel")),
+        "{err}"
+    );
+    let _ = std::fs::remove_dir_all(&d);
+}
+
+/// A comparison that judges no pixel fails with a warning whatever `--max-mae-lit` says: an
+/// all-zero normal.exr faces nothing; a light 1e20 away (whose squared distance overflows
+/// f32) still lights the plane below it.
+#[test]
+fn nothing_to_judge_fails_and_a_far_light_still_has_a_direction() {
+    let d = scratch("nothing");
+    let ours = d.join("ours");
+    write_aovs(&ours);
+    let png = d.join("diff.png");
+    let run = |light: &str| {
+        compare(&[
+            "--reference",
+            ours.to_str().unwrap(),
+            "--test",
+            ours.to_str().unwrap(),
+            "--light",
+            light,
+            "--out",
+            png.to_str().unwrap(),
+            "--max-mae-lit",
+            "1",
+        ])
+    };
+    let o = run("0,1e20,0");
+    let (out, err) = text(&o);
+    assert!(o.status.success(), "{out}{err}");
+    assert!(out.contains("40 of them facing"), "{out}");
+    // Every normal zero: nothing faces the light.
+    let n = (W * H) as usize;
+    write_exr(
+        &ours.join("normal.exr"),
+        W,
+        H,
+        &["R", "G", "B", "A"],
+        vec![vec![0.0; n], vec![0.0; n], vec![0.0; n], vec![1.0; n]],
+    )
+    .unwrap();
+    let o = run("0,10,0");
+    let (out, err) = text(&o);
+    assert_eq!(o.status.code(), Some(1), "{out}{err}");
+    assert_eq!(err.lines().count(), 1, "{err}");
+    assert!(err.starts_with("warning: no pixel to judge"), "{err}");
     let _ = std::fs::remove_dir_all(&d);
 }

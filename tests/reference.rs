@@ -76,8 +76,10 @@ fn load(name: &str) -> Scene {
 /// radius fails (measured mae 0.065 / 0.042, p99 0.26 / 0.28), so the bounds catch a wrong
 /// light size.
 fn cross_check(scene_name: &str) {
-    let gpu = Gpu::new();
-    let scene = load(scene_name);
+    cross_check_scene(&Gpu::new(), load(scene_name), scene_name);
+}
+
+fn cross_check_scene(gpu: &Gpu, scene: Scene, scene_name: &str) {
     let radius = scene.light.radius;
     let settings = small(96, 1024);
     let hh =
@@ -152,8 +154,16 @@ fn reference_agrees_with_heckbert_herf_on_boxes() {
 fn point_light_reference_equals_hard_shadow_away_from_edges() {
     let gpu = Gpu::new();
     for name in ["cylinder", "boxes"] {
-        let scene = load(name);
-        let hard = gpu.render(name, "hard", small(128, 2048));
+        point_light_check(&gpu, load(name), name);
+    }
+}
+
+/// The check of `point_light_reference_equals_hard_shadow_away_from_edges` on one scene.
+fn point_light_check(gpu: &Gpu, scene: Scene, name: &str) {
+    {
+        let hard = gpu
+            .render_frames(scene.clone(), "hard", small(128, 2048), 1)
+            .0;
         let v_ref = visibility_at(
             &scene,
             0.0,
@@ -210,6 +220,40 @@ fn point_light_reference_equals_hard_shadow_away_from_edges() {
         // R = 0 gives exactly 0 or 1 everywhere.
         assert!(v_ref.iter().all(|&v| v == 0.0 || v == 1.0));
     }
+}
+
+/// The reference at the edges of the documented scene scale (bounding radius 1e-5 ... 2e7),
+/// and with a receiver far larger than what casts: the cylinder scene scaled to radii 1e-5,
+/// 1e-4, 1e5 and 2e7, and a unit box on a ground 1e5 wide (stress case `ground-1e5`). At each,
+/// the point-light reference equals the hard shadow map's footprint away from edges; at the
+/// two edges and on the huge ground, the area-light reference agrees with Heckbert & Herf
+/// within the bounds of `cross_check`. The rays' self-hit guard once scaled with what the
+/// light sees (every shadow on the 1e5 ground lost) and obvhs skips BVH nodes closer than an
+/// absolute 1e-4 along a ray (every shadow lost below a radius of about 1e-4).
+#[test]
+fn reference_holds_at_every_legal_scene_scale() {
+    let gpu = Gpu::new();
+    let base = load("cylinder");
+    let r = base.bounds().radius();
+    for target in [1.001e-5f32, 1e-4, 1e5, 1.999e7] {
+        let mut scene = softshadow::eval::stress::scaled(&base, target / r);
+        scene.name = format!("cylinder at radius {target:e}");
+        assert!(
+            (scene.bounds().radius() / target - 1.0).abs() < 1e-3,
+            "{}",
+            scene.name
+        );
+        let label = scene.name.clone();
+        point_light_check(&gpu, scene.clone(), &label);
+        if target < 1e-4 || target > 1e7 {
+            cross_check_scene(&gpu, scene, &label);
+        }
+    }
+    let mut ground = softshadow::eval::stress::case_scene("ground-1e5").unwrap();
+    point_light_check(&gpu, ground.clone(), "ground-1e5");
+    // A light 4x the case's, so the unit box's penumbra spans enough pixels at 96x96.
+    ground.light.radius *= 4.0;
+    cross_check_scene(&gpu, ground, "ground-1e5");
 }
 
 /// `--technique reference` shows exactly the reference computed at its own pixels, with lit,

@@ -55,6 +55,7 @@ fn errors(scene: &Scene, img: &FrameImages, v_ref: &[f32]) -> Errors {
         v_ref,
         &img.position,
         &img.normal,
+        &img.spot,
         scene.light.position,
     )
 }

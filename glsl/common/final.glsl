@@ -1,7 +1,7 @@
 // The final pass from the camera, shared by every technique: the technique's fragment
 // shader defines `float visibility(vec3 p, vec3 n)` and includes this file. Writes the
 // shaded colour; built with AOV defined (build.rs compiles both), also the AOVs
-// (visibility, world position, world normal) for the untimed AOV pass. The timed pass
+// (visibility, world position, world normal and spot factor) for the untimed AOV pass. The timed pass
 // writes colour only, as an engine's frame would.
 #include "common/frame.glsl"
 #include "common/shadow.glsl"   // surface_light_clip / _normal, set below
@@ -42,6 +42,8 @@ void main() {
 #ifdef AOV
     o_visibility = vis;
     o_position = vec4(v_world, 1.0);
-    o_normal = vec4(n, 0.0);
+    // The spot factor in alpha: metrics judge only pixels where light can fall (spot > 0);
+    // outside the cone every technique writes v = 1 unread by the shading.
+    o_normal = vec4(n, spot);
 #endif
 }

@@ -1198,7 +1198,7 @@ impl Sweep<'_> {
             );
         }
 
-        let covered: Vec<bool> = images.position.iter().map(|p| p[3] > 0.5).collect();
+        let covered = metrics::judged(&images.position, &images.spot);
         let facing = metrics::faces_light(&images.position, &images.normal, base.light.position);
         let errors = metrics::errors(&images.visibility, v_ref, &covered, &facing);
         let flip = metrics::flip(&images.color, &live.images.color, cfg.width, cfg.height)

@@ -3,10 +3,12 @@
 //!
 //! Inputs: two `visibility.exr` (a folder means `FOLDER/visibility.exr`; one float channel,
 //! `Y` or any single channel), and the `position.exr` (RGBA, A = 1 on surfaces) and
-//! `normal.exr` (RGB) that `softshadow render --aov` writes, from `--aov`, else the
-//! reference folder, else the test folder: they give the covered pixels and, with the
-//! light's centre (`--light`, or the light of `--scene`), the surfaces facing the light that
-//! `mae_lit` and `p99_lit` count. Two shaded PNGs give ꟻLIP.
+//! `normal.exr` (RGB the normal, A the spot factor) that `softshadow render --aov` writes,
+//! from `--aov`, else the reference folder, else the test folder: they give the judged
+//! pixels (on a surface, spot factor above 0: light can fall there) and, with the light's
+//! centre (`--light`, or the light of `--scene`), the surfaces facing the light that
+//! `mae_lit` and `p99_lit` count. A `normal.exr` without A (an older file, or a port's) is
+//! judged on every covered pixel, with a warning. Two shaded PNGs give ꟻLIP.
 //!
 //! Every input is checked before anything is computed: same size, the expected channels,
 //! finite values; each failure is one error line naming the file.
@@ -38,6 +40,11 @@ pub struct Comparison {
     pub width: u32,
     pub height: u32,
     pub errors: Errors,
+    /// Judged pixels whose surface faces the light: the pixels `mae_lit` could count. None
+    /// means the comparison cannot judge anything (`compare` then warns and fails).
+    pub facing_pixels: usize,
+    /// Warnings about the inputs (one line each).
+    pub warnings: Vec<String>,
     /// Share of the covered pixels with |v − v_ref| > 0.1.
     pub off_by_0_1: f64,
     /// Mean ꟻLIP of the test's shaded image against the reference's, when both were given.
@@ -204,6 +211,7 @@ pub fn compare(inputs: &CompareInputs) -> Result<Comparison> {
     if !inputs.light.is_finite() {
         bail!("--light {} must be finite", inputs.light);
     }
+
     let ref_path = in_folder(&inputs.reference, "visibility.exr");
     let test_path = in_folder(&inputs.test, "visibility.exr");
     let reference = read_exr(&ref_path)?;
@@ -227,13 +235,33 @@ pub fn compare(inputs: &CompareInputs) -> Result<Comparison> {
     for c in &n {
         finite(&nrm_path, c)?;
     }
+    let mut warnings = Vec::new();
+    let spot: Vec<f32> = match normal.take(&nrm_path, &["A"]) {
+        Ok(a) => {
+            finite(&nrm_path, a[0])?;
+            a[0].to_vec()
+        }
+        Err(_) => {
+            warnings.push(format!(
+                "{} has no A channel (the spot factor): every covered pixel is judged,                  outside the light's cone too",
+                nrm_path.display()
+            ));
+            vec![1.0; w * h]
+        }
+    };
     let positions: Vec<[f32; 4]> = (0..w * h)
         .map(|i| [p[0][i], p[1][i], p[2][i], p[3][i]])
         .collect();
     let normals: Vec<[f32; 3]> = (0..w * h).map(|i| [n[0][i], n[1][i], n[2][i]]).collect();
 
-    let covered: Vec<bool> = positions.iter().map(|p| p[3] > 0.5).collect();
-    let errors = metrics::errors_at(&v, &v_ref, &positions, &normals, inputs.light);
+    let covered = metrics::judged(&positions, &spot);
+    let facing = metrics::faces_light(&positions, &normals, inputs.light);
+    let facing_pixels = covered
+        .iter()
+        .zip(&facing)
+        .filter(|(c, f)| **c && **f)
+        .count();
+    let errors = metrics::errors(&v, &v_ref, &covered, &facing);
     let off = v
         .iter()
         .zip(&v_ref)
@@ -258,6 +286,8 @@ pub fn compare(inputs: &CompareInputs) -> Result<Comparison> {
         width: w as u32,
         height: h as u32,
         errors,
+        facing_pixels,
+        warnings,
         off_by_0_1,
         flip,
         diff,
@@ -287,7 +317,7 @@ impl Comparison {
     pub fn report(&self) -> String {
         let e = &self.errors;
         let mut s = format!(
-            "compare: {}x{}, {} covered pixels, {} in the shadow region, {} of them facing the light\n",
+            "compare: {}x{}, {} covered pixels where light can fall, {} in the shadow region, {} of them facing the light\n",
             self.width, self.height, e.covered_pixels, e.shadow_pixels, e.lit_pixels
         );
         s += &format!("mae_lit     {:.6}\n", e.mae_lit);

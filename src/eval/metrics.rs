@@ -1,5 +1,8 @@
 //! Error of a technique's visibility against the reference, exactly as docs/DESIGN.md defines it,
-//! over the camera pixels that hit a surface (`covered`, position alpha 1):
+//! over the camera pixels that hit a surface where light can fall (`covered`: position alpha 1
+//! and a spot factor above 0, `judged`). Outside the light's cone every technique writes v = 1
+//! while the reference knows the true occlusion, and the shading multiplies both by a spot
+//! factor of 0: the images agree there, so no metric counts those pixels.
 //! - `mae_lit` (the headline): mean |v - v_ref| over the shadow-and-penumbra region restricted
 //!   to the pixels whose surface faces the light, n·l >= `LIT_COS` (`faces_light`: n the AOV
 //!   normal, which faces the camera, l the unit vector from the AOV position to the light's
@@ -64,7 +67,8 @@ pub fn percentile(values: &mut [f64], q: f64) -> f64 {
 /// Per pixel, whether its surface faces the light: covered (position alpha > 0.5) and
 /// n·l >= `LIT_COS`, with n the normalised AOV normal (the side the camera sees, as the final
 /// pass writes it) and l the unit vector from the AOV position to `light` (the light's
-/// centre). A zero or non-finite normal or position does not face the light.
+/// centre), both in f64 so that a light 1e20 away (whose square overflows f32) still has a
+/// direction. A zero or non-finite normal or position does not face the light.
 ///
 /// # Panics
 /// When the slices differ in length.
@@ -83,9 +87,9 @@ pub fn faces_light(position: &[[f32; 4]], normal: &[[f32; 3]], light: glam::Vec3
             if p[3] <= 0.5 {
                 return false;
             }
-            let n = glam::Vec3::from(*n).normalize_or_zero();
-            let l = (light - glam::Vec3::new(p[0], p[1], p[2])).normalize_or_zero();
-            n.dot(l) >= LIT_COS
+            let n = glam::Vec3::from(*n).as_dvec3().normalize_or_zero();
+            let to = light.as_dvec3() - glam::DVec3::new(p[0] as f64, p[1] as f64, p[2] as f64);
+            n.dot(to.normalize_or_zero()) >= LIT_COS as f64
         })
         .collect()
 }
@@ -151,17 +155,42 @@ pub fn errors(v: &[f32], v_ref: &[f32], covered: &[bool], facing: &[bool]) -> Er
     }
 }
 
-/// `errors` with the coverage (position alpha > 0.5) and the facing flags (`faces_light`)
-/// taken from a frame's position and normal AOVs and the light's centre.
+/// Per pixel, whether the metrics judge it: it hits a surface (position alpha > 0.5) and the
+/// final pass's spot factor there is above 0, so light can fall on it (see the module header).
+///
+/// # Panics
+/// When the slices differ in length.
+pub fn judged(position: &[[f32; 4]], spot: &[f32]) -> Vec<bool> {
+    assert_eq!(
+        position.len(),
+        spot.len(),
+        "judged: {} positions, {} spot factors",
+        position.len(),
+        spot.len()
+    );
+    position
+        .iter()
+        .zip(spot)
+        .map(|(p, &s)| p[3] > 0.5 && s > 0.0)
+        .collect()
+}
+
+/// `errors` over the judged pixels (`judged`) with the facing flags (`faces_light`) taken
+/// from a frame's position, normal and spot AOVs and the light's centre.
 pub fn errors_at(
     v: &[f32],
     v_ref: &[f32],
     position: &[[f32; 4]],
     normal: &[[f32; 3]],
+    spot: &[f32],
     light: glam::Vec3,
 ) -> Errors {
-    let covered: Vec<bool> = position.iter().map(|p| p[3] > 0.5).collect();
-    errors(v, v_ref, &covered, &faces_light(position, normal, light))
+    errors(
+        v,
+        v_ref,
+        &judged(position, spot),
+        &faces_light(position, normal, light),
+    )
 }
 
 /// The mean ꟻLIP error of an image against a reference and its error map.
@@ -404,7 +433,7 @@ mod tests {
         nrm[2] = [0.0, -1.0, 0.0];
         let v = [0.5f32, 0.0, 1.0];
         let r = [0.4f32, 0.9, 0.0];
-        let e = errors_at(&v, &r, &pos, &nrm, light);
+        let e = errors_at(&v, &r, &pos, &nrm, &[1.0; 3], light);
         assert_eq!((e.shadow_pixels, e.lit_pixels), (3, 1), "{e:?}");
         assert!(close(e.mae_lit, 0.1), "{e:?}");
         assert!(close(e.p99_lit, 0.1), "{e:?}");
@@ -412,9 +441,49 @@ mod tests {
         assert!(close(e.p99, 1.0), "{e:?}");
         // A lit pixel (both >= 0.999) facing the light stays out of both regions.
         let (pos, nrm) = floor_pixels(&[0.0, 0.0]);
-        let e = errors_at(&[1.0, 0.3], &[1.0, 0.5], &pos, &nrm, light);
+        let e = errors_at(&[1.0, 0.3], &[1.0, 0.5], &pos, &nrm, &[1.0; 2], light);
         assert_eq!((e.shadow_pixels, e.lit_pixels), (1, 1), "{e:?}");
         assert!(close(e.mae_lit, 0.2), "{e:?}");
+    }
+
+    #[test]
+    fn pixels_outside_the_cone_count_in_no_metric() {
+        // Four shadowed floor pixels; the last two lie outside the light's cone (spot 0, or
+        // a spot below f16's smallest value read back as 0), where a technique writes 1 and
+        // the reference the true occlusion. Equal inside the cone: every error is 0.
+        let light = glam::Vec3::new(0.0, 1.0, 0.0);
+        let (pos, nrm) = floor_pixels(&[0.0; 4]);
+        let spot = [1.0, 0.25, 0.0, 0.0];
+        let v = [0.3f32, 0.0, 1.0, 1.0];
+        let r = [0.3f32, 0.0, 0.0, 0.2];
+        let e = errors_at(&v, &r, &pos, &nrm, &spot, light);
+        assert_eq!(
+            (e.covered_pixels, e.shadow_pixels, e.lit_pixels),
+            (2, 2, 2),
+            "{e:?}"
+        );
+        assert_eq!(
+            (e.mae_lit, e.mae_shadow, e.rmse, e.max),
+            (0.0, 0.0, 0.0, 0.0)
+        );
+        // The same pixels all inside the cone: the two outside ones now count.
+        let e = errors_at(&v, &r, &pos, &nrm, &[1.0; 4], light);
+        assert!(close(e.mae_lit, (1.0 + 0.8) / 4.0), "{e:?}");
+        assert_eq!(judged(&pos, &spot), [true, true, false, false]);
+    }
+
+    #[test]
+    fn a_light_whose_distance_overflows_f32_still_has_a_direction() {
+        // |(0, 1e20, 0) - p|^2 = 1e40 overflows f32: the direction is taken in f64.
+        let (pos, nrm) = floor_pixels(&[0.0, 0.0]);
+        assert_eq!(
+            faces_light(&pos, &nrm, glam::Vec3::new(0.0, 1e20, 0.0)),
+            [true, true]
+        );
+        assert_eq!(
+            faces_light(&pos, &nrm, glam::Vec3::new(0.0, -1e20, 0.0)),
+            [false, false]
+        );
     }
 
     #[test]
@@ -429,7 +498,14 @@ mod tests {
         for m in &mut nrm[n..] {
             *m = [0.0, -1.0, 0.0];
         }
-        let e = errors_at(&v, &vec![1.0; n + 50], &pos, &nrm, light);
+        let e = errors_at(
+            &v,
+            &vec![1.0; n + 50],
+            &pos,
+            &nrm,
+            &vec![1.0; n + 50],
+            light,
+        );
         assert_eq!((e.lit_pixels, e.shadow_pixels), (n, n + 50));
         assert!((e.p99_lit - 0.99).abs() < 1e-6, "{e:?}");
         assert!(

@@ -224,6 +224,7 @@ impl<'c> Renderer<'c> {
             .iter()
             .map(|n| [n[0].to_f32(), n[1].to_f32(), n[2].to_f32()])
             .collect();
+        let spot = normal16.iter().map(|n| n[3].to_f32()).collect();
         Ok(FrameImages {
             width: t.width,
             height: t.height,
@@ -231,6 +232,7 @@ impl<'c> Renderer<'c> {
             visibility,
             position,
             normal,
+            spot,
         })
     }
 

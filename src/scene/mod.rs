@@ -411,9 +411,9 @@ impl Aabb {
     }
 }
 
-/// Smallest scene bounding radius (README "Numeric range": stress `scale-1e-6`).
+/// Smallest scene bounding radius (README "Numeric range": stress `scene-1e-5`).
 pub const MIN_SCENE_RADIUS: f32 = 1e-5;
-/// Largest scene bounding radius (README "Numeric range": stress `scale-1e6`).
+/// Largest scene bounding radius (README "Numeric range": stress `scene-2e7`).
 pub const MAX_SCENE_RADIUS: f32 = 2e7;
 
 /// Widest light cone (README "Numeric range": measured with `stress`).

@@ -99,7 +99,8 @@
 //!    (`regions::AroundCasters::map_area`): every texel outside holds the clear value, as in
 //!    a whole map (a porter can clear and draw the whole map: same image).
 //! 4. `plateaus/final` — `FinalPass` with `glsl/plateaus/final.frag`: a point ON the plane
-//!    (|height| <= `ON_PLANE_TOLERANCE` x the plane's diagonal and its normal within ~11 deg
+//!    (|height| <= `ON_PLANE_TOLERANCE` x the diagonal of the plane's part in the light, plus
+//!    its rounding, and its normal within ~11 deg
 //!    of the plane's) takes the bilinear filter of the 4 nearest texels of the fraction f and
 //!    returns the sine falloff 0.5 - 0.5 cos(pi f) from the 256-texel 1-D LUT (Sec. 3, Fig. 5);
 //!    (P4) v = falloff(f). Every other point (other receivers, and on-plane points outside
@@ -201,9 +202,16 @@ impl Form {
 /// relief does not).
 pub const PLANAR_TOLERANCE: f32 = 1e-4;
 
-/// A camera point is "on the plane" within this fraction of the plane's diagonal: twice the
-/// detection tolerance, so every point of the detected object passes.
+/// A camera point is "on the plane" within this fraction of the diagonal of the plane's part in
+/// the light (its whole diagonal when the light holds it): twice the detection tolerance, so
+/// every point of the detected object passes. The part in the light, not the whole plane: on
+/// a ground 1e5 wide, 2e-4 of its diagonal is 28 units, and every caster shorter than that
+/// would count as lying on the plane and drop no shadow.
 pub const ON_PLANE_TOLERANCE: f32 = 2e-4;
+
+/// Plus this fraction of the plane corners' largest coordinate: rasterised positions lie off
+/// their plane by a few f32 ulps of its vertices' coordinates (8 ulps here).
+const PLANE_ROUNDING: f32 = 1.0 / (1u32 << 20) as f32;
 
 /// |cos| between a surface normal and the plane's above which an on-plane point reads the
 /// plateau texture (~11 degrees): the vertical faces of a box resting on the plane do not.
@@ -414,7 +422,11 @@ impl PlaneFrame {
             min: (lo + hi) * 0.5 - Vec2::splat(side * 0.5),
             side,
             res,
-            tolerance: ON_PLANE_TOLERANCE * diag,
+            tolerance: ON_PLANE_TOLERANCE * diag.min((hi - lo).length())
+                + PLANE_ROUNDING
+                    * corners
+                        .iter()
+                        .fold(0.0f32, |m, c| m.max(c.abs().max_element())),
         }
     }
 

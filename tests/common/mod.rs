@@ -203,6 +203,7 @@ pub fn errors_160(gpu: &Gpu, scene: &Scene, technique: &str) -> softshadow::eval
         &v_ref,
         &img.position,
         &img.normal,
+        &img.spot,
         scene.light.position,
     )
 }

@@ -494,7 +494,8 @@ pub fn visibility_at(
             };
             let to_light = light - origin;
             let dist = to_light.length();
-            if !(dist > tmin) {
+            // Also a NaN distance: no ray to cast.
+            if dist.is_nan() || dist <= tmin {
                 return 1.0;
             }
             let ray_to = |target: DVec3| {
@@ -505,7 +506,7 @@ pub fn visibility_at(
                 }
                 let d = target - origin;
                 let len = d.length();
-                !(len > tmin) || !bvh.occluded(origin, d / len, tmin, len)
+                len.is_nan() || len <= tmin || !bvh.occluded(origin, d / len, tmin, len)
             };
             if radius == 0.0 {
                 return if ray_to(light) { 1.0 } else { 0.0 };

@@ -245,7 +245,7 @@ fn reference_holds_at_every_legal_scene_scale() {
         );
         let label = scene.name.clone();
         point_light_check(&gpu, scene.clone(), &label);
-        if target < 1e-4 || target > 1e7 {
+        if !(1e-4..=1e7).contains(&target) {
             cross_check_scene(&gpu, scene, &label);
         }
     }

@@ -437,11 +437,10 @@ fn position_and_normal_exrs_hold_each_pixels_world_point_and_normal() {
                     if !faces.contains(&want_n) && s != Surface::Ground {
                         faces.push(want_n);
                     }
-                    if s == Surface::Ground && p.y != 0.0 {
-                        bad.push(format!("({x}, {y}): ground position y {}", p.y));
-                    }
-                    if pos[3][i] != 1.0
-                        || (p - want_p).abs().max_element() > 2e-3
+                    // The ground's vertices all have y = 0: so has every point between them.
+                    if (s == Surface::Ground && p.y != 0.0)
+                        || pos[3][i] != 1.0
+                        || (p - want_p).abs().max_element() > 5e-4
                         || (n - want_n).abs().max_element() > 1e-3
                     {
                         bad.push(format!(

@@ -27,8 +27,29 @@ const GROUND_ALBEDO: Vec3 = Vec3::new(0.2, 0.8, 0.3);
 const BOX_CENTRE: Vec3 = Vec3::new(0.0, 1.5, 0.0);
 const BOX_HALF: f32 = 0.5;
 const BOX_ALBEDO: Vec3 = Vec3::new(0.9, 0.1, 0.1);
+// A second caster, turned about all three axes, so that its faces' normals have three
+// distinct non-zero components.
+const TILTED_CENTRE: Vec3 = Vec3::new(-1.8, 1.2, 1.8);
+const TILTED_HALF: Vec3 = Vec3::new(0.5, 0.3, 0.4);
+const TILTED_DEG: [f32; 3] = [35.0, 20.0, 35.0];
+const TILTED_ALBEDO: Vec3 = Vec3::new(0.1, 0.3, 0.9);
 
-fn scene_toml(radius: f32) -> String {
+/// The scene file: the ground, the box, the tilted box when `tilted`, the light of `radius`.
+fn scene_toml(radius: f32, tilted: bool) -> String {
+    let tilted = if tilted {
+        format!(
+            "[[object]]\nname = \"tilted\"\nprimitive = \"box\"\nsize = [{}]\n\
+             translate = [{}]\nrotate_deg = [{}, {}, {}]\nrole = \"caster\"\nalbedo = [{}]\n",
+            list(TILTED_HALF * 2.0),
+            list(TILTED_CENTRE),
+            TILTED_DEG[0],
+            TILTED_DEG[1],
+            TILTED_DEG[2],
+            list(TILTED_ALBEDO)
+        )
+    } else {
+        String::new()
+    };
     format!(
         r#"name = "content"
 
@@ -48,6 +69,7 @@ translate = [{bc}]
 role = "caster"
 albedo = [{ba}]
 
+{tilted}
 [light]
 position = [{l}]
 target = [0, 0, 0]
@@ -138,7 +160,7 @@ fn exr_channels(path: &Path, names: &[&str]) -> Vec<Vec<f32>> {
 /// the folder of its AOVs.
 fn render(dir: &Path, technique: &str, radius: f32) -> (Vec<[u8; 4]>, PathBuf) {
     let scene = dir.join("content.toml");
-    std::fs::write(&scene, scene_toml(radius)).unwrap();
+    std::fs::write(&scene, scene_toml(radius, true)).unwrap();
     let png = dir.join(format!("{technique}.png"));
     let aov = dir.join(technique);
     run(
@@ -223,23 +245,51 @@ impl Camera {
 #[derive(Clone, Copy, Debug, PartialEq)]
 enum Surface {
     Ground,
-    /// A box face, by its outward normal.
-    Box(Vec3),
+    /// A face of box K (0: the box, 1: the tilted one), by its outward normal.
+    Box(usize, Vec3),
 }
 
-/// Where a ray from `o` along unit `d` enters the box, with the face's normal: the slab
-/// method (the entry parameter is the largest of the three slabs' entries).
-fn hit_box(o: Vec3, d: Vec3) -> Option<(f32, Vec3)> {
-    let (lo, hi) = (BOX_CENTRE - BOX_HALF, BOX_CENTRE + BOX_HALF);
+/// A box: centre, half sizes, rotation (object to world), albedo.
+struct Cuboid {
+    centre: Vec3,
+    half: Vec3,
+    rot: Mat3,
+    albedo: Vec3,
+}
+
+/// The scene's boxes, the tilted one turned as docs/SCENES.md says `rotate_deg` does (about
+/// X, then Y, then Z), with the matrices written out in `rot`.
+fn cuboids() -> [Cuboid; 2] {
+    let [x, y, z] = TILTED_DEG;
+    [
+        Cuboid {
+            centre: BOX_CENTRE,
+            half: Vec3::splat(BOX_HALF),
+            rot: Mat3::IDENTITY,
+            albedo: BOX_ALBEDO,
+        },
+        Cuboid {
+            centre: TILTED_CENTRE,
+            half: TILTED_HALF,
+            rot: rot(2, z) * rot(1, y) * rot(0, x),
+            albedo: TILTED_ALBEDO,
+        },
+    ]
+}
+
+/// Where a ray from `o` along unit `d` enters box `c`, with the face's world normal: the slab
+/// method in the box's own frame (the entry parameter is the largest of the slabs' entries).
+fn hit_box(c: &Cuboid, o: Vec3, d: Vec3) -> Option<(f32, Vec3)> {
+    let (o, d) = (c.rot.transpose() * (o - c.centre), c.rot.transpose() * d);
     let (mut t0, mut t1, mut n) = (f32::NEG_INFINITY, f32::INFINITY, Vec3::ZERO);
     for a in 0..3 {
         if d[a].abs() < 1e-12 {
-            if o[a] < lo[a] || o[a] > hi[a] {
+            if o[a].abs() > c.half[a] {
                 return None;
             }
             continue;
         }
-        let (ta, tb) = ((lo[a] - o[a]) / d[a], (hi[a] - o[a]) / d[a]);
+        let (ta, tb) = ((-c.half[a] - o[a]) / d[a], (c.half[a] - o[a]) / d[a]);
         let (near, far) = (ta.min(tb), ta.max(tb));
         if near > t0 {
             t0 = near;
@@ -248,27 +298,33 @@ fn hit_box(o: Vec3, d: Vec3) -> Option<(f32, Vec3)> {
         }
         t1 = t1.min(far);
     }
-    (t0 <= t1 && t0 > 0.0).then_some((t0, n))
+    (t0 <= t1 && t0 > 0.0).then_some((t0, c.rot * n))
 }
 
 /// What the ray sees first: the surface and the point.
 fn cast(o: Vec3, d: Vec3) -> Option<(Surface, Vec3)> {
     let ground = (d.y < 0.0)
         .then(|| -o.y / d.y)
-        .map(|t| (t, o + d * t))
-        .filter(|(_, p)| p.x.abs() <= GROUND_HALF && p.z.abs() <= GROUND_HALF);
-    match (hit_box(o, d), ground) {
-        (Some((tb, n)), Some((tg, _))) if tb < tg => Some((Surface::Box(n), o + d * tb)),
-        (Some((tb, n)), None) => Some((Surface::Box(n), o + d * tb)),
-        (_, Some((_, p))) => Some((Surface::Ground, p)),
-        (None, None) => None,
-    }
+        .filter(|t| {
+            let p = o + d * *t;
+            p.x.abs() <= GROUND_HALF && p.z.abs() <= GROUND_HALF
+        })
+        .map(|t| (t, Surface::Ground));
+    cuboids()
+        .iter()
+        .enumerate()
+        .filter_map(|(k, c)| hit_box(c, o, d).map(|(t, n)| (t, Surface::Box(k, n))))
+        .chain(ground)
+        .min_by(|a, b| a.0.total_cmp(&b.0))
+        .map(|(t, s)| (s, o + d * t))
 }
 
-/// Whether the point light sees ground point `p` (the box is the only caster).
+/// Whether the point light sees ground point `p` (the boxes are the only casters).
 fn lit(p: Vec3) -> bool {
     let to = LIGHT - p;
-    !matches!(hit_box(p, to.normalize()), Some((t, _)) if t < to.length())
+    cuboids()
+        .iter()
+        .all(|c| !matches!(hit_box(c, p, to.normalize()), Some((t, _)) if t < to.length()))
 }
 
 /// The 8-bit colour docs/DESIGN.md's shading gives: albedo x (0.12 + 0.88 n.l v spot),
@@ -309,14 +365,14 @@ fn classify(cam: &Camera, x: u32, y: u32) -> Option<Option<(Surface, Vec3, bool)
 fn albedo_of(s: Surface) -> Vec3 {
     match s {
         Surface::Ground => GROUND_ALBEDO,
-        Surface::Box(_) => BOX_ALBEDO,
+        Surface::Box(k, _) => cuboids()[k].albedo,
     }
 }
 
 fn normal_of(s: Surface) -> Vec3 {
     match s {
         Surface::Ground => Vec3::Y,
-        Surface::Box(n) => n,
+        Surface::Box(_, n) => n,
     }
 }
 
@@ -359,7 +415,7 @@ fn png_pixels_are_the_scene_seen_by_the_camera_lit_and_shadowed_where_it_puts_th
     );
 
     // Every pixel.
-    let (mut counts, mut bad) = ([0usize; 4], Vec::new());
+    let (mut counts, mut bad) = ([0usize; 5], Vec::new());
     for y in 0..H {
         for x in 0..W {
             let Some(seen) = classify(&cam, x, y) else {
@@ -373,7 +429,7 @@ fn png_pixels_are_the_scene_seen_by_the_camera_lit_and_shadowed_where_it_puts_th
                     let kind = match (s, l) {
                         (Surface::Ground, true) => 1,
                         (Surface::Ground, false) => 2,
-                        _ => 3,
+                        (Surface::Box(k, _), _) => 3 + k,
                     };
                     let v = if l { 1.0 } else { 0.0 };
                     (shade(albedo_of(s), normal_of(s), p, v), kind)
@@ -385,11 +441,11 @@ fn png_pixels_are_the_scene_seen_by_the_camera_lit_and_shadowed_where_it_puts_th
             }
         }
     }
-    // What this camera sees of the scene: sky above the horizon, the lit ground, the box's
-    // shadow and three faces of the box.
+    // What this camera sees of the scene: sky above the horizon, the lit ground, the boxes'
+    // shadows and three faces of each box.
     assert!(
-        counts[0] > 100 && counts[1] > 1000 && counts[2] > 20 && counts[3] > 40,
-        "pixels of background, lit ground, shadowed ground, box: {counts:?}"
+        counts[0] > 100 && counts[1] > 1000 && counts[2] > 40 && counts[3] > 40 && counts[4] > 20,
+        "pixels of background, lit ground, shadowed ground, box, tilted box: {counts:?}"
     );
     assert!(
         bad.is_empty(),
@@ -403,8 +459,9 @@ fn png_pixels_are_the_scene_seen_by_the_camera_lit_and_shadowed_where_it_puts_th
 
 /// `position.exr` (R G B A) and `normal.exr` (R G B) at every pixel that sees one surface:
 /// the world point this file's camera ray hits there, and that surface's normal: the
-/// ground's (0, 1, 0) with y = 0 positions, the box's +X, +Y and +Z faces' own axes. Each
-/// channel is checked on its own (only R, G and B of normal.exr).
+/// ground's (0, 1, 0) with y = 0 positions, the box's +X, +Y and +Z faces' own axes, the
+/// tilted box's faces' normals with three distinct non-zero components. Each channel is
+/// checked on its own (only R, G and B of normal.exr).
 #[test]
 fn position_and_normal_exrs_hold_each_pixels_world_point_and_normal() {
     let dir = scratch("aov");
@@ -412,7 +469,7 @@ fn position_and_normal_exrs_hold_each_pixels_world_point_and_normal() {
     let pos = exr_channels(&aov.join("position.exr"), &["R", "G", "B", "A"]);
     let nrm = exr_channels(&aov.join("normal.exr"), &["R", "G", "B"]);
     let cam = Camera::new();
-    let mut faces: Vec<Vec3> = Vec::new();
+    let mut faces: Vec<(usize, Vec3)> = Vec::new();
     let (mut checked, mut bad) = (0, Vec::new());
     for y in 0..H {
         for x in 0..W {
@@ -434,8 +491,10 @@ fn position_and_normal_exrs_hold_each_pixels_world_point_and_normal() {
                 }
                 Some((s, want_p, _)) => {
                     let want_n = normal_of(s);
-                    if !faces.contains(&want_n) && s != Surface::Ground {
-                        faces.push(want_n);
+                    if let Surface::Box(k, _) = s {
+                        if !faces.contains(&(k, want_n)) {
+                            faces.push((k, want_n));
+                        }
                     }
                     // The ground's vertices all have y = 0: so has every point between them.
                     if (s == Surface::Ground && p.y != 0.0)
@@ -452,8 +511,21 @@ fn position_and_normal_exrs_hold_each_pixels_world_point_and_normal() {
             }
         }
     }
-    faces.sort_by(|a, b| a.to_array().partial_cmp(&b.to_array()).unwrap());
-    assert_eq!(faces, [Vec3::Z, Vec3::Y, Vec3::X], "box faces seen");
+    let mut upright: Vec<Vec3> = faces.iter().filter(|f| f.0 == 0).map(|f| f.1).collect();
+    upright.sort_by(|a, b| a.to_array().partial_cmp(&b.to_array()).unwrap());
+    assert_eq!(upright, [Vec3::Z, Vec3::Y, Vec3::X], "the box's faces seen");
+    let tilted: Vec<Vec3> = faces.iter().filter(|f| f.0 == 1).map(|f| f.1).collect();
+    let distinct = |n: &Vec3| {
+        let a = n.abs();
+        a.min_element() > 0.1
+            && (a.x - a.y).abs() > 0.1
+            && (a.y - a.z).abs() > 0.1
+            && (a.x - a.z).abs() > 0.1
+    };
+    assert!(
+        tilted.len() >= 2 && tilted.iter().all(distinct),
+        "the tilted box's faces seen: {tilted:?}"
+    );
     assert!(checked > 2000, "only {checked} pixels checked");
     assert!(
         bad.is_empty(),
@@ -812,7 +884,7 @@ fn render_aov_compare_and_flip_chain_measures_what_the_exrs_hold() {
 /// results.json.
 fn bench(dir: &Path, tag: &str, extra: &[&str]) -> serde_json::Value {
     let scene = dir.join("content.toml");
-    std::fs::write(&scene, scene_toml(0.3)).unwrap();
+    std::fs::write(&scene, scene_toml(0.3, false)).unwrap();
     let out = dir.join(format!("out-{tag}"));
     let mut args = vec![
         "bench",

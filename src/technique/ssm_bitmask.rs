@@ -104,6 +104,16 @@
 //! micro-quad pass costs about 5x ssm's micro-patch pass (larger extents: the disc faces the
 //! receiver; ten times the fragment work), the frame about 3x ssm's and 11x hard's.
 //!
+//! A quad's fragments grow with its reach squared, and a narrow cone under a wide light
+//! makes the reach longer than the map's side: then every one of the N^2 quads covers the
+//! whole map. The reach is bounded from the light frustum's depth range (`extent_bound`);
+//! past `MAX_EXTENT_TEXELS`, one instance draws a block of `quad_step` texels on a side (the
+//! bounding rectangle of its occupied texels, each corner at the depth of the occupied texel
+//! nearest it, the block's farthest depth for the self-occlusion guard), so the pass stays
+//! within N^2 (2 MAX_EXTENT_TEXELS + 3)^2 fragments and a block is at most a
+//! 1 / MAX_EXTENT_TEXELS fraction of the penumbra it casts. Below the bound (every built-in
+//! scene at 256 and 512 texels) the pass is exactly as described above.
+//!
 //! Accuracy is then limited by the occluder map's resolution (`--occluder-res`, 256 by
 //! default, shared with ssm): at 512 mae_lit is at most pcss's on cylinder, bunny, primitives
 //! and fence (tests/ssm_bitmask.rs), but the micro-quad pass grows as N^4 (N^2 quads, each
@@ -191,7 +201,7 @@ pub fn extent_bound(res: u32, light: &LightView, radius: f32) -> f32 {
 /// and a block is then at most 1 / MAX_EXTENT_TEXELS of the penumbra it casts.
 pub fn quad_step(res: u32, light: &LightView, radius: f32) -> u32 {
     let h = extent_bound(res, light, radius);
-    if !(h > MAX_EXTENT_TEXELS) {
+    if h.is_nan() || h <= MAX_EXTENT_TEXELS {
         return 1;
     }
     ((h / MAX_EXTENT_TEXELS).ceil().min(res as f32) as u32).max(1)

@@ -12,9 +12,11 @@ Every command runs in its own scratch folder under $TMPDIR with lavapipe and --v
 import hashlib
 import os
 import shutil
+import signal
 import subprocess
 import sys
 import tempfile
+import time
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 SMALL = ["--width", "24", "--height", "24"]
@@ -199,6 +201,139 @@ def cases(exe):
     return out
 
 
+# Outputs (issue 47 item 5) and the narrow-cone cliff (item 6).
+BOX_SCENE = "[[object]]\nprimitive = \"box\"\n[[object]]\nprimitive = \"plane\"\nrole = \"receiver\"\n"
+
+
+def narrow_cone(fov):
+    """A box over a plane under a light of radius 1 about 9 units away, cone of `fov`."""
+    return BOX_SCENE + ("[light]\nposition = [-3, 8, 2]\ntarget = [0, 0.5, 0]\nradius = 1\n"
+                        f"fov_deg = {fov}\n")
+
+
+# Labels of cases that must be refused before the device is opened (not after a sweep).
+BEFORE_DEVICE = set()
+
+# A render's AOVs and PNG, made once by `output_cases` and copied into every folder.
+OUTPUT_INPUTS = {}
+
+
+def prepare_outputs(folder):
+    """Inputs that outputs may collide with: a scene and its links, named scenes for bench,
+    a render's AOVs and PNGs for compare."""
+    files = {
+        "s.toml": BOX_SCENE,
+        "named_cyl.toml": "name = \"cylinder\"\n" + BOX_SCENE,
+        "named_ab1.toml": "name = \"a b\"\n" + BOX_SCENE,
+        "named_ab2.toml": "name = \"a/b\"\n" + BOX_SCENE,
+        "named_bang.toml": "name = \"!!\"\n" + BOX_SCENE,
+        "named_what.toml": "name = \"??\"\n" + BOX_SCENE,
+    }
+    for name, text in files.items():
+        with open(os.path.join(folder, name), "w") as fh:
+            fh.write(text)
+    os.mkdir(os.path.join(folder, "aovs"))
+    for rel, data in OUTPUT_INPUTS.items():
+        with open(os.path.join(folder, rel), "wb") as fh:
+            fh.write(data)
+    os.symlink("s.toml", os.path.join(folder, "scene_link.png"))
+    os.symlink("s.toml", os.path.join(folder, "scene_link.obj"))
+    os.symlink("s.toml", os.path.join(folder, "scene_link.json"))
+    os.link(os.path.join(folder, "s.toml"), os.path.join(folder, "scene_hard.glb"))
+    os.symlink("aovs/visibility.exr", os.path.join(folder, "vis_link.png"))
+
+
+def output_cases(exe):
+    """Outputs that are inputs, and bench scene-name clashes: refused before any work (bench
+    before it opens the device, see `main`)."""
+    with tempfile.TemporaryDirectory() as tmp:
+        with open(os.path.join(tmp, "s.toml"), "w") as fh:
+            fh.write(BOX_SCENE)
+        subprocess.run([exe, "render", "--scene", "s.toml", "--technique", "hard", "--width", "16",
+                        "--height", "16", "--aov", "aovs", "--out", "img_a.png"], cwd=tmp,
+                       capture_output=True, check=True)
+        for rel in ("aovs/visibility.exr", "aovs/position.exr", "aovs/normal.exr", "img_a.png"):
+            with open(os.path.join(tmp, rel), "rb") as fh:
+                OUTPUT_INPUTS[rel] = fh.read()
+        OUTPUT_INPUTS["img_b.png"] = OUTPUT_INPUTS["img_a.png"]
+    out = []
+    r = ["render"] + SMALL + ["--technique", "hard"]
+    cmp = ["compare", "--reference", "aovs", "--test", "aovs", "--light", "0,5,0"]
+    for label, args in [
+        ("render --out = --scene (symlink)", r + ["--scene", "s.toml", "--out", "scene_link.png"]),
+        ("export --obj = --scene (symlink)", ["export", "--scene", "s.toml", "--obj", "scene_link.obj"]),
+        ("export json = --scene (symlink)", ["export", "--scene", "./s.toml", "--obj", "scene_link.x"]),
+        ("export --gltf = --scene (hard link)", ["export", "--scene", "s.toml", "--gltf", "scene_hard.glb"]),
+        ("compare --out = --test-image", cmp + ["--reference-image", "img_a.png", "--test-image",
+                                                "img_b.png", "--out", "./img_b.png"]),
+        ("compare --out = --reference-image", cmp + ["--reference-image", "img_a.png", "--test-image",
+                                                     "img_b.png", "--out", "img_a.png"]),
+        ("compare --out = visibility.exr (symlink)", cmp + ["--out", "vis_link.png"]),
+        ("bench two scenes named cylinder", ["bench", "--scenes", "cylinder,named_cyl.toml", "--out", "b"]),
+        ("bench names reducing to one file name", ["bench", "--scenes", "named_ab1.toml,named_ab2.toml",
+                                                   "--out", "b"]),
+        ("bench names reducing to nothing", ["bench", "--scenes", "named_bang.toml,named_what.toml",
+                                             "--out", "b"]),
+    ]:
+        out.append((label, args, {}))
+        if args[0] == "bench":
+            BEFORE_DEVICE.add(label)
+    return out
+
+
+def interrupt_and_cliff_checks(exe, base):
+    """The number of checks, and (label, problem) for each failed one, of the classes the
+    main loop cannot run: an
+    export signalled mid-write must remove its partial file and exit non-zero with one
+    error line; ssm-bitmask and ssm2-bitmask at 1 and 2 degree cones must render within
+    60 s."""
+    failures = []
+    env = dict(os.environ)
+    env.pop("SOFTSHADOW_DEVICE", None)
+    for sig in (signal.SIGINT, signal.SIGTERM):
+        folder = tempfile.mkdtemp(dir=base)
+        p = subprocess.Popen([exe, "export", "--scene", "dense-1m", "--obj", "o.obj"], cwd=folder,
+                             env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+        partial = os.path.join(folder, f".o.obj.partial-{p.pid}")
+        deadline = time.time() + 300
+        while p.poll() is None and time.time() < deadline:
+            if os.path.exists(partial) and os.path.getsize(partial) > (1 << 20):
+                break
+            time.sleep(0.02)
+        label = f"export interrupted by {signal.Signals(sig).name}"
+        if p.poll() is not None:
+            failures.append((label, "export ended before it was signalled"))
+            continue
+        p.send_signal(sig)
+        _, err = p.communicate(timeout=60)
+        err = err.decode("utf-8", "replace")
+        problems = []
+        if p.returncode == 0:
+            problems.append("exit 0")
+        if sum(1 for line in err.splitlines() if line.startswith("error")) != 1:
+            problems.append("error lines != 1")
+        if os.listdir(folder):
+            problems.append("left files: " + ", ".join(sorted(os.listdir(folder))))
+        if problems:
+            failures.append((label, ", ".join(problems)))
+    for fov in (1, 2):
+        folder = tempfile.mkdtemp(dir=base)
+        with open(os.path.join(folder, "cone.toml"), "w") as fh:
+            fh.write(narrow_cone(fov))
+        for t in ("ssm-bitmask", "ssm2-bitmask"):
+            label = f"render {t} at a {fov} degree cone"
+            try:
+                p = subprocess.run([exe, "render", "--scene", "cone.toml", "--technique", t, "--width",
+                                    "48", "--height", "48", "--out", "o.png", "--validation"],
+                                   cwd=folder, env=env, capture_output=True, timeout=60)
+            except subprocess.TimeoutExpired:
+                failures.append((label, "timeout (60 s)"))
+                continue
+            if p.returncode != 0 or p.stderr.strip():
+                failures.append((label, f"exit {p.returncode}: {p.stderr.decode()[:200]}"))
+    return 6, failures
+
+
 def prepare(folder):
     for name, text in FILES.items():
         with open(os.path.join(folder, name), "w", encoding="latin-1") as fh:
@@ -207,14 +342,16 @@ def prepare(folder):
     os.mkfifo(os.path.join(folder, "fifo_pair.json"))
     os.symlink("/dev/full", os.path.join(folder, "full.png"))
     os.mkdir(os.path.join(folder, "adir.png"))
+    prepare_outputs(folder)
 
 
 def main():
     exe = binary()
     base = tempfile.mkdtemp(prefix="softshadow-hostile-")
-    all_cases = cases(exe)
+    all_cases = cases(exe) + output_cases(exe)
     counts = {"inputs": len(all_cases), "clean": 0, "exit 0": 0, "error lines != 1": 0,
-              "panic or signal": 0, "validation": 0, "left files": 0, "timeout": 0}
+              "panic or signal": 0, "validation": 0, "left files": 0, "timeout": 0,
+              "refused after opening the device": 0}
     failures = []
     for i, (label, args, env) in enumerate(all_cases):
         folder = os.path.join(base, str(i))
@@ -246,6 +383,8 @@ def main():
             problems.append("left files")
         if len(stderr) > 4000:
             problems.append("error lines != 1")
+        if label in BEFORE_DEVICE and b"device:" in p.stdout:
+            problems.append("refused after opening the device")
         for pr in set(problems):
             counts[pr] += 1
         if problems:
@@ -253,6 +392,10 @@ def main():
             failures.append((label, ", ".join(sorted(set(problems))) + ": " + first[:200]))
         else:
             counts["clean"] += 1
+    checks, extra = interrupt_and_cliff_checks(exe, base)
+    counts["inputs"] += checks
+    counts["clean"] += checks - len(extra)
+    failures += extra
     shutil.rmtree(base, ignore_errors=True)
     for label, why in failures:
         print(f"FAIL {label}: {why}")

@@ -284,6 +284,11 @@ fn main() -> ExitCode {
             return ExitCode::from(2);
         }
     };
+    // Ctrl-C or SIGTERM removes the staged (hidden, partial) outputs before exiting.
+    if let Err(e) = softshadow::output::remove_pending_on_interrupt() {
+        eprintln!("error: {}", error_line(&e));
+        return ExitCode::FAILURE;
+    }
     match run(cli) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) if e.is::<Warned>() => ExitCode::FAILURE,
@@ -394,11 +399,17 @@ fn run(cli: Cli) -> Result<()> {
             if a.width == 0 || a.height == 0 {
                 bail!("--width and --height must be at least 1");
             }
+            let inputs = scene_inputs(&a.scene);
             if let Some(obj) = &a.obj {
                 softshadow::scene::export::check_paths(obj)?;
+                let json = softshadow::scene::export::json_path(obj);
+                check_not_input(obj, "--obj", &inputs)?;
+                check_not_input(&json, "--obj's JSON", &inputs)?;
             }
             if let Some(gltf) = &a.gltf {
                 softshadow::scene::gltf_io::check_paths(gltf)?;
+                check_not_input(gltf, "--gltf", &inputs)?;
+                check_not_input(&gltf.with_extension("bin"), "--gltf's buffer", &inputs)?;
             }
             let scene = Scene::load(&a.scene)?;
             if let Some(obj) = &a.obj {
@@ -433,8 +444,13 @@ fn render(cli: &Cli, a: &RenderArgs) -> Result<()> {
     let scene = Scene::load(&a.scene)?;
     softshadow::output::check_file(&a.out, "--out")?;
     softshadow::output::check_png_name(&a.out, "--out")?;
+    let inputs = scene_inputs(&a.scene);
+    check_not_input(&a.out, "--out", &inputs)?;
     if let Some(dir) = &a.aov {
         softshadow::output::check_dir(dir, "--aov")?;
+        for f in AOV_FILES {
+            check_not_input(&dir.join(f), "--aov", &inputs)?;
+        }
     }
     if let Some(dir) = &a.buffers {
         softshadow::output::check_dir(dir, "--buffers")?;
@@ -613,10 +629,59 @@ fn parse_point(s: &str) -> std::result::Result<[f32; 3], String> {
     }
 }
 
+/// The files `render --aov` writes into its folder, which `compare` reads.
+const AOV_FILES: [&str; 3] = ["visibility.exr", "position.exr", "normal.exr"];
+
+use softshadow::output::check_not_input;
+
+/// The scene file a `--scene` value reads, if it names a file rather than a built-in.
+fn scene_inputs(scene: &str) -> Vec<(&'static str, PathBuf)> {
+    if softshadow::scene::BUILTIN_SCENES.contains(&scene) {
+        return Vec::new();
+    }
+    vec![("--scene", PathBuf::from(scene))]
+}
+
+/// Every file `compare` may read: each visibility (a folder means its visibility.exr), the
+/// position and normal EXRs of every folder they may come from, the PNGs and the scene.
+fn compare_inputs(a: &CompareArgs) -> Vec<(&'static str, PathBuf)> {
+    let mut inputs = Vec::new();
+    for (flag, p) in [("--reference", &a.reference), ("--test", &a.test)] {
+        let (file, dir) = if p.is_dir() {
+            (p.join("visibility.exr"), p.clone())
+        } else {
+            let dir = p.parent().map(PathBuf::from).unwrap_or_default();
+            (p.clone(), dir)
+        };
+        inputs.push((flag, file));
+        for f in &AOV_FILES[1..] {
+            inputs.push((flag, dir.join(f)));
+        }
+    }
+    if let Some(dir) = &a.aov {
+        for f in &AOV_FILES[1..] {
+            inputs.push(("--aov", dir.join(f)));
+        }
+    }
+    for (flag, p) in [
+        ("--reference-image", &a.reference_image),
+        ("--test-image", &a.test_image),
+    ] {
+        if let Some(p) = p {
+            inputs.push((flag, p.clone()));
+        }
+    }
+    if let Some(s) = &a.scene {
+        inputs.extend(scene_inputs(s));
+    }
+    inputs
+}
+
 fn compare(a: &CompareArgs) -> Result<()> {
     use softshadow::eval::compare;
     softshadow::output::check_png_name(&a.out, "--out")?;
     softshadow::output::check_file(&a.out, "--out")?;
+    check_not_input(&a.out, "--out", &compare_inputs(a))?;
     if let Some(m) = a.max_mae_lit {
         if !(m.is_finite() && m >= 0.0) {
             bail!("--max-mae-lit {m} must be a number >= 0");

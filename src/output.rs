@@ -7,12 +7,110 @@
 //! temporary names beside their final ones ([`Publish::stage`]) and renamed into place
 //! together by [`Publish::commit`]; a failure while staging removes every temporary file and
 //! every folder the command created, and a failure while renaming puts back what was there.
+//!
+//! Staged files and folders (`Publish`'s and `bench`'s) are also listed for an interrupt:
+//! the binary installs [`remove_pending_on_interrupt`], so Ctrl-C (SIGINT), SIGTERM or
+//! SIGHUP removes them before the process exits with status 130. A process killed outright
+//! (SIGKILL) cannot clean up: its leftovers carry its process id, and the next command that
+//! stages beside them removes those of dead processes ([`remove_stale`]).
 
 use anyhow::{anyhow, bail, Context as _, Result};
 use exr::prelude::{
     AnyChannel, AnyChannels, Encoding, FlatSamples, Image, Layer, LayerAttributes, WritableImage,
 };
 use std::path::{Path, PathBuf};
+use std::sync::Mutex;
+
+/// Staged paths an interrupt removes, with a registration number each.
+static PENDING: Mutex<Vec<(u64, PathBuf)>> = Mutex::new(Vec::new());
+static NEXT_PENDING: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
+
+/// A staged file or folder listed for removal on an interrupt; dropping it takes it off the
+/// list (the owner publishes or removes it itself).
+pub struct Pending(u64);
+
+impl Pending {
+    pub fn new(path: &Path) -> Self {
+        let id = NEXT_PENDING.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        if let Ok(mut list) = PENDING.lock() {
+            list.push((id, path.to_path_buf()));
+        }
+        Self(id)
+    }
+}
+
+impl Drop for Pending {
+    fn drop(&mut self) {
+        if let Ok(mut list) = PENDING.lock() {
+            list.retain(|(id, _)| *id != self.0);
+        }
+    }
+}
+
+/// Removes every pending staged path; what is removed is our own temporary output only.
+fn remove_pending() {
+    let list = match PENDING.lock() {
+        Ok(list) => list.clone(),
+        Err(poisoned) => poisoned.into_inner().clone(),
+    };
+    for (_, path) in list {
+        match std::fs::symlink_metadata(&path) {
+            Ok(md) if md.is_dir() => {
+                let _ = std::fs::remove_dir_all(&path);
+            }
+            Ok(_) => {
+                let _ = std::fs::remove_file(&path);
+            }
+            Err(_) => {}
+        }
+    }
+}
+
+/// Installs the handler of SIGINT, SIGTERM and SIGHUP: it removes every pending staged path
+/// and exits with status 130 after one `error:` line. The handler runs on a thread of its
+/// own (the `ctrlc` crate), not in signal context, so it may take locks and touch files.
+pub fn remove_pending_on_interrupt() -> Result<()> {
+    ctrlc::set_handler(|| {
+        remove_pending();
+        eprintln!("error: interrupted; partial output removed");
+        std::process::exit(130);
+    })
+    .map_err(|e| anyhow!("cannot install the interrupt handler: {e}"))
+}
+
+/// Whether the process `pid` is gone (None: cannot tell, without /proc).
+fn process_gone(pid: u32) -> Option<bool> {
+    if !Path::new("/proc/self").exists() {
+        return None;
+    }
+    Some(pid != std::process::id() && !Path::new(&format!("/proc/{pid}")).exists())
+}
+
+/// Removes the entries of `dir` named `{prefix}{pid}` (files or folders) whose process is
+/// gone: what a killed command left. A live process's entries, ours included, and anything
+/// else are left alone; without /proc nothing is removed.
+pub fn remove_stale(dir: &Path, prefix: &str) {
+    let Ok(entries) = std::fs::read_dir(dir) else {
+        return;
+    };
+    for e in entries.flatten() {
+        let name = e.file_name().to_string_lossy().into_owned();
+        let Some(pid) = name.strip_prefix(prefix) else {
+            continue;
+        };
+        let Ok(pid) = pid.parse::<u32>() else {
+            continue;
+        };
+        if process_gone(pid) == Some(true) {
+            let path = e.path();
+            if e.file_type().is_ok_and(|t| t.is_dir()) {
+                let _ = std::fs::remove_dir_all(path);
+            } else {
+                let _ = std::fs::remove_file(path);
+            }
+        }
+    }
+}
 
 /// The folder a file path lands in (`.` for a bare name).
 fn parent_of(path: &Path) -> &Path {
@@ -44,6 +142,41 @@ fn check_not_special(path: &Path, flag: &str) -> Result<()> {
         ),
         _ => Ok(()),
     }
+}
+
+/// Whether two existing paths name one file: the same device and inode (a symlink, a hard
+/// link, `./a.png` and `a.png`), else the same canonical path.
+fn same_file(a: &Path, b: &Path) -> bool {
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::MetadataExt as _;
+        if let (Ok(x), Ok(y)) = (std::fs::metadata(a), std::fs::metadata(b)) {
+            return x.dev() == y.dev() && x.ino() == y.ino();
+        }
+    }
+    matches!(
+        (std::fs::canonicalize(a), std::fs::canonicalize(b)),
+        (Ok(x), Ok(y)) if x == y
+    )
+}
+
+/// Refuses, before any work, an output `path` that is one of the command's `inputs`
+/// ((option, path) pairs), however either is spelt: writing it would replace what the
+/// command reads. An output that does not exist yet is no input.
+pub fn check_not_input(path: &Path, flag: &str, inputs: &[(&str, PathBuf)]) -> Result<()> {
+    if std::fs::metadata(path).is_err() {
+        return Ok(());
+    }
+    for (what, input) in inputs {
+        if same_file(path, input) {
+            bail!(
+                "{flag} {}: it is the same file as {what} {}; refusing to overwrite an input",
+                path.display(),
+                input.display()
+            );
+        }
+    }
+    Ok(())
 }
 
 /// Checks, before any work, that `path` can be written as a file: it is absent or a regular
@@ -100,11 +233,20 @@ pub fn check_dir(dir: &Path, flag: &str) -> Result<()> {
 /// A hidden sibling of `path` with `tag` and the process id, in the same folder so that a
 /// rename into place is atomic.
 fn sibling(path: &Path, tag: &str) -> PathBuf {
+    path.with_file_name(format!(
+        "{}{}",
+        sibling_prefix(path, tag),
+        std::process::id()
+    ))
+}
+
+/// `.{file name}.{tag}-`, the name of `sibling` without its process id.
+fn sibling_prefix(path: &Path, tag: &str) -> String {
     let file = path
         .file_name()
         .map(|f| f.to_string_lossy().into_owned())
         .unwrap_or_else(|| "output".into());
-    path.with_file_name(format!(".{file}.{tag}-{}", std::process::id()))
+    format!(".{file}.{tag}-")
 }
 
 /// The files of one command, staged under temporary names and published together (see the
@@ -114,6 +256,8 @@ fn sibling(path: &Path, tag: &str) -> PathBuf {
 pub struct Publish {
     /// (temporary, final) pairs in staging order.
     staged: Vec<(PathBuf, PathBuf)>,
+    /// The temporary files, listed for removal on an interrupt.
+    pending: Vec<Pending>,
     /// Folders this command created, outermost first.
     created: Vec<PathBuf>,
 }
@@ -146,9 +290,11 @@ impl Publish {
     /// Writes `path`'s content through `write` into a temporary file beside it.
     pub fn stage(&mut self, path: &Path, write: impl FnOnce(&Path) -> Result<()>) -> Result<()> {
         check_not_special(path, "output")?;
+        remove_stale(parent_of(path), &sibling_prefix(path, "partial"));
         let tmp = sibling(path, "partial");
         // Registered first so that a failing write's leftovers are removed too.
         self.staged.push((tmp.clone(), path.to_path_buf()));
+        self.pending.push(Pending::new(&tmp));
         write(&tmp).with_context(|| format!("cannot write {}", path.display()))
     }
 

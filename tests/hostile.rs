@@ -548,3 +548,240 @@ fn numeric_range_edges_render_within_tolerance() {
     }
     assert!(ctx.validation_messages().is_empty());
 }
+
+const BOX_SCENE: &str =
+    "[[object]]\nprimitive = \"box\"\n[[object]]\nprimitive = \"plane\"\nrole = \"receiver\"\n";
+
+/// An output that is one of the command's inputs, by the same name, another spelling, a
+/// symlink or a hard link, is refused before any work with one line naming both, and
+/// nothing is written.
+#[test]
+fn outputs_that_are_inputs_are_refused() {
+    let dir = scratch("out-is-in");
+    std::fs::write(dir.join("s.toml"), BOX_SCENE).unwrap();
+    std::os::unix::fs::symlink("s.toml", dir.join("link.png")).unwrap();
+    std::os::unix::fs::symlink("s.toml", dir.join("link.obj")).unwrap();
+    std::fs::hard_link(dir.join("s.toml"), dir.join("hard.gltf")).unwrap();
+    // Inputs for compare: a render's AOVs and its image, made first.
+    let o = Command::new(env!("CARGO_BIN_EXE_softshadow"))
+        .args(tiny(&["--technique", "hard", "--scene", "s.toml"]))
+        .args(["--aov", "a", "--out", "a.png"])
+        .current_dir(&dir)
+        .env_remove("SOFTSHADOW_DEVICE")
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    std::fs::copy(dir.join("a.png"), dir.join("b.png")).unwrap();
+    std::os::unix::fs::symlink("a/visibility.exr", dir.join("v.png")).unwrap();
+    std::os::unix::fs::symlink("a/normal.exr", dir.join("n.png")).unwrap();
+    let cases: Vec<(Vec<String>, &str)> = vec![
+        (
+            tiny(&[
+                "--technique",
+                "hard",
+                "--scene",
+                "s.toml",
+                "--out",
+                "link.png",
+            ]),
+            "--out link.png: it is the same file as --scene s.toml",
+        ),
+        (
+            ["export", "--scene", "s.toml", "--obj", "link.obj"]
+                .map(String::from)
+                .to_vec(),
+            "--obj link.obj: it is the same file as --scene s.toml",
+        ),
+        (
+            ["export", "--scene", "s.toml", "--gltf", "hard.gltf"]
+                .map(String::from)
+                .to_vec(),
+            "--gltf hard.gltf: it is the same file as --scene s.toml",
+        ),
+        (
+            [
+                "compare",
+                "--reference",
+                "a",
+                "--test",
+                "a/visibility.exr",
+                "--light",
+                "0,5,0",
+                "--reference-image",
+                "a.png",
+                "--test-image",
+                "b.png",
+                "--out",
+                "./b.png",
+            ]
+            .map(String::from)
+            .to_vec(),
+            "--out ./b.png: it is the same file as --test-image b.png",
+        ),
+        (
+            [
+                "compare",
+                "--reference",
+                "a",
+                "--test",
+                "a",
+                "--light",
+                "0,5,0",
+                "--out",
+                "v.png",
+            ]
+            .map(String::from)
+            .to_vec(),
+            "--out v.png: it is the same file as --reference a/visibility.exr",
+        ),
+        (
+            [
+                "compare",
+                "--reference",
+                "a",
+                "--test",
+                "a",
+                "--light",
+                "0,5,0",
+                "--out",
+                "n.png",
+            ]
+            .map(String::from)
+            .to_vec(),
+            "--out n.png: it is the same file as --reference a/normal.exr",
+        ),
+    ];
+    for (args, expect) in cases {
+        let args: Vec<&str> = args.iter().map(String::as_str).collect();
+        fails_untouched(&dir, &args, expect);
+    }
+    // A render's AOV folder whose normal.exr is the scene file (a symlink).
+    std::fs::create_dir(dir.join("aov")).unwrap();
+    std::os::unix::fs::symlink("../s.toml", dir.join("aov/normal.exr")).unwrap();
+    let args = tiny(&["--technique", "hard", "--scene", "s.toml", "--aov", "aov"]);
+    let args: Vec<&str> = args.iter().map(String::as_str).collect();
+    fails_untouched(
+        &dir,
+        &args,
+        "--aov aov/normal.exr: it is the same file as --scene s.toml",
+    );
+    // An export whose JSON sidecar is the scene through another spelling.
+    std::fs::write(dir.join("t.toml"), BOX_SCENE).unwrap();
+    std::os::unix::fs::symlink("t.toml", dir.join("u.json")).unwrap();
+    fails_untouched(
+        &dir,
+        &["export", "--scene", "./t.toml", "--obj", "u.obj"],
+        "--obj's JSON u.json: it is the same file as --scene ./t.toml",
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// Two scenes of one name, or names that reduce to the same or an empty file name, are
+/// refused before the sweep with one line naming them, and the output folder is not made.
+#[test]
+fn bench_scene_name_clashes_are_refused_before_the_sweep() {
+    let dir = scratch("names");
+    std::fs::write(
+        dir.join("cyl.toml"),
+        format!("name = \"cylinder\"\n{BOX_SCENE}"),
+    )
+    .unwrap();
+    std::fs::write(dir.join("a.toml"), format!("name = \"a b\"\n{BOX_SCENE}")).unwrap();
+    std::fs::write(dir.join("b.toml"), format!("name = \"a/b\"\n{BOX_SCENE}")).unwrap();
+    std::fs::write(dir.join("bang.toml"), format!("name = \"!!\"\n{BOX_SCENE}")).unwrap();
+    std::fs::write(dir.join("what.toml"), format!("name = \"??\"\n{BOX_SCENE}")).unwrap();
+    for (scenes, expect) in [
+        ("cylinder,cyl.toml", "--scenes cylinder and cyl.toml: their names \"cylinder\" and \"cylinder\""),
+        ("a.toml,b.toml", "--scenes a.toml and b.toml: their names \"a b\" and \"a/b\" give the same image file names (a-b_...)"),
+        ("bang.toml,what.toml", "--scenes bang.toml: its name \"!!\" has no letter or digit"),
+    ] {
+        fails_untouched(
+            &dir,
+            &["bench", "--scenes", scenes, "--techniques", "hard", "--out", "out"],
+            expect,
+        );
+        assert!(!dir.join("out").exists(), "{scenes}: --out was made");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// Every hidden partial file in `dir`.
+fn partials(dir: &Path) -> Vec<String> {
+    std::fs::read_dir(dir)
+        .unwrap()
+        .flatten()
+        .map(|e| e.file_name().to_string_lossy().into_owned())
+        .filter(|n| n.contains(".partial-"))
+        .collect()
+}
+
+/// An export of the largest built-in interrupted while it writes its OBJ (SIGINT, then
+/// SIGTERM): the staged `.o.obj.partial-PID` is removed, nothing is published, the exit is
+/// non-zero with one `error:` line.
+#[test]
+fn interrupted_export_removes_its_partial_files() {
+    for (signal, name) in [(libc::SIGINT, "sigint"), (libc::SIGTERM, "sigterm")] {
+        let dir = scratch(&format!("interrupt-{name}"));
+        let mut child = Command::new(env!("CARGO_BIN_EXE_softshadow"))
+            .args(["export", "--scene", "dense-1m", "--obj", "o.obj"])
+            .current_dir(&dir)
+            .stdout(std::process::Stdio::null())
+            .stderr(std::process::Stdio::piped())
+            .spawn()
+            .unwrap();
+        // Signalled once the partial OBJ exists and has grown (mid-write).
+        let partial = dir.join(format!(".o.obj.partial-{}", child.id()));
+        let mut waited = 0;
+        while std::fs::metadata(&partial).map_or(0, |m| m.len()) < 1 << 20 {
+            assert!(
+                child.try_wait().unwrap().is_none(),
+                "{name}: export ended before it was signalled"
+            );
+            std::thread::sleep(std::time::Duration::from_millis(20));
+            waited += 1;
+            assert!(waited < 15_000, "{name}: no partial file after 300 s");
+        }
+        // SAFETY: kill(2) on our own child's pid.
+        assert_eq!(unsafe { libc::kill(child.id() as i32, signal) }, 0);
+        let out = child.wait_with_output().unwrap();
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success(), "{name}: exit {:?}", out.status);
+        assert_eq!(
+            stderr.lines().filter(|l| l.starts_with("error:")).count(),
+            1,
+            "{name}: {stderr}"
+        );
+        assert!(!stderr.contains("panicked"), "{name}: {stderr}");
+        assert_eq!(partials(&dir), Vec::<String>::new(), "{name}: partial left");
+        assert!(
+            !dir.join("o.obj").exists() && !dir.join("o.json").exists(),
+            "{name}"
+        );
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+}
+
+/// A process killed outright (SIGKILL) cannot clean up: its partial file carries its process
+/// id, and the next export into that folder removes it (a live process's is kept).
+#[test]
+fn stale_partial_files_of_dead_processes_are_removed() {
+    let dir = scratch("stale-partial");
+    // Above the kernel's pid_max (4194304): no live process has it.
+    let stale = dir.join(".o.obj.partial-999999999");
+    std::fs::write(&stale, b"half an obj").unwrap();
+    let live = dir.join(format!(".o.obj.partial-{}", std::process::id()));
+    std::fs::write(&live, b"in progress").unwrap();
+    let o = Command::new(env!("CARGO_BIN_EXE_softshadow"))
+        .args(["export", "--scene", "cylinder", "--obj", "o.obj"])
+        .current_dir(&dir)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(
+        !stale.exists(),
+        "the dead export's partial file is still there"
+    );
+    assert!(live.exists(), "a live process's partial file was removed");
+    assert!(dir.join("o.obj").is_file());
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -521,8 +521,27 @@ pub fn prepare(config: BenchConfig) -> Result<Plan> {
     let (variants, hard_added) = variants(&c.techniques, &c.smoothie_t, &c.spirv)?;
     let variants = with_silhouette_paths(variants, &c.silhouettes);
     let mut scenes = Vec::new();
-    for name in dedup(&c.scenes) {
-        scenes.push(Scene::load(name.trim())?);
+    let args = dedup(
+        &c.scenes
+            .iter()
+            .map(|s| s.trim().to_string())
+            .collect::<Vec<_>>(),
+    );
+    for name in &args {
+        scenes.push(Scene::load(name)?);
+    }
+    check_scene_names(&args, &scenes)?;
+    for arg in &args {
+        if crate::scene::BUILTIN_SCENES.contains(&arg.as_str()) {
+            continue;
+        }
+        for f in TOP_FILES {
+            crate::output::check_not_input(
+                &c.out.join(f),
+                "--out",
+                &[("--scenes", PathBuf::from(arg))],
+            )?;
+        }
     }
     let resolutions = dedup(&c.resolutions);
     let motions = dedup(&c.motions);
@@ -555,6 +574,30 @@ pub fn prepare(config: BenchConfig) -> Result<Plan> {
     })
 }
 
+/// Every scene's images are named after it (`slug`): two scenes of one name, or of names
+/// that reduce to the same or to an empty file name, would overwrite each other's images
+/// at the end of the sweep. Refused before it starts.
+fn check_scene_names(args: &[String], scenes: &[Scene]) -> Result<()> {
+    let mut seen: Vec<(String, &str, &str)> = Vec::new();
+    for (arg, scene) in args.iter().zip(scenes) {
+        let file = slug(&scene.name);
+        if file.is_empty() {
+            bail!(
+                "--scenes {arg}: its name {:?} has no letter or digit to name its image files; give the scene a `name`",
+                scene.name
+            );
+        }
+        if let Some((_, other, other_name)) = seen.iter().find(|(f, _, _)| *f == file) {
+            bail!(
+                "--scenes {other} and {arg}: their names {other_name:?} and {:?} give the same image file names ({file}_...); give each scene its own `name`",
+                scene.name
+            );
+        }
+        seen.push((file, arg, &scene.name));
+    }
+    Ok(())
+}
+
 fn dedup<T: PartialEq + Clone>(v: &[T]) -> Vec<T> {
     let mut out: Vec<T> = Vec::new();
     for x in v {
@@ -573,6 +616,8 @@ struct Staging {
     dir: PathBuf,
     created_out: bool,
     committed: bool,
+    /// `dir`, listed for removal on an interrupt.
+    _pending: crate::output::Pending,
 }
 
 /// The fixed files of a sweep; `images/` holds the rest.
@@ -585,31 +630,6 @@ const TOP_FILES: [&str; 5] = [
 ];
 
 const STAGING_PREFIX: &str = ".bench-partial-";
-
-/// Removes the staging folders of sweeps whose process is gone (killed, Ctrl-C), found by
-/// the process id in their name; a live process's folder is left alone.
-fn remove_stale_staging(out: &Path) {
-    // Without /proc there is no way to tell a dead process from a live one: keep everything.
-    if !Path::new("/proc/self").exists() {
-        return;
-    }
-    let Ok(entries) = std::fs::read_dir(out) else {
-        return;
-    };
-    for e in entries.flatten() {
-        let name = e.file_name().to_string_lossy().into_owned();
-        let Some(pid) = name.strip_prefix(STAGING_PREFIX) else {
-            continue;
-        };
-        let Ok(pid) = pid.parse::<u32>() else {
-            continue;
-        };
-        let ours = pid == std::process::id();
-        if ours || !Path::new(&format!("/proc/{pid}")).exists() {
-            let _ = std::fs::remove_dir_all(e.path());
-        }
-    }
-}
 
 impl Staging {
     fn new(out: &Path) -> Result<Self> {
@@ -627,10 +647,12 @@ impl Staging {
         let created_out = !out.exists();
         std::fs::create_dir_all(out)
             .map_err(|e| anyhow::anyhow!("cannot create output folder {}: {e}", out.display()))?;
-        remove_stale_staging(out);
+        // The sweeps killed outright (SIGKILL) left their staging folder.
+        crate::output::remove_stale(out, STAGING_PREFIX);
         let dir = out.join(format!("{STAGING_PREFIX}{}", std::process::id()));
         let staging = Self {
             out: out.to_path_buf(),
+            _pending: crate::output::Pending::new(&dir),
             dir,
             created_out,
             committed: false,

@@ -235,6 +235,8 @@ pub struct BenchConfig {
     pub progress: bool,
     /// The command line, recorded in the report.
     pub command: String,
+    /// How far scene files may reach for the files they name (`--allow-outside-paths`).
+    pub load: crate::scene::LoadOptions,
 }
 
 impl Default for BenchConfig {
@@ -258,6 +260,7 @@ impl Default for BenchConfig {
             out: PathBuf::from("bench-out"),
             progress: true,
             command: String::new(),
+            load: crate::scene::LoadOptions::default(),
         }
     }
 }
@@ -522,7 +525,7 @@ pub fn prepare(config: BenchConfig) -> Result<Plan> {
     let variants = with_silhouette_paths(variants, &c.silhouettes);
     let mut scenes = Vec::new();
     for name in dedup(&c.scenes) {
-        scenes.push(Scene::load(name.trim())?);
+        scenes.push(Scene::load_with(name.trim(), &c.load)?);
     }
     let resolutions = dedup(&c.resolutions);
     let motions = dedup(&c.motions);

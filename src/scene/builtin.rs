@@ -23,7 +23,10 @@ pub const BUILTIN_SCENES: &[&str] = &[
 ];
 
 /// The Stanford bunny, compiled in so the binary works from any directory.
-const BUNNY_OBJ: &str = include_str!(concat!(env!("CARGO_MANIFEST_DIR"), "/assets/scenes/bunny.obj"));
+const BUNNY_OBJ: &str = include_str!(concat!(
+    env!("CARGO_MANIFEST_DIR"),
+    "/assets/scenes/bunny.obj"
+));
 
 const GROUND: Vec3 = Vec3::new(0.8, 0.8, 0.78);
 

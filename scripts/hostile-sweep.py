@@ -298,10 +298,10 @@ def hostile_file_inputs():
         "hf_newline_name.gltf": _gltf([dict(ground, name="a\nerror: b", matrix=[0] * 16)], [0]),
         "big.exr": _exr_header(1000000, 1000000, 2048),
         "hf_etc.toml": '[[object]]\nmesh = "/etc/passwd"\n',
-        "hf_up.toml": '[[object]]\nmesh = "../up.obj"\n',
+        "hf_up.toml": '[[object]]\nmesh = "../up.obj"\n[[object]]\nprimitive = "plane"\nrole = "receiver"\n',
         "hf_fifo_mesh.toml": '[[object]]\nmesh = "hf_fifo.obj"\n',
         "hf_zero_mesh.toml": '[[object]]\nmesh = "/dev/zero"\n',
-        "hf_link_mesh.toml": '[[object]]\nmesh = "hf_link.obj"\n',
+        "hf_link_mesh.toml": '[[object]]\nmesh = "hf_link.obj"\n[[object]]\nprimitive = "plane"\nrole = "receiver"\n',
         "hf_sphere_cap.toml": '[[object]]\nprimitive = "sphere"\nsegments = 4096\nrings = 4096\n',
     }
     for label, uri in [("dotdot", "../tri.bin"), ("pct", "%2e%2e/tri.bin"), ("abs", "/etc/passwd"),
@@ -325,8 +325,14 @@ def prepare_hostile_files(folder):
         os.link(os.path.join(_HOSTILE_CACHE, name), os.path.join(folder, name))
     for fifo in ("hf_fifo.toml", "hf_fifo.obj", "hf_fifo.gltf", "hf_fifo.bin", "hf_fifo.png"):
         os.mkfifo(os.path.join(folder, fifo))
-    os.symlink("/etc/passwd", os.path.join(folder, "hf_link.bin"))
-    os.symlink("/etc/passwd", os.path.join(folder, "hf_link.obj"))
+    # Valid files just outside the folder: a scene that reaches them would render.
+    parent = os.path.dirname(folder)
+    for name, data in (("tri.bin", _tri_buffer(1)), ("up.obj", b"v 0 1 0\nv 1 1 0\nv 0 1 1\nf 1 2 3\n")):
+        if not os.path.exists(os.path.join(parent, name)):
+            with open(os.path.join(parent, name), "wb") as fh:
+                fh.write(data)
+    os.symlink(os.path.join(parent, "tri.bin"), os.path.join(folder, "hf_link.bin"))
+    os.symlink(os.path.join(parent, "up.obj"), os.path.join(folder, "hf_link.obj"))
 
 
 def hostile_file_cases():
@@ -337,8 +343,7 @@ def hostile_file_cases():
     scenes += ["hf_fifo.toml", "hf_fifo.obj", "hf_fifo.gltf", "/dev/zero", "/dev/urandom", "no\nsuch.toml"]
     for f in scenes:
         out.append((f"render --scene {f!r}", r + ["--scene", f], {}))
-    for f in ("hf_etc.toml", "hf_up.toml", "hf_buf_abs.gltf", "hf_buf_zero.gltf", "hf_buf_urandom.gltf",
-              "hf_zero_mesh.toml", "hf_link_mesh.toml"):
+    for f in ("hf_etc.toml", "hf_buf_abs.gltf", "hf_buf_zero.gltf", "hf_buf_urandom.gltf", "hf_zero_mesh.toml"):
         out.append((f"render --scene {f} --allow-outside-paths", r + ["--scene", f, "--allow-outside-paths"], {}))
     for f in ("hf_chain.gltf", "hf_twice_bare.gltf", "hf_many.gltf", "hf_buf_fileuri.gltf"):
         out.append((f"bench --scenes {f}", ["bench", "--scenes", f, "--techniques", "hard", "--out", "b"], {}))

@@ -1261,6 +1261,22 @@ mod tests {
     }
 
     #[test]
+    fn validation_findings_are_cut_to_a_few() {
+        assert_eq!(few("a: x; b: y;"), "a: x; b: y");
+        let many: String = (0..2000).map(|k| format!("m[{k}]: Missing data; ")).collect();
+        let line = few(&many);
+        assert!(line.ends_with("; and 1997 more"), "{line}");
+        assert!(line.starts_with("m[0]: Missing data; m[1]"), "{line}");
+    }
+
+    #[test]
+    fn json_depth_skips_strings() {
+        assert_eq!(json_depth(br#"{"a": [[1], "[[[[\"[["], {}]}"#), 3);
+        assert_eq!(json_depth(b"[]"), 1);
+        assert_eq!(json_depth(b"1"), 0);
+    }
+
+    #[test]
     fn glb_chunks_are_padded_and_sized() {
         let b = glb_bytes(b"{}", &[1, 2, 3, 4, 5]);
         assert_eq!(&b[0..4], b"glTF");

@@ -197,12 +197,12 @@ fn parse_unwinding(
         gltf::Document::from_json(root).map_err(|e| anyhow!("{file}: {}", few(&one_line(&e))))?;
     let doc = &doc;
     check_hierarchy(doc, file)?;
-    let buffers = load_buffers(doc, dir, blob, file, opts)?;
-
     let scene = doc
         .default_scene()
         .or_else(|| doc.scenes().next())
         .ok_or_else(|| anyhow!("{file}: has no scene"))?;
+    check_declared_sizes(&scene, file)?;
+    let buffers = load_buffers(doc, dir, blob, file, opts)?;
 
     let mut walk = Walk {
         file,
@@ -212,8 +212,6 @@ fn parse_unwinding(
         spot: None,
         point: None,
         camera: None,
-        triangles: 0,
-        vertices: 0,
     };
     // Depth first, parents before children, children in file order: an explicit stack,
     // so that the depth of a file's hierarchy is bounded by a limit, not by the thread's stack.
@@ -361,17 +359,13 @@ struct Eye {
 struct Walk<'a> {
     file: &'a str,
     buffers: &'a [gltf::buffer::Data],
-    /// One mesh per distinct (mode, POSITION, NORMAL, indices) accessors, shared by every
-    /// node and every glTF mesh that use the same data.
+    /// One mesh per distinct mode and POSITION, NORMAL and indices data (`PrimitiveKey`),
+    /// shared by every node and every glTF mesh that use the same data.
     meshes: HashMap<PrimitiveKey, Arc<Mesh>>,
     objects: Vec<Object>,
     spot: Option<Spot>,
     point: Option<Vec3>,
     camera: Option<Eye>,
-    /// Triangles of every instance so far (`input::MAX_SCENE_TRIANGLES`).
-    triangles: usize,
-    /// Vertices of every distinct primitive read so far (`input::MAX_SCENE_VERTICES`).
-    vertices: usize,
 }
 
 impl Walk<'_> {
@@ -461,28 +455,11 @@ impl Walk<'_> {
         let count = mesh.primitives().len();
         for prim in mesh.primitives() {
             let what = format!("{file}: {label}, {mesh_label}, primitive {}", prim.index());
-            // Declared sizes, bounded before anything is read or expanded.
-            let (triangles, vertices) = declared_size(&prim);
-            self.triangles = self.triangles.saturating_add(triangles);
-            if self.triangles > input::MAX_SCENE_TRIANGLES {
-                bail!(
-                    "{what}: brings the scene to {} triangles (each instance counts), above the limit of {} per scene",
-                    self.triangles,
-                    input::MAX_SCENE_TRIANGLES
-                );
-            }
+            // Sizes were bounded by `check_declared_sizes` before any buffer was loaded.
             let key = primitive_key(&prim);
             let m = match self.meshes.get(&key) {
                 Some(m) => m.clone(),
                 None => {
-                    self.vertices = self.vertices.saturating_add(vertices);
-                    if self.vertices > input::MAX_SCENE_VERTICES {
-                        bail!(
-                            "{what}: brings the scene to {} vertices read, above the limit of {} per scene",
-                            self.vertices,
-                            input::MAX_SCENE_VERTICES
-                        );
-                    }
                     let m = Arc::new(read_primitive(&prim, self.buffers, &what)?);
                     self.meshes.insert(key, m.clone());
                     m
@@ -522,17 +499,80 @@ fn axis(world: &Mat4, v: Vec3) -> Option<Vec3> {
 
 /// What a primitive's mesh is read from: its mode and its POSITION, NORMAL and indices
 /// accessors (and whether it has morph targets, which `read_primitive` refuses).
-type PrimitiveKey = (bool, u32, usize, Option<usize>, Option<usize>);
+type PrimitiveKey = (
+    bool,
+    u32,
+    Option<AccessorKey>,
+    Option<AccessorKey>,
+    Option<AccessorKey>,
+);
+
+/// Where an accessor's elements come from: buffer view, offset, count, component type and
+/// dimensions. Two accessors with the same key read the same values.
+type AccessorKey = (usize, usize, usize, u32, usize);
+
+fn accessor_key(a: gltf::Accessor) -> AccessorKey {
+    (
+        a.view().map_or(usize::MAX, |v| v.index()),
+        a.offset(),
+        a.count(),
+        a.data_type().as_gl_enum(),
+        a.dimensions().multiplicity(),
+    )
+}
 
 fn primitive_key(prim: &gltf::Primitive) -> PrimitiveKey {
     (
         prim.morph_targets().len() > 0,
         prim.mode().as_gl_enum(),
-        prim.get(&gltf::Semantic::Positions)
-            .map_or(usize::MAX, |a| a.index()),
-        prim.get(&gltf::Semantic::Normals).map(|a| a.index()),
-        prim.indices().map(|a| a.index()),
+        prim.get(&gltf::Semantic::Positions).map(accessor_key),
+        prim.get(&gltf::Semantic::Normals).map(accessor_key),
+        prim.indices().map(accessor_key),
     )
+}
+
+/// Bounds the scene's triangles (every instance) and the vertices its distinct meshes read,
+/// from declared counts alone, before any buffer is loaded. Needs a forest
+/// (`check_hierarchy`): every node is met once.
+fn check_declared_sizes(scene: &gltf::Scene, file: &str) -> Result<()> {
+    let (mut triangles, mut vertices) = (0usize, 0usize);
+    let mut seen = std::collections::HashSet::new();
+    let mut stack: Vec<gltf::Node> = scene.nodes().collect();
+    while let Some(node) = stack.pop() {
+        if let Some(mesh) = node.mesh() {
+            for prim in mesh.primitives() {
+                let (t, v) = declared_size(&prim);
+                triangles = triangles.saturating_add(t);
+                if seen.insert(primitive_key(&prim)) {
+                    vertices = vertices.saturating_add(v);
+                }
+                let at = || {
+                    format!(
+                        "{file}: {}, mesh {}, primitive {}",
+                        node_label(&node),
+                        mesh.index(),
+                        prim.index()
+                    )
+                };
+                if triangles > input::MAX_SCENE_TRIANGLES {
+                    bail!(
+                        "{}: brings the scene to {triangles} triangles (each instance counts), above the limit of {} per scene",
+                        at(),
+                        input::MAX_SCENE_TRIANGLES
+                    );
+                }
+                if vertices > input::MAX_SCENE_VERTICES {
+                    bail!(
+                        "{}: brings the scene to {vertices} vertices read, above the limit of {} per scene",
+                        at(),
+                        input::MAX_SCENE_VERTICES
+                    );
+                }
+            }
+        }
+        stack.extend(node.children());
+    }
+    Ok(())
 }
 
 /// The triangles a primitive declares (from its index or vertex count and mode) and the
@@ -1263,7 +1303,9 @@ mod tests {
     #[test]
     fn validation_findings_are_cut_to_a_few() {
         assert_eq!(few("a: x; b: y;"), "a: x; b: y");
-        let many: String = (0..2000).map(|k| format!("m[{k}]: Missing data; ")).collect();
+        let many: String = (0..2000)
+            .map(|k| format!("m[{k}]: Missing data; "))
+            .collect();
         let line = few(&many);
         assert!(line.ends_with("; and 1997 more"), "{line}");
         assert!(line.starts_with("m[0]: Missing data; m[1]"), "{line}");

@@ -198,6 +198,7 @@ def cases(exe):
         add(f"render with {list(env.values())[0]}", r + ["--out", "o.png"], env)
     add("unknown subcommand", ["paint"])
     add("unknown flag", ["render", "--colour", "red"])
+    out.extend(hostile_file_cases())
     return out
 
 
@@ -343,6 +344,154 @@ def prepare(folder):
     os.symlink("/dev/full", os.path.join(folder, "full.png"))
     os.mkdir(os.path.join(folder, "adir.png"))
     prepare_outputs(folder)
+    prepare_hostile_files(folder)
+
+
+# ---------------------------------------------------------------------------------------
+# Hostile input files: node graphs, sizes and paths a scene file or a compare input may use
+# to crash, hang, exhaust memory or read outside its folder. Generated once, hard-linked
+# into each scratch folder (a hard link is a regular file inside the folder).
+# ---------------------------------------------------------------------------------------
+
+_HOSTILE_CACHE = None
+
+
+def _tri_buffer(triangles):
+    """Float VEC3 positions of `triangles` separate, non-degenerate triangles."""
+    import struct
+    vals = []
+    for t in range(triangles):
+        y = t * 1e-3
+        vals += [0.0, y, 0.0, 1.0, y, 0.0, 0.0, y, 1.0]
+    return struct.pack("<%df" % len(vals), *vals)
+
+
+def _gltf(nodes, roots, meshes=1, buffer_uri="tri.bin", triangles=1, view=None, lights=None):
+    """A glTF document whose meshes all read one POSITION accessor of `triangles` triangles
+    from `buffer_uri`."""
+    import json
+    n = triangles * 3
+    doc = {
+        "asset": {"version": "2.0"},
+        "scenes": [{"nodes": roots}],
+        "nodes": nodes,
+        "meshes": [{"primitives": [{"attributes": {"POSITION": 0}}]} for _ in range(meshes)],
+        "accessors": [{"bufferView": 0, "componentType": 5126, "count": n, "type": "VEC3",
+                       "min": [0.0, 0.0, 0.0], "max": [1.0, max(triangles - 1, 0) * 1e-3, 1.0]}],
+        "bufferViews": [dict({"buffer": 0, "byteLength": n * 12}, **(view or {}))],
+        "buffers": [{"byteLength": n * 12, "uri": buffer_uri}],
+    }
+    if lights:
+        doc["extensionsUsed"] = ["KHR_lights_punctual"]
+        doc["extensions"] = {"KHR_lights_punctual": {"lights": lights}}
+    return json.dumps(doc)
+
+
+def _exr_header(w, h, length):
+    """A scanline EXR header declaring w x h float pixels of one channel, padded with zeros."""
+    import struct
+    b = bytearray(b"\x76\x2f\x31\x01\x02\x00\x00\x00")
+
+    def attr(name, kind, value):
+        b.extend(name.encode() + b"\0" + kind.encode() + b"\0" + struct.pack("<i", len(value)) + value)
+
+    attr("channels", "chlist", b"Y\0" + struct.pack("<iiii", 2, 0, 1, 1) + b"\0")
+    attr("compression", "compression", b"\0")
+    window = struct.pack("<iiii", 0, 0, w - 1, h - 1)
+    attr("dataWindow", "box2i", window)
+    attr("displayWindow", "box2i", window)
+    attr("lineOrder", "lineOrder", b"\0")
+    attr("pixelAspectRatio", "float", struct.pack("<f", 1.0))
+    attr("screenWindowCenter", "v2f", bytes(8))
+    attr("screenWindowWidth", "float", struct.pack("<f", 1.0))
+    b.extend(b"\0")
+    return bytes(b) + bytes(max(0, length - len(b)))
+
+
+def hostile_file_inputs():
+    """(file name, bytes) of every generated hostile input."""
+    ground = {"mesh": 0}
+    chain = [{"children": [k + 1]} for k in range(12999)] + [{"mesh": 0}]
+    ring = [{"mesh": 0, "children": [(k + 1) % 13000]} for k in range(13000)]
+    twice = [{"mesh": 0, "children": [k + 1, k + 1]} for k in range(39)] + [{"mesh": 0}]
+    twice_bare = [{"children": [k + 1, k + 1]} for k in range(39)] + [ground]
+    many = [{"mesh": k} for k in range(2000)]
+    spot = lambda angle: [{"type": "spot", "spot": {"outerConeAngle": angle}}]
+    out = {
+        "tri.bin": _tri_buffer(1),
+        "big.bin": _tri_buffer(10000),
+        "hf_chain.gltf": _gltf(chain, [0]),
+        "hf_ring.gltf": _gltf(ring, [0]),
+        "hf_twice.gltf": _gltf(twice, [0]),
+        "hf_twice_bare.gltf": _gltf(twice_bare, [0]),
+        "hf_many.gltf": _gltf(many, list(range(2000)), meshes=2000, buffer_uri="big.bin", triangles=10000),
+        "hf_stride4.gltf": _gltf([ground], [0], view={"byteStride": 4}),
+        "hf_projective.gltf": _gltf([dict(ground, matrix=[1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0.5, 0, 0, 0, 1])], [0]),
+        "hf_wide_cone.gltf": _gltf([ground, {"extensions": {"KHR_lights_punctual": {"light": 0}}}], [0, 1],
+                                   lights=spot(1.6)),
+        "hf_deep_json.gltf": _gltf([dict(ground, extras={"x": "DEEP"})], [0]).replace(
+            '"DEEP"', "[" * 5000 + "]" * 5000),
+        "hf_newline_name.gltf": _gltf([dict(ground, name="a\nerror: b", matrix=[0] * 16)], [0]),
+        "big.exr": _exr_header(1000000, 1000000, 2048),
+        "hf_etc.toml": '[[object]]\nmesh = "/etc/passwd"\n',
+        "hf_up.toml": '[[object]]\nmesh = "../up.obj"\n[[object]]\nprimitive = "plane"\nrole = "receiver"\n',
+        "hf_fifo_mesh.toml": '[[object]]\nmesh = "hf_fifo.obj"\n',
+        "hf_zero_mesh.toml": '[[object]]\nmesh = "/dev/zero"\n',
+        "hf_link_mesh.toml": '[[object]]\nmesh = "hf_link.obj"\n[[object]]\nprimitive = "plane"\nrole = "receiver"\n',
+        "hf_sphere_cap.toml": '[[object]]\nprimitive = "sphere"\nsegments = 4096\nrings = 4096\n',
+    }
+    for label, uri in [("dotdot", "../tri.bin"), ("pct", "%2e%2e/tri.bin"), ("abs", "/etc/passwd"),
+                       ("fileuri", "file:///etc/passwd"), ("link", "hf_link.bin"),
+                       ("zero", "/dev/zero"), ("urandom", "/dev/urandom"), ("fifo", "hf_fifo.bin"),
+                       ("http", "http://example.com/x.bin")]:
+        out[f"hf_buf_{label}.gltf"] = _gltf([ground], [0], buffer_uri=uri)
+    return {k: v.encode("latin-1") if isinstance(v, str) else v for k, v in out.items()}
+
+
+def prepare_hostile_files(folder):
+    global _HOSTILE_CACHE
+    if _HOSTILE_CACHE is None:
+        import atexit
+        _HOSTILE_CACHE = tempfile.mkdtemp(prefix="softshadow-hostile-files-")
+        atexit.register(shutil.rmtree, _HOSTILE_CACHE, True)
+        for name, data in hostile_file_inputs().items():
+            with open(os.path.join(_HOSTILE_CACHE, name), "wb") as fh:
+                fh.write(data)
+    for name in os.listdir(_HOSTILE_CACHE):
+        os.link(os.path.join(_HOSTILE_CACHE, name), os.path.join(folder, name))
+    for fifo in ("hf_fifo.toml", "hf_fifo.obj", "hf_fifo.gltf", "hf_fifo.bin", "hf_fifo.png"):
+        os.mkfifo(os.path.join(folder, fifo))
+    # Valid files just outside the folder: a scene that reaches them would render.
+    parent = os.path.dirname(folder)
+    for name, data in (("tri.bin", _tri_buffer(1)), ("up.obj", b"v 0 1 0\nv 1 1 0\nv 0 1 1\nf 1 2 3\n")):
+        if not os.path.exists(os.path.join(parent, name)):
+            with open(os.path.join(parent, name), "wb") as fh:
+                fh.write(data)
+    os.symlink(os.path.join(parent, "tri.bin"), os.path.join(folder, "hf_link.bin"))
+    os.symlink(os.path.join(parent, "up.obj"), os.path.join(folder, "hf_link.obj"))
+
+
+def hostile_file_cases():
+    """(label, args, env) for every hostile input file."""
+    r = ["render"] + SMALL + ["--technique", "hard", "--out", "o.png"]
+    out = []
+    scenes = sorted(n for n in hostile_file_inputs() if n.startswith("hf_") and n.endswith((".gltf", ".toml")))
+    scenes += ["hf_fifo.toml", "hf_fifo.obj", "hf_fifo.gltf", "/dev/zero", "/dev/urandom", "no\nsuch.toml"]
+    for f in scenes:
+        out.append((f"render --scene {f!r}", r + ["--scene", f], {}))
+    for f in ("hf_etc.toml", "hf_buf_abs.gltf", "hf_buf_zero.gltf", "hf_buf_urandom.gltf", "hf_zero_mesh.toml"):
+        out.append((f"render --scene {f} --allow-outside-paths", r + ["--scene", f, "--allow-outside-paths"], {}))
+    for f in ("hf_chain.gltf", "hf_twice_bare.gltf", "hf_many.gltf", "hf_buf_fileuri.gltf"):
+        out.append((f"bench --scenes {f}", ["bench", "--scenes", f, "--techniques", "hard", "--out", "b"], {}))
+        out.append((f"export --scene {f}", ["export", "--scene", f, "--obj", "o.obj"], {}))
+    out.append(("compare --scene hf_fifo.toml", ["compare", "--reference", "big.exr", "--test", "big.exr",
+                                                  "--scene", "hf_fifo.toml"], {}))
+    out.append(("compare 1e6 x 1e6 EXR", ["compare", "--reference", "big.exr", "--test", "big.exr",
+                                          "--light", "0,5,0"], {}))
+    out.append(("compare FIFO PNG", ["compare", "--reference", "big.exr", "--test", "big.exr", "--light", "0,5,0",
+                                     "--reference-image", "hf_fifo.png", "--test-image", "hf_fifo.png",
+                                     "--out", "c.png"], {}))
+    return out
 
 
 def main():

@@ -36,6 +36,10 @@ struct Cli {
     /// Turn on the Khronos validation layers (any message is printed to stderr).
     #[arg(long, global = true)]
     validation: bool,
+    /// Let scene files read meshes and glTF buffers outside their own folder (by default a
+    /// scene reads only files in its folder and subfolders).
+    #[arg(long, global = true)]
+    allow_outside_paths: bool,
     #[command(subcommand)]
     command: Command,
 }
@@ -347,6 +351,18 @@ fn error_line(e: &anyhow::Error) -> String {
         }
         line.push_str(&text);
     }
+    // A newline in a name or path, from any layer, must not start a second line.
+    let line: String = line
+        .chars()
+        .flat_map(|c| {
+            let escaped: Vec<char> = if c.is_control() {
+                c.escape_default().collect()
+            } else {
+                vec![c]
+            };
+            escaped
+        })
+        .collect();
     clip_long_words(&line)
 }
 
@@ -378,6 +394,12 @@ fn clip_long_words(text: &str) -> String {
     out
 }
 
+fn load_options(cli: &Cli) -> softshadow::scene::LoadOptions {
+    softshadow::scene::LoadOptions {
+        allow_outside_paths: cli.allow_outside_paths,
+    }
+}
+
 fn open_device(cli: &Cli) -> Result<Context> {
     let mut opts = ContextOptions::from_env();
     if cli.device.is_some() {
@@ -394,7 +416,7 @@ fn run(cli: Cli) -> Result<()> {
         Command::Render(a) => render(&cli, a),
         Command::Bench(a) => run_bench(&cli, a),
         Command::Stress(a) => stress(&cli, a),
-        Command::Compare(a) => compare(a),
+        Command::Compare(a) => compare(&cli, a),
         Command::Export(a) => {
             if a.width == 0 || a.height == 0 {
                 bail!("--width and --height must be at least 1");
@@ -411,7 +433,7 @@ fn run(cli: Cli) -> Result<()> {
                 check_not_input(gltf, "--gltf", &inputs)?;
                 check_not_input(&gltf.with_extension("bin"), "--gltf's buffer", &inputs)?;
             }
-            let scene = Scene::load(&a.scene)?;
+            let scene = Scene::load_with(&a.scene, &load_options(&cli))?;
             if let Some(obj) = &a.obj {
                 softshadow::scene::export::export_obj(&scene, obj, a.width, a.height)?;
                 println!(
@@ -441,7 +463,7 @@ fn render(cli: &Cli, a: &RenderArgs) -> Result<()> {
         ..Settings::default()
     }
     .check_reference_samples()?;
-    let scene = Scene::load(&a.scene)?;
+    let scene = Scene::load_with(&a.scene, &load_options(cli))?;
     softshadow::output::check_file(&a.out, "--out")?;
     softshadow::output::check_png_name(&a.out, "--out")?;
     let inputs = scene_inputs(&a.scene);
@@ -582,6 +604,7 @@ fn run_bench(cli: &Cli, a: &BenchArgs) -> Result<()> {
         out: a.out.clone(),
         progress: true,
         command: std::env::args().collect::<Vec<_>>().join(" "),
+        load: load_options(cli),
     };
     // Names, numbers and the output folder are checked before the device is opened.
     let plan = bench::prepare(config)?;
@@ -677,7 +700,7 @@ fn compare_inputs(a: &CompareArgs) -> Vec<(&'static str, PathBuf)> {
     inputs
 }
 
-fn compare(a: &CompareArgs) -> Result<()> {
+fn compare(cli: &Cli, a: &CompareArgs) -> Result<()> {
     use softshadow::eval::compare;
     softshadow::output::check_png_name(&a.out, "--out")?;
     softshadow::output::check_file(&a.out, "--out")?;
@@ -689,9 +712,13 @@ fn compare(a: &CompareArgs) -> Result<()> {
     }
     let light = match (&a.light, &a.scene) {
         (Some(l), _) => glam::Vec3::from_array(*l),
-        (None, Some(s)) => Scene::load(s)?.light.position,
+        (None, Some(s)) => Scene::load_with(s, &load_options(cli))?.light.position,
         (None, None) => bail!("give --scene or --light: the lit-surface mask needs the light"),
     };
+    // A FIFO or device would block or never end the read: refused before it is opened.
+    for png in [&a.reference_image, &a.test_image].into_iter().flatten() {
+        softshadow::scene::input::check_regular(png, &softshadow::scene::input::shown_path(png))?;
+    }
     let c = compare::compare(&compare::CompareInputs {
         reference: a.reference.clone(),
         test: a.test.clone(),
@@ -788,6 +815,15 @@ mod tests {
         let line = error_line(&e);
         assert_eq!(line.matches(&text).count(), 1, "{line}");
         assert!(line.starts_with("cannot write out.png: "), "{line}");
+    }
+
+    /// A newline or escape sequence inside a cause is escaped: one error, one line.
+    #[test]
+    fn control_characters_are_escaped() {
+        let e = anyhow::anyhow!("scene 'a\nerror: b\u{1b}[2J'").context("cannot load");
+        let line = error_line(&e);
+        assert!(!line.contains('\n') && !line.contains('\u{1b}'), "{line}");
+        assert!(line.contains("a\\nerror: b"), "{line}");
     }
 
     #[test]

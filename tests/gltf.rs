@@ -428,3 +428,379 @@ fn exported_glb_loads_back_and_renders_the_same_visibility() {
     assert!(String::from_utf8_lossy(&o.stderr).contains(".glb or .gltf"));
     std::fs::remove_dir_all(&d).ok();
 }
+
+// ---------------------------------------------------------------------------------------
+// Hostile files: node graphs built to exhaust the walk, sizes built to exhaust memory,
+// paths that leave the scene's folder, transforms the two renderers read differently.
+// ---------------------------------------------------------------------------------------
+
+/// `doc` written as `name` in `dir`, with its buffer `bin` beside it as `NAME.bin`.
+fn write_doc(dir: &Path, name: &str, doc: &Value, bin: &[u8]) -> PathBuf {
+    let mut doc = doc.clone();
+    let bin_name = format!("{name}.bin");
+    if doc["buffers"][0].get("uri").is_some() {
+        doc["buffers"][0]["uri"] = json!(bin_name);
+    }
+    std::fs::write(dir.join(&bin_name), bin).unwrap();
+    let p = dir.join(name);
+    std::fs::write(&p, serde_json::to_vec(&doc).unwrap()).unwrap();
+    p
+}
+
+/// The pair scene with `extra` appended to its nodes: each new node's index is
+/// `first + k` where `first` is returned.
+fn with_nodes(extra: Vec<Value>) -> (Value, Vec<u8>, usize) {
+    let (mut doc, bin) = gltf_scene(Some("x.bin"));
+    let nodes = doc["nodes"].as_array_mut().unwrap();
+    let first = nodes.len();
+    nodes.extend(extra);
+    (doc, bin, first)
+}
+
+#[test]
+fn a_node_chain_deeper_than_the_limit_is_refused_not_a_stack_overflow() {
+    let d = tmp_dir("chain");
+    let n = 13_000;
+    let chain: Vec<Value> = (0..n)
+        .map(|k| {
+            if k + 1 < n {
+                json!({"children": [5 + 1 + k + 1]})
+            } else {
+                json!({"mesh": 0})
+            }
+        })
+        .collect();
+    let (mut doc, bin, first) = with_nodes(chain);
+    assert_eq!(first, 6);
+    doc["scenes"][0]["nodes"]
+        .as_array_mut()
+        .unwrap()
+        .push(json!(first));
+    let e = load_err(&write_doc(&d, "chain.gltf", &doc, &bin));
+    assert!(e.contains("levels deep") && e.contains("1000"), "{e}");
+    // 900 levels are within the limit: the box at the bottom is an object.
+    let chain: Vec<Value> = (0..900)
+        .map(|k| {
+            if k + 1 < 900 {
+                json!({"name": format!("c{k}"), "children": [6 + k + 1]})
+            } else {
+                json!({"name": "deepbox", "mesh": 0})
+            }
+        })
+        .collect();
+    let (mut doc, bin, first) = with_nodes(chain);
+    doc["scenes"][0]["nodes"]
+        .as_array_mut()
+        .unwrap()
+        .push(json!(first));
+    let s = load(&write_doc(&d, "chain900.gltf", &doc, &bin));
+    assert_eq!(s.objects.len(), 3);
+    assert!(s.objects.iter().any(|o| o.name == "deepbox"));
+}
+
+#[test]
+fn cycles_and_shared_children_are_refused_before_any_expansion() {
+    let d = tmp_dir("graphs");
+    // A cycle among 13,000 nodes, reachable from a root.
+    let n = 13_000;
+    let ring: Vec<Value> = (0..n)
+        .map(|k| json!({"mesh": 0, "children": [6 + (k + 1) % n]}))
+        .collect();
+    let (mut doc, bin, _) = with_nodes(ring);
+    doc["scenes"][0]["nodes"]
+        .as_array_mut()
+        .unwrap()
+        .push(json!(6));
+    let e = load_err(&write_doc(&d, "ring.gltf", &doc, &bin));
+    assert!(e.contains("cycle"), "{e}");
+    // 40 levels, each node listing the next twice: 2^40 paths, with and without meshes.
+    for mesh in [true, false] {
+        let dag: Vec<Value> = (0..40)
+            .map(|k| {
+                let mut v = if k + 1 < 40 {
+                    json!({"children": [6 + k + 1, 6 + k + 1]})
+                } else {
+                    json!({})
+                };
+                if mesh {
+                    v["mesh"] = json!(0);
+                }
+                v
+            })
+            .collect();
+        let (mut doc, bin, _) = with_nodes(dag);
+        doc["scenes"][0]["nodes"]
+            .as_array_mut()
+            .unwrap()
+            .push(json!(6));
+        let e = load_err(&write_doc(&d, "twice.gltf", &doc, &bin));
+        assert!(
+            e.contains("node 7") && e.contains("at most one parent"),
+            "{e}"
+        );
+    }
+    // Two parents, each listing the child once.
+    let (mut doc, bin, _) = with_nodes(vec![
+        json!({"children": [8]}),
+        json!({"children": [8]}),
+        json!({"mesh": 0}),
+    ]);
+    doc["scenes"][0]["nodes"]
+        .as_array_mut()
+        .unwrap()
+        .extend([json!(6), json!(7)]);
+    let e = load_err(&write_doc(&d, "two.gltf", &doc, &bin));
+    assert!(
+        e.contains("node 8") && e.contains("node 6") && e.contains("node 7"),
+        "{e}"
+    );
+    // A scene root that is also a child.
+    let (mut doc, bin, _) = with_nodes(vec![json!({"children": [7]}), json!({"mesh": 0})]);
+    doc["scenes"][0]["nodes"]
+        .as_array_mut()
+        .unwrap()
+        .extend([json!(6), json!(7)]);
+    let e = load_err(&write_doc(&d, "rootchild.gltf", &doc, &bin));
+    assert!(
+        e.contains("root node 7") || e.contains("its root node 7"),
+        "{e}"
+    );
+}
+
+#[test]
+fn a_scene_over_the_triangle_limit_is_refused_before_reading() {
+    let d = tmp_dir("many");
+    // 2,000 meshes sharing one buffer of 10,000 triangles: 20 million instances' worth,
+    // above the 16,777,216 limit, declared in a file of a few hundred kilobytes.
+    let tris = 10_000usize;
+    let positions: Vec<[f32; 3]> = (0..tris * 3)
+        .map(|k| [(k % 3) as f32, (k / 3) as f32 * 1e-3, ((k + 1) % 3) as f32])
+        .collect();
+    let bin: Vec<u8> = bytemuck::cast_slice(&positions).to_vec();
+    // Each mesh with an accessor of its own, all over the same view.
+    let meshes: Vec<Value> = (0..2000)
+        .map(|k| json!({"primitives": [{"attributes": {"POSITION": k}}]}))
+        .collect();
+    let accessor = json!({"bufferView": 0, "componentType": 5126, "count": tris * 3, "type": "VEC3",
+                          "min": [0.0, 0.0, 0.0], "max": [2.0, 10.0, 2.0]});
+    let nodes: Vec<Value> = (0..2000).map(|k| json!({"mesh": k})).collect();
+    let doc = json!({
+        "asset": {"version": "2.0"},
+        "scenes": [{"nodes": (0..2000).collect::<Vec<_>>()}],
+        "nodes": nodes,
+        "meshes": meshes,
+        "accessors": vec![accessor; 2000],
+        "bufferViews": [{"buffer": 0, "byteLength": bin.len()}],
+        "buffers": [{"byteLength": bin.len(), "uri": "x.bin"}]
+    });
+    let e = load_err(&write_doc(&d, "many.gltf", &doc, &bin));
+    assert!(
+        e.contains("16777216") && e.contains("limit"),
+        "the limit is named: {e}"
+    );
+    // 1,500 of them (15 million triangles) load, as instances of one mesh read once.
+    let mut fewer = doc.clone();
+    fewer["scenes"][0]["nodes"] = json!((0..1500).collect::<Vec<_>>());
+    let s = load(&write_doc(&d, "fewer.gltf", &fewer, &bin));
+    assert_eq!(s.objects.len(), 1500);
+    assert!(s
+        .objects
+        .iter()
+        .all(|o| std::sync::Arc::ptr_eq(&o.mesh, &s.objects[0].mesh)));
+    assert_eq!(s.triangle_count(), 1500 * tris);
+}
+
+#[test]
+fn buffer_uris_stay_inside_the_scene_folder() {
+    let root = tmp_dir("confine");
+    let d = root.join("scenes");
+    std::fs::create_dir_all(d.join("sub")).unwrap();
+    let (doc, bin) = gltf_scene(Some("x.bin"));
+    std::fs::write(root.join("outside.bin"), &bin).unwrap();
+    std::fs::write(d.join("sub/inside.bin"), &bin).unwrap();
+    let _ = std::fs::remove_file(d.join("sub/link.bin"));
+    std::os::unix::fs::symlink(root.join("outside.bin"), d.join("sub/link.bin")).unwrap();
+    let outside = root.join("outside.bin");
+    let cases = [
+        "../outside.bin".to_owned(),
+        "%2e%2e/outside.bin".to_owned(),
+        "sub/../../outside.bin".to_owned(),
+        outside.display().to_string(),
+        format!("file://{}", outside.display()),
+        "sub/link.bin".to_owned(),
+    ];
+    let with_uri = |uri: &str| {
+        let mut doc = doc.clone();
+        doc["buffers"][0]["uri"] = json!(uri);
+        let p = d.join("s.gltf");
+        std::fs::write(&p, serde_json::to_vec(&doc).unwrap()).unwrap();
+        p
+    };
+    for uri in &cases {
+        let e = load_err(&with_uri(uri));
+        assert!(
+            e.contains("outside the scene file's folder") && e.contains("--allow-outside-paths"),
+            "{uri}: {e}"
+        );
+        // Allowed, the same file loads.
+        let s = Scene::load_with(
+            with_uri(uri).to_str().unwrap(),
+            &softshadow::scene::LoadOptions {
+                allow_outside_paths: true,
+            },
+        )
+        .unwrap_or_else(|e| panic!("{uri}: {e:#}"));
+        assert_eq!(s.objects.len(), 2);
+    }
+    // Inside, through a subfolder, percent-encoded or not.
+    assert_eq!(load(&with_uri("sub/inside.bin")).objects.len(), 2);
+    assert_eq!(load(&with_uri("sub%2Finside.bin")).objects.len(), 2);
+}
+
+#[test]
+fn buffers_that_are_not_regular_files_are_refused_unread() {
+    let d = tmp_dir("special");
+    let (doc, bin) = gltf_scene(Some("x.bin"));
+    let fifo = d.join("fifo.bin");
+    let _ = std::fs::remove_file(&fifo);
+    assert!(std::process::Command::new("mkfifo")
+        .arg(&fifo)
+        .status()
+        .unwrap()
+        .success());
+    std::fs::create_dir_all(d.join("folder.bin")).unwrap();
+    let allow = softshadow::scene::LoadOptions {
+        allow_outside_paths: true,
+    };
+    for (uri, kind) in [
+        ("fifo.bin", "FIFO"),
+        ("folder.bin", "folder"),
+        ("/dev/zero", "device"),
+        ("/dev/urandom", "device"),
+    ] {
+        let mut doc = doc.clone();
+        doc["buffers"][0]["uri"] = json!(uri);
+        let p = d.join("s.gltf");
+        std::fs::write(&p, serde_json::to_vec(&doc).unwrap()).unwrap();
+        let e = format!(
+            "{:#}",
+            Scene::load_with(p.to_str().unwrap(), &allow).unwrap_err()
+        );
+        assert!(
+            e.contains(kind) && e.contains("not a regular file"),
+            "{uri}: {e}"
+        );
+    }
+    let _ = bin;
+}
+
+#[test]
+fn bytes_of_a_file_read_as_a_buffer_are_never_quoted() {
+    let d = tmp_dir("leak");
+    // A "buffer" whose bytes are text: as indices, every value is out of range.
+    let secret = b"AAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAA".to_vec();
+    let positions: Vec<[f32; 3]> = vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]];
+    let mut bin: Vec<u8> = bytemuck::cast_slice(&positions).to_vec();
+    let at = bin.len();
+    bin.extend_from_slice(&secret);
+    let doc = json!({
+        "asset": {"version": "2.0"},
+        "scenes": [{"nodes": [0]}],
+        "nodes": [{"mesh": 0}],
+        "meshes": [{"primitives": [{"attributes": {"POSITION": 0}, "indices": 1}]}],
+        "accessors": [
+            {"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3",
+             "min": [0.0, 0.0, 0.0], "max": [1.0, 0.0, 1.0]},
+            {"bufferView": 1, "componentType": 5125, "count": 12, "type": "SCALAR"}
+        ],
+        "bufferViews": [
+            {"buffer": 0, "byteLength": at},
+            {"buffer": 0, "byteOffset": at, "byteLength": secret.len()}
+        ],
+        "buffers": [{"byteLength": bin.len(), "uri": "x.bin"}]
+    });
+    let e = load_err(&write_doc(&d, "leak.gltf", &doc, &bin));
+    assert!(e.contains("out of range"), "{e}");
+    assert!(
+        !e.contains(&0x4141_4141u32.to_string()),
+        "an index value from the buffer is quoted: {e}"
+    );
+}
+
+#[test]
+fn a_byte_stride_smaller_than_an_element_is_refused_before_the_reader() {
+    let d = tmp_dir("stride");
+    let (mut doc, bin) = gltf_scene(Some("x.bin"));
+    doc["bufferViews"][0]["byteStride"] = json!(4);
+    let e = load_err(&write_doc(&d, "stride.gltf", &doc, &bin));
+    assert!(e.contains("byteStride 4") && e.contains("12 bytes"), "{e}");
+    // An accessor that claims more elements than its view holds.
+    let (mut doc, bin) = gltf_scene(Some("x.bin"));
+    doc["accessors"][0]["count"] = json!(1000);
+    let e = load_err(&write_doc(&d, "count.gltf", &doc, &bin));
+    assert!(e.contains("past the end of its buffer view"), "{e}");
+    // Billions of them: refused by the limit before the range is even computed.
+    doc["accessors"][0]["count"] = json!(4_000_000_000u64);
+    let e = load_err(&write_doc(&d, "billions.gltf", &doc, &bin));
+    assert!(e.contains("limit"), "{e}");
+}
+
+#[test]
+fn loader_corner_cases_of_transforms_lights_and_extras() {
+    let d = tmp_dir("corners");
+    let (doc, bin) = gltf_scene(Some("x.bin"));
+    let reference = load(&write_doc(&d, "base.gltf", &doc, &bin));
+    // A projective node matrix: the rasteriser and the ray caster would disagree.
+    let (mut doc, bin) = gltf_scene(Some("x.bin"));
+    doc["nodes"][2]["matrix"] = json!([1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0.5, 0, 0, 0, 1]);
+    let e = load_err(&write_doc(&d, "proj.gltf", &doc, &bin));
+    assert!(e.contains("node 2") && e.contains("not affine"), "{e}");
+    // Extras nested 200 deep, on a node and on the light: valid glTF, loads the same.
+    let mut deep = json!(1);
+    for _ in 0..200 {
+        deep = json!({ "k": [deep] });
+    }
+    let (mut doc, bin) = gltf_scene(Some("x.bin"));
+    doc["nodes"][1]["extras"] = json!({"other": deep.clone()});
+    doc["extensions"]["KHR_lights_punctual"]["lights"][1]["extras"]["deep"] = deep.clone();
+    doc["asset"]["extras"] = deep;
+    let s = load(&write_doc(&d, "deep.gltf", &doc, &bin));
+    assert_eq!(s.light, reference.light);
+    assert_eq!(s.objects.len(), reference.objects.len());
+    // JSON nested deeper than the limit: one clear line.
+    let mut deeper = json!(1);
+    for _ in 0..5000 {
+        deeper = json!([deeper]);
+    }
+    let (mut doc, bin) = gltf_scene(Some("x.bin"));
+    doc["asset"]["extras"] = deeper;
+    let e = load_err(&write_doc(&d, "deeper.gltf", &doc, &bin));
+    assert!(e.contains("levels deep") && e.contains("1000"), "{e}");
+    // A light node scaled by 1e-30 keeps its direction.
+    let (mut doc, bin) = gltf_scene(Some("x.bin"));
+    doc["nodes"][4]["scale"] = json!([1e-30, 1e-30, 1e-30]);
+    let s = load(&write_doc(&d, "tiny.gltf", &doc, &bin));
+    let (a, b) = (
+        dir_of(s.light.position, s.light.target),
+        dir_of(reference.light.position, reference.light.target),
+    );
+    assert!((a - b).length() < 1e-5, "{a} vs {b}");
+    // A scale of 0 has no direction at all.
+    doc["nodes"][4]["scale"] = json!([0.0, 0.0, 0.0]);
+    let e = load_err(&write_doc(&d, "zero.gltf", &doc, &bin));
+    assert!(e.contains("no direction"), "{e}");
+    // A cone too wide, said in the file's own unit.
+    let (mut doc, bin) = gltf_scene(Some("x.bin"));
+    doc["extensions"]["KHR_lights_punctual"]["lights"][1]["spot"]["outerConeAngle"] = json!(1.6);
+    let e = load_err(&write_doc(&d, "wide.gltf", &doc, &bin));
+    assert!(
+        e.contains("outerConeAngle 1.6 rad") && !e.contains("fov_deg"),
+        "{e}"
+    );
+    // A newline in a name is escaped: the error stays one line (load_err checks).
+    let (mut doc, bin) = gltf_scene(Some("x.bin"));
+    doc["nodes"][2]["name"] = json!("ground\nerror: injected");
+    doc["nodes"][2]["matrix"] = json!([1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0.5, 0, 0, 0, 1]);
+    let e = load_err(&write_doc(&d, "nl.gltf", &doc, &bin));
+    assert!(e.contains("ground\\nerror: injected"), "{e}");
+}

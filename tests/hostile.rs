@@ -785,3 +785,171 @@ fn stale_partial_files_of_dead_processes_are_removed() {
     assert!(dir.join("o.obj").is_file());
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+// ---------------------------------------------------------------------------------------
+// Hostile input files: what a scene file or a compare input may make softshadow read.
+// ---------------------------------------------------------------------------------------
+
+/// A one-triangle-over-a-plane glTF with its buffer in `NAME.bin`; `edit` changes the JSON.
+fn tri_gltf(dir: &Path, name: &str, edit: impl FnOnce(&mut serde_json::Value)) -> PathBuf {
+    let positions: [[f32; 3]; 6] = [
+        [0.0, 1.0, 0.0],
+        [1.0, 1.0, 0.0],
+        [0.0, 1.0, 1.0],
+        [-4.0, 0.0, -4.0],
+        [4.0, 0.0, 4.0],
+        [4.0, 0.0, -4.0],
+    ];
+    let bin: Vec<u8> = positions
+        .iter()
+        .flatten()
+        .flat_map(|f| f.to_le_bytes())
+        .collect();
+    let bin_name = format!("{name}.bin");
+    std::fs::write(dir.join(&bin_name), &bin).unwrap();
+    let mut doc = serde_json::json!({
+        "asset": {"version": "2.0"},
+        "scenes": [{"nodes": [0]}],
+        "nodes": [{"mesh": 0}],
+        "meshes": [{"primitives": [{"attributes": {"POSITION": 0}}]}],
+        "accessors": [{"bufferView": 0, "componentType": 5126, "count": 6, "type": "VEC3",
+                       "min": [-4.0, 0.0, -4.0], "max": [4.0, 1.0, 4.0]}],
+        "bufferViews": [{"buffer": 0, "byteLength": bin.len()}],
+        "buffers": [{"byteLength": bin.len(), "uri": bin_name}]
+    });
+    edit(&mut doc);
+    let p = dir.join(name);
+    std::fs::write(&p, serde_json::to_vec(&doc).unwrap()).unwrap();
+    p
+}
+
+/// A scanline EXR header declaring `w` x `h` pixels of one float channel, padded to
+/// `len` bytes: no pixel data behind it.
+fn exr_header(w: i32, h: i32, len: usize) -> Vec<u8> {
+    let mut b = vec![0x76, 0x2f, 0x31, 0x01, 2, 0, 0, 0];
+    let mut attr = |name: &str, kind: &str, value: &[u8]| {
+        b.extend_from_slice(name.as_bytes());
+        b.push(0);
+        b.extend_from_slice(kind.as_bytes());
+        b.push(0);
+        b.extend_from_slice(&(value.len() as i32).to_le_bytes());
+        b.extend_from_slice(value);
+    };
+    let mut ch = b"Y\0".to_vec();
+    for v in [2i32, 0, 1, 1] {
+        ch.extend_from_slice(&v.to_le_bytes());
+    }
+    ch.push(0);
+    attr("channels", "chlist", &ch);
+    attr("compression", "compression", &[0]);
+    let window: Vec<u8> = [0, 0, w - 1, h - 1]
+        .iter()
+        .flat_map(|v: &i32| v.to_le_bytes())
+        .collect();
+    attr("dataWindow", "box2i", &window);
+    attr("displayWindow", "box2i", &window);
+    attr("lineOrder", "lineOrder", &[0]);
+    attr("pixelAspectRatio", "float", &1f32.to_le_bytes());
+    attr("screenWindowCenter", "v2f", &[0; 8]);
+    attr("screenWindowWidth", "float", &1f32.to_le_bytes());
+    b.push(0);
+    b.resize(len.max(b.len()), 0);
+    b
+}
+
+#[test]
+fn hostile_scene_and_compare_inputs_give_one_line_and_no_panic_text() {
+    let dir = scratch("files");
+    tri_gltf(&dir, "ok.gltf", |_| {});
+    tri_gltf(&dir, "stride.gltf", |d| {
+        d["bufferViews"][0]["byteStride"] = 4.into()
+    });
+    tri_gltf(&dir, "twice.gltf", |d| {
+        d["nodes"] = serde_json::json!([{"mesh": 0, "children": [1, 1]}, {}]);
+    });
+    mkfifo(&dir.join("fifo.toml"));
+    mkfifo(&dir.join("fifo.png"));
+    std::fs::write(dir.join("big.exr"), exr_header(1_000_000, 1_000_000, 2048)).unwrap();
+    std::fs::write(dir.join("short.exr"), exr_header(4000, 4000, 2048)).unwrap();
+    std::fs::create_dir(dir.join("sub")).unwrap();
+    std::fs::write(
+        dir.join("sub/up.toml"),
+        "[[object]]\nmesh = \"../tri.obj\"\n[[object]]\nprimitive = \"plane\"\nrole = \"receiver\"\n",
+    )
+    .unwrap();
+    std::fs::write(dir.join("tri.obj"), "v 0 1 0\nv 1 1 0\nv 0 1 1\nf 1 2 3\n").unwrap();
+    let cases: &[(Vec<String>, &str)] = &[
+        (tiny(&["--scene", "stride.gltf"]), "byteStride 4"),
+        (tiny(&["--scene", "twice.gltf"]), "at most one parent"),
+        (tiny(&["--scene", "fifo.toml"]), "FIFO"),
+        (tiny(&["--scene", "sub/up.toml"]), "--allow-outside-paths"),
+        (tiny(&["--scene", "no\nsuch.toml"]), "no\\nsuch.toml"),
+        (
+            [
+                "compare",
+                "--reference",
+                "big.exr",
+                "--test",
+                "big.exr",
+                "--light",
+                "0,5,0",
+            ]
+            .map(String::from)
+            .to_vec(),
+            "above the limit",
+        ),
+        (
+            [
+                "compare",
+                "--reference",
+                "short.exr",
+                "--test",
+                "short.exr",
+                "--light",
+                "0,5,0",
+            ]
+            .map(String::from)
+            .to_vec(),
+            "more than its 2048 bytes can hold",
+        ),
+        (
+            [
+                "compare",
+                "--reference",
+                "big.exr",
+                "--test",
+                "big.exr",
+                "--light",
+                "0,5,0",
+                "--reference-image",
+                "fifo.png",
+                "--test-image",
+                "fifo.png",
+                "--out",
+                "c.png",
+            ]
+            .map(String::from)
+            .to_vec(),
+            "fifo.png: is a FIFO",
+        ),
+    ];
+    for (args, expect) in cases {
+        let args: Vec<&str> = args.iter().map(String::as_str).collect();
+        fails_untouched(&dir, &args, expect);
+    }
+    // The flag lets the scene reach its parent folder: the export is written.
+    let o = Command::new(env!("CARGO_BIN_EXE_softshadow"))
+        .args([
+            "export",
+            "--scene",
+            "sub/up.toml",
+            "--obj",
+            "up.obj",
+            "--allow-outside-paths",
+        ])
+        .current_dir(&dir)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(dir.join("up.obj").is_file());
+}

@@ -249,3 +249,164 @@ fn export_matches_the_scene() {
     assert!(export_obj(&s, &d.join("missing/x.obj"), 64, 64).is_err());
     std::fs::remove_dir_all(&d).ok();
 }
+
+/// The error of loading `p` with `opts`, checked to be one line.
+fn load_err_with(p: &Path, opts: &softshadow::scene::LoadOptions) -> String {
+    let e = format!(
+        "{:#}",
+        Scene::load_with(p.to_str().unwrap(), opts).unwrap_err()
+    );
+    assert!(!e.contains('\n'), "one line: {e}");
+    e
+}
+
+const TRI_OBJ: &str = "v 0 0 0\nv 1 0 0\nv 0 0 1\nf 1 2 3\n";
+
+#[test]
+fn mesh_paths_stay_inside_the_scene_folder_and_other_files_are_not_echoed() {
+    let root = tmp_dir("confine");
+    let d = root.join("scenes");
+    std::fs::create_dir_all(d.join("sub")).unwrap();
+    let secret = "API_KEY=hunter2-do-not-print";
+    std::fs::write(root.join("secret.env"), format!("{secret}\n")).unwrap();
+    std::fs::write(root.join("tri.obj"), TRI_OBJ).unwrap();
+    std::fs::write(d.join("sub/tri.obj"), TRI_OBJ).unwrap();
+    let link = d.join("sub/link.obj");
+    let _ = std::fs::remove_file(&link);
+    std::os::unix::fs::symlink(root.join("tri.obj"), &link).unwrap();
+    let scene = |mesh: &str| {
+        let p = d.join("s.toml");
+        std::fs::write(
+            &p,
+            format!("[[object]]\nmesh = {mesh:?}\n[[object]]\nprimitive = \"plane\"\nrole = \"receiver\"\n"),
+        )
+        .unwrap();
+        p
+    };
+    let confined = softshadow::scene::LoadOptions::default();
+    let allow = softshadow::scene::LoadOptions {
+        allow_outside_paths: true,
+    };
+    let outside = root.join("tri.obj").display().to_string();
+    for mesh in ["../tri.obj", "sub/../../tri.obj", &outside, "sub/link.obj"] {
+        let e = load_err_with(&scene(mesh), &confined);
+        assert!(
+            e.contains("outside the scene file's folder") && e.contains("--allow-outside-paths"),
+            "{mesh}: {e}"
+        );
+        let s = Scene::load_with(scene(mesh).to_str().unwrap(), &allow)
+            .unwrap_or_else(|e| panic!("{mesh}: {e:#}"));
+        assert_eq!(s.objects[0].mesh.triangle_count(), 1);
+    }
+    assert_eq!(
+        Scene::load(scene("sub/tri.obj").to_str().unwrap())
+            .unwrap()
+            .objects
+            .len(),
+        2
+    );
+    // /etc/passwd and a secret beside the folder: refused without reading; allowed, read
+    // but never quoted.
+    for mesh in ["/etc/passwd", "../secret.env"] {
+        let e = load_err_with(&scene(mesh), &confined);
+        assert!(e.contains("outside"), "{mesh}: {e}");
+        let e = load_err_with(&scene(mesh), &allow);
+        assert!(e.contains("not an OBJ file"), "{mesh}: {e}");
+        assert!(
+            !e.contains("hunter2") && !e.contains("root:"),
+            "{mesh}: {e}"
+        );
+    }
+    // A later junk line is quoted only as a short printable token.
+    let junk = format!("{TRI_OBJ}\u{1b}[2J{}\n", "x".repeat(500));
+    std::fs::write(d.join("junk.obj"), junk).unwrap();
+    let e = load_err_with(&scene("junk.obj"), &confined);
+    assert!(
+        e.contains("unknown statement") && e.contains("\\u{1b}"),
+        "{e}"
+    );
+    assert!(e.len() < 300, "clipped: {e}");
+}
+
+#[test]
+fn inputs_that_are_not_regular_files_are_refused_unread() {
+    let d = tmp_dir("special");
+    for f in ["fifo.obj", "fifo.toml", "fifo.gltf"] {
+        let _ = std::fs::remove_file(d.join(f));
+        assert!(std::process::Command::new("mkfifo")
+            .arg(d.join(f))
+            .status()
+            .unwrap()
+            .success());
+    }
+    std::fs::create_dir_all(d.join("folder.obj")).unwrap();
+    let confined = softshadow::scene::LoadOptions::default();
+    let allow = softshadow::scene::LoadOptions {
+        allow_outside_paths: true,
+    };
+    // As the scene itself.
+    for f in ["fifo.obj", "fifo.toml", "fifo.gltf"] {
+        let e = load_err_with(&d.join(f), &confined);
+        assert!(
+            e.contains("FIFO") && e.contains("not a regular file"),
+            "{f}: {e}"
+        );
+    }
+    // As a mesh of a scene file.
+    for (mesh, kind) in [
+        ("fifo.obj", "FIFO"),
+        ("folder.obj", "folder"),
+        ("/dev/zero", "device"),
+        ("/dev/urandom", "device"),
+    ] {
+        let p = d.join("s.toml");
+        std::fs::write(&p, format!("[[object]]\nmesh = {mesh:?}\n")).unwrap();
+        let e = load_err_with(&p, &allow);
+        assert!(
+            e.contains(kind) && e.contains("not a regular file"),
+            "{mesh}: {e}"
+        );
+    }
+}
+
+#[test]
+fn scene_totals_are_bounded_before_building_and_names_stay_one_line() {
+    let d = tmp_dir("limits");
+    // A single sphere at the tessellation cap is 33 million triangles: refused before built.
+    let p = d.join("big.toml");
+    std::fs::write(
+        &p,
+        "[[object]]\nprimitive = \"sphere\"\nsegments = 4096\nrings = 4096\n",
+    )
+    .unwrap();
+    let e = load_err_with(&p, &Default::default());
+    assert!(e.contains("16777216") && e.contains("limit"), "{e}");
+    // 200 instances of a 131,072-triangle plane: 26 million, refused at the one that crosses.
+    let mut text = String::new();
+    for _ in 0..200 {
+        text.push_str("[[object]]\nprimitive = \"plane\"\nsegments = 256\n");
+    }
+    std::fs::write(&p, text).unwrap();
+    let e = load_err_with(&p, &Default::default());
+    assert!(e.contains("object 129") && e.contains("limit"), "{e}");
+    // A newline in an object or scene name is escaped.
+    std::fs::write(
+        &p,
+        "name = \"a\\nb\"\n[[object]]\nname = \"box\\nerror: x\"\nprimitive = \"box\"\nalbedo = [-1, 0, 0]\n",
+    )
+    .unwrap();
+    let e = load_err_with(&p, &Default::default());
+    assert!(e.contains("box\\nerror: x"), "{e}");
+    // A TOML value pasted from elsewhere is clipped in the parser's message.
+    std::fs::write(
+        &p,
+        format!(
+            "[[object]]\nprimitive = \"box\"\nrole = \"{}\"\n",
+            "y".repeat(5000)
+        ),
+    )
+    .unwrap();
+    let e = load_err_with(&p, &Default::default());
+    assert!(e.contains("role") || e.contains("variant"), "{e}");
+    assert!(e.len() < 400, "clipped: {e}");
+}

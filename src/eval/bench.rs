@@ -235,6 +235,8 @@ pub struct BenchConfig {
     pub progress: bool,
     /// The command line, recorded in the report.
     pub command: String,
+    /// How far scene files may reach for the files they name (`--allow-outside-paths`).
+    pub load: crate::scene::LoadOptions,
 }
 
 impl Default for BenchConfig {
@@ -258,6 +260,7 @@ impl Default for BenchConfig {
             out: PathBuf::from("bench-out"),
             progress: true,
             command: String::new(),
+            load: crate::scene::LoadOptions::default(),
         }
     }
 }
@@ -528,7 +531,7 @@ pub fn prepare(config: BenchConfig) -> Result<Plan> {
             .collect::<Vec<_>>(),
     );
     for name in &args {
-        scenes.push(Scene::load(name)?);
+        scenes.push(Scene::load_with(name, &c.load)?);
     }
     check_scene_names(&args, &scenes)?;
     for arg in &args {

@@ -63,10 +63,47 @@ struct Exr {
     channels: Vec<(String, Vec<f32>)>,
 }
 
+/// Largest side of an EXR read: the largest image Vulkan devices render.
+const MAX_EXR_SIDE: usize = 16384;
+/// Most samples (pixels times channels) of an EXR read.
+const MAX_EXR_SAMPLES: u64 = 1 << 28;
+/// How many decoded bytes one byte of an EXR file may hold: above the best ratio of any
+/// compression the exr crate reads (deflate's is about 1032), so no real file is refused.
+const MAX_EXR_RATIO: u64 = 2048;
+
 fn read_exr(path: &Path) -> Result<Exr> {
-    let name = path.display();
-    if !path.is_file() {
+    let name = crate::scene::input::shown_path(path);
+    if !path.exists() {
         bail!("{name}: no such file");
+    }
+    let file_len = crate::scene::input::check_regular(path, &name)?.len();
+    // The header's declared size, checked before the pixels are allocated.
+    let meta = exr::meta::MetaData::read_from_file(path, false)
+        .map_err(|e| anyhow!("{name}: not a readable EXR image: {e}"))?;
+    for h in meta.headers.iter() {
+        let (w, hgt) = (h.layer_size.width(), h.layer_size.height());
+        let channels = h.channels.list.len() as u64;
+        let samples = (w as u64)
+            .saturating_mul(hgt as u64)
+            .saturating_mul(channels);
+        let bytes: u64 = h
+            .channels
+            .list
+            .iter()
+            .map(|c| c.sample_type.bytes_per_sample() as u64)
+            .sum::<u64>()
+            .saturating_mul(w as u64)
+            .saturating_mul(hgt as u64);
+        if w > MAX_EXR_SIDE || hgt > MAX_EXR_SIDE || samples > MAX_EXR_SAMPLES {
+            bail!(
+                "{name}: declares {w}x{hgt} pixels with {channels} channel(s), above the limit of {MAX_EXR_SIDE} pixels a side and {MAX_EXR_SAMPLES} samples"
+            );
+        }
+        if bytes > file_len.saturating_mul(MAX_EXR_RATIO) {
+            bail!(
+                "{name}: declares {w}x{hgt} pixels with {channels} channel(s) ({bytes} bytes), more than its {file_len} bytes can hold: a truncated or corrupt EXR"
+            );
+        }
     }
     let image = exr::prelude::read_first_flat_layer_from_file(path)
         .map_err(|e| anyhow!("{name}: not a readable EXR image: {e}"))?;

@@ -23,7 +23,10 @@ pub const BUILTIN_SCENES: &[&str] = &[
 ];
 
 /// The Stanford bunny, compiled in so the binary works from any directory.
-const BUNNY_OBJ: &str = include_str!(concat!(env!("CARGO_MANIFEST_DIR"), "/assets/bunny.obj"));
+const BUNNY_OBJ: &str = include_str!(concat!(
+    env!("CARGO_MANIFEST_DIR"),
+    "/assets/scenes/bunny.obj"
+));
 
 const GROUND: Vec3 = Vec3::new(0.8, 0.8, 0.78);
 
@@ -460,7 +463,7 @@ pub(crate) fn framed_obj(path: &Path) -> Result<Scene> {
         .map(|s| s.to_string_lossy().into_owned())
         .unwrap_or_else(|| "mesh".into());
     if mesh.triangle_count() == 0 {
-        bail!("{}: no triangles", path.display());
+        bail!("{}: no triangles", super::input::shown_path(path));
     }
     let o = Object::new(
         name.clone(),

@@ -5,6 +5,7 @@
 //! Unknown keys are errors that name the key (serde `deny_unknown_fields`); numbers are
 //! checked (finite, fov in (0, 180), radius >= 0, scale != 0) before anything is built.
 
+use super::input::{self, LoadOptions};
 use super::{builtin, obj, primitives as prim, Camera, Light, Mesh, Object, Role, Scene};
 use anyhow::{bail, Context, Result};
 use glam::{Mat4, Vec2, Vec3};
@@ -76,24 +77,42 @@ pub struct CameraSpec {
     pub fov_deg: Option<f32>,
 }
 
-/// Loads and builds a scene file; OBJ meshes are resolved against the file's folder.
-pub fn load_toml(path: &Path) -> Result<Scene> {
-    let name = path.display().to_string();
-    let text =
-        std::fs::read_to_string(path).with_context(|| format!("{name}: cannot read the file"))?;
+/// Loads and builds a scene file; OBJ meshes are resolved against the file's folder and,
+/// unless `opts` allows otherwise, must lie inside it.
+pub fn load_toml(path: &Path, opts: &LoadOptions) -> Result<Scene> {
+    let name = input::shown_path(path);
+    let bytes = input::read_file(path, &name)?;
+    let text = String::from_utf8(bytes).map_err(|e| {
+        anyhow::anyhow!(
+            "{name}: not a text scene file (invalid UTF-8 at byte {})",
+            e.utf8_error().valid_up_to()
+        )
+    })?;
     let stem = path
         .file_stem()
         .map(|s| s.to_string_lossy().into_owned())
         .unwrap_or_else(|| "scene".into());
     let dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
-    parse_toml(&text, &name, &stem, &dir)
+    parse_toml_with(&text, &name, &stem, &dir, opts)
 }
 
 /// Parses scene TOML text. `file` labels errors, `stem` is the default scene name and
-/// `dir` the folder that relative mesh paths start from.
+/// `dir` the folder that relative mesh paths start from (and stay inside).
 pub fn parse_toml(text: &str, file: &str, stem: &str, dir: &Path) -> Result<Scene> {
+    parse_toml_with(text, file, stem, dir, &LoadOptions::default())
+}
+
+/// [`parse_toml`] with the options of [`LoadOptions`].
+pub fn parse_toml_with(
+    text: &str,
+    file: &str,
+    stem: &str,
+    dir: &Path,
+    opts: &LoadOptions,
+) -> Result<Scene> {
     let spec: SceneFile = toml::from_str(text).map_err(|e| {
-        // toml's own Display spans several lines with a source excerpt; keep one line.
+        // toml's own Display spans several lines with a source excerpt; keep one line, and
+        // of what it quotes from the file only short printable tokens.
         let at = e
             .span()
             .map(|s| {
@@ -101,9 +120,33 @@ pub fn parse_toml(text: &str, file: &str, stem: &str, dir: &Path) -> Result<Scen
                 format!(" line {line}:")
             })
             .unwrap_or_default();
-        anyhow::anyhow!("{file}:{at} {}", e.message().trim().replace('\n', " "))
+        anyhow::anyhow!("{file}:{at} {}", clip_words(e.message().trim()))
     })?;
-    build(spec, file, stem, dir)
+    build(spec, file, stem, dir, opts)
+}
+
+/// A parser's message with each word escaped and clipped, so that a value pasted from
+/// another file cannot be echoed whole.
+fn clip_words(message: &str) -> String {
+    message
+        .split_whitespace()
+        .map(|w| input::token(w, 40))
+        .collect::<Vec<_>>()
+        .join(" ")
+}
+
+/// An upper bound on the triangles of a primitive, known before it is built (clamped
+/// parameters are checked again when it is).
+fn primitive_triangles(o: &ObjectSpec, kind: &str) -> usize {
+    let n = |v: Option<u32>, default: u32| v.unwrap_or(default).min(4096) as usize;
+    match kind {
+        "plane" => 2 * n(o.segments, 8).pow(2),
+        "box" => 12,
+        "cylinder" => 4 * n(o.segments, 32),
+        "sphere" => 2 * n(o.segments, 32) * (n(o.rings, 16) + 1),
+        "torus" => 2 * n(o.segments, 48) * n(o.minor_segments, 16),
+        _ => 0,
+    }
 }
 
 fn finite(file: &str, what: &str, v: &[f32]) -> Result<()> {
@@ -125,18 +168,32 @@ fn fov(file: &str, what: &str, f: f32) -> Result<f32> {
     Ok(f)
 }
 
-fn build(spec: SceneFile, file: &str, stem: &str, dir: &Path) -> Result<Scene> {
+fn build(spec: SceneFile, file: &str, stem: &str, dir: &Path, opts: &LoadOptions) -> Result<Scene> {
     if spec.objects.is_empty() {
         bail!("{file}: no [[object]] tables");
     }
     // One mesh per distinct OBJ path, shared by every object that names it.
     let mut loaded: HashMap<PathBuf, Arc<Mesh>> = HashMap::new();
     let mut objects = Vec::with_capacity(spec.objects.len());
+    // Every instance counts: each is drawn and ray cast on its own.
+    let mut triangles = 0usize;
+    let over = |label: &str, triangles: usize| {
+        anyhow::anyhow!(
+            "{label}: brings the scene to {triangles} triangles, above the limit of {} per scene",
+            input::MAX_SCENE_TRIANGLES
+        )
+    };
     for (k, o) in spec.objects.iter().enumerate() {
         let label = match &o.name {
-            Some(n) => format!("{file}: object {} ('{n}')", k + 1),
+            Some(n) => format!("{file}: object {} ('{}')", k + 1, input::shown(n)),
             None => format!("{file}: object {}", k + 1),
         };
+        if let Some(p) = &o.primitive {
+            let t = triangles.saturating_add(primitive_triangles(o, p));
+            if t > input::MAX_SCENE_TRIANGLES {
+                return Err(over(&label, t));
+            }
+        }
         let (mesh, default_name) = match (&o.mesh, &o.primitive) {
             (Some(_), Some(_)) => bail!("{label}: give either 'mesh' or 'primitive', not both"),
             (None, None) => bail!("{label}: needs 'mesh = \"file.obj\"' or 'primitive = \"box\"'"),
@@ -144,7 +201,7 @@ fn build(spec: SceneFile, file: &str, stem: &str, dir: &Path) -> Result<Scene> {
                 if let Some(p) = first_param(o) {
                     bail!("{label}: parameter '{p}' applies to primitives, not to a mesh");
                 }
-                let p = dir.join(m);
+                let p = input::resolve_inside(dir, Path::new(m), opts, &format!("{label}: mesh"))?;
                 let mesh = match loaded.get(&p) {
                     Some(mesh) => mesh.clone(),
                     None => {
@@ -158,6 +215,10 @@ fn build(spec: SceneFile, file: &str, stem: &str, dir: &Path) -> Result<Scene> {
             }
             (None, Some(p)) => (Arc::new(build_primitive(o, p, &label)?), p.clone()),
         };
+        triangles = triangles.saturating_add(mesh.triangle_count());
+        if triangles > input::MAX_SCENE_TRIANGLES {
+            return Err(over(&label, triangles));
+        }
         let t = vec3(&label, "translate", o.translate.unwrap_or([0.0; 3]))?;
         let r = vec3(&label, "rotate_deg", o.rotate_deg.unwrap_or([0.0; 3]))?;
         let s = match o.scale.unwrap_or(Size::Uniform(1.0)) {

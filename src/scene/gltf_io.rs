@@ -24,7 +24,8 @@
 //! with its radius in extras, and the camera. `.glb` is one file; `.gltf` writes its buffer
 //! to a `.bin` beside it.
 
-use super::{builtin, Aabb, Camera, Light, Mesh, Object, Role, Scene};
+use super::input::{self, LoadOptions};
+use super::{builtin, Aabb, Camera, Light, Mesh, Object, Role, Scene, MAX_LIGHT_FOV_DEG};
 use anyhow::{anyhow, bail, Context, Result};
 use glam::{Mat3, Mat4, Quat, Vec3};
 use serde_json::{json, Value};
@@ -35,36 +36,148 @@ use std::sync::Arc;
 /// The extras key under which softshadow keeps its own fields.
 const EXTRAS_KEY: &str = "softshadow";
 
-/// Spot cones wider than this are narrowed to it: a shadow map's perspective frustum
-/// cannot reach 180 degrees.
-const MAX_SPOT_FOV_DEG: f32 = 170.0;
+/// Deepest node hierarchy walked: far beyond any exported scene, and a clear error for a
+/// file built to exhaust the walk.
+pub const MAX_NODE_DEPTH: usize = 1000;
+
+/// Deepest JSON nesting read. Extras may nest deeper than the JSON parser's own limit;
+/// beyond this a file is refused before it is parsed.
+pub const MAX_JSON_DEPTH: usize = 1000;
+
+/// Nesting the JSON parser takes without help (serde_json stops at 128).
+const PLAIN_JSON_DEPTH: usize = 100;
 
 /// Loads a `.gltf` or `.glb` file (see the module docs); external buffers are resolved
-/// against the file's folder.
-pub fn load_gltf(path: &Path) -> Result<Scene> {
-    let name = path.display().to_string();
-    let bytes = std::fs::read(path).with_context(|| format!("{name}: cannot read the file"))?;
+/// against the file's folder and, unless `opts` allows otherwise, must lie inside it.
+pub fn load_gltf(path: &Path, opts: &LoadOptions) -> Result<Scene> {
+    let name = input::shown_path(path);
+    let bytes = input::read_file(path, &name)?;
     let stem = path
         .file_stem()
         .map(|s| s.to_string_lossy().into_owned())
         .unwrap_or_else(|| "scene".into());
     let dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
-    parse_gltf(&bytes, &name, &stem, Some(&dir))
+    parse_gltf_with(&bytes, &name, &stem, Some(&dir), opts)
 }
 
 /// Parses glTF or GLB bytes. `file` labels errors, `stem` is the default scene name and
 /// `dir` the folder external buffers are read from (`None`: data URIs and the GLB blob only).
 pub fn parse_gltf(bytes: &[u8], file: &str, stem: &str, dir: Option<&Path>) -> Result<Scene> {
-    // The gltf crate is fed untrusted bytes: a panic inside it must become an error.
-    let parsed = std::panic::catch_unwind(|| parse_unwinding(bytes, file, stem, dir));
+    parse_gltf_with(bytes, file, stem, dir, &LoadOptions::default())
+}
+
+/// [`parse_gltf`] with the options of [`LoadOptions`].
+pub fn parse_gltf_with(
+    bytes: &[u8],
+    file: &str,
+    stem: &str,
+    dir: Option<&Path>,
+    opts: &LoadOptions,
+) -> Result<Scene> {
+    // Everything the gltf crate is known to panic on is checked before it is asked; this
+    // is the last line of defence for the unknown.
+    let parsed = std::panic::catch_unwind(|| parse_unwinding(bytes, file, stem, dir, opts));
     match parsed {
         Ok(r) => r,
         Err(_) => bail!("{file}: malformed glTF (the parser failed)"),
     }
 }
 
-fn parse_unwinding(bytes: &[u8], file: &str, stem: &str, dir: Option<&Path>) -> Result<Scene> {
-    let gltf::Gltf { document, blob } = gltf::Gltf::from_slice_without_validation(bytes)
+/// The deepest nesting of `[` and `{` in JSON text, strings skipped.
+fn json_depth(text: &[u8]) -> usize {
+    let (mut depth, mut max, mut in_string, mut escaped) = (0usize, 0usize, false, false);
+    for &c in text {
+        if in_string {
+            if escaped {
+                escaped = false;
+            } else if c == b'\\' {
+                escaped = true;
+            } else if c == b'"' {
+                in_string = false;
+            }
+            continue;
+        }
+        match c {
+            b'"' => in_string = true,
+            b'[' | b'{' => {
+                depth += 1;
+                max = max.max(depth);
+            }
+            b']' | b'}' => depth = depth.saturating_sub(1),
+            _ => {}
+        }
+    }
+    max
+}
+
+/// Keeps of every `extras` only softshadow's own key and of every `extensions` only
+/// KHR_lights_punctual: the rest is never read, and may nest deeper than the parser goes.
+fn prune(v: &mut Value) {
+    match v {
+        Value::Object(m) => {
+            match m.get_mut("extras") {
+                Some(Value::Object(x)) => x.retain(|k, _| k == EXTRAS_KEY),
+                Some(_) => {
+                    m.remove("extras");
+                }
+                None => {}
+            }
+            if let Some(Value::Object(e)) = m.get_mut("extensions") {
+                e.retain(|k, _| k == "KHR_lights_punctual");
+            }
+            m.values_mut().for_each(prune);
+        }
+        Value::Array(a) => a.iter_mut().for_each(prune),
+        _ => {}
+    }
+}
+
+/// The glTF JSON as the gltf crate can read it: unchanged when shallow, else parsed on a
+/// thread with room for the recursion, pruned (`prune`) and written back.
+fn shallow_json<'a>(json: &'a [u8], file: &str) -> Result<std::borrow::Cow<'a, [u8]>> {
+    let depth = json_depth(json);
+    if depth <= PLAIN_JSON_DEPTH {
+        return Ok(json.into());
+    }
+    if depth > MAX_JSON_DEPTH {
+        bail!("{file}: its JSON nests {depth} levels deep, above the limit of {MAX_JSON_DEPTH}");
+    }
+    let pruned = std::thread::scope(|s| {
+        std::thread::Builder::new()
+            .stack_size(256 << 20)
+            .spawn_scoped(s, || -> Result<Vec<u8>> {
+                use serde::Deserialize;
+                let mut de = serde_json::Deserializer::from_slice(json);
+                de.disable_recursion_limit();
+                let mut v = Value::deserialize(&mut de)
+                    .map_err(|e| anyhow!("{file}: not a valid glTF file: {}", one_line(&e)))?;
+                prune(&mut v);
+                Ok(serde_json::to_vec(&v)?)
+            })
+            .map(|t| t.join())
+    });
+    match pruned {
+        Ok(Ok(r)) => Ok(r?.into()),
+        _ => bail!("{file}: malformed glTF (the parser failed)"),
+    }
+}
+
+fn parse_unwinding(
+    bytes: &[u8],
+    file: &str,
+    stem: &str,
+    dir: Option<&Path>,
+    opts: &LoadOptions,
+) -> Result<Scene> {
+    let (json, blob) = if bytes.starts_with(b"glTF") {
+        let glb = gltf::Glb::from_slice(bytes)
+            .map_err(|e| anyhow!("{file}: not a valid glTF file (GLB): {}", one_line(&e)))?;
+        (glb.json, glb.bin.map(|b| b.into_owned()))
+    } else {
+        (bytes.into(), None)
+    };
+    let json = shallow_json(&json, file)?;
+    let gltf::Gltf { document, .. } = gltf::Gltf::from_slice_without_validation(&json)
         .map_err(|e| anyhow!("{file}: not a valid glTF file: {}", one_line(&e)))?;
     let mut root = document.into_json();
     // Named here: the crate's validation only says "unsupported". Extensions that change
@@ -75,17 +188,21 @@ fn parse_unwinding(bytes: &[u8], file: &str, stem: &str, dir: Option<&Path>) -> 
         .iter()
         .find(|e| !gltf::json::extensions::ENABLED_EXTENSIONS.contains(&e.as_str()))
     {
-        bail!("{file}: requires the glTF extension {ext}, which softshadow does not support");
+        bail!(
+            "{file}: requires the glTF extension {}, which softshadow does not support",
+            input::shown(ext)
+        );
     }
-    let doc = gltf::Document::from_json(root).map_err(|e| anyhow!("{file}: {}", one_line(&e)))?;
+    let doc =
+        gltf::Document::from_json(root).map_err(|e| anyhow!("{file}: {}", few(&one_line(&e))))?;
     let doc = &doc;
-    let buffers = gltf::import_buffers(doc, dir, blob)
-        .map_err(|e| anyhow!("{file}: cannot load its buffers: {}", one_line(&e)))?;
-
+    check_hierarchy(doc, file)?;
     let scene = doc
         .default_scene()
         .or_else(|| doc.scenes().next())
         .ok_or_else(|| anyhow!("{file}: has no scene"))?;
+    check_declared_sizes(&scene, file)?;
+    let buffers = load_buffers(doc, dir, blob, file, opts)?;
 
     let mut walk = Walk {
         file,
@@ -95,10 +212,29 @@ fn parse_unwinding(bytes: &[u8], file: &str, stem: &str, dir: Option<&Path>) -> 
         spot: None,
         point: None,
         camera: None,
-        node_count: doc.nodes().len(),
     };
-    for node in scene.nodes() {
-        walk.node(&node, Mat4::IDENTITY, Role::Both, 0)?;
+    // Depth first, parents before children, children in file order: an explicit stack,
+    // so that the depth of a file's hierarchy is bounded by a limit, not by the thread's stack.
+    let mut stack: Vec<(gltf::Node, Mat4, Role, usize)> = scene
+        .nodes()
+        .map(|n| (n, Mat4::IDENTITY, Role::Both, 1))
+        .collect();
+    stack.reverse();
+    while let Some((node, parent, parent_role, depth)) = stack.pop() {
+        if depth > MAX_NODE_DEPTH {
+            bail!(
+                "{file}: {}: the node hierarchy is more than {MAX_NODE_DEPTH} levels deep, the limit",
+                node_label(&node)
+            );
+        }
+        let (world, role) = walk.node(&node, parent, parent_role)?;
+        let children: Vec<gltf::Node> = node.children().collect();
+        stack.extend(
+            children
+                .into_iter()
+                .rev()
+                .map(|c| (c, world, role, depth + 1)),
+        );
     }
     let Walk {
         objects,
@@ -181,6 +317,25 @@ fn appearance_only(ext: &str) -> bool {
         )
 }
 
+/// The first few of a validation's `; `-separated findings: a file with thousands of bad
+/// fields gives one readable line.
+fn few(findings: &str) -> String {
+    const SHOWN: usize = 3;
+    let all: Vec<&str> = findings
+        .split("; ")
+        .map(str::trim)
+        .filter(|f| !f.is_empty())
+        .collect();
+    if all.len() <= SHOWN {
+        return findings.trim_end_matches(';').to_owned();
+    }
+    format!(
+        "{}; and {} more",
+        all[..SHOWN].join("; ").trim_end_matches(';'),
+        all.len() - SHOWN
+    )
+}
+
 /// A library error on one line (the crate's messages may span several).
 fn one_line(e: &dyn std::fmt::Display) -> String {
     e.to_string().replace('\n', " ").trim().to_owned()
@@ -204,29 +359,21 @@ struct Eye {
 struct Walk<'a> {
     file: &'a str,
     buffers: &'a [gltf::buffer::Data],
-    /// One mesh per (glTF mesh, primitive), shared by every node that instances it.
-    meshes: HashMap<(usize, usize), Arc<Mesh>>,
+    /// One mesh per distinct mode and POSITION, NORMAL and indices data (`PrimitiveKey`),
+    /// shared by every node and every glTF mesh that use the same data.
+    meshes: HashMap<PrimitiveKey, Arc<Mesh>>,
     objects: Vec<Object>,
     spot: Option<Spot>,
     point: Option<Vec3>,
     camera: Option<Eye>,
-    /// A depth beyond the node count means a cycle, which would otherwise never end.
-    node_count: usize,
 }
 
 impl Walk<'_> {
-    fn node(
-        &mut self,
-        node: &gltf::Node,
-        parent: Mat4,
-        parent_role: Role,
-        depth: usize,
-    ) -> Result<()> {
+    /// One node: its mesh, light and camera. Returns its world transform and role, which
+    /// its children inherit.
+    fn node(&mut self, node: &gltf::Node, parent: Mat4, parent_role: Role) -> Result<(Mat4, Role)> {
         let file = self.file;
         let label = node_label(node);
-        if depth > self.node_count {
-            bail!("{file}: {label}: the node hierarchy has a cycle");
-        }
         let world = parent * local_transform(node).with_context(|| format!("{file}: {label}"))?;
         let role = match role_extra(node.extras()).with_context(|| format!("{file}: {label}"))? {
             Some(r) => r,
@@ -240,18 +387,19 @@ impl Walk<'_> {
         }
         if let Some(light) = node.light() {
             let position = world.transform_point3(Vec3::ZERO);
-            let direction = world.transform_vector3(Vec3::NEG_Z).normalize_or_zero();
             match light.kind() {
                 gltf::khr_lights_punctual::Kind::Spot {
                     outer_cone_angle, ..
                 } if self.spot.is_none() => {
-                    if direction == Vec3::ZERO || !direction.is_finite() {
-                        bail!("{file}: {label}: the spot light's node transform has no direction");
-                    }
-                    let fov_deg = (outer_cone_angle.to_degrees() * 2.0).min(MAX_SPOT_FOV_DEG);
-                    if fov_deg.is_nan() || fov_deg <= 0.0 {
+                    let direction = axis(&world, Vec3::NEG_Z).ok_or_else(|| {
+                        anyhow!("{file}: {label}: the spot light's node transform has no direction (a scale of 0?)")
+                    })?;
+                    let fov_deg = outer_cone_angle.to_degrees() * 2.0;
+                    if !(fov_deg > 0.0 && fov_deg <= MAX_LIGHT_FOV_DEG) {
                         bail!(
-                            "{file}: {label}: spot light outerConeAngle {outer_cone_angle} must be > 0"
+                            "{file}: {label}: spot light outerConeAngle {outer_cone_angle} rad ({:.1} degrees) is out of range: allowed (0, {:.4}] rad, a cone of at most {MAX_LIGHT_FOV_DEG} degrees (a wider one spreads the shadow map over so much that casters get too few texels)",
+                            outer_cone_angle.to_degrees(),
+                            (MAX_LIGHT_FOV_DEG * 0.5).to_radians()
                         );
                     }
                     let radius = light_radius_extra(light.extras())
@@ -271,11 +419,10 @@ impl Walk<'_> {
         }
         if let (Some(cam), None) = (node.camera(), &self.camera) {
             if let gltf::camera::Projection::Perspective(p) = cam.projection() {
-                let forward = world.transform_vector3(Vec3::NEG_Z).normalize_or_zero();
-                let up = world.transform_vector3(Vec3::Y).normalize_or_zero();
-                if forward == Vec3::ZERO || up == Vec3::ZERO {
-                    bail!("{file}: {label}: the camera's node transform has no direction");
-                }
+                let (Some(forward), Some(up)) = (axis(&world, Vec3::NEG_Z), axis(&world, Vec3::Y))
+                else {
+                    bail!("{file}: {label}: the camera's node transform has no direction (a scale of 0?)");
+                };
                 self.camera = Some(Eye {
                     position: world.transform_point3(Vec3::ZERO),
                     forward,
@@ -284,10 +431,7 @@ impl Walk<'_> {
                 });
             }
         }
-        for child in node.children() {
-            self.node(&child, world, role, depth + 1)?;
-        }
-        Ok(())
+        Ok((world, role))
     }
 
     fn mesh(
@@ -300,7 +444,7 @@ impl Walk<'_> {
     ) -> Result<()> {
         let file = self.file;
         let mesh_label = match mesh.name() {
-            Some(n) => format!("mesh {} ('{n}')", mesh.index()),
+            Some(n) => format!("mesh {} ('{}')", mesh.index(), input::shown(n)),
             None => format!("mesh {}", mesh.index()),
         };
         let base_name = node
@@ -311,11 +455,13 @@ impl Walk<'_> {
         let count = mesh.primitives().len();
         for prim in mesh.primitives() {
             let what = format!("{file}: {label}, {mesh_label}, primitive {}", prim.index());
-            let m = match self.meshes.get(&(mesh.index(), prim.index())) {
+            // Sizes were bounded by `check_declared_sizes` before any buffer was loaded.
+            let key = primitive_key(&prim);
+            let m = match self.meshes.get(&key) {
                 Some(m) => m.clone(),
                 None => {
                     let m = Arc::new(read_primitive(&prim, self.buffers, &what)?);
-                    self.meshes.insert((mesh.index(), prim.index()), m.clone());
+                    self.meshes.insert(key, m.clone());
                     m
                 }
             };
@@ -338,15 +484,272 @@ impl Walk<'_> {
 
 fn node_label(node: &gltf::Node) -> String {
     match node.name() {
-        Some(n) => format!("node {} ('{n}')", node.index()),
+        Some(n) => format!("node {} ('{}')", node.index(), input::shown(n)),
         None => format!("node {}", node.index()),
     }
+}
+
+/// The unit direction `world` carries `v` to, computed in f64 so that a tiny but valid
+/// scale (1e-30) keeps its direction; `None` when the transform flattens it.
+fn axis(world: &Mat4, v: Vec3) -> Option<Vec3> {
+    let d = world.as_dmat4().transform_vector3(v.as_dvec3());
+    let n = d.normalize_or_zero().as_vec3();
+    (n != Vec3::ZERO && n.is_finite()).then_some(n)
+}
+
+/// What a primitive's mesh is read from: its mode and its POSITION, NORMAL and indices
+/// accessors (and whether it has morph targets, which `read_primitive` refuses).
+type PrimitiveKey = (
+    bool,
+    u32,
+    Option<AccessorKey>,
+    Option<AccessorKey>,
+    Option<AccessorKey>,
+);
+
+/// Where an accessor's elements come from: buffer view, offset, count, component type and
+/// dimensions. Two accessors with the same key read the same values.
+type AccessorKey = (usize, usize, usize, u32, usize);
+
+fn accessor_key(a: gltf::Accessor) -> AccessorKey {
+    (
+        a.view().map_or(usize::MAX, |v| v.index()),
+        a.offset(),
+        a.count(),
+        a.data_type().as_gl_enum(),
+        a.dimensions().multiplicity(),
+    )
+}
+
+fn primitive_key(prim: &gltf::Primitive) -> PrimitiveKey {
+    (
+        prim.morph_targets().len() > 0,
+        prim.mode().as_gl_enum(),
+        prim.get(&gltf::Semantic::Positions).map(accessor_key),
+        prim.get(&gltf::Semantic::Normals).map(accessor_key),
+        prim.indices().map(accessor_key),
+    )
+}
+
+/// Bounds the scene's triangles (every instance) and the vertices its distinct meshes read,
+/// from declared counts alone, before any buffer is loaded. Needs a forest
+/// (`check_hierarchy`): every node is met once.
+fn check_declared_sizes(scene: &gltf::Scene, file: &str) -> Result<()> {
+    let (mut triangles, mut vertices) = (0usize, 0usize);
+    let mut seen = std::collections::HashSet::new();
+    let mut stack: Vec<gltf::Node> = scene.nodes().collect();
+    while let Some(node) = stack.pop() {
+        if let Some(mesh) = node.mesh() {
+            for prim in mesh.primitives() {
+                let (t, v) = declared_size(&prim);
+                triangles = triangles.saturating_add(t);
+                if seen.insert(primitive_key(&prim)) {
+                    vertices = vertices.saturating_add(v);
+                }
+                let at = || {
+                    format!(
+                        "{file}: {}, mesh {}, primitive {}",
+                        node_label(&node),
+                        mesh.index(),
+                        prim.index()
+                    )
+                };
+                if triangles > input::MAX_SCENE_TRIANGLES {
+                    bail!(
+                        "{}: brings the scene to {triangles} triangles (each instance counts), above the limit of {} per scene",
+                        at(),
+                        input::MAX_SCENE_TRIANGLES
+                    );
+                }
+                if vertices > input::MAX_SCENE_VERTICES {
+                    bail!(
+                        "{}: brings the scene to {vertices} vertices read, above the limit of {} per scene",
+                        at(),
+                        input::MAX_SCENE_VERTICES
+                    );
+                }
+            }
+        }
+        stack.extend(node.children());
+    }
+    Ok(())
+}
+
+/// The triangles a primitive declares (from its index or vertex count and mode) and the
+/// vertices its reading allocates, known before any of it is read.
+fn declared_size(prim: &gltf::Primitive) -> (usize, usize) {
+    use gltf::mesh::Mode;
+    let positions = prim
+        .get(&gltf::Semantic::Positions)
+        .map_or(0, |a| a.count());
+    let n = prim.indices().map_or(positions, |a| a.count());
+    let triangles = match prim.mode() {
+        Mode::TriangleStrip | Mode::TriangleFan => n.saturating_sub(2),
+        _ => n / 3,
+    };
+    // Without normals every triangle gets three vertices of its own (`flat`).
+    let normals = prim.get(&gltf::Semantic::Normals).is_some();
+    let expanded = if normals {
+        0
+    } else {
+        triangles.saturating_mul(3)
+    };
+    (triangles, positions.saturating_add(expanded))
+}
+
+/// Refuses node graphs that are not forests before anything walks them: a cycle, a node
+/// with two parents (or listed twice by one), a scene root that is also a child. glTF
+/// requires the nodes to form disjoint trees; expanding a shared child once per parent
+/// multiplies the work with each level.
+fn check_hierarchy(doc: &gltf::Document, file: &str) -> Result<()> {
+    let nodes: Vec<gltf::Node> = doc.nodes().collect();
+    let children: Vec<Vec<usize>> = nodes
+        .iter()
+        .map(|n| n.children().map(|c| c.index()).collect())
+        .collect();
+    // Cycles: an iterative depth-first search over every node, colouring the path.
+    const NEW: u8 = 0;
+    const ON_PATH: u8 = 1;
+    const DONE: u8 = 2;
+    let mut state = vec![NEW; nodes.len()];
+    for start in 0..nodes.len() {
+        if state[start] != NEW {
+            continue;
+        }
+        let mut path: Vec<(usize, usize)> = vec![(start, 0)];
+        state[start] = ON_PATH;
+        while let Some(&mut (n, ref mut next)) = path.last_mut() {
+            if let Some(&c) = children[n].get(*next) {
+                *next += 1;
+                match state[c] {
+                    NEW => {
+                        state[c] = ON_PATH;
+                        path.push((c, 0));
+                    }
+                    ON_PATH => bail!(
+                        "{file}: {}: the node hierarchy has a cycle (it is its own ancestor)",
+                        node_label(&nodes[c])
+                    ),
+                    _ => {}
+                }
+            } else {
+                state[n] = DONE;
+                path.pop();
+            }
+        }
+    }
+    let mut parent: Vec<Option<usize>> = vec![None; nodes.len()];
+    for (p, cs) in children.iter().enumerate() {
+        for &c in cs {
+            if let Some(first) = parent[c] {
+                bail!(
+                    "{file}: {}: is a child of {} and of {}; glTF requires each node to have at most one parent",
+                    node_label(&nodes[c]),
+                    node_label(&nodes[first]),
+                    if first == p { "it again".to_owned() } else { node_label(&nodes[p]) }
+                );
+            }
+            parent[c] = Some(p);
+        }
+    }
+    for scene in doc.scenes() {
+        let mut seen = std::collections::HashSet::new();
+        for root in scene.nodes() {
+            if let Some(p) = parent[root.index()] {
+                bail!(
+                    "{file}: scene {}: its root {} is also a child of {}; glTF requires scene roots to be root nodes",
+                    scene.index(),
+                    node_label(&root),
+                    node_label(&nodes[p])
+                );
+            }
+            if !seen.insert(root.index()) {
+                bail!(
+                    "{file}: scene {}: lists {} twice",
+                    scene.index(),
+                    node_label(&root)
+                );
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Every buffer's bytes: the GLB blob, a data URI, or a file in the glTF file's folder
+/// (outside it only when `opts` allows). Images are never read: shadows need no textures.
+fn load_buffers(
+    doc: &gltf::Document,
+    dir: Option<&Path>,
+    mut blob: Option<Vec<u8>>,
+    file: &str,
+    opts: &LoadOptions,
+) -> Result<Vec<gltf::buffer::Data>> {
+    let mut out = Vec::new();
+    for buffer in doc.buffers() {
+        let label = format!("{file}: buffer {}", buffer.index());
+        let mut data = match buffer.source() {
+            gltf::buffer::Source::Bin => blob.take().ok_or_else(|| {
+                anyhow!("{label}: has no URI and the file has no GLB binary chunk for it")
+            })?,
+            gltf::buffer::Source::Uri(uri) => read_uri(uri, dir, &label, opts)?,
+        };
+        if data.len() < buffer.length() {
+            bail!(
+                "{label}: holds {} bytes, fewer than its byteLength {}",
+                data.len(),
+                buffer.length()
+            );
+        }
+        while !data.len().is_multiple_of(4) {
+            data.push(0);
+        }
+        out.push(gltf::buffer::Data(data));
+    }
+    Ok(out)
+}
+
+/// A buffer URI's bytes: `data:` decoded, a relative path (percent-decoded) or a `file:`
+/// URI read from `dir`, confined to it unless `opts` allows otherwise.
+fn read_uri(uri: &str, dir: Option<&Path>, label: &str, opts: &LoadOptions) -> Result<Vec<u8>> {
+    let shown_uri = input::token(uri, 80);
+    if uri.starts_with("data:") {
+        return gltf::buffer::Data::from_source(gltf::buffer::Source::Uri(uri), None)
+            .map(|d| d.0)
+            .map_err(|e| anyhow!("{label}: its data URI does not decode: {}", one_line(&e)));
+    }
+    let path = match uri
+        .strip_prefix("file://")
+        .or_else(|| uri.strip_prefix("file:"))
+    {
+        Some(rest) => rest,
+        None if uri.contains(':') => bail!(
+            "{label}: URI '{shown_uri}' has a scheme softshadow does not read (only relative paths and data: URIs)"
+        ),
+        None => uri,
+    };
+    let decoded = urlencoding::decode(path)
+        .map_err(|_| anyhow!("{label}: URI '{shown_uri}' is not percent-encoded UTF-8"))?;
+    let Some(dir) = dir else {
+        bail!("{label}: URI '{shown_uri}' names a file, but these bytes came without a folder");
+    };
+    let path = input::resolve_inside(dir, Path::new(&*decoded), opts, &format!("{label}: URI"))?;
+    input::read_file(&path, &format!("{label}: {}", input::shown_path(&path)))
 }
 
 /// The node's own transform: its `matrix`, or translation · rotation · scale.
 fn local_transform(node: &gltf::Node) -> Result<Mat4> {
     let m = match node.transform() {
-        gltf::scene::Transform::Matrix { matrix } => Mat4::from_cols_array_2d(&matrix),
+        gltf::scene::Transform::Matrix { matrix } => {
+            let m = Mat4::from_cols_array_2d(&matrix);
+            // The rasteriser divides by w, the ray caster would not: they would disagree.
+            let bottom = m.row(3);
+            if (bottom - glam::Vec4::W).abs().max_element() > 1e-6 {
+                bail!(
+                    "matrix is not affine (its bottom row is {bottom}, not [0, 0, 0, 1]): projective node transforms are not supported"
+                );
+            }
+            m
+        }
         gltf::scene::Transform::Decomposed {
             translation,
             rotation,
@@ -451,6 +854,7 @@ fn read_primitive(
         if a.count() == 0 {
             bail!("{what}: {attr} accessor {} is empty", a.index());
         }
+        check_range(a, buffers, what, attr)?;
         let ok = match *attr {
             "indices" => {
                 a.dimensions() == Dimensions::Scalar
@@ -495,9 +899,10 @@ fn read_primitive(
         None if prim.indices().is_some() => return Err(out_of_range("indices")),
         None => (0..positions.len() as u32).collect(),
     };
-    if let Some(&i) = raw.iter().find(|&&i| i as usize >= positions.len()) {
+    // Which entry, not its value: the bytes may belong to a file that is not a scene.
+    if let Some(k) = raw.iter().position(|&i| i as usize >= positions.len()) {
         bail!(
-            "{what}: index {i} is out of range ({} vertices)",
+            "{what}: index number {k} is out of range ({} vertices)",
             positions.len()
         );
     }
@@ -528,6 +933,48 @@ fn read_primitive(
     }
     m.validate(what)?;
     Ok(m)
+}
+
+/// Checks that an accessor's elements lie inside its buffer view and the view inside its
+/// buffer, with a stride no smaller than an element: the gltf crate's reader panics or
+/// overflows otherwise.
+fn check_range(
+    a: &gltf::Accessor,
+    buffers: &[gltf::buffer::Data],
+    what: &str,
+    attr: &str,
+) -> Result<()> {
+    let Some(view) = a.view() else {
+        return Ok(());
+    };
+    let elem = a.size() as u64;
+    let stride = match view.stride() {
+        Some(s) if (s as u64) < elem => bail!(
+            "{what}: {attr} accessor {}: its buffer view's byteStride {s} is smaller than one element ({elem} bytes)",
+            a.index()
+        ),
+        Some(s) => s as u64,
+        None => elem,
+    };
+    let end = (a.offset() as u64)
+        .saturating_add(stride.saturating_mul(a.count() as u64 - 1))
+        .saturating_add(elem);
+    if end > view.length() as u64 {
+        bail!(
+            "{what}: {attr} accessor {} reaches past the end of its buffer view ({end} > {} bytes)",
+            a.index(),
+            view.length()
+        );
+    }
+    let buffer_len = buffers.get(view.buffer().index()).map_or(0, |d| d.len()) as u64;
+    if (view.offset() as u64).saturating_add(view.length() as u64) > buffer_len {
+        bail!(
+            "{what}: {attr}: buffer view {} reaches past the end of buffer {} ({buffer_len} bytes)",
+            view.index(),
+            view.buffer().index()
+        );
+    }
+    Ok(())
 }
 
 /// Triangle-list indices for a triangles, strip or fan index sequence. Strips alternate
@@ -851,6 +1298,24 @@ mod tests {
         // Straight down: any roll, still -Z along forward.
         let q = look_rotation(Vec3::NEG_Y, Vec3::Y);
         assert!((q * Vec3::NEG_Z - Vec3::NEG_Y).length() < 1e-6);
+    }
+
+    #[test]
+    fn validation_findings_are_cut_to_a_few() {
+        assert_eq!(few("a: x; b: y;"), "a: x; b: y");
+        let many: String = (0..2000)
+            .map(|k| format!("m[{k}]: Missing data; "))
+            .collect();
+        let line = few(&many);
+        assert!(line.ends_with("; and 1997 more"), "{line}");
+        assert!(line.starts_with("m[0]: Missing data; m[1]"), "{line}");
+    }
+
+    #[test]
+    fn json_depth_skips_strings() {
+        assert_eq!(json_depth(br#"{"a": [[1], "[[[[\"[["], {}]}"#), 3);
+        assert_eq!(json_depth(b"[]"), 1);
+        assert_eq!(json_depth(b"1"), 0);
     }
 
     #[test]

@@ -12,12 +12,14 @@ pub mod builtin;
 pub mod export;
 pub mod file;
 pub mod gltf_io;
+pub mod input;
 pub mod obj;
 pub mod primitives;
 
 pub use builtin::BUILTIN_SCENES;
 pub use export::export_obj;
 pub use gltf_io::export_gltf;
+pub use input::LoadOptions;
 
 /// A triangle list. `normals` has one entry per position (computed where the source had none).
 /// Positions may be split (flat shading): silhouette code welds them by value.
@@ -424,6 +426,13 @@ impl Scene {
     /// scene file, a `.gltf`/`.glb` scene, or a `.obj` file framed on a ground plane under a
     /// default light and camera. The result is validated.
     pub fn load(spec: &str) -> Result<Scene> {
+        Self::load_with(spec, &LoadOptions::default())
+    }
+
+    /// [`Scene::load`] with `opts` saying how far a scene file may reach for the files it
+    /// names (by default only inside its own folder; see [`LoadOptions`]).
+    pub fn load_with(spec: &str, opts: &LoadOptions) -> Result<Scene> {
+        let shown_spec = input::shown_path(Path::new(spec));
         let scene = if let Some(s) = builtin::builtin(spec)? {
             s
         } else {
@@ -433,14 +442,14 @@ impl Scene {
                 .and_then(|e| e.to_str())
                 .map(|e| e.to_ascii_lowercase());
             match ext.as_deref() {
-                Some("toml") => file::load_toml(path)?,
-                Some("gltf") | Some("glb") => gltf_io::load_gltf(path)?,
+                Some("toml") => file::load_toml(path, opts)?,
+                Some("gltf") | Some("glb") => gltf_io::load_gltf(path, opts)?,
                 Some("obj") => builtin::framed_obj(path)?,
                 _ if path.is_file() => {
-                    bail!("{spec}: not a scene file (expected a .toml or .gltf/.glb scene or a .obj mesh)")
+                    bail!("{shown_spec}: not a scene file (expected a .toml or .gltf/.glb scene or a .obj mesh)")
                 }
                 _ => bail!(
-                    "unknown scene '{spec}': not a built-in ({}) nor a .toml/.gltf/.glb/.obj file",
+                    "unknown scene '{shown_spec}': not a built-in ({}) nor a .toml/.gltf/.glb/.obj file",
                     BUILTIN_SCENES.join(", ")
                 ),
             }
@@ -455,8 +464,8 @@ impl Scene {
             let text = format!("{e:#}");
             if bare_obj && text.contains(&ground) {
                 bail!(
-                    "{spec}: the ground plane the loader adds under a bare OBJ (sized from the mesh's bounds) is invalid: {}",
-                    text.replace(&format!("scene '{}', {ground}: ", scene.name), "")
+                    "{shown_spec}: the ground plane the loader adds under a bare OBJ (sized from the mesh's bounds) is invalid: {}",
+                    text.replace(&format!("scene '{}', {ground}: ", input::shown(&scene.name)), "")
                 );
             }
             return Err(e);
@@ -501,12 +510,19 @@ impl Scene {
     /// caster and one receiver, a light radius >= 0, fields of view in (0, 180), a light
     /// and camera that look somewhere.
     pub fn validate(&self) -> Result<()> {
-        let name = &self.name;
+        let name = &input::shown(&self.name);
         if self.objects.is_empty() {
             bail!("scene '{name}': no objects");
         }
+        let triangles = self.triangle_count();
+        if triangles > input::MAX_SCENE_TRIANGLES {
+            bail!(
+                "scene '{name}': {triangles} triangles is above the limit of {} per scene",
+                input::MAX_SCENE_TRIANGLES
+            );
+        }
         for o in &self.objects {
-            let what = format!("scene '{name}', object '{}'", o.name);
+            let what = format!("scene '{name}', object '{}'", input::shown(&o.name));
             o.mesh.validate(&what)?;
             if !o.transform.is_finite() {
                 bail!("{what}: transform is not finite");

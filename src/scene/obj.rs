@@ -5,15 +5,15 @@
 //! e.g. `bunny.obj: line 14: vertex 12 has a non-finite coordinate (NaN)`.
 
 use super::Mesh;
-use anyhow::{bail, Context, Result};
+use anyhow::{bail, Result};
 use glam::Vec3;
 use std::io::BufReader;
 use std::path::Path;
 
 /// Loads an OBJ file. Materials are ignored (shadows only need geometry).
 pub fn load_obj(path: &Path) -> Result<Mesh> {
-    let name = path.display().to_string();
-    let bytes = std::fs::read(path).with_context(|| format!("{name}: cannot read the file"))?;
+    let name = super::input::shown_path(path);
+    let bytes = super::input::read_file(path, &name)?;
     let text = String::from_utf8(bytes).map_err(|e| {
         anyhow::anyhow!(
             "{name}: not a text OBJ file (invalid UTF-8 at byte {})",
@@ -24,16 +24,11 @@ pub fn load_obj(path: &Path) -> Result<Mesh> {
 }
 
 /// At most this many characters of the input are quoted in an error.
-const QUOTE_MAX: usize = 60;
+const QUOTE_MAX: usize = 24;
 
-/// `w`, clipped to `QUOTE_MAX` characters.
+/// `w`, escaped and clipped to `QUOTE_MAX` characters.
 fn quote(w: &str) -> String {
-    if w.chars().count() <= QUOTE_MAX {
-        w.to_string()
-    } else {
-        let head: String = w.chars().take(QUOTE_MAX).collect();
-        format!("{head}...")
-    }
+    super::input::token(w, QUOTE_MAX)
 }
 
 /// Statements of the OBJ specification that carry no triangle geometry: accepted and ignored
@@ -80,7 +75,9 @@ const IGNORED: &[&str] = &[
 /// out-of-range texture and normal indices, and non-finite numbers, or reports them without a
 /// line number. Indices may refer to vertices defined later in the file.
 fn check_lines(text: &str, name: &str) -> Result<()> {
-    let (mut nv, mut nt, mut nn) = (0usize, 0usize, 0usize);
+    let (mut nv, mut nt, mut nn, mut nf) = (0usize, 0usize, 0usize, 0usize);
+    // Triangles after fan triangulation, bounded before tobj allocates them.
+    let mut triangles = 0usize;
     // First pass: counts, and the numbers of every v, vt and vn.
     for (line_no, line) in text.lines().enumerate() {
         let at = || format!("{name}: line {}", line_no + 1);
@@ -93,8 +90,24 @@ fn check_lines(text: &str, name: &str) -> Result<()> {
             "v" => ("vertex", 3, 7, &mut nv),
             "vt" => ("texture coordinate", 1, 3, &mut nt),
             "vn" => ("normal", 3, 3, &mut nn),
-            "f" | "fo" => continue,
+            "f" | "fo" => {
+                nf += 1;
+                triangles += words.count().saturating_sub(2);
+                if triangles > super::input::MAX_SCENE_TRIANGLES {
+                    bail!(
+                        "{}: the mesh has more than {} triangles, the limit per scene",
+                        at(),
+                        super::input::MAX_SCENE_TRIANGLES
+                    );
+                }
+                continue;
+            }
             k if IGNORED.contains(&k) => continue,
+            // Before any OBJ statement the file may be anything at all: none of it is quoted.
+            _ if nv + nt + nn + nf == 0 => bail!(
+                "{}: not an OBJ file (the line does not start with an OBJ statement)",
+                at()
+            ),
             k => bail!(
                 "{}: unknown statement '{}' (malformed line)",
                 at(),
@@ -103,6 +116,13 @@ fn check_lines(text: &str, name: &str) -> Result<()> {
         };
         *count += 1;
         let k = *count;
+        if k > super::input::MAX_SCENE_VERTICES {
+            bail!(
+                "{}: the mesh has more than {} {what}s, the limit per scene",
+                at(),
+                super::input::MAX_SCENE_VERTICES
+            );
+        }
         let nums: Vec<&str> = words.collect();
         if nums.len() < min || nums.len() > max {
             bail!(

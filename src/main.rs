@@ -505,6 +505,9 @@ fn render(cli: &Cli, a: &RenderArgs) -> Result<()> {
             v.sort_by(f64::total_cmp);
             p.gpu_ms = v.get(v.len() / 2).copied().or(p.gpu_ms);
         }
+        if !ctx.pipeline_statistics {
+            println!("{}", softshadow::vk::NO_PIPELINE_STATISTICS);
+        }
         print!("{}", report.report());
     }
     let msgs = ctx.validation_messages();

@@ -756,6 +756,10 @@ pub struct PassStat {
     /// Timed frames that skipped it, and the reason the last one gave.
     pub skipped_frames: usize,
     pub skip_reason: Option<String>,
+    /// Its pipeline statistics in the last timed frame that ran it (the same in every
+    /// frame: they count work, not time); `None` when no frame ran it or the device does not
+    /// count them.
+    pub stats: Option<crate::vk::PassStats>,
 }
 
 /// One named CPU timing over the timed frames.
@@ -851,7 +855,7 @@ pub struct Outcome {
 
 /// The layout version of results.json and results.csv (docs/RESULTS.md): raised when a
 /// field is renamed or removed or changes meaning, not when one is added.
-pub const RESULTS_SCHEMA_VERSION: u32 = 1;
+pub const RESULTS_SCHEMA_VERSION: u32 = 2;
 
 /// Every setting of a sweep: what was asked for and the renderer settings every point
 /// shares (`results.json` `settings`).
@@ -1412,6 +1416,7 @@ pub fn summarise(timed: &[FrameTimings]) -> Timing {
                 gpu_ms: Stat::of(&ms),
                 skipped_frames: skipped.len(),
                 skip_reason: skipped.last().cloned(),
+                stats: runs.iter().rev().find_map(|p| p.stats),
             }
         })
         .collect();

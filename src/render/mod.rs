@@ -206,6 +206,9 @@ impl<'c> Renderer<'c> {
             technique.record_final(ctx, rec, &input)
         })?;
         self.last_light_key = light_key;
+        let mut timings = timings;
+        timings.image_pixels = self.settings.width as u64 * self.settings.height as u64;
+        timings.map_texels = self.settings.shadow_res as u64 * self.settings.shadow_res as u64;
         Ok(timings)
     }
 

@@ -509,6 +509,18 @@ fn render(cli: &Cli, a: &RenderArgs) -> Result<()> {
             println!("{}", softshadow::vk::NO_PIPELINE_STATISTICS);
         }
         print!("{}", report.report());
+        // Counted lookups of the final pass, from an untimed counting frame.
+        let c = r.count_lookups()?;
+        let px = (c.width as u64 * c.height as u64).max(1) as f64;
+        println!(
+            "work {} texels {:.2}/px (warp {:.2}/px), search {:.2}/px, filter {:.2}/px, march {:.2}/px",
+            c.pass,
+            c.sum(0) as f64 / px,
+            c.warp_sum(0) as f64 / px,
+            c.sum(1) as f64 / px,
+            c.sum(2) as f64 / px,
+            c.sum(3) as f64 / px,
+        );
     }
     let msgs = ctx.validation_messages();
     if !msgs.is_empty() {

@@ -108,6 +108,9 @@ pub struct Context {
     /// it): the per-pass work counts of `--timings` and the bench need it, and are left
     /// empty without it.
     pub pipeline_statistics: bool,
+    /// Whether the `independentBlend` feature is enabled (wherever offered): the counting
+    /// pass (colour overwritten, counts added) needs it, and is not built without it.
+    pub independent_blend: bool,
 }
 
 unsafe extern "system" fn debug_callback(
@@ -274,8 +277,10 @@ impl Context {
         let logic_op = offered.logic_op == vk::TRUE;
         // Optional: the per-pass counters beside the timestamps; without it they are empty.
         let pipeline_statistics = offered.pipeline_statistics_query == vk::TRUE;
+        let independent_blend = offered.independent_blend == vk::TRUE;
         let features = vk::PhysicalDeviceFeatures::default()
             .logic_op(logic_op)
+            .independent_blend(independent_blend)
             .pipeline_statistics_query(pipeline_statistics);
         let device_create = vk::DeviceCreateInfo::default()
             .queue_create_infos(&queue_info)
@@ -325,6 +330,7 @@ impl Context {
             validation: opts.validation,
             logic_op,
             pipeline_statistics,
+            independent_blend,
         })
     }
 

@@ -235,8 +235,10 @@ fn results_json_and_csv_hold_exactly_the_documented_fields() {
         ("prims", "clipping_primitives"),
         ("cs", "compute_invocations"),
     ];
+    let lookups = [("texels", "texels"), ("texels_warp", "texels_warp")];
     let counted: Vec<String> = counters
         .iter()
+        .chain(&lookups)
         .flat_map(|(prefix, _)| {
             passes
                 .iter()
@@ -295,6 +297,30 @@ fn results_json_and_csv_hold_exactly_the_documented_fields() {
                 match json_count {
                     Some(n) => assert_eq!(cell.parse::<u64>().unwrap(), n, "{prefix}:{name}"),
                     None => assert!(cell.is_empty(), "{prefix}:{name}: {cell:?}"),
+                }
+            }
+        }
+        for (prefix, field) in lookups {
+            for p in &passes {
+                let name = &p["pass:".len()..];
+                let cell = &row[col(&format!("{prefix}:{name}"))];
+                let pass = r["passes"]
+                    .as_array()
+                    .unwrap()
+                    .iter()
+                    .find(|x| x["name"] == name);
+                match pass.and_then(|x| x["lookups"][field].as_u64()) {
+                    Some(n) => assert_eq!(cell.parse::<u64>().unwrap(), n, "{prefix}:{name}"),
+                    None => assert!(cell.is_empty(), "{prefix}:{name}: {cell:?}"),
+                }
+                // Counted for the final pass only; a warp pays at least its lanes' sum.
+                if let Some(x) = pass {
+                    let texels = x["lookups"]["texels"].as_u64();
+                    assert_eq!(texels.is_some(), name.ends_with("/final"), "{name}");
+                    if let Some(t) = texels {
+                        assert!(t > 0, "{name}: no texel counted");
+                        assert!(x["lookups"]["texels_warp"].as_u64().unwrap() >= t);
+                    }
                 }
             }
         }

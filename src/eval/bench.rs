@@ -760,6 +760,33 @@ pub struct PassStat {
     /// frame: they count work, not time); `None` when no frame ran it or the device does not
     /// count them.
     pub stats: Option<crate::vk::PassStats>,
+    /// A final pass's counted lookups, from the counting frame after the timed ones
+    /// (`Renderer::count_lookups`); `None` for light passes.
+    pub lookups: Option<Lookups>,
+}
+
+/// The counting frame's sums over the image for one final pass (docs/DESIGN.md, "Work
+/// counts"): texels read, plain and per warp (8x4 tiles, 32 x the tile's largest), and the
+/// turns of its search, filter and march loops.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+pub struct Lookups {
+    pub texels: u64,
+    pub texels_warp: u64,
+    pub search: u64,
+    pub filter: u64,
+    pub march: u64,
+}
+
+impl Lookups {
+    pub fn of(c: &crate::render::LookupCounts) -> Self {
+        Self {
+            texels: c.sum(0),
+            texels_warp: c.warp_sum(0),
+            search: c.sum(1),
+            filter: c.sum(2),
+            march: c.sum(3),
+        }
+    }
 }
 
 /// One named CPU timing over the timed frames.
@@ -1164,6 +1191,9 @@ impl Sweep<'_> {
         let images = r
             .read_back()
             .with_context(|| format!("bench {what}: reading back"))?;
+        let counted = r
+            .count_lookups()
+            .with_context(|| format!("bench {what}: counting lookups"))?;
         let smoothie_t = (variant.technique == "smoothies")
             .then(|| smoothie_width(settings.smoothie_t, &r.scene, &r.light, radius));
         drop(r);
@@ -1227,7 +1257,11 @@ impl Sweep<'_> {
         self.files.push(error_image.clone());
         self.files.push(flip_image.clone());
 
-        let timing = summarise(timed);
+        let mut timing = summarise(timed);
+        let final_pass = counted.pass.replace("/count", "/final");
+        if let Some(p) = timing.passes.iter_mut().find(|p| p.name == final_pass) {
+            p.lookups = Some(Lookups::of(&counted));
+        }
         Ok(Record {
             scene: base.name.clone(),
             technique: variant.label.clone(),
@@ -1417,6 +1451,7 @@ pub fn summarise(timed: &[FrameTimings]) -> Timing {
                 skipped_frames: skipped.len(),
                 skip_reason: skipped.last().cloned(),
                 stats: runs.iter().rev().find_map(|p| p.stats),
+                lookups: None,
             }
         })
         .collect();

@@ -133,6 +133,11 @@ pub fn write_csv(path: &Path, res: &Results<'_>) -> Result<()> {
                 .iter()
                 .flat_map(|(prefix, _)| passes.iter().map(move |p| format!("{prefix}:{p}"))),
         )
+        .chain(
+            LOOKUP_COLUMNS
+                .iter()
+                .flat_map(|(prefix, _)| passes.iter().map(move |p| format!("{prefix}:{p}"))),
+        )
         .collect();
     let mut w =
         csv::Writer::from_path(path).with_context(|| format!("writing {}", path.display()))?;
@@ -157,6 +162,14 @@ pub fn write_csv(path: &Path, res: &Results<'_>) -> Result<()> {
                     .unwrap_or_default()
             }));
         }
+        for (_, counter) in LOOKUP_COLUMNS {
+            cells.extend(passes.iter().map(|name| {
+                let p = r.passes.iter().find(|p| p.name == *name);
+                p.and_then(|p| p.lookups)
+                    .map(|l| counter(&l).to_string())
+                    .unwrap_or_default()
+            }));
+        }
         w.write_record(&cells)
             .with_context(|| format!("writing {}", path.display()))?;
     }
@@ -173,6 +186,11 @@ const STATS_COLUMNS: [(&str, Counter); 4] = [
     ("prims", |s| s.clipping_primitives),
     ("cs", |s| s.compute_invocations),
 ];
+
+/// Then the counted lookups of the final passes (`results[].passes[].lookups`).
+type LookupCounter = fn(&super::bench::Lookups) -> u64;
+const LOOKUP_COLUMNS: [(&str, LookupCounter); 2] =
+    [("texels", |l| l.texels), ("texels_warp", |l| l.texels_warp)];
 
 pub fn write_json(path: &Path, res: &Results<'_>) -> Result<()> {
     let text = serde_json::to_string_pretty(res).context("serialising results")?;

@@ -92,7 +92,8 @@ fn pcf_box_reads_its_footprint_once_per_fragment() {
             ..small(64, 128)
         };
         let (_, _, c, _) = counted(&gpu, "cylinder", "pcf", settings);
-        let gathers = ((n + 1) / 2).pow(2);
+        // n is odd: (n + 1) / 2 gathers a side.
+        let gathers = n.div_ceil(2).pow(2);
         let filtered: Vec<_> = c.per_pixel.iter().filter(|p| p[FILTER] > 0).collect();
         assert!(!filtered.is_empty(), "box {n}: no pixel ran the filter");
         for p in filtered {

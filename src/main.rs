@@ -592,6 +592,9 @@ fn run_bench(cli: &Cli, a: &BenchArgs) -> Result<()> {
         plan.scenes.len(),
         plan.variants.len()
     );
+    if !ctx.pipeline_statistics {
+        println!("{}", softshadow::vk::NO_PIPELINE_STATISTICS);
+    }
     let outcome = bench::run(&ctx, plan)?;
     println!(
         "wrote {} files into {}: report.md, results.csv, results.json, time_vs_error.png, images/",

@@ -8,6 +8,11 @@ use common::{small, Gpu};
 use softshadow::render::{LookupCounts, Renderer};
 use softshadow::scene::Scene;
 use softshadow::settings::{PcfKernel, Settings};
+use softshadow::shaders;
+use softshadow::vk::{
+    Blend, CullModeFlags, Format, FrameRunner, GraphicsPipelineDesc, Image, ImageUsageFlags,
+    Pipeline, PrimitiveTopology,
+};
 
 const TEXELS: usize = 0;
 const SEARCH: usize = 1;
@@ -178,4 +183,89 @@ fn warp_sum_pays_for_the_slowest_fragment_of_each_tile() {
     };
     assert_eq!(c.sum(0), 17);
     assert_eq!(c.warp_sum(0), 32 * 10 + 32 * 5);
+}
+
+/// One triangle over a W x H target: what lavapipe counts. The spec lets a driver count
+/// helper invocations; llvmpipe shades and counts whole 4x4-pixel blocks (16 invocations
+/// each, the lanes outside the triangle or the target included), so a full-screen pass
+/// counts at least W x H: every block over the target, plus the blocks its clipper's parts
+/// share an edge in, counted once per part (observed: 37x23 counts 1136 = 71 blocks where 60
+/// cover it, 64x64 counts 4352 = 272 blocks for 256). 3 vertices, no compute.
+#[test]
+fn a_full_screen_triangle_shades_whole_blocks_over_the_target() {
+    let gpu = Gpu::new();
+    for (w, h) in [(1u32, 1u32), (16, 16), (37, 23), (64, 64), (128, 64)] {
+        let target = Image::new_2d(
+            &gpu.ctx,
+            w,
+            h,
+            Format::R8G8B8A8_UNORM,
+            ImageUsageFlags::COLOR_ATTACHMENT,
+            "full screen",
+        )
+        .unwrap();
+        let pipeline = Pipeline::graphics(
+            &gpu.ctx,
+            &GraphicsPipelineDesc {
+                name: "t/final",
+                vertex: shaders::TESTS_FULLSCREEN_VERT,
+                fragment: Some(shaders::TESTS_WHITE_FRAG),
+                vertex_stride: 0,
+                attributes: &[],
+                topology: PrimitiveTopology::TRIANGLE_LIST,
+                cull: CullModeFlags::NONE,
+                colors: &[(Format::R8G8B8A8_UNORM, Blend::None)],
+                depth: None,
+                push_constant_bytes: 0,
+                sets: &[],
+            },
+        )
+        .unwrap();
+        let mut runner = FrameRunner::new(&gpu.ctx, 1).unwrap();
+        let t = runner
+            .run(|rec| {
+                rec.pass("t/final", |rec| {
+                    rec.begin_rendering(&[(&target, Some([0.0; 4]))], None);
+                    rec.bind_pipeline(&pipeline);
+                    rec.draw(3, 1);
+                    rec.end_rendering();
+                    Ok(())
+                })
+            })
+            .unwrap();
+        let s = t.passes[0]
+            .stats
+            .expect("lavapipe counts pipeline statistics");
+        let n = s.fragment_invocations;
+        let (bw, bh) = (w.div_ceil(4) as u64, h.div_ceil(4) as u64);
+        assert_eq!(n % 16, 0, "{w}x{h}: {n} is not whole 4x4 blocks");
+        assert!(n >= w as u64 * h as u64, "{w}x{h}: {n}");
+        assert!(
+            n >= 16 * bw * bh,
+            "{w}x{h}: {n} misses a block of the target"
+        );
+        assert!(
+            n <= 16 * (bw + 1) * (bh + 1),
+            "{w}x{h}: {n} beyond one extra block row and column"
+        );
+        assert_eq!(s.vertex_invocations, 3);
+        // llvmpipe reports what reached its clipper's output: the triangle cut to the
+        // target is 3 triangles, whose shared edges' blocks are the ones counted twice.
+        assert!(s.clipping_primitives >= 1, "{s:?}");
+        assert_eq!(s.compute_invocations, 0);
+    }
+}
+
+/// A device without `pipelineStatisticsQuery`: the frame still runs, its passes carry no
+/// statistics and `--timings` prints no counts (the CLI prints one note instead).
+#[test]
+fn without_the_feature_the_counts_are_empty_not_an_error() {
+    let mut gpu = Gpu::new();
+    gpu.ctx.pipeline_statistics = false;
+    let scene = Scene::load("cylinder").unwrap();
+    let mut r = Renderer::new(&gpu.ctx, scene, "pcss-fast", small(64, 128)).unwrap();
+    let t = r.render().unwrap();
+    assert!(t.passes.iter().all(|p| p.stats.is_none()), "{:?}", t.passes);
+    assert!(!t.report().contains("frags"), "{}", t.report());
+    assert!(t.report().contains("pcss-fast/final"));
 }

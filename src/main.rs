@@ -49,7 +49,7 @@ enum Command {
     Export(ExportArgs),
     /// Time every technique per pass and measure its error against the reference, over
     /// scenes x buffer resolutions x light radii; writes results.csv, results.json,
-    /// report.md, time_vs_error.png and images/ into --out.
+    /// report.md, time_vs_error.png, lookups_vs_error.png and images/ into --out.
     Bench(BenchArgs),
     /// Run the named edge cases over every technique against the reference (stress.md/json).
     Stress(StressArgs),
@@ -597,7 +597,7 @@ fn run_bench(cli: &Cli, a: &BenchArgs) -> Result<()> {
     }
     let outcome = bench::run(&ctx, plan)?;
     println!(
-        "wrote {} files into {}: report.md, results.csv, results.json, time_vs_error.png, images/",
+        "wrote {} files into {}: report.md, results.csv, results.json, time_vs_error.png, lookups_vs_error.png, images/",
         outcome.files.len(),
         outcome.out.display()
     );

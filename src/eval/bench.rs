@@ -576,10 +576,11 @@ struct Staging {
 }
 
 /// The fixed files of a sweep; `images/` holds the rest.
-const TOP_FILES: [&str; 5] = [
+const TOP_FILES: [&str; 6] = [
     "results.csv",
     "results.json",
     "time_vs_error.png",
+    "lookups_vs_error.png",
     "report.md",
     ERROR_SCALE_IMAGE,
 ];
@@ -1099,6 +1100,7 @@ pub fn run(ctx: &Context, plan: Plan) -> Result<Outcome> {
     report::write_csv(&st.path("results.csv"), &results)?;
     report::write_json(&st.path("results.json"), &results)?;
     plot::time_vs_error(&st.path("time_vs_error.png"), &results)?;
+    plot::lookups_vs_error(&st.path("lookups_vs_error.png"), &results)?;
     report::write_markdown(&st.path("report.md"), &results)?;
     write_error_scale(&st.path(ERROR_SCALE_IMAGE))?;
     for f in TOP_FILES {

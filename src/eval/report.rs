@@ -397,6 +397,7 @@ pub fn markdown(res: &Results<'_>) -> String {
         "Per scene: x = frame time as a ratio to `{BASELINE}`, y = `mae_lit`; the line is the Pareto front (no other point is both faster and more accurate on lit surfaces).\n"
     );
     let _ = writeln!(s, "![time against error](time_vs_error.png)\n");
+    let _ = writeln!(s, "![warp lookups against error](lookups_vs_error.png)\n");
 
     let _ = writeln!(s, "## SPIR-V instruction counts\n");
     let _ = writeln!(

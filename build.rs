@@ -66,7 +66,7 @@ fn run() -> Result<(), String> {
             // attachment is a validation warning, and the AOV writes would still cost).
             let variants: &[(&str, Option<&str>)] =
                 if source.contains("#include \"common/final.glsl\"") {
-                    &[("", None), ("_AOV", Some("AOV"))]
+                    &[("", None), ("_AOV", Some("AOV")), ("_COUNT", Some("COUNT"))]
                 } else {
                     &[("", None)]
                 };

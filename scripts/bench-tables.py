@@ -5,8 +5,10 @@
 
 Prints, from the rows at one buffer size and radius per scene (the run BENCHMARKS.md
 records: `bench --full --width 512 --height 512 --resolutions 1024 --radii scene`):
-1. per scene, one row per technique: frame ms, x hard, the passes' median ms, mae_lit,
-   p99_lit, flip, mae_shadow; then the Pareto front on (x hard, mae_lit);
+1. per scene, one row per technique: frame ms, x hard, the passes' median ms, the final
+   pass's counted work per image pixel (fragments, texels read, texels per warp; each with
+   its ratio to hard's), mae_lit, p99_lit, flip, mae_shadow; then the Pareto front on
+   (x hard, mae_lit);
 2. per technique over the scenes: mean mae_lit, on how many scenes it beats hard's mae_lit,
    mean flip, median x hard;
 3. the accuracy and speed targets of the accurate forms (ratios of mae_lit to pcss's and
@@ -58,6 +60,25 @@ def passes(r):
     return " · ".join(out)
 
 
+def final_count(r, prefix):
+    """The final pass's count `prefix` (frags, texels, texels_warp) per image pixel, or None
+    where the run has no such column (no pipeline statistics, an older schema)."""
+    pixels = float(r["width"]) * float(r["height"])
+    for k, v in r.items():
+        if k.startswith(prefix + ":") and k.endswith("/final") and v not in ("", None):
+            return float(v) / pixels
+    return None
+
+
+def count_cell(r, hard, prefix):
+    x, h = final_count(r, prefix), final_count(hard, prefix)
+    if x is None:
+        return "–"
+    if not h:
+        return f"{x:.2f}"
+    return f"{x:.2f} ({x / h:.2f}×)"
+
+
 def pareto(rows):
     front, best = [], float("inf")
     for r in sorted(rows, key=lambda r: (float(r["ratio_to_hard"]), float(r["mae_lit"]))):
@@ -70,12 +91,15 @@ def pareto(rows):
 def scene_tables(scenes):
     for scene, rows in scenes.items():
         print(f"### {scene}")
-        print("| technique | frame ms | × hard | passes, median ms | mae_lit | p99_lit | flip | mae_shadow |")
-        print("|:---|---:|---:|:---|---:|---:|---:|---:|")
+        hard = next(r for r in rows if label(r) == "hard")
+        print("| technique | frame ms | × hard | passes, median ms | frags/px | lookups/px | warp lookups/px | mae_lit | p99_lit | flip | mae_shadow |")
+        print("|:---|---:|---:|:---|---:|---:|---:|---:|---:|---:|---:|")
         for r in rows:
             print(
                 f"| {label(r)} | {fmt_ms(float(r['frame_ms_median']))} "
                 f"| {float(r['ratio_to_hard']):.2f} | {passes(r)} "
+                f"| {count_cell(r, hard, 'frags')} | {count_cell(r, hard, 'texels')} "
+                f"| {count_cell(r, hard, 'texels_warp')} "
                 f"| {float(r['mae_lit']):.3f} | {float(r['p99_lit']):.2f} "
                 f"| {float(r['flip']):.4f} | {float(r['mae_shadow']):.3f} |"
             )

@@ -53,7 +53,7 @@ enum Command {
     Export(ExportArgs),
     /// Time every technique per pass and measure its error against the reference, over
     /// scenes x buffer resolutions x light radii; writes results.csv, results.json,
-    /// report.md, time_vs_error.png and images/ into --out.
+    /// report.md, time_vs_error.png, lookups_vs_error.png and images/ into --out.
     Bench(BenchArgs),
     /// Run the named edge cases over every technique against the reference (stress.md/json).
     Stress(StressArgs),
@@ -557,7 +557,22 @@ fn render(cli: &Cli, a: &RenderArgs) -> Result<()> {
             v.sort_by(f64::total_cmp);
             p.gpu_ms = v.get(v.len() / 2).copied().or(p.gpu_ms);
         }
+        if !ctx.pipeline_statistics {
+            println!("{}", softshadow::vk::NO_PIPELINE_STATISTICS);
+        }
         print!("{}", report.report());
+        // Counted lookups of the final pass, from an untimed counting frame.
+        let c = r.count_lookups()?;
+        let px = (c.width as u64 * c.height as u64).max(1) as f64;
+        println!(
+            "work {} texels {:.2}/px (warp {:.2}/px), search {:.2}/px, filter {:.2}/px, march {:.2}/px",
+            c.pass,
+            c.sum(0) as f64 / px,
+            c.warp_sum(0) as f64 / px,
+            c.sum(1) as f64 / px,
+            c.sum(2) as f64 / px,
+            c.sum(3) as f64 / px,
+        );
     }
     let msgs = ctx.validation_messages();
     if !msgs.is_empty() {
@@ -630,9 +645,12 @@ fn run_bench(cli: &Cli, a: &BenchArgs) -> Result<()> {
         plan.scenes.len(),
         plan.variants.len()
     );
+    if !ctx.pipeline_statistics {
+        println!("{}", softshadow::vk::NO_PIPELINE_STATISTICS);
+    }
     let outcome = bench::run(&ctx, plan)?;
     println!(
-        "wrote {} files into {}: report.md, results.csv, results.json, time_vs_error.png, images/",
+        "wrote {} files into {}: report.md, results.csv, results.json, time_vs_error.png, lookups_vs_error.png, images/",
         outcome.files.len(),
         outcome.out.display()
     );

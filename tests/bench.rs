@@ -175,10 +175,12 @@ fn tiny_sweep_writes_every_output_and_each_parses() {
     }
 
     // The plot and every image decode; images have the image size; nothing left staged.
-    let plot = decode_png(&out.join("time_vs_error.png")).to_rgb8();
-    assert!(plot.width() >= 600 && plot.height() >= 400);
-    let first = plot.get_pixel(0, 0);
-    assert!(plot.pixels().any(|p| p != first), "the plot is blank");
+    for name in ["time_vs_error.png", "lookups_vs_error.png"] {
+        let plot = decode_png(&out.join(name)).to_rgb8();
+        assert!(plot.width() >= 600 && plot.height() >= 400, "{name}");
+        let first = plot.get_pixel(0, 0);
+        assert!(plot.pixels().any(|p| p != first), "{name} is blank");
+    }
     for r in results {
         for key in [
             "image",
@@ -289,6 +291,25 @@ fn rows_agree(rows: &[csv::StringRecord], headers: &csv::StringRecord, json: &se
                     .iter()
                     .find(|p| p["name"] == h["pass:".len()..])
                     .map_or(serde_json::Value::Null, |p| p["gpu_ms"]["median"].clone()),
+                // The counters after the cpu: columns: pipeline statistics, then lookups.
+                _ if h.contains(':') && !h.starts_with("cpu:") => {
+                    let (prefix, pass) = h.split_once(':').unwrap();
+                    let (group, field) = match prefix {
+                        "frags" => ("stats", "fragment_invocations"),
+                        "verts" => ("stats", "vertex_invocations"),
+                        "prims" => ("stats", "clipping_primitives"),
+                        "cs" => ("stats", "compute_invocations"),
+                        "texels" => ("lookups", "texels"),
+                        "texels_warp" => ("lookups", "texels_warp"),
+                        other => panic!("{what}: unknown column group {other}"),
+                    };
+                    r["passes"]
+                        .as_array()
+                        .unwrap()
+                        .iter()
+                        .find(|p| p["name"] == pass)
+                        .map_or(serde_json::Value::Null, |p| p[group][field].clone())
+                }
                 _ if h.starts_with("cpu:") => r["cpu"]
                     .as_array()
                     .unwrap()

@@ -90,7 +90,20 @@ fn render_writes_png_aovs_and_timings() {
             .unwrap_or_else(|| panic!("no timing line for {pass}:\n{stdout}"));
         let ms: f64 = line.split_whitespace().nth(2).unwrap().parse().unwrap();
         assert!(ms > 0.0, "{line}");
+        // Fragment invocations beside the time: per pixel on screen, per texel in the light.
+        let unit = if pass.ends_with("/final") {
+            "/px)"
+        } else {
+            "/tx)"
+        };
+        assert!(line.contains("  frags ") && line.contains(unit), "{line}");
     }
+    assert!(
+        stdout
+            .lines()
+            .any(|l| l.starts_with("work smoothies/count texels ")),
+        "{stdout}"
+    );
     assert!(
         stdout.lines().any(|l| l.starts_with("frame gpu")),
         "{stdout}"

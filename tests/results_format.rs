@@ -169,8 +169,8 @@ fn results_json_and_csv_hold_exactly_the_documented_fields() {
     );
 
     // The values the fields promise.
-    assert_eq!(json["schema_version"], 1);
-    assert!(doc.contains("**schema version 1**"));
+    assert_eq!(json["schema_version"], 2);
+    assert!(doc.contains("**schema version 2**"));
     assert_eq!(json["softshadow_version"], env!("CARGO_PKG_VERSION"));
     let commit = json["git_commit"].as_str().unwrap();
     let head = std::process::Command::new("git")
@@ -228,11 +228,28 @@ fn results_json_and_csv_hold_exactly_the_documented_fields() {
             }
         }
     }
-    let rest: Vec<String> = passes.iter().chain(&cpu).cloned().collect();
+    // Then one group per counter, each with one column per pass.
+    let counters = [
+        ("frags", "fragment_invocations"),
+        ("verts", "vertex_invocations"),
+        ("prims", "clipping_primitives"),
+        ("cs", "compute_invocations"),
+    ];
+    let lookups = [("texels", "texels"), ("texels_warp", "texels_warp")];
+    let counted: Vec<String> = counters
+        .iter()
+        .chain(&lookups)
+        .flat_map(|(prefix, _)| {
+            passes
+                .iter()
+                .map(move |p| format!("{prefix}:{}", &p["pass:".len()..]))
+        })
+        .collect();
+    let rest: Vec<String> = passes.iter().chain(&cpu).chain(&counted).cloned().collect();
     assert_eq!(
         &header[fixed.len()..],
         &rest[..],
-        "one column per pass, then per CPU work"
+        "one column per pass, then per CPU work, then per counter and pass"
     );
     assert!(
         rest.contains(&"pass:smoothies/smoothie".to_string()),
@@ -265,6 +282,57 @@ fn results_json_and_csv_hold_exactly_the_documented_fields() {
             match json_ms {
                 Some(ms) => assert!(same(cell.parse().unwrap(), ms), "{p}: {cell} vs {ms}"),
                 None => assert!(cell.is_empty(), "{p}: {cell:?} for a row without it"),
+            }
+        }
+        for (prefix, field) in counters {
+            for p in &passes {
+                let name = &p["pass:".len()..];
+                let cell = &row[col(&format!("{prefix}:{name}"))];
+                let json_count = r["passes"]
+                    .as_array()
+                    .unwrap()
+                    .iter()
+                    .find(|x| x["name"] == name)
+                    .and_then(|x| x["stats"][field].as_u64());
+                match json_count {
+                    Some(n) => assert_eq!(cell.parse::<u64>().unwrap(), n, "{prefix}:{name}"),
+                    None => assert!(cell.is_empty(), "{prefix}:{name}: {cell:?}"),
+                }
+            }
+        }
+        for (prefix, field) in lookups {
+            for p in &passes {
+                let name = &p["pass:".len()..];
+                let cell = &row[col(&format!("{prefix}:{name}"))];
+                let pass = r["passes"]
+                    .as_array()
+                    .unwrap()
+                    .iter()
+                    .find(|x| x["name"] == name);
+                match pass.and_then(|x| x["lookups"][field].as_u64()) {
+                    Some(n) => assert_eq!(cell.parse::<u64>().unwrap(), n, "{prefix}:{name}"),
+                    None => assert!(cell.is_empty(), "{prefix}:{name}: {cell:?}"),
+                }
+                // Counted for the final pass only; a warp pays at least its lanes' sum.
+                if let Some(x) = pass {
+                    let texels = x["lookups"]["texels"].as_u64();
+                    assert_eq!(texels.is_some(), name.ends_with("/final"), "{name}");
+                    if let Some(t) = texels {
+                        assert!(t > 0, "{name}: no texel counted");
+                        assert!(x["lookups"]["texels_warp"].as_u64().unwrap() >= t);
+                    }
+                }
+            }
+        }
+        // lavapipe counts: every pass that ran has its statistics, and a final pass shades.
+        for p in r["passes"].as_array().unwrap() {
+            if p["gpu_ms"].is_null() {
+                continue;
+            }
+            let frags = p["stats"]["fragment_invocations"].as_u64();
+            assert!(frags.is_some(), "{}: no statistics", p["name"]);
+            if p["name"].as_str().unwrap().ends_with("/final") {
+                assert!(frags.unwrap() > 0, "{}: no fragment shaded", p["name"]);
             }
         }
         for c in &cpu {

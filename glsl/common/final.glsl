@@ -11,6 +11,11 @@ layout(location = 1) in vec3 v_normal;
 layout(location = 2) in vec4 v_light_clip;
 layout(location = 3) in vec4 v_light_normal;
 layout(location = 0) out vec4 o_color;
+#ifdef COUNT
+// Texels read, then search, filter and march iterations (common/count.glsl), added up
+// per pixel by the blend.
+layout(location = 1) out vec4 o_count;
+#endif
 #ifdef AOV
 layout(location = 1) out float o_visibility;
 layout(location = 2) out vec4 o_position;
@@ -39,6 +44,9 @@ void main() {
     // albedo, k >= 0, with albedo^(1/2.2) per draw from the CPU (draw.flags.yzw). One scalar
     // pow a pixel instead of three: llvmpipe runs each as exp2(log2(x) y) on every lane.
     o_color = vec4(min(draw.flags.yzw * pow(k, 1.0 / 2.2), vec3(1.0)), 1.0);
+#ifdef COUNT
+    o_count = vec4(float(count_texels), vec3(count_loops));
+#endif
 #ifdef AOV
     o_visibility = vis;
     o_position = vec4(v_world, 1.0);

@@ -3,6 +3,7 @@
 // Mirrors `FrameUniforms` (src/render/mod.rs) and `DrawPush` (src/gpu/gpu_scene.rs), std140.
 #ifndef FRAME_GLSL
 #define FRAME_GLSL
+#include "common/count.glsl"
 
 layout(set = 0, binding = 0, std140) uniform Frame {
     mat4 cam_view_proj;

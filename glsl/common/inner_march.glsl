@@ -4,6 +4,7 @@
 // fragment is drawn into), and defines `blocked_at` after the include.
 #ifndef INNER_MARCH_GLSL
 #define INNER_MARCH_GLSL
+#include "common/count.glsl"
 
 // How far outside the edge (texels) the outside is read: past the texel the edge crosses.
 const float OUT_TEXELS = 1.5;
@@ -35,6 +36,7 @@ float far_edge_texels(vec2 here, vec2 dir, float w_tex, float z_r) {
     float lo = 0.0;
     float hi = -1.0;
     for (int k = 1; k <= steps; ++k) {
+        COUNT_LOOP(COUNT_MARCH);
         vec2 pos = here + dir * (step_len * float(k));
         if (!inside_map(pos)) break;
         if (!blocked_at(pos, z_r)) {
@@ -45,6 +47,7 @@ float far_edge_texels(vec2 here, vec2 dir, float w_tex, float z_r) {
     }
     if (!(hi > 0.0)) return -1.0;
     for (int k = 0; k < BISECT_STEPS; ++k) {
+        COUNT_LOOP(COUNT_MARCH);
         float mid = 0.5 * (lo + hi);
         if (blocked_at(here + dir * mid, z_r)) {
             lo = mid;

@@ -79,6 +79,7 @@ float pcf_box(sampler2D sm, vec2 uv, ReceiverPlane rp, int n) {
         float wy0 = (b < n ? 1.0 - f.y : 0.0) + (b > 0 ? f.y : 0.0);
         float wy1 = (b + 1 < n ? 1.0 - f.y : 0.0) + f.y;
         for (int a = 0; a <= n; a += 2) {
+            COUNT_LOOP(COUNT_FILTER);
             float wx0 = (a < n ? 1.0 - f.x : 0.0) + (a > 0 ? f.x : 0.0);
             float wx1 = (a + 1 < n ? 1.0 - f.x : 0.0) + f.x;
             // The midpoint between texels k and k + 1 gathers exactly those two.
@@ -102,6 +103,7 @@ float pcf_poisson(sampler2D sm, vec2 uv, ReceiverPlane rp, int n, float radius) 
     vec2 scale = vec2(radius * frame.light_params.w);
     float sum = 0.0;
     for (int i = 0; i < n; ++i) {
+        COUNT_LOOP(COUNT_FILTER);
         vec2 q = uv + POISSON[i] * scale;
         // bilinear_lit: n lit taps sum to exactly n, so the result is exactly 1.
         sum += bilinear_lit(lit_test(textureGather(sm, q, 0), plane_depth(rp, q - uv)), q);

@@ -45,6 +45,7 @@ float pcss_visibility(LightSample s, ReceiverPlane rp, float search) {
     float depth_sum = 0.0;
     float blockers = 0.0;
     for (int i = 0; i < taps; ++i) {
+        COUNT_LOOP(COUNT_SEARCH);
         vec2 duv = POISSON[i] * (search / res);
         vec4 g = textureGather(shadow_map, s.uv + duv, 0);
         // The receiver's own surface inside the search disc is no blocker (filter.glsl).

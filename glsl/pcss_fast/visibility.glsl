@@ -122,6 +122,7 @@ bool mixed(inout Found f, Square sq, int k, ivec2 xy, out vec4 cell) {
     vec2 ov = max(b - a, vec2(0.0));
     float area = ov.x * ov.y;
     if (area <= 0.0) return false;
+    COUNT_READ();
     cell = minmax.cells[cell_index(res, k, xy)];
     // The plane's depths over the cell's part in the square: every caster behind its
     // farthest, or in front of its nearest, settles the cell exactly.
@@ -202,6 +203,8 @@ float visibility(vec3 p, vec3 n) {
     for (int y = a.y; y <= b.y; ++y) {
         for (int x = a.x; x <= b.x; ++x) {
             ivec2 xy = ivec2(x, y);
+            COUNT_LOOP(COUNT_SEARCH);
+            COUNT_READ();
             vec4 cell = minmax.cells[offset + xy.y * size + xy.x];
             float max_all = cell.w == float(cell_texels(ires, level, xy)) ? cell.y : FAR_DEPTH;
             bounds = vec2(min(bounds.x, cell.x), max(bounds.y, max_all));
@@ -241,6 +244,7 @@ float visibility(vec3 p, vec3 n) {
     int k = level;
     ivec2 xy = a;
     for (int turn = 0; turn < 9 + WALK_READS; ++turn) {
+        COUNT_LOOP(COUNT_SEARCH);
         vec4 cell;
         if (mixed(f, sq, k, xy, cell)) {
             if (k > 2 && reads + 4 <= WALK_READS) {
@@ -281,6 +285,7 @@ float visibility(vec3 p, vec3 n) {
     // One gather a turn: lavapipe runs a loop's first turn for the whole SIMD group even
     // when no invocation in it needs the loop, so a turn must stay cheap.
     for (int i = 0; i < 4 * leaves; ++i) {
+        COUNT_LOOP(COUNT_SEARCH);
         int l = leaf[i >> 2];
         settle_quad(f, sq, ivec2(l & 0xffff, l >> 16), i & 3);
     }

@@ -42,6 +42,7 @@ float visibility(vec3 p, vec3 n) {
     const ivec2 offsets[4] = ivec2[4](ivec2(0, 1), ivec2(1, 1), ivec2(1, 0), ivec2(0, 0));
     vec4 occl, front;
     for (int k = 0; k < 4; ++k) {
+        COUNT_LOOP(COUNT_FILTER);
         ivec2 t = clamp(i0 + offsets[k], ivec2(0), last);
         front[k] = hidden_fraction(texelFetch(mask_front, t, 0));
         occl[k] = behind[k] ? hidden_fraction(texelFetch(mask_pure, t, 0)) : front[k];

@@ -624,10 +624,11 @@ struct Staging {
 }
 
 /// The fixed files of a sweep; `images/` holds the rest.
-const TOP_FILES: [&str; 5] = [
+const TOP_FILES: [&str; 6] = [
     "results.csv",
     "results.json",
     "time_vs_error.png",
+    "lookups_vs_error.png",
     "report.md",
     ERROR_SCALE_IMAGE,
 ];
@@ -781,6 +782,37 @@ pub struct PassStat {
     /// Timed frames that skipped it, and the reason the last one gave.
     pub skipped_frames: usize,
     pub skip_reason: Option<String>,
+    /// Its pipeline statistics in the last timed frame that ran it (the same in every
+    /// frame: they count work, not time); `None` when no frame ran it or the device does not
+    /// count them.
+    pub stats: Option<crate::vk::PassStats>,
+    /// A final pass's counted lookups, from the counting frame after the timed ones
+    /// (`Renderer::count_lookups`); `None` for light passes.
+    pub lookups: Option<Lookups>,
+}
+
+/// The counting frame's sums over the image for one final pass (docs/DESIGN.md, "Work
+/// counts"): texels read, plain and per warp (8x4 tiles, 32 x the tile's largest), and the
+/// turns of its search, filter and march loops.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+pub struct Lookups {
+    pub texels: u64,
+    pub texels_warp: u64,
+    pub search: u64,
+    pub filter: u64,
+    pub march: u64,
+}
+
+impl Lookups {
+    pub fn of(c: &crate::render::LookupCounts) -> Self {
+        Self {
+            texels: c.sum(0),
+            texels_warp: c.warp_sum(0),
+            search: c.sum(1),
+            filter: c.sum(2),
+            march: c.sum(3),
+        }
+    }
 }
 
 /// One named CPU timing over the timed frames.
@@ -876,7 +908,7 @@ pub struct Outcome {
 
 /// The layout version of results.json and results.csv (docs/RESULTS.md): raised when a
 /// field is renamed or removed or changes meaning, not when one is added.
-pub const RESULTS_SCHEMA_VERSION: u32 = 1;
+pub const RESULTS_SCHEMA_VERSION: u32 = 2;
 
 /// Every setting of a sweep: what was asked for and the renderer settings every point
 /// shares (`results.json` `settings`).
@@ -1093,6 +1125,7 @@ pub fn run(ctx: &Context, plan: Plan) -> Result<Outcome> {
     report::write_csv(&st.path("results.csv"), &results)?;
     report::write_json(&st.path("results.json"), &results)?;
     plot::time_vs_error(&st.path("time_vs_error.png"), &results)?;
+    plot::lookups_vs_error(&st.path("lookups_vs_error.png"), &results)?;
     report::write_markdown(&st.path("report.md"), &results)?;
     write_error_scale(&st.path(ERROR_SCALE_IMAGE))?;
     for f in TOP_FILES {
@@ -1185,6 +1218,9 @@ impl Sweep<'_> {
         let images = r
             .read_back()
             .with_context(|| format!("bench {what}: reading back"))?;
+        let counted = r
+            .count_lookups()
+            .with_context(|| format!("bench {what}: counting lookups"))?;
         let smoothie_t = (variant.technique == "smoothies")
             .then(|| smoothie_width(settings.smoothie_t, &r.scene, &r.light, radius));
         drop(r);
@@ -1248,7 +1284,11 @@ impl Sweep<'_> {
         self.files.push(error_image.clone());
         self.files.push(flip_image.clone());
 
-        let timing = summarise(timed);
+        let mut timing = summarise(timed);
+        let final_pass = counted.pass.replace("/count", "/final");
+        if let Some(p) = timing.passes.iter_mut().find(|p| p.name == final_pass) {
+            p.lookups = Some(Lookups::of(&counted));
+        }
         Ok(Record {
             scene: base.name.clone(),
             technique: variant.label.clone(),
@@ -1437,6 +1477,8 @@ pub fn summarise(timed: &[FrameTimings]) -> Timing {
                 gpu_ms: Stat::of(&ms),
                 skipped_frames: skipped.len(),
                 skip_reason: skipped.last().cloned(),
+                stats: runs.iter().rev().find_map(|p| p.stats),
+                lookups: None,
             }
         })
         .collect();

@@ -1,9 +1,12 @@
 //! `time_vs_error.png`: per scene, frame time as a ratio to `hard` against `mae_lit`,
-//! one colour per technique, the Pareto front drawn. Rendered with plotters' bitmap
+//! one colour per technique, the Pareto front drawn, its points named; and its twin
+//! `lookups_vs_error.png`, the final pass's warp lookups as a ratio to `hard`'s on x. Both x
+//! axes are logarithmic: the costly rows (64x and beyond) would otherwise squeeze the rest
+//! into the left edge. Rendered with plotters' bitmap
 //! backend into memory and saved with `image`; text uses DejaVu Sans compiled in
 //! (assets/fonts, via plotters' `ab_glyph` feature), so no system font is needed.
 
-use super::bench::{Motion, Results, BASELINE};
+use super::bench::{Motion, Record, Results, BASELINE};
 use anyhow::{anyhow, Context as _, Result};
 use plotters::prelude::*;
 use plotters::style::{register_font, FontStyle};
@@ -78,8 +81,53 @@ fn plot_err<E: std::error::Error + Send + Sync + 'static>(e: E) -> anyhow::Error
     anyhow!("drawing the time/error plot: {e}")
 }
 
-/// Draws the plot for every scene of `res` into `path`.
+/// Frame time against error for every scene of `res`, into `path`.
 pub fn time_vs_error(path: &Path, res: &Results<'_>) -> Result<()> {
+    scatter(
+        path,
+        res,
+        "Frame time (ratio to hard) against mae_lit",
+        &format!("frame time / {BASELINE} (log)"),
+        |r, _| r.ratio_to_hard,
+    )
+}
+
+/// The final pass's warp lookups of a row (`Lookups::texels_warp`).
+fn warp_lookups(r: &Record) -> Option<f64> {
+    r.passes
+        .iter()
+        .find(|p| p.name.ends_with("/final"))
+        .and_then(|p| p.lookups)
+        .map(|l| l.texels_warp as f64)
+}
+
+/// The twin of `time_vs_error`: the final pass's warp lookups as a ratio to `hard`'s in the
+/// same panel, against error.
+pub fn lookups_vs_error(path: &Path, res: &Results<'_>) -> Result<()> {
+    scatter(
+        path,
+        res,
+        "Warp lookups of the final pass (ratio to hard) against mae_lit",
+        &format!("warp lookups / {BASELINE} (log)"),
+        |r, panel| {
+            let hard = panel
+                .iter()
+                .find(|h| h.technique == BASELINE && h.shadow_res == r.shadow_res)
+                .and_then(|h| warp_lookups(h))?;
+            (hard > 0.0).then(|| warp_lookups(r).map(|x| x / hard))?
+        },
+    )
+}
+
+/// One panel per scene (and radius and motion): `x_of(row, the panel's rows)` against
+/// `mae_lit`, log x, the Pareto front drawn and its points named.
+fn scatter(
+    path: &Path,
+    res: &Results<'_>,
+    title: &str,
+    x_desc: &str,
+    x_of: impl Fn(&Record, &[&Record]) -> Option<f64>,
+) -> Result<()> {
     fonts()?;
     // One panel per scene, and per radius and motion when the sweep had several: a Pareto
     // front only compares points that render the same thing.
@@ -104,7 +152,7 @@ pub fn time_vs_error(path: &Path, res: &Results<'_>) -> Result<()> {
         let (header, body) = root.split_vertically(HEADER);
         header
             .draw_text(
-                "Frame time (ratio to hard) against mae_lit",
+                title,
                 &("sans-serif", 20).into_font().color(&BLACK),
                 (10, 6),
             )
@@ -147,14 +195,18 @@ pub fn time_vs_error(path: &Path, res: &Results<'_>) -> Result<()> {
         let many_radii = scenes.iter().any(|k| k.1 != scenes[0].1);
         let many_motions = scenes.iter().any(|k| k.2 != scenes[0].2);
         for (&(scene, radius, motion), area) in scenes.iter().zip(panels.iter()) {
-            let pts: Vec<_> = res
+            let panel: Vec<&Record> = res
                 .results
                 .iter()
                 .filter(|r| r.scene == scene && r.radius_spec == radius && r.motion == motion)
-                .filter_map(|r| r.ratio_to_hard.map(|x| (r, x, r.errors.mae_lit)))
-                .filter(|(_, x, y)| x.is_finite() && y.is_finite())
                 .collect();
-            let x_max = pts.iter().map(|p| p.1).fold(1.0f64, f64::max) * 1.15;
+            let pts: Vec<_> = panel
+                .iter()
+                .filter_map(|r| x_of(r, &panel).map(|x| (*r, x, r.errors.mae_lit)))
+                .filter(|(_, x, y)| x.is_finite() && *x > 0.0 && y.is_finite())
+                .collect();
+            let x_max = pts.iter().map(|p| p.1).fold(1.0f64, f64::max) * 1.5;
+            let x_min = pts.iter().map(|p| p.1).fold(1.0f64, f64::min) / 1.5;
             let y_max = pts.iter().map(|p| p.2).fold(0.0f64, f64::max).max(1e-3) * 1.15;
             let mut caption = scene.to_string();
             if many_radii {
@@ -168,18 +220,24 @@ pub fn time_vs_error(path: &Path, res: &Results<'_>) -> Result<()> {
                 .margin(12)
                 .x_label_area_size(36)
                 .y_label_area_size(56)
-                .build_cartesian_2d(0.0..x_max, 0.0..y_max)
+                .build_cartesian_2d((x_min..x_max).log_scale(), 0.0..y_max)
                 .map_err(plot_err)?;
             chart
                 .configure_mesh()
-                .x_desc(format!("frame time / {BASELINE}"))
+                .x_desc(x_desc)
+                // A log axis labels and grids every unit of every decade: few labels, a faint
+                // grid, so the decades stay readable.
+                .x_labels(8)
+                .x_label_formatter(&|v| format!("{v:.2}"))
+                .light_line_style(RGBColor(242, 242, 242))
                 .y_desc("mae_lit")
                 .label_style(("sans-serif", 12))
                 .axis_desc_style(("sans-serif", 14))
                 .draw()
                 .map_err(plot_err)?;
             let xy: Vec<(f64, f64)> = pts.iter().map(|p| (p.1, p.2)).collect();
-            let front: Vec<(f64, f64)> = pareto_front(&xy).into_iter().map(|i| xy[i]).collect();
+            let front_idx = pareto_front(&xy);
+            let front: Vec<(f64, f64)> = front_idx.iter().map(|&i| xy[i]).collect();
             // The front as a staircase (what is reachable for a time budget), its points ringed.
             let mut stairs = Vec::new();
             for (k, p) in front.iter().enumerate() {
@@ -205,6 +263,18 @@ pub fn time_vs_error(path: &Path, res: &Results<'_>) -> Result<()> {
                         .iter()
                         .map(|&p| Circle::new(p, 9, grey.stroke_width(2))),
                 )
+                .map_err(plot_err)?;
+            // The front's points carry their technique's name: 16 colours are hard to tell
+            // apart.
+            chart
+                .draw_series(front_idx.iter().map(|&i| {
+                    EmptyElement::at(xy[i])
+                        + Text::new(
+                            pts[i].0.technique.clone(),
+                            (10, 4),
+                            ("sans-serif", 12).into_font().color(&BLACK),
+                        )
+                }))
                 .map_err(plot_err)?;
             for (k, label) in labels.iter().enumerate() {
                 let colour = COLOURS[k % COLOURS.len()];

@@ -128,6 +128,16 @@ pub fn write_csv(path: &Path, res: &Results<'_>) -> Result<()> {
         .map(|c| c.to_string())
         .chain(passes.iter().map(|p| format!("pass:{p}")))
         .chain(cpu.iter().map(|c| format!("cpu:{c}")))
+        .chain(
+            STATS_COLUMNS
+                .iter()
+                .flat_map(|(prefix, _)| passes.iter().map(move |p| format!("{prefix}:{p}"))),
+        )
+        .chain(
+            LOOKUP_COLUMNS
+                .iter()
+                .flat_map(|(prefix, _)| passes.iter().map(move |p| format!("{prefix}:{p}"))),
+        )
         .collect();
     let mut w =
         csv::Writer::from_path(path).with_context(|| format!("writing {}", path.display()))?;
@@ -144,12 +154,43 @@ pub fn write_csv(path: &Path, res: &Results<'_>) -> Result<()> {
             let c = r.cpu.iter().find(|c| c.name == *name);
             opt_num(c.map(|c| c.ms.median))
         }));
+        for (_, counter) in STATS_COLUMNS {
+            cells.extend(passes.iter().map(|name| {
+                let p = r.passes.iter().find(|p| p.name == *name);
+                p.and_then(|p| p.stats)
+                    .map(|s| counter(&s).to_string())
+                    .unwrap_or_default()
+            }));
+        }
+        for (_, counter) in LOOKUP_COLUMNS {
+            cells.extend(passes.iter().map(|name| {
+                let p = r.passes.iter().find(|p| p.name == *name);
+                p.and_then(|p| p.lookups)
+                    .map(|l| counter(&l).to_string())
+                    .unwrap_or_default()
+            }));
+        }
         w.write_record(&cells)
             .with_context(|| format!("writing {}", path.display()))?;
     }
     w.flush()
         .with_context(|| format!("writing {}", path.display()))
 }
+
+/// The per-pass counter columns of results.csv after the `cpu:` ones, one group per counter
+/// (`frags:NAME` for every pass, then `verts:NAME`, ...): docs/RESULTS.md.
+type Counter = fn(&crate::vk::PassStats) -> u64;
+const STATS_COLUMNS: [(&str, Counter); 4] = [
+    ("frags", |s| s.fragment_invocations),
+    ("verts", |s| s.vertex_invocations),
+    ("prims", |s| s.clipping_primitives),
+    ("cs", |s| s.compute_invocations),
+];
+
+/// Then the counted lookups of the final passes (`results[].passes[].lookups`).
+type LookupCounter = fn(&super::bench::Lookups) -> u64;
+const LOOKUP_COLUMNS: [(&str, LookupCounter); 2] =
+    [("texels", |l| l.texels), ("texels_warp", |l| l.texels_warp)];
 
 pub fn write_json(path: &Path, res: &Results<'_>) -> Result<()> {
     let text = serde_json::to_string_pretty(res).context("serialising results")?;
@@ -356,6 +397,7 @@ pub fn markdown(res: &Results<'_>) -> String {
         "Per scene: x = frame time as a ratio to `{BASELINE}`, y = `mae_lit`; the line is the Pareto front (no other point is both faster and more accurate on lit surfaces).\n"
     );
     let _ = writeln!(s, "![time against error](time_vs_error.png)\n");
+    let _ = writeln!(s, "![warp lookups against error](lookups_vs_error.png)\n");
 
     let _ = writeln!(s, "## SPIR-V instruction counts\n");
     let _ = writeln!(

@@ -23,4 +23,8 @@ pub struct FrameInput<'a> {
     /// The untimed AOV pass (`Renderer::read_back`): the final pass also writes visibility,
     /// position and normal (`passes::FinalPass`). False in timed frames.
     pub aov: bool,
+    /// The untimed counting pass (`Renderer::count_lookups`): the final pass built with
+    /// `-DCOUNT` also adds up, per pixel, the texels its shader read and its loop iterations
+    /// (`passes::FinalPass`, glsl/common/count.glsl). False in timed frames.
+    pub count: bool,
 }

@@ -11,7 +11,7 @@ use crate::vk::{
     Extent2D, Format, FrameRunner, GraphicsPipelineDesc, Image, ImageUsageFlags, Offset2D,
     Pipeline, PrimitiveTopology, Recorder, Rect2D, Resource,
 };
-use anyhow::Result;
+use anyhow::{bail, Result};
 use glam::{Mat4, Vec3, Vec4};
 use rayon::prelude::*;
 
@@ -223,6 +223,9 @@ pub struct CameraTargets {
     pub position: Image,
     /// RGBA16F world normal (facing the camera).
     pub normal: Image,
+    /// RGBA32F per-pixel work of the counting pass (`FrameInput::count`): texels read,
+    /// search, filter and march iterations, summed over the fragments shaded there.
+    pub count: Image,
     pub depth: Image,
     pub width: u32,
     pub height: u32,
@@ -264,6 +267,14 @@ impl CameraTargets {
                 usage,
                 "camera normal",
             )?,
+            count: Image::new_2d(
+                ctx,
+                width,
+                height,
+                Format::R32G32B32A32_SFLOAT,
+                usage,
+                "camera lookup counts",
+            )?,
             depth: Image::new_2d(
                 ctx,
                 width,
@@ -286,6 +297,12 @@ impl CameraTargets {
         (Format::R16G16B16A16_SFLOAT, Blend::None),
     ];
 
+    /// The counting pass's attachments: the colour, then the counts, added up per pixel.
+    pub const COUNT_FORMATS: [(Format, Blend); 2] = [
+        (Format::R8G8B8A8_UNORM, Blend::None),
+        (Format::R32G32B32A32_SFLOAT, Blend::Add),
+    ];
+
     /// Clear colour of the shaded image (the background).
     pub const BACKGROUND: [f32; 4] = [0.05, 0.05, 0.06, 1.0];
 }
@@ -298,6 +315,9 @@ pub struct FinalShader {
     pub color: &'static [u8],
     /// Also writes visibility, position and normal: the untimed AOV pass.
     pub aov: &'static [u8],
+    /// Also adds up the texels read and the loop iterations (`-DCOUNT`): the untimed
+    /// counting pass.
+    pub count: &'static [u8],
 }
 
 /// The final pass from the camera: the scene's surfaces with a technique's fragment shader
@@ -319,9 +339,12 @@ pub struct FinalShader {
 pub struct FinalPass {
     pipeline: Pipeline,
     aov: Pipeline,
+    /// The counting build, drawn as the timed pass is (split where it is split); `None` on
+    /// a device without `independentBlend`.
+    count: Option<Pipeline>,
     /// `FinalPass::split`'s: the same pass with `visibility()` = 1 (glsl/common/unshadowed.frag),
-    /// drawn where the technique's shader would give exactly 1.
-    unshadowed: Option<Pipeline>,
+    /// drawn where the technique's shader would give exactly 1; and its counting build.
+    unshadowed: Option<(Pipeline, Option<Pipeline>)>,
     /// Rows a light mesh (a ground) is cut into by `record_split` (`with_bands`).
     bands: u32,
 }
@@ -366,9 +389,22 @@ impl FinalPass {
             None => format!("{name}/aov"),
         };
         let aov = desc(&aov_name, fragment.aov, &CameraTargets::AOV_FORMATS)?;
+        let count_name = match name.strip_suffix("/final") {
+            Some(technique) => format!("{technique}/count"),
+            None => format!("{name}/count"),
+        };
+        let count = match ctx.independent_blend {
+            true => Some(desc(
+                &count_name,
+                fragment.count,
+                &CameraTargets::COUNT_FORMATS,
+            )?),
+            false => None,
+        };
         Ok(Self {
             pipeline,
             aov,
+            count,
             unshadowed: None,
             bands: SPLIT_BANDS,
         })
@@ -386,13 +422,25 @@ impl FinalPass {
         set: &DescriptorSet,
     ) -> Result<Self> {
         let mut pass = Self::new(ctx, name, fragment, set)?;
-        pass.unshadowed = Some(Self::pipeline(
-            ctx,
-            &format!("{name} (unshadowed)"),
-            shaders::COMMON_UNSHADOWED_FRAG,
-            &CameraTargets::AOV_FORMATS[..1],
-            set,
-        )?);
+        pass.unshadowed = Some((
+            Self::pipeline(
+                ctx,
+                &format!("{name} (unshadowed)"),
+                shaders::COMMON_UNSHADOWED_FRAG,
+                &CameraTargets::AOV_FORMATS[..1],
+                set,
+            )?,
+            match ctx.independent_blend {
+                true => Some(Self::pipeline(
+                    ctx,
+                    &format!("{name} (unshadowed, counting)"),
+                    shaders::COMMON_UNSHADOWED_FRAG_COUNT,
+                    &CameraTargets::COUNT_FORMATS,
+                    set,
+                )?),
+                false => None,
+            },
+        ));
         Ok(pass)
     }
 
@@ -456,13 +504,19 @@ impl FinalPass {
         set: &DescriptorSet,
         shadowed: &Shadowed,
     ) -> Result<()> {
-        let pipeline = if frame.aov { &self.aov } else { &self.pipeline };
-        rec.pass(&pipeline.name, |rec| {
-            match (&self.unshadowed, frame.aov, shadowed) {
-                (Some(unshadowed), false, Shadowed::Inside(regions)) => {
-                    self.record_split(rec, frame, set, unshadowed, regions)
+        let mode = Mode::of(frame);
+        if mode == Mode::Count && self.count.is_none() {
+            bail!("counting lookups needs the independentBlend device feature, which this device lacks");
+        }
+        rec.pass(&self.pipeline_of(mode).name, |rec| {
+            match (&self.unshadowed, mode, shadowed) {
+                (Some((timed, _)), Mode::Timed, Shadowed::Inside(regions)) => {
+                    self.record_split(rec, frame, set, timed, mode, regions)
                 }
-                _ => self.record(rec, frame.targets, frame.gpu, set, frame.aov),
+                (Some((_, Some(counting))), Mode::Count, Shadowed::Inside(regions)) => {
+                    self.record_split(rec, frame, set, counting, mode, regions)
+                }
+                _ => self.record_mode(rec, frame.targets, frame.gpu, set, mode),
             }
             Ok(())
         })
@@ -482,11 +536,13 @@ impl FinalPass {
         frame: &crate::gpu::FrameInput<'_>,
         set: &DescriptorSet,
         unshadowed: &Pipeline,
+        mode: Mode,
         regions: &[Vec<Vec4>],
     ) {
         let t = frame.targets;
         let view_proj = camera_view_proj(frame.scene, t.width, t.height);
-        self.begin(rec, t, false);
+        let shader = self.pipeline_of(mode);
+        self.begin(rec, t, mode);
         let mut bound: Option<bool> = None;
         let mut area = [0u64; 2];
         for (i, o) in frame.gpu.objects.iter().enumerate() {
@@ -522,7 +578,7 @@ impl FinalPass {
             };
             for (shadowed, part) in parts {
                 area[shadowed as usize] += part.area();
-                let pipeline = if shadowed { &self.pipeline } else { unshadowed };
+                let pipeline = if shadowed { shader } else { unshadowed };
                 if bound != Some(shadowed) {
                     rec.bind_pipeline(pipeline);
                     rec.bind_sets(pipeline, &[set]);
@@ -539,7 +595,15 @@ impl FinalPass {
         } else {
             area[1] as f64 / drawn as f64
         };
-        rec.lookup_area(&self.pipeline.name, fraction);
+        rec.lookup_area(&shader.name, fraction);
+    }
+
+    fn pipeline_of(&self, mode: Mode) -> &Pipeline {
+        match mode {
+            Mode::Timed => &self.pipeline,
+            Mode::Aov => &self.aov,
+            Mode::Count => self.count.as_ref().unwrap_or(&self.pipeline),
+        }
     }
 
     /// Draws the camera view: colour only, or with `aov` the colour and the AOVs.
@@ -551,18 +615,39 @@ impl FinalPass {
         set: &DescriptorSet,
         aov: bool,
     ) {
-        let pipeline = if aov { &self.aov } else { &self.pipeline };
-        self.begin(rec, t, aov);
+        let mode = if aov { Mode::Aov } else { Mode::Timed };
+        self.record_mode(rec, t, scene, set, mode);
+    }
+
+    fn record_mode(
+        &self,
+        rec: &mut Recorder<'_>,
+        t: &CameraTargets,
+        scene: &GpuScene,
+        set: &DescriptorSet,
+        mode: Mode,
+    ) {
+        let pipeline = self.pipeline_of(mode);
+        self.begin(rec, t, mode);
         rec.bind_pipeline(pipeline);
         rec.bind_sets(pipeline, &[set]);
         scene.draw_camera(rec, pipeline);
         rec.end_rendering();
     }
 
-    /// Opens the rendering scope: the colour (with `aov` the AOVs) and depth, cleared.
-    fn begin(&self, rec: &mut Recorder<'_>, t: &CameraTargets, aov: bool) {
+    /// Opens the rendering scope: the colour (with the AOVs, or the counts) and depth,
+    /// cleared.
+    fn begin(&self, rec: &mut Recorder<'_>, t: &CameraTargets, mode: Mode) {
         let depth = Some((&t.depth, Some(1.0)));
-        if aov {
+        if mode == Mode::Count {
+            rec.begin_rendering(
+                &[
+                    (&t.color, Some(CameraTargets::BACKGROUND)),
+                    (&t.count, Some([0.0; 4])),
+                ],
+                depth,
+            );
+        } else if mode == Mode::Aov {
             rec.begin_rendering(
                 &[
                     (&t.color, Some(CameraTargets::BACKGROUND)),
@@ -577,6 +662,27 @@ impl FinalPass {
         }
         // The depth buffer only serves this scope's depth test.
         rec.discard_after(&t.depth);
+    }
+}
+
+/// Which build of a final pass a frame records.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Mode {
+    /// Colour only: the timed frame.
+    Timed,
+    /// Colour and AOVs, the technique's shader everywhere.
+    Aov,
+    /// Colour and counts, drawn as the timed frame is.
+    Count,
+}
+
+impl Mode {
+    fn of(frame: &crate::gpu::FrameInput<'_>) -> Self {
+        match (frame.aov, frame.count) {
+            (true, _) => Mode::Aov,
+            (false, true) => Mode::Count,
+            (false, false) => Mode::Timed,
+        }
     }
 }
 

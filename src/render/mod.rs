@@ -181,6 +181,7 @@ impl<'c> Renderer<'c> {
             targets: &self.targets,
             light_radius: self.light_radius(),
             aov: false,
+            count: false,
         };
         let u = frame_uniforms(&input, self.technique.uniforms(&input));
         self.ubo.write(0, bytemuck::bytes_of(&u))?;
@@ -206,6 +207,9 @@ impl<'c> Renderer<'c> {
             technique.record_final(ctx, rec, &input)
         })?;
         self.last_light_key = light_key;
+        let mut timings = timings;
+        timings.image_pixels = self.settings.width as u64 * self.settings.height as u64;
+        timings.map_texels = self.settings.shadow_res as u64 * self.settings.shadow_res as u64;
         Ok(timings)
     }
 
@@ -252,12 +256,51 @@ impl<'c> Renderer<'c> {
             targets: &self.targets,
             light_radius: self.settings.radius_for(&self.scene),
             aov: true,
+            count: false,
         };
         let (ctx, technique) = (self.ctx, &mut self.technique);
         self.runner
             .run(|rec| technique.record_final(ctx, rec, &input))
             .context("rendering the AOV pass")?;
         Ok(())
+    }
+
+    /// The counting frame (untimed, after the last `render`, like the AOV pass): the final
+    /// pass again, built with `-DCOUNT` and drawn as the timed one was (split where it is
+    /// split), adding up per pixel the texels its shader read and its search, filter and
+    /// march iterations (glsl/common/count.glsl). Its colour equals the timed frame's bit
+    /// for bit (tests/work_counts.rs), so `read_color` after it still gives the image.
+    pub fn count_lookups(&mut self) -> Result<LookupCounts> {
+        let input = FrameInput {
+            scene: &self.scene,
+            gpu: &self.gpu,
+            light: &self.light,
+            settings: &self.settings,
+            targets: &self.targets,
+            light_radius: self.settings.radius_for(&self.scene),
+            aov: false,
+            count: true,
+        };
+        let (ctx, technique) = (self.ctx, &mut self.technique);
+        let timings = self
+            .runner
+            .run(|rec| technique.record_final(ctx, rec, &input))
+            .context("rendering the counting pass")?;
+        let counts = read_image::<[f32; 4]>(self.ctx, &mut self.runner, &self.targets.count)?;
+        Ok(LookupCounts {
+            pass: timings
+                .passes
+                .iter()
+                .map(|p| p.name.clone())
+                .find(|n| n.ends_with("/count"))
+                .unwrap_or_default(),
+            width: self.targets.width,
+            height: self.targets.height,
+            per_pixel: counts
+                .iter()
+                .map(|c| c.map(|v| v.max(0.0).round() as u64))
+                .collect(),
+        })
     }
 
     /// The silhouette edges the GPU found in the last build, per caster (object index,
@@ -375,6 +418,53 @@ impl<'c> Renderer<'c> {
             channel_names: buffer.channels,
             channels,
         })
+    }
+}
+
+/// Per-pixel work of a final pass from the counting frame (`Renderer::count_lookups`):
+/// texels read, then search, filter and march iterations, each summed over the fragments
+/// shaded at the pixel.
+#[derive(Clone, Debug, PartialEq)]
+pub struct LookupCounts {
+    /// The counting pass's name, `T/count`.
+    pub pass: String,
+    pub width: u32,
+    pub height: u32,
+    /// Row-major, row 0 at the top: [texels, search, filter, march].
+    pub per_pixel: Vec<[u64; 4]>,
+}
+
+/// Width and height of the pixel tile one warp of 32 fragments shades (4 x 2 quads).
+pub const WARP_TILE: (u32, u32) = (8, 4);
+
+impl LookupCounts {
+    /// Counter `k` (0 texels, 1 search, 2 filter, 3 march) summed over every pixel.
+    pub fn sum(&self, k: usize) -> u64 {
+        self.per_pixel.iter().map(|c| c[k]).sum()
+    }
+
+    /// What a warp pays: over the 8x4 tiles of the image, 32 x the tile's largest
+    /// per-pixel count `k`, summed (a tile cut by the image's edge still pays 32 lanes).
+    pub fn warp_sum(&self, k: usize) -> u64 {
+        let (tw, th) = WARP_TILE;
+        let mut total = 0;
+        for ty in (0..self.height).step_by(th as usize) {
+            for tx in (0..self.width).step_by(tw as usize) {
+                let mut most = 0;
+                for y in ty..(ty + th).min(self.height) {
+                    for x in tx..(tx + tw).min(self.width) {
+                        most = most.max(self.per_pixel[(y * self.width + x) as usize][k]);
+                    }
+                }
+                total += (tw * th) as u64 * most;
+            }
+        }
+        total
+    }
+
+    /// Counter `k` at pixel (x, y).
+    pub fn at(&self, x: u32, y: u32, k: usize) -> u64 {
+        self.per_pixel[(y * self.width + x) as usize][k]
     }
 }
 

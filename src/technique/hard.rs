@@ -132,6 +132,7 @@ impl Hard {
             FinalShader {
                 color: shaders::HARD_FINAL_FRAG,
                 aov: shaders::HARD_FINAL_FRAG_AOV,
+                count: shaders::HARD_FINAL_FRAG_COUNT,
             },
             &final_set,
         )?;

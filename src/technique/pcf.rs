@@ -147,6 +147,7 @@ impl Pcf {
             FinalShader {
                 color: shaders::PCF_FINAL_FRAG,
                 aov: shaders::PCF_FINAL_FRAG_AOV,
+                count: shaders::PCF_FINAL_FRAG_COUNT,
             },
             &final_set,
         )

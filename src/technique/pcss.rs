@@ -184,6 +184,7 @@ impl Pcss {
             FinalShader {
                 color: shaders::PCSS_FINAL_FRAG,
                 aov: shaders::PCSS_FINAL_FRAG_AOV,
+                count: shaders::PCSS_FINAL_FRAG_COUNT,
             },
             &final_set,
         )

@@ -326,10 +326,12 @@ impl PcssFast {
                 Search::Taps => FinalShader {
                     color: shaders::PCSS_FAST_FINAL_FRAG,
                     aov: shaders::PCSS_FAST_FINAL_FRAG_AOV,
+                    count: shaders::PCSS_FAST_FINAL_FRAG_COUNT,
                 },
                 Search::Walk => FinalShader {
                     color: shaders::PCSS_FAST_WALK_FRAG,
                     aov: shaders::PCSS_FAST_WALK_FRAG_AOV,
+                    count: shaders::PCSS_FAST_WALK_FRAG_COUNT,
                 },
             },
             &final_set,

@@ -354,10 +354,12 @@ impl PenumbraMap {
             Form::Paper => FinalShader {
                 color: shaders::PENUMBRA_MAP_FINAL_FRAG,
                 aov: shaders::PENUMBRA_MAP_FINAL_FRAG_AOV,
+                count: shaders::PENUMBRA_MAP_FINAL_FRAG_COUNT,
             },
             Form::Centred => FinalShader {
                 color: shaders::PENUMBRA_MAP_CENTRED_FINAL_FRAG,
                 aov: shaders::PENUMBRA_MAP_CENTRED_FINAL_FRAG_AOV,
+                count: shaders::PENUMBRA_MAP_CENTRED_FINAL_FRAG_COUNT,
             },
         };
         // Split: the shader runs only where a caster or its cones and sheets project.

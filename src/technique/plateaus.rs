@@ -934,10 +934,12 @@ impl Plateaus {
             Form::Paper => FinalShader {
                 color: shaders::PLATEAUS_FINAL_FRAG,
                 aov: shaders::PLATEAUS_FINAL_FRAG_AOV,
+                count: shaders::PLATEAUS_FINAL_FRAG_COUNT,
             },
             Form::Centred => FinalShader {
                 color: shaders::PLATEAUS_CENTRED_FINAL_FRAG,
                 aov: shaders::PLATEAUS_CENTRED_FINAL_FRAG_AOV,
+                count: shaders::PLATEAUS_CENTRED_FINAL_FRAG_COUNT,
             },
         };
         let final_pass = FinalPass::split(ctx, names.final_pass, final_shader, &final_set)?;

@@ -124,6 +124,7 @@ impl Reference {
             FinalShader {
                 color: shaders::REFERENCE_FINAL_FRAG,
                 aov: shaders::REFERENCE_FINAL_FRAG_AOV,
+                count: shaders::REFERENCE_FINAL_FRAG_COUNT,
             },
             &final_set,
         )

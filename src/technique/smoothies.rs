@@ -578,15 +578,20 @@ impl Smoothies {
                 FinalShader {
                     color: shaders::SMOOTHIES_FINAL_FRAG,
                     aov: shaders::SMOOTHIES_FINAL_FRAG_AOV,
+                    count: shaders::SMOOTHIES_FINAL_FRAG_COUNT,
                 },
                 FinalShader {
                     color: shaders::SMOOTHIES_FINAL_FRAG_SPVASM,
                     aov: shaders::SMOOTHIES_FINAL_FRAG_SPVASM_AOV,
+                    // The hand-tuned module has no counting build: glslang's counts the
+                    // same lookups (it is the same source).
+                    count: shaders::SMOOTHIES_FINAL_FRAG_COUNT,
                 },
             ),
             Form::Centred => FinalShader {
                 color: shaders::SMOOTHIES_CENTRED_FINAL_FRAG,
                 aov: shaders::SMOOTHIES_CENTRED_FINAL_FRAG_AOV,
+                count: shaders::SMOOTHIES_CENTRED_FINAL_FRAG_COUNT,
             },
         }
     }

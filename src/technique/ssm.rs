@@ -581,10 +581,12 @@ fn final_pass(
         Some(_) => FinalShader {
             color: shaders::SSM2_FINAL_FRAG,
             aov: shaders::SSM2_FINAL_FRAG_AOV,
+            count: shaders::SSM2_FINAL_FRAG_COUNT,
         },
         None => FinalShader {
             color: shaders::SSM_FINAL_FRAG,
             aov: shaders::SSM_FINAL_FRAG_AOV,
+            count: shaders::SSM_FINAL_FRAG_COUNT,
         },
     };
     let pass = FinalPass::new(init.ctx, &name, fragment, &set)?;

@@ -424,6 +424,7 @@ impl SsmBitmask {
             FinalShader {
                 color: shaders::SSM_BITMASK_FINAL_FRAG,
                 aov: shaders::SSM_BITMASK_FINAL_FRAG_AOV,
+                count: shaders::SSM_BITMASK_FINAL_FRAG_COUNT,
             },
             &final_set,
         )

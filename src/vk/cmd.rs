@@ -1,11 +1,13 @@
 //! Recording and submitting one frame: a command buffer, its fence, and a timestamp query
 //! pool. `Recorder` is the only way technique code touches a command buffer: every method
 //! is a safe wrapper, and `pass` brackets a pass with timestamps and a debug label of the
-//! same name (the name `--timings` prints).
+//! same name (the name `--timings` prints), and with a pipeline-statistics query where
+//! the device counts them.
 
 use super::context::{Context, Shared};
 use super::memory::{Buffer, Image};
 use super::pipeline::{BindingKind, DescriptorSet, Pipeline};
+use super::query::{PassStats, QueryPool};
 use super::sync::{Batch, BindingUse, Target, Use};
 use anyhow::{bail, Context as _, Result};
 use ash::vk;
@@ -22,6 +24,9 @@ pub struct PassTiming {
     /// When the pass began, in milliseconds after the frame's first stamp.
     pub gpu_start_ms: Option<f64>,
     pub skipped: Option<String>,
+    /// The pass's pipeline statistics; `None` when it was skipped or the device does not
+    /// count them (`Context::pipeline_statistics`).
+    pub stats: Option<PassStats>,
 }
 
 /// Per-caster work of one frame: `rebuilt` of the `casters` had their geometry rebuilt by
@@ -46,6 +51,16 @@ pub struct FrameTimings {
     /// GPU milliseconds from the frame's first stamp to its last: the passes that ran lie
     /// inside it, one after another, so their sum never exceeds it.
     pub gpu_frame_ms: Option<f64>,
+    /// The camera image's pixels and the light-space map's texels, the units of the
+    /// per-pixel and per-texel counts `report` prints (set by the renderer; 0: not printed).
+    pub image_pixels: u64,
+    pub map_texels: u64,
+}
+
+/// Whether pass `name` draws the camera image (its counts are per image pixel) rather than
+/// a light-space buffer (per map texel): the final passes, `T/final`.
+pub fn is_screen_pass(name: &str) -> bool {
+    name.ends_with("/final")
 }
 
 impl FrameTimings {
@@ -82,6 +97,34 @@ impl FrameTimings {
             .map(|(_, f)| *f)
     }
 
+    /// `  frags 0.31 M (1.2/px)` after a pass's milliseconds: its fragment invocations, per
+    /// image pixel for a screen pass and per map texel (`/tx`) for a light pass; a pass that
+    /// ran compute but drew nothing gives its compute invocations instead.
+    fn stats_suffix(&self, p: &PassTiming) -> String {
+        let Some(st) = p.stats else {
+            return String::new();
+        };
+        let (what, n) = if st.fragment_invocations == 0 && st.compute_invocations > 0 {
+            ("invocations", st.compute_invocations)
+        } else {
+            ("frags", st.fragment_invocations)
+        };
+        let (unit, per) = if is_screen_pass(&p.name) {
+            ("px", self.image_pixels)
+        } else {
+            ("tx", self.map_texels)
+        };
+        let mut s = match n {
+            100_000.. => format!("  {what} {:.2} M", n as f64 * 1e-6),
+            1_000.. => format!("  {what} {:.1} k", n as f64 * 1e-3),
+            _ => format!("  {what} {n}"),
+        };
+        if per > 0 {
+            s += &format!(" ({:.2}/{unit})", n as f64 / per as f64);
+        }
+        s
+    }
+
     /// The `--timings` block of docs/DESIGN.md.
     pub fn report(&self) -> String {
         let mut s = String::new();
@@ -98,6 +141,7 @@ impl FrameTimings {
                 (_, Some(reason)) => s += &format!("pass {:<width$} skipped ({reason})\n", p.name),
                 (Some(ms), None) => {
                     s += &format!("pass {:<width$} {ms:8.3} ms", p.name);
+                    s += &self.stats_suffix(p);
                     s += &self.rebuilt_suffix(&p.name);
                     if let Some(f) = self.lookup_area_of(&p.name) {
                         s += &format!(" (shadow lookups in {:.0} % of the area drawn)", f * 100.0);
@@ -129,8 +173,10 @@ pub struct FrameRunner {
     pool: vk::CommandPool,
     cmd: vk::CommandBuffer,
     fence: vk::Fence,
-    queries: vk::QueryPool,
-    max_queries: u32,
+    queries: QueryPool,
+    /// One statistics query per pass, where the device counts them, and the pipelines
+    /// bound at the start of each frame (glsl/common/noop.comp says why).
+    statistics: Option<(QueryPool, [Pipeline; 2])>,
     period_ns: f64,
     valid_bits: u32,
 }
@@ -146,14 +192,47 @@ impl FrameRunner {
         // SAFETY: valid create info; destroyed in Drop.
         let pool = unsafe { device.create_command_pool(&pool_info, None) }
             .context("creating command pool")?;
+        let queries = QueryPool::timestamps(ctx, max_passes * 2);
+        let statistics = match ctx.pipeline_statistics {
+            true => QueryPool::statistics(ctx, max_passes).and_then(|q| {
+                let compute =
+                    Pipeline::compute(ctx, "noop", crate::shaders::COMMON_NOOP_COMP, &[], 0)?;
+                let graphics = Pipeline::graphics(
+                    ctx,
+                    &super::pipeline::GraphicsPipelineDesc {
+                        name: "noop",
+                        vertex: crate::shaders::COMMON_NOOP_VERT,
+                        fragment: None,
+                        vertex_stride: 0,
+                        attributes: &[],
+                        topology: vk::PrimitiveTopology::TRIANGLE_LIST,
+                        cull: vk::CullModeFlags::NONE,
+                        colors: &[],
+                        depth: None,
+                        push_constant_bytes: 0,
+                        sets: &[],
+                    },
+                )?;
+                Ok(Some((q, [compute, graphics])))
+            }),
+            false => Ok(None),
+        };
+        let (queries, statistics) = match (queries, statistics) {
+            (Ok(q), Ok(s)) => (q, s),
+            (Err(e), _) | (_, Err(e)) => {
+                // SAFETY: nothing was allocated from the pool yet.
+                unsafe { device.destroy_command_pool(pool, None) };
+                return Err(e);
+            }
+        };
         let mut this = Self {
             shared: ctx.shared.clone(),
             queue: ctx.queue,
             pool,
             cmd: vk::CommandBuffer::null(),
             fence: vk::Fence::null(),
-            queries: vk::QueryPool::null(),
-            max_queries: max_passes * 2,
+            queries,
+            statistics,
             period_ns: ctx.timestamp_period() as f64,
             valid_bits: 64,
         };
@@ -167,12 +246,6 @@ impl FrameRunner {
         // SAFETY: valid create info.
         this.fence = unsafe { device.create_fence(&vk::FenceCreateInfo::default(), None) }
             .context("creating fence")?;
-        let qinfo = vk::QueryPoolCreateInfo::default()
-            .query_type(vk::QueryType::TIMESTAMP)
-            .query_count(this.max_queries);
-        // SAFETY: valid create info.
-        this.queries = unsafe { device.create_query_pool(&qinfo, None) }
-            .context("creating timestamp query pool")?;
         // SAFETY: `physical` belongs to this instance.
         let families = unsafe {
             ctx.shared
@@ -195,7 +268,13 @@ impl FrameRunner {
             device
                 .reset_command_pool(self.pool, vk::CommandPoolResetFlags::empty())
                 .context("resetting command pool")?;
-            device.reset_query_pool(self.queries, 0, self.max_queries);
+        }
+        self.queries.reset();
+        if let Some((s, _)) = &self.statistics {
+            s.reset();
+        }
+        // SAFETY: the command pool was just reset; the noop pipelines live as long as `self`.
+        unsafe {
             device
                 .begin_command_buffer(
                     self.cmd,
@@ -203,13 +282,19 @@ impl FrameRunner {
                         .flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT),
                 )
                 .context("beginning command buffer")?;
+            if let Some((_, noop)) = &self.statistics {
+                for p in noop {
+                    device.cmd_bind_pipeline(self.cmd, p.bind_point, p.raw);
+                }
+            }
         }
         let mut rec = Recorder {
             shared: &self.shared,
             cmd: self.cmd,
-            queries: self.queries,
-            max_queries: self.max_queries,
+            queries: self.queries.raw,
+            max_queries: self.queries.count,
             next_query: 0,
+            statistics: self.statistics.as_ref().map(|(s, _)| s.raw),
             passes: Vec::new(),
             cpu: Vec::new(),
             rebuilt: Vec::new(),
@@ -253,23 +338,26 @@ impl FrameRunner {
         }
         // (value, availability) pairs: a query the frame never wrote reads as unavailable
         // rather than as whatever the pool held.
-        let mut stamps = vec![[0u64; 2]; used as usize];
-        if used > 0 {
-            // SAFETY: the queries [0, used) were reset this frame; the submission finished.
-            let read = unsafe {
-                device.get_query_pool_results(
-                    self.queries,
-                    0,
-                    &mut stamps,
-                    vk::QueryResultFlags::TYPE_64 | vk::QueryResultFlags::WITH_AVAILABILITY,
-                )
-            };
-            match read {
-                // NOT_READY: some stamp is missing; its availability word says which.
-                Ok(()) | Err(vk::Result::NOT_READY) => {}
-                Err(e) => return Err(e).context("reading timestamps"),
-            }
-        }
+        let stamps = self.queries.read::<2>(used).context("reading timestamps")?;
+        // One statistics query per pass that ran, numbered as its stamps: 4 counters and the
+        // availability word.
+        let counted = match &self.statistics {
+            Some((s, _)) => s
+                .read::<5>(used / 2)
+                .context("reading pipeline statistics")?,
+            None => Vec::new(),
+        };
+        let stats = |a: u32| {
+            counted
+                .get(a as usize / 2)
+                .filter(|c| c[4] != 0)
+                .map(|c| PassStats {
+                    vertex_invocations: c[0],
+                    clipping_primitives: c[1],
+                    fragment_invocations: c[2],
+                    compute_invocations: c[3],
+                })
+        };
         let stamp = |q: u32| stamps.get(q as usize).filter(|s| s[1] != 0).map(|s| s[0]);
         let ms = |ticks: u64| ticks as f64 * self.period_ns * 1e-6;
         let between = |a: u32, b: u32| {
@@ -281,6 +369,7 @@ impl FrameRunner {
             .map(|p| PassTiming {
                 gpu_ms: p.queries.and_then(|(a, b)| between(a, b)),
                 gpu_start_ms: p.queries.and_then(|(a, _)| between(0, a)),
+                stats: p.queries.and_then(|(a, _)| stats(a)),
                 name: p.name,
                 skipped: p.skipped,
             })
@@ -292,6 +381,8 @@ impl FrameRunner {
             rebuilt,
             lookup_area,
             gpu_frame_ms,
+            image_pixels: 0,
+            map_texels: 0,
         })
     }
 }
@@ -316,7 +407,6 @@ impl Drop for FrameRunner {
         // SAFETY: `run` always waits for its submission, so nothing is pending.
         unsafe {
             let d = &self.shared.device;
-            d.destroy_query_pool(self.queries, None);
             d.destroy_fence(self.fence, None);
             d.destroy_command_pool(self.pool, None);
         }
@@ -337,6 +427,8 @@ pub struct Recorder<'a> {
     queries: vk::QueryPool,
     max_queries: u32,
     next_query: u32,
+    /// The frame's statistics pool: query `a / 2` for the pass whose first stamp is `a`.
+    statistics: Option<vk::QueryPool>,
     passes: Vec<RecordedPass>,
     cpu: Vec<(String, f64)>,
     rebuilt: Vec<CasterRebuilds>,
@@ -561,8 +653,11 @@ impl Recorder<'_> {
         }
         let (a, b) = (self.next_query, self.next_query + 1);
         self.next_query += 2;
+
         let label = CString::new(name).unwrap_or_default();
-        // SAFETY: the command buffer is recording; the queries were reset this frame.
+        // SAFETY: the command buffer is recording outside any rendering scope; the queries
+        // (timestamps and the pass's statistics query, unused before this frame) were reset
+        // from the host before recording.
         unsafe {
             self.device().cmd_write_timestamp2(
                 self.cmd,
@@ -570,6 +665,14 @@ impl Recorder<'_> {
                 self.queries,
                 a,
             );
+            if let Some(pool) = self.statistics {
+                self.device().cmd_begin_query(
+                    self.cmd,
+                    pool,
+                    a / 2,
+                    vk::QueryControlFlags::empty(),
+                );
+            }
             if let Some(du) = &self.shared.debug_utils {
                 du.cmd_begin_debug_utils_label(
                     self.cmd,
@@ -582,10 +685,14 @@ impl Recorder<'_> {
             self.scope = None;
             self.fail(anyhow::anyhow!("pass {name} left a rendering scope open"));
         }
-        // SAFETY: as above; the label is closed even when `f` failed.
+        // SAFETY: as above; the label and the query are closed even when `f` failed, and no
+        // rendering scope is open (a scope left open was dropped above).
         unsafe {
             if let Some(du) = &self.shared.debug_utils {
                 du.cmd_end_debug_utils_label(self.cmd);
+            }
+            if let Some(pool) = self.statistics {
+                self.device().cmd_end_query(self.cmd, pool, a / 2);
             }
             self.device().cmd_write_timestamp2(
                 self.cmd,

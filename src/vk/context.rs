@@ -104,6 +104,13 @@ pub struct Context {
     /// Whether the `logicOp` feature is enabled (enabled wherever the device offers it):
     /// `Blend::Or` pipelines need it.
     pub logic_op: bool,
+    /// Whether the `pipelineStatisticsQuery` feature is enabled (wherever the device offers
+    /// it): the per-pass work counts of `--timings` and the bench need it, and are left
+    /// empty without it.
+    pub pipeline_statistics: bool,
+    /// Whether the `independentBlend` feature is enabled (wherever offered): the counting
+    /// pass (colour overwritten, counts added) needs it, and is not built without it.
+    pub independent_blend: bool,
 }
 
 unsafe extern "system" fn debug_callback(
@@ -268,7 +275,13 @@ impl Context {
         // Optional: only the techniques that OR integer attachments need it (they say so
         // when it is missing), so a device without it still runs the others.
         let logic_op = offered.logic_op == vk::TRUE;
-        let features = vk::PhysicalDeviceFeatures::default().logic_op(logic_op);
+        // Optional: the per-pass counters beside the timestamps; without it they are empty.
+        let pipeline_statistics = offered.pipeline_statistics_query == vk::TRUE;
+        let independent_blend = offered.independent_blend == vk::TRUE;
+        let features = vk::PhysicalDeviceFeatures::default()
+            .logic_op(logic_op)
+            .independent_blend(independent_blend)
+            .pipeline_statistics_query(pipeline_statistics);
         let device_create = vk::DeviceCreateInfo::default()
             .queue_create_infos(&queue_info)
             .enabled_features(&features)
@@ -316,6 +329,8 @@ impl Context {
             driver_info,
             validation: opts.validation,
             logic_op,
+            pipeline_statistics,
+            independent_blend,
         })
     }
 

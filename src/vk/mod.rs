@@ -60,6 +60,7 @@ mod cmd;
 mod context;
 mod memory;
 mod pipeline;
+mod query;
 mod reflect;
 mod sync;
 
@@ -68,7 +69,8 @@ pub use ash::vk::{
     ImageUsageFlags, Offset2D, PhysicalDeviceType, PipelineStageFlags2, PrimitiveTopology, Rect2D,
 };
 pub use cmd::{
-    read_buffer, read_image, CasterRebuilds, Clear, FrameRunner, FrameTimings, PassTiming, Recorder,
+    is_screen_pass, read_buffer, read_image, CasterRebuilds, Clear, FrameRunner, FrameTimings,
+    PassTiming, Recorder,
 };
 pub use context::{Context, ContextOptions};
 pub use gpu_allocator::MemoryLocation;
@@ -76,3 +78,4 @@ pub use memory::{Buffer, Filter, Image, Sampler};
 pub use pipeline::{
     Attribute, Blend, DepthState, DescriptorSet, GraphicsPipelineDesc, Pipeline, Resource,
 };
+pub use query::{PassStats, NO_PIPELINE_STATISTICS};

@@ -4,8 +4,6 @@
 #define SSM_BITMASK_CONSTANTS_GLSL
 #include "ssm/constants.glsl"
 
-// ssm's L (SSM_LIGHT_SIDE, the square light) has no use here: its slot holds the block side.
-#define SSMB_QUAD_STEP frame.technique.x        // side of the texel blocks drawn as one micro-quad (1: one per texel)
 #define SSMB_RADIUS frame.technique2.x          // R: radius of the disc light (0: point light)
 #define SSMB_EXTENT_RADIUS frame.technique2.y   // reach of the disc on the light's image plane
 #define SSMB_CONNECT_TEXELS frame.technique2.z  // one surface: depths closer than this many texels of slope

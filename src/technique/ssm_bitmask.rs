@@ -104,16 +104,6 @@
 //! micro-quad pass costs about 5x ssm's micro-patch pass (larger extents: the disc faces the
 //! receiver; ten times the fragment work), the frame about 3x ssm's and 11x hard's.
 //!
-//! A quad's fragments grow with its reach squared, and a narrow cone under a wide light
-//! makes the reach longer than the map's side: then every one of the N^2 quads covers the
-//! whole map. The reach is bounded from the light frustum's depth range (`extent_bound`);
-//! past `MAX_EXTENT_TEXELS`, one instance draws a block of `quad_step` texels on a side (the
-//! bounding rectangle of its occupied texels, each corner at the depth of the occupied texel
-//! nearest it, the block's farthest depth for the self-occlusion guard), so the pass stays
-//! within N^2 (2 MAX_EXTENT_TEXELS + 3)^2 fragments and a block is at most a
-//! 1 / MAX_EXTENT_TEXELS fraction of the penumbra it casts. Below the bound (every built-in
-//! scene at 256 and 512 texels) the pass is exactly as described above.
-//!
 //! Accuracy is then limited by the occluder map's resolution (`--occluder-res`, 256 by
 //! default, shared with ssm): at 512 mae_lit is at most pcss's on cylinder, bunny, primitives
 //! and fence (tests/ssm_bitmask.rs), but the micro-quad pass grows as N^4 (N^2 quads, each
@@ -140,7 +130,6 @@ use super::hard;
 use super::ssm::{ssm_uniforms, LightInputs, MAP_USAGE, SELF_GUARD_TEXELS};
 use super::{shadow_map_buffer, FrameInput, LightBuffer, Technique, TechniqueInfo, TechniqueInit};
 use crate::gpu::passes::{FinalPass, FinalShader};
-use crate::scene::LightView;
 use crate::shaders::{self, constants as k};
 use crate::vk::{
     Blend, Buffer, BufferUsageFlags, Context, CullModeFlags, DescriptorSet, Filter, Format,
@@ -177,45 +166,6 @@ const CONNECT_TEXELS: f32 = 4.0;
 
 /// Margin on the disc's reach on the map's image plane (the extents must cover it).
 const EXTENT_MARGIN: f32 = 1.05;
-
-/// The reach of a micro-quad beyond its own square, in occluder texels, above which
-/// neighbouring quads are merged into blocks (see `quad_step`).
-pub const MAX_EXTENT_TEXELS: f32 = 32.0;
-
-/// The largest reach, in occluder texels, of any micro-quad of a frame: the disc's reach on
-/// the map's image plane (`EXTENT_MARGIN` R at the frustum's corner) over the depth range
-/// of the light's frustum (every caster lies behind `near`, every receiver before `far`),
-/// as the vertex shader grows each quad, bounded above.
-pub fn extent_bound(res: u32, light: &LightView, radius: f32) -> f32 {
-    let t = (light.fov_deg.to_radians() * 0.5).tan();
-    let reach = EXTENT_MARGIN * radius * (1.0 + 2.0 * t * t).sqrt();
-    reach * res as f32 / (2.0 * t) * (1.0 / light.near - 1.0 / light.far)
-}
-
-/// The side, in occluder texels, of the blocks drawn as one micro-quad each: 1 (every
-/// texel its own quad) while no quad reaches past `MAX_EXTENT_TEXELS`; beyond, the smallest
-/// side that keeps the reach within `MAX_EXTENT_TEXELS` blocks. A quad's fragments grow
-/// with its reach squared and there is one quad per texel, so a narrow cone or a light wide
-/// against it (penumbrae of many times the map's side) would otherwise cost N^2 fragments
-/// per texel; merged, the pass stays within N^2 (2 MAX_EXTENT_TEXELS + 3)^2 fragments,
-/// and a block is then at most 1 / MAX_EXTENT_TEXELS of the penumbra it casts.
-pub fn quad_step(res: u32, light: &LightView, radius: f32) -> u32 {
-    let h = extent_bound(res, light, radius);
-    if h.is_nan() || h <= MAX_EXTENT_TEXELS {
-        return 1;
-    }
-    ((h / MAX_EXTENT_TEXELS).ceil().min(res as f32) as u32).max(1)
-}
-
-/// The most fragments the micro-quad pass of one occluder map can rasterise at `step`: one
-/// quad per block, each at most its block grown by the extent bound (and a texel of margin)
-/// on every side, clipped to the map.
-pub fn fragment_bound(res: u32, light: &LightView, radius: f32, step: u32) -> u64 {
-    let h = extent_bound(res, light, radius).max(0.0) as f64;
-    let side = (2.0 * h.ceil() + step as f64 + 2.0).min(res as f64);
-    let blocks = res.div_ceil(step.max(1)) as f64;
-    (blocks * blocks * side * side) as u64
-}
 
 /// The mask format: 128 bits.
 const MASK_FORMAT: Format = Format::R32G32B32A32_UINT;
@@ -446,13 +396,12 @@ impl SsmBitmask {
 
     /// Draws one occluder map's micro-quads; the first pass clears the masks, a second
     /// (the back faces) ORs into them.
-    fn record_quads(&self, rec: &mut Recorder<'_>, quads: &QuadPass, clear: bool, step: u32) {
+    fn record_quads(&self, rec: &mut Recorder<'_>, quads: &QuadPass, clear: bool) {
         let clear = clear.then_some([0.0; 4]);
-        let blocks = self.res.div_ceil(step);
         rec.begin_rendering(&[(&self.masks[0], clear), (&self.masks[1], clear)], None);
         rec.bind_pipeline(&self.quad_pipeline);
         rec.bind_sets(&self.quad_pipeline, &[&quads.set]);
-        rec.draw(4, blocks * blocks);
+        rec.draw(4, self.res * self.res);
         rec.end_rendering();
     }
 }
@@ -463,9 +412,8 @@ impl Technique for SsmBitmask {
     }
 
     fn uniforms(&self, frame: &FrameInput<'_>) -> [[f32; 4]; 2] {
-        let [mut first, _] = ssm_uniforms(self.res, frame);
+        let [first, _] = ssm_uniforms(self.res, frame);
         debug_assert_eq!(first[k::SSM_SELF_GUARD_TEXELS], SELF_GUARD_TEXELS);
-        first[k::SSMB_QUAD_STEP] = quad_step(self.res, frame.light, frame.light_radius) as f32;
         let t = (frame.light.fov_deg.to_radians() * 0.5).tan();
         let r = frame.light_radius;
         let mut second = [0.0; 4];
@@ -483,14 +431,13 @@ impl Technique for SsmBitmask {
         frame: &FrameInput<'_>,
     ) -> Result<()> {
         self.inputs.record(rec, frame)?;
-        let step = quad_step(self.res, frame.light, frame.light_radius);
         rec.pass(&self.front.name, |rec| {
-            self.record_quads(rec, &self.front, true, step);
+            self.record_quads(rec, &self.front, true);
             Ok(())
         })?;
         if let Some(back) = &self.back_quads {
             rec.pass(&back.name, |rec| {
-                self.record_quads(rec, back, false, step);
+                self.record_quads(rec, back, false);
                 Ok(())
             })?;
         }

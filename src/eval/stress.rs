@@ -116,6 +116,8 @@ pub struct StressOptions {
     /// Keep a failing static row's images (`CASE-TECHNIQUE.png` and
     /// `CASE-TECHNIQUE-error.png`) in the report, which publishes them with `stress.md`.
     pub keep_images: bool,
+    /// Every row without the speed layer (`Settings::plain`, `--plain`).
+    pub plain: bool,
 }
 
 impl StressOptions {
@@ -1111,7 +1113,10 @@ pub fn run(ctx: &Context, opts: &StressOptions, progress: &mut dyn FnMut(&Row)) 
     opts.check()?;
     let start = Instant::now();
     let sizes = Sizes::new(opts.quick);
-    let base = sizes.settings();
+    let base = Settings {
+        plain: opts.plain,
+        ..sizes.settings()
+    };
     let samples = base.reference_samples;
     let mut rows = Vec::new();
     let mut images = Vec::new();

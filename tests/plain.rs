@@ -11,19 +11,26 @@ use softshadow::render::Renderer;
 use softshadow::scene::{Scene, BUILTIN_SCENES};
 use softshadow::settings::{Settings, SilhouettePath};
 use softshadow::technique::TECHNIQUES;
+use softshadow::vk::FrameTimings;
 
 /// Three frames: the first, one after the light moved (light passes rebuilt, the optimised
 /// path's areas joined with the first frame's) and one with nothing moved (the optimised
-/// path reuses its light passes, the plain one redraws them). The third frame's images.
-fn frames(gpu: &Gpu, scene: &Scene, technique: &str, settings: Settings) -> FrameImages {
+/// path reuses its light passes, the plain one redraws them). The third frame's images and
+/// timings, and the objects kept in the (light, camera) frusta.
+fn frames(
+    gpu: &Gpu,
+    scene: &Scene,
+    technique: &str,
+    settings: Settings,
+) -> (FrameImages, FrameTimings, (usize, usize)) {
     let mut r = Renderer::new(&gpu.ctx, scene.clone(), technique, settings)
         .unwrap_or_else(|e| panic!("creating {technique}: {e:#}"));
     r.render().unwrap();
     let size = (r.scene.bounds().max - r.scene.bounds().min).length();
     r.scene.light.position += Vec3::new(0.02, 0.0, -0.01) * size;
     r.render().unwrap();
-    r.render().unwrap();
-    r.read_back().unwrap()
+    let timings = r.render().unwrap();
+    (r.read_back().unwrap(), timings, r.objects_in_frusta())
 }
 
 /// The largest difference of two visibilities (NaN on one side only: infinite), and how
@@ -43,7 +50,10 @@ fn visibility_diff(a: &[f32], b: &[f32]) -> (f32, usize) {
 fn plain_draws_the_optimised_image() {
     let gpu = Gpu::new();
     let mut worst = Vec::new();
-    for &scene_name in BUILTIN_SCENES {
+    let (mut split, mut reused) = (0, 0);
+    // dense-1m is dense's scene with a million triangles: the same casters' kind, and
+    // three times this test's budget in a debug build.
+    for &scene_name in BUILTIN_SCENES.iter().filter(|&&s| s != "dense-1m") {
         let scene = Scene::load(scene_name).unwrap();
         for t in TECHNIQUES {
             let name = t.name;
@@ -51,8 +61,8 @@ fn plain_draws_the_optimised_image() {
                 silhouettes: SilhouettePath::Cpu,
                 ..small(64, 256)
             };
-            let fast = frames(&gpu, &scene, name, settings.clone());
-            let plain = frames(
+            let (fast, fast_t, _) = frames(&gpu, &scene, name, settings.clone());
+            let (plain, plain_t, kept) = frames(
                 &gpu,
                 &scene,
                 name,
@@ -62,6 +72,18 @@ fn plain_draws_the_optimised_image() {
                 },
             );
             let case = format!("{name} on {scene_name}");
+            // The plain path ran without the speed layer: every object kept, every pass
+            // run on the still frame, the final pass whole.
+            let n = scene.objects.len();
+            assert_eq!(kept, (n, n), "{case}: plain culled");
+            let skipped =
+                |t: &FrameTimings| t.passes.iter().filter(|p| p.skipped.is_some()).count();
+            assert_eq!(skipped(&plain_t), 0, "{case}: plain skipped a pass");
+            let final_pass = format!("{name}/final");
+            let area = |t: &FrameTimings| t.lookup_area_of(&final_pass).unwrap_or(1.0);
+            assert_eq!(area(&plain_t), 1.0, "{case}: plain split its final pass");
+            split += usize::from(area(&fast_t) < 1.0);
+            reused += usize::from(skipped(&fast_t) > 0);
             assert_eq!(fast.visibility.len(), 64 * 64, "{case}");
             let (vis, n_vis) = visibility_diff(&fast.visibility, &plain.visibility);
             let levels = common::max_colour_diff(&fast, &plain);
@@ -73,14 +95,17 @@ fn plain_draws_the_optimised_image() {
                 .count();
             // Shortened smoothies (`records::Extent`: the paper form's outer ones, the
             // centred form's inner ones) interpolate alpha, t and 1/b over triangles other
-            // than the full-width ones: a few values move by that rounding (as in
-            // tests/avoided_work.rs `light_areas_change_no_pixel`). Everything else is bit
+            // than the full-width ones, so a few visibilities move by that rounding (as in
+            // tests/avoided_work.rs `light_areas_change_no_pixel`): measured up to 3.0e-6
+            // on up to 152 of 4096 pixels for the paper form, 7.6e-5 on one pixel for the
+            // centred form (16-bit penumbra), never a colour level. Everything else is bit
             // for bit.
-            let (vis_bound, level_bound) = if name.starts_with("smoothies") {
-                (1e-3, 1)
-            } else {
-                (0.0, 0)
+            let vis_bound = match name {
+                "smoothies" => 1e-5,
+                "smoothies-centred" => 2e-4,
+                _ => 0.0,
             };
+            let level_bound = 0;
             assert!(
                 vis <= vis_bound && levels <= level_bound,
                 "{case}: plain differs in {n_vis} visibilities by up to {vis}, in {n_colour} pixels by up to {levels} levels"
@@ -97,6 +122,11 @@ fn plain_draws_the_optimised_image() {
             }
         }
     }
+    // And the optimised path did what plain does not: skipped its light passes (the
+    // reference: its ray cast) on every still frame, and split its final pass on some.
+    let cases = (BUILTIN_SCENES.len() - 1) * TECHNIQUES.len();
+    assert_eq!(reused, cases, "light passes reused");
+    assert!(split > 0, "no optimised final pass was split");
     // Shown with --nocapture: where rounding made the two differ at all.
     for w in worst {
         println!("{w}");

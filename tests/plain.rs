@@ -13,6 +13,21 @@ use softshadow::settings::{Settings, SilhouettePath};
 use softshadow::technique::TECHNIQUES;
 use softshadow::vk::FrameTimings;
 
+/// The techniques whose optimised final pass runs their shader only where a shadow can
+/// fall (`FinalPass::split`).
+const SPLIT: [&str; 10] = [
+    "pcf",
+    "pcss",
+    "pcss-fast",
+    "pcss-walk",
+    "smoothies",
+    "smoothies-centred",
+    "penumbra-map",
+    "penumbra-map-centred",
+    "plateaus",
+    "plateaus-centred",
+];
+
 /// Three frames: the first, one after the light moved (light passes rebuilt, the optimised
 /// path's areas joined with the first frame's) and one with nothing moved (the optimised
 /// path reuses its light passes, the plain one redraws them). The third frame's images and
@@ -50,9 +65,9 @@ fn visibility_diff(a: &[f32], b: &[f32]) -> (f32, usize) {
 fn plain_draws_the_optimised_image() {
     let gpu = Gpu::new();
     let mut worst = Vec::new();
-    let (mut split, mut reused) = (0, 0);
-    // dense-1m is dense's scene with a million triangles: the same casters' kind, and
-    // three times this test's budget in a debug build.
+    let mut reused = 0;
+    // Every built-in but dense-1m, whose million triangles, drawn 96 times here, would
+    // dominate the test; dense holds the same kind of casters (bumpy spheres over a plane).
     for &scene_name in BUILTIN_SCENES.iter().filter(|&&s| s != "dense-1m") {
         let scene = Scene::load(scene_name).unwrap();
         for t in TECHNIQUES {
@@ -82,7 +97,12 @@ fn plain_draws_the_optimised_image() {
             let final_pass = format!("{name}/final");
             let area = |t: &FrameTimings| t.lookup_area_of(&final_pass).unwrap_or(1.0);
             assert_eq!(area(&plain_t), 1.0, "{case}: plain split its final pass");
-            split += usize::from(area(&fast_t) < 1.0);
+            if SPLIT.contains(&name) {
+                assert!(
+                    area(&fast_t) < 1.0,
+                    "{case}: the optimised final pass was whole"
+                );
+            }
             reused += usize::from(skipped(&fast_t) > 0);
             assert_eq!(fast.visibility.len(), 64 * 64, "{case}");
             let (vis, n_vis) = visibility_diff(&fast.visibility, &plain.visibility);
@@ -123,10 +143,10 @@ fn plain_draws_the_optimised_image() {
         }
     }
     // And the optimised path did what plain does not: skipped its light passes (the
-    // reference: its ray cast) on every still frame, and split its final pass on some.
+    // reference: its ray cast) on every still frame (the split final passes are checked
+    // above).
     let cases = (BUILTIN_SCENES.len() - 1) * TECHNIQUES.len();
     assert_eq!(reused, cases, "light passes reused");
-    assert!(split > 0, "no optimised final pass was split");
     // Shown with --nocapture: where rounding made the two differ at all.
     for w in worst {
         println!("{w}");

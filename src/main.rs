@@ -107,6 +107,11 @@ struct StressArgs {
     /// Small sizes and few frames (the CI variant, under 2 minutes on lavapipe).
     #[arg(long)]
     quick: bool,
+    /// Turn off every speed-only optimisation (culling, light-pass reuse and caches,
+    /// light-area-limited clears and draws, shortened smoothies, the split final pass):
+    /// the technique as a porter reads it, the same image.
+    #[arg(long)]
+    plain: bool,
 }
 
 #[derive(Args)]
@@ -172,6 +177,11 @@ struct RenderArgs {
     /// hand-tuned modules under glsl/; techniques without one fall back to glslang's).
     #[arg(long, value_enum, ignore_case = true, default_value_t = Settings::default().spirv)]
     spirv: SpirvChoice,
+    /// Turn off every speed-only optimisation (culling, light-pass reuse and caches,
+    /// light-area-limited clears and draws, shortened smoothies, the split final pass):
+    /// the technique as a porter reads it, the same image.
+    #[arg(long)]
+    plain: bool,
 }
 
 #[derive(Args)]
@@ -255,6 +265,11 @@ struct BenchArgs {
     /// frame runs every pass).
     #[arg(long)]
     reuse_light_passes: bool,
+    /// Turn off every speed-only optimisation (culling, light-pass reuse and caches,
+    /// light-area-limited clears and draws, shortened smoothies, the split final pass):
+    /// the technique as a porter reads it, the same image.
+    #[arg(long)]
+    plain: bool,
     /// The full sweep (flags given beside it still win).
     #[arg(long)]
     full: bool,
@@ -498,6 +513,7 @@ fn render(cli: &Cli, a: &RenderArgs) -> Result<()> {
         // Timed frames rebuild every pass so that each one is measured; frame-to-frame reuse
         // shows in `bench --motion static,camera`.
         cache_light_passes: !a.timings,
+        plain: a.plain,
         ..Settings::default()
     };
     if let Some(w) = softshadow::frustum::check_radius(&scene, settings.radius_for(&scene))? {
@@ -616,6 +632,7 @@ fn run_bench(cli: &Cli, a: &BenchArgs) -> Result<()> {
         seed: a.seed,
         motions,
         reuse_light_passes: a.reuse_light_passes,
+        plain: a.plain,
         out: a.out.clone(),
         progress: true,
         command: std::env::args().collect::<Vec<_>>().join(" "),
@@ -775,6 +792,7 @@ fn stress(cli: &Cli, a: &StressArgs) -> Result<()> {
         techniques: a.techniques.clone(),
         cases: a.cases.clone(),
         keep_images: true,
+        plain: a.plain,
     };
     opts.check()?;
     // Checked before the sweep, which takes minutes.

@@ -40,6 +40,12 @@ pub struct Settings {
     /// targets, every object, full-width smoothies, a porter's plain form, which
     /// tests/avoided_work.rs holds to the same image.
     pub light_areas: bool,
+    /// The technique without the speed layer (`--plain`): no reuse of light passes or
+    /// caster caches, no culling, whole light maps with full-width smoothies, one
+    /// full-screen final pass instead of the split one. `effective` turns the switches off
+    /// above; `FinalPass::pass_in` reads this field for the split. The same image as the
+    /// optimised path (tests/plain.rs).
+    pub plain: bool,
     /// Accumulation format of the soft shadow map (Atty et al. Appendix A: R16F breaks above ~256^2).
     pub accum_format: AccumFormat,
     /// Shadow rays per pixel of the `reference` technique (docs/DESIGN.md: at least 256).
@@ -244,6 +250,7 @@ impl Default for Settings {
             cache_light_passes: true,
             culling: true,
             light_areas: true,
+            plain: false,
             reference_samples: crate::reference::MIN_SAMPLES,
             reference_seed: crate::reference::DEFAULT_SEED,
             silhouettes: SilhouettePath::Auto,
@@ -253,6 +260,18 @@ impl Default for Settings {
 }
 
 impl Settings {
+    /// The settings a renderer runs: `plain` turns off every switch of the speed layer
+    /// (`cache_light_passes`, `culling`, `light_areas`); otherwise as given. The one place
+    /// `plain` reaches the techniques' own switches.
+    pub fn effective(mut self) -> Self {
+        if self.plain {
+            self.cache_light_passes = false;
+            self.culling = false;
+            self.light_areas = false;
+        }
+        self
+    }
+
     /// The light radius in effect for `scene`: `light_radius`, else the scene's own.
     pub fn radius_for(&self, scene: &Scene) -> f32 {
         self.light_radius.unwrap_or(scene.light.radius)

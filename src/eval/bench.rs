@@ -230,6 +230,8 @@ pub struct BenchConfig {
     /// (`Settings::cache_light_passes`). Off by default: every timed frame runs every pass,
     /// so a frame time is the whole frame's cost, as `render --timings` measures it.
     pub reuse_light_passes: bool,
+    /// Every point without the speed layer (`Settings::plain`, `--plain`).
+    pub plain: bool,
     pub out: PathBuf,
     /// Show a progress bar on a terminal (plain lines otherwise).
     pub progress: bool,
@@ -257,6 +259,7 @@ impl Default for BenchConfig {
             seed: DEFAULT_SEED,
             motions: vec![Motion::Static],
             reuse_light_passes: false,
+            plain: false,
             out: PathBuf::from("bench-out"),
             progress: true,
             command: String::new(),
@@ -470,6 +473,7 @@ impl Plan {
             // Used only when `reference` itself is benched (--techniques reference).
             reference_samples: self.config.samples,
             cache_light_passes: self.config.reuse_light_passes,
+            plain: self.config.plain,
             ..Settings::default()
         }
     }
@@ -932,6 +936,8 @@ pub struct SweepSettings {
     pub reference_samples: u32,
     pub reference_seed: u64,
     pub reuse_light_passes: bool,
+    /// `--plain`: no speed layer (`Settings::plain`).
+    pub plain: bool,
     pub normal_offset_texels: f32,
     pub depth_bias: f32,
     pub pcf_kernel: String,
@@ -961,6 +967,7 @@ impl SweepSettings {
             reference_samples: cfg.samples,
             reference_seed: cfg.seed,
             reuse_light_passes: cfg.reuse_light_passes,
+            plain: cfg.plain,
             normal_offset_texels: s.normal_offset_texels,
             depth_bias: s.depth_bias,
             pcf_kernel: match s.pcf_kernel {
@@ -972,7 +979,7 @@ impl SweepSettings {
                 AccumFormat::R32F => "r32f",
                 AccumFormat::R16F => "r16f",
             },
-            culling: s.culling,
+            culling: s.culling && !cfg.plain,
         }
     }
 }
@@ -1337,6 +1344,9 @@ fn notes(plan: &Plan) -> Vec<String> {
     } else {
         "Every timed frame ran every pass (no reuse of light-space passes): a frame time is the whole frame's cost.".into()
     });
+    if cfg.plain {
+        notes.push("--plain: every point ran without the speed layer (no culling, no reuse, whole light maps, one full-screen final pass): the technique's own cost.".into());
+    }
     if cfg.motions.iter().any(|m| *m != Motion::Static) {
         notes.push("Moving sweeps time the frames while moving; their errors are measured on the scene at rest.".into());
     }

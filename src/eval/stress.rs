@@ -116,6 +116,8 @@ pub struct StressOptions {
     /// Keep a failing static row's images (`CASE-TECHNIQUE.png` and
     /// `CASE-TECHNIQUE-error.png`) in the report, which publishes them with `stress.md`.
     pub keep_images: bool,
+    /// Every row without the speed layer (`Settings::plain`, `--plain`).
+    pub plain: bool,
 }
 
 impl StressOptions {
@@ -231,6 +233,8 @@ impl Row {
 pub struct Report {
     pub device: String,
     pub quick: bool,
+    /// `--plain`: every row without the speed layer (`Settings::plain`).
+    pub plain: bool,
     pub image: u32,
     pub shadow_res: u32,
     pub reference_samples: u32,
@@ -256,9 +260,10 @@ impl Report {
         let mut s = String::new();
         s.push_str("# softshadow stress report\n\n");
         s.push_str(&format!(
-            "{}. Mode: {}. Image {}x{}, shadow maps {}^2, reference {} rays/pixel. {} rows, {} failed, {:.0} s.\n\n",
+            "{}. Mode: {}{}. Image {}x{}, shadow maps {}^2, reference {} rays/pixel. {} rows, {} failed, {:.0} s.\n\n",
             self.device,
             if self.quick { "--quick" } else { "full" },
+            if self.plain { ", --plain" } else { "" },
             self.image,
             self.image,
             self.shadow_res,
@@ -1111,7 +1116,10 @@ pub fn run(ctx: &Context, opts: &StressOptions, progress: &mut dyn FnMut(&Row)) 
     opts.check()?;
     let start = Instant::now();
     let sizes = Sizes::new(opts.quick);
-    let base = sizes.settings();
+    let base = Settings {
+        plain: opts.plain,
+        ..sizes.settings()
+    };
     let samples = base.reference_samples;
     let mut rows = Vec::new();
     let mut images = Vec::new();
@@ -1215,6 +1223,7 @@ pub fn run(ctx: &Context, opts: &StressOptions, progress: &mut dyn FnMut(&Row)) 
     Ok(Report {
         device: ctx.describe(),
         quick: opts.quick,
+        plain: opts.plain,
         image: sizes.image,
         shadow_res: sizes.shadow_res,
         reference_samples: samples,
@@ -1578,6 +1587,7 @@ mod tests {
         Report {
             device: "test".into(),
             quick: true,
+            plain: false,
             image: 2,
             shadow_res: 64,
             reference_samples: 1,

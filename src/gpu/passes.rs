@@ -509,6 +509,11 @@ impl FinalPass {
             bail!("counting lookups needs the independentBlend device feature, which this device lacks");
         }
         rec.pass(&self.pipeline_of(mode).name, |rec| {
+            // `Settings::plain`: one full-screen pass, as a technique without regions.
+            let shadowed = match frame.settings.plain {
+                true => &Shadowed::Everywhere,
+                false => shadowed,
+            };
             match (&self.unshadowed, mode, shadowed) {
                 (Some((timed, _)), Mode::Timed, Shadowed::Inside(regions)) => {
                     self.record_split(rec, frame, set, timed, mode, regions)

@@ -105,6 +105,7 @@ impl<'c> Renderer<'c> {
         settings: Settings,
     ) -> Result<Self> {
         settings.validate(ctx)?;
+        let settings = settings.effective();
         scene.validate()?;
         check_radius(&scene, settings.radius_for(&scene))?;
         let info = technique::find(technique_name)?;

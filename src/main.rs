@@ -289,6 +289,7 @@ impl std::fmt::Display for Warned {
 impl std::error::Error for Warned {}
 
 fn main() -> ExitCode {
+    install_panic_hook();
     let cli = match Cli::try_parse() {
         Ok(c) => c,
         Err(e) => {
@@ -308,6 +309,13 @@ fn main() -> ExitCode {
         eprintln!("error: {}", error_line(&e));
         return ExitCode::FAILURE;
     }
+    // Test hook (tests/hostile.rs): a panic on a worker thread, as a library's would be, with
+    // this variable's value as its message.
+    if let Some(msg) = std::env::var_os("SOFTSHADOW_TEST_PANIC") {
+        let msg = msg.to_string_lossy().into_owned();
+        let worker = std::thread::spawn(move || panic!("{msg}"));
+        let _ = worker.join();
+    }
     match run(cli) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) if e.is::<Warned>() => ExitCode::FAILURE,
@@ -316,6 +324,53 @@ fn main() -> ExitCode {
             ExitCode::FAILURE
         }
     }
+}
+
+/// At most this many characters of a panic's message are shown.
+const PANIC_MESSAGE_MAX: usize = 200;
+
+/// A panic anywhere (ours or a library's, on any thread) ends the process with one
+/// `error: internal error: ...` line instead of the default report, whose text and backtrace
+/// hint are not for users; staged outputs are removed first, as on an interrupt. Exiting here
+/// rather than unwinding keeps a second panic (a thread joining the first) from adding lines.
+/// With RUST_BACKTRACE set (not to 0) the default report is printed instead, for developers.
+fn install_panic_hook() {
+    let default = std::panic::take_hook();
+    let developer = std::env::var_os("RUST_BACKTRACE").is_some_and(|v| v != "0");
+    std::panic::set_hook(Box::new(move |info| {
+        if developer {
+            default(info);
+            softshadow::output::remove_pending_outputs();
+            std::process::exit(101);
+        }
+        let payload = info.payload();
+        let msg = payload
+            .downcast_ref::<&str>()
+            .map(|s| s.to_string())
+            .or_else(|| payload.downcast_ref::<String>().cloned())
+            .unwrap_or_else(|| "a panic without a message".to_string());
+        let msg: String = msg
+            .chars()
+            .flat_map(|c| {
+                let escaped: Vec<char> = if c.is_control() {
+                    c.escape_default().collect()
+                } else {
+                    vec![c]
+                };
+                escaped
+            })
+            .collect();
+        let n = msg.chars().count();
+        let msg = if n > PANIC_MESSAGE_MAX {
+            let head: String = msg.chars().take(PANIC_MESSAGE_MAX).collect();
+            format!("{head}...")
+        } else {
+            msg
+        };
+        softshadow::output::remove_pending_outputs();
+        eprintln!("error: internal error: {msg} (please report)");
+        std::process::exit(101);
+    }));
 }
 
 /// clap's rendering of a usage error, except that a value outside a fixed list is said on

@@ -48,7 +48,8 @@ impl Drop for Pending {
 }
 
 /// Removes every pending staged path; what is removed is our own temporary output only.
-fn remove_pending() {
+/// For the binary's exits that skip unwinding (a panic) as well as for an interrupt.
+pub fn remove_pending_outputs() {
     let list = match PENDING.lock() {
         Ok(list) => list.clone(),
         Err(poisoned) => poisoned.into_inner().clone(),
@@ -71,7 +72,7 @@ fn remove_pending() {
 /// own (the `ctrlc` crate), not in signal context, so it may take locks and touch files.
 pub fn remove_pending_on_interrupt() -> Result<()> {
     ctrlc::set_handler(|| {
-        remove_pending();
+        remove_pending_outputs();
         eprintln!("error: interrupted; partial output removed");
         std::process::exit(130);
     })

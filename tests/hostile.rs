@@ -953,3 +953,51 @@ fn hostile_scene_and_compare_inputs_give_one_line_and_no_panic_text() {
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     assert!(dir.join("up.obj").is_file());
 }
+
+/// A panic, here one on a worker thread injected by the test hook, gives exactly one
+/// `error: internal error: ... (please report)` line, escaped and clipped, a non-zero exit,
+/// none of the default report and none of the output; with RUST_BACKTRACE set the default
+/// report is kept for developers, still with a non-zero exit.
+#[test]
+fn a_panic_gives_one_internal_error_line() {
+    let dir = scratch("panic");
+    let long = "x".repeat(1000);
+    let run = |msg: &str, backtrace: Option<&str>| {
+        let mut c = Command::new(env!("CARGO_BIN_EXE_softshadow"));
+        c.args(["export", "--scene", "cylinder", "--obj", "o.obj"])
+            .current_dir(&dir)
+            .env("SOFTSHADOW_TEST_PANIC", msg)
+            .env_remove("RUST_BACKTRACE");
+        if let Some(b) = backtrace {
+            c.env("RUST_BACKTRACE", b);
+        }
+        c.output().unwrap()
+    };
+    for backtrace in [None, Some("0")] {
+        let o = run("first\nsecond \u{1b}[31m", backtrace);
+        assert!(!o.status.success());
+        let stderr = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(
+            stderr,
+            "error: internal error: first\\nsecond \\u{1b}[31m (please report)\n"
+        );
+        let o = run(&long, backtrace);
+        assert!(!o.status.success());
+        let stderr = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(stderr.lines().count(), 1, "{stderr}");
+        assert!(stderr.starts_with("error: internal error: xxx"), "{stderr}");
+        assert!(stderr.ends_with("... (please report)\n"), "{stderr}");
+        assert!(stderr.len() < 300, "not clipped: {} bytes", stderr.len());
+    }
+    let o = run("for developers", Some("1"));
+    assert!(!o.status.success());
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(stderr.contains("panicked at"), "{stderr}");
+    assert!(stderr.contains("for developers"), "{stderr}");
+    assert!(!stderr.contains("internal error"), "{stderr}");
+    assert!(
+        std::fs::read_dir(&dir).unwrap().next().is_none(),
+        "a panicking export left files"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}

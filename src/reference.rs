@@ -684,13 +684,28 @@ pub fn read_cache(path: &Path, len: usize) -> CacheEntry {
 }
 
 /// Writes through a temporary name renamed into place, so a reader never sees half a file.
+/// The temporary file is listed for an interrupt like every staged output, and those of
+/// killed processes (named with their process id) are removed first.
 fn write_cache(path: &Path, v: &[f32]) -> Result<()> {
     let tmp = path.with_extension(format!("partial{}", std::process::id()));
+    if let (Some(dir), Some(stem)) = (path.parent(), path.file_stem()) {
+        crate::output::remove_stale(dir, &format!("{}.partial", stem.to_string_lossy()));
+    }
+    // Listed before the file exists, so that no interrupt finds it unlisted.
+    let _pending = crate::output::Pending::new(&tmp);
     let result = (|| {
         let mut f =
             std::fs::File::create(&tmp).with_context(|| format!("creating {}", tmp.display()))?;
         f.write_all(&encode_cache(v))
             .with_context(|| format!("writing {}", tmp.display()))?;
+        // Test hook (tests/hostile.rs): a pause of this many seconds with the partial file
+        // written, so that a test can interrupt the write.
+        if let Some(secs) = std::env::var("SOFTSHADOW_TEST_CACHE_PAUSE")
+            .ok()
+            .and_then(|s| s.parse::<u64>().ok())
+        {
+            std::thread::sleep(std::time::Duration::from_secs(secs.min(600)));
+        }
         std::fs::rename(&tmp, path).with_context(|| format!("renaming into {}", path.display()))
     })();
     if result.is_err() {

@@ -1001,3 +1001,92 @@ fn a_panic_gives_one_internal_error_line() {
     );
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// The reference cache's files in `dir`: (partial copies, finished entries).
+fn cache_files(dir: &Path) -> (Vec<String>, Vec<String>) {
+    let names: Vec<String> = std::fs::read_dir(dir)
+        .map(|d| {
+            d.flatten()
+                .map(|e| e.file_name().to_string_lossy().into_owned())
+                .collect()
+        })
+        .unwrap_or_default();
+    names.into_iter().partition(|n| n.contains(".partial"))
+}
+
+/// A reference render interrupted (SIGINT, SIGTERM) while its cache file's partial copy
+/// exists (held open by the test hook) removes that copy and exits non-zero with one
+/// `error:` line; one killed outright (SIGKILL) leaves it, and the next render of the same
+/// inputs removes it and caches its entry.
+#[test]
+fn interrupted_reference_cache_write_removes_its_partial_file() {
+    let dir = scratch("cache-interrupt");
+    let cache = dir.join("cache");
+    let spawn = |pause: bool| {
+        let mut c = Command::new(env!("CARGO_BIN_EXE_softshadow"));
+        c.args(tiny(&["--technique", "reference", "--scene", "cylinder"]))
+            .current_dir(&dir)
+            .env("SOFTSHADOW_CACHE", &cache)
+            .env_remove("SOFTSHADOW_DEVICE")
+            .stdout(std::process::Stdio::null())
+            .stderr(std::process::Stdio::piped());
+        if pause {
+            c.env("SOFTSHADOW_TEST_CACHE_PAUSE", "300");
+        }
+        c.spawn().unwrap()
+    };
+    for (signal, name) in [
+        (libc::SIGINT, "sigint"),
+        (libc::SIGTERM, "sigterm"),
+        (libc::SIGKILL, "sigkill"),
+    ] {
+        let mut child = spawn(true);
+        let mut waited = 0;
+        while cache_files(&cache).0.is_empty() {
+            assert!(
+                child.try_wait().unwrap().is_none(),
+                "{name}: render ended before it was signalled"
+            );
+            std::thread::sleep(std::time::Duration::from_millis(20));
+            waited += 1;
+            assert!(waited < 15_000, "{name}: no partial file after 300 s");
+        }
+        assert_eq!(
+            cache_files(&cache).0,
+            vec![format!(
+                "{}.partial{}",
+                cache_files(&cache).0[0].split(".partial").next().unwrap(),
+                child.id()
+            )],
+            "{name}"
+        );
+        // SAFETY: kill(2) on our own child's pid.
+        assert_eq!(unsafe { libc::kill(child.id() as i32, signal) }, 0);
+        let out = child.wait_with_output().unwrap();
+        assert!(!out.status.success(), "{name}: exit {:?}", out.status);
+        let (partial, done) = cache_files(&cache);
+        assert!(done.is_empty(), "{name}: {done:?}");
+        if signal == libc::SIGKILL {
+            assert_eq!(partial.len(), 1, "{name}: {partial:?}");
+        } else {
+            let stderr = String::from_utf8_lossy(&out.stderr);
+            assert_eq!(
+                stderr.lines().filter(|l| l.starts_with("error:")).count(),
+                1,
+                "{name}: {stderr}"
+            );
+            assert!(partial.is_empty(), "{name}: partial left: {partial:?}");
+        }
+    }
+    // The killed process's partial file goes with the next write of the same entry.
+    let out = spawn(false).wait_with_output().unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let (partial, done) = cache_files(&cache);
+    assert!(partial.is_empty(), "stale partial left: {partial:?}");
+    assert_eq!(done.len(), 1, "{done:?}");
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -546,6 +546,11 @@ fn render(cli: &Cli, a: &RenderArgs) -> Result<()> {
     }
     if let Some(dir) = &a.buffers {
         softshadow::output::check_dir(dir, "--buffers")?;
+        // Every name any technique may write: which ones this technique writes is known
+        // only once it is made, after the device work.
+        for name in softshadow::technique::LIGHT_BUFFER_NAMES {
+            check_not_input(&dir.join(format!("{name}.exr")), "--buffers", &inputs)?;
+        }
     }
     let ctx = open_device(cli)?;
     if let Some(note) = a.spirv.fallback_note(&a.technique) {

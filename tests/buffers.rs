@@ -88,6 +88,11 @@ fn every_technique_lists_its_light_buffers_with_named_channels() {
         }
         assert!(!names.is_empty(), "{t} lists no light-space buffer");
         for name in &names {
+            // `render --buffers` checks these file names against its inputs before any work.
+            assert!(
+                softshadow::technique::LIGHT_BUFFER_NAMES.contains(name),
+                "{t}/{name}: not in technique::LIGHT_BUFFER_NAMES"
+            );
             let b = r
                 .read_technique_buffer(name)
                 .unwrap_or_else(|e| panic!("{t}/{name}: {e:#}"));

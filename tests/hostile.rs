@@ -665,6 +665,24 @@ fn outputs_that_are_inputs_are_refused() {
         &args,
         "--aov aov/normal.exr: it is the same file as --scene s.toml",
     );
+    // A render's light-space buffer folder whose shadow_map.exr is the scene file (a hard
+    // link); refused before any work, as --out and --aov are.
+    std::fs::create_dir(dir.join("buf")).unwrap();
+    std::fs::hard_link(dir.join("s.toml"), dir.join("buf/shadow_map.exr")).unwrap();
+    let args = tiny(&[
+        "--technique",
+        "hard",
+        "--scene",
+        "s.toml",
+        "--buffers",
+        "buf",
+    ]);
+    let args: Vec<&str> = args.iter().map(String::as_str).collect();
+    fails_untouched(
+        &dir,
+        &args,
+        "--buffers buf/shadow_map.exr: it is the same file as --scene s.toml",
+    );
     // An export whose JSON sidecar is the scene through another spelling.
     std::fs::write(dir.join("t.toml"), BOX_SCENE).unwrap();
     std::os::unix::fs::symlink("t.toml", dir.join("u.json")).unwrap();

@@ -86,6 +86,28 @@ pub trait Technique {
     }
 }
 
+/// Every name a technique's `light_buffers` may use, so that `render --buffers DIR` can check
+/// the files it may write (`DIR/NAME.exr`) before any device work; tests/buffers.rs holds
+/// every technique's names to this list.
+pub const LIGHT_BUFFER_NAMES: &[&str] = &[
+    "shadow_map",
+    "occluder_map",
+    "smoothie_buffer",
+    "smoothie_depth",
+    "smoothie_penumbra",
+    "penumbra_map",
+    "plateaus",
+    "coverage",
+    "inner",
+    "receiver_map",
+    "receiver_map_pure",
+    "back_occluder_map",
+    "soft_shadow",
+    "soft_shadow_pure",
+    "soft_shadow_back",
+    "soft_shadow_back_pure",
+];
+
 /// One light-space buffer of a technique.
 pub struct LightBuffer<'a> {
     /// File name and `Renderer::read_technique_buffer` name: `shadow_map`, `smoothie_buffer`...

@@ -349,17 +349,7 @@ fn install_panic_hook() {
             .map(|s| s.to_string())
             .or_else(|| payload.downcast_ref::<String>().cloned())
             .unwrap_or_else(|| "a panic without a message".to_string());
-        let msg: String = msg
-            .chars()
-            .flat_map(|c| {
-                let escaped: Vec<char> = if c.is_control() {
-                    c.escape_default().collect()
-                } else {
-                    vec![c]
-                };
-                escaped
-            })
-            .collect();
+        let msg = escape_controls(&msg);
         let n = msg.chars().count();
         let msg = if n > PANIC_MESSAGE_MAX {
             let head: String = msg.chars().take(PANIC_MESSAGE_MAX).collect();
@@ -422,8 +412,13 @@ fn error_line(e: &anyhow::Error) -> String {
         line.push_str(&text);
     }
     // A newline in a name or path, from any layer, must not start a second line.
-    let line: String = line
-        .chars()
+    clip_long_words(&escape_controls(&line))
+}
+
+/// `text` with every control character (a newline, a tab, an escape) written as its Rust
+/// escape, so that it prints on one line.
+fn escape_controls(text: &str) -> String {
+    text.chars()
         .flat_map(|c| {
             let escaped: Vec<char> = if c.is_control() {
                 c.escape_default().collect()
@@ -432,8 +427,7 @@ fn error_line(e: &anyhow::Error) -> String {
             };
             escaped
         })
-        .collect();
-    clip_long_words(&line)
+        .collect()
 }
 
 /// Quoted input is clipped to its first 100 characters, so that a pasted 50 MB token is not

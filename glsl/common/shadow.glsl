@@ -16,7 +16,7 @@ struct LightSample {
 // product is affine in p and linear in the unnormalised normal, so interpolating it gives
 // the per-pixel product up to float rounding, and light_sample() below needs no 4x4
 // product of its own (nor the light_view one for the depth: for a perspective light,
-// clip w = -view z). On a CPU driver every pixel pays each product (issue 21 item 5).
+// clip w = -view z). On a CPU driver every pixel pays each product.
 vec4 surface_light_clip;
 vec4 surface_light_normal;
 

@@ -137,7 +137,7 @@ pub fn technique_constants(k: [f32; 8]) -> [[f32; 4]; 2] {
 }
 
 /// Which penumbra a silhouette technique draws: its paper's (outward from the hard shadow),
-/// or the centred one of its `-centred` form (issue 22: inner and outer, the disc-chord
+/// or the centred one of its `-centred` form (inner and outer, the disc-chord
 /// profile, src/technique/penumbra_map_centred.rs).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(crate) enum Form {

@@ -55,8 +55,8 @@
 //! The search radius is at most MAX_RADIUS_TEXELS (48), so the square's corners lie at most
 //! 2 (48 + 2) = 100 texels apart, which 3 cells of 2^6 = 64 always cover: levels up to 6,
 //! fewer when the map is smaller (none past one cell). The finest is level 2 (4x4 texels),
-//! not 1: at 1024² a level-1 build (512² threads) took about 5 ms on lavapipe, two thirds of
-//! `hard`'s frame.
+//! not 1: at 1024² a level-1 build (512² threads) cost about two thirds of `hard`'s whole
+//! frame on lavapipe.
 //!
 //! ## The early exits (exact)
 //! The search radius (Eq. 3) gives the square of texels a search tap's 2x2 gather can read:
@@ -111,10 +111,10 @@
 //!
 //! Why no stack: on lavapipe every branch of a loop body runs for the whole SIMD group, and
 //! a local array indexed per invocation becomes select chains or scratch memory. On
-//! `cylinder` (512², map 1024², 24 reads) the final pass took 125–140 ms with a 16-entry
-//! stack, 64–70 with three nested loops (first cells, children, grandchildren), 48 with the
-//! stackless walk, against 24 for `pcss-fast` (hierarchy, then the 16 gathers) and 27 for
-//! pcss. The level-2 gathers run in their own loop after the walk, one gather a turn, since
+//! `cylinder` (512², map 1024², 24 reads) the final pass took 5x `pcss-fast`'s time with a
+//! 16-entry stack, 2.7x with three nested loops (first cells, children, grandchildren), 2x
+//! with the stackless walk, against 1x for `pcss-fast` (hierarchy, then the 16 gathers) and
+//! 1.1x for pcss. The level-2 gathers run in their own loop after the walk, one gather a turn, since
 //! llvmpipe runs a loop's first turn even for a group in which no invocation needs it. Tried
 //! and dropped, no measurable change: classifying the first cells in the bounds loop (fewer walk
 //! turns), and skipping cells outside the inscribed disc. 24 reads instead of 12 cost 10–15%
@@ -140,8 +140,8 @@
 //! ## Cost
 //! `pcss-fast`'s final pass is pcss's, minus the search for the points the hierarchy
 //! settles. On lavapipe the walk is slower than the 16 gathers it replaces: `pcss-walk`'s
-//! final pass is 1.5–2x pcss's (512², map 1024², lowest of 3: cylinder 41 against 27 ms,
-//! bunny 50/25, overlap 46/28, dense 139/90), where `pcss-fast`'s is 0.75–0.93x. llvmpipe
+//! final pass is 1.5–2x pcss's (512², map 1024², BENCHMARKS.md), where `pcss-fast`'s is
+//! 0.75–0.93x. llvmpipe
 //! runs a loop for a whole SIMD group while any invocation in it needs a turn, so a group
 //! pays the longest walk among its pixels, and each cell read is a per-lane load. On a GPU
 //! the reads are cache-friendly buffer loads and the gathers stay bounded at pcss's 16; not

@@ -8,7 +8,7 @@
 //! hard edge to the outer edge (1), with the disc-chord profile
 //! v(s) = (1/pi)(acos s - s sqrt(1 - s^2)) (glsl/common/penumbra.glsl, s = the signed distance
 //! from the hard edge over the half-width, positive inside). This form draws the paper's
-//! outer cones and sheets AND their mirror images inside the hard shadow (issue 22; Cai et
+//! outer cones and sheets AND their mirror images inside the hard shadow (our accurate form; Cai et
 //! al. 2006's inner and outer fins are the same idea for shadow fins). Same pass structure,
 //! same geometry builder (`silhouette::penumbra::build_penumbra_sides`, `Side::Outer` /
 //! `Side::Inner`), same struct as the paper form (`penumbra_map::PenumbraMap`, `Form`).
@@ -33,8 +33,8 @@
 //!    surface's of any role. Cleared and drawn as the paper form's, the receivers that
 //!    cast nothing only under the cones and sheets grown by how far an inner fragment
 //!    reads g beside them (`inner_read_texels`: its distance inside the hard edge, at most
-//!    the widest inner cone, plus 7 texels): on `cylinder` at 640x480, 1024^2 this pass
-//!    took 1.96 ms instead of 5.26 (medians of 4 interleaved rounds on lavapipe).
+//!    the widest inner cone, plus 7 texels); drawing the whole map gives the same image
+//!    (`--plain`).
 //! 2. `penumbra-map-centred/penumbra` — one rendering scope, no depth attachment, culling
 //!    off, one colour attachment, the penumbra map: R16G16B16A16_SFLOAT, clear (1, 1, 1, 1),
 //!    blend MIN; r = the outer visibility (darkest wins, the paper's rule), g = the inner

@@ -173,8 +173,7 @@ pub fn whole_areas(res: u32) -> (MapArea, Rect2D) {
 /// lies in its vertices' hull, so that polygon holds every texel the caster writes; it is
 /// tighter than the caster's projected box wherever the shape fills little of its box
 /// (`bunny`: `pcss`'s lookups on 40 % of the area drawn instead of 60 %). O(vertices)
-/// per caster at each move of it or of the light: 3.6 ms of one core for `dense-1m`'s
-/// 100 casters on the 2-vCPU host of BENCHMARKS.md, spread over rayon's threads.
+/// per caster at each move of it or of the light, spread over rayon's threads.
 #[derive(Default)]
 pub struct AroundCasters {
     /// Per object: the model and light matrices its outline was taken for, and the

@@ -101,16 +101,16 @@
 //!      (`regions::deepest_surface`), since r <= Z (`records::Extent`; an edge takes its
 //!      nearer end's b at both ends, as b is convex along it). A blocker resting on its
 //!      receiver has b close to r, and Eq. 1 saturates close to the silhouette: on `bunny`
-//!      the triangles' area falls from 360k to 102k texels of the 1024^2 map, and the
-//!      pass from 2.6 to 1.3 ms (lowest of 8 frames at 640x480, lavapipe).
+//!      the triangles' area falls from 360k to 102k texels of the 1024^2 map (the time it
+//!      saves on lavapipe: BENCHMARKS.md).
 //!      A porter can draw the full width t instead: the same image up to the rounding
 //!      of t and 1/b interpolated over other triangles (tests/avoided_work.rs);
 //!    - render area and scissor: the texels those triangles can reach, each vertex
 //!      record's uv plus and minus its reach (`SmoothieRecords::uv_bounds`), joined with
 //!      last frame's, so that every texel outside still holds the clear value
 //!      (`light_areas`). That is 12-13 % of the map on `cylinder`, `bunny` and `overlap`,
-//!      and the clear of the rest was lavapipe's largest fixed cost here (0.5-0.6 ms a
-//!      frame at 1024^2). A porter can clear the whole buffer instead: same image.
+//!      and the clear of the rest was lavapipe's largest fixed cost here (docs/notes).
+//!      A porter can clear the whole buffer instead: same image (`--plain`).
 //!
 //!    The GPU path draws the full width and clears the whole buffer, as its geometry's
 //!    extent is only known on the device.
@@ -225,10 +225,8 @@ impl Form {
 
 /// Rows the paper form's split final pass cuts a ground into (`FinalPass::with_bands`),
 /// not the default 8: its lookup (three gathers) costs little against a draw per part on
-/// lavapipe. Its final pass against `hard`'s in the same bench run (median of 30 frames,
-/// 640x480, 1024^2, 6 runs): bunny +0.64 ms with 8 rows, +0.03 with 2; cylinder +0.02 and
-/// -0.31; overlap +0.04 and -0.21. `pcss`, whose lookup is several times dearer, gained
-/// nothing from fewer rows.
+/// lavapipe (measured against 8 rows in docs/notes/engine-like-frames.md). `pcss`, whose
+/// lookup is several times dearer, gained nothing from fewer rows.
 const PAPER_SPLIT_BANDS: u32 = 2;
 
 const SMOOTHIE_VERTEX_BYTES: u32 = std::mem::size_of::<SmoothieVertex>() as u32;

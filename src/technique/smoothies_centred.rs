@@ -44,9 +44,9 @@
 //!    texel and, for an inner one, 1.5 and 5.5 texels outside its edge: so, as the paper
 //!    form's, the pass clears and draws only the casters' boxes and the smoothies' box
 //!    (here grown by 7 texels, `regions::INNER_RECEIVER_TEXELS`), the receivers that cast
-//!    nothing only inside the latter (CPU path; on `cylinder` at 640x480, 1024^2 this pass
-//!    took 2.3 ms instead of 5.3, medians of 5 interleaved rounds on lavapipe). Drawing
-//!    the whole map gives the same image (tests/avoided_work.rs).
+//!    nothing only inside the latter (CPU path; the saving on lavapipe is in
+//!    docs/notes/performance-lessons.md). Drawing the whole map gives the same image
+//!    (tests/avoided_work.rs; `--plain`).
 //! 2. `smoothies-centred/smoothie` — ONE pass (the paper's single MRT smoothie pass), no
 //!    depth attachment, culling off, two colour attachments:
 //!    location 0 = smoothie linear depth b, R32_SFLOAT, clear 1e30, blend MIN (outer

@@ -285,41 +285,6 @@ fn guards_keep_outputs_finite_at_contact() {
     }
 }
 
-/// Smoothies-centred's outer smoothies (`outer_fraction`, smoothies_centred/outer.frag):
-/// within REMAP_EPS of contact s = 1 (lit, no division by ~0), elsewhere s = min(max(x, 0)
-/// / (t (1 - b/r)), 1).
-#[test]
-fn centred_smoothie_remap_guard() {
-    let gpu = Gpu::new();
-    let t = 0.5f32;
-    let cases: &[([f32; 4], f32, &str)] = &[
-        ([0.0, t, 0.0, 0.0], 1.0, "contact"),
-        ([0.0, t, REMAP_EPS / 2.0, 0.0], 1.0, "1 - f = eps / 2"),
-        (
-            [0.0, t, 2.0 * REMAP_EPS, 0.0],
-            0.0,
-            "1 - f = 2 eps: remapped",
-        ),
-        ([0.1, t, 0.5, 0.0], 0.4, "0.1 / (0.5 0.5)"),
-        ([-0.1, t, 0.5, 0.0], 0.0, "inside the hard edge"),
-        ([0.4, t, 0.5, 0.0], 1.0, "clamped"),
-    ];
-    let inputs: Vec<[f32; 4]> = cases.iter().map(|c| c.0).collect();
-    let out = run(
-        &gpu,
-        "centred_remap",
-        shaders::TESTS_CENTRED_REMAP_COMP,
-        false,
-        &inputs,
-    );
-    for ((input, s, what), o) in cases.iter().zip(&out) {
-        assert!(
-            (o[0] - s).abs() < 1e-6,
-            "{what}: {input:?} gave {o:?}, not {s}"
-        );
-    }
-}
-
 /// PCSS (glsl/pcss/radii.glsl, called by pcss/search.glsl for `pcss` and `pcss-fast`): both
 /// radii stay finite and in [0, max] from a receiver just past the near plane to one 1e7
 /// times farther, and with blockers from just in front of the receiver to 1e4 times closer;

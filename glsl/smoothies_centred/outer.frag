@@ -1,14 +1,22 @@
 #version 450
 #extension GL_GOOGLE_include_directive : require
-// smoothies-centred/smoothie, outer smoothies: the paper's smoothie fragment
-// (smoothies/smoothie.frag: receiver r = the shadow map's g at this texel, discard when
-// b/r > 1 or past the smoothie's outer side) with the penumbra centred on the hard edge.
-// With the calibrated width t (R / (2 b tan(fov/2)), src/silhouette/smoothie.rs `Width`) the
-// half-width of a disc light's penumbra at receiver depth r is t (1 - b/r) uv, so the
-// paper's remapped alpha' = alpha / (1 - b/r) (Eq. 1) is exactly s, the fragment's distance
-// outside the hard edge over that half-width, and the visibility is disc_chord(-s): 0.5
-// on the hard edge, 1 at the outer rim. Writes b (MIN: the nearest smoothie) and
-// (v, 1, 1, 1) (MIN on v: the darkest outer value wins, the paper's rule).
+// smoothies-centred/smoothie, outer smoothies: the paper's smoothie fragment, with the
+// paper form's own decision (smoothies/alpha.glsl `smoothie_alpha`: receiver r = the shadow
+// map's g at this texel; written only where the smoothie darkens a surface) and the
+// penumbra centred on the hard edge. With the calibrated width t (R / (2 b tan(fov/2)),
+// src/silhouette/smoothie.rs `Width`) the half-width of a disc light's penumbra at receiver
+// depth r is t (1 - b/r) uv, so the paper's remapped alpha' = alpha / (1 - b/r) (Eq. 1) is
+// exactly s, the fragment's distance outside the hard edge over that half-width, and the
+// visibility is disc_chord(-s): 0.5 on the hard edge, 1 at the outer rim. Writes b (MIN:
+// the nearest smoothie) and (v, 1, 1, 1) (MIN on v: the darkest outer value wins, the
+// paper's rule).
+//
+// Discarded, as in the paper form: no surface at the texel, b/r > 1, 1 - b/r < REMAP_EPS,
+// and s >= 1 (fully lit, v = 1). A lit fragment darkens nothing, but its b would still
+// MIN-blend into a texel that another caster's smoothie darkens: the final pass then
+// counts a point between the two smoothies' depths as behind the nearest smoothie and
+// gives it the farther smoothie's v (dark speckles along casters' edges under another
+// caster's smoothie; tests/centred_penumbra.rs, `outer_smoothies_write_only_what_darkens`).
 #include "smoothies_centred/smoothie.glsl"
 
 void main() {
@@ -16,13 +24,10 @@ void main() {
     vec2 uv = gl_FragCoord.xy * frame.light_params.w;
     float b = 1.0 / v_inv_depth;
     float r = texelFetch(shadow_map, ivec2(gl_FragCoord.xy), 0).g;
-    float f = b / r;
-    if (f > 1.0) discard;
     vec2 dir;
     float x = smoothie_distance(uv, dir);
-    if (x >= t) discard;
-    float denom = 1.0 - f;
-    float s = outer_fraction(x, t, denom);
+    float s;
+    if (!smoothie_alpha(b, r, x, t, s)) discard;
     o_depth = b;
     o_penumbra = vec4(disc_chord(-s), 1.0, 1.0, 1.0);
 }

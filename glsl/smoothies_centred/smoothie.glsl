@@ -21,7 +21,8 @@ layout(location = 0) out float o_depth;
 layout(location = 1) out vec4 o_penumbra;
 
 #include "common/far_depth.glsl"
-#include "smoothies_centred/remap.glsl"
+// REMAP_EPS and the outer smoothies' decision: the paper form's own.
+#include "smoothies/alpha.glsl"
 
 // Distance (light uv) of this fragment from its smoothie's hard-edge line (edge quads) or
 // silhouette vertex (corner fans), along the smoothie's extrusion direction `dir`.

@@ -165,10 +165,14 @@ fn run() -> Result<(), String> {
     Ok(())
 }
 
-/// The per-technique constants, named once in each `glsl/<technique>/constants.glsl` as
-/// `#define NAME frame.technique.x` (x..w of `technique`, then of `technique2`), as the Rust
-/// module `constants`: `pub const NAME: usize` = the slot (0..4 `technique`, 4..8
-/// `technique2`) that `technique::constants` fills. A slot named twice is an error.
+/// The constants named once in each `glsl/<folder>/constants.glsl`, as the Rust module
+/// `constants`:
+/// - a per-technique slot `#define NAME frame.technique.x` (x..w of `technique`, then of
+///   `technique2`) becomes `pub const NAME: usize` = the slot (0..4 `technique`, 4..8
+///   `technique2`) that `technique::constants` fills; a slot named twice is an error;
+/// - a number `const float NAME = VALUE;` (a tolerance that several shaders, or a shader
+///   and the Rust side, must agree on) becomes `pub const NAME: f32 = VALUE`, so that the
+///   Rust side reads the shaders' value instead of a copy.
 fn technique_constants(files: &[PathBuf], glsl: &Path) -> Result<String, String> {
     let mut out = String::from(
         "/// Slots of `frame.technique` (0..4) and `frame.technique2` (4..8), named by the\n\
@@ -183,10 +187,25 @@ fn technique_constants(files: &[PathBuf], glsl: &Path) -> Result<String, String>
             std::fs::read_to_string(file).map_err(|e| format!("{}: {e}", file.display()))?;
         let mut used: Vec<(usize, String)> = Vec::new();
         for (n, line) in source.lines().enumerate() {
+            let at = format!("glsl/{}:{}", rel.display(), n + 1);
+            if let Some(rest) = line.trim().strip_prefix("const float ") {
+                let (name, value) = rest
+                    .split_once('=')
+                    .map(|(n, v)| (n.trim(), v.trim()))
+                    .and_then(|(n, v)| Some((n, v.strip_suffix(';')?.trim())))
+                    .ok_or(format!("{at}: not `const float NAME = VALUE;`"))?;
+                let value: f32 = value
+                    .parse()
+                    .map_err(|_| format!("{at}: `{value}` is not a plain float literal"))?;
+                let _ = writeln!(
+                    out,
+                    "    /// `{name}` ({at})\n    pub const {name}: f32 = {value:?};"
+                );
+                continue;
+            }
             let Some(rest) = line.trim().strip_prefix("#define ") else {
                 continue;
             };
-            let at = format!("glsl/{}:{}", rel.display(), n + 1);
             let mut words = rest.split_whitespace();
             // A bare `#define NAME` is the include guard.
             let (Some(name), Some(value)) = (words.next(), words.next()) else {

@@ -16,8 +16,8 @@ use softshadow::vk::{
 
 /// glsl/penumbra_map/wedge.glsl: `CONTACT_EPS`.
 const CONTACT_EPS: f32 = 1e-4;
-/// glsl/smoothies/alpha.glsl: `REMAP_EPS`.
-const REMAP_EPS: f32 = 1e-4;
+// glsl/common/constants.glsl (glsl/smoothies/alpha.glsl's guard).
+use softshadow::shaders::constants::REMAP_EPS;
 
 /// Runs the compute harness `spirv` once per input (one invocation each) and returns its
 /// outputs. `frame` adds the Frame uniform block at binding 0 for harnesses whose include
@@ -349,4 +349,16 @@ fn pcss_radii_stay_finite_and_in_range() {
             o[1]
         );
     }
+}
+
+/// The hand-tuned smoothie fragment (glsl/smoothies/smoothie.frag.spvasm) cannot include
+/// glsl/common/constants.glsl: its REMAP_EPS constant is held to the shaders' here.
+#[test]
+fn tuned_smoothie_uses_the_shared_remap_eps() {
+    let asm = include_str!("../glsl/smoothies/smoothie.frag.spvasm");
+    let value = asm
+        .lines()
+        .find_map(|l| l.trim().strip_prefix("%remap_eps = OpConstant %float "))
+        .expect("no %remap_eps constant in smoothie.frag.spvasm");
+    assert_eq!(value.trim().parse::<f32>().unwrap(), REMAP_EPS);
 }

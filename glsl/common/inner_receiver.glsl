@@ -15,9 +15,9 @@ const float HIDE_EPS = 0.01;
 const float COVER_EPS = 0.01;
 // The second receiver sample lies this many texels beyond the first.
 const float PLANE_TEXELS = 4.0;
-// Largest relative depth change between the two samples, and of the extrapolation, that
-// still counts as one plane.
-const float PLANE_LIMIT = 0.05;
+// PLANE_LIMIT: the largest relative depth change between the two samples, and of the
+// extrapolation, that still counts as one plane.
+#include "common/constants.glsl"
 
 // A caster nearer than the receiver depth z_r at `pos` (texels).
 bool blocked_at(vec2 pos, float z_r) {

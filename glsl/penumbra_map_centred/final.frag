@@ -16,10 +16,9 @@ layout(set = 0, binding = 1) uniform sampler2D shadow_map;   // RG32F: r caster 
 // farthest receiver depth / far an inner value was made for.
 layout(set = 0, binding = 2) uniform sampler2D penumbra_map;
 
-// A point more than this (relative) beyond the inner value's receiver is behind something
-// else: the estimate extrapolates the receiver's plane, so 5 % is several texels' worth of
-// slope and far below the gap between a caster and the ground it stands over.
-const float RECEIVER_EPS = 0.05;
+// RECEIVER_EPS: a point more than this (relative) beyond the inner value's receiver is
+// behind something else.
+#include "common/constants.glsl"
 
 float visibility(vec3 p, vec3 n) {
     LightSample s = light_sample(p, n);

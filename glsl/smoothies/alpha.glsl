@@ -5,11 +5,8 @@
 #define SMOOTHIES_ALPHA_GLSL
 
 #include "common/far_depth.glsl"
-
-// Below this 1 - b/r the remap alpha / (1 - b/r) is not trusted (Volokh Sec. 3.5: b ~ r):
-// the smoothie touches what it shadows, so it casts nothing (alpha' = 1). 1e-4 is above
-// the relative rounding of the two R32F depths, so no speckles where b and r agree.
-const float REMAP_EPS = 1e-4;
+// REMAP_EPS: below it 1 - b/r is not trusted (Volokh Sec. 3.5), the smoothie casts nothing.
+#include "common/constants.glsl"
 
 // Eq. 1's alpha' = alpha / (1 - b/r) for a fragment of a smoothie at depth `b`, over the
 // surface at depth `r` (the shadow map's g at its texel), at `dist` from the silhouette

@@ -17,9 +17,8 @@ layout(set = 0, binding = 2) uniform sampler2D smoothie_depth;      // R32F oute
 // farthest receiver depth / far an inner value was made for.
 layout(set = 0, binding = 3) uniform sampler2D smoothie_penumbra;
 
-// The inner receiver is an extrapolated plane: 5 % is several texels' worth of slope and
-// far below the gap between a caster and the ground behind it.
-const float RECEIVER_EPS = 0.05;
+// RECEIVER_EPS: the inner value's receiver window.
+#include "common/constants.glsl"
 
 float visibility(vec3 p, vec3 n) {
     LightSample s = light_sample(p, n);

@@ -1,9 +1,10 @@
-// The caster-depth hierarchy of the shadow map (pcss_fast/minmax.comp writes it,
-// pcss_fast/final.frag reads it). Level k (2..PCSS_FAST_LAST_LEVEL) is ceil(res / 2^k) cells
-// a side, cell (x, y) covering the shadow-map texels [x 2^k, (x + 1) 2^k) x [y 2^k, ...)
-// that lie inside the map: with sizes rounded up, texel t lies in cell t >> k at every
-// level, whatever the resolution, and a cell at the far edges covers fewer texels
-// (`cell_texels`). Levels are stored one after another, row by row, level 2 first.
+// The caster-depth hierarchy of the shadow map (pcss_fast/minmax.comp writes it;
+// pcss_fast/visibility.glsl reads it, for the final passes of pcss-fast and pcss-walk).
+// Level k (2..PCSS_FAST_LAST_LEVEL) is ceil(res / 2^k) cells a side, cell (x, y) covering
+// the shadow-map texels [x 2^k, (x + 1) 2^k) x [y 2^k, ...) that lie inside the map: with
+// sizes rounded up, texel t lies in cell t >> k at every level, whatever the resolution,
+// and a cell at the far edges covers fewer texels (`cell_texels`). Levels are stored one
+// after another, row by row, level 2 first.
 //
 // A cell is a vec4 over its texels' r (the nearest caster's linear depth, FAR_DEPTH where
 // none): x = min over every texel (FAR_DEPTH if none holds a caster), y = max over the

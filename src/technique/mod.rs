@@ -29,7 +29,8 @@ pub struct TechniqueInit<'a> {
     pub ctx: &'a Context,
     pub scene: &'a Scene,
     pub gpu: &'a GpuScene,
-    /// The frame constants (glsl/common/frame.glsl), binding 0 of every set.
+    /// The frame constants (glsl/common/frame.glsl): the `frame` binding of the sets whose
+    /// shaders read it (each set names its bindings; not every set has one).
     pub ubo: &'a Buffer,
     pub settings: &'a Settings,
 }

@@ -220,7 +220,8 @@ struct CasterGeometry {
 pub struct PenumbraMap {
     form: Form,
     shadow: ShadowMap,
-    /// The paper's penumbra map; the centred form's outer and inner maps (r, g).
+    /// The paper's penumbra map (R16F); the centred form's outer visibility, inner
+    /// occlusion and inner receiver nearness (RGBA16F: r, g, b; a unused).
     penumbra: Image,
     penumbra_pipeline: Pipeline,
     /// Centred form: the inner cones' and sheets' pipeline.
@@ -248,7 +249,7 @@ pub struct PenumbraMap {
     /// The texels the last penumbra pass may have drawn; the next pass clears them with its
     /// own (`light_areas`).
     penumbra_drawn: regions::LastDrawn,
-    /// The same for the last shadow-map pass (paper form).
+    /// The same for the last shadow-map pass.
     map_drawn: regions::LastDrawn,
 }
 

@@ -48,7 +48,8 @@
 //!      fragment program (shared in glsl/penumbra_map/wedge.glsl: Z_P = the shadow map's g at
 //!      the fragment's texel, the same discards, the same blocker-size bound) with the exact
 //!      outer fraction s = (1/Zv - 1/Z_F) / (1/Zv - 1/Z_P) = I Z_P / Z_F (I = Eq. 1) and
-//!      v = disc_chord(-s) in [0.5, 1]; writes (v, 1).
+//!      v = disc_chord(-s) in [0.5, 1], raised to the paper's blocker-size bound as the
+//!      paper form's intensity is; writes (max(v, bound), 1, 1, 1).
 //!    - inner cones and sheets, `glsl/penumbra_map_centred/inner.frag`: u = w(Z_F), the
 //!      inward direction = the gradient of u over the map (dFdx/dFdy). The receiver behind
 //!      the texel is hidden from the light, so its depth Z_R is estimated from the shadow

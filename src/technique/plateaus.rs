@@ -1291,7 +1291,8 @@ impl Technique for Plateaus {
                 image: &c.coverage,
                 channels: &["drop_shadow_visibility"],
             });
-            // The lightest inner visibility in [0, 0.5] (0: umbra, and where none was drawn).
+            // The lightest inner visibility in [0, 1]: disc_chord(s) in [0, 0.5] plus, for a
+            // thin blocker, the share beyond its far edge (0: umbra, and where none was drawn).
             buffers.push(LightBuffer {
                 name: "inner",
                 image: &c.inner,

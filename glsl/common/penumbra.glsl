@@ -20,10 +20,4 @@ float disc_chord(float s) {
     return (acos(s) - s * sqrt(max(1.0 - s * s, 0.0))) * 0.31830988618379067;
 }
 
-// The same profile over a ramp parameter t in [0, 1] from the inner edge (t = 0, umbra)
-// through the hard edge (t = 0.5) to the outer edge (t = 1, lit): v = disc_chord(1 - 2 t).
-float centred_visibility(float t) {
-    return disc_chord(1.0 - 2.0 * t);
-}
-
 #endif

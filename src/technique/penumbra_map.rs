@@ -114,8 +114,8 @@
 //! from the light) hides the penumbra of whatever lies behind it.
 
 use super::{
-    regions, shadow_map_buffer, technique_constants, Form, FrameInput, LightBuffer, Technique,
-    TechniqueInfo, TechniqueInit,
+    regions, shadow_map_buffer, Form, FrameInput, LightBuffer, Technique, TechniqueInfo,
+    TechniqueInit,
 };
 use crate::frustum::{fit_light, PixelBox};
 use crate::gpu::passes::{
@@ -123,7 +123,7 @@ use crate::gpu::passes::{
 };
 use crate::scene::LightView;
 use crate::settings::SilhouettePath;
-use crate::shaders::{self, constants as k};
+use crate::shaders;
 use crate::silhouette::gpu::GpuSilhouettes;
 use crate::silhouette::penumbra::{build_penumbra_sides, PenumbraKey, PenumbraVertex, Side};
 use crate::silhouette::{self, Adjacency};
@@ -565,14 +565,6 @@ impl PenumbraMap {
 impl Technique for PenumbraMap {
     fn name(&self) -> &'static str {
         self.form.names().technique
-    }
-
-    fn uniforms(&self, frame: &FrameInput<'_>) -> [[f32; 4]; 2] {
-        // Informational (debug captures): the shaders read neither.
-        let mut c = [0.0; 8];
-        c[k::PENUMBRA_MAP_LIGHT_RADIUS] = frame.light_radius;
-        c[k::PENUMBRA_MAP_Z_FAR] = cone_base_depth(frame.light);
-        technique_constants(c)
     }
 
     fn record_light(

@@ -1,12 +1,12 @@
 // The visibility of pcss-fast's and pcss-walk's final passes (pcss_fast/final.frag,
-// pcss_fast/walk.frag): pcss (pcss/search.glsl) after one look at the caster-depth
+// pcss_walk/final.frag): pcss (pcss/search.glsl) after one look at the caster-depth
 // hierarchy (pcss_fast/hierarchy.glsl). The search square's cells settle "no blocker" (1)
 // and "every texel blocked" (0) exactly as pcss would; the other points run pcss's search
 // (pcss-fast: pcss's image exactly) or, with PCSS_FAST_WALK defined, walk the hierarchy for
 // the mean blocker depth (pcss-walk), then pcss's steps 2 and 3. A define, not a uniform:
 // llvmpipe runs both sides of a branch even when every invocation takes the same one.
 // Equation numbers as in src/technique/pcss.rs; the walk, its budget and its fallback as in
-// src/technique/pcss_fast.rs.
+// src/technique/pcss_walk.rs.
 #ifndef PCSS_FAST_VISIBILITY_GLSL
 #define PCSS_FAST_VISIBILITY_GLSL
 #include "pcss/search.glsl"
@@ -15,7 +15,7 @@
 
 layout(std430, set = 0, binding = 2) readonly buffer MinMax { vec4 cells[]; } minmax;
 
-// The walk's budget (pcss_fast.rs, "The walk"): cells read below the first ones (4 a
+// The walk's budget (pcss_walk.rs, "The walk"): cells read below the first ones (4 a
 // descent), and level-2 cells settled texel by texel (4 gathers each, 16 in all: pcss's
 // search count).
 const int WALK_READS = 12;
@@ -227,7 +227,7 @@ float visibility(vec3 p, vec3 n) {
 #else
     if (level == 0) return pcss_visibility(s, rp, search);
 
-    // Step 1 as a walk of the hierarchy over the search square (pcss_fast.rs, "The walk").
+    // Step 1 as a walk of the hierarchy over the search square (pcss_walk.rs, "The walk").
     Square sq;
     sq.c = c;
     sq.lo = max(c - search - 1.0, vec2(0.0));

@@ -5,6 +5,7 @@ pub mod hard;
 pub mod pcf;
 pub mod pcss;
 pub mod pcss_fast;
+pub mod pcss_walk;
 pub mod penumbra_map;
 pub mod penumbra_map_centred;
 pub mod plateaus;
@@ -158,7 +159,7 @@ pub const TECHNIQUES: &[TechniqueInfo] = &[
     pcf::INFO,
     pcss::INFO,
     pcss_fast::INFO,
-    pcss_fast::INFO_WALK,
+    pcss_walk::INFO,
     smoothies::INFO,
     smoothies_centred::INFO,
     penumbra_map::INFO,

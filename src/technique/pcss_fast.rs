@@ -1,20 +1,16 @@
-//! # pcss-fast and pcss-walk — `pcss` (Fernando 2005) over a hierarchy of the shadow map
+//! # pcss-fast — `pcss` (Fernando 2005) over a hierarchy of the shadow map
 //!
 //! `pcss` (src/technique/pcss.rs: Equations 1–5, sample counts, known artefacts) with a
 //! caster-depth hierarchy of the shadow map: one look at the search square's coarsest cells
-//! settles "no blocker" (1) and "every texel blocked" (0) exactly as pcss would. Two forms
-//! differ in the points left (penumbrae, lit points near a caster), by one define
-//! (`PCSS_FAST_WALK`: glsl/pcss_fast/final.frag and walk.frag build
-//! glsl/pcss_fast/visibility.glsl without and with it; the same passes otherwise):
-//! * `pcss-fast` runs pcss's own step 1 (SEARCH_SAMPLES scattered gathers) and steps 2–3 for
-//!   them: pcss's image exactly, for less work wherever the hierarchy settles a point;
-//! * `pcss-walk` walks the hierarchy for the mean blocker depth d_b instead of the gathers,
-//!   then runs pcss's steps 2 (Eq. 1/4) and 3 (the Poisson PCF) unchanged with it
-//!   (`pcss_filter` in `glsl/pcss/search.glsl`, shared with pcss). Its penumbrae differ a
-//!   little from pcss's; on lavapipe it is the slower of the two ("Cost" below), which is why
-//!   both are kept: measure the walk on the GPU you target before you port it.
+//! settles "no blocker" (1) and "every texel blocked" (0) exactly as pcss would. The points
+//! left (penumbrae, lit points near a caster) run pcss's own step 1 (SEARCH_SAMPLES
+//! scattered gathers) and steps 2–3: pcss's image exactly, for less work wherever the
+//! hierarchy settles a point.
 //!
-//! Pass names below are `pcss-fast`'s; `pcss-walk`'s are the same under its own name.
+//! `pcss-walk` (src/technique/pcss_walk.rs, glsl/pcss_walk/) is this struct with
+//! `Search::Walk`: the same passes, its final shader glsl/pcss_fast/visibility.glsl built
+//! with `PCSS_FAST_WALK` defined, which walks the hierarchy for the blocker depth instead of
+//! the gathers.
 //!
 //! ## Passes, in order
 //! 1. `pcss-fast/shadow_map` — casters from the light (`gpu::passes::ShadowMap::casters`):
@@ -32,8 +28,8 @@
 //!    whole cells by index anyway. Barriers between levels come from the dispatches'
 //!    declared accesses (`vk::Recorder`).
 //! 3. `pcss-fast/final` — every object from the camera (`gpu::passes::FinalPass`), fragment
-//!    `glsl/pcss_fast/final.frag` (pcss-walk: `walk.frag`), both `visibility.glsl`: the early
-//!    exits, then pcss's search (or the walk), then steps 2–3. Writes colour RGBA8, no blending
+//!    `glsl/pcss_fast/final.frag` (`visibility.glsl`): the early exits, then pcss's
+//!    search, then steps 2–3. Writes colour RGBA8, no blending
 //!    (the untimed AOV pass `pcss-fast/aov` also visibility R32F, position RGBA32F, normal
 //!    RGBA16F). Split as pcss's (`FinalPass::split`, src/technique/regions.rs): the shader
 //!    only within its reach of a caster's texels (`PcssFast::reach`), no lookup elsewhere.
@@ -75,77 +71,13 @@
 //! a texel of search (R = 0, and points near the light's near plane) pcss's search is one
 //! gather: there pcss's step 1 runs as is, and R = 0 is pcss's image bit for bit.
 //!
-//! ## The walk (`pcss-walk`: step 1 for the points left)
-//! Over the square `[c - search - 1, c + search + 1]` (texels around the point c, clipped to
-//! the map), three sums: the blocked area, its depth-weighted sum, and the open area (no
-//! caster, or a caster behind the receiver plane). A cell is compared with the receiver
-//! plane's depths over the cell's part in the square (`plane_depth`'s formula at the
-//! corners that raise and lower q = 1 + g . duv most), both exact bounds on pcss's per-tap
-//! test:
-//! * no caster, or every caster behind the plane's farthest depth (`min * (1 + bias) >=
-//!   far`): open;
-//! * every caster in front of its nearest depth (`max caster * (1 + bias) < near`):
-//!   blocked, its whole (sum, count) scaled by the fraction of the cell inside the square;
-//!   the cell's empty texels open. A silhouette cell (casters and empty texels) is thus
-//!   exact at any level;
-//! * else mixed: descend to its four children (depth first, without a stack: a cell's
-//!   parent is xy >> 1, so (level, xy) is the whole state), down to level 2, where a mixed
-//!   cell is settled texel by texel (four gathers; each texel against the plane at its
-//!   centre, weighted by its overlap with the square).
-//!
-//! No blocked area: 1. No open area: 0. Else d_b = sum / blocked area, then steps 2 and 3.
-//!
-//! Budget: at most 9 first cells, WALK_READS = 12 more cell reads (3 descents), and
-//! WALK_LEAVES = 4 level-2 cells settled texel by texel (16 gathers, pcss's search count).
-//! Fallback, for a mixed cell the budget does not reach: its caster depths taken as spread
-//! evenly over [min, max caster], the fraction in front of the plane at the centre of the
-//! cell's part in the square blocks, at the mean depth of that fraction; the rest is open.
-//!
-//! Why a square, weighted by area: the cells are squares, so clipping them to a square is
-//! one overlap product per cell, where a disc would need a descent along its whole rim; the
-//! square of half-side `search + 1` holds every texel pcss's taps can read, so the walk
-//! finds no fewer blockers than pcss (its "no blocker" is at least as sure), and every
-//! extra blocker it finds lies outside the filter disc (the filter radius never exceeds the
-//! search radius), where the filter sees none. Area weights make d_b the mean over the
-//! region pcss samples, not over whichever texels 16 taps happen to hit.
-//!
-//! Why no stack: on lavapipe every branch of a loop body runs for the whole SIMD group, and
-//! a local array indexed per invocation becomes select chains or scratch memory. On
-//! `cylinder` (512², map 1024², 24 reads) the final pass took 5x `pcss-fast`'s time with a
-//! 16-entry stack, 2.7x with three nested loops (first cells, children, grandchildren), 2x
-//! with the stackless walk, against 1x for `pcss-fast` (hierarchy, then the 16 gathers) and
-//! 1.1x for pcss. The level-2 gathers run in their own loop after the walk, one gather a turn, since
-//! llvmpipe runs a loop's first turn even for a group in which no invocation needs it. Tried
-//! and dropped, no measurable change: classifying the first cells in the bounds loop (fewer walk
-//! turns), and skipping cells outside the inscribed disc. 24 reads instead of 12 cost 10–15%
-//! more on `cylinder` and `bunny` for 0.0004 less mae_lit on `bunny` and `primitives`.
-//!
 //! ## Known artefacts
-//! `pcss-fast`: those of `pcss`, no more. `pcss-walk`: those of `pcss`, except that d_b is
-//! the mean over the search square rather than over 16 taps: nearly every penumbra pixel
-//! moves (tests/pcss_fast.rs bounds how many, and holds mae_lit against the ray-cast
-//! reference within 0.003 of pcss's). A cell on a receiver that slopes away from the light
-//! holds the receiver's own texels on both sides of the plane's range, so it is mixed and
-//! costs a descent (comparing with the nearest depth only was cheaper, but called cells open
-//! that hid real blockers: 5 to 28 pixels a frame lit where pcss shadows, on `bunny`,
-//! `primitives`, `fence`). Past the budget the fallback's even spread is a guess: a cell
-//! holding a thin blocker over deeper casters gets too deep a d_b, and a cell of the
-//! receiver's own surface counts some of it as blockers at about the receiver's depth (the
-//! filter then runs, finds the surface lit through the receiver plane, and only a real
-//! blocker nearby is filtered with too small a radius). Where the square's corners reach a
-//! blocker that pcss's disc does not, the pixel pays the filter and gets pcss's 1 from it.
-//! Points on a caster's own lit surface rarely settle early (the caster is in its own cells)
-//! and search (`pcss-fast`) or walk (`pcss-walk`).
+//! Those of `pcss`, no more. Points on a caster's own lit surface rarely settle early (the
+//! caster is in its own cells) and search.
 //!
 //! ## Cost
-//! `pcss-fast`'s final pass is pcss's, minus the search for the points the hierarchy
-//! settles. On lavapipe the walk is slower than the 16 gathers it replaces: `pcss-walk`'s
-//! final pass is 1.5–2x pcss's (512², map 1024², BENCHMARKS.md), where `pcss-fast`'s is
-//! 0.75–0.93x. llvmpipe
-//! runs a loop for a whole SIMD group while any invocation in it needs a turn, so a group
-//! pays the longest walk among its pixels, and each cell read is a per-lane load. On a GPU
-//! the reads are cache-friendly buffer loads and the gathers stay bounded at pcss's 16; not
-//! measured here.
+//! The final pass is pcss's, minus the search for the points the hierarchy settles: on
+//! lavapipe 0.75–0.93x pcss's (512², map 1024², BENCHMARKS.md).
 
 use super::{pcss, regions};
 use super::{
@@ -166,16 +98,10 @@ pub const INFO: TechniqueInfo = TechniqueInfo {
     create: |init| PcssFast::create(init, Search::Taps),
 };
 
-pub const INFO_WALK: TechniqueInfo = TechniqueInfo {
-    name: "pcss-walk",
-    summary: "pcss whose blocker search walks a caster-depth hierarchy of the shadow map",
-    create: |init| PcssFast::create(init, Search::Walk),
-};
-
 /// How the points the early exits leave find their blockers (module header): pcss's own
 /// taps (`pcss-fast`) or the walk of the hierarchy (`pcss-walk`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-enum Search {
+pub(crate) enum Search {
     Taps,
     Walk,
 }
@@ -198,7 +124,7 @@ impl Search {
                 final_pass: "pcss-fast/final",
             },
             Search::Walk => Names {
-                technique: INFO_WALK.name,
+                technique: super::pcss_walk::INFO.name,
                 shadow_map: "pcss-walk/shadow_map",
                 minmax: "pcss-walk/minmax",
                 final_pass: "pcss-walk/final",
@@ -270,7 +196,7 @@ pub struct PcssFast {
 }
 
 impl PcssFast {
-    fn create(init: &TechniqueInit<'_>, search: Search) -> Result<Box<dyn Technique>> {
+    pub(crate) fn create(init: &TechniqueInit<'_>, search: Search) -> Result<Box<dyn Technique>> {
         let ctx = init.ctx;
         let names = search.names();
         init.settings.pcf_kernel.check()?;
@@ -329,9 +255,9 @@ impl PcssFast {
                     count: shaders::PCSS_FAST_FINAL_FRAG_COUNT,
                 },
                 Search::Walk => FinalShader {
-                    color: shaders::PCSS_FAST_WALK_FRAG,
-                    aov: shaders::PCSS_FAST_WALK_FRAG_AOV,
-                    count: shaders::PCSS_FAST_WALK_FRAG_COUNT,
+                    color: shaders::PCSS_WALK_FINAL_FRAG,
+                    aov: shaders::PCSS_WALK_FINAL_FRAG_AOV,
+                    count: shaders::PCSS_WALK_FINAL_FRAG_COUNT,
                 },
             },
             &final_set,

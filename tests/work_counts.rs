@@ -10,7 +10,7 @@ use softshadow::scene::Scene;
 use softshadow::settings::{PcfKernel, Settings};
 use softshadow::shaders;
 use softshadow::vk::{
-    Blend, CullModeFlags, Format, FrameRunner, GraphicsPipelineDesc, Image, ImageUsageFlags,
+    Blend, Clear, CullModeFlags, Format, FrameRunner, GraphicsPipelineDesc, Image, ImageUsageFlags,
     Pipeline, PrimitiveTopology,
 };
 
@@ -225,7 +225,7 @@ fn a_full_screen_triangle_shades_whole_blocks_over_the_target() {
         let t = runner
             .run(|rec| {
                 rec.pass("t/final", |rec| {
-                    rec.begin_rendering(&[(&target, Some([0.0; 4]))], None);
+                    rec.begin_rendering(&[(&target, Clear::Float([0.0; 4]))], None);
                     rec.bind_pipeline(&pipeline);
                     rec.draw(3, 1);
                     rec.end_rendering();

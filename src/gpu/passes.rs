@@ -7,9 +7,9 @@ use super::gpu_scene::{
 use crate::frustum::{camera_view_proj, split_object, PixelBox, Polytope};
 use crate::shaders;
 use crate::vk::{
-    Blend, Buffer, BufferUsageFlags, CompareOp, Context, CullModeFlags, DepthState, DescriptorSet,
-    Extent2D, Format, FrameRunner, GraphicsPipelineDesc, Image, ImageUsageFlags, Offset2D,
-    Pipeline, PrimitiveTopology, Recorder, Rect2D, Resource,
+    Blend, Buffer, BufferUsageFlags, Clear, CompareOp, Context, CullModeFlags, DepthState,
+    DescriptorSet, Extent2D, Format, FrameRunner, GraphicsPipelineDesc, Image, ImageUsageFlags,
+    Offset2D, Pipeline, PrimitiveTopology, Recorder, Rect2D, Resource,
 };
 use anyhow::{bail, Result};
 use glam::{Mat4, Vec3, Vec4};
@@ -134,7 +134,11 @@ impl ShadowMap {
     /// Clears `area.all` and draws the casters into it, then the receivers that cast
     /// nothing where `area.receivers` says (MIN blending: the order changes no texel).
     pub fn record_in(&self, rec: &mut Recorder<'_>, scene: &GpuScene, area: &MapArea) {
-        rec.begin_rendering_in(&[(&self.depth, Some([FAR_DEPTH; 4]))], None, area.all);
+        rec.begin_rendering_in(
+            &[(&self.depth, Clear::Float([FAR_DEPTH; 4]))],
+            None,
+            area.all,
+        );
         rec.bind_pipeline(&self.pipeline);
         rec.bind_sets(&self.pipeline, &[&self.set]);
         scene.draw(rec, &self.pipeline, |o| o.role.casts());
@@ -647,23 +651,26 @@ impl FinalPass {
         if mode == Mode::Count {
             rec.begin_rendering(
                 &[
-                    (&t.color, Some(CameraTargets::BACKGROUND)),
-                    (&t.count, Some([0.0; 4])),
+                    (&t.color, Clear::Float(CameraTargets::BACKGROUND)),
+                    (&t.count, Clear::Float([0.0; 4])),
                 ],
                 depth,
             );
         } else if mode == Mode::Aov {
             rec.begin_rendering(
                 &[
-                    (&t.color, Some(CameraTargets::BACKGROUND)),
-                    (&t.visibility, Some([1.0; 4])),
-                    (&t.position, Some([0.0; 4])),
-                    (&t.normal, Some([0.0; 4])),
+                    (&t.color, Clear::Float(CameraTargets::BACKGROUND)),
+                    (&t.visibility, Clear::Float([1.0; 4])),
+                    (&t.position, Clear::Float([0.0; 4])),
+                    (&t.normal, Clear::Float([0.0; 4])),
                 ],
                 depth,
             );
         } else {
-            rec.begin_rendering(&[(&t.color, Some(CameraTargets::BACKGROUND))], depth);
+            rec.begin_rendering(
+                &[(&t.color, Clear::Float(CameraTargets::BACKGROUND))],
+                depth,
+            );
         }
         // The depth buffer only serves this scope's depth test.
         rec.discard_after(&t.depth);

@@ -128,8 +128,8 @@ use crate::silhouette::gpu::GpuSilhouettes;
 use crate::silhouette::penumbra::{build_penumbra_sides, PenumbraKey, PenumbraVertex, Side};
 use crate::silhouette::{self, Adjacency};
 use crate::vk::{
-    Blend, Context, CullModeFlags, DescriptorSet, Filter, Format, GraphicsPipelineDesc, Image,
-    ImageUsageFlags, Pipeline, PrimitiveTopology, Recorder, Rect2D, Resource, Sampler,
+    Blend, Clear, Context, CullModeFlags, DescriptorSet, Filter, Format, GraphicsPipelineDesc,
+    Image, ImageUsageFlags, Pipeline, PrimitiveTopology, Recorder, Rect2D, Resource, Sampler,
 };
 use anyhow::{Context as _, Result};
 use glam::{Vec2, Vec3};
@@ -614,7 +614,7 @@ impl Technique for PenumbraMap {
         rec.pass(names.penumbra, |rec| {
             // The paper's "clear to white"; the centred form's inner occlusion starts at 1.
             rec.begin_rendering_in(
-                &[(&self.penumbra, Some([1.0; 4]))],
+                &[(&self.penumbra, Clear::Float([1.0; 4]))],
                 None,
                 Some(penumbra_area),
             );

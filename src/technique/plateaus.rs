@@ -146,9 +146,9 @@ use crate::scene::{normal_matrix, Aabb, LightView, Mesh, Scene};
 use crate::shaders;
 use crate::silhouette::{self, Adjacency, Side, SilhouetteEdge};
 use crate::vk::{
-    Blend, Buffer, BufferUsageFlags, CompareOp, Context, CullModeFlags, DepthState, DescriptorSet,
-    Filter, Format, GraphicsPipelineDesc, Image, ImageUsageFlags, MemoryLocation, Pipeline,
-    PrimitiveTopology, Recorder, Resource, Sampler,
+    Blend, Buffer, BufferUsageFlags, Clear, CompareOp, Context, CullModeFlags, DepthState,
+    DescriptorSet, Filter, Format, GraphicsPipelineDesc, Image, ImageUsageFlags, MemoryLocation,
+    Pipeline, PrimitiveTopology, Recorder, Resource, Sampler,
 };
 use anyhow::{anyhow, Result};
 use bytemuck::{Pod, Zeroable};
@@ -1183,7 +1183,7 @@ impl Technique for Plateaus {
         };
         if let Some(c) = &self.centred {
             rec.pass(names.drop_shadow, |rec| {
-                rec.begin_rendering_in(&[(&c.coverage, Some([1.0; 4]))], None, area);
+                rec.begin_rendering_in(&[(&c.coverage, Clear::Float([1.0; 4]))], None, area);
                 if lit_plane {
                     draw_drop(rec);
                 }
@@ -1195,7 +1195,7 @@ impl Technique for Plateaus {
             // always reads written images.
             rec.pass(names.plateaus, |rec| {
                 rec.begin_rendering_in(
-                    &[(&self.texture, Some([1.0; 4]))],
+                    &[(&self.texture, Clear::Float([1.0; 4]))],
                     Some((&self.zbuffer, Some(1.0))),
                     area,
                 );
@@ -1208,7 +1208,7 @@ impl Technique for Plateaus {
                 Ok(())
             })?;
             rec.pass(names.inner, |rec| {
-                rec.begin_rendering_in(&[(&c.inner, Some([0.0; 4]))], None, area);
+                rec.begin_rendering_in(&[(&c.inner, Clear::Float([0.0; 4]))], None, area);
                 if !c.inner_vertices.is_empty() {
                     rec.bind_pipeline(&c.inner_pipeline);
                     rec.bind_sets(&c.inner_pipeline, &[&c.inner_set]);
@@ -1222,7 +1222,7 @@ impl Technique for Plateaus {
         }
         rec.pass(names.drop_shadow, |rec| {
             rec.begin_rendering_in(
-                &[(&self.texture, Some([1.0; 4]))],
+                &[(&self.texture, Clear::Float([1.0; 4]))],
                 Some((&self.zbuffer, Some(1.0))),
                 area,
             );
@@ -1235,7 +1235,11 @@ impl Technique for Plateaus {
         match self.vertices.is_empty() {
             false => rec.pass("plateaus/plateaus", |rec| {
                 // Load: the drop shadow's colour and depth stay in place under the plateaus.
-                rec.begin_rendering_in(&[(&self.texture, None)], Some((&self.zbuffer, None)), area);
+                rec.begin_rendering_in(
+                    &[(&self.texture, Clear::Load)],
+                    Some((&self.zbuffer, None)),
+                    area,
+                );
                 rec.discard_after(&self.zbuffer);
                 rec.bind_pipeline(&self.plateau_pipeline);
                 self.vertices.draw(rec);

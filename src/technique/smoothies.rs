@@ -179,8 +179,8 @@ use crate::silhouette::smoothie::records::{build_records, Extent, SmoothieRecord
 use crate::silhouette::smoothie::{GeometryKey, SmoothieVertex, Width};
 use crate::silhouette::{self, Adjacency, Side};
 use crate::vk::{
-    Blend, Context, CullModeFlags, DescriptorSet, Filter, Format, GraphicsPipelineDesc, Image,
-    ImageUsageFlags, Pipeline, PrimitiveTopology, Recorder, Rect2D, Resource, Sampler,
+    Blend, Clear, Context, CullModeFlags, DescriptorSet, Filter, Format, GraphicsPipelineDesc,
+    Image, ImageUsageFlags, Pipeline, PrimitiveTopology, Recorder, Rect2D, Resource, Sampler,
 };
 use anyhow::Result;
 use glam::Vec2;
@@ -901,7 +901,7 @@ impl Technique for Smoothies {
                 .smoothie
                 .iter()
                 .zip(smoothie_targets(self.form))
-                .map(|(image, target)| (image, Some(target.clear)))
+                .map(|(image, target)| (image, Clear::Float(target.clear)))
                 .collect();
             rec.begin_rendering_in(&targets, None, Some(area));
             if self.draw_smoothies {

@@ -111,9 +111,9 @@ use crate::scene::Role;
 use crate::settings::AccumFormat;
 use crate::shaders::{self, constants as k};
 use crate::vk::{
-    Blend, Buffer, BufferUsageFlags, CompareOp, Context, CullModeFlags, DepthState, DescriptorSet,
-    Filter, Format, GraphicsPipelineDesc, Image, ImageUsageFlags, MemoryLocation, Pipeline,
-    PrimitiveTopology, Recorder, Resource, Sampler,
+    Blend, Buffer, BufferUsageFlags, Clear, CompareOp, Context, CullModeFlags, DepthState,
+    DescriptorSet, Filter, Format, GraphicsPipelineDesc, Image, ImageUsageFlags, MemoryLocation,
+    Pipeline, PrimitiveTopology, Recorder, Resource, Sampler,
 };
 use anyhow::{bail, Context as _, Result};
 
@@ -218,8 +218,8 @@ impl ReceiverMap {
     pub fn record(&self, rec: &mut Recorder<'_>, gpu: &GpuScene) {
         rec.begin_rendering(
             &[
-                (&self.layers[0], Some([FAR_DEPTH; 4])),
-                (&self.layers[1], Some([FAR_DEPTH; 4])),
+                (&self.layers[0], Clear::Float([FAR_DEPTH; 4])),
+                (&self.layers[1], Clear::Float([FAR_DEPTH; 4])),
             ],
             None,
         );
@@ -541,8 +541,8 @@ impl Ssm {
     fn record_soft(&self, rec: &mut Recorder<'_>, soft: &SoftShadow) {
         rec.begin_rendering(
             &[
-                (&soft.layers[0], Some([0.0; 4])),
-                (&soft.layers[1], Some([0.0; 4])),
+                (&soft.layers[0], Clear::Float([0.0; 4])),
+                (&soft.layers[1], Clear::Float([0.0; 4])),
             ],
             None,
         );
@@ -640,7 +640,7 @@ impl BackOccluderMap {
 
     pub fn record(&self, rec: &mut Recorder<'_>, scene: &GpuScene) {
         rec.begin_rendering(
-            &[(&self.depth, Some([FAR_DEPTH; 4]))],
+            &[(&self.depth, Clear::Float([FAR_DEPTH; 4]))],
             Some((&self.zbuffer, Some(0.0))),
         );
         rec.discard_after(&self.zbuffer);

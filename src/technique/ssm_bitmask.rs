@@ -397,7 +397,11 @@ impl SsmBitmask {
     /// Draws one occluder map's micro-quads; the first pass clears the masks, a second
     /// (the back faces) ORs into them.
     fn record_quads(&self, rec: &mut Recorder<'_>, quads: &QuadPass, clear: bool) {
-        let clear = clear.then_some([0.0; 4]);
+        let clear = if clear {
+            crate::vk::Clear::Uint([0; 4])
+        } else {
+            crate::vk::Clear::Load
+        };
         rec.begin_rendering(&[(&self.masks[0], clear), (&self.masks[1], clear)], None);
         rec.bind_pipeline(&self.quad_pipeline);
         rec.bind_sets(&self.quad_pipeline, &[&quads.set]);

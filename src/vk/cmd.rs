@@ -524,8 +524,68 @@ const FILL_STAGES: vk::PipelineStageFlags2 = vk::PipelineStageFlags2::from_raw(
     vk::PipelineStageFlags2::COPY.as_raw() | vk::PipelineStageFlags2::CLEAR.as_raw(),
 );
 
-/// A clear value for an attachment at the start of a rendering scope, or `None` to load.
-pub type Clear = Option<[f32; 4]>;
+/// What a colour attachment holds at the start of a rendering scope: what it held (`Load`)
+/// or a clear value of the type its format stores. Vulkan reads a clear value through the
+/// union member the format's type names (`VkClearColorValue`: float32 for float and
+/// normalized formats, uint32 for UINT ones), so the value carries that type, and
+/// `begin_rendering` refuses a value of the other one.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Clear {
+    Load,
+    /// A float, UNORM, SNORM or SRGB attachment's clear value.
+    Float([f32; 4]),
+    /// A UINT attachment's clear value.
+    Uint([u32; 4]),
+}
+
+impl Clear {
+    /// The clear value, checked against `format`'s type; `None` to load.
+    fn value(self, format: vk::Format) -> Result<Option<vk::ClearValue>> {
+        let color = match (self, is_uint(format)) {
+            (Clear::Load, _) => return Ok(None),
+            (Clear::Float(c), false) if !is_sint(format) => vk::ClearColorValue { float32: c },
+            (Clear::Uint(c), true) => vk::ClearColorValue { uint32: c },
+            (c, _) => anyhow::bail!("clear value {c:?} does not fit a {format:?} attachment"),
+        };
+        Ok(Some(vk::ClearValue { color }))
+    }
+}
+
+/// Formats whose texels are unsigned integers (cleared through `uint32`).
+fn is_uint(f: vk::Format) -> bool {
+    use vk::Format as F;
+    matches!(
+        f,
+        F::R8_UINT
+            | F::R8G8_UINT
+            | F::R8G8B8A8_UINT
+            | F::R16_UINT
+            | F::R16G16_UINT
+            | F::R16G16B16A16_UINT
+            | F::R32_UINT
+            | F::R32G32_UINT
+            | F::R32G32B32_UINT
+            | F::R32G32B32A32_UINT
+    )
+}
+
+/// Formats whose texels are signed integers: no `Clear` fits them (none is used).
+fn is_sint(f: vk::Format) -> bool {
+    use vk::Format as F;
+    matches!(
+        f,
+        F::R8_SINT
+            | F::R8G8_SINT
+            | F::R8G8B8A8_SINT
+            | F::R16_SINT
+            | F::R16G16_SINT
+            | F::R16G16B16A16_SINT
+            | F::R32_SINT
+            | F::R32G32_SINT
+            | F::R32G32B32_SINT
+            | F::R32G32B32A32_SINT
+    )
+}
 
 impl Recorder<'_> {
     fn device(&self) -> &ash::Device {
@@ -792,16 +852,18 @@ impl Recorder<'_> {
             ));
             return;
         }
+        let mut attachments = Vec::with_capacity(colors.len());
+        for (img, clear) in colors {
+            match clear.value(img.format) {
+                Ok(value) => attachments.push(Attachment::new(img, value)),
+                Err(e) => {
+                    self.fail(e.context(format!("attachment '{}'", img.name)));
+                    return;
+                }
+            }
+        }
         self.scope = Some(RenderScope {
-            colors: colors
-                .iter()
-                .map(|(img, clear)| {
-                    let clear = clear.map(|c| vk::ClearValue {
-                        color: vk::ClearColorValue { float32: c },
-                    });
-                    Attachment::new(img, clear)
-                })
-                .collect(),
+            colors: attachments,
             depth: depth.map(|(img, clear)| {
                 let clear = clear.map(|d| vk::ClearValue {
                     depth_stencil: vk::ClearDepthStencilValue {

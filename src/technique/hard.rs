@@ -57,11 +57,13 @@ pub(crate) struct Names {
     pub final_pass: &'static str,
 }
 
-const NAMES: Names = Names {
-    technique: "hard",
-    shadow_map: "hard/shadow_map",
-    final_pass: "hard/final",
-};
+const NAMES: Names = super::pass_names!(
+    Names {
+        shadow_map: "shadow_map",
+        final_pass: "final",
+    },
+    "hard"
+);
 
 pub struct Hard {
     names: Names,

@@ -1,6 +1,27 @@
 //! One module per technique behind one small trait, and the one registry table that
 //! `render`, `bench`, `stress` and the tests loop over.
 
+/// A technique's pass names (its timestamp and debug labels, `technique/pass`), each pass
+/// written once for every technique that shares the struct:
+/// `pass_names!(Names { shadow_map: "shadow_map", final_pass: "final" }, "hard")` is
+/// `Names { technique: "hard", shadow_map: "hard/shadow_map", final_pass: "hard/final" }`,
+/// and `pass_names!(Names { .. }, match form { Form::Paper => "a", Form::Centred => "b" })`
+/// picks the technique's name by form.
+macro_rules! pass_names {
+    ($ty:ident $fields:tt, match $key:tt { $($form:pat => $technique:literal),+ $(,)? }) => {
+        match $key {
+            $($form => $crate::technique::pass_names!($ty $fields, $technique),)+
+        }
+    };
+    ($ty:ident { $($field:ident: $pass:literal),+ $(,)? }, $technique:literal) => {
+        $ty {
+            technique: $technique,
+            $($field: concat!($technique, "/", $pass),)+
+        }
+    };
+}
+pub(crate) use pass_names;
+
 pub mod hard;
 pub mod pcf;
 pub mod pcss;

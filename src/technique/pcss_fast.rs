@@ -116,20 +116,17 @@ struct Names {
 
 impl Search {
     fn names(self) -> Names {
-        match self {
-            Search::Taps => Names {
-                technique: INFO.name,
-                shadow_map: "pcss-fast/shadow_map",
-                minmax: "pcss-fast/minmax",
-                final_pass: "pcss-fast/final",
+        super::pass_names!(
+            Names {
+                shadow_map: "shadow_map",
+                minmax: "minmax",
+                final_pass: "final",
             },
-            Search::Walk => Names {
-                technique: super::pcss_walk::INFO.name,
-                shadow_map: "pcss-walk/shadow_map",
-                minmax: "pcss-walk/minmax",
-                final_pass: "pcss-walk/final",
-            },
-        }
+            match self {
+                Search::Taps => "pcss-fast",
+                Search::Walk => "pcss-walk",
+            }
+        )
     }
 }
 

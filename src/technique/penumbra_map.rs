@@ -186,22 +186,18 @@ struct Names {
 
 impl Form {
     fn names(self) -> Names {
-        match self {
-            Form::Paper => Names {
-                technique: "penumbra-map",
-                silhouettes: "penumbra-map/silhouettes",
-                shadow_map: "penumbra-map/shadow_map",
-                penumbra: "penumbra-map/penumbra",
-                final_pass: "penumbra-map/final",
+        super::pass_names!(
+            Names {
+                silhouettes: "silhouettes",
+                shadow_map: "shadow_map",
+                penumbra: "penumbra",
+                final_pass: "final",
             },
-            Form::Centred => Names {
-                technique: "penumbra-map-centred",
-                silhouettes: "penumbra-map-centred/silhouettes",
-                shadow_map: "penumbra-map-centred/shadow_map",
-                penumbra: "penumbra-map-centred/penumbra",
-                final_pass: "penumbra-map-centred/final",
-            },
-        }
+            match self {
+                Form::Paper => "penumbra-map",
+                Form::Centred => "penumbra-map-centred",
+            }
+        )
     }
 }
 

@@ -174,26 +174,20 @@ struct Names {
 
 impl Form {
     fn plateau_names(self) -> Names {
-        match self {
-            Form::Paper => Names {
-                technique: "plateaus",
-                silhouettes: "plateaus/silhouettes",
-                drop_shadow: "plateaus/drop_shadow",
-                plateaus: "plateaus/plateaus",
-                inner: "plateaus/inner",
-                shadow_map: "plateaus/shadow_map",
-                final_pass: "plateaus/final",
+        super::pass_names!(
+            Names {
+                silhouettes: "silhouettes",
+                drop_shadow: "drop_shadow",
+                plateaus: "plateaus",
+                inner: "inner",
+                shadow_map: "shadow_map",
+                final_pass: "final",
             },
-            Form::Centred => Names {
-                technique: "plateaus-centred",
-                silhouettes: "plateaus-centred/silhouettes",
-                drop_shadow: "plateaus-centred/drop_shadow",
-                plateaus: "plateaus-centred/plateaus",
-                inner: "plateaus-centred/inner",
-                shadow_map: "plateaus-centred/shadow_map",
-                final_pass: "plateaus-centred/final",
-            },
-        }
+            match self {
+                Form::Paper => "plateaus",
+                Form::Centred => "plateaus-centred",
+            }
+        )
     }
 }
 
@@ -1233,7 +1227,7 @@ impl Technique for Plateaus {
             Ok(())
         })?;
         match self.vertices.is_empty() {
-            false => rec.pass("plateaus/plateaus", |rec| {
+            false => rec.pass(names.plateaus, |rec| {
                 // Load: the drop shadow's colour and depth stay in place under the plateaus.
                 rec.begin_rendering_in(
                     &[(&self.texture, Clear::Load)],
@@ -1246,9 +1240,9 @@ impl Technique for Plateaus {
                 rec.end_rendering();
                 Ok(())
             })?,
-            _ if !lit_plane => rec.skip("plateaus/plateaus", "light not above the plane"),
-            _ if !soft => rec.skip("plateaus/plateaus", "point light (R = 0)"),
-            _ => rec.skip("plateaus/plateaus", "no silhouette edge"),
+            _ if !lit_plane => rec.skip(names.plateaus, "light not above the plane"),
+            _ if !soft => rec.skip(names.plateaus, "point light (R = 0)"),
+            _ => rec.skip(names.plateaus, "no silhouette edge"),
         }
         self.shadow.pass_in(rec, frame.gpu, &map_area)?;
         Ok(())

@@ -204,22 +204,18 @@ struct Names {
 
 impl Form {
     fn smoothie_names(self) -> Names {
-        match self {
-            Form::Paper => Names {
-                technique: "smoothies",
-                silhouettes: "smoothies/silhouettes",
-                shadow_map: "smoothies/shadow_map",
-                smoothie: "smoothies/smoothie",
-                final_pass: "smoothies/final",
+        super::pass_names!(
+            Names {
+                silhouettes: "silhouettes",
+                shadow_map: "shadow_map",
+                smoothie: "smoothie",
+                final_pass: "final",
             },
-            Form::Centred => Names {
-                technique: "smoothies-centred",
-                silhouettes: "smoothies-centred/silhouettes",
-                shadow_map: "smoothies-centred/shadow_map",
-                smoothie: "smoothies-centred/smoothie",
-                final_pass: "smoothies-centred/final",
-            },
-        }
+            match self {
+                Form::Paper => "smoothies",
+                Form::Centred => "smoothies-centred",
+            }
+        )
     }
 }
 

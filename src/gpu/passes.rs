@@ -86,12 +86,7 @@ impl ShadowMap {
                 | ImageUsageFlags::TRANSFER_SRC,
             &format!("{name} shadow map"),
         )?;
-        if !ctx.supports_blend(format) {
-            anyhow::bail!(
-                "{} cannot MIN-blend {format:?} attachments, which the shadow map needs",
-                ctx.device_name
-            );
-        }
+        ctx.require_blend(format, Blend::Min, "the shadow map")?;
         let set = DescriptorSet::new(ctx, &[("frame", Resource::Uniform(ubo))], name)?;
         let pipeline = Pipeline::graphics(
             ctx,

@@ -267,15 +267,6 @@ impl PenumbraMap {
         let ctx = init.ctx;
         let names = form.names();
         let res = init.settings.shadow_res;
-        for f in [Format::R32_SFLOAT, Format::R16_SFLOAT] {
-            if !ctx.supports_blend(f) {
-                anyhow::bail!(
-                    "{} cannot MIN-blend {f:?} attachments, which {} needs",
-                    ctx.device_name,
-                    names.technique
-                );
-            }
-        }
         let usage = ImageUsageFlags::COLOR_ATTACHMENT
             | ImageUsageFlags::SAMPLED
             | ImageUsageFlags::TRANSFER_SRC;
@@ -289,13 +280,7 @@ impl PenumbraMap {
                 Format::R16G16B16A16_SFLOAT,
             ),
         };
-        if !ctx.supports_blend(penumbra_format) {
-            anyhow::bail!(
-                "{} cannot MIN-blend {penumbra_format:?} attachments, which {} needs",
-                ctx.device_name,
-                names.technique
-            );
-        }
+        ctx.require_blend(penumbra_format, Blend::Min, names.technique)?;
         let penumbra = Image::new_2d(ctx, res, res, penumbra_format, usage, penumbra_name)
             .with_context(|| format!("creating the {penumbra_name}"))?;
         let nearest = Sampler::new(ctx, Filter::Nearest).context("creating the nearest sampler")?;

@@ -970,13 +970,7 @@ impl Plateaus {
     fn centred(init: &TechniqueInit<'_>, names: &Names, nearest: &Sampler) -> Result<Centred> {
         let ctx = init.ctx;
         let res = init.settings.shadow_res;
-        if !ctx.supports_blend(Format::R16_SFLOAT) {
-            anyhow::bail!(
-                "{} cannot MAX-blend R16_SFLOAT attachments, which {} needs",
-                ctx.device_name,
-                names.technique
-            );
-        }
+        ctx.require_blend(Format::R16_SFLOAT, Blend::Max, names.technique)?;
         let usage = ImageUsageFlags::COLOR_ATTACHMENT
             | ImageUsageFlags::SAMPLED
             | ImageUsageFlags::TRANSFER_SRC;

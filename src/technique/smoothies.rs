@@ -521,15 +521,9 @@ impl Smoothies {
         smoothie_targets(form)
             .iter()
             .map(|target| {
-                let format = target.format;
-                if !ctx.supports_blend(format) {
-                    anyhow::bail!(
-                        "{} cannot MIN-blend {format:?} attachments, which {} needs",
-                        ctx.device_name,
-                        form.smoothie_names().technique
-                    );
-                }
-                Image::new_2d(ctx, res, res, format, usage, target.name)
+                let technique = form.smoothie_names().technique;
+                ctx.require_blend(target.format, Blend::Min, technique)?;
+                Image::new_2d(ctx, res, res, target.format, usage, target.name)
             })
             .collect()
     }

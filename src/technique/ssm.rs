@@ -115,7 +115,7 @@ use crate::vk::{
     DescriptorSet, Filter, Format, GraphicsPipelineDesc, Image, ImageUsageFlags, MemoryLocation,
     Pipeline, PrimitiveTopology, Recorder, Resource, Sampler,
 };
-use anyhow::{bail, Context as _, Result};
+use anyhow::{Context as _, Result};
 
 pub const INFO: TechniqueInfo = TechniqueInfo {
     name: "ssm",
@@ -170,12 +170,7 @@ pub(crate) struct ReceiverMap {
 
 impl ReceiverMap {
     pub fn new(ctx: &Context, ubo: &Buffer, res: u32, technique: &str) -> Result<Self> {
-        if !ctx.supports_blend(Format::R32_SFLOAT) {
-            bail!(
-                "{} cannot MIN-blend R32_SFLOAT attachments, which the receiver map needs",
-                ctx.device_name
-            );
-        }
+        ctx.require_blend(Format::R32_SFLOAT, Blend::Min, "the receiver map")?;
         let layer = |what: &str| {
             Image::new_2d(
                 ctx,
@@ -464,12 +459,7 @@ impl Ssm {
         let res = init.settings.occluder_res;
         let name = if two_sided { INFO2.name } else { INFO.name };
         let accum = accum_format(init.settings.accum_format);
-        if !ctx.supports_blend(accum) {
-            bail!(
-                "{} cannot ADD-blend {accum:?} attachments, which the soft shadow map needs (--accum-format)",
-                ctx.device_name
-            );
-        }
+        ctx.require_blend(accum, Blend::Add, "the soft shadow map (--accum-format)")?;
         let nearest = Sampler::new(ctx, Filter::Nearest).context("ssm sampler")?;
 
         // Passes 1-4: occluder maps, receiver map, receiver bound.

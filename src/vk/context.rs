@@ -1,6 +1,7 @@
 //! Instance, physical-device pick, logical device, one graphics+compute queue, the
 //! gpu-allocator, and the validation-layer messenger. Headless: no surface, no swapchain.
 
+use super::pipeline::Blend;
 use anyhow::{anyhow, bail, Context as _, Result};
 use ash::vk;
 use gpu_allocator::vulkan::{Allocator, AllocatorCreateDesc};
@@ -366,6 +367,19 @@ impl Context {
     pub fn wait_idle(&self) -> Result<()> {
         // SAFETY: the device is valid for the life of `self`.
         unsafe { self.device().device_wait_idle() }.context("waiting for the device")
+    }
+
+    /// An error naming the device, the blend and `user` (what needs it) unless `format` can
+    /// be a colour attachment with blending (`op`: MIN, MAX, ADD).
+    pub fn require_blend(&self, format: vk::Format, op: Blend, user: &str) -> Result<()> {
+        if !self.supports_blend(format) {
+            let op = format!("{op:?}").to_uppercase();
+            bail!(
+                "{} cannot {op}-blend {format:?} attachments, which {user} needs",
+                self.device_name
+            );
+        }
+        Ok(())
     }
 
     /// Whether `format` can be a colour attachment with blending.

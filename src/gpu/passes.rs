@@ -831,6 +831,17 @@ impl<K: PartialEq + Copy, T> CasterCacheOf<K, T> {
     pub fn get(&self, i: usize) -> Option<&T> {
         self.entries.get(i)?.as_ref().map(|e| &e.2)
     }
+
+    /// One part of every cached object's geometry (`part`: a side's vertices), concatenated
+    /// in object order: what one draw of that part uploads.
+    pub fn concat_by<V: Copy>(&self, part: impl Fn(&T) -> &[V]) -> Vec<V> {
+        let n = self.iter().map(|t| part(t).len()).sum();
+        let mut out = Vec::with_capacity(n);
+        for t in self.iter() {
+            out.extend_from_slice(part(t));
+        }
+        out
+    }
 }
 
 impl<K: Send, T: Send> CasterCacheOf<K, T> {
@@ -878,11 +889,6 @@ impl<K: PartialEq + Copy + Send + Sync, T: Send> CasterCacheOf<K, T> {
 impl<K: PartialEq + Copy, V: Copy> CasterCacheOf<K, Vec<V>> {
     /// Every cached object's geometry, in object order.
     pub fn concat(&self) -> Vec<V> {
-        let n = self.iter().map(Vec::len).sum();
-        let mut out = Vec::with_capacity(n);
-        for v in self.iter() {
-            out.extend_from_slice(v);
-        }
-        out
+        self.concat_by(|v| v)
     }
 }

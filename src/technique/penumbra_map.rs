@@ -531,16 +531,6 @@ impl PenumbraMap {
             regions::render_area(penumbra_area),
         )
     }
-
-    /// Every caster's cached geometry of one side, in object order.
-    fn concat(&self, side: usize) -> Vec<PenumbraVertex> {
-        let n = self.cache.iter().map(|c| c.sides[side].len()).sum();
-        let mut out = Vec::with_capacity(n);
-        for c in self.cache.iter() {
-            out.extend_from_slice(&c.sides[side]);
-        }
-        out
-    }
 }
 
 impl Technique for PenumbraMap {
@@ -584,9 +574,10 @@ impl Technique for PenumbraMap {
         } else {
             let rebuilt = rec.cpu(names.silhouettes, || self.build_geometry(frame, key, force));
             rec.rebuilt(names.silhouettes, rebuilt, casters);
-            self.vertices.upload(ctx, &self.concat(0))?;
+            let side = |s: usize| self.cache.concat_by(|c| &c.sides[s]);
+            self.vertices.upload(ctx, &side(0))?;
             if self.inner_pipeline.is_some() {
-                self.inner_vertices.upload(ctx, &self.concat(1))?;
+                self.inner_vertices.upload(ctx, &side(1))?;
             }
         }
 

@@ -1121,13 +1121,6 @@ impl Technique for Plateaus {
         let lit_plane = plane.light_height > plane.texel() * 1e-3;
         let soft = lit_plane && frame.light_radius > 0.0;
         let names = self.form.plateau_names();
-        let concat = |cache: &CasterCacheOf<GeometryKey, CasterPlateaus>, side: usize| {
-            let mut out = Vec::new();
-            for v in cache.iter() {
-                out.extend_from_slice(&v.sides[side]);
-            }
-            out
-        };
         let (vertices, inner_vertices) = if soft {
             // Without pass caching every frame rebuilds everything (the bench's baseline).
             let force = !frame.settings.cache_light_passes;
@@ -1135,7 +1128,8 @@ impl Technique for Plateaus {
                 self.build_geometry(frame, &plane, force)
             });
             rec.rebuilt(names.silhouettes, rebuilt, self.casters);
-            (concat(&self.cache, 0), concat(&self.cache, 1))
+            let side = |s: usize| self.cache.concat_by(|c| &c.sides[s]);
+            (side(0), side(1))
         } else {
             (Vec::new(), Vec::new())
         };

@@ -607,12 +607,7 @@ impl Smoothies {
     /// buffer and the inner ones into another.
     fn upload_vertices(&mut self, ctx: &Context) -> Result<()> {
         for (side, buffer) in self.vertices.iter_mut().enumerate() {
-            let all: Vec<SmoothieVertex> = self
-                .cpu_cache
-                .iter()
-                .flat_map(|c| c.sides[side].iter().copied())
-                .collect();
-            buffer.upload(ctx, &all)?;
+            buffer.upload(ctx, &self.cpu_cache.concat_by(|c| &c.sides[side]))?;
         }
         Ok(())
     }

@@ -524,6 +524,30 @@ impl GpuSilhouettes {
         self.rebuilt
     }
 
+    /// A frame's silhouette pass `name` (either emitter): `prepare`, then skipped when
+    /// `dirty` counts no caster whose geometry is stale (unless `force`), else `record`ed in
+    /// its own pass, with the casters it rebuilt out of `casters` reported.
+    #[allow(clippy::too_many_arguments)]
+    pub fn frame_pass(
+        &mut self,
+        ctx: &Context,
+        rec: &mut Recorder<'_>,
+        name: &str,
+        casters: usize,
+        force: bool,
+        dirty: impl FnOnce(&Self) -> usize,
+        record: impl FnOnce(&mut Self, &mut Recorder<'_>) -> Result<()>,
+    ) -> Result<()> {
+        self.prepare(ctx)?;
+        if !force && dirty(self) == 0 {
+            rec.skip(name, "light and casters unchanged");
+            return Ok(());
+        }
+        rec.pass(name, |rec| record(self, rec))?;
+        rec.rebuilt(name, self.rebuilt, casters);
+        Ok(())
+    }
+
     /// One indirect draw per caster, with the smoothie (or penumbra) pipeline bound.
     pub fn draw(&self, rec: &mut Recorder<'_>) {
         rec.bind_vertex_buffer(&self.vertices);

@@ -42,7 +42,7 @@ use crate::gpu::passes::ShadowMap;
 pub use crate::gpu::FrameInput;
 use crate::gpu::GpuScene;
 use crate::scene::Scene;
-use crate::settings::Settings;
+use crate::settings::{Settings, SilhouettePath};
 use crate::vk::{Buffer, Context, Image, Recorder};
 use anyhow::{bail, Result};
 
@@ -166,6 +166,18 @@ pub fn technique_constants(k: [f32; 8]) -> [[f32; 4]; 2] {
 pub(crate) enum Form {
     Paper,
     Centred,
+}
+
+impl Form {
+    /// Where a silhouette technique builds its geometry: the paper form where the settings
+    /// say (`--silhouettes`); the centred form on the CPU, the only path that builds the
+    /// inner side.
+    pub(crate) fn silhouette_path(self, init: &TechniqueInit<'_>) -> SilhouettePath {
+        match self {
+            Form::Paper => init.settings.silhouettes.resolve(init.ctx),
+            Form::Centred => SilhouettePath::Cpu,
+        }
+    }
 }
 
 pub struct TechniqueInfo {

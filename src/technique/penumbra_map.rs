@@ -347,12 +347,7 @@ impl PenumbraMap {
         // Split: the shader runs only where a caster or its cones and sheets project.
         let final_pass = FinalPass::split(ctx, names.final_pass, final_shader, &final_set)?;
         let adjacency = silhouette::caster_adjacency(init.scene, |_| true)?;
-        // The GPU silhouette passes build the outer side only: the centred form always
-        // builds on the CPU.
-        let path = match form {
-            Form::Paper => init.settings.silhouettes.resolve(ctx),
-            Form::Centred => SilhouettePath::Cpu,
-        };
+        let path = form.silhouette_path(init);
         let gpu_silhouettes = match path {
             SilhouettePath::Cpu | SilhouettePath::Auto => None,
             SilhouettePath::Gpu => {
@@ -562,15 +557,16 @@ impl Technique for PenumbraMap {
             self.vertices.upload::<PenumbraVertex>(ctx, &[])?;
             self.inner_vertices.upload::<PenumbraVertex>(ctx, &[])?;
         } else if let Some(gpu) = self.gpu_silhouettes.as_mut() {
-            gpu.prepare(ctx)?;
-            if !force && gpu.dirty_penumbra(&frame.scene.objects, key) == 0 {
-                rec.skip(names.silhouettes, "light and casters unchanged");
-            } else {
-                rec.pass(names.silhouettes, |rec| {
-                    gpu.record_penumbra(rec, &frame.scene.objects, frame.light, key, force)
-                })?;
-                rec.rebuilt(names.silhouettes, gpu.rebuilt(), casters);
-            }
+            let objects = &frame.scene.objects;
+            gpu.frame_pass(
+                ctx,
+                rec,
+                names.silhouettes,
+                casters,
+                force,
+                |gpu| gpu.dirty_penumbra(objects, key),
+                |gpu, rec| gpu.record_penumbra(rec, objects, frame.light, key, force),
+            )?;
         } else {
             let rebuilt = rec.cpu(names.silhouettes, || self.build_geometry(frame, key, force));
             rec.rebuilt(names.silhouettes, rebuilt, casters);

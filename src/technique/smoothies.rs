@@ -477,11 +477,7 @@ impl Smoothies {
             final_pass = final_pass.with_bands(PAPER_SPLIT_BANDS);
         }
         let adjacency = silhouette::caster_adjacency(init.scene, |_| true)?;
-        // The inner smoothies are built on the CPU only (`Side::Inner`).
-        let path = match form {
-            Form::Paper => init.settings.silhouettes.resolve(ctx),
-            Form::Centred => SilhouettePath::Cpu,
-        };
+        let path = form.silhouette_path(init);
         let gpu_silhouettes = match path {
             SilhouettePath::Cpu | SilhouettePath::Auto => None,
             SilhouettePath::Gpu => Self::gpu_silhouettes(init, &adjacency)?,
@@ -862,15 +858,16 @@ impl Technique for Smoothies {
         if !self.draw_smoothies {
             rec.skip(names.silhouettes, "light radius 0: hard shadows");
         } else if let Some(gpu) = self.gpu_silhouettes.as_mut() {
-            gpu.prepare(ctx)?;
-            if !force && gpu.dirty(&frame.scene.objects, frame.light, width) == 0 {
-                rec.skip(names.silhouettes, "light and casters unchanged");
-            } else {
-                rec.pass(names.silhouettes, |rec| {
-                    gpu.record(rec, &frame.scene.objects, frame.light, width, force)
-                })?;
-                rec.rebuilt(names.silhouettes, gpu.rebuilt(), casters);
-            }
+            let objects = &frame.scene.objects;
+            gpu.frame_pass(
+                ctx,
+                rec,
+                names.silhouettes,
+                casters,
+                force,
+                |gpu| gpu.dirty(objects, frame.light, width),
+                |gpu, rec| gpu.record(rec, objects, frame.light, width, force),
+            )?;
         } else if self.path == SilhouettePath::Cpu {
             let rebuilt = rec.cpu(names.silhouettes, || {
                 self.build_geometry(frame, width, force)

@@ -119,7 +119,7 @@ use super::{
 };
 use crate::frustum::{fit_light, PixelBox};
 use crate::gpu::passes::{
-    CasterCacheOf, DynamicVertices, FinalPass, FinalShader, MapArea, Receivers, ShadowMap, Shadowed,
+    CasterCacheOf, DynamicVertices, FinalPass, FinalShader, MapArea, ShadowMap, Shadowed,
 };
 use crate::scene::LightView;
 use crate::settings::SilhouettePath;
@@ -480,18 +480,14 @@ impl PenumbraMap {
         })
     }
 
-    /// This frame's areas, from `light_uvs`, as smoothies' (`Smoothies::light_areas`):
-    /// the penumbra map is cleared and drawn only where the cones and sheets project,
-    /// joined with where they did last frame, so that every texel outside holds the clear
-    /// value; the shadow map likewise around the casters and the geometry, with the
-    /// objects that receive but cast nothing (a ground filling the map) drawn only under
-    /// the geometry: the final pass reads the foremost surface (g) only where the penumbra
-    /// map is below 1, and the penumbra pass under itself and, for the centred form's
-    /// inner fragments, up to `inner_read_texels` around it (the receiver hidden behind the
-    /// caster is read just outside the hard edge). Sets where the final shader can give
-    /// less than 1: each caster's polygon (`regions::shadowed` adds the normal offset and
-    /// the gather's footprint).
-    /// `Settings::light_areas` off: both passes whole, every object (the same image).
+    /// This frame's areas, from `light_uvs` (`regions::silhouette_areas`): the penumbra map
+    /// where the cones and sheets project; the shadow map around the casters and where g is
+    /// read: under the geometry (the final pass, where the outer value is below 1; the
+    /// fragments' own texels), and for the centred form's inner fragments up to
+    /// `inner_read_texels` around it (the receiver hidden behind the caster is read just
+    /// outside the hard edge). Sets where the final shader can give less than 1: each
+    /// caster's polygon (`regions::shadowed` adds the normal offset and the gather's
+    /// footprint).
     fn light_areas(&mut self, frame: &FrameInput<'_>) -> (MapArea, Rect2D) {
         let uvs = self.light_uvs(frame);
         let res = self.shadow.resolution;
@@ -499,31 +495,13 @@ impl PenumbraMap {
             Some(u) => regions::shadowed(frame, &u.supports, res, 0.0),
             None => Shadowed::Everywhere,
         };
-        let geometry = uvs.as_ref().map(|u| u.geometry);
-        let penumbra_area = self
-            .penumbra_drawn
-            .area(geometry)
-            .unwrap_or(PixelBox::whole(res, res));
-        let (map_now, receivers) = match &uvs {
-            Some(u) => {
-                // Where g is read: under the geometry (the final pass, where the outer
-                // value is below 1; the fragments' own texels), and for the centred form's
-                // inner fragments up to `inner_reach` around it.
-                let g_read = u.geometry.grown(u.inner_reach, res);
-                (
-                    Some(u.casters.union(g_read)),
-                    regions::receivers_within(g_read),
-                )
-            }
-            None => (None, Receivers::Everywhere),
-        };
-        let all = self.map_drawn.area(map_now).map(regions::render_area);
-        if !frame.settings.light_areas {
-            return regions::whole_areas(res);
-        }
-        (
-            MapArea { all, receivers },
-            regions::render_area(penumbra_area),
+        regions::silhouette_areas(
+            frame,
+            res,
+            uvs.as_ref().map(|u| u.geometry),
+            uvs.as_ref().map(|u| u.casters),
+            uvs.as_ref().map_or(0, |u| u.inner_reach),
+            [&mut self.penumbra_drawn, &mut self.map_drawn],
         )
     }
 }

@@ -167,6 +167,47 @@ pub fn whole_areas(res: u32) -> (MapArea, Rect2D) {
     (MapArea::WHOLE, render_area(PixelBox::whole(res, res)))
 }
 
+/// The two light passes' areas of a silhouette technique (smoothies, penumbra maps and
+/// their centred forms), whose geometry pass (smoothies, cones and sheets) draws into a
+/// side-`res` buffer after the shared shadow map. Every texel outside an area must hold
+/// the clear value, so each area is what its pass may draw now joined with what it may have
+/// drawn last time (`LastDrawn`):
+/// - the geometry pass: the texels of its geometry, `geometry` (`None`: not known, the GPU
+///   path; the whole buffer);
+/// - the shadow map: the casters' texels that the geometry does not hold, `casters`, and
+///   where the geometry pass and the final pass read g, the geometry's texels grown by
+///   `grow` (the centred forms' inner fragments read the hidden receiver just outside their
+///   edge); the receivers that cast nothing (a ground filling the map) only inside the
+///   latter.
+///
+/// The clears and the ground's fill outside these boxes were lavapipe's largest fixed costs
+/// in both passes. `Settings::light_areas` off: both whole, every object (the same image).
+pub fn silhouette_areas(
+    frame: &FrameInput<'_>,
+    res: u32,
+    geometry: Option<PixelBox>,
+    casters: Option<PixelBox>,
+    grow: u32,
+    drawn: [&mut LastDrawn; 2],
+) -> (MapArea, Rect2D) {
+    let [geometry_drawn, map_drawn] = drawn;
+    let geometry_area = geometry_drawn
+        .area(geometry)
+        .unwrap_or(PixelBox::whole(res, res));
+    let g_read = geometry.map(|g| g.grown(grow, res));
+    let map_now = g_read.zip(casters).map(|(g, c)| c.union(g));
+    // The receivers' box lies inside the area only when the casters' box is known.
+    let receivers = match (g_read, map_now) {
+        (Some(g), Some(_)) => receivers_within(g),
+        _ => Receivers::Everywhere,
+    };
+    let all = map_drawn.area(map_now).map(render_area);
+    if !frame.settings.light_areas {
+        return whole_areas(res);
+    }
+    (MapArea { all, receivers }, render_area(geometry_area))
+}
+
 /// Where a technique reading only a casters' buffer can see a caster (`pcf`, `pcss`,
 /// `pcss-fast`, `pcss-walk`): each caster's outline, the support of its vertices as the
 /// light projects them, kept until the caster or the light moves. A projected triangle

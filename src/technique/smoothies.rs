@@ -168,8 +168,8 @@ use super::{
 };
 use crate::frustum::{fit_light, PixelBox};
 use crate::gpu::passes::{
-    falloff_lut, CasterCacheOf, DynamicVertices, FinalPass, FinalShader, MapArea, Receivers,
-    ShadowMap, Shadowed, FAR_DEPTH,
+    falloff_lut, CasterCacheOf, DynamicVertices, FinalPass, FinalShader, MapArea, ShadowMap,
+    Shadowed, FAR_DEPTH,
 };
 use crate::scene::{LightView, Scene};
 use crate::settings::SilhouettePath;
@@ -731,23 +731,14 @@ impl Smoothies {
             .collect()
     }
 
-    /// Where the two light-space passes clear and draw. Every texel outside an area must
-    /// hold the clear value, so each area is what its pass may draw now joined with what it
-    /// may have drawn last time:
-    /// - the smoothie pass: the texels this frame's smoothies can reach, on the CPU path
-    ///   (`SmoothieRecords::uv_bounds`); the GPU path builds its geometry on the device and
-    ///   clears the whole buffer;
-    /// - the shadow map (CPU path): the casters' texels of r beyond their smoothies'
-    ///   (`casters_texels`), where r is read, and the texels where the smoothie pass
-    ///   reads g: the smoothies' texels, for the centred form grown by
-    ///   `regions::INNER_RECEIVER_TEXELS` (its inner fragments read the hidden
-    ///   receiver just outside their edge); the receivers that cast nothing (a ground
-    ///   filling the whole map) are drawn only inside the latter, or not at all without
-    ///   smoothies.
-    ///
-    /// The clears and the ground's fill outside these boxes were lavapipe's largest fixed
-    /// costs in both passes. `Settings::light_areas` off: both whole, every object (and
-    /// the centred form's inner smoothies at their full width, `inner_extent_depth`).
+    /// Where the two light-space passes clear and draw (`regions::silhouette_areas`): the
+    /// smoothie pass where this frame's smoothies can reach, on the CPU path
+    /// (`SmoothieRecords::uv_bounds`; the GPU path builds its geometry on the device and
+    /// clears the whole buffer); the shadow map over the casters' texels of r beyond their
+    /// smoothies' (`casters_texels`) and where the smoothie pass reads g: the smoothies'
+    /// texels, for the centred form grown by `regions::INNER_RECEIVER_TEXELS` (its inner
+    /// fragments read the hidden receiver just outside their edge). Also sets where the
+    /// final pass's shader can give less than 1 (`shadow_regions`).
     fn light_areas(&mut self, frame: &FrameInput<'_>) -> (MapArea, Rect2D) {
         let res = self.smoothie.first().map_or(1, |i| i.extent.width);
         let corners = regions::caster_corner_uvs(frame);
@@ -765,37 +756,6 @@ impl Smoothies {
                     }),
             )
         };
-        let smoothie_area = self
-            .smoothie_drawn
-            .area(smoothies)
-            .unwrap_or(PixelBox::whole(res, res));
-
-        // Where the smoothie pass reads g: the paper form's fragments (and the centred
-        // form's outer ones) at their own texel, inside the smoothies' box; the centred
-        // form's inner ones also just outside their edge
-        // (`regions::INNER_RECEIVER_TEXELS`).
-        let (map_now, receivers) = match smoothies {
-            Some(s) => {
-                let g_read = match self.form {
-                    Form::Paper => s,
-                    Form::Centred => s.grown(regions::INNER_RECEIVER_TEXELS, res),
-                };
-                (
-                    corners
-                        .as_ref()
-                        .map(|c| self.casters_texels(c, res).union(g_read)),
-                    regions::receivers_within(g_read),
-                )
-            }
-            None => (None, Receivers::Everywhere),
-        };
-        let map_area = self.map_drawn.area(map_now).map(regions::render_area);
-        // The receivers' box lies inside the area only when the casters' box is known.
-        let receivers = if map_now.is_some() {
-            receivers
-        } else {
-            Receivers::Everywhere
-        };
         self.shadowed = match (smoothies, &corners) {
             (Some(_), Some(c)) => {
                 let supports = self.shadow_regions(c);
@@ -803,15 +763,18 @@ impl Smoothies {
             }
             _ => Shadowed::Everywhere,
         };
-        if !frame.settings.light_areas {
-            return regions::whole_areas(res);
-        }
-        (
-            MapArea {
-                all: map_area,
-                receivers,
-            },
-            regions::render_area(smoothie_area),
+        let casters = corners.as_ref().map(|c| self.casters_texels(c, res));
+        let grow = match self.form {
+            Form::Paper => 0,
+            Form::Centred => regions::INNER_RECEIVER_TEXELS,
+        };
+        regions::silhouette_areas(
+            frame,
+            res,
+            smoothies,
+            casters,
+            grow,
+            [&mut self.smoothie_drawn, &mut self.map_drawn],
         )
     }
 }

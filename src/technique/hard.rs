@@ -28,6 +28,21 @@
 //! constant offset that would detach contact shadows; the small relative bias absorbs the
 //! float rounding of depth. A slope-scaled rasterizer bias is not needed on top.
 //!
+//! ## Equations: what a porter ports
+//! - The normal offset and the point's light uv and depth: `light_sample`
+//!   (glsl/common/shadow.glsl), shared by every shadow-map technique.
+//! - The hard test with its 2x2 filter: `visibility` (glsl/hard/final.frag): the
+//!   comparison sampler compares and filters; the relative bias is folded into the
+//!   reference depth.
+//!
+//! Where the speed layer (`--plain` turns it off, `Settings::effective`) may change
+//! these functions' inputs:
+//! - Culling leaves out objects outside the light's frustum (light passes) and the
+//!   camera's (final pass): they write no texel a lookup reads and no pixel.
+//! - Reuse skips the light passes when the light, its radius and every object are
+//!   unchanged: the buffers then hold what the same passes wrote.
+//! Nothing else: the final pass is one whole pass.
+//!
 //! ## Known artefacts
 //! Aliasing (staircase edges one shadow-map texel wide, softened over one texel by the 2x2
 //! filter); no penumbra at any light radius.

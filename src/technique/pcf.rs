@@ -49,6 +49,24 @@
 //!    the same image (tests/avoided_work.rs), for a fraction of the pass on lavapipe, which
 //!    runs every branch for every fragment.
 //!
+//! ## Equations: what a porter ports
+//! - Eq. 1 (the box's per-texel weights): `pcf_box` (glsl/pcf/filter.glsl).
+//! - Eq. 2 (the disc's radius): `poisson_radius_texels` here; the disc's taps: `pcf_poisson`
+//!   (glsl/pcf/filter.glsl, the 64 points in `POISSON`).
+//! - Eq. 3 (the receiver plane): `receiver_plane` and `plane_depth` (glsl/pcf/filter.glsl).
+//!
+//! Where the speed layer (`--plain` turns it off, `Settings::effective`) may change
+//! these functions' inputs:
+//! - The shadow map is cleared and drawn only over the casters' projected boxes
+//!   (`regions::AroundCasters`): every texel outside holds the clear value, as in a
+//!   whole map.
+//! - `FinalPass::split` chooses which pixels run the final shader and which get 1 without
+//!   a lookup; where the shader runs its inputs are the whole pass's (bit for bit).
+//! - Culling leaves out objects outside the light's frustum (light passes) and the
+//!   camera's (final pass): they write no texel a lookup reads and no pixel.
+//! - Reuse skips the light passes when the light, its radius and every object are
+//!   unchanged: the buffers then hold what the same passes wrote.
+//!
 //! ## Known artefacts
 //! Penumbra of constant width in texels (too wide at contacts, too narrow far from them);
 //! curved casters (concave toward the light) still shadow themselves under wide kernels,

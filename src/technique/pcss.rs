@@ -60,6 +60,28 @@
 //!    lavapipe, which runs every branch for every fragment, and on a GPU too, which pays
 //!    the search before it can exit.
 //!
+//! ## Equations: what a porter ports
+//! - Eq. 2 and 4's constants: `uniforms` here (`frame.technique`).
+//! - Eq. 3 (search radius): `pcss_search_radius` (glsl/pcss/search.glsl), through
+//!   `pcss_search_texels` (glsl/pcss/radii.glsl).
+//! - Step 1 (the blocker search) and the umbra and lit exits: `pcss_visibility`
+//!   (glsl/pcss/search.glsl).
+//! - Eq. 1/4 (filter radius) and step 3: `pcss_filter` (glsl/pcss/search.glsl), through
+//!   `pcss_filter_texels` (glsl/pcss/radii.glsl) and `pcf_poisson` (glsl/pcf/filter.glsl).
+//! - Eq. 5 (the receiver plane): `receiver_plane`, `plane_depth` (glsl/pcf/filter.glsl).
+//!
+//! Where the speed layer (`--plain` turns it off, `Settings::effective`) may change
+//! these functions' inputs:
+//! - The shadow map is cleared and drawn only over the casters' projected boxes
+//!   (`regions::AroundCasters`): every texel outside holds the clear value, as in a
+//!   whole map.
+//! - `FinalPass::split` chooses which pixels run the final shader and which get 1 without
+//!   a lookup; where the shader runs its inputs are the whole pass's (bit for bit).
+//! - Culling leaves out objects outside the light's frustum (light passes) and the
+//!   camera's (final pass): they write no texel a lookup reads and no pixel.
+//! - Reuse skips the light passes when the light, its radius and every object are
+//!   unchanged: the buffers then hold what the same passes wrote.
+//!
 //! ## Sample counts
 //! `--pcf-kernel poissonN` sets both the search and the filter to N samples. A box kernel
 //! (the default, meant for `pcf`) does not apply: then SEARCH_SAMPLES and FILTER_SAMPLES.

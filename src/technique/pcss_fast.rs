@@ -71,6 +71,24 @@
 //! a texel of search (R = 0, and points near the light's near plane) pcss's search is one
 //! gather: there pcss's step 1 runs as is, and R = 0 is pcss's image bit for bit.
 //!
+//! ## Equations: what a porter ports
+//! - pcss's equations and steps, in the functions src/technique/pcss.rs names.
+//! - The hierarchy: glsl/pcss_fast/minmax.comp (its layout in hierarchy.glsl).
+//! - The two exact exits: the top of `visibility` (glsl/pcss_fast/visibility.glsl), then
+//!   `pcss_visibility` (glsl/pcss/search.glsl) for the points left.
+//!
+//! Where the speed layer (`--plain` turns it off, `Settings::effective`) may change
+//! these functions' inputs:
+//! - The shadow map is cleared and drawn only over the casters' projected boxes
+//!   (`regions::AroundCasters`): every texel outside holds the clear value, as in a
+//!   whole map.
+//! - `FinalPass::split` chooses which pixels run the final shader and which get 1 without
+//!   a lookup; where the shader runs its inputs are the whole pass's (bit for bit).
+//! - Culling leaves out objects outside the light's frustum (light passes) and the
+//!   camera's (final pass): they write no texel a lookup reads and no pixel.
+//! - Reuse skips the light passes when the light, its radius and every object are
+//!   unchanged: the buffers then hold what the same passes wrote.
+//!
 //! ## Known artefacts
 //! Those of `pcss`, no more. Points on a caster's own lit surface rarely settle early (the
 //! caster is in its own cells) and search.

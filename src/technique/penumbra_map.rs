@@ -103,6 +103,26 @@
 //! silhouette vertex depth. Sec. 3 falloff: s = 3 I^2 - 2 I^3. Sheets: Z_v exact per fragment
 //! as the ratio of two perspective-correct attributes (the paper interpolates it linearly).
 //!
+//! ## Equations: what a porter ports
+//! - Sec. 3's cones and sheets (C_r): `build_penumbra` (src/silhouette/penumbra.rs).
+//! - Eq. 1 (I, with Z_v per fragment) and its guards: `eq1_depths` (glsl/penumbra_map/
+//!   wedge.glsl); the blocker-size bound: `blocker_floor` (same file); the falloff and the
+//!   write: `main` of glsl/penumbra_map/penumbra.frag.
+//! - The final lookup and the own-surface window: `visibility` (glsl/penumbra_map/
+//!   final.frag) with `own_surface` (glsl/penumbra_map/surface.glsl).
+//!
+//! Where the speed layer (`--plain` turns it off, `Settings::effective`) may change
+//! these functions' inputs:
+//! - The shadow map holds g only where it is read (1e30 elsewhere), and both buffers are
+//!   cleared and drawn only over the cones', sheets' and casters' texels
+//!   (`regions::silhouette_areas`): every texel read holds what the whole pass writes.
+//! - `FinalPass::split` chooses which pixels run the final shader and which get 1 without
+//!   a lookup; where the shader runs its inputs are the whole pass's (bit for bit).
+//! - Culling leaves out objects outside the light's frustum (light passes) and the
+//!   camera's (final pass): they write no texel a lookup reads and no pixel.
+//! - Reuse skips the light passes when the light, its radius and every object are
+//!   unchanged: the buffers then hold what the same passes wrote.
+//!
 //! ## Known artefacts
 //! No inner penumbra: the umbra is the hard shadow at every light radius, so shadows are too
 //! dark and too large for big lights or far casters (Sec. 4.1). Overlapping penumbrae take

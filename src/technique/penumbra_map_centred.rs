@@ -76,6 +76,27 @@
 //!    and inner cones and sheets), and both light buffers cleared and drawn as the paper
 //!    form's (pass 1).
 //!
+//! ## Equations: what a porter ports
+//! - The geometry, both sides: `build_penumbra_sides` (src/silhouette/penumbra.rs).
+//! - The disc-chord profile v(s): `disc_chord` (glsl/common/penumbra.glsl).
+//! - The outer fraction s = I Z_P / Z_F: `main` of glsl/penumbra_map_centred/outer.frag,
+//!   over the paper form's `eq1_depths` and `blocker_floor` (glsl/penumbra_map/wedge.glsl).
+//! - The inner side: `main` of glsl/penumbra_map_centred/inner.frag, with
+//!   `receiver_beyond`, `blocked_at` (glsl/common/inner_receiver.glsl) and
+//!   `far_edge_texels` (glsl/common/inner_march.glsl).
+//! - The final combination: `visibility` (glsl/penumbra_map_centred/final.frag).
+//!
+//! Where the speed layer (`--plain` turns it off, `Settings::effective`) may change
+//! these functions' inputs:
+//! - Light areas (`regions::silhouette_areas`, grown by `inner_read_texels` for the inner
+//!   fragments' receiver samples): every texel read holds what the whole passes write.
+//! - `FinalPass::split` chooses which pixels run the final shader and which get 1 without
+//!   a lookup; where the shader runs its inputs are the whole pass's (bit for bit).
+//! - Culling leaves out objects outside the light's frustum (light passes) and the
+//!   camera's (final pass): they write no texel a lookup reads and no pixel.
+//! - Reuse skips the light passes when the light, its radius and every object are
+//!   unchanged: the buffers then hold what the same passes wrote.
+//!
 //! ## Combining edges (what the centring approximates)
 //! - Several outer wedges at a texel: the darkest (MIN), as the paper. Exact for one edge;
 //!   two blockers' overlapping outer penumbrae are never lighter than either alone (the

@@ -123,6 +123,25 @@
 //!    `bunny`; a CPU driver pays both of the shader's paths on every pixel. On a GPU a
 //!    porter can draw the whole pass with this shader: same image.
 //!
+//! ## Equations: what a porter ports
+//! - (P1) the drop shadow's projection: `PlaneFrame::drop_shadow`.
+//! - (P2) the cone radius: `PlaneFrame::vertex_disc`.
+//! - (P3) the sheets and the cones' fans: `PlateauBuilder::sheet` and `cone`, per
+//!   silhouette `PlateauBuilder::silhouette`.
+//! - (P4) and the on-plane test: `visibility` (glsl/plateaus/final.frag).
+//!
+//! Where the speed layer (`--plain` turns it off, `Settings::effective`) may change
+//! these functions' inputs:
+//! - The plateau texture and its z-buffer are cleared and drawn only over the texels the
+//!   final pass can read (`texture_texels`), the shadow map over the casters' boxes: every
+//!   texel read holds what the whole passes write.
+//! - `FinalPass::split` chooses which pixels run the final shader and which get 1 without
+//!   a lookup; where the shader runs its inputs are the whole pass's (bit for bit).
+//! - Culling leaves out objects outside the light's frustum (light passes) and the
+//!   camera's (final pass): they write no texel a lookup reads and no pixel.
+//! - Reuse skips the light passes when the light, its radius and every object are
+//!   unchanged: the buffers then hold what the same passes wrote.
+//!
 //! ## Known artefacts
 //! Umbrae are the full hard shadow at any light size: no inner penumbra, shadows too dark and
 //! too large for big lights (Sec. 4). Cones are circles, exact only for a disc light parallel

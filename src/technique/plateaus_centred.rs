@@ -51,6 +51,26 @@
 //!    matches hard up to the texel grids' aliasing). At R > 0 split as the paper form's
 //!    (`Plateaus::shadow_regions`): the inner cones and sheets lie in the same discs' hull.
 //!
+//! ## Equations: what a porter ports
+//! - (P1)-(P3), both sides: the paper form's functions (src/technique/plateaus.rs), the
+//!   inner sheets by the same builder with `Side::Inner`.
+//! - The disc-chord profile v(s): `disc_chord` (glsl/common/penumbra.glsl).
+//! - The inner side: `main` of glsl/plateaus_centred/inner.frag, with `far_edge_texels`
+//!   (glsl/common/inner_march.glsl).
+//! - The final combination: `visibility` (glsl/plateaus_centred/final.frag).
+//!
+//! Where the speed layer (`--plain` turns it off, `Settings::effective`) may change
+//! these functions' inputs:
+//! - The plateau, coverage and inner images are cleared and drawn only over the texels the
+//!   final pass can read, as the paper form's: every texel read holds what the whole passes
+//!   write.
+//! - `FinalPass::split` chooses which pixels run the final shader and which get 1 without
+//!   a lookup; where the shader runs its inputs are the whole pass's (bit for bit).
+//! - Culling leaves out objects outside the light's frustum (light passes) and the
+//!   camera's (final pass): they write no texel a lookup reads and no pixel.
+//! - Reuse skips the light passes when the light, its radius and every object are
+//!   unchanged: the buffers then hold what the same passes wrote.
+//!
 //! ## Combining edges (what the centring approximates)
 //! - Outer: the darkest (LESS on depth t), as the paper. Exact for one edge; two casters'
 //!   overlapping outer penumbrae are never lighter than either alone.

@@ -28,6 +28,12 @@
 //! Step 1 and step 4 rasterise the same triangles with the same matrices, so each pixel of
 //! step 4 reads the value computed at its own surface point.
 //!
+//! ## What a porter ports
+//! A ground truth, not a technique to port: the visibility of one point is
+//! `reference::visibility_at` (src/reference.rs; the disc's samples `concentric_disc`, the
+//! ray start off the surface `starts`). The speed layer only reuses step 2's result on a
+//! still frame (off under `--plain`); the on-disk cache holds the same inputs' exact result.
+//!
 //! ## Known artefacts
 //! Noise of the stratified estimate (256 samples: standard deviation well under 1/256 * 16
 //! in penumbrae); seconds to minutes per new view on a CPU (cached afterwards).

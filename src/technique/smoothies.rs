@@ -142,6 +142,30 @@
 //! of glslang's: glsl/smoothies/smoothie.frag.spvasm and final.frag.spvasm, same bindings,
 //! same image within one 8-bit level (tests/spirv.rs); each change is commented in the file.
 //!
+//! ## Equations: what a porter ports
+//! - The smoothie geometry (Sec. 3, Fig. 2 and 6; Volokh's corners): the reference
+//!   construction `build_smoothies_width` (src/silhouette/smoothie.rs).
+//! - The width t (see "The width t"): `Width::at` (src/silhouette/smoothie.rs).
+//! - Eq. 1 (alpha' = alpha / (1 - b/r)) and which fragments are written:
+//!   `smoothie_alpha` (glsl/smoothies/alpha.glsl).
+//! - Step 5 (blocker, smoothie, lit per texel, bilinear weights, falloff): `visibility`
+//!   (glsl/smoothies/final.frag).
+//!
+//! Where the speed layer (`--plain` turns it off, `Settings::effective`) may change
+//! these functions' inputs:
+//! - Shortened smoothies (`records::Extent`): the quads and fans stop where every
+//!   fragment further out is discarded; t and 1/b, interpolated over other triangles,
+//!   round differently (visibility within 1e-5, tests/plain.rs).
+//! - The shadow map holds g only where the smoothie pass reads it (1e30 elsewhere), and
+//!   both buffers are cleared and drawn only over the smoothies' and casters' texels
+//!   (`regions::silhouette_areas`): every texel read holds what the whole pass writes.
+//! - `FinalPass::split` chooses which pixels run the final shader and which get 1 without
+//!   a lookup; where the shader runs its inputs are the whole pass's (bit for bit).
+//! - Culling leaves out objects outside the light's frustum (light passes) and the
+//!   camera's (final pass): they write no texel a lookup reads and no pixel.
+//! - Reuse skips the light passes when the light, its radius and every object are
+//!   unchanged: the buffers then hold what the same passes wrote.
+//!
 //! ## The width t
 //! t is in light-uv units (a fraction of the shadow map's side). `--smoothie-t` fixes it
 //! (the paper's knob, the same everywhere); by default it is calibrated from the light

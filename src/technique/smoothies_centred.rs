@@ -107,6 +107,31 @@
 //!    and the shader returns 1, so the timed pass runs it only where a shadow can fall, as
 //!    the paper form's does (src/technique/smoothies.rs, pass 3).
 //!
+//! ## Equations: what a porter ports
+//! - The geometry, both sides: `build_smoothies_side` (src/silhouette/smoothie.rs); the
+//!   width t: `Width::at`.
+//! - The disc-chord profile v(s): `disc_chord` (glsl/common/penumbra.glsl).
+//! - The outer side (s = Eq. 1's alpha', and which fragments are written): `smoothie_alpha`
+//!   (glsl/smoothies/alpha.glsl), called by glsl/smoothies_centred/outer.frag.
+//! - The inner side: `main` of glsl/smoothies_centred/inner.frag, with the hidden receiver
+//!   `receiver_beyond` and `blocked_at` (glsl/common/inner_receiver.glsl) and the thin
+//!   blocker's far edge `far_edge_texels` (glsl/common/inner_march.glsl).
+//! - The final combination: `visibility` (glsl/smoothies_centred/final.frag).
+//!
+//! Where the speed layer (`--plain` turns it off, `Settings::effective`) may change
+//! these functions' inputs:
+//! - Shortened inner smoothies (`records::Extent`, `inner_extent_depth`): drawn only as
+//!   wide as an inner penumbra can be; t and 1/b, interpolated over other triangles, round
+//!   differently (visibility within 2e-4, tests/plain.rs).
+//! - Light areas (`regions::silhouette_areas`), as the paper form's: every texel read holds
+//!   what the whole passes write.
+//! - `FinalPass::split` chooses which pixels run the final shader and which get 1 without
+//!   a lookup; where the shader runs its inputs are the whole pass's (bit for bit).
+//! - Culling leaves out objects outside the light's frustum (light passes) and the
+//!   camera's (final pass): they write no texel a lookup reads and no pixel.
+//! - Reuse skips the light passes when the light, its radius and every object are
+//!   unchanged: the buffers then hold what the same passes wrote.
+//!
 //! ## Combining edges (what the centring approximates)
 //! - Several outer smoothies at a texel: the darkest (MIN), as the paper. Exact for one
 //!   edge; two blockers' overlapping outer penumbrae are never lighter than either alone,

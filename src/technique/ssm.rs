@@ -75,6 +75,22 @@
 //!    max(front SSM, back SSM) per layer; occlusion clamped to \[0,1\] per texel, bilinear
 //!    weights; visibility = 1 - occlusion.
 //!
+//! ## Equations: what a porter ports
+//! - The penumbra extent (Sec. 3.3, Fig. 7-8): `main` of glsl/ssm/soft_shadow.vert.
+//! - The back-projection of a micro-patch (Sec. 3.4, Fig. 9; Sec. 4.2's overlaps):
+//!   `occlusion` (glsl/ssm/soft_shadow.frag).
+//! - The final lookup (Sec. 3.1; ssm2's max, Sec. 3.5): `visibility` (glsl/ssm/final.glsl),
+//!   with `ssm_offset_point`, `ssm_layers` and `ssm_footprint` (glsl/ssm/footprint.glsl).
+//!
+//! Where the speed layer (`--plain` turns it off, `Settings::effective`) may change these
+//! functions' inputs:
+//! - Culling leaves out objects outside the light's frustum (light passes) and the
+//!   camera's (final pass): they write no texel a lookup reads and no pixel.
+//! - Reuse skips the light passes when the light, its radius and every object are
+//!   unchanged: the buffers then hold what the same passes wrote.
+//!
+//! Nothing else: every map is drawn whole and the final pass is one whole pass.
+//!
 //! ## Frame constants
 //! `frame.technique` = (L, N = occluder_res, 1/N, self-occlusion guard in texels).
 //!

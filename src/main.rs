@@ -152,7 +152,7 @@ struct RenderArgs {
     /// PCF kernel: boxN (N odd, 1..=15) or poissonN (N in 1..=64).
     #[arg(long, default_value_t = Settings::default().pcf_kernel)]
     pcf_kernel: PcfKernel,
-    /// Occluder map side of the soft shadow maps (ssm, ssm2).
+    /// Occluder map side of the soft shadow maps (ssm, ssm2 and their bitmask forms).
     #[arg(long, default_value_t = Settings::default().occluder_res, allow_negative_numbers = true)]
     occluder_res: u32,
     /// Soft shadow map accumulation format (r16f loses precision above ~256^2 occluder texels).

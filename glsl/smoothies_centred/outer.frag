@@ -1,5 +1,6 @@
 #version 450
 #extension GL_GOOGLE_include_directive : require
+#include "common/count.glsl"  // by name: build.rs also builds it counted (-DCOUNT_LIGHT)
 // smoothies-centred/smoothie, outer smoothies: the paper's smoothie fragment, with the
 // paper form's own decision (smoothies/alpha.glsl `smoothie_alpha`: receiver r = the shadow
 // map's g at this texel; written only where the smoothie darkens a surface) and the

@@ -41,6 +41,7 @@
 //!   camera's (final pass): they write no texel a lookup reads and no pixel.
 //! - Reuse skips the light passes when the light, its radius and every object are
 //!   unchanged: the buffers then hold what the same passes wrote.
+//!
 //! Nothing else: the final pass is one whole pass.
 //!
 //! ## Known artefacts

@@ -247,6 +247,14 @@ pub struct GpuSilhouettes {
     rebuilt: usize,
 }
 
+/// What a frame's GPU silhouette pass builds for a light (`GpuSilhouettes::frame_pass`):
+/// smoothies of a width, or penumbra-map cones and sheets for a key.
+#[derive(Clone, Copy, Debug)]
+pub enum Emit<'a> {
+    Smoothies(&'a LightView, Width),
+    Penumbra(&'a LightView, PenumbraKey),
+}
+
 impl GpuSilhouettes {
     /// Uploads the adjacency of every caster (`adjacency` zips with `objects`), sized for
     /// the smoothies of `light` with `width`. `None` when no caster has an edge.
@@ -524,9 +532,9 @@ impl GpuSilhouettes {
         self.rebuilt
     }
 
-    /// A frame's silhouette pass `name` (either emitter): `prepare`, then skipped when
-    /// `dirty` counts no caster whose geometry is stale (unless `force`), else `record`ed in
-    /// its own pass, with the casters it rebuilt out of `casters` reported.
+    /// A frame's silhouette pass `name` for `emit`: `prepare`, then skipped when no caster's
+    /// geometry is stale (unless `force`), else recorded in its own pass, with the casters it
+    /// rebuilt out of `casters` reported.
     #[allow(clippy::too_many_arguments)]
     pub fn frame_pass(
         &mut self,
@@ -535,15 +543,22 @@ impl GpuSilhouettes {
         name: &str,
         casters: usize,
         force: bool,
-        dirty: impl FnOnce(&Self) -> usize,
-        record: impl FnOnce(&mut Self, &mut Recorder<'_>) -> Result<()>,
+        objects: &[Object],
+        emit: Emit<'_>,
     ) -> Result<()> {
         self.prepare(ctx)?;
-        if !force && dirty(self) == 0 {
+        let stale = match emit {
+            Emit::Smoothies(light, width) => self.dirty(objects, light, width),
+            Emit::Penumbra(_, key) => self.dirty_penumbra(objects, key),
+        };
+        if !force && stale == 0 {
             rec.skip(name, "light and casters unchanged");
             return Ok(());
         }
-        rec.pass(name, |rec| record(self, rec))?;
+        rec.pass(name, |rec| match emit {
+            Emit::Smoothies(light, width) => self.record(rec, objects, light, width, force),
+            Emit::Penumbra(light, key) => self.record_penumbra(rec, objects, light, key, force),
+        })?;
         rec.rebuilt(name, self.rebuilt, casters);
         Ok(())
     }

@@ -144,7 +144,7 @@ use crate::gpu::passes::{
 use crate::scene::LightView;
 use crate::settings::SilhouettePath;
 use crate::shaders;
-use crate::silhouette::gpu::GpuSilhouettes;
+use crate::silhouette::gpu::{Emit, GpuSilhouettes};
 use crate::silhouette::penumbra::{build_penumbra_sides, PenumbraKey, PenumbraVertex, Side};
 use crate::silhouette::{self, Adjacency};
 use crate::vk::{
@@ -555,16 +555,9 @@ impl Technique for PenumbraMap {
             self.vertices.upload::<PenumbraVertex>(ctx, &[])?;
             self.inner_vertices.upload::<PenumbraVertex>(ctx, &[])?;
         } else if let Some(gpu) = self.gpu_silhouettes.as_mut() {
+            let emit = Emit::Penumbra(frame.light, key);
             let objects = &frame.scene.objects;
-            gpu.frame_pass(
-                ctx,
-                rec,
-                names.silhouettes,
-                casters,
-                force,
-                |gpu| gpu.dirty_penumbra(objects, key),
-                |gpu, rec| gpu.record_penumbra(rec, objects, frame.light, key, force),
-            )?;
+            gpu.frame_pass(ctx, rec, names.silhouettes, casters, force, objects, emit)?;
         } else {
             let rebuilt = rec.cpu(names.silhouettes, || self.build_geometry(frame, key, force));
             rec.rebuilt(names.silhouettes, rebuilt, casters);

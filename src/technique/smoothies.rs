@@ -198,7 +198,7 @@ use crate::gpu::passes::{
 use crate::scene::{LightView, Scene};
 use crate::settings::SilhouettePath;
 use crate::shaders::{self, constants as k};
-use crate::silhouette::gpu::GpuSilhouettes;
+use crate::silhouette::gpu::{Emit, GpuSilhouettes};
 use crate::silhouette::smoothie::records::{build_records, Extent, SmoothieRecords};
 use crate::silhouette::smoothie::{GeometryKey, SmoothieVertex, Width};
 use crate::silhouette::{self, Adjacency, Side};
@@ -845,16 +845,9 @@ impl Technique for Smoothies {
         if !self.draw_smoothies {
             rec.skip(names.silhouettes, "light radius 0: hard shadows");
         } else if let Some(gpu) = self.gpu_silhouettes.as_mut() {
+            let emit = Emit::Smoothies(frame.light, width);
             let objects = &frame.scene.objects;
-            gpu.frame_pass(
-                ctx,
-                rec,
-                names.silhouettes,
-                casters,
-                force,
-                |gpu| gpu.dirty(objects, frame.light, width),
-                |gpu, rec| gpu.record(rec, objects, frame.light, width, force),
-            )?;
+            gpu.frame_pass(ctx, rec, names.silhouettes, casters, force, objects, emit)?;
         } else if self.path == SilhouettePath::Cpu {
             let rebuilt = rec.cpu(names.silhouettes, || {
                 self.build_geometry(frame, width, force)

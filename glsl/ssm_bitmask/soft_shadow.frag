@@ -23,9 +23,10 @@ layout(set = 0, binding = 4, std430) readonly buffer Bound { uint zmax_bits; } b
 // samples left of the directed line (src/technique/ssm_bitmask.rs, `edge_table`).
 layout(set = 0, binding = 5, std430) readonly buffer Table { uvec4 masks[]; } table;
 
-layout(location = 0) flat in vec3 v_patch;
+layout(location = 0) flat in vec3 v_patch;    // the quad's first texel, its guard depth
 layout(location = 1) flat in vec4 v_corner_depth;
 layout(location = 2) flat in float v_reach;   // see soft_shadow.vert
+layout(location = 3) flat in vec2 v_size;     // the quad's side in texels (1: one texel)
 
 layout(location = 0) out uvec4 o_front;   // samples hidden from the nearest receiver
 layout(location = 1) out uvec4 o_pure;    // samples hidden from the pure receiver behind it
@@ -72,7 +73,7 @@ uvec4 hidden(float zr, vec2 r) {
     if (SSMB_RADIUS <= 0.0) {
         // Point light: the quad hides the light iff its texel covers the receiver's ray.
         vec2 d0 = v_patch.xy - r;
-        bool covers = all(lessThanEqual(d0, vec2(0.0))) && all(greaterThan(d0 + 1.0, vec2(0.0)));
+        bool covers = all(lessThanEqual(d0, vec2(0.0))) && all(greaterThan(d0 + v_size, vec2(0.0)));
         return covers ? ALL_SAMPLES : NO_SAMPLES;
     }
     // The quad was drawn for the farthest receiver; a nearer one is reached by less. The
@@ -80,7 +81,7 @@ uvec4 hidden(float zr, vec2 r) {
     vec4 zc = v_corner_depth;
     float znear = min(zo, min(min(zc.x, zc.y), min(zc.z, zc.w)));
     float h = v_reach * (1.0 / znear - 1.0 / zr) + 1.0;
-    vec2 outside = max(v_patch.xy - r, r - (v_patch.xy + 1.0));
+    vec2 outside = max(v_patch.xy - r, r - (v_patch.xy + v_size));
     if (any(greaterThan(outside, vec2(h)))) return NO_SAMPLES;
     vec3 p = light_frame(r, zr);
     float dist = length(p);
@@ -93,7 +94,7 @@ uvec4 hidden(float zr, vec2 r) {
     vec2 c[4];
     vec2 lo = vec2(1e30), hi = vec2(-1e30);
     for (int k = 0; k < 4; ++k) {
-        vec2 px = v_patch.xy + vec2(float(k & 1), float(k >> 1));
+        vec2 px = v_patch.xy + vec2(float(k & 1), float(k >> 1)) * v_size;
         vec3 dq = light_frame(px, min(v_corner_depth[k], zcap)) - p;
         float den = max(dot(dq, w), 1e-6 * dist);
         c[k] = vec2(dot(dq, u), dot(dq, v)) * (dist / (den * SSMB_RADIUS));

@@ -146,6 +146,12 @@ impl<'c> Renderer<'c> {
         self.technique.name()
     }
 
+    /// The soft shadow maps' micro-patch block side of the last frame
+    /// (`Technique::micro_patch_step`).
+    pub fn micro_patch_step(&self) -> Option<crate::technique::ssm::PatchStepReport> {
+        self.technique.micro_patch_step()
+    }
+
     /// Where the last frame's timed final pass ran the technique's shader
     /// (`Technique::shadowed`).
     pub fn shadowed(&self) -> Option<&crate::gpu::passes::Shadowed> {
@@ -208,6 +214,9 @@ impl<'c> Renderer<'c> {
             technique.record_final(ctx, rec, &input)
         })?;
         self.last_light_key = light_key;
+        if let Some(w) = self.technique.frame_warning()? {
+            eprintln!("warning: {w}");
+        }
         let mut timings = timings;
         timings.image_pixels = self.settings.width as u64 * self.settings.height as u64;
         timings.map_texels = self.settings.shadow_res as u64 * self.settings.shadow_res as u64;

@@ -9,7 +9,7 @@
 //! *Bitmask Soft Shadows*, CGF 26(3) 2007): per soft-shadow-map texel one bit per light
 //! sample, set when some micro-patch hides that sample, OR-combined; micro-quads that join
 //! neighbouring texels close the gaps. Same occluder, receiver and bound passes as `ssm`
-//! (shared code: `ssm::LightInputs`, passes 1-4 of both).
+//! (shared code: `ssm::LightInputs`, passes 1-5 of both).
 //!
 //! ## Resolution rule: light samples and bits
 //! 128 samples on the disc light, one bit each in a `uvec4` (R32G32B32A32_UINT attachment):
@@ -62,9 +62,12 @@
 //!    D32_SFLOAT clear 0.0, compare GREATER, no culling: the farthest caster surfaces.
 //! 3. `ssm-bitmask/receiver_map` — as ssm's: two R32_SFLOAT layers (nearest receiver,
 //!    nearest pure receiver), clear 1e30, blend MIN (`glsl/ssm/receiver_*.frag`).
-//! 4. `ssm-bitmask/receiver_bound` — as ssm's: z_max of both layers into a 4-byte buffer
+//! 4. `ssm-bitmask/receiver_bound` — as ssm's: z_max of both layers into a storage buffer
 //!    (`glsl/ssm/receiver_bound.comp`).
-//! 5. `ssm-bitmask/soft_shadow` — one instanced draw of N^2 instances x 4 vertices (triangle
+//! 5. `ssm-bitmask/micro_patch_step` — as ssm's (`glsl/ssm/patch_step.comp`) with this
+//!    form's extents: the side s of the texel blocks drawn as one micro-quad, 1 unless the
+//!    quads would shade more than N^4 / 64 fragments (then a `warning:` line names the bound).
+//! 6. `ssm-bitmask/soft_shadow` — one instanced draw of N^2 instances x 4 vertices (triangle
 //!    strip), no vertex buffer. Two colour attachments R32G32B32A32_UINT (layer 0, layer 1),
 //!    clear 0, **logic op OR** (the `logicOp` device feature; blending off).
 //!    `glsl/ssm_bitmask/soft_shadow.vert` reads the occluder map's 3x3 neighbourhood and
@@ -77,12 +80,14 @@
 //!    its texel, the bound and the edge table; per layer it skips quads within the self-
 //!    occlusion guard (as ssm: 1.5 texels of slope) and receivers beyond the reach at their
 //!    own depth, projects the four corners onto the disc facing the receiver and writes the
-//!    mask of the samples inside the two triangles.
-//! 6. `ssm2-bitmask/soft_shadow_back` (two-sided only) — pass 5 with the back occluder map,
+//!    mask of the samples inside the two triangles. With s > 1 instance k draws block k of
+//!    s x s texels: the bounding rectangle of its occupied texels, each corner at the depth of
+//!    the occupied texel nearest it, its guard depth the block's farthest.
+//! 7. `ssm2-bitmask/soft_shadow_back` (two-sided only) — pass 6 with the back occluder map,
 //!    loading (not clearing) the same two attachments: the back micro-quads are ORed into the
 //!    same masks (ssm2 keeps two maps and takes their max, an approximation a union does not
 //!    need).
-//! 7. `ssm-bitmask/final` — `FinalPass` with `glsl/ssm_bitmask/final.frag` (both forms): as
+//! 8. `ssm-bitmask/final` — `FinalPass` with `glsl/ssm_bitmask/final.frag` (both forms): as
 //!    ssm's final pass (2x2 footprint of the receiver map and the masks, layer 0 for the
 //!    texel's own receiver, layer 1 behind it, bilinear weights) but the footprint is read at
 //!    the point itself, **not at a normal-offset point**: a mask holds the visibility of the
@@ -107,7 +112,8 @@
 //! Accuracy is then limited by the occluder map's resolution (`--occluder-res`, 256 by
 //! default, shared with ssm): at 512 mae_lit is at most pcss's on cylinder, bunny, primitives
 //! and fence (tests/ssm_bitmask.rs), but the micro-quad pass grows as N^4 (N^2 quads, each
-//! extent's area in texels N^2): about 10x the 256 pass on lavapipe.
+//! extent's area in texels N^2): about 10x the 256 pass on lavapipe. Pass 5 holds it to
+//! N^4 / 64 fragments, which only narrow cones under wide lights reach (tests/ssm_bitmask.rs).
 //!
 //! ## Known artefacts
 //! - Only what the light's centre sees of the occluders is discretised (ssm's Sec. 5.1.1):
@@ -127,7 +133,7 @@
 //!   where `hard`'s offset point is lit (docs/DESIGN.md's mae_lit leaves these pixels out).
 
 use super::hard;
-use super::ssm::{ssm_uniforms, LightInputs, MAP_USAGE, SELF_GUARD_TEXELS};
+use super::ssm::{ssm_uniforms, LightInputs, PatchStepReport, MAP_USAGE, SELF_GUARD_TEXELS};
 use super::{shadow_map_buffer, FrameInput, LightBuffer, Technique, TechniqueInfo, TechniqueInit};
 use crate::gpu::passes::{FinalPass, FinalShader};
 use crate::shaders::{self, constants as k};
@@ -166,6 +172,13 @@ const CONNECT_TEXELS: f32 = 4.0;
 
 /// Margin on the disc's reach on the map's image plane (the extents must cover it).
 const EXTENT_MARGIN: f32 = 1.05;
+
+/// The disc's reach on the map's image plane at the frustum's corner (`SSMB_EXTENT_RADIUS`):
+/// R / cos(alpha) there, with a margin.
+fn extent_radius(frame: &FrameInput<'_>) -> f32 {
+    let t = (frame.light.fov_deg.to_radians() * 0.5).tan();
+    EXTENT_MARGIN * frame.light_radius * (1.0 + 2.0 * t * t).sqrt()
+}
 
 /// The mask format: 128 bits.
 const MASK_FORMAT: Format = Format::R32G32B32A32_UINT;
@@ -272,7 +285,7 @@ impl SsmBitmask {
         }
         let nearest = Sampler::new(ctx, Filter::Nearest).context("ssm-bitmask sampler")?;
 
-        // Passes 1-4, as ssm's.
+        // Passes 1-5, as ssm's.
         let inputs = LightInputs::new(init, name, two_sided, &nearest)?;
         let LightInputs {
             occluder,
@@ -282,7 +295,7 @@ impl SsmBitmask {
             ..
         } = &inputs;
 
-        // Passes 5-6: the micro-quads of each occluder map into one pair of masks.
+        // Passes 6-7: the micro-quads of each occluder map into one pair of masks.
         let mask = |what: &str| {
             Image::new_2d(
                 ctx,
@@ -353,7 +366,7 @@ impl SsmBitmask {
         )
         .context("ssm-bitmask micro-quad pipeline")?;
 
-        // Pass 7.
+        // Pass 8.
         let final_name = format!("{name}/final");
         let final_set = DescriptorSet::new(
             ctx,
@@ -414,11 +427,10 @@ impl Technique for SsmBitmask {
     fn uniforms(&self, frame: &FrameInput<'_>) -> [[f32; 4]; 2] {
         let [first, _] = ssm_uniforms(self.res, frame);
         debug_assert_eq!(first[k::SSM_SELF_GUARD_TEXELS], SELF_GUARD_TEXELS);
-        let t = (frame.light.fov_deg.to_radians() * 0.5).tan();
         let r = frame.light_radius;
         let mut second = [0.0; 4];
         second[k::SSMB_RADIUS - 4] = r;
-        second[k::SSMB_EXTENT_RADIUS - 4] = EXTENT_MARGIN * r * (1.0 + 2.0 * t * t).sqrt();
+        second[k::SSMB_EXTENT_RADIUS - 4] = extent_radius(frame);
         second[k::SSMB_CONNECT_TEXELS - 4] = CONNECT_TEXELS;
         second[k::SSMB_LUT_ANGLES - 4] = TABLE_ANGLES as f32;
         [first, second]
@@ -430,7 +442,11 @@ impl Technique for SsmBitmask {
         rec: &mut Recorder<'_>,
         frame: &FrameInput<'_>,
     ) -> Result<()> {
-        self.inputs.record(rec, frame)?;
+        // soft_shadow.vert grows each quad by at most SSMB_EXTENT_RADIUS N / (2 tan(fov/2))
+        // (1/z_near - 1/z_max) texels.
+        let t = (frame.light.fov_deg.to_radians() * 0.5).tan();
+        let reach = extent_radius(frame) * self.res as f32 / (2.0 * t);
+        self.inputs.record(rec, frame, reach)?;
         rec.pass(&self.front.name, |rec| {
             self.record_quads(rec, &self.front, true);
             Ok(())
@@ -442,6 +458,14 @@ impl Technique for SsmBitmask {
             })?;
         }
         Ok(())
+    }
+
+    fn frame_warning(&mut self) -> Result<Option<String>> {
+        self.inputs.step_warning()
+    }
+
+    fn micro_patch_step(&self) -> Option<PatchStepReport> {
+        self.inputs.step_report().ok()
     }
 
     fn light_passes(&self) -> Vec<String> {

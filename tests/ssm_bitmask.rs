@@ -366,13 +366,14 @@ fn one_patch_per_texel_work(r: &mut softshadow::render::Renderer, reach: f64) ->
     (work, texels)
 }
 
-/// The micro-patch work of a narrow cone is bounded (counted, not timed). At 1 degree every
-/// micro-patch's penumbra reaches past the whole map: one patch per texel, as before the
-/// bound, shades N^2 fragments per occupied texel (worked out here from the maps). The pass
-/// now shades at most N^4 / 64 (the budget, glsl/ssm/patch_step.comp) times the sparse
-/// blocks' slack (measured 1.0x, allowed 2x), at least 10x fewer, with blocks of more than
-/// one texel; and one warning line names the bound. Built-in `cylinder` at an occluder map
-/// of 512 (the most micro-patch work of the built-ins) stays one patch per texel.
+/// The micro-patch work of a narrow cone is bounded (counted, not timed). At 1 degree the
+/// micro-patches' penumbrae span much of the map: one patch per texel, as before the bound,
+/// shades (worked out here from the maps read back) 1.7e9 fragments for ssm over 65530
+/// texels, 26 N^4 / 64. The pass now shades at most N^4 / 64 (the budget,
+/// glsl/ssm/patch_step.comp) times the sparse blocks' slack (measured 0.46x for ssm, 0.58x
+/// for ssm-bitmask; allowed 2x), at least 10x fewer, in blocks of more than one texel.
+/// Built-in `cylinder` at an occluder map of 512 (the most micro-patch work of the
+/// built-ins) stays one patch per texel, its estimate under a quarter of the budget.
 #[test]
 fn narrow_cone_micro_patch_work_is_bounded() {
     let gpu = Gpu::new();
@@ -408,7 +409,6 @@ fn narrow_cone_micro_patch_work_is_bounded() {
         let step = r.micro_patch_step().unwrap();
         eprintln!("{technique} at 1 degree: {frags} fragments, one patch per texel {old:.3e} over {texels} texels, {step:?}");
         assert!(texels as f64 > n * n / 4.0, "{technique}: {texels} texels");
-        assert!(old >= texels as f64 * n * n * 0.9, "{technique}: {old}");
         assert!(step.step > 1, "{technique}: {step:?}");
         assert!(frags <= 2.0 * n.powi(4) / 64.0, "{technique}: {frags}");
         assert!(frags * 10.0 <= old, "{technique}: {frags} against {old}");
@@ -432,8 +432,12 @@ fn narrow_cone_micro_patch_work_is_bounded() {
 }
 
 /// 1, 2 and 10 degree cones render (micro-patches in blocks at 1 and 2), and the shadow is
-/// where the reference has it: at 2 and 10 degrees mae_lit against the reference stays far
-/// below hard's, and the reference's umbra is dark.
+/// where the reference has it: at 2 and 10 degrees mae_lit against the reference stays below
+/// half hard's (measured, 2 degrees: ssm 0.029, ssm-bitmask 0.026, one patch per texel
+/// 0.029 and 0.025, hard 0.125; 10 degrees, one patch per texel: 0.010, 0.004, hard 0.138),
+/// and the reference's umbra is dark. At 1 degree the light's cone sees only part of the
+/// box (what lies outside it is unknown to every shadow map; ssm with one patch per texel
+/// measures the same 0.199): most of the umbra dark (measured 1346 and 1407 of 2146).
 #[test]
 fn narrow_cone_shadow_is_sane() {
     let gpu = Gpu::new();
@@ -463,8 +467,8 @@ fn narrow_cone_shadow_is_sane() {
                 eh.mae_lit,
                 umbra.len()
             );
-            assert!(e.lit_pixels > 1500, "{technique} {fov} deg: {e:?}");
-            assert!(e.mae_lit < 0.3, "{technique} {fov} deg: {e:?}");
+            assert!(e.lit_pixels > 400, "{technique} {fov} deg: {e:?}");
+            assert!(e.mae_lit < 0.25, "{technique} {fov} deg: {e:?}");
             assert!(
                 umbra.len() > 100,
                 "{technique} {fov} deg: umbra {}",
@@ -475,6 +479,9 @@ fn narrow_cone_shadow_is_sane() {
                 "{technique} {fov} deg: {dark} of {} dark",
                 umbra.len()
             );
+            if fov == 2.0 {
+                assert!(e.mae_lit < 0.04, "{technique} {fov} deg: {e:?}");
+            }
             if fov > 1.0 {
                 assert!(
                     e.mae_lit < 0.5 * eh.mae_lit,
@@ -484,4 +491,51 @@ fn narrow_cone_shadow_is_sane() {
         }
     }
     gpu.assert_clean();
+}
+
+/// `render` names the bound on one `warning:` line when it changed the result (1 degree:
+/// blocks of 8 x 8 texels, as measured in `narrow_cone_micro_patch_work_is_bounded`) and
+/// prints nothing on stderr when it did not (10 degrees: one patch per texel).
+#[test]
+fn the_bound_is_named_on_one_warning_line() {
+    let dir = std::env::temp_dir().join(format!("softshadow-narrow-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    for (fov, warned) in [(1.0f32, true), (10.0, false)] {
+        let scene = dir.join(format!("cone{fov}.toml"));
+        let text = format!(
+            "[[object]]\nprimitive = \"box\"\n[[object]]\nprimitive = \"plane\"\nrole = \"receiver\"\n\
+             [light]\nposition = [-3, 8, 2]\ntarget = [0.6, 0, -0.55]\nradius = 1\nfov_deg = {fov}\n"
+        );
+        std::fs::write(&scene, text).unwrap();
+        let out = dir.join("o.png");
+        let o = common::softshadow(&[
+            "render",
+            "--scene",
+            scene.to_str().unwrap(),
+            "--technique",
+            "ssm-bitmask",
+            "--width",
+            "32",
+            "--height",
+            "32",
+            "--out",
+            out.to_str().unwrap(),
+        ]);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(o.status.success(), "{fov} deg: {err}");
+        let lines: Vec<&str> = err.lines().collect();
+        if warned {
+            assert_eq!(lines.len(), 1, "{fov} deg: {err}");
+            assert!(
+                lines[0].starts_with("warning: ssm-bitmask: ")
+                    && lines[0].contains("bound of")
+                    && lines[0].contains("occluder-res^4 / 64")
+                    && lines[0].contains("blocks of 8 x 8"),
+                "{fov} deg: {err}"
+            );
+        } else {
+            assert!(lines.is_empty(), "{fov} deg: {err}");
+        }
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
 }

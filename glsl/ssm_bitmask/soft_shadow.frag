@@ -70,12 +70,9 @@ uvec4 hidden(float zr, vec2 r) {
     // the receiver is the receiver's own surface.
     float guard = zr * (frame.light_frustum.w + SSM_SELF_GUARD_TEXELS * texel);
     if (zr - zo <= guard) return NO_SAMPLES;
-    if (SSMB_RADIUS <= 0.0) {
-        // Point light: the quad hides the light iff its texel covers the receiver's ray.
-        vec2 d0 = v_patch.xy - r;
-        bool covers = all(lessThanEqual(d0, vec2(0.0))) && all(greaterThan(d0 + v_size, vec2(0.0)));
-        return covers ? ALL_SAMPLES : NO_SAMPLES;
-    }
+    // R > 0 here: at R = 0 the technique is built as `hard` (src/technique/ssm_bitmask.rs,
+    // `create_either`, and `record_light` refuses R = 0), so the projection below never
+    // divides by a zero radius.
     // The quad was drawn for the farthest receiver; a nearer one is reached by less. The
     // receiver's texel centre lies half a texel inside its square: one texel of slack.
     vec4 zc = v_corner_depth;

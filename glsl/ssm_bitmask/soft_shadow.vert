@@ -47,7 +47,9 @@ vec4 extent(vec2 lo, vec2 size, float znear, float zmax, int n) {
     float reach = float(n) / (2.0 * t) * (1.0 / znear - 1.0 / zmax);
     float h_corner = SSMB_EXTENT_RADIUS * reach;
     vec2 ndc = abs((lo + 0.5 * size) * (2.0 * SSM_INV_RES) - 1.0) + (h_corner + size) * 2.0 * SSM_INV_RES;
-    float stretch = min(1.05 * sqrt(1.0 + t * t * dot(ndc, ndc)) * SSMB_RADIUS, SSMB_EXTENT_RADIUS);
+    // SSMB_EXTENT_RADIUS = margin R sqrt(1 + 2 tan^2): the corner's 1 / cos(alpha) with the
+    // margin; scaled to the 1 / cos(alpha) of this ndc.
+    float stretch = min(SSMB_EXTENT_RADIUS * sqrt((1.0 + t * t * dot(ndc, ndc)) / (1.0 + 2.0 * t * t)), SSMB_EXTENT_RADIUS);
     v_reach = stretch * float(n) / (2.0 * t);
     float h = v_reach * (1.0 / znear - 1.0 / zmax);
     // A hair of margin: fragments on the exact border see the quad edge-on.

@@ -404,7 +404,10 @@ impl<'c> Renderer<'c> {
                 let texels = read_image::<[u32; 4]>(self.ctx, &mut self.runner, img)?;
                 vec![texels
                     .iter()
-                    .map(|t| t.iter().map(|w| w.count_ones()).sum::<u32>() as f32 / 128.0)
+                    .map(|t| {
+                        t.iter().map(|w| w.count_ones()).sum::<u32>() as f32
+                            / crate::technique::ssm_bitmask::SAMPLES as f32
+                    })
                     .collect()]
             }
             // D32: `hard`'s depth map, the light's z/w in [0, 1] as the rasterizer stored it.

@@ -72,8 +72,8 @@
 //!    clear 0, **logic op OR** (the `logicOp` device feature; blending off).
 //!    `glsl/ssm_bitmask/soft_shadow.vert` reads the occluder map's 3x3 neighbourhood and
 //!    writes the texel, its four corner depths and its reach (flat), drawing the penumbra
-//!    extent grown by h = R' N / (2 tan(fov/2)) (1/z_near - 1/z_max) texels. R' = 1.05 R /
-//!    cos(alpha): a disc facing the receiver is R wide across the line to the light's centre
+//!    extent grown by h = R' N / (2 tan(fov/2)) (1/z_near - 1/z_max) texels. R' =
+//!    `EXTENT_MARGIN` R / cos(alpha): a disc facing the receiver is R wide across the line to the light's centre
 //!    and R / cos(alpha) in the map's plane, alpha that line's angle to the light's axis,
 //!    bounded over the receivers the quad can reach (at most sqrt(1 + 2 tan^2(fov/2)) at the
 //!    frustum's corner). `glsl/ssm_bitmask/soft_shadow.frag` reads both receiver layers at
@@ -98,8 +98,10 @@
 //!    texel's receiver. Each texel's occlusion = popcount / 128, visibility = 1 - occlusion.
 //!
 //! ## Frame constants
-//! `frame.technique` as ssm's (L, N, 1/N, guard); `frame.technique2` = (R, R', connect
-//! texels, edge-table rows): glsl/ssm_bitmask/constants.glsl.
+//! `frame.technique` as ssm's (N, 1/N, guard) but for its first slot (ssm's L), which holds
+//! 1 / `SAMPLES`; `frame.technique2` = (R, R' = `EXTENT_MARGIN` R sqrt(1 + 2 tan^2(fov/2)),
+//! connect texels, edge-table rows): glsl/ssm_bitmask/constants.glsl. The shaders take the
+//! sample count and the margin from these slots only.
 //!
 //! ## Cost
 //! As ssm's: N^2 quads times their extents in `soft_shadow`, each fragment up to ten table
@@ -157,8 +159,9 @@ pub const INFO2: TechniqueInfo = TechniqueInfo {
     create: create_two_sided,
 };
 
-/// Light samples, one bit each in a `uvec4`.
+/// Light samples, one bit each in a `uvec4` (the shaders read 1 / SAMPLES, `SSMB_INV_SAMPLES`).
 pub const SAMPLES: usize = 128;
+const _: () = assert!(SAMPLES == 4 * 32, "one bit per sample of a uvec4 mask");
 
 /// Rows of the edge table: line directions over [0, pi).
 const TABLE_ANGLES: usize = 512;
@@ -170,7 +173,8 @@ const TABLE_DISTANCES: usize = 256;
 /// slope are one surface, and their micro-quads share corners.
 const CONNECT_TEXELS: f32 = 4.0;
 
-/// Margin on the disc's reach on the map's image plane (the extents must cover it).
+/// Margin on the disc's reach on the map's image plane (the extents must cover it); the
+/// shaders read it only through `SSMB_EXTENT_RADIUS`.
 const EXTENT_MARGIN: f32 = 1.05;
 
 /// The disc's reach on the map's image plane at the frustum's corner (`SSMB_EXTENT_RADIUS`):
@@ -425,8 +429,9 @@ impl Technique for SsmBitmask {
     }
 
     fn uniforms(&self, frame: &FrameInput<'_>) -> [[f32; 4]; 2] {
-        let [first, _] = ssm_uniforms(self.res, frame);
+        let [mut first, _] = ssm_uniforms(self.res, frame);
         debug_assert_eq!(first[k::SSM_SELF_GUARD_TEXELS], SELF_GUARD_TEXELS);
+        first[k::SSMB_INV_SAMPLES] = 1.0 / SAMPLES as f32;
         let r = frame.light_radius;
         let mut second = [0.0; 4];
         second[k::SSMB_RADIUS - 4] = r;
@@ -446,6 +451,16 @@ impl Technique for SsmBitmask {
         // (1/z_near - 1/z_max) texels.
         let t = (frame.light.fov_deg.to_radians() * 0.5).tan();
         let reach = extent_radius(frame) * self.res as f32 / (2.0 * t);
+        if !(frame.light_radius > 0.0) {
+            // The micro-quads project onto a disc of radius R; at R = 0 the technique is
+            // built as `hard` (`create_either`), so a frame at R = 0 is a radius that
+            // changed after creation.
+            bail!(
+                "{}: light radius {} after the technique was created for R > 0 (R = 0 renders hard: create it again)",
+                self.name,
+                frame.light_radius
+            );
+        }
         self.inputs.record(rec, frame, reach)?;
         rec.pass(&self.front.name, |rec| {
             self.record_quads(rec, &self.front, true);

@@ -326,13 +326,20 @@ fn samples_and_edge_table() {
 /// beside it with a slightly narrower cone, so every pixel lies inside the light's cone.
 fn narrow_cone(fov_deg: f32) -> Scene {
     let text = format!(
-        "[[object]]\nprimitive = \"box\"\n[[object]]\nprimitive = \"plane\"\nrole = \"receiver\"\n\
-         [light]\nposition = [-3, 8, 2]\ntarget = [0.6, 0, -0.55]\nradius = 1\nfov_deg = {fov_deg}\n\
-         [camera]\nposition = [-1, 9, -1]\ntarget = [0.6, 0, -0.55]\nup = [0, 1, 0]\nfov_deg = {}\n",
+        "{}[camera]\nposition = [-1, 9, -1]\ntarget = [0.6, 0, -0.55]\nup = [0, 1, 0]\nfov_deg = {}\n",
+        narrow_cone_light(fov_deg),
         fov_deg * 0.8
     );
     softshadow::scene::file::parse_toml(&text, "narrow.toml", "narrow", std::path::Path::new("."))
         .unwrap_or_else(|e| panic!("{e:#}"))
+}
+
+/// `narrow_cone`'s objects and light, without its camera (a scene file's text).
+fn narrow_cone_light(fov_deg: f32) -> String {
+    format!(
+        "[[object]]\nprimitive = \"box\"\n[[object]]\nprimitive = \"plane\"\nrole = \"receiver\"\n\
+         [light]\nposition = [-3, 8, 2]\ntarget = [0.6, 0, -0.55]\nradius = 1\nfov_deg = {fov_deg}\n"
+    )
 }
 
 /// The fragments one micro-patch per occupied occluder texel draws, worked out on the CPU
@@ -377,11 +384,7 @@ fn one_patch_per_texel_work(r: &mut softshadow::render::Renderer, reach: f64) ->
 #[test]
 fn narrow_cone_micro_patch_work_is_bounded() {
     let gpu = Gpu::new();
-    let settings = Settings {
-        width: 48,
-        height: 48,
-        ..Settings::default()
-    };
+    let settings = common::small(48, Settings::default().shadow_res);
     let n = settings.occluder_res as f64;
     for technique in ["ssm", "ssm-bitmask"] {
         let scene = narrow_cone(1.0);
@@ -441,11 +444,7 @@ fn narrow_cone_micro_patch_work_is_bounded() {
 #[test]
 fn narrow_cone_shadow_is_sane() {
     let gpu = Gpu::new();
-    let settings = Settings {
-        width: 48,
-        height: 48,
-        ..Settings::default()
-    };
+    let settings = common::small(48, Settings::default().shadow_res);
     for fov in [1.0f32, 2.0, 10.0] {
         let scene = narrow_cone(fov);
         let hard = gpu
@@ -502,11 +501,7 @@ fn the_bound_is_named_on_one_warning_line() {
     std::fs::create_dir_all(&dir).unwrap();
     for (fov, warned) in [(1.0f32, true), (10.0, false)] {
         let scene = dir.join(format!("cone{fov}.toml"));
-        let text = format!(
-            "[[object]]\nprimitive = \"box\"\n[[object]]\nprimitive = \"plane\"\nrole = \"receiver\"\n\
-             [light]\nposition = [-3, 8, 2]\ntarget = [0.6, 0, -0.55]\nradius = 1\nfov_deg = {fov}\n"
-        );
-        std::fs::write(&scene, text).unwrap();
+        std::fs::write(&scene, narrow_cone_light(fov)).unwrap();
         let out = dir.join("o.png");
         let o = common::softshadow(&[
             "render",

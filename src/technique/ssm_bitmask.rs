@@ -451,7 +451,7 @@ impl Technique for SsmBitmask {
         // (1/z_near - 1/z_max) texels.
         let t = (frame.light.fov_deg.to_radians() * 0.5).tan();
         let reach = extent_radius(frame) * self.res as f32 / (2.0 * t);
-        if !(frame.light_radius > 0.0) {
+        if frame.light_radius.is_nan() || frame.light_radius <= 0.0 {
             // The micro-quads project onto a disc of radius R; at R = 0 the technique is
             // built as `hard` (`create_either`), so a frame at R = 0 is a radius that
             // changed after creation.

@@ -1,5 +1,6 @@
 #version 450
 #extension GL_GOOGLE_include_directive : require
+#include "common/count.glsl"  // by name: build.rs also builds it counted (-DCOUNT_LIGHT)
 // ssm/micro_patch_step: the side of the texel blocks the micro-patch pass draws as one patch,
 // from the work the patches would cost (Sec. 6.1: occluder texels times the texels of each
 // penumbra extent). Two dispatches of this shader:

@@ -58,6 +58,7 @@
 
 mod cmd;
 mod context;
+pub mod describe;
 mod memory;
 mod pipeline;
 mod query;
@@ -76,6 +77,6 @@ pub use context::{Context, ContextOptions};
 pub use gpu_allocator::MemoryLocation;
 pub use memory::{Buffer, Filter, Image, Sampler};
 pub use pipeline::{
-    Attribute, Blend, DepthState, DescriptorSet, GraphicsPipelineDesc, Pipeline, Resource,
+    Attribute, BindingKind, Blend, DepthState, DescriptorSet, GraphicsPipelineDesc, Pipeline, Resource,
 };
 pub use query::{PassStats, NO_PIPELINE_STATISTICS};

@@ -1,0 +1,686 @@
+//! Port sheets: `softshadow describe --technique T` and docs/port/<technique>.md.
+//!
+//! A sheet is drawn from the live objects, not from prose: the technique is created on the
+//! device for a scene, two frames are rendered with the recorder's log on
+//! (`Renderer::log_frames`), and the second frame's log is written out pass by pass: the
+//! barriers the recorder derived in front of each command, each rendering scope's
+//! attachments, each pipeline bound (its shaders, vertex input, rasterizer, depth and
+//! blend state, push constants, as `Pipeline` kept them from its create-info), the
+//! descriptor sets bound with it and which stages use each binding (from the SPIR-V), and
+//! the draws and dispatches. The second frame is the one a frame loop repeats: its barriers
+//! wait for the first frame's passes where a resource outlives the frame.
+//!
+//! The frame is recorded with `Settings::plain` (the technique without the speed layer) and
+//! silhouettes found on the CPU, so that the sheet is the same on every device; it holds no
+//! handle, pointer, time or host path, so it is the same on every run (tests/port_sheets.rs).
+
+use super::Renderer;
+use crate::scene::Scene;
+use crate::settings::{Settings, SilhouettePath};
+use crate::technique;
+use crate::vk::describe::{
+    AttachmentInfo, BarrierInfo, BlendInfo, Event, PassRef, PipelineInfo, SetInfo,
+};
+use crate::vk::{AccessFlags2, BindingKind, Context, PipelineStageFlags2};
+use anyhow::{Context as _, Result};
+use std::sync::Arc;
+
+/// The scene a sheet is recorded on unless another is named.
+pub const DEFAULT_SCENE: &str = "cylinder";
+
+/// What docs/port/ says refreshes every sheet.
+pub const REFRESH_COMMAND: &str = "cargo run --release -- describe --all --out docs/port";
+
+/// The settings a sheet is recorded with: the defaults, plain, silhouettes on the CPU.
+pub fn sheet_settings() -> Settings {
+    Settings {
+        plain: true,
+        silhouettes: SilhouettePath::Cpu,
+        ..Settings::default()
+    }
+}
+
+/// The port sheet of `technique` on `scene` (named `scene_label` on the sheet), as Markdown.
+pub fn port_sheet(
+    ctx: &Context,
+    scene: Scene,
+    scene_label: &str,
+    technique: &str,
+    settings: Settings,
+) -> Result<String> {
+    let info = technique::find(technique)?;
+    let mut r = Renderer::new(ctx, scene, technique, settings.clone())
+        .with_context(|| format!("creating {technique}"))?;
+    let log = r
+        .log_frames(2)
+        .with_context(|| format!("recording {technique}"))?;
+    let events = log.frames.last().cloned().unwrap_or_default();
+    let mut sheet = Sheet {
+        out: String::new(),
+        frame: log.frames.len().saturating_sub(1) as u32,
+    };
+    sheet.header(info, r.technique_type(), scene_label, &r.settings, &events);
+    sheet.passes(&events);
+    Ok(sheet.out)
+}
+
+struct Sheet {
+    out: String,
+    /// The logged frame the sheet shows (the last).
+    frame: u32,
+}
+
+/// The events of one pass (or of commands outside any pass), in order.
+struct PassEvents<'a> {
+    name: Option<&'a str>,
+    events: &'a [Event],
+}
+
+/// Splits a frame's events at its passes; CPU work and skipped passes are their own items.
+fn split_passes(events: &[Event]) -> Vec<PassEvents<'_>> {
+    let mut out = Vec::new();
+    let mut i = 0;
+    while i < events.len() {
+        match &events[i] {
+            Event::PassBegin(name) => {
+                let end = events[i..]
+                    .iter()
+                    .position(|e| matches!(e, Event::PassEnd(_)))
+                    .map_or(events.len(), |p| i + p);
+                out.push(PassEvents {
+                    name: Some(name),
+                    events: &events[i + 1..end],
+                });
+                i = end + 1;
+            }
+            _ => {
+                let end = events[i..]
+                    .iter()
+                    .position(|e| matches!(e, Event::PassBegin(_)))
+                    .map_or(events.len(), |p| i + p);
+                out.push(PassEvents {
+                    name: None,
+                    events: &events[i..end],
+                });
+                i = end;
+            }
+        }
+    }
+    out
+}
+
+/// ash prints flags as `A | B`; a table cell takes `A, B` (a bare `|` splits it).
+fn flags<T: std::fmt::Debug>(f: T) -> String {
+    let s = format!("{f:?}").replace(" | ", ", ");
+    if s.is_empty() || s == "0" {
+        "NONE".into()
+    } else {
+        s
+    }
+}
+
+fn stages_and_access(stage: PipelineStageFlags2, access: AccessFlags2) -> String {
+    format!("{} / {}", flags(stage), flags(access))
+}
+
+fn kind_text(kind: BindingKind) -> &'static str {
+    match kind {
+        BindingKind::UniformBuffer => "uniform buffer",
+        BindingKind::StorageBuffer => "storage buffer",
+        BindingKind::SampledImage => "combined image sampler",
+        BindingKind::StorageImage => "storage image",
+    }
+}
+
+/// The stage names a `UseInfo` or barrier lists, short: `vertex, fragment`.
+fn shader_stages(s: PipelineStageFlags2) -> String {
+    let mut names = Vec::new();
+    for (bit, name) in [
+        (PipelineStageFlags2::VERTEX_SHADER, "vertex"),
+        (PipelineStageFlags2::FRAGMENT_SHADER, "fragment"),
+        (PipelineStageFlags2::COMPUTE_SHADER, "compute"),
+    ] {
+        if s.contains(bit) {
+            names.push(name);
+        }
+    }
+    names.join(", ")
+}
+
+fn write_mask(b: &BlendInfo) -> String {
+    use crate::vk::describe::ColorComponentFlags as C;
+    let mut s = String::new();
+    for (bit, c) in [(C::R, 'R'), (C::G, 'G'), (C::B, 'B'), (C::A, 'A')] {
+        if b.write_mask.contains(bit) {
+            s.push(c);
+        }
+    }
+    if s.is_empty() {
+        "none".into()
+    } else {
+        s
+    }
+}
+
+impl Sheet {
+    fn line(&mut self, s: &str) {
+        self.out.push_str(s);
+        self.out.push('\n');
+    }
+
+    fn pass_ref(&self, r: &PassRef) -> String {
+        let name = match &r.pass {
+            Some(p) => format!("`{p}`"),
+            None => "commands outside any pass".into(),
+        };
+        match r.frame {
+            f if f == self.frame => name,
+            f if f + 1 == self.frame => format!("{name} of the previous frame"),
+            _ => format!("{name} of an earlier frame"),
+        }
+    }
+
+    fn header(
+        &mut self,
+        info: &technique::TechniqueInfo,
+        type_name: &str,
+        scene: &str,
+        s: &Settings,
+        events: &[Event],
+    ) {
+        let name = info.name;
+        self.line(&format!("# Port sheet: `{name}`"));
+        self.line("");
+        self.line(&format!(
+            "Generated by `softshadow describe --technique {name}` from the live pipeline \
+             objects and one recorded frame; do not edit. `{REFRESH_COMMAND}` rewrites every \
+             sheet, and `cargo test --test port_sheets` fails when one is stale."
+        ));
+        self.line("");
+        self.line(&format!("{}.", info.summary));
+        self.line("");
+        let mut made_in: Vec<&str> = Vec::new();
+        let mut shaders: Vec<String> = Vec::new();
+        for e in events {
+            match e {
+                Event::BindPipeline(p) => {
+                    made_in.push(p.made_in);
+                    for st in &p.stages {
+                        shaders.push(st.source.clone().unwrap_or_else(|| "(unknown)".into()));
+                    }
+                }
+                Event::BindSets(sets) => made_in.extend(sets.iter().map(|s| s.made_in)),
+                _ => {}
+            }
+        }
+        made_in.sort();
+        made_in.dedup();
+        shaders.sort();
+        shaders.dedup();
+        let quoted = |v: &[&str]| {
+            v.iter()
+                .map(|m| format!("`{m}`"))
+                .collect::<Vec<_>>()
+                .join(", ")
+        };
+        self.line(&format!(
+            "- **Construction:** `{type_name}`, created by the registry row `{name}` \
+             (`softshadow::technique::TECHNIQUES`); the pipelines and descriptor sets below \
+             are made in {}.",
+            quoted(&made_in)
+        ));
+        let shader_refs: Vec<&str> = shaders.iter().map(String::as_str).collect();
+        self.line(&format!("- **Shaders:** {}.", quoted(&shader_refs)));
+        self.line(&format!(
+            "- **Recorded:** scene `{scene}`, image {}x{}, light-space buffers {}x{} \
+             (occluder map {}x{} where used), `--plain` (the technique without the speed \
+             layer), silhouettes on the CPU. The second frame of two: its barriers are a \
+             frame loop's, waiting for the previous frame where a resource outlives it.",
+            s.width, s.height, s.shadow_res, s.shadow_res, s.occluder_res, s.occluder_res
+        ));
+        self.line(
+            "- **Not shown:** the untimed AOV and counting passes (`T/aov`, `T/count`), which \
+             draw the final pass again with the `-DAOV` and `-DCOUNT` builds of its fragment \
+             shader into more attachments.",
+        );
+        self.line("");
+        self.line("## Passes, in order");
+        self.line("");
+        let mut n = 0;
+        for p in split_passes(events) {
+            match p.name {
+                Some(name) => {
+                    n += 1;
+                    let pipelines: Vec<String> = p
+                        .events
+                        .iter()
+                        .filter_map(|e| match e {
+                            Event::BindPipeline(pl) => Some(format!("`{}`", pl.name)),
+                            _ => None,
+                        })
+                        .collect();
+                    let mut uniq = pipelines.clone();
+                    uniq.dedup();
+                    let what = if uniq.is_empty() {
+                        "no pipeline".to_string()
+                    } else {
+                        format!("pipeline {}", uniq.join(", "))
+                    };
+                    self.line(&format!("{n}. `{name}`: {what}"));
+                }
+                None => {
+                    for e in p.events {
+                        match e {
+                            Event::Cpu(c) => self.line(&format!("- CPU work `{c}`")),
+                            Event::Skipped(s, why) => {
+                                self.line(&format!("- `{s}` skipped ({why})"))
+                            }
+                            _ => {}
+                        }
+                    }
+                }
+            }
+        }
+        self.line("");
+    }
+
+    fn passes(&mut self, events: &[Event]) {
+        let passes = split_passes(events);
+        let mut n = 0;
+        for (i, p) in passes.iter().enumerate() {
+            let title = match p.name {
+                Some(name) => {
+                    n += 1;
+                    format!("## {n}. `{name}`")
+                }
+                None => {
+                    if !p.events.iter().any(|e| {
+                        !matches!(e, Event::Cpu(_) | Event::Skipped(..) | Event::PassEnd(_))
+                    }) {
+                        continue;
+                    }
+                    "## Commands outside any pass".to_string()
+                }
+            };
+            self.line(&title);
+            self.line("");
+            self.commands(p.events);
+            if let Some(name) = p.name {
+                self.waiters(name, &passes, i);
+            }
+        }
+    }
+
+    fn barriers(&mut self, title: &str, barriers: &[BarrierInfo]) {
+        self.line(&format!("{title}:"));
+        self.line("");
+        self.line("| resource | waits for | source stages / access | destination stages / access | layout |");
+        self.line("|---|---|---|---|---|");
+        for b in barriers {
+            let after = match b.after.is_empty() {
+                true => "nothing earlier".to_string(),
+                false => b
+                    .after
+                    .iter()
+                    .map(|a| self.pass_ref(a))
+                    .collect::<Vec<_>>()
+                    .join(", "),
+            };
+            let layout = match b.layouts {
+                Some((old, new)) if old == new => format!("{old:?}"),
+                Some((old, new)) => format!("{old:?} → {new:?}"),
+                None => "(buffer)".into(),
+            };
+            self.line(&format!(
+                "| {} | {after} | {} | {} | {layout} |",
+                b.resource,
+                stages_and_access(b.src_stage, b.src_access),
+                stages_and_access(b.dst_stage, b.dst_access)
+            ));
+        }
+        self.line("");
+    }
+
+    fn attachments(&mut self, colors: &[AttachmentInfo], depth: &Option<AttachmentInfo>) {
+        self.line("| attachment | image | format | load op | clear value | store op |");
+        self.line("|---|---|---|---|---|---|");
+        let rows = colors
+            .iter()
+            .enumerate()
+            .map(|(i, a)| (format!("colour {i}"), a))
+            .chain(depth.iter().map(|a| ("depth".to_string(), a)));
+        for (what, a) in rows {
+            let (load, clear) = match &a.clear {
+                Some(c) => ("CLEAR", c.as_str()),
+                None => ("LOAD", "-"),
+            };
+            let store = if a.store { "STORE" } else { "DONT_CARE" };
+            self.line(&format!(
+                "| {what} | '{}' | {:?} | {load} | {clear} | {store} |",
+                a.image, a.format
+            ));
+        }
+        self.line("");
+    }
+
+    fn pipeline(&mut self, p: &PipelineInfo, sets: &[Arc<SetInfo>]) {
+        let kind = if p.compute { "compute" } else { "graphics" };
+        self.line(&format!(
+            "Pipeline `{}` ({kind}, made in `{}`):",
+            p.name, p.made_in
+        ));
+        self.line("");
+        let stages: Vec<String> = p
+            .stages
+            .iter()
+            .map(|s| {
+                let src = s.source.as_deref().unwrap_or("(SPIR-V not from glsl/)");
+                format!("{} `{src}`", s.stage)
+            })
+            .collect();
+        self.line(&format!("- shaders: {}", stages.join(", ")));
+        if !p.compute {
+            let input = match p.vertex_stride {
+                0 => "none (the vertex shader makes or pulls its vertices)".to_string(),
+                stride => {
+                    let attrs: Vec<String> = p
+                        .attributes
+                        .iter()
+                        .map(|(loc, fmt, off)| format!("location {loc} {fmt:?} at {off}"))
+                        .collect();
+                    format!("binding 0, {stride} bytes per vertex: {}", attrs.join("; "))
+                }
+            };
+            self.line(&format!("- vertex input: {input}"));
+            self.line(&format!(
+                "- topology {:?}, cull {}, front face {:?}",
+                p.topology,
+                flags(p.cull),
+                p.front_face
+            ));
+            let depth = match &p.depth {
+                Some(d) => format!(
+                    "{:?}, test {}, write {}, compare {:?}",
+                    d.format,
+                    if d.test { "on" } else { "off" },
+                    if d.write { "on" } else { "off" },
+                    d.compare
+                ),
+                None => "no depth attachment".into(),
+            };
+            self.line(&format!("- depth: {depth}"));
+            if let Some(op) = p.logic_op {
+                self.line(&format!("- logic op {op:?} on every colour attachment"));
+            }
+        }
+        let push = match p.push_constant_bytes {
+            0 => "none".to_string(),
+            n => format!("{n} bytes at offset 0, every stage"),
+        };
+        self.line(&format!("- push constants: {push}"));
+        self.line("");
+        if !p.colors.is_empty() {
+            self.line("| colour | format | blend | colour op | alpha op | src factor | dst factor | write mask |");
+            self.line("|---|---|---|---|---|---|---|---|");
+            for (i, b) in p.colors.iter().enumerate() {
+                let row = if b.enable {
+                    format!(
+                        "on | {:?} | {:?} | {:?} | {:?}",
+                        b.color_op, b.alpha_op, b.src_factor, b.dst_factor
+                    )
+                } else {
+                    "off | - | - | - | -".into()
+                };
+                self.line(&format!(
+                    "| {i} | {:?} | {row} | {} |",
+                    b.format,
+                    write_mask(b)
+                ));
+            }
+            self.line("");
+        }
+        if sets.is_empty() && p.sets.is_empty() {
+            return;
+        }
+        self.line("| set | binding | name | kind | bound | used by |");
+        self.line("|---|---|---|---|---|---|");
+        for (si, set) in sets.iter().enumerate() {
+            for b in &set.bindings {
+                let used = p
+                    .uses
+                    .iter()
+                    .find(|u| u.set == si as u32 && u.binding == b.binding)
+                    .map(|u| {
+                        let rw = if u.writes { "read, write" } else { "read" };
+                        format!("{} ({rw})", shader_stages(u.stages))
+                    })
+                    .unwrap_or_else(|| "unused".into());
+                self.line(&format!(
+                    "| {si} `{}` | {} | `{}` | {} | {} | {used} |",
+                    set.name,
+                    b.binding,
+                    b.name,
+                    kind_text(b.kind),
+                    b.resource
+                ));
+            }
+        }
+        self.line("");
+    }
+
+    /// The commands of one pass, in order; draws after one pipeline bind are summed up.
+    fn commands(&mut self, events: &[Event]) {
+        let mut pipeline: Option<Arc<PipelineInfo>> = None;
+        let mut shown: Vec<String> = Vec::new();
+        let mut draws = Draws::default();
+        for e in events {
+            match e {
+                Event::BindPipeline(p) => {
+                    self.draws(&mut draws);
+                    pipeline = Some(p.clone());
+                }
+                Event::BindSets(sets) => {
+                    if let Some(p) = &pipeline {
+                        let key = format!("{}/{:?}", p.name, sets_names(sets));
+                        if shown.contains(&key) {
+                            self.line(&format!("Pipeline `{}` again.", p.name));
+                            self.line("");
+                        } else {
+                            shown.push(key);
+                            self.pipeline(&p.clone(), sets);
+                        }
+                    }
+                }
+                Event::Barriers(b) => {
+                    self.draws(&mut draws);
+                    self.barriers("Barriers the recorder puts in front", b);
+                }
+                Event::Rendering {
+                    colors,
+                    depth,
+                    extent,
+                    whole,
+                } => {
+                    let area = if *whole {
+                        "the whole target"
+                    } else {
+                        "part of the target"
+                    };
+                    self.line(&format!(
+                        "Rendering scope, {}x{}, {area}:",
+                        extent.0, extent.1
+                    ));
+                    self.line("");
+                    self.attachments(colors, depth);
+                }
+                Event::EndRendering => {
+                    self.draws(&mut draws);
+                    self.line("End of the rendering scope.");
+                    self.line("");
+                }
+                Event::Push(n) => draws.push = Some(*n),
+                Event::VertexBuffer(b) => add_once(&mut draws.vertex, b),
+                Event::IndexBuffer(b) => add_once(&mut draws.index, b),
+                Event::Scissor => draws.scissors += 1,
+                Event::Draw => draws.direct += 1,
+                Event::DrawIndexed => draws.indexed += 1,
+                Event::DrawIndirect(b) => {
+                    draws.indirect += 1;
+                    add_once(&mut draws.args, b);
+                }
+                Event::Dispatch([x, y, z]) => {
+                    self.draws(&mut draws);
+                    self.line(&format!("Dispatch {x}x{y}x{z} workgroups."));
+                    self.line("");
+                }
+                Event::Fill(b) => {
+                    self.line(&format!("Fill buffer '{b}'."));
+                    self.line("");
+                }
+                Event::Copy(src, dst) => {
+                    self.line(&format!("Copy '{src}' to '{dst}'."));
+                    self.line("");
+                }
+                Event::HostRead(b) => {
+                    self.line(&format!("Host read of buffer '{b}'."));
+                    self.line("");
+                }
+                Event::Cpu(c) => {
+                    self.line(&format!("CPU work `{c}`."));
+                    self.line("");
+                }
+                Event::Skipped(s, why) => {
+                    self.line(&format!("`{s}` skipped ({why})."));
+                    self.line("");
+                }
+                Event::PassBegin(_) | Event::PassEnd(_) => {}
+            }
+        }
+        self.draws(&mut draws);
+    }
+
+    fn draws(&mut self, d: &mut Draws) {
+        let mut parts = Vec::new();
+        let count = |n: usize, what: &str| match n {
+            1 => format!("1 {what}"),
+            n => format!("{n} {what}s"),
+        };
+        if d.direct > 0 {
+            parts.push(count(d.direct, "draw"));
+        }
+        if d.indexed > 0 {
+            parts.push(count(d.indexed, "indexed draw"));
+        }
+        if d.indirect > 0 {
+            parts.push(format!(
+                "{} (arguments in {})",
+                count(d.indirect, "indirect draw"),
+                quote_list(&d.args)
+            ));
+        }
+        if parts.is_empty() {
+            *d = Draws::default();
+            return;
+        }
+        let mut s = parts.join(", ");
+        if !d.vertex.is_empty() {
+            s += &format!("; vertex buffer {}", quote_list(&d.vertex));
+        }
+        if !d.index.is_empty() {
+            s += &format!("; index buffer {} (UINT32)", quote_list(&d.index));
+        }
+        if let Some(n) = d.push {
+            s += &format!("; {n} bytes of push constants per draw");
+        }
+        if d.scissors > 0 {
+            s += "; scissored";
+        }
+        self.line(&format!("Draws: {s}."));
+        self.line("");
+        *d = Draws::default();
+    }
+
+    /// The barriers of later passes (and of the next frame) that wait for pass `name`.
+    fn waiters(&mut self, name: &str, passes: &[PassEvents<'_>], at: usize) {
+        let this = |frame: u32| PassRef {
+            frame,
+            pass: Some(name.to_string()),
+        };
+        let mut rows = Vec::new();
+        let mut scan = |range: &[PassEvents<'_>], who: PassRef, next_frame: bool| {
+            for p in range {
+                for e in p.events {
+                    let Event::Barriers(bs) = e else { continue };
+                    for b in bs.iter().filter(|b| b.after.contains(&who)) {
+                        let place = match (p.name, next_frame) {
+                            (Some(n), false) => format!("`{n}`"),
+                            (Some(n), true) => format!("`{n}` of the next frame"),
+                            (None, false) => "commands outside any pass".into(),
+                            (None, true) => "commands outside any pass, next frame".into(),
+                        };
+                        rows.push((place, b.clone()));
+                    }
+                }
+            }
+        };
+        scan(&passes[at + 1..], this(self.frame), false);
+        if self.frame > 0 {
+            scan(passes, this(self.frame - 1), true);
+        }
+        if rows.is_empty() {
+            self.line("No later barrier waits for this pass.");
+            self.line("");
+            return;
+        }
+        self.line("Barriers that wait for this pass, later:");
+        self.line("");
+        self.line(
+            "| in front of | resource | source stages / access | destination stages / access | layout |",
+        );
+        self.line("|---|---|---|---|---|");
+        for (place, b) in rows {
+            let layout = match b.layouts {
+                Some((old, new)) if old == new => format!("{old:?}"),
+                Some((old, new)) => format!("{old:?} → {new:?}"),
+                None => "(buffer)".into(),
+            };
+            self.line(&format!(
+                "| {place} | {} | {} | {} | {layout} |",
+                b.resource,
+                stages_and_access(b.src_stage, b.src_access),
+                stages_and_access(b.dst_stage, b.dst_access)
+            ));
+        }
+        self.line("");
+    }
+}
+
+fn sets_names(sets: &[Arc<SetInfo>]) -> Vec<String> {
+    sets.iter().map(|s| s.name.clone()).collect()
+}
+
+fn add_once(v: &mut Vec<String>, s: &str) {
+    if !v.iter().any(|x| x == s) {
+        v.push(s.to_string());
+    }
+}
+
+fn quote_list(v: &[String]) -> String {
+    v.iter()
+        .map(|s| format!("'{s}'"))
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
+/// Draws since the last pipeline bind, summed up for one line.
+#[derive(Default)]
+struct Draws {
+    direct: usize,
+    indexed: usize,
+    indirect: usize,
+    args: Vec<String>,
+    vertex: Vec<String>,
+    index: Vec<String>,
+    push: Option<usize>,
+    scissors: usize,
+}

@@ -29,7 +29,7 @@ use std::sync::Arc;
 pub const DEFAULT_SCENE: &str = "cylinder";
 
 /// What docs/port/ says refreshes every sheet.
-pub const REFRESH_COMMAND: &str = "cargo run --release -- describe --all --out docs/port";
+pub const REFRESH_COMMAND: &str = "cargo run -- describe --all --out docs/port";
 
 /// The settings a sheet is recorded with: the defaults, plain, silhouettes on the CPU.
 pub fn sheet_settings() -> Settings {
@@ -439,7 +439,15 @@ impl Sheet {
             }
             self.line("");
         }
-        if sets.is_empty() && p.sets.is_empty() {
+        self.sets(p, sets);
+    }
+
+    /// The descriptor sets bound with `p`, binding by binding, with the stages of `p` that
+    /// use each.
+    fn sets(&mut self, p: &PipelineInfo, sets: &[Arc<SetInfo>]) {
+        if sets.is_empty() {
+            self.line("No descriptor set.");
+            self.line("");
             return;
         }
         self.line("| set | binding | name | kind | bound | used by |");
@@ -470,25 +478,25 @@ impl Sheet {
 
     /// The commands of one pass, in order; draws after one pipeline bind are summed up.
     fn commands(&mut self, events: &[Event]) {
-        let mut pipeline: Option<Arc<PipelineInfo>> = None;
-        let mut shown: Vec<String> = Vec::new();
+        // A pipeline bound and not yet shown: it is shown with the sets bound after it, or
+        // with none at the next other command.
+        let mut pending: Option<Arc<PipelineInfo>> = None;
+        let mut shown: Vec<(Arc<PipelineInfo>, Vec<Arc<SetInfo>>)> = Vec::new();
         let mut draws = Draws::default();
         for e in events {
+            if !matches!(e, Event::BindSets(_)) {
+                if let Some(p) = pending.take() {
+                    self.bound(&p, &[], &mut shown);
+                }
+            }
             match e {
                 Event::BindPipeline(p) => {
                     self.draws(&mut draws);
-                    pipeline = Some(p.clone());
+                    pending = Some(p.clone());
                 }
                 Event::BindSets(sets) => {
-                    if let Some(p) = &pipeline {
-                        let key = format!("{}/{:?}", p.name, sets_names(sets));
-                        if shown.contains(&key) {
-                            self.line(&format!("Pipeline `{}` again.", p.name));
-                            self.line("");
-                        } else {
-                            shown.push(key);
-                            self.pipeline(&p.clone(), sets);
-                        }
+                    if let Some(p) = pending.take() {
+                        self.bound(&p, sets, &mut shown);
                     }
                 }
                 Event::Barriers(b) => {
@@ -529,8 +537,12 @@ impl Sheet {
                     add_once(&mut draws.args, b);
                 }
                 Event::Dispatch([x, y, z]) => {
+                    let push = match draws.push.take() {
+                        Some(n) => format!(", {n} bytes of push constants"),
+                        None => String::new(),
+                    };
                     self.draws(&mut draws);
-                    self.line(&format!("Dispatch {x}x{y}x{z} workgroups."));
+                    self.line(&format!("Dispatch {x}x{y}x{z} workgroups{push}."));
                     self.line("");
                 }
                 Event::Fill(b) => {
@@ -557,6 +569,30 @@ impl Sheet {
             }
         }
         self.draws(&mut draws);
+    }
+
+    /// A pipeline bound with `sets`: in full the first time in a pass, then only what
+    /// differs.
+    fn bound(
+        &mut self,
+        p: &Arc<PipelineInfo>,
+        sets: &[Arc<SetInfo>],
+        shown: &mut Vec<(Arc<PipelineInfo>, Vec<Arc<SetInfo>>)>,
+    ) {
+        let same_sets = |s: &[Arc<SetInfo>]| {
+            s.len() == sets.len() && s.iter().zip(sets).all(|(a, b)| **a == **b)
+        };
+        if shown.iter().any(|(q, s)| **q == **p && same_sets(s)) {
+            self.line(&format!("Pipeline `{}` again, with the same sets.", p.name));
+            self.line("");
+        } else if shown.iter().any(|(q, _)| **q == **p) {
+            self.line(&format!("Pipeline `{}` again, with these sets:", p.name));
+            self.line("");
+            self.sets(p, sets);
+        } else {
+            self.pipeline(p, sets);
+        }
+        shown.push((p.clone(), sets.to_vec()));
     }
 
     fn draws(&mut self, d: &mut Draws) {
@@ -653,10 +689,6 @@ impl Sheet {
         }
         self.line("");
     }
-}
-
-fn sets_names(sets: &[Arc<SetInfo>]) -> Vec<String> {
-    sets.iter().map(|s| s.name.clone()).collect()
 }
 
 fn add_once(v: &mut Vec<String>, s: &str) {

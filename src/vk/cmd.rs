@@ -933,7 +933,12 @@ impl Recorder<'_> {
         let logged = self.log.as_deref_mut().and_then(Logger::scope_close);
         self.barriers(&uses);
         if let Some(log) = self.log.as_deref_mut() {
-            let stores: Vec<bool> = scope.colors.iter().chain(&scope.depth).map(|a| a.store).collect();
+            let stores: Vec<bool> = scope
+                .colors
+                .iter()
+                .chain(&scope.depth)
+                .map(|a| a.store)
+                .collect();
             log.scope_emit(logged, &stores);
         }
 

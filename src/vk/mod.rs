@@ -77,6 +77,7 @@ pub use context::{Context, ContextOptions};
 pub use gpu_allocator::MemoryLocation;
 pub use memory::{Buffer, Filter, Image, Sampler};
 pub use pipeline::{
-    Attribute, BindingKind, Blend, DepthState, DescriptorSet, GraphicsPipelineDesc, Pipeline, Resource,
+    Attribute, BindingKind, Blend, DepthState, DescriptorSet, GraphicsPipelineDesc, Pipeline,
+    Resource,
 };
 pub use query::{PassStats, NO_PIPELINE_STATISTICS};

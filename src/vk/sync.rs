@@ -346,30 +346,38 @@ impl Batch {
     /// Every barrier as plain data, with the resource's key (`Target::key`), in recording
     /// order: buffers', then images'.
     pub fn described(&self) -> Vec<(usize, BarrierInfo)> {
-        let buffers = self.buffers.iter().zip(&self.buffer_of).map(|(b, (key, name))| {
-            let info = BarrierInfo {
-                resource: name.clone(),
-                src_stage: b.src_stage_mask,
-                src_access: b.src_access_mask,
-                dst_stage: b.dst_stage_mask,
-                dst_access: b.dst_access_mask,
-                layouts: None,
-                after: Vec::new(),
-            };
-            (*key, info)
-        });
-        let images = self.images.iter().zip(&self.image_of).map(|(b, (key, name))| {
-            let info = BarrierInfo {
-                resource: name.clone(),
-                src_stage: b.src_stage_mask,
-                src_access: b.src_access_mask,
-                dst_stage: b.dst_stage_mask,
-                dst_access: b.dst_access_mask,
-                layouts: Some((b.old_layout, b.new_layout)),
-                after: Vec::new(),
-            };
-            (*key, info)
-        });
+        let buffers = self
+            .buffers
+            .iter()
+            .zip(&self.buffer_of)
+            .map(|(b, (key, name))| {
+                let info = BarrierInfo {
+                    resource: name.clone(),
+                    src_stage: b.src_stage_mask,
+                    src_access: b.src_access_mask,
+                    dst_stage: b.dst_stage_mask,
+                    dst_access: b.dst_access_mask,
+                    layouts: None,
+                    after: Vec::new(),
+                };
+                (*key, info)
+            });
+        let images = self
+            .images
+            .iter()
+            .zip(&self.image_of)
+            .map(|(b, (key, name))| {
+                let info = BarrierInfo {
+                    resource: name.clone(),
+                    src_stage: b.src_stage_mask,
+                    src_access: b.src_access_mask,
+                    dst_stage: b.dst_stage_mask,
+                    dst_access: b.dst_access_mask,
+                    layouts: Some((b.old_layout, b.new_layout)),
+                    after: Vec::new(),
+                };
+                (*key, info)
+            });
         buffers.chain(images).collect()
     }
 

@@ -246,34 +246,31 @@ impl Sheet {
         self.line("");
         self.line("## Passes, in order");
         self.line("");
+        self.line("| # | pass | pipelines | writes | reads |");
+        self.line("|---|---|---|---|---|");
         let mut n = 0;
         for p in split_passes(events) {
             match p.name {
                 Some(name) => {
                     n += 1;
-                    let pipelines: Vec<String> = p
-                        .events
-                        .iter()
-                        .filter_map(|e| match e {
-                            Event::BindPipeline(pl) => Some(format!("`{}`", pl.name)),
-                            _ => None,
-                        })
-                        .collect();
-                    let mut uniq = pipelines.clone();
-                    uniq.dedup();
-                    let what = if uniq.is_empty() {
-                        "no pipeline".to_string()
-                    } else {
-                        format!("pipeline {}", uniq.join(", "))
+                    let o = Overview::of(p.events);
+                    let cell = |v: &[String]| match v.is_empty() {
+                        true => "-".to_string(),
+                        false => v.join("; "),
                     };
-                    self.line(&format!("{n}. `{name}`: {what}"));
+                    self.line(&format!(
+                        "| {n} | `{name}` | {} | {} | {} |",
+                        cell(&o.pipelines),
+                        cell(&o.writes),
+                        cell(&o.reads)
+                    ));
                 }
                 None => {
                     for e in p.events {
                         match e {
-                            Event::Cpu(c) => self.line(&format!("- CPU work `{c}`")),
+                            Event::Cpu(c) => self.line(&format!("| | CPU work `{c}` | | | |")),
                             Event::Skipped(s, why) => {
-                                self.line(&format!("- `{s}` skipped ({why})"))
+                                self.line(&format!("| | `{s}` skipped ({why}) | | | |"))
                             }
                             _ => {}
                         }
@@ -463,13 +460,16 @@ impl Sheet {
                         format!("{} ({rw})", shader_stages(u.stages))
                     })
                     .unwrap_or_else(|| "unused".into());
+                let bound = match b.detail.is_empty() {
+                    true => b.resource.clone(),
+                    false => format!("{} {}", b.resource, b.detail),
+                };
                 self.line(&format!(
-                    "| {si} `{}` | {} | `{}` | {} | {} | {used} |",
+                    "| {si} `{}` | {} | `{}` | {} | {bound} | {used} |",
                     set.name,
                     b.binding,
                     b.name,
-                    kind_text(b.kind),
-                    b.resource
+                    kind_text(b.kind)
                 ));
             }
         }
@@ -715,4 +715,97 @@ struct Draws {
     index: Vec<String>,
     push: Option<usize>,
     scissors: usize,
+}
+
+/// One line of the pass table: the pipelines a pass binds, what it writes (attachments
+/// with their load op and blend, storage it writes, fills and copies) and what it reads.
+#[derive(Default)]
+struct Overview {
+    pipelines: Vec<String>,
+    writes: Vec<String>,
+    reads: Vec<String>,
+}
+
+impl Overview {
+    fn of(events: &[Event]) -> Self {
+        let mut o = Overview::default();
+        // The open scope's attachments, each with the blends of the pipelines drawn into it.
+        let mut scope: Vec<(&AttachmentInfo, bool, Vec<String>)> = Vec::new();
+        let mut pipeline: Option<&PipelineInfo> = None;
+        for e in events {
+            match e {
+                Event::Rendering { colors, depth, .. } => {
+                    scope = colors.iter().map(|a| (a, false, Vec::new())).collect();
+                    scope.extend(depth.iter().map(|a| (a, true, Vec::new())));
+                }
+                Event::BindPipeline(p) => {
+                    add_once(&mut o.pipelines, &format!("`{}`", p.name));
+                    pipeline = Some(p);
+                    let mut colour = 0;
+                    for (_, is_depth, blends) in scope.iter_mut() {
+                        let blend = if *is_depth {
+                            p.depth.map(|d| match (d.test, d.write) {
+                                (true, true) => format!("test {:?}, write", d.compare),
+                                (true, false) => format!("test {:?}", d.compare),
+                                (false, true) => "write".to_string(),
+                                (false, false) => "unused".to_string(),
+                            })
+                        } else {
+                            colour += 1;
+                            p.colors
+                                .get(colour - 1)
+                                .map(|b| match (b.enable, p.logic_op) {
+                                    (true, _) => format!("blend {:?}", b.color_op),
+                                    (false, Some(op)) => format!("logic op {op:?}"),
+                                    (false, None) => "no blend".to_string(),
+                                })
+                        };
+                        if let Some(b) = blend {
+                            add_once(blends, &b);
+                        }
+                    }
+                }
+                Event::BindSets(sets) => {
+                    let Some(p) = pipeline else { continue };
+                    for u in &p.uses {
+                        let Some(b) = sets
+                            .get(u.set as usize)
+                            .and_then(|s| s.bindings.get(u.binding as usize))
+                        else {
+                            continue;
+                        };
+                        match u.writes {
+                            true => add_once(&mut o.writes, &b.resource),
+                            false => add_once(&mut o.reads, &b.resource),
+                        }
+                    }
+                }
+                Event::EndRendering => {
+                    for (a, is_depth, blends) in scope.drain(..) {
+                        let load = match &a.clear {
+                            Some(c) => format!("clear {c}"),
+                            None => "load".into(),
+                        };
+                        let what = if is_depth { "depth " } else { "" };
+                        let mut text = format!("{what}'{}' {:?} ({load}", a.image, a.format);
+                        for b in blends {
+                            text += &format!(", {b}");
+                        }
+                        text.push(')');
+                        o.writes.push(text);
+                    }
+                }
+                Event::Fill(b) => add_once(&mut o.writes, &format!("buffer '{b}' (fill)")),
+                Event::Copy(src, dst) => {
+                    add_once(&mut o.reads, &format!("'{src}' (copy)"));
+                    add_once(&mut o.writes, &format!("'{dst}' (copy)"));
+                }
+                Event::DrawIndirect(b) => {
+                    add_once(&mut o.reads, &format!("buffer '{b}' (indirect arguments)"))
+                }
+                _ => {}
+            }
+        }
+        o
+    }
 }

@@ -22,8 +22,10 @@ pub struct BindingInfo {
     /// The shader variable it is for.
     pub name: &'static str,
     pub kind: BindingKind,
-    /// The buffer or image bound (its name), with an image's format and a sampler's state.
+    /// The buffer or image bound: `buffer 'NAME'` or `image 'NAME'`.
     pub resource: String,
+    /// An image's format and a sampler's state; empty for a buffer.
+    pub detail: String,
 }
 
 /// A descriptor set as it was made.

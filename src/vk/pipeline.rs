@@ -80,18 +80,20 @@ impl Resource<'_> {
         }
     }
 
-    /// What a port sheet says is bound: the resource's name, an image's format and a
+    /// What a port sheet says is bound: the resource, and an image's format and a
     /// sampler's state.
-    fn describe(&self) -> String {
+    fn describe(&self) -> (String, String) {
         match self {
-            Resource::Uniform(b) | Resource::Storage(b) => format!("buffer '{}'", b.name),
-            Resource::Sampled(img, s) => {
-                format!(
-                    "image '{}' {:?}, sampler {}",
-                    img.name, img.format, s.description
-                )
+            Resource::Uniform(b) | Resource::Storage(b) => {
+                (format!("buffer '{}'", b.name), String::new())
             }
-            Resource::StorageImage(img) => format!("image '{}' {:?}", img.name, img.format),
+            Resource::Sampled(img, s) => (
+                format!("image '{}'", img.name),
+                format!("{:?}, sampler {}", img.format, s.description),
+            ),
+            Resource::StorageImage(img) => {
+                (format!("image '{}'", img.name), format!("{:?}", img.format))
+            }
         }
     }
 }
@@ -126,11 +128,15 @@ impl DescriptorSet {
             bindings: named
                 .iter()
                 .enumerate()
-                .map(|(i, (n, r))| BindingInfo {
-                    binding: i as u32,
-                    name: *n,
-                    kind: r.kind(),
-                    resource: r.describe(),
+                .map(|(i, (n, r))| {
+                    let (resource, detail) = r.describe();
+                    BindingInfo {
+                        binding: i as u32,
+                        name: n,
+                        kind: r.kind(),
+                        resource,
+                        detail,
+                    }
                 })
                 .collect(),
             made_in: std::panic::Location::caller().file(),

@@ -579,14 +579,7 @@ fn describe(cli: &Cli, a: &DescribeArgs) -> Result<()> {
         let sheet = port_sheet(&ctx, scene.clone(), &label, name, sheet_settings())?;
         sheets.push((name, sheet));
     }
-    let msgs = ctx.validation_messages();
-    if !msgs.is_empty() {
-        bail!(
-            "{} validation message(s), the first: {}",
-            msgs.len(),
-            msgs[0]
-        );
-    }
+    ctx.check_validation()?;
     let Some(dir) = &a.out else {
         for (_, sheet) in &sheets {
             print!("{sheet}");
@@ -732,14 +725,7 @@ fn render(cli: &Cli, a: &RenderArgs) -> Result<()> {
             c.sum(3) as f64 / px,
         );
     }
-    let msgs = ctx.validation_messages();
-    if !msgs.is_empty() {
-        bail!(
-            "{} validation message(s), the first: {}",
-            msgs.len(),
-            msgs[0]
-        );
-    }
+    ctx.check_validation()?;
     Ok(())
 }
 

@@ -10,13 +10,21 @@ use softshadow::render::describe::{port_sheet, sheet_settings, DEFAULT_SCENE, RE
 use softshadow::render::Renderer;
 use softshadow::scene::Scene;
 use softshadow::technique::{names, TECHNIQUES};
-use softshadow::vk::describe::{Event, PassRef};
+use softshadow::vk::describe::{BarrierInfo, Event, PassRef};
 use softshadow::vk::ImageLayout;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
 fn root() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+}
+
+/// Pass `pass` of logged frame `frame`.
+fn at(frame: u32, pass: &str) -> PassRef {
+    PassRef {
+        frame,
+        pass: Some(pass.into()),
+    }
 }
 
 fn sheet(gpu: &Gpu, technique: &str) -> String {
@@ -146,38 +154,24 @@ fn the_log_holds_the_barriers_the_recorder_derived() {
         }
     }
     assert_eq!(seen.len(), 2, "{seen:#?}");
-    let (at, clear) = &seen[0];
-    assert_eq!(at, "pcss/shadow_map");
+    let summary = |(pass, b): &(String, BarrierInfo)| (pass.clone(), b.layouts, b.after.clone());
+    use ImageLayout as L;
     assert_eq!(
-        clear.layouts,
-        Some((
-            ImageLayout::UNDEFINED,
-            ImageLayout::COLOR_ATTACHMENT_OPTIMAL
-        ))
+        summary(&seen[0]),
+        (
+            "pcss/shadow_map".to_string(),
+            Some((L::UNDEFINED, L::COLOR_ATTACHMENT_OPTIMAL)),
+            vec![at(0, "pcss/final")]
+        )
     );
+    assert!(seen[0].1.src_access.is_empty());
     assert_eq!(
-        clear.after,
-        vec![PassRef {
-            frame: 0,
-            pass: Some("pcss/final".into())
-        }]
-    );
-    assert!(clear.src_access.is_empty());
-    let (at, sample) = &seen[1];
-    assert_eq!(at, "pcss/final");
-    assert_eq!(
-        sample.layouts,
-        Some((
-            ImageLayout::COLOR_ATTACHMENT_OPTIMAL,
-            ImageLayout::SHADER_READ_ONLY_OPTIMAL
-        ))
-    );
-    assert_eq!(
-        sample.after,
-        vec![PassRef {
-            frame: 1,
-            pass: Some("pcss/shadow_map".into())
-        }]
+        summary(&seen[1]),
+        (
+            "pcss/final".to_string(),
+            Some((L::COLOR_ATTACHMENT_OPTIMAL, L::SHADER_READ_ONLY_OPTIMAL)),
+            vec![at(1, "pcss/shadow_map")]
+        )
     );
 }
 

@@ -346,38 +346,27 @@ impl Batch {
     /// Every barrier as plain data, with the resource's key (`Target::key`), in recording
     /// order: buffers', then images'.
     pub fn described(&self) -> Vec<(usize, BarrierInfo)> {
-        let buffers = self
-            .buffers
-            .iter()
-            .zip(&self.buffer_of)
-            .map(|(b, (key, name))| {
-                let info = BarrierInfo {
-                    resource: name.clone(),
-                    src_stage: b.src_stage_mask,
-                    src_access: b.src_access_mask,
-                    dst_stage: b.dst_stage_mask,
-                    dst_access: b.dst_access_mask,
-                    layouts: None,
-                    after: Vec::new(),
-                };
-                (*key, info)
-            });
-        let images = self
-            .images
-            .iter()
-            .zip(&self.image_of)
-            .map(|(b, (key, name))| {
-                let info = BarrierInfo {
-                    resource: name.clone(),
-                    src_stage: b.src_stage_mask,
-                    src_access: b.src_access_mask,
-                    dst_stage: b.dst_stage_mask,
-                    dst_access: b.dst_access_mask,
-                    layouts: Some((b.old_layout, b.new_layout)),
-                    after: Vec::new(),
-                };
-                (*key, info)
-            });
+        let info = |(key, name): &(usize, String), src, src_access, dst, dst_access, layouts| {
+            let b = BarrierInfo {
+                resource: name.clone(),
+                src_stage: src,
+                src_access,
+                dst_stage: dst,
+                dst_access,
+                layouts,
+                after: Vec::new(),
+            };
+            (*key, b)
+        };
+        let buffers = self.buffers.iter().zip(&self.buffer_of).map(|(b, of)| {
+            let (s, a) = (b.src_stage_mask, b.src_access_mask);
+            info(of, s, a, b.dst_stage_mask, b.dst_access_mask, None)
+        });
+        let images = self.images.iter().zip(&self.image_of).map(|(b, of)| {
+            let (s, a) = (b.src_stage_mask, b.src_access_mask);
+            let layouts = Some((b.old_layout, b.new_layout));
+            info(of, s, a, b.dst_stage_mask, b.dst_access_mask, layouts)
+        });
         buffers.chain(images).collect()
     }
 

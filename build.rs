@@ -52,6 +52,8 @@ fn run() -> Result<(), String> {
     // Every module the renderer may run, variants included, with its source file (`shaders::SOURCES`).
     let mut sources = String::new();
     let mut failures = Vec::new();
+    // (timed build, counting build) of every counted light-pass shader.
+    let mut light_count = String::new();
     for file in &files {
         println!("cargo:rerun-if-changed={}", file.display());
         let ext = file.extension().and_then(|e| e.to_str()).unwrap_or("");
@@ -66,9 +68,21 @@ fn run() -> Result<(), String> {
             // `-DAOV`. A define rather than a specialization constant because the two differ
             // in their output interface, which a constant cannot remove (an output with no
             // attachment is a validation warning, and the AOV writes would still cost).
+            //
+            // A light-pass shader that includes `common/count.glsl` by name also gets its
+            // counting build `IDENT_COUNT`, with `-DCOUNT_LIGHT=` the stage (1 vertex, 2
+            // fragment, 3 compute), listed in `LIGHT_COUNT` for vk::pipeline.
+            let light_stage = match ext {
+                "vert" => "COUNT_LIGHT=1",
+                "frag" => "COUNT_LIGHT=2",
+                _ => "COUNT_LIGHT=3",
+            };
             let variants: &[(&str, Option<&str>)] =
                 if source.contains("#include \"common/final.glsl\"") {
                     &[("", None), ("_AOV", Some("AOV")), ("_COUNT", Some("COUNT"))]
+                } else if source.contains("#include \"common/count.glsl\"") {
+                    let _ = writeln!(light_count, "    ({ident}, {ident}_COUNT),");
+                    &[("", None), ("_COUNT", Some(light_stage))]
                 } else {
                     &[("", None)]
                 };
@@ -126,6 +140,17 @@ fn run() -> Result<(), String> {
             };
             let source =
                 std::fs::read_to_string(file).map_err(|e| format!("{}: {e}", file.display()))?;
+            // A hand-tuned light pass is counted with its GLSL source's counting build.
+            let sibling = file.with_extension("");
+            let counted = std::fs::read_to_string(&sibling).is_ok_and(|s| {
+                s.contains("#include \"common/count.glsl\"")
+                    && !s.contains("#include \"common/final.glsl\"")
+            });
+            if counted {
+                let glsl_ident =
+                    const_name(sibling.strip_prefix(&glsl).map_err(|e| e.to_string())?);
+                let _ = writeln!(light_count, "    ({ident}, {glsl_ident}_COUNT),");
+            }
             // Hand-tuned final passes mark the lines of each variant (see `spvasm_variant`).
             let variants: &[(&str, bool)] = if source.contains(AOV_MARK) {
                 &[("", false), ("_AOV", true)]
@@ -167,6 +192,10 @@ fn run() -> Result<(), String> {
         }
     }
     let _ = writeln!(consts, "pub const ALL: &[Shader] = &[\n{table}];");
+    let _ = writeln!(
+        consts,
+        "pub const LIGHT_COUNT: &[(&[u8], &[u8])] = &[\n{light_count}];"
+    );
     let _ = writeln!(
         consts,
         "pub const SOURCES: &[(&[u8], &str)] = &[\n{sources}];"

@@ -5,9 +5,10 @@
 
 Prints, from the rows at one buffer size and radius per scene (the run BENCHMARKS.md
 records: `bench --full --width 512 --height 512 --resolutions 1024 --radii scene`):
-1. per scene, one row per technique: frame ms, x hard, the passes' median ms, the final
-   pass's counted work per image pixel (fragments, texels read, texels per warp; each with
-   its ratio to hard's), mae_lit, p99_lit, flip, mae_shadow; then the Pareto front on
+1. per scene, one row per technique: frame ms, x hard, the passes' median ms, counted work
+   per image pixel (the final pass's fragments; the texels the frame read, plain and per
+   warp, light passes included; each with its ratio to hard's), mae_lit, p99_lit, flip,
+   mae_shadow; then the Pareto front on
    (x hard, mae_lit);
 2. per technique over the scenes: mean mae_lit, on how many scenes it beats hard's mae_lit,
    mean flip, median x hard;
@@ -61,13 +62,14 @@ def passes(r):
 
 
 def final_count(r, prefix):
-    """The final pass's count `prefix` (frags, texels, texels_warp) per image pixel, or None
-    where the run has no such column (no pipeline statistics, an older schema)."""
+    """Count `prefix` per image pixel, or None where the run has no such column (no pipeline
+    statistics, an older schema): the final pass's fragments (frags), or the texels the whole
+    frame read (texels, texels_warp: the light passes' and the final pass's, summed)."""
     pixels = float(r["width"]) * float(r["height"])
-    for k, v in r.items():
-        if k.startswith(prefix + ":") and k.endswith("/final") and v not in ("", None):
-            return float(v) / pixels
-    return None
+    found = [float(v) for k, v in r.items()
+             if k.startswith(prefix + ":") and v not in ("", None)
+             and (prefix != "frags" or k.endswith("/final"))]
+    return sum(found) / pixels if found else None
 
 
 def count_cell(r, hard, prefix):

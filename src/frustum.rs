@@ -174,7 +174,7 @@ fn clipped_depth_range(
     range.filter(|&(_, hi)| hi > 0.0)
 }
 
-/// Largest light radius, in bounding radii of the scene (README "Numeric range").
+/// Largest light radius, in bounding radii of the scene (docs/CLI.md "Numeric range").
 pub const MAX_RADIUS_SCENES: f32 = 100.0;
 
 /// Refuses a light radius above `MAX_RADIUS_SCENES` scene radii: such a light sees every

@@ -172,7 +172,7 @@ struct RenderArgs {
     /// PCF kernel: boxN (N odd, 1..=15) or poissonN (N in 1..=64).
     #[arg(long, default_value_t = Settings::default().pcf_kernel)]
     pcf_kernel: PcfKernel,
-    /// Occluder map side of the soft shadow maps (ssm, ssm2).
+    /// Occluder map side of the soft shadow maps (ssm, ssm2 and their bitmask forms).
     #[arg(long, default_value_t = Settings::default().occluder_res, allow_negative_numbers = true)]
     occluder_res: u32,
     /// Soft shadow map accumulation format (r16f loses precision above ~256^2 occluder texels).
@@ -712,8 +712,21 @@ fn render(cli: &Cli, a: &RenderArgs) -> Result<()> {
             println!("{}", softshadow::vk::NO_PIPELINE_STATISTICS);
         }
         print!("{}", report.report());
-        // Counted lookups of the final pass, from an untimed counting frame.
+        // Counted lookups of the light passes (per map texel, as their fragments) and of the
+        // final pass (per pixel), from an untimed counting frame.
         let c = r.count_lookups()?;
+        let tx = (report.map_texels.max(1)) as f64;
+        for l in &c.light {
+            println!(
+                "work {} texels {:.2}/tx (warp {:.2}/tx), search {:.2}/tx, filter {:.2}/tx, march {:.2}/tx",
+                l.name,
+                l.texels as f64 / tx,
+                l.warp_texels as f64 / tx,
+                l.loops[0] as f64 / tx,
+                l.loops[1] as f64 / tx,
+                l.loops[2] as f64 / tx,
+            );
+        }
         let px = (c.width as u64 * c.height as u64).max(1) as f64;
         println!(
             "work {} texels {:.2}/px (warp {:.2}/px), search {:.2}/px, filter {:.2}/px, march {:.2}/px",

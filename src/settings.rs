@@ -229,9 +229,9 @@ impl std::str::FromStr for AccumFormat {
 /// texel, so its cost grows with the square of the side (on lavapipe, 2 cores: 2048^2 about
 /// 25 s a frame, 4096^2 about 380 s).
 pub const MAX_OCCLUDER_RES: u32 = 2048;
-/// Smallest occluder map side (README "Numeric range": measured with `stress`).
+/// Smallest occluder map side (docs/CLI.md "Numeric range": measured with `stress`).
 pub const MIN_OCCLUDER_RES: u32 = 32;
-/// Smallest shadow map side (README "Numeric range": measured with `stress`).
+/// Smallest shadow map side (docs/CLI.md "Numeric range": measured with `stress`).
 pub const MIN_SHADOW_RES: u32 = 64;
 
 impl Default for Settings {

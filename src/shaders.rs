@@ -41,3 +41,13 @@ pub fn source_of(spirv: &[u8]) -> Option<&'static str> {
 }
 
 include!(concat!(env!("OUT_DIR"), "/shaders.rs"));
+
+/// The counting build of a light-pass shader (`-DCOUNT_LIGHT`, glsl/common/count.glsl) for
+/// its timed build `spirv`, or `None` for a shader that reads no texture or is not a light
+/// pass. Matched by content (a constant's address is not guaranteed to be one).
+pub fn light_count_variant(spirv: &[u8]) -> Option<&'static [u8]> {
+    LIGHT_COUNT
+        .iter()
+        .find(|(timed, _)| *timed == spirv)
+        .map(|&(_, count)| count)
+}

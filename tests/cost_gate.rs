@@ -1,8 +1,8 @@
 //! The cost gate: the counted work of every technique on the quick bench's main scenes
 //! (`scripts/gpu-bench.sh --quick`: cylinder and overlap, 64x64, 128^2 buffers) against the
 //! committed baseline tests/cost_baseline.csv. Each pass's fragment invocations (pipeline
-//! statistics) and each final pass's warp lookups (texels, 8x4 tiles, common/count.glsl)
-//! must stay within 2 % of their baseline, either way: counts do not move with the host's
+//! statistics) and the warp lookups of every pass that reads a texture, light passes
+//! included (texels, 8x4 tiles, common/count.glsl), must stay within 2 % of their baseline, either way: counts do not move with the host's
 //! load, so this gate cannot flake. A change that moves them on purpose refreshes the
 //! baseline in the same commit, saying why:
 //!
@@ -48,6 +48,11 @@ fn measure(gpu: &Gpu) -> BTreeMap<(String, String, String, String), u64> {
             let key = |f: &str| (scene.into(), technique.clone(), c.pass.clone(), f.into());
             out.insert(key("warp_texels"), c.warp_sum(0));
             out.insert(key("texels"), c.sum(0));
+            for l in &c.light {
+                let key = |f: &str| (scene.into(), technique.clone(), l.name.clone(), f.into());
+                out.insert(key("warp_texels"), l.warp_texels);
+                out.insert(key("texels"), l.texels);
+            }
         }
     }
     out

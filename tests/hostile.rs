@@ -413,7 +413,7 @@ fn toml_scene(dir: &Path, name: &str, light: &str, box_line: &str) -> PathBuf {
     path
 }
 
-/// The edges of the numeric range (README "Numeric range") that are refused: one `error:` line
+/// The edges of the numeric range (docs/CLI.md "Numeric range") that are refused: one `error:` line
 /// naming the limit, nothing written.
 #[test]
 fn out_of_range_numbers_are_refused_with_the_limit() {

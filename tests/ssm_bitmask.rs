@@ -101,7 +101,7 @@ fn mae_lit_below_the_additive_forms() {
                 ));
             }
             // On `cylinder` the exact occlusion beats pcss (measured 0.0087 and 0.0073 against
-            // 0.0139); elsewhere the occluder map's 256^2 texels limit it (README).
+            // 0.0139); elsewhere the occluder map's 256^2 texels limit it (docs/TECHNIQUES.md).
             if *name == "cylinder" && of(t) > of("pcss") {
                 bad.push(format!(
                     "{name}/{t}: mae_lit {:.4} above pcss's {:.4}",

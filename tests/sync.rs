@@ -5,7 +5,7 @@
 //! whole matrix in seconds.
 //!
 //! `SOFTSHADOW_BEST_PRACTICES=1 cargo test --test sync` runs the same matrix with the
-//! layer's best-practices checks too; the findings left on purpose (README, "Validation")
+//! layer's best-practices checks too; the findings left on purpose (docs/TESTING.md, "Validation")
 //! are the only messages it lets through.
 
 use softshadow::eval::bench::Motion;
@@ -15,7 +15,7 @@ use softshadow::settings::{AccumFormat, Settings, SilhouettePath, SpirvChoice};
 use softshadow::technique::TECHNIQUES;
 use softshadow::vk::{Context, ContextOptions};
 
-/// Best-practices findings left on purpose, each explained in the README's "Validation".
+/// Best-practices findings left on purpose, each explained in docs/TESTING.md, "Validation".
 const KNOWN_BEST_PRACTICES: &[&str] = &[
     "UNASSIGNED-BestPractices-vkCreateInstance-specialuse-extension-debugging",
     "UNASSIGNED-BestPractices-pipeline-stage-flags",

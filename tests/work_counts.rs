@@ -40,25 +40,149 @@ fn counted(
     (timed, after, counts, frags)
 }
 
+/// Every technique: the counting frame (light passes again with their counting builds, each
+/// draw in a rendering scope of its own, then the final pass's counting build) draws the
+/// timed frame's image, and counts the light passes whose shaders read a texture.
 #[test]
 fn the_counting_frame_draws_the_timed_frames_image_bit_for_bit() {
     let gpu = Gpu::new();
-    for technique in [
-        "hard",
-        "pcf",
-        "pcss",
-        "pcss-fast",
-        "smoothies",
-        "penumbra-map-centred",
-        "ssm",
-    ] {
+    // The light passes whose shaders read a texture (glsl/<technique>/*: texelFetch,
+    // textureGather), by technique.
+    let reading = |t: &str| -> &[&str] {
+        match t {
+            "smoothies" | "smoothies-centred" => &["smoothie"],
+            "penumbra-map" | "penumbra-map-centred" => &["penumbra"],
+            "plateaus-centred" => &["inner"],
+            "pcss-fast" | "pcss-walk" => &["minmax"],
+            "ssm" | "ssm2" | "ssm-bitmask" => &["receiver_bound", "soft_shadow"],
+            _ => &[],
+        }
+    };
+    for technique in softshadow::technique::names() {
         let (timed, counting, c, _) = counted(&gpu, "cylinder", technique, small(64, 128));
         assert_eq!(
             timed, counting,
             "{technique}: the counting frame's colour differs"
         );
-        assert!(c.sum(TEXELS) > 0, "{technique}: no lookup counted");
+        if technique != "reference" {
+            assert!(c.sum(TEXELS) > 0, "{technique}: no lookup counted");
+        }
+        let light: Vec<&str> = c
+            .light
+            .iter()
+            .map(|l| l.name.split_once('/').map_or(l.name.as_str(), |n| n.1))
+            .collect();
+        for pass in reading(technique) {
+            let l = c
+                .light
+                .iter()
+                .find(|l| l.name.ends_with(&format!("/{pass}")));
+            let l = l.unwrap_or_else(|| panic!("{technique}: {pass} not counted: {light:?}"));
+            assert!(l.texels > 0, "{technique}: {l:?}");
+            assert!(l.warp_texels >= l.texels, "{technique}: {l:?}");
+        }
     }
+}
+
+/// A counted light pass of known work (glsl/tests/count_light.frag: the fragment at (x, y)
+/// reads (x mod 8) + (y mod 4) stand-in texels), drawn twice in one rendering scope over a
+/// 64x32 target: per 8x4 tile, sum over x in 0..8 and y in 0..4 of x + y = 4 * 28 + 8 * 6 =
+/// 160 texels a draw, the slowest fragment 7 + 3 = 10; 31 of its 32 fragments read, so the
+/// two draws' 62 fill two warps of 32 x 10. 64 tiles.
+#[test]
+fn a_light_pass_counts_its_tiles_as_worked_out() {
+    use softshadow::vk::{Buffer, BufferUsageFlags, DescriptorSet, Resource};
+    let gpu = Gpu::new();
+    let (w, h) = (64u32, 32u32);
+    let target = Image::new_2d(
+        &gpu.ctx,
+        w,
+        h,
+        Format::R8G8B8A8_UNORM,
+        ImageUsageFlags::COLOR_ATTACHMENT,
+        "counted target",
+    )
+    .unwrap();
+    let params = Buffer::with_data(
+        &gpu.ctx,
+        bytemuck::bytes_of(&1u32),
+        BufferUsageFlags::UNIFORM_BUFFER,
+        "params",
+    )
+    .unwrap();
+    let set = DescriptorSet::new(&gpu.ctx, &[("params", Resource::Uniform(&params))], "t").unwrap();
+    let pipeline = Pipeline::graphics(
+        &gpu.ctx,
+        &GraphicsPipelineDesc {
+            name: "t/light",
+            vertex: shaders::TESTS_FULLSCREEN_VERT,
+            fragment: Some(shaders::TESTS_COUNT_LIGHT_FRAG),
+            vertex_stride: 0,
+            attributes: &[],
+            topology: PrimitiveTopology::TRIANGLE_LIST,
+            cull: CullModeFlags::NONE,
+            colors: &[(Format::R8G8B8A8_UNORM, Blend::Add)],
+            depth: None,
+            push_constant_bytes: 0,
+            sets: &[&set],
+        },
+    )
+    .unwrap();
+    let mut runner = FrameRunner::new(&gpu.ctx, 2).unwrap();
+    let draw = |rec: &mut softshadow::vk::Recorder<'_>| {
+        rec.pass("t/light", |rec| {
+            rec.begin_rendering(&[(&target, Some([0.0; 4]))], None);
+            rec.bind_pipeline(&pipeline);
+            rec.bind_sets(&pipeline, &[&set]);
+            rec.draw(3, 1);
+            rec.draw(3, 1);
+            rec.end_rendering();
+            Ok(())
+        })
+    };
+    let (_, counts) = runner.run_counting(&gpu.ctx, w, draw).unwrap();
+    let tiles = (w / 8 * h / 4) as u64;
+    assert_eq!(counts.len(), 1, "{counts:?}");
+    let c = &counts[0];
+    assert_eq!(c.name, "t/light");
+    assert_eq!(c.texels, 2 * 160 * tiles);
+    assert_eq!(c.loops, [2 * 160 * tiles, 0, 0]);
+    assert_eq!(c.warp_texels, 2 * 32 * 10 * tiles);
+    // The timed frame binds the pipeline as it is: nothing is counted, nothing fails.
+    let t = runner.run(draw).unwrap();
+    assert_eq!(t.passes.len(), 1);
+}
+
+/// pcss-fast's min-max hierarchy (glsl/pcss_fast/minmax.comp): the first level gathers each
+/// texel of the R x R shadow map once (4 gathers of 4 a 4x4 cell), each coarser level reads
+/// its 4 children a cell (a storage-buffer read stands in for a texel). Its 8x8 groups hold
+/// two warps of 32; a level under 8 cells a side keeps its live lanes (x, y < size: local
+/// indices y * 8 + x) in the first warp, which pays 32 x 4.
+#[test]
+fn the_min_max_hierarchy_reads_each_texel_once_and_each_cell_once() {
+    let gpu = Gpu::new();
+    let res = 128;
+    let (_, _, c, _) = counted(&gpu, "cylinder", "pcss-fast", small(64, res));
+    let l = c
+        .light
+        .iter()
+        .find(|l| l.name == "pcss-fast/minmax")
+        .unwrap_or_else(|| panic!("{:?}", c.light));
+    let levels = softshadow::technique::pcss_fast::levels(res);
+    let first = u64::from(res).pow(2);
+    let coarser: u64 = levels[1..]
+        .iter()
+        .map(|v| 4 * u64::from(v.size).pow(2))
+        .sum();
+    assert_eq!(l.texels, first + coarser);
+    let warp_coarser: u64 = levels[1..]
+        .iter()
+        .map(|v| match v.size {
+            s if s >= 8 => 4 * u64::from(s).pow(2),
+            _ => 32 * 4,
+        })
+        .sum();
+    assert_eq!(l.warp_texels, first + warp_coarser);
 }
 
 /// `hard` reads one comparison-sampler lookup (4 texels) per fragment that reaches it: every
@@ -180,6 +304,7 @@ fn warp_sum_pays_for_the_slowest_fragment_of_each_tile() {
         width: 16,
         height: 4,
         per_pixel,
+        light: Vec::new(),
     };
     assert_eq!(c.sum(0), 17);
     assert_eq!(c.warp_sum(0), 32 * 10 + 32 * 5);

@@ -1,5 +1,6 @@
 #version 450
 #extension GL_GOOGLE_include_directive : require
+#include "common/count.glsl"  // by name: build.rs also builds it counted (-DCOUNT_LIGHT)
 // pcss-fast/minmax: one level of the caster-depth hierarchy (pcss_fast/hierarchy.glsl: per
 // cell min, max caster, sum and count of caster depths) from the level below it, one
 // dispatch a level; the first level (2: 4x4 texels a cell) reads the shadow map itself.
@@ -55,6 +56,7 @@ void main() {
                 // The last cell of an odd-sized level has one child a side.
                 ivec2 s = 2 * d + ivec2(i, j);
                 if (any(greaterThanEqual(s, ivec2(level.src_size)))) continue;
+                COUNT_READ();
                 vec4 v = minmax.cells[level.src_offset + s.y * level.src_size + s.x];
                 r = vec4(min(r.x, v.x), max(r.y, v.y), r.z + v.z, r.w + v.w);
             }

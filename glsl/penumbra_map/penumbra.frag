@@ -1,5 +1,6 @@
 #version 450
 #extension GL_GOOGLE_include_directive : require
+#include "common/count.glsl"  // by name: build.rs also builds it counted (-DCOUNT_LIGHT)
 // penumbra-map/penumbra (Wyman & Hansen Sec. 3, the fragment program of Fig. 5): intensity of
 // the foremost surface P at this texel from the cone/sheet fragment F in front of it,
 // Eq. 1, I = (Z_F - Z_v) / (Z_P - Z_v), then s = 3 I^2 - 2 I^3 (Parker et al.'s spherical

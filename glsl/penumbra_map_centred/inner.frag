@@ -1,5 +1,6 @@
 #version 450
 #extension GL_GOOGLE_include_directive : require
+#include "common/count.glsl"  // by name: build.rs also builds it counted (-DCOUNT_LIGHT)
 // penumbra-map-centred/penumbra, inner cones and sheets (src/silhouette/penumbra.rs,
 // `Side::Inner`): the inner half of the centred penumbra, inside the hard shadow, where the
 // shadow map's foremost surface is the caster and the receiver is hidden behind it.

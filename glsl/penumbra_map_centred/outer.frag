@@ -1,5 +1,6 @@
 #version 450
 #extension GL_GOOGLE_include_directive : require
+#include "common/count.glsl"  // by name: build.rs also builds it counted (-DCOUNT_LIGHT)
 // penumbra-map-centred/penumbra, outer cones and sheets: the paper's fragment program
 // (penumbra_map/penumbra.frag) with the penumbra centred on the hard edge. Eq. 1's depths
 // give the exact share of the outer penumbra half-width at P: the fragment F lies

@@ -1,5 +1,6 @@
 #version 450
 #extension GL_GOOGLE_include_directive : require
+#include "common/count.glsl"  // by name: build.rs also builds it counted (-DCOUNT_LIGHT)
 // plateaus-centred/inner: the cones and the INNER sheets (src/technique/plateaus.rs
 // `PlateauBuilder` with `Side::Inner`: (P3) with p -> -p, opening into the drop shadow), in
 // the texture's clip space with depth t = 0 at the hard edge and 1 at the inner rim. The

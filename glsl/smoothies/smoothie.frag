@@ -1,5 +1,6 @@
 #version 450
 #extension GL_GOOGLE_include_directive : require
+#include "common/count.glsl"  // by name: build.rs also builds it counted (-DCOUNT_LIGHT)
 // Smoothie pass (Chan & Durand Sec. 3.1): writes the smoothie's linear depth b and its
 // remapped alpha into the RG32F smoothie buffer, MIN-blended per channel (clear: far, 1.0).
 #include "common/frame.glsl"

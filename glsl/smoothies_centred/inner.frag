@@ -1,5 +1,6 @@
 #version 450
 #extension GL_GOOGLE_include_directive : require
+#include "common/count.glsl"  // by name: build.rs also builds it counted (-DCOUNT_LIGHT)
 // smoothies-centred/smoothie, inner smoothies (src/silhouette/smoothie.rs, `Side::Inner`):
 // the inner half of the centred penumbra, inside the hard shadow, where the shadow map's
 // foremost surface is the blocker and the receiver is hidden behind it. The same rules as

@@ -1,5 +1,6 @@
 #version 450
 #extension GL_GOOGLE_include_directive : require
+#include "common/count.glsl"  // by name: build.rs also builds it counted (-DCOUNT_LIGHT)
 // smoothies-centred/smoothie, outer smoothies: the paper's smoothie fragment
 // (smoothies/smoothie.frag: receiver r = the shadow map's g at this texel, discard when
 // b/r > 1 or past the smoothie's outer side) with the penumbra centred on the hard edge.

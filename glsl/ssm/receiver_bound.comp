@@ -1,5 +1,6 @@
 #version 450
 #extension GL_GOOGLE_include_directive : require
+#include "common/count.glsl"  // by name: build.rs also builds it counted (-DCOUNT_LIGHT)
 // ssm/receiver_bound: the farthest receiver depth of the frame (both receiver layers,
 // empty texels ignored), the z_R that bounds every micro-patch's penumbra extent
 // (Sec. 3.3, RR' = LL' (z_R - z_O) / z_O grows with z_R). One atomicMax per workgroup.

@@ -1,5 +1,6 @@
 #version 450
 #extension GL_GOOGLE_include_directive : require
+#include "common/count.glsl"  // by name: build.rs also builds it counted (-DCOUNT_LIGHT)
 // ssm/soft_shadow: for the receiver point of this soft-shadow-map texel (one per receiver
 // layer), back-project the micro-patch onto the square light (Sec. 3.4, Fig. 9) and write
 // the occluded fraction of the light's area; ADD blending sums the micro-patches (Sec. 4.1).

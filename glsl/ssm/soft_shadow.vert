@@ -1,5 +1,6 @@
 #version 450
 #extension GL_GOOGLE_include_directive : require
+#include "common/count.glsl"  // by name: build.rs also builds it counted (-DCOUNT_LIGHT)
 // ssm/soft_shadow: one instance per occluder-map texel, 4 vertices (triangle strip).
 // The micro-patch of texel (i, j) at depth z_O (Sec. 3.2) has the pixel square [i, i+1] x
 // [j, j+1] of the map; its penumbra extent on the plane of the farthest receiver z_max is

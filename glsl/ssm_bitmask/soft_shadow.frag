@@ -1,5 +1,6 @@
 #version 450
 #extension GL_GOOGLE_include_directive : require
+#include "common/count.glsl"  // by name: build.rs also builds it counted (-DCOUNT_LIGHT)
 // ssm-bitmask/soft_shadow: for the receiver point of this soft-shadow-map texel (one per
 // receiver layer), the set of light samples the micro-quad hides, as a 128-bit mask; the
 // pipeline's logic op OR makes the texel's mask the union over every micro-quad (Schwarz &

@@ -1,5 +1,6 @@
 #version 450
 #extension GL_GOOGLE_include_directive : require
+#include "common/count.glsl"  // by name: build.rs also builds it counted (-DCOUNT_LIGHT)
 // ssm-bitmask/soft_shadow: one instance per occluder-map texel, 4 vertices (triangle strip).
 // The micro-quad of texel (i, j) spans its pixel square [i, i+1] x [j, j+1]; each corner's
 // depth is the harmonic mean (exact for a plane: 1/z is affine across the map) of the up to

@@ -790,14 +790,14 @@ pub struct PassStat {
     /// frame: they count work, not time); `None` when no frame ran it or the device does not
     /// count them.
     pub stats: Option<crate::vk::PassStats>,
-    /// A final pass's counted lookups, from the counting frame after the timed ones
-    /// (`Renderer::count_lookups`); `None` for light passes.
+    /// The pass's counted lookups, from the counting frame after the timed ones
+    /// (`Renderer::count_lookups`); `None` for a pass whose shaders read no texture.
     pub lookups: Option<Lookups>,
 }
 
-/// The counting frame's sums over the image for one final pass (docs/DESIGN.md, "Work
-/// counts"): texels read, plain and per warp (8x4 tiles, 32 x the tile's largest), and the
-/// turns of its search, filter and march loops.
+/// The counting frame's sums over one pass's target (docs/DESIGN.md, "Work counts"): texels
+/// read, plain and per warp (8x4 tiles, 32 x the tile's largest), and the turns of its
+/// search, filter and march loops.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
 pub struct Lookups {
     pub texels: u64,
@@ -815,6 +815,17 @@ impl Lookups {
             search: c.sum(1),
             filter: c.sum(2),
             march: c.sum(3),
+        }
+    }
+
+    /// A light pass's, whose warp sum the counting build adds up per 8x4 tile of its target.
+    pub fn of_light(c: &crate::vk::LightPassCount) -> Self {
+        Self {
+            texels: c.texels,
+            texels_warp: c.warp_texels,
+            search: c.loops[0],
+            filter: c.loops[1],
+            march: c.loops[2],
         }
     }
 }
@@ -1288,6 +1299,11 @@ impl Sweep<'_> {
         let final_pass = counted.pass.replace("/count", "/final");
         if let Some(p) = timing.passes.iter_mut().find(|p| p.name == final_pass) {
             p.lookups = Some(Lookups::of(&counted));
+        }
+        for l in &counted.light {
+            if let Some(p) = timing.passes.iter_mut().find(|p| p.name == l.name) {
+                p.lookups = Some(Lookups::of_light(l));
+            }
         }
         Ok(Record {
             scene: base.name.clone(),

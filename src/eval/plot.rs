@@ -92,22 +92,25 @@ pub fn time_vs_error(path: &Path, res: &Results<'_>) -> Result<()> {
     )
 }
 
-/// The final pass's warp lookups of a row (`Lookups::texels_warp`).
+/// The frame's warp lookups of a row: every counted pass's (`Lookups::texels_warp`), the
+/// light passes' included.
 fn warp_lookups(r: &Record) -> Option<f64> {
-    r.passes
+    let counted: Vec<f64> = r
+        .passes
         .iter()
-        .find(|p| p.name.ends_with("/final"))
-        .and_then(|p| p.lookups)
+        .filter_map(|p| p.lookups)
         .map(|l| l.texels_warp as f64)
+        .collect();
+    (!counted.is_empty()).then(|| counted.iter().sum())
 }
 
-/// The twin of `time_vs_error`: the final pass's warp lookups as a ratio to `hard`'s in the
-/// same panel, against error.
+/// The twin of `time_vs_error`: the frame's warp lookups (light passes and final pass) as a
+/// ratio to `hard`'s in the same panel, against error.
 pub fn lookups_vs_error(path: &Path, res: &Results<'_>) -> Result<()> {
     scatter(
         path,
         res,
-        "Warp lookups of the final pass (ratio to hard) against mae_lit",
+        "Warp lookups of the frame (ratio to hard) against mae_lit",
         &format!("warp lookups / {BASELINE} (log)"),
         |r, panel| {
             let hard = panel

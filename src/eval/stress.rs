@@ -77,7 +77,7 @@ pub const CASES: &[(&str, &str)] = &[
     ("mesh-1m", "a bumpy sphere of about 1e6 triangles (--quick: 1e5)"),
     ("moving-light", "the light sliding slowly over 120 frames (--quick: 12): flicker against the reference's change"),
     ("ssm-r16f", "ssm/ssm2 in R16F vs R32F at occluder maps 128^2 ... 1024^2 against Eq. 4's growth"),
-    // The documented numeric range (README "Numeric range"), each at its edge.
+    // The documented numeric range (docs/CLI.md "Numeric range"), each at its edge.
     ("scene-1e-5", "the cylinder scene scaled to a bounding radius of 1e-5: against its own reference, and unchanged"),
     ("scene-1e-4", "the cylinder scene scaled to a bounding radius of 1e-4: against its own reference, and unchanged"),
     ("scene-1e5", "the cylinder scene scaled to a bounding radius of 1e5: against its own reference, and unchanged"),

@@ -284,10 +284,13 @@ impl<'c> Renderer<'c> {
         Ok(())
     }
 
-    /// The counting frame (untimed, after the last `render`, like the AOV pass): the final
-    /// pass again, built with `-DCOUNT` and drawn as the timed one was (split where it is
-    /// split), adding up per pixel the texels its shader read and its search, filter and
-    /// march iterations (glsl/common/count.glsl). Its colour equals the timed frame's bit
+    /// The counting frame (untimed, after the last `render`, like the AOV pass): the light
+    /// passes again, with every pipeline that reads a texture bound as its counting build
+    /// (`-DCOUNT_LIGHT`: texels read, added up per 8x4 tile of the pass's target), then the
+    /// final pass again, built with `-DCOUNT` and drawn as the timed one was (split where it
+    /// is split), adding up per pixel the texels its shader read and its search, filter and
+    /// march iterations (glsl/common/count.glsl). The light passes run even where the timed
+    /// frame reused them, and give the same buffers; the image equals the timed frame's bit
     /// for bit (tests/work_counts.rs), so `read_color` after it still gives the image.
     pub fn count_lookups(&mut self) -> Result<LookupCounts> {
         let input = FrameInput {
@@ -300,11 +303,19 @@ impl<'c> Renderer<'c> {
             aov: false,
             count: true,
         };
+        let s = &self.settings;
+        let extent = [s.width, s.height, s.shadow_res, s.occluder_res]
+            .into_iter()
+            .max()
+            .unwrap_or(1);
         let (ctx, technique) = (self.ctx, &mut self.technique);
-        let timings = self
+        let (timings, light) = self
             .runner
-            .run(|rec| technique.record_final(ctx, rec, &input))
-            .context("rendering the counting pass")?;
+            .run_counting(ctx, extent, |rec| {
+                technique.record_light(ctx, rec, &input)?;
+                technique.record_final(ctx, rec, &input)
+            })
+            .context("rendering the counting frame")?;
         let counts = read_image::<[f32; 4]>(self.ctx, &mut self.runner, &self.targets.count)?;
         Ok(LookupCounts {
             pass: timings
@@ -319,6 +330,7 @@ impl<'c> Renderer<'c> {
                 .iter()
                 .map(|c| c.map(|v| v.max(0.0).round() as u64))
                 .collect(),
+            light,
         })
     }
 
@@ -451,6 +463,9 @@ pub struct LookupCounts {
     pub height: u32,
     /// Row-major, row 0 at the top: [texels, search, filter, march].
     pub per_pixel: Vec<[u64; 4]>,
+    /// Each light pass that read a texture, in the order they ran (empty on a device
+    /// without `Context::light_counting`).
+    pub light: Vec<crate::vk::LightPassCount>,
 }
 
 /// Width and height of the pixel tile one warp of 32 fragments shades (4 x 2 quads).

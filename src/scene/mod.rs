@@ -413,12 +413,12 @@ impl Aabb {
     }
 }
 
-/// Smallest scene bounding radius (README "Numeric range": stress `scene-1e-5`).
+/// Smallest scene bounding radius (docs/CLI.md "Numeric range": stress `scene-1e-5`).
 pub const MIN_SCENE_RADIUS: f32 = 1e-5;
-/// Largest scene bounding radius (README "Numeric range": stress `scene-2e7`).
+/// Largest scene bounding radius (docs/CLI.md "Numeric range": stress `scene-2e7`).
 pub const MAX_SCENE_RADIUS: f32 = 2e7;
 
-/// Widest light cone (README "Numeric range": measured with `stress`).
+/// Widest light cone (docs/CLI.md "Numeric range": measured with `stress`).
 pub const MAX_LIGHT_FOV_DEG: f32 = 120.0;
 
 impl Scene {
@@ -542,7 +542,7 @@ impl Scene {
         let size = self.bounds().radius();
         if !(MIN_SCENE_RADIUS..=MAX_SCENE_RADIUS).contains(&size) {
             bail!(
-                "scene '{name}': its bounding radius {size:e} is out of range: allowed {MIN_SCENE_RADIUS:e} ..= {MAX_SCENE_RADIUS:e} world units (f32 depth and ray precision; see the README's numeric range)"
+                "scene '{name}': its bounding radius {size:e} is out of range: allowed {MIN_SCENE_RADIUS:e} ..= {MAX_SCENE_RADIUS:e} world units (f32 depth and ray precision; see docs/CLI.md, \"Numeric range\")"
             );
         }
         if !self.objects.iter().any(|o| o.role.casts()) {

@@ -5,6 +5,7 @@
 //! the device counts them.
 
 use super::context::{Context, Shared};
+use super::count::{self, CountSlot, LightPassCount};
 use super::describe::{clear_text, AttachmentInfo, Event, FrameLog, Logger};
 use super::memory::{Buffer, Image};
 use super::pipeline::{BindingKind, DescriptorSet, Pipeline};
@@ -182,6 +183,20 @@ pub struct FrameRunner {
     valid_bits: u32,
     /// While on, what each frame records (`start_log`).
     log: Option<Logger>,
+    /// The counting frame's per-pass count buffers (`run_counting`), made on first use.
+    count_slots: Vec<CountSlot>,
+}
+
+/// What the recorder keeps in the counting frame: where to add each pass's counts.
+struct Counting<'a> {
+    ctx: &'a Context,
+    slots: &'a mut Vec<CountSlot>,
+    /// The largest target side of the frame, in texels (the buffers' tile grid).
+    extent: u32,
+    /// The pass each used slot belongs to, in order.
+    used: Vec<String>,
+    /// The slot of the pass being recorded (its draws' tiles).
+    pass_slot: Option<usize>,
 }
 
 impl FrameRunner {
@@ -239,6 +254,7 @@ impl FrameRunner {
             period_ns: ctx.timestamp_period() as f64,
             valid_bits: 64,
             log: None,
+            count_slots: Vec::new(),
         };
         let alloc = vk::CommandBufferAllocateInfo::default()
             .command_pool(pool)
@@ -273,6 +289,33 @@ impl FrameRunner {
 
     /// Records `f`, submits, waits, and returns the timings of the passes it recorded.
     pub fn run<F>(&mut self, f: F) -> Result<FrameTimings>
+    where
+        F: FnOnce(&mut Recorder<'_>) -> Result<()>,
+    {
+        self.record_and_submit(None, f).map(|(t, _)| t)
+    }
+
+    /// `run` for the untimed counting frame: every pipeline with a counting build
+    /// (`Pipeline::counted`) is bound as that build, with a count buffer of the pass as its
+    /// set 1, and each such pass's counts come back beside the timings. `extent`: the
+    /// largest side, in texels, of any target the frame draws into.
+    pub fn run_counting<F>(
+        &mut self,
+        ctx: &Context,
+        extent: u32,
+        f: F,
+    ) -> Result<(FrameTimings, Vec<LightPassCount>)>
+    where
+        F: FnOnce(&mut Recorder<'_>) -> Result<()>,
+    {
+        self.record_and_submit(Some((ctx, extent)), f)
+    }
+
+    fn record_and_submit<F>(
+        &mut self,
+        counting: Option<(&Context, u32)>,
+        f: F,
+    ) -> Result<(FrameTimings, Vec<LightPassCount>)>
     where
         F: FnOnce(&mut Recorder<'_>) -> Result<()>,
     {
@@ -324,8 +367,16 @@ impl FrameRunner {
             scope: None,
             error: None,
             log: self.log.as_mut(),
+            counting: counting.map(|(ctx, extent)| Counting {
+                ctx,
+                slots: &mut self.count_slots,
+                extent,
+                used: Vec::new(),
+                pass_slot: None,
+            }),
         };
         let mut recorded = f(&mut rec);
+        let counted_passes = rec.finish_counting();
         if recorded.is_ok() && rec.scope.is_some() {
             recorded = Err(anyhow::anyhow!("a rendering scope was left open"));
         }
@@ -394,15 +445,35 @@ impl FrameRunner {
             })
             .collect();
         let gpu_frame_ms = used.checked_sub(1).and_then(|last| between(0, last));
-        Ok(FrameTimings {
-            passes,
-            cpu,
-            rebuilt,
-            lookup_area,
-            gpu_frame_ms,
-            image_pixels: 0,
-            map_texels: 0,
-        })
+        // One count per pass, summing its slots (its draws' tiles, one slot per dispatch).
+        let mut light_counts: Vec<LightPassCount> = Vec::new();
+        for (name, slot) in counted_passes.iter().zip(&self.count_slots) {
+            let words: Vec<u32> = bytemuck::pod_collect_to_vec(slot.buffer.read()?);
+            let c = count::reduce(name, &words);
+            match light_counts.last_mut().filter(|l| l.name == *name) {
+                Some(l) => l.add(&c),
+                None => light_counts.push(c),
+            }
+        }
+        // A pass none of whose pipelines has a counting build read nothing counted.
+        light_counts.retain(|c| {
+            *c != LightPassCount {
+                name: c.name.clone(),
+                ..Default::default()
+            }
+        });
+        Ok((
+            FrameTimings {
+                passes,
+                cpu,
+                rebuilt,
+                lookup_area,
+                gpu_frame_ms,
+                image_pixels: 0,
+                map_texels: 0,
+            },
+            light_counts,
+        ))
     }
 }
 
@@ -462,7 +533,12 @@ pub struct Recorder<'a> {
     error: Option<anyhow::Error>,
     /// The port sheets' log, while `FrameRunner::start_log` is on.
     log: Option<&'a mut Logger>,
+    /// Set in the counting frame only (`FrameRunner::run_counting`).
+    counting: Option<Counting<'a>>,
 }
+
+/// What each binding of a bound set holds, for the barriers.
+type SetBindings = Arc<[(BindingKind, Target)]>;
 
 /// What is bound at one bind point: the pipeline's binding uses and the sets by index.
 #[derive(Default)]
@@ -470,6 +546,12 @@ struct Bound {
     uses: Option<Arc<[BindingUse]>>,
     vertex_input: bool,
     sets: Vec<Arc<[(BindingKind, Target)]>>,
+    /// The sets as bound, and the layout they were bound with (a dispatch of the counting
+    /// frame binds its own count buffer at set 1).
+    raw_sets: Vec<vk::DescriptorSet>,
+    layout: vk::PipelineLayout,
+    /// Whether the pipeline is a counting build.
+    counted: bool,
 }
 
 /// A rendering scope between `begin_rendering` and `end_rendering`. No barrier may go
@@ -483,6 +565,9 @@ struct RenderScope {
     area: vk::Rect2D,
     ops: Vec<Op>,
     uses: Vec<Use>,
+    /// Where each draw's ops and uses end: the counting frame draws each on its own
+    /// (`end_rendering`).
+    draws: Vec<(usize, usize)>,
 }
 
 struct Attachment {
@@ -714,6 +799,7 @@ impl Recorder<'_> {
                 );
             }
         }
+        self.begin_counting(name);
         let result = f(self);
         if self.scope.is_some() {
             self.scope = None;
@@ -867,6 +953,7 @@ impl Recorder<'_> {
             extent,
             area,
             ops: Vec::new(),
+            draws: Vec::new(),
             uses: Vec::new(),
         });
     }
@@ -898,18 +985,67 @@ impl Recorder<'_> {
 
     /// Ends the rendering scope: records its barriers, then the scope itself.
     pub fn end_rendering(&mut self) {
-        use vk::{AccessFlags2 as A, ImageLayout as L, PipelineStageFlags2 as S};
         let Some(scope) = self.scope.take() else {
             self.fail(anyhow::anyhow!("end_rendering without begin_rendering"));
             return;
         };
+        // The counting frame's draws all add to the pass's count buffer, which no barrier
+        // may order inside one scope: there each draw gets a scope of its own, the later
+        // ones loading what the earlier stored (same blending, same order, same texels).
+        let parts: Vec<(usize, usize)> = match self.counting.is_some() && scope.draws.len() > 1 {
+            true => scope.draws.clone(),
+            false => vec![(scope.ops.len(), scope.uses.len())],
+        };
+        let (mut ops_from, mut uses_from) = (0, 0);
+        let mut scissor = scope.area;
+        for (k, &(ops_to, uses_to)) in parts.iter().enumerate() {
+            let (first, last) = (k == 0, k + 1 == parts.len());
+            // The last part runs what follows the last draw too.
+            let ops_to = if last { scope.ops.len() } else { ops_to };
+            let uses_to = if last { scope.uses.len() } else { uses_to };
+            self.render_part(
+                &scope,
+                (first, last),
+                scissor,
+                &scope.ops[ops_from..ops_to],
+                &scope.uses[uses_from..uses_to],
+            );
+            for op in &scope.ops[ops_from..ops_to] {
+                if let Op::SetScissor(r) = op {
+                    scissor = *r;
+                }
+            }
+            (ops_from, uses_from) = (ops_to, uses_to);
+        }
+    }
+
+    /// One rendering scope over `scope`'s attachments running `ops` (all of the scope's, or
+    /// in the counting frame one draw's): cleared where the scope clears only when `first`,
+    /// stored as the scope says only when `last` (else kept for the next part).
+    fn render_part(
+        &mut self,
+        scope: &RenderScope,
+        (first, last): (bool, bool),
+        scissor: vk::Rect2D,
+        ops: &[Op],
+        draw_uses: &[Use],
+    ) {
+        use vk::{AccessFlags2 as A, ImageLayout as L, PipelineStageFlags2 as S};
+        let part = |a: &Attachment| Attachment {
+            target: a.target.clone(),
+            view: a.view,
+            clear: a.clear.filter(|_| first),
+            store: a.store || !last,
+        };
+        let colors: Vec<Attachment> = scope.colors.iter().map(part).collect();
+        let depth: Option<Attachment> = scope.depth.as_ref().map(part);
         // Attachments first: blending and LOAD read them, every draw may write them; a clear
         // of the whole target overwrites every texel, so their old contents may go (not
         // those of a partial area: the texels outside it keep theirs).
         let whole =
             scope.area.offset == vk::Offset2D::default() && scope.area.extent == scope.extent;
-        let mut uses = Vec::with_capacity(scope.uses.len() + scope.colors.len() + 1);
-        for a in &scope.colors {
+        let mut uses = Vec::with_capacity(draw_uses.len() + colors.len() + 1);
+        for a in &colors {
             let mut u = Use::image(
                 a.target.clone(),
                 S::COLOR_ATTACHMENT_OUTPUT,
@@ -919,7 +1055,7 @@ impl Recorder<'_> {
             u.discard = whole && a.clear.is_some();
             uses.push(u);
         }
-        if let Some(a) = &scope.depth {
+        if let Some(a) = &depth {
             let mut u = Use::image(
                 a.target.clone(),
                 S::EARLY_FRAGMENT_TESTS | S::LATE_FRAGMENT_TESTS,
@@ -929,28 +1065,19 @@ impl Recorder<'_> {
             u.discard = whole && a.clear.is_some();
             uses.push(u);
         }
-        uses.extend(scope.uses.iter().cloned());
+        uses.extend(draw_uses.iter().cloned());
         let logged = self.log.as_deref_mut().and_then(Logger::scope_close);
         self.barriers(&uses);
         if let Some(log) = self.log.as_deref_mut() {
-            let stores: Vec<bool> = scope
-                .colors
-                .iter()
-                .chain(&scope.depth)
-                .map(|a| a.store)
-                .collect();
+            let stores: Vec<bool> = colors.iter().chain(&depth).map(|a| a.store).collect();
             log.scope_emit(logged, &stores);
         }
 
-        let color_infos: Vec<_> = scope
-            .colors
+        let color_infos: Vec<_> = colors
             .iter()
             .map(|a| a.info(L::COLOR_ATTACHMENT_OPTIMAL))
             .collect();
-        let depth_info = scope
-            .depth
-            .as_ref()
-            .map(|a| a.info(L::DEPTH_ATTACHMENT_OPTIMAL));
+        let depth_info = depth.as_ref().map(|a| a.info(L::DEPTH_ATTACHMENT_OPTIMAL));
         let extent = scope.extent;
         let mut info = vk::RenderingInfo::default()
             .render_area(scope.area)
@@ -967,15 +1094,14 @@ impl Recorder<'_> {
             min_depth: 0.0,
             max_depth: 1.0,
         }];
-        let scissor = [scope.area];
         // SAFETY: recording; the attachments are alive and were moved to attachment
         // layouts by the barriers above.
         unsafe {
             self.device().cmd_begin_rendering(self.cmd, &info);
             self.device().cmd_set_viewport(self.cmd, 0, &viewport);
-            self.device().cmd_set_scissor(self.cmd, 0, &scissor);
+            self.device().cmd_set_scissor(self.cmd, 0, &[scissor]);
         }
-        for op in &scope.ops {
+        for op in ops {
             self.exec(op);
         }
         // SAFETY: ends the scope begun above.
@@ -983,28 +1109,136 @@ impl Recorder<'_> {
     }
 
     pub fn bind_pipeline(&mut self, p: &Pipeline) {
+        let counted = self.counted(p);
+        let is_counted = !std::ptr::eq(counted, p);
+        let p = counted;
         let bound = if p.bind_point == vk::PipelineBindPoint::COMPUTE {
             &mut self.compute
         } else {
             &mut self.graphics
         };
+        bound.counted = is_counted;
         bound.uses = Some(p.uses.clone());
         bound.vertex_input = p.vertex_input;
         self.log(|| Event::BindPipeline(p.info.clone()));
         self.op(Op::BindPipeline(p.bind_point, p.raw));
     }
 
-    /// Binds `sets` at set indices 0.. for pipeline `p`.
+    /// Binds `sets` at set indices 0.. for pipeline `p` (and, in the counting frame, the
+    /// pass's count buffer after them for its counting build).
     pub fn bind_sets(&mut self, p: &Pipeline, sets: &[&DescriptorSet]) {
+        let counted = self.counted(p);
+        let slot = match std::ptr::eq(counted, p) {
+            true => None,
+            false => self.count_slot(),
+        };
+        let p = counted;
+        let mut bindings: Vec<_> = sets.iter().map(|s| s.bindings.clone()).collect();
+        let mut raw: Vec<_> = sets.iter().map(|s| s.set).collect();
+        if let Some((set, b)) = slot {
+            raw.push(set);
+            bindings.push(b);
+        }
         let bound = if p.bind_point == vk::PipelineBindPoint::COMPUTE {
             &mut self.compute
         } else {
             &mut self.graphics
         };
-        bound.sets = sets.iter().map(|s| s.bindings.clone()).collect();
-        let raw = sets.iter().map(|s| s.set).collect();
+        bound.sets = bindings;
+        bound.raw_sets = raw.clone();
+        bound.layout = p.layout;
         self.log(|| Event::BindSets(sets.iter().map(|s| s.info.clone()).collect()));
         self.op(Op::BindSets(p.bind_point, p.layout, raw));
+    }
+
+    /// `p`, or its counting build in the counting frame.
+    fn counted<'p>(&self, p: &'p Pipeline) -> &'p Pipeline {
+        match (&self.counting, &p.counted) {
+            (Some(_), Some(c)) => &c.pipeline,
+            _ => p,
+        }
+    }
+
+    /// The set of the count buffer of the pass being recorded, in the counting frame.
+    fn count_slot(&self) -> Option<(vk::DescriptorSet, SetBindings)> {
+        let c = self.counting.as_ref()?;
+        let slot = c.slots.get(c.pass_slot?)?;
+        Some((slot.set.set, slot.set.bindings.clone()))
+    }
+
+    /// In the counting frame: pass `name`'s count buffer, with a cell for each tile of the
+    /// frame's largest target (glsl/common/count.glsl).
+    fn begin_counting(&mut self, name: &str) {
+        let Some(extent) = self.counting.as_ref().map(|c| c.extent) else {
+            return;
+        };
+        let (row, rows) = count::tiles(extent);
+        let slot = self.new_count_slot(name, 1 + u64::from(row) * u64::from(rows), row);
+        if let Some(c) = self.counting.as_mut() {
+            c.pass_slot = slot;
+        }
+    }
+
+    /// A zeroed count buffer of at least `cells` cells for pass `name`, with `row` tiles a
+    /// row in cell 0; its index, or `None` (the failure kept) when it cannot be made.
+    fn new_count_slot(&mut self, name: &str, cells: u64, row: u32) -> Option<usize> {
+        let c = self.counting.as_mut()?;
+        let i = c.used.len();
+        if c.slots.get(i).is_none_or(|s| s.cells < cells) {
+            match CountSlot::new(c.ctx, cells) {
+                Ok(slot) if i < c.slots.len() => c.slots[i] = slot,
+                Ok(slot) => c.slots.push(slot),
+                Err(e) => {
+                    self.fail(e.context("making a light-pass count buffer"));
+                    return None;
+                }
+            }
+        }
+        c.used.push(name.to_string());
+        let (target, raw) = (c.slots[i].buffer.target(), c.slots[i].buffer.raw);
+        let fill = |rec: &mut Self, offset: u64, size: u64, value: u32| {
+            rec.barriers(&[Use::buffer(
+                target.clone(),
+                FILL_STAGES,
+                vk::AccessFlags2::TRANSFER_WRITE,
+            )]);
+            // SAFETY: recording outside rendering (passes and dispatches are); the buffer
+            // has TRANSFER_DST usage and the range lies inside it.
+            unsafe {
+                rec.device()
+                    .cmd_fill_buffer(rec.cmd, raw, offset, size, value)
+            };
+        };
+        fill(self, 0, vk::WHOLE_SIZE, 0);
+        fill(self, count::ROW_WORD * 4, 4, row);
+        Some(i)
+    }
+
+    /// In the counting frame: makes every used count buffer host-visible, and returns the
+    /// passes they belong to, in slot order.
+    fn finish_counting(&mut self) -> Vec<String> {
+        let Some(c) = self.counting.as_mut() else {
+            return Vec::new();
+        };
+        let used = std::mem::take(&mut c.used);
+        let targets: Vec<Target> = c.slots[..used.len()]
+            .iter()
+            .map(|s| s.buffer.target())
+            .collect();
+        if self.scope.is_none() {
+            let uses: Vec<Use> = targets
+                .into_iter()
+                .map(|t| {
+                    Use::buffer(
+                        t,
+                        vk::PipelineStageFlags2::HOST,
+                        vk::AccessFlags2::HOST_READ,
+                    )
+                })
+                .collect();
+            self.barriers(&uses);
+        }
+        used
     }
 
     /// Confines the scope's next draws to `area`, which must lie inside the scope's own
@@ -1034,6 +1268,7 @@ impl Recorder<'_> {
 
     pub fn push_constants(&mut self, p: &Pipeline, bytes: &[u8]) {
         self.log(|| Event::Push(bytes.len()));
+        let p = self.counted(p);
         self.op(Op::Push(p.layout, bytes.to_vec()));
     }
 
@@ -1076,6 +1311,7 @@ impl Recorder<'_> {
         }
         scope.uses.extend(extra);
         scope.ops.push(op);
+        scope.draws.push((scope.ops.len(), scope.uses.len()));
     }
 
     pub fn draw(&mut self, vertices: u32, instances: u32) {
@@ -1103,12 +1339,46 @@ impl Recorder<'_> {
         if !self.outside_rendering("dispatch") {
             return;
         }
+        if self.compute.counted {
+            self.count_dispatch(x, y, z);
+        }
         let mut uses = Vec::new();
         Self::shader_uses(&self.compute, &mut uses);
         self.barriers(&uses);
         self.log(|| Event::Dispatch([x, y, z]));
         // SAFETY: recording outside rendering with a bound compute pipeline.
         unsafe { self.device().cmd_dispatch(self.cmd, x, y, z) };
+    }
+
+    /// In the counting frame, before a dispatch of a counting build: a count buffer of its
+    /// own at set 1, a cell for each 32 invocations of each of its `x * y * z` groups (of at
+    /// most 1024), so that no two dispatches' warps share a cell.
+    fn count_dispatch(&mut self, x: u32, y: u32, z: u32) {
+        let Some(name) = self.passes_open_name() else {
+            return;
+        };
+        let cells = 1 + u64::from(x) * u64::from(y) * u64::from(z) * 32;
+        let Some(i) = self.new_count_slot(&name, cells, 0) else {
+            return;
+        };
+        let Some(c) = self.counting.as_ref() else {
+            return;
+        };
+        let slot = &c.slots[i];
+        let (set, bindings) = (slot.set.set, slot.set.bindings.clone());
+        let b = &mut self.compute;
+        b.raw_sets.truncate(1);
+        b.raw_sets.push(set);
+        b.sets.truncate(1);
+        b.sets.push(bindings);
+        let (layout, raw) = (b.layout, b.raw_sets.clone());
+        self.op(Op::BindSets(vk::PipelineBindPoint::COMPUTE, layout, raw));
+    }
+
+    /// The name of the pass being recorded in the counting frame.
+    fn passes_open_name(&self) -> Option<String> {
+        let c = self.counting.as_ref()?;
+        c.used.get(c.pass_slot?).cloned()
     }
 
     /// Fills `b` with the 32-bit word `value`.

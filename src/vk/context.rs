@@ -111,6 +111,10 @@ pub struct Context {
     /// Whether the `independentBlend` feature is enabled (wherever offered): the counting
     /// pass (colour overwritten, counts added) needs it, and is not built without it.
     pub independent_blend: bool,
+    /// Whether `fragmentStoresAndAtomics` and `vertexPipelineStoresAndAtomics` are enabled
+    /// (wherever offered): the counting builds of light passes need them, and light passes
+    /// are not counted without them.
+    pub light_counting: bool,
 }
 
 unsafe extern "system" fn debug_callback(
@@ -278,10 +282,16 @@ impl Context {
         // Optional: the per-pass counters beside the timestamps; without it they are empty.
         let pipeline_statistics = offered.pipeline_statistics_query == vk::TRUE;
         let independent_blend = offered.independent_blend == vk::TRUE;
+        // Optional: the counting builds of light passes add to a storage buffer from the
+        // vertex, fragment and compute stages; without them those passes are not counted.
+        let light_counting = offered.fragment_stores_and_atomics == vk::TRUE
+            && offered.vertex_pipeline_stores_and_atomics == vk::TRUE;
         let features = vk::PhysicalDeviceFeatures::default()
             .logic_op(logic_op)
             .independent_blend(independent_blend)
-            .pipeline_statistics_query(pipeline_statistics);
+            .pipeline_statistics_query(pipeline_statistics)
+            .fragment_stores_and_atomics(light_counting)
+            .vertex_pipeline_stores_and_atomics(light_counting);
         let device_create = vk::DeviceCreateInfo::default()
             .queue_create_infos(&queue_info)
             .enabled_features(&features)
@@ -331,6 +341,7 @@ impl Context {
             logic_op,
             pipeline_statistics,
             independent_blend,
+            light_counting,
         })
     }
 

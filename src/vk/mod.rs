@@ -58,6 +58,7 @@
 
 mod cmd;
 mod context;
+mod count;
 pub mod describe;
 mod memory;
 mod pipeline;
@@ -74,6 +75,7 @@ pub use cmd::{
     PassTiming, Recorder,
 };
 pub use context::{Context, ContextOptions};
+pub use count::LightPassCount;
 pub use gpu_allocator::MemoryLocation;
 pub use memory::{Buffer, Filter, Image, Sampler};
 pub use pipeline::{

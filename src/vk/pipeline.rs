@@ -327,6 +327,8 @@ pub struct Pipeline {
     pub(crate) uses: Arc<[BindingUse]>,
     /// Whether it reads vertex buffer 0 (a pipeline pulling vertices from storage does not).
     pub(crate) vertex_input: bool,
+    /// Its counting build, bound instead of it in the counting frame (`Counted`).
+    pub(crate) counted: Option<Box<Counted>>,
     pub name: String,
     /// What it was made with, for the port sheets.
     pub(crate) info: Arc<PipelineInfo>,
@@ -349,6 +351,115 @@ fn stage_info(stage: &'static str, spirv: &[u8]) -> StageInfo {
         stage,
         source: crate::shaders::source_of(spirv).map(str::to_string),
     }
+}
+
+/// The counting build of a light pipeline: the same state with the shaders' `-DCOUNT_LIGHT`
+/// builds (`shaders::light_count_variant`, glsl/common/count.glsl), which add what each
+/// invocation reads to a storage buffer at set 1. Made with the pipeline, wherever one of
+/// its shaders has such a build and the device can store from those stages
+/// (`Context::light_counting`); the recorder binds it, with the pass's count buffer, in the
+/// counting frame only (`FrameRunner::run_counting`), so the timed frame never sees it.
+pub(crate) struct Counted {
+    pub(crate) pipeline: Pipeline,
+    /// The set-1 layout the pipeline was made against (a 32-byte stand-in buffer); every
+    /// count buffer's set has the same single binding, so it is compatible.
+    _layout: DescriptorSet,
+    _stand_in: Buffer,
+}
+
+impl Counted {
+    /// The stand-in set 1 for a pipeline whose own sets are `sets`.
+    fn layout(
+        ctx: &Context,
+        sets: &[&DescriptorSet],
+        name: &str,
+    ) -> Result<(Buffer, DescriptorSet)> {
+        if sets.len() != 1 {
+            bail!(
+                "{name}: a counted light pipeline has exactly one descriptor set of its own (set 0), so that the count buffer is set 1; it has {}",
+                sets.len()
+            );
+        }
+        let buffer = count_buffer(ctx, 32, "light counts (stand-in)")?;
+        let set = count_set(ctx, &buffer)?;
+        Ok((buffer, set))
+    }
+
+    fn graphics(ctx: &Context, d: &GraphicsPipelineDesc<'_>) -> Result<Option<Box<Self>>> {
+        let vertex = crate::shaders::light_count_variant(d.vertex);
+        let fragment = d.fragment.and_then(crate::shaders::light_count_variant);
+        if !ctx.light_counting || (vertex.is_none() && fragment.is_none()) {
+            return Ok(None);
+        }
+        let (stand_in, layout) = Self::layout(ctx, d.sets, d.name)?;
+        let sets = [d.sets[0], &layout];
+        let name = format!("{} (counting)", d.name);
+        let pipeline = Pipeline::graphics(
+            ctx,
+            &GraphicsPipelineDesc {
+                name: &name,
+                vertex: vertex.unwrap_or(d.vertex),
+                fragment: fragment.or(d.fragment),
+                sets: &sets,
+                ..*d
+            },
+        )?;
+        Ok(Some(Box::new(Self {
+            pipeline,
+            _layout: layout,
+            _stand_in: stand_in,
+        })))
+    }
+
+    fn compute(
+        ctx: &Context,
+        name: &str,
+        spirv: &[u8],
+        sets: &[&DescriptorSet],
+        push_constant_bytes: u32,
+    ) -> Result<Option<Box<Self>>> {
+        let Some(counting) = crate::shaders::light_count_variant(spirv) else {
+            return Ok(None);
+        };
+        if !ctx.light_counting {
+            return Ok(None);
+        }
+        let (stand_in, layout) = Self::layout(ctx, sets, name)?;
+        let sets = [sets[0], &layout];
+        let pipeline = Pipeline::compute(
+            ctx,
+            &format!("{name} (counting)"),
+            counting,
+            &sets,
+            push_constant_bytes,
+        )?;
+        Ok(Some(Box::new(Self {
+            pipeline,
+            _layout: layout,
+            _stand_in: stand_in,
+        })))
+    }
+}
+
+/// A buffer of light-pass counts: storage written by the shaders, filled by the recorder,
+/// read by the host.
+pub(crate) fn count_buffer(ctx: &Context, bytes: u64, name: &str) -> Result<Buffer> {
+    Buffer::new(
+        ctx,
+        bytes,
+        vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_DST,
+        gpu_allocator::MemoryLocation::GpuToCpu,
+        name,
+    )
+}
+
+/// The set 1 of a counted light pipeline: `buffer` as glsl/common/count.glsl's `LightCounts`.
+pub(crate) fn count_set(ctx: &Context, buffer: &Buffer) -> Result<DescriptorSet> {
+    DescriptorSet::new(
+        ctx,
+        &[("LightCounts", Resource::Storage(buffer))],
+        "light counts",
+    )
 }
 
 fn pipeline_layout(
@@ -575,16 +686,19 @@ impl Pipeline {
             uses: use_infos(&uses),
             made_in,
         };
-        Ok(Self {
+        let mut this = Self {
             shared: ctx.shared.clone(),
             raw,
             layout,
             bind_point: vk::PipelineBindPoint::GRAPHICS,
             uses: uses.into(),
             vertex_input: d.vertex_stride > 0,
+            counted: None,
             name: d.name.to_string(),
             info: Arc::new(info),
-        })
+        };
+        this.counted = Counted::graphics(ctx, d)?;
+        Ok(this)
     }
 
     #[track_caller]
@@ -644,16 +758,19 @@ impl Pipeline {
             uses: use_infos(&uses),
             made_in,
         };
-        Ok(Self {
+        let mut this = Self {
             shared: ctx.shared.clone(),
             raw,
             layout,
             bind_point: vk::PipelineBindPoint::COMPUTE,
             uses: uses.into(),
             vertex_input: false,
+            counted: None,
             name: name.to_string(),
             info: Arc::new(info),
-        })
+        };
+        this.counted = Counted::compute(ctx, name, spirv, sets, push_constant_bytes)?;
+        Ok(this)
     }
 }
 

@@ -287,7 +287,7 @@ def interrupt_and_cliff_checks(exe, base):
     main loop cannot run: an
     export signalled mid-write must remove its partial file and exit non-zero with one
     error line; ssm-bitmask and ssm2-bitmask at 1 and 2 degree cones must render within
-    60 s."""
+    60 s, with no line on stderr but the warning that names the micro-patch work bound."""
     failures = []
     env = dict(os.environ)
     env.pop("SOFTSHADOW_DEVICE", None)
@@ -330,7 +330,10 @@ def interrupt_and_cliff_checks(exe, base):
             except subprocess.TimeoutExpired:
                 failures.append((label, "timeout (60 s)"))
                 continue
-            if p.returncode != 0 or p.stderr.strip():
+            # The one line allowed: the warning that names the micro-patch work bound.
+            other = [line for line in p.stderr.decode().splitlines()
+                     if line.strip() and not (line.startswith("warning: ") and "bound" in line)]
+            if p.returncode != 0 or other:
                 failures.append((label, f"exit {p.returncode}: {p.stderr.decode()[:200]}"))
     return 6, failures
 

@@ -20,7 +20,8 @@ layout(set = 0, binding = 2) uniform sampler2D receiver_front;   // R32F nearest
 layout(set = 0, binding = 3) uniform sampler2D receiver_pure;    // R32F nearest pure receiver
 layout(set = 0, binding = 4, std430) readonly buffer Bound { uint zmax_bits; } bound;
 
-layout(location = 0) flat in vec3 v_patch;
+layout(location = 0) flat in vec3 v_patch;   // the patch's first texel and its depth
+layout(location = 1) flat in vec4 v_block;    // side in texels (x, y), density, guard depth
 
 layout(location = 0) out float o_front;   // occlusion of the nearest receiver
 layout(location = 1) out float o_pure;    // occlusion of the pure receiver behind it
@@ -33,16 +34,17 @@ float occlusion(float zr, vec2 r) {
     // `SSM_SELF_GUARD_TEXELS` texels of depth slope in front of the receiver is the receiver's own
     // surface (same texel, or a staircase step of a sloped surface), not an occluder.
     float guard = zr * (frame.light_frustum.w + SSM_SELF_GUARD_TEXELS * 2.0 * t / n);
-    if (zr - zo <= guard) return 0.0;
+    if (zr - v_block.w <= guard) return 0.0;
+    vec2 size = v_block.xy;
     vec2 d0 = v_patch.xy - r;   // patch's low edge minus receiver, in texels
     float L = SSM_LIGHT_SIDE;
     if (L <= 0.0) {
         // Point light: the patch hides the whole light iff it covers the receiver's ray.
-        return all(lessThanEqual(d0, vec2(0.0))) && all(greaterThan(d0 + 1.0, vec2(0.0))) ? 1.0 : 0.0;
+        return all(lessThanEqual(d0, vec2(0.0))) && all(greaterThan(d0 + size, vec2(0.0))) ? v_block.z : 0.0;
     }
     float s = 2.0 * t / (n * L) * zo * zr / (zr - zo);
-    vec2 w = clamp((d0 + 1.0) * s, -0.5, 0.5) - clamp(d0 * s, -0.5, 0.5);
-    return w.x * w.y;
+    vec2 w = clamp((d0 + size) * s, -0.5, 0.5) - clamp(d0 * s, -0.5, 0.5);
+    return v_block.z * (w.x * w.y);
 }
 
 void main() {

@@ -4,8 +4,10 @@
 #define SSM_BITMASK_CONSTANTS_GLSL
 #include "ssm/constants.glsl"
 
-#define SSMB_RADIUS frame.technique2.x          // R: radius of the disc light (0: point light)
-#define SSMB_EXTENT_RADIUS frame.technique2.y   // reach of the disc on the light's image plane
+// ssm's L (SSM_LIGHT_SIDE, the square light) has no use here: its slot holds 1 / the sample count.
+#define SSMB_INV_SAMPLES frame.technique.x      // 1 / the light samples, one bit each of a uvec4 mask (SAMPLES)
+#define SSMB_RADIUS frame.technique2.x          // R > 0: radius of the disc light (R = 0 renders hard)
+#define SSMB_EXTENT_RADIUS frame.technique2.y   // EXTENT_MARGIN R sqrt(1 + 2 tan^2(fov/2)): the disc's reach at the frustum's corner
 #define SSMB_CONNECT_TEXELS frame.technique2.z  // one surface: depths closer than this many texels of slope
 #define SSMB_LUT_ANGLES frame.technique2.w      // rows of the edge table (line directions)
 

@@ -1,11 +1,13 @@
-// Final pass of ssm-bitmask and ssm2-bitmask: as ssm's (glsl/ssm/final.glsl: normal-offset
-// point, 2x2 footprint of the receiver map, layer 0 where the point is its texel's nearest
-// receiver, layer 1 behind it, no data where the texel's receiver is behind the point), with
-// each texel's occlusion = popcount(mask) / 128, the fraction of the light samples that some
-// micro-quad hides (a union: never above 1, no clamp needed). visibility = 1 - occlusion.
+// Final pass of ssm-bitmask and ssm2-bitmask. As ssm's (glsl/ssm/final.glsl) in its 2x2
+// footprint of the receiver map: layer 0 where the point is its texel's nearest receiver,
+// layer 1 behind it, no data where the texel's receiver is behind the point. Unlike ssm's,
+// the footprint is read at the point itself, not at the normal-offset point: only the depth
+// that picks each texel's layer is the offset point's (see `visibility`). Each texel's
+// occlusion = popcount(mask) / SAMPLES (SSMB_INV_SAMPLES), the fraction of the light samples that some
+// micro-quad hides (a union: never above 1, no clamp needed); visibility = 1 - occlusion.
 #include "common/frame.glsl"
 #include "ssm/ssm.glsl"
-#include "ssm/constants.glsl"
+#include "ssm_bitmask/constants.glsl"
 #include "ssm/footprint.glsl"
 
 layout(set = 0, binding = 1) uniform sampler2D receiver_front;   // R32F nearest receiver depth
@@ -14,7 +16,7 @@ layout(set = 0, binding = 3) uniform usampler2D mask_pure;       // RGBA32UI hid
 
 float hidden_fraction(uvec4 m) {
     ivec4 c = bitCount(m);
-    return float(c.x + c.y + c.z + c.w) * (1.0 / 128.0);
+    return float(c.x + c.y + c.z + c.w) * SSMB_INV_SAMPLES;
 }
 
 float visibility(vec3 p, vec3 n) {

@@ -24,9 +24,10 @@ layout(set = 0, binding = 4, std430) readonly buffer Bound { uint zmax_bits; } b
 // samples left of the directed line (src/technique/ssm_bitmask.rs, `edge_table`).
 layout(set = 0, binding = 5, std430) readonly buffer Table { uvec4 masks[]; } table;
 
-layout(location = 0) flat in vec3 v_patch;
+layout(location = 0) flat in vec3 v_patch;    // the quad's first texel, its guard depth
 layout(location = 1) flat in vec4 v_corner_depth;
 layout(location = 2) flat in float v_reach;   // see soft_shadow.vert
+layout(location = 3) flat in vec2 v_size;     // the quad's side in texels (1: one texel)
 
 layout(location = 0) out uvec4 o_front;   // samples hidden from the nearest receiver
 layout(location = 1) out uvec4 o_pure;    // samples hidden from the pure receiver behind it
@@ -70,18 +71,15 @@ uvec4 hidden(float zr, vec2 r) {
     // the receiver is the receiver's own surface.
     float guard = zr * (frame.light_frustum.w + SSM_SELF_GUARD_TEXELS * texel);
     if (zr - zo <= guard) return NO_SAMPLES;
-    if (SSMB_RADIUS <= 0.0) {
-        // Point light: the quad hides the light iff its texel covers the receiver's ray.
-        vec2 d0 = v_patch.xy - r;
-        bool covers = all(lessThanEqual(d0, vec2(0.0))) && all(greaterThan(d0 + 1.0, vec2(0.0)));
-        return covers ? ALL_SAMPLES : NO_SAMPLES;
-    }
+    // R > 0 here: at R = 0 the technique is built as `hard` (src/technique/ssm_bitmask.rs,
+    // `create_either`, and `record_light` refuses R = 0), so the projection below never
+    // divides by a zero radius.
     // The quad was drawn for the farthest receiver; a nearer one is reached by less. The
     // receiver's texel centre lies half a texel inside its square: one texel of slack.
     vec4 zc = v_corner_depth;
     float znear = min(zo, min(min(zc.x, zc.y), min(zc.z, zc.w)));
     float h = v_reach * (1.0 / znear - 1.0 / zr) + 1.0;
-    vec2 outside = max(v_patch.xy - r, r - (v_patch.xy + 1.0));
+    vec2 outside = max(v_patch.xy - r, r - (v_patch.xy + v_size));
     if (any(greaterThan(outside, vec2(h)))) return NO_SAMPLES;
     vec3 p = light_frame(r, zr);
     float dist = length(p);
@@ -94,7 +92,7 @@ uvec4 hidden(float zr, vec2 r) {
     vec2 c[4];
     vec2 lo = vec2(1e30), hi = vec2(-1e30);
     for (int k = 0; k < 4; ++k) {
-        vec2 px = v_patch.xy + vec2(float(k & 1), float(k >> 1));
+        vec2 px = v_patch.xy + vec2(float(k & 1), float(k >> 1)) * v_size;
         vec3 dq = light_frame(px, min(v_corner_depth[k], zcap)) - p;
         float den = max(dot(dq, w), 1e-6 * dist);
         c[k] = vec2(dot(dq, u), dot(dq, v)) * (dist / (den * SSMB_RADIUS));

@@ -1,6 +1,6 @@
 //! `time_vs_error.png`: per scene, frame time as a ratio to `hard` against `mae_lit`,
 //! one colour per technique, the Pareto front drawn, its points named; and its twin
-//! `lookups_vs_error.png`, the final pass's warp lookups as a ratio to `hard`'s on x. Both x
+//! `lookups_vs_error.png`, the frame's warp lookups (light passes included) as a ratio to `hard`'s on x. Both x
 //! axes are logarithmic: the costly rows (64x and beyond) would otherwise squeeze the rest
 //! into the left edge. Rendered with plotters' bitmap
 //! backend into memory and saved with `image`; text uses DejaVu Sans compiled in

@@ -164,6 +164,12 @@ impl<'c> Renderer<'c> {
         rendered.map(|()| log)
     }
 
+    /// The soft shadow maps' micro-patch block side of the last frame
+    /// (`Technique::micro_patch_step`).
+    pub fn micro_patch_step(&self) -> Option<crate::technique::ssm::PatchStepReport> {
+        self.technique.micro_patch_step()
+    }
+
     /// Where the last frame's timed final pass ran the technique's shader
     /// (`Technique::shadowed`).
     pub fn shadowed(&self) -> Option<&crate::gpu::passes::Shadowed> {
@@ -226,6 +232,9 @@ impl<'c> Renderer<'c> {
             technique.record_final(ctx, rec, &input)
         })?;
         self.last_light_key = light_key;
+        if let Some(w) = self.technique.frame_warning()? {
+            eprintln!("warning: {w}");
+        }
         let mut timings = timings;
         timings.image_pixels = self.settings.width as u64 * self.settings.height as u64;
         timings.map_texels = self.settings.shadow_res as u64 * self.settings.shadow_res as u64;
@@ -425,7 +434,10 @@ impl<'c> Renderer<'c> {
                 let texels = read_image::<[u32; 4]>(self.ctx, &mut self.runner, img)?;
                 vec![texels
                     .iter()
-                    .map(|t| t.iter().map(|w| w.count_ones()).sum::<u32>() as f32 / 128.0)
+                    .map(|t| {
+                        t.iter().map(|w| w.count_ones()).sum::<u32>() as f32
+                            / crate::technique::ssm_bitmask::SAMPLES as f32
+                    })
                     .collect()]
             }
             // D32: `hard`'s depth map, the light's z/w in [0, 1] as the rasterizer stored it.

@@ -84,6 +84,18 @@ pub trait Technique {
         None
     }
 
+    /// After a frame has finished: a warning about it (without `warning: `) when a bound on
+    /// the technique's work changed its result, once until the bound tightens again.
+    fn frame_warning(&mut self) -> Result<Option<String>> {
+        Ok(None)
+    }
+
+    /// The soft shadow maps' micro-patch block side of the last frame (`ssm::PatchStep`),
+    /// for the tests; `None` for the other techniques.
+    fn micro_patch_step(&self) -> Option<ssm::PatchStepReport> {
+        None
+    }
+
     /// Where the last frame's timed final pass ran the technique's shader (`FinalPass::split`,
     /// regions.rs): `None` for a technique that runs it everywhere. For the tests, which
     /// hold every point shadowed in the AOV pass to lie inside.

@@ -55,20 +55,31 @@
 //!    depth z_max over both layers (16x16 groups, shared max, one atomicMax per group into a
 //!    4-byte storage buffer, cleared with vkCmdFillBuffer 0 first). Used as the conservative
 //!    z_R of the penumbra extents (Sec. 3.3: the extent grows with z_R).
-//! 5. `ssm/soft_shadow` — one instanced draw, N^2 instances (one per occluder texel) of a
+//! 5. `ssm/micro_patch_step` — compute `glsl/ssm/patch_step.comp`, two dispatches into the
+//!    same buffer after z_max: the side s of the texel blocks pass 6 draws as one patch. Per
+//!    occluder texel its extent h (below) and, per s = 1, 2, 4, ..., the fragments of an
+//!    s x s block's quad shared by its s^2 texels, summed (64-bit); then the smallest s whose
+//!    sum is at most N^4 / 64 fragments, else N. s = 1 (one patch per texel, the paper) on
+//!    every built-in scene; narrow cones under wide lights, whose penumbrae span many times
+//!    the map, get blocks (Sec. 6.1: a large penumbra needs a lower occluder resolution), and
+//!    `render` prints one `warning:` line naming the bound (`Technique::frame_warning`).
+//! 6. `ssm/soft_shadow` — one instanced draw, N^2 instances (one per occluder texel) of a
 //!    4-vertex triangle strip, no vertex buffer. `glsl/ssm/soft_shadow.vert` texelFetches
 //!    the occluder map and emits the penumbra extent (Sec. 3.3, Fig. 7-8) grown from the
 //!    texel square by h = L N / (4 tan(fov/2)) (1/z_O - 1/z_max) texels, or a degenerate quad
-//!    outside clip space for an empty texel or a patch behind z_max.
+//!    outside clip space for an empty texel or a patch behind z_max. With s > 1 instance k
+//!    draws block k instead: the bounding rectangle of its occupied texels at their harmonic
+//!    mean depth, its occlusion scaled by the share of the rectangle they occupy, its extent
+//!    from the block's nearest depth and its guard from its farthest.
 //!    `glsl/ssm/soft_shadow.frag` reads both receiver layers at its texel and, per layer,
 //!    back-projects the patch onto the light: scale S = 2 tan(fov/2) / (N L) z_O z_R /
 //!    (z_R - z_O) light widths per texel, occluded fraction = product of the two interval
 //!    overlaps with [-1/2, 1/2] (Sec. 4.2). Two attachments of `accum_format` (layer 0,
 //!    layer 1), clear 0, blend **ADD**. The GPU generates the quads (the paper read the
 //!    occluder map back to the CPU, Sec. 4.1; its Sec. 4.3 suggests this GPU path).
-//! 6. `ssm2/soft_shadow_back` (ssm2 only) — pass 5 again with the back occluder map into
-//!    two more attachments.
-//! 7. `ssm/final` — camera pass (`FinalPass`), `glsl/ssm/final.frag` (`glsl/ssm2/final.frag`
+//! 7. `ssm2/soft_shadow_back` (ssm2 only) — pass 6 again with the back occluder map into
+//!    two more attachments, with the block side of the front map.
+//! 8. `ssm/final` — camera pass (`FinalPass`), `glsl/ssm/final.frag` (`glsl/ssm2/final.frag`
 //!    defines TWO_SIDED; both include `glsl/ssm/final.glsl`): normal-offset point (in
 //!    occluder texels), 2x2 footprint of the receiver map and the SSMs; per texel layer 0 if
 //!    the point is within 3 texels of depth slope of the front receiver, layer 1 if behind,
@@ -98,7 +109,8 @@
 //!   parts closer than the guard is missing (the paper has no self-shadowing at all).
 //! - Speckles near the terminator of curved casters (bunny): staircase steps of the
 //!   caster's own surface deeper than the guard count as occluders of itself.
-//! - Cost grows with the penumbra extents: N^2 patches times (2h+1)^2 texels each (Sec. 6).
+//! - Cost grows with the penumbra extents: N^2 patches times (2h+1)^2 texels each (Sec. 6),
+//!   up to N^4 / 64 fragments; beyond, blocks of texels make coarser penumbrae (pass 5).
 
 use super::{
     shadow_map_buffer, technique_constants, FrameInput, LightBuffer, Technique, TechniqueInfo,
@@ -250,7 +262,8 @@ impl ReceiverMap {
     }
 }
 
-/// Pass 4: the farthest receiver depth z_max, in a 4-byte storage buffer.
+/// Pass 4: the farthest receiver depth z_max, at the start of a storage buffer that pass 5
+/// (`PatchStep`) goes on to fill.
 pub(crate) struct ReceiverBound {
     pub buffer: Buffer,
     set: DescriptorSet,
@@ -267,10 +280,13 @@ impl ReceiverBound {
         technique: &str,
     ) -> Result<Self> {
         let name = format!("{technique}/receiver_bound");
+        let res = receivers.layers[0].extent.width;
         let buffer = Buffer::new(
             ctx,
-            4,
-            BufferUsageFlags::STORAGE_BUFFER | BufferUsageFlags::TRANSFER_DST,
+            PatchStep::bytes(res),
+            BufferUsageFlags::STORAGE_BUFFER
+                | BufferUsageFlags::TRANSFER_DST
+                | BufferUsageFlags::TRANSFER_SRC,
             MemoryLocation::GpuOnly,
             &name,
         )?;
@@ -295,7 +311,7 @@ impl ReceiverBound {
             buffer,
             set,
             pipeline,
-            res: receivers.layers[0].extent.width,
+            res,
         })
     }
 
@@ -305,6 +321,104 @@ impl ReceiverBound {
         rec.bind_sets(&self.pipeline, &[&self.set]);
         let groups = self.res.div_ceil(BOUND_GROUP);
         rec.dispatch(groups, groups, 1);
+    }
+}
+
+/// Pass 5: the side of the texel blocks the micro-patch pass draws as one patch
+/// (`glsl/ssm/patch_step.comp`): 1, one patch per texel as the paper, unless the patches'
+/// penumbrae would cost more fragments than N^4 / 64; then the smallest power of two that
+/// keeps the estimate within it (Sec. 6.1: large penumbrae need a lower occluder
+/// resolution). Written after z_max into the bound buffer, where the micro-patch vertex
+/// shaders read it, and copied to the host for the warning line.
+pub(crate) struct PatchStep {
+    set: DescriptorSet,
+    pipeline: Pipeline,
+    readback: Buffer,
+    res: u32,
+    /// The block side of the last warning (1: none given yet).
+    warned: u32,
+}
+
+/// What `PatchStep` found in a frame.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PatchStepReport {
+    /// Side of the texel blocks drawn as one micro-patch (1: one per texel).
+    pub step: u32,
+    /// The fragments allowed.
+    pub budget: f64,
+    /// The fragments one patch per texel would have cost (estimate, clipped to the map).
+    pub work: f64,
+}
+
+impl PatchStep {
+    /// Bytes of the bound buffer: z_max, the step, the budget, a pad word, then two words
+    /// (a 64-bit sum) per block side 1, 2, 4, ..., up to `res`.
+    fn bytes(res: u32) -> u64 {
+        16 + 8 * (res.ilog2() as u64 + 1)
+    }
+
+    fn new(
+        ctx: &Context,
+        ubo: &Buffer,
+        occluder: &Image,
+        bound: &ReceiverBound,
+        nearest: &Sampler,
+        technique: &str,
+    ) -> Result<Self> {
+        let name = format!("{technique}/micro_patch_step");
+        let set = DescriptorSet::new(
+            ctx,
+            &[
+                ("frame", Resource::Uniform(ubo)),
+                ("occluder_map", Resource::Sampled(occluder, nearest)),
+                ("bound", Resource::Storage(&bound.buffer)),
+            ],
+            &name,
+        )?;
+        let pipeline = Pipeline::compute(ctx, &name, shaders::SSM_PATCH_STEP_COMP, &[&set], 8)?;
+        let readback = Buffer::new(
+            ctx,
+            bound.buffer.size,
+            BufferUsageFlags::TRANSFER_DST,
+            MemoryLocation::GpuToCpu,
+            &format!("{name} readback"),
+        )?;
+        Ok(Self {
+            set,
+            pipeline,
+            readback,
+            res: bound.res,
+            warned: 1,
+        })
+    }
+
+    /// `reach`: texels of penumbra extent per unit of (1/z_O - 1/z_max), as the technique's
+    /// micro-patch vertex shader grows its quads (at most).
+    fn record(&self, rec: &mut Recorder<'_>, bound: &ReceiverBound, reach: f32) {
+        let push = |choose: u32| {
+            let mut bytes = reach.to_ne_bytes().to_vec();
+            bytes.extend_from_slice(&choose.to_ne_bytes());
+            bytes
+        };
+        rec.bind_pipeline(&self.pipeline);
+        rec.bind_sets(&self.pipeline, &[&self.set]);
+        rec.push_constants(&self.pipeline, &push(0));
+        let groups = self.res.div_ceil(BOUND_GROUP);
+        rec.dispatch(groups, groups, 1);
+        rec.push_constants(&self.pipeline, &push(1));
+        rec.dispatch(1, 1, 1);
+        rec.copy_buffer(&bound.buffer, &self.readback);
+        rec.host_read(&self.readback);
+    }
+
+    /// What the last frame that ran the pass found (after it finished).
+    fn report(&self) -> Result<PatchStepReport> {
+        let words: Vec<u32> = bytemuck::pod_collect_to_vec(self.readback.read()?);
+        Ok(PatchStepReport {
+            step: words[1],
+            budget: f32::from_bits(words[2]) as f64,
+            work: words[4] as f64 + words[5] as f64 * 4294967296.0,
+        })
     }
 }
 
@@ -361,7 +475,7 @@ pub(crate) struct BackOccluderMap {
     pub name: String,
 }
 
-/// Passes 1–4 of every soft shadow map form (`ssm`, `ssm2` and the bitmask forms,
+/// Passes 1–5 of every soft shadow map form (`ssm`, `ssm2` and the bitmask forms,
 /// src/technique/ssm_bitmask.rs): the occluder map, the back occluder map when two-sided,
 /// the receiver map and the receiver bound, named `NAME/occluder_map`, ...
 pub(crate) struct LightInputs {
@@ -370,6 +484,7 @@ pub(crate) struct LightInputs {
     pub back: Option<BackOccluderMap>,
     pub receivers: ReceiverMap,
     pub bound: ReceiverBound,
+    pub step: PatchStep,
 }
 
 impl LightInputs {
@@ -393,12 +508,15 @@ impl LightInputs {
             .with_context(|| format!("{name} receiver map"))?;
         let bound = ReceiverBound::new(ctx, init.ubo, &receivers, nearest, name)
             .with_context(|| format!("{name} receiver bound"))?;
+        let step = PatchStep::new(ctx, init.ubo, &occluder.depth, &bound, nearest, name)
+            .with_context(|| format!("{name} micro-patch step"))?;
         Ok(Self {
             name,
             occluder,
             back,
             receivers,
             bound,
+            step,
         })
     }
 
@@ -406,8 +524,8 @@ impl LightInputs {
         format!("{}/{pass}", self.name)
     }
 
-    /// Passes 1–4, each timed.
-    pub fn record(&self, rec: &mut Recorder<'_>, frame: &FrameInput<'_>) -> Result<()> {
+    /// Passes 1–5, each timed; `reach` as `PatchStep::record`.
+    pub fn record(&self, rec: &mut Recorder<'_>, frame: &FrameInput<'_>, reach: f32) -> Result<()> {
         rec.pass(&self.pass_name("occluder_map"), |rec| {
             self.occluder.record(rec, frame.gpu);
             Ok(())
@@ -425,7 +543,30 @@ impl LightInputs {
         rec.pass(&self.pass_name("receiver_bound"), |rec| {
             self.bound.record(rec);
             Ok(())
+        })?;
+        rec.pass(&self.pass_name("micro_patch_step"), |rec| {
+            self.step.record(rec, &self.bound, reach);
+            Ok(())
         })
+    }
+
+    /// What the last frame's micro-patch step pass found.
+    pub fn step_report(&self) -> Result<PatchStepReport> {
+        self.step.report()
+    }
+
+    /// The warning for a frame whose micro-patches were drawn in blocks (once per block
+    /// side: a later frame that needs larger blocks warns again).
+    pub fn step_warning(&mut self) -> Result<Option<String>> {
+        let r = self.step.report()?;
+        if r.step <= self.step.warned {
+            return Ok(None);
+        }
+        self.step.warned = r.step;
+        Ok(Some(format!(
+            "{}: the micro-patches' penumbrae would cost about {:.3e} fragments, above the bound of {:.3e} (occluder-res^4 / 64): drawn as blocks of {s} x {s} occluder texels, coarser penumbrae",
+            self.name, r.work, r.budget, s = r.step
+        )))
     }
 
     /// The names of the passes `record` records, in order.
@@ -436,6 +577,7 @@ impl LightInputs {
         }
         names.push(self.pass_name("receiver_map"));
         names.push(self.pass_name("receiver_bound"));
+        names.push(self.pass_name("micro_patch_step"));
         names
     }
 }
@@ -473,7 +615,7 @@ impl Ssm {
         }
         let nearest = Sampler::new(ctx, Filter::Nearest).context("ssm sampler")?;
 
-        // Passes 1-4: occluder maps, receiver map, receiver bound.
+        // Passes 1-5: occluder maps, receiver map, receiver bound, micro-patch step.
         let inputs = LightInputs::new(init, name, two_sided, &nearest)?;
         let LightInputs {
             occluder,
@@ -483,7 +625,7 @@ impl Ssm {
             ..
         } = &inputs;
 
-        // Passes 5-6: the micro-patches of each occluder map.
+        // Passes 6-7: the micro-patches of each occluder map.
         let soft = |map: &Image, pass: &'static str| {
             SoftShadow::new(init, map, receivers, bound, &nearest, pass)
         };
@@ -522,7 +664,7 @@ impl Ssm {
         )
         .context("ssm soft shadow pipeline")?;
 
-        // Pass 7.
+        // Pass 8.
         let (final_pass, final_set) =
             final_pass(init, name, receivers, &front, back_soft.as_ref(), &nearest)
                 .context("ssm final pass")?;
@@ -686,7 +828,11 @@ impl Technique for Ssm {
         rec: &mut Recorder<'_>,
         frame: &FrameInput<'_>,
     ) -> Result<()> {
-        self.inputs.record(rec, frame)?;
+        let t = (frame.light.fov_deg.to_radians() * 0.5).tan();
+        let side = light_square_side(frame.light_radius);
+        // soft_shadow.vert's h = L N / (4 tan(fov/2)) (1/z_O - 1/z_max).
+        let reach = side * self.res as f32 / (4.0 * t);
+        self.inputs.record(rec, frame, reach)?;
         rec.pass(self.front.name, |rec| {
             self.record_soft(rec, &self.front);
             Ok(())
@@ -698,6 +844,14 @@ impl Technique for Ssm {
             })?;
         }
         Ok(())
+    }
+
+    fn frame_warning(&mut self) -> Result<Option<String>> {
+        self.inputs.step_warning()
+    }
+
+    fn micro_patch_step(&self) -> Option<PatchStepReport> {
+        self.inputs.step_report().ok()
     }
 
     fn light_passes(&self) -> Vec<String> {

@@ -10,7 +10,7 @@
 //! *Bitmask Soft Shadows*, CGF 26(3) 2007): per soft-shadow-map texel one bit per light
 //! sample, set when some micro-patch hides that sample, OR-combined; micro-quads that join
 //! neighbouring texels close the gaps. Same occluder, receiver and bound passes as `ssm`
-//! (shared code: `ssm::LightInputs`, passes 1-4 of both).
+//! (shared code: `ssm::LightInputs`, passes 1-5 of both).
 //!
 //! ## Resolution rule: light samples and bits
 //! 128 samples on the disc light, one bit each in a `uvec4` (R32G32B32A32_UINT attachment):
@@ -63,27 +63,32 @@
 //!    D32_SFLOAT clear 0.0, compare GREATER, no culling: the farthest caster surfaces.
 //! 3. `ssm-bitmask/receiver_map` — as ssm's: two R32_SFLOAT layers (nearest receiver,
 //!    nearest pure receiver), clear 1e30, blend MIN (`glsl/ssm/receiver_*.frag`).
-//! 4. `ssm-bitmask/receiver_bound` — as ssm's: z_max of both layers into a 4-byte buffer
+//! 4. `ssm-bitmask/receiver_bound` — as ssm's: z_max of both layers into a storage buffer
 //!    (`glsl/ssm/receiver_bound.comp`).
-//! 5. `ssm-bitmask/soft_shadow` — one instanced draw of N^2 instances x 4 vertices (triangle
+//! 5. `ssm-bitmask/micro_patch_step` — as ssm's (`glsl/ssm/patch_step.comp`) with this
+//!    form's extents: the side s of the texel blocks drawn as one micro-quad, 1 unless the
+//!    quads would shade more than N^4 / 64 fragments (then a `warning:` line names the bound).
+//! 6. `ssm-bitmask/soft_shadow` — one instanced draw of N^2 instances x 4 vertices (triangle
 //!    strip), no vertex buffer. Two colour attachments R32G32B32A32_UINT (layer 0, layer 1),
 //!    clear 0, **logic op OR** (the `logicOp` device feature; blending off).
 //!    `glsl/ssm_bitmask/soft_shadow.vert` reads the occluder map's 3x3 neighbourhood and
 //!    writes the texel, its four corner depths and its reach (flat), drawing the penumbra
-//!    extent grown by h = R' N / (2 tan(fov/2)) (1/z_near - 1/z_max) texels. R' = 1.05 R /
-//!    cos(alpha): a disc facing the receiver is R wide across the line to the light's centre
+//!    extent grown by h = R' N / (2 tan(fov/2)) (1/z_near - 1/z_max) texels. R' =
+//!    `EXTENT_MARGIN` R / cos(alpha): a disc facing the receiver is R wide across the line to the light's centre
 //!    and R / cos(alpha) in the map's plane, alpha that line's angle to the light's axis,
 //!    bounded over the receivers the quad can reach (at most sqrt(1 + 2 tan^2(fov/2)) at the
 //!    frustum's corner). `glsl/ssm_bitmask/soft_shadow.frag` reads both receiver layers at
 //!    its texel, the bound and the edge table; per layer it skips quads within the self-
 //!    occlusion guard (as ssm: 1.5 texels of slope) and receivers beyond the reach at their
 //!    own depth, projects the four corners onto the disc facing the receiver and writes the
-//!    mask of the samples inside the two triangles.
-//! 6. `ssm2-bitmask/soft_shadow_back` (two-sided only) — pass 5 with the back occluder map,
+//!    mask of the samples inside the two triangles. With s > 1 instance k draws block k of
+//!    s x s texels: the bounding rectangle of its occupied texels, each corner at the depth of
+//!    the occupied texel nearest it, its guard depth the block's farthest.
+//! 7. `ssm2-bitmask/soft_shadow_back` (two-sided only) — pass 6 with the back occluder map,
 //!    loading (not clearing) the same two attachments: the back micro-quads are ORed into the
 //!    same masks (ssm2 keeps two maps and takes their max, an approximation a union does not
 //!    need).
-//! 7. `ssm-bitmask/final` — `FinalPass` with `glsl/ssm_bitmask/final.frag` (both forms): as
+//! 8. `ssm-bitmask/final` — `FinalPass` with `glsl/ssm_bitmask/final.frag` (both forms): as
 //!    ssm's final pass (2x2 footprint of the receiver map and the masks, layer 0 for the
 //!    texel's own receiver, layer 1 behind it, bilinear weights) but the footprint is read at
 //!    the point itself, **not at a normal-offset point**: a mask holds the visibility of the
@@ -94,8 +99,10 @@
 //!    texel's receiver. Each texel's occlusion = popcount / 128, visibility = 1 - occlusion.
 //!
 //! ## Frame constants
-//! `frame.technique` as ssm's (L, N, 1/N, guard); `frame.technique2` = (R, R', connect
-//! texels, edge-table rows): glsl/ssm_bitmask/constants.glsl.
+//! `frame.technique` as ssm's (N, 1/N, guard) but for its first slot (ssm's L), which holds
+//! 1 / `SAMPLES`; `frame.technique2` = (R, R' = `EXTENT_MARGIN` R sqrt(1 + 2 tan^2(fov/2)),
+//! connect texels, edge-table rows): glsl/ssm_bitmask/constants.glsl. The shaders take the
+//! sample count and the margin from these slots only.
 //!
 //! ## Cost
 //! As ssm's: N^2 quads times their extents in `soft_shadow`, each fragment up to ten table
@@ -108,7 +115,8 @@
 //! Accuracy is then limited by the occluder map's resolution (`--occluder-res`, 256 by
 //! default, shared with ssm): at 512 mae_lit is at most pcss's on cylinder, bunny, primitives
 //! and fence (tests/ssm_bitmask.rs), but the micro-quad pass grows as N^4 (N^2 quads, each
-//! extent's area in texels N^2): about 10x the 256 pass on lavapipe.
+//! extent's area in texels N^2): about 10x the 256 pass on lavapipe. Pass 5 holds it to
+//! N^4 / 64 fragments, which only narrow cones under wide lights reach (tests/ssm_bitmask.rs).
 //!
 //! ## Known artefacts
 //! - Only what the light's centre sees of the occluders is discretised (ssm's Sec. 5.1.1):
@@ -128,7 +136,7 @@
 //!   where `hard`'s offset point is lit (docs/DESIGN.md's mae_lit leaves these pixels out).
 
 use super::hard;
-use super::ssm::{ssm_uniforms, LightInputs, MAP_USAGE, SELF_GUARD_TEXELS};
+use super::ssm::{ssm_uniforms, LightInputs, PatchStepReport, MAP_USAGE, SELF_GUARD_TEXELS};
 use super::{shadow_map_buffer, FrameInput, LightBuffer, Technique, TechniqueInfo, TechniqueInit};
 use crate::gpu::passes::{FinalPass, FinalShader};
 use crate::shaders::{self, constants as k};
@@ -152,8 +160,9 @@ pub const INFO2: TechniqueInfo = TechniqueInfo {
     create: create_two_sided,
 };
 
-/// Light samples, one bit each in a `uvec4`.
+/// Light samples, one bit each in a `uvec4` (the shaders read 1 / SAMPLES, `SSMB_INV_SAMPLES`).
 pub const SAMPLES: usize = 128;
+const _: () = assert!(SAMPLES == 4 * 32, "one bit per sample of a uvec4 mask");
 
 /// Rows of the edge table: line directions over [0, pi).
 const TABLE_ANGLES: usize = 512;
@@ -165,8 +174,16 @@ const TABLE_DISTANCES: usize = 256;
 /// slope are one surface, and their micro-quads share corners.
 const CONNECT_TEXELS: f32 = 4.0;
 
-/// Margin on the disc's reach on the map's image plane (the extents must cover it).
+/// Margin on the disc's reach on the map's image plane (the extents must cover it); the
+/// shaders read it only through `SSMB_EXTENT_RADIUS`.
 const EXTENT_MARGIN: f32 = 1.05;
+
+/// The disc's reach on the map's image plane at the frustum's corner (`SSMB_EXTENT_RADIUS`):
+/// R / cos(alpha) there, with a margin.
+fn extent_radius(frame: &FrameInput<'_>) -> f32 {
+    let t = (frame.light.fov_deg.to_radians() * 0.5).tan();
+    EXTENT_MARGIN * frame.light_radius * (1.0 + 2.0 * t * t).sqrt()
+}
 
 /// The mask format: 128 bits.
 const MASK_FORMAT: Format = Format::R32G32B32A32_UINT;
@@ -273,7 +290,7 @@ impl SsmBitmask {
         }
         let nearest = Sampler::new(ctx, Filter::Nearest).context("ssm-bitmask sampler")?;
 
-        // Passes 1-4, as ssm's.
+        // Passes 1-5, as ssm's.
         let inputs = LightInputs::new(init, name, two_sided, &nearest)?;
         let LightInputs {
             occluder,
@@ -283,7 +300,7 @@ impl SsmBitmask {
             ..
         } = &inputs;
 
-        // Passes 5-6: the micro-quads of each occluder map into one pair of masks.
+        // Passes 6-7: the micro-quads of each occluder map into one pair of masks.
         let mask = |what: &str| {
             Image::new_2d(
                 ctx,
@@ -354,7 +371,7 @@ impl SsmBitmask {
         )
         .context("ssm-bitmask micro-quad pipeline")?;
 
-        // Pass 7.
+        // Pass 8.
         let final_name = format!("{name}/final");
         let final_set = DescriptorSet::new(
             ctx,
@@ -413,13 +430,13 @@ impl Technique for SsmBitmask {
     }
 
     fn uniforms(&self, frame: &FrameInput<'_>) -> [[f32; 4]; 2] {
-        let [first, _] = ssm_uniforms(self.res, frame);
+        let [mut first, _] = ssm_uniforms(self.res, frame);
         debug_assert_eq!(first[k::SSM_SELF_GUARD_TEXELS], SELF_GUARD_TEXELS);
-        let t = (frame.light.fov_deg.to_radians() * 0.5).tan();
+        first[k::SSMB_INV_SAMPLES] = 1.0 / SAMPLES as f32;
         let r = frame.light_radius;
         let mut second = [0.0; 4];
         second[k::SSMB_RADIUS - 4] = r;
-        second[k::SSMB_EXTENT_RADIUS - 4] = EXTENT_MARGIN * r * (1.0 + 2.0 * t * t).sqrt();
+        second[k::SSMB_EXTENT_RADIUS - 4] = extent_radius(frame);
         second[k::SSMB_CONNECT_TEXELS - 4] = CONNECT_TEXELS;
         second[k::SSMB_LUT_ANGLES - 4] = TABLE_ANGLES as f32;
         [first, second]
@@ -431,7 +448,21 @@ impl Technique for SsmBitmask {
         rec: &mut Recorder<'_>,
         frame: &FrameInput<'_>,
     ) -> Result<()> {
-        self.inputs.record(rec, frame)?;
+        // soft_shadow.vert grows each quad by at most SSMB_EXTENT_RADIUS N / (2 tan(fov/2))
+        // (1/z_near - 1/z_max) texels.
+        let t = (frame.light.fov_deg.to_radians() * 0.5).tan();
+        let reach = extent_radius(frame) * self.res as f32 / (2.0 * t);
+        if frame.light_radius.is_nan() || frame.light_radius <= 0.0 {
+            // The micro-quads project onto a disc of radius R; at R = 0 the technique is
+            // built as `hard` (`create_either`), so a frame at R = 0 is a radius that
+            // changed after creation.
+            bail!(
+                "{}: light radius {} after the technique was created for R > 0 (R = 0 renders hard: create it again)",
+                self.name,
+                frame.light_radius
+            );
+        }
+        self.inputs.record(rec, frame, reach)?;
         rec.pass(&self.front.name, |rec| {
             self.record_quads(rec, &self.front, true);
             Ok(())
@@ -443,6 +474,14 @@ impl Technique for SsmBitmask {
             })?;
         }
         Ok(())
+    }
+
+    fn frame_warning(&mut self) -> Result<Option<String>> {
+        self.inputs.step_warning()
+    }
+
+    fn micro_patch_step(&self) -> Option<PatchStepReport> {
+        self.inputs.step_report().ok()
     }
 
     fn light_passes(&self) -> Vec<String> {

@@ -1,0 +1,86 @@
+#version 450
+#extension GL_GOOGLE_include_directive : require
+#include "common/count.glsl"  // by name: build.rs also builds it counted (-DCOUNT_LIGHT)
+// ssm/micro_patch_step: the side of the texel blocks the micro-patch pass draws as one patch,
+// from the work the patches would cost (Sec. 6.1: occluder texels times the texels of each
+// penumbra extent). Two dispatches of this shader:
+// - `choose == 0`, one invocation per occluder texel: the texel's extent h = reach
+//   (1/z_O - 1/z_max) texels beyond its square (z_max from ssm/receiver_bound), and per block
+//   side s = 1, 2, 4, ... the texels one s x s block quad covers, min(s + 2h + 2, N)^2, shared
+//   by the s^2 texels of a full block; summed over the map into 64-bit counters;
+// - `choose == 1`, one invocation: the smallest s whose sum stays within the budget, N^4 / 64
+//   fragments (every texel's patch over 1/64 of the map), else N.
+// s = 1 is the paper's one micro-patch per texel, the image unchanged. A larger s is the
+// paper's remedy for large penumbrae (Sec. 6.1: "a low resolution shadow map would give the
+// same visual results"), applied only when the penumbrae are that large.
+#define FRAME_NO_DRAW_PUSH
+#include "common/frame.glsl"
+#include "ssm/ssm.glsl"
+#include "ssm/constants.glsl"
+
+layout(local_size_x = 16, local_size_y = 16) in;
+
+layout(set = 0, binding = 1) uniform sampler2D occluder_map;
+layout(set = 0, binding = 2, std430) buffer Bound {
+    uint zmax_bits;   // ssm/receiver_bound
+    uint step;        // the block side chosen (read by the micro-patch pass)
+    float budget;     // the fragments allowed (read back for the warning)
+    uint pad;
+    uint work[];      // per block side 2^l: low word, high word of the estimated fragments
+} bound;
+
+layout(push_constant) uniform Push {
+    float reach;   // texels of extent per unit of (1/z_O - 1/z_max), the technique's
+    uint choose;
+} pc;
+
+// The block sides 2^l with 2^l <= N: fewer than 32 for any map an int can index.
+const int SIDES = 32;
+shared uint group_work[SIDES];
+
+void choose_step() {
+    float n = SSM_RES;
+    float budget = n * n * n * n * (1.0 / 64.0);
+    bound.budget = budget;
+    uint step = uint(n);
+    for (int l = 0; (1 << l) < int(n); ++l) {
+        float w = float(bound.work[2 * l + 1]) * 4294967296.0 + float(bound.work[2 * l]);
+        if (w <= budget) {
+            step = uint(1 << l);
+            break;
+        }
+    }
+    bound.step = step;
+}
+
+void main() {
+    if (pc.choose != 0u) {
+        if (gl_GlobalInvocationID.xy == uvec2(0)) choose_step();
+        return;
+    }
+    uint li = gl_LocalInvocationIndex;
+    if (li < SIDES) group_work[li] = 0u;
+    barrier();
+    int n = int(SSM_RES);
+    ivec2 t = ivec2(gl_GlobalInvocationID.xy);
+    if (all(lessThan(t, ivec2(n)))) {
+        float zo = texelFetch(occluder_map, t, 0).r;
+        float zmax = uintBitsToFloat(bound.zmax_bits);
+        if (zo < EMPTY && zo < zmax) {
+            float h = max(pc.reach * (1.0 / zo - 1.0 / zmax), 0.0);
+            for (int l = 0; (1 << l) <= n; ++l) {
+                float s = float(1 << l);
+                float side = min(s + 2.0 * h + 2.0, float(n));
+                // At most N^2 <= 2^22 per texel, 2^30 per group of 256: no overflow.
+                atomicAdd(group_work[l], uint(ceil(side * side / (s * s))));
+            }
+        }
+    }
+    barrier();
+    if (li < SIDES && group_work[li] > 0u) {
+        uint add = group_work[li];
+        uint old = atomicAdd(bound.work[2 * li], add);
+        // The carry into the high word: the low word wrapped.
+        if (old + add < old) atomicAdd(bound.work[2 * li + 1], 1u);
+    }
+}

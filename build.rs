@@ -49,6 +49,8 @@ fn run() -> Result<(), String> {
     let mut consts = String::new();
     // Every compiled module, listed for the bench's SPIR-V cost table (`shaders::ALL`).
     let mut table = String::new();
+    // Every module the renderer may run, variants included, with its source file (`shaders::SOURCES`).
+    let mut sources = String::new();
     let mut failures = Vec::new();
     // (timed build, counting build) of every counted light-pass shader.
     let mut light_count = String::new();
@@ -105,6 +107,12 @@ fn run() -> Result<(), String> {
                             consts,
                             "pub const {ident}: &[u8] = include_bytes!(r\"{}\");",
                             spv.display()
+                        );
+                        let variant = define.map(|d| format!(" -D{d}")).unwrap_or_default();
+                        let _ = writeln!(
+                            sources,
+                            "    ({ident}, r\"glsl/{}{variant}\"),",
+                            rel.display()
                         );
                         // The unoptimised module is kept too: the bench compares instruction counts.
                         let _ = writeln!(
@@ -164,6 +172,12 @@ fn run() -> Result<(), String> {
                     "pub const {ident}: &[u8] = include_bytes!(r\"{}\");",
                     spv.display()
                 );
+                let variant = if aov { " (AOV lines)" } else { "" };
+                let _ = writeln!(
+                    sources,
+                    "    ({ident}, r\"glsl/{}{variant}\"),",
+                    rel.display()
+                );
                 if suffix.is_empty() {
                     // `smoothies/final.frag.spvasm`: the stage is the extension before `.spvasm`.
                     let stem = Path::new(rel.file_stem().unwrap_or_default());
@@ -181,6 +195,10 @@ fn run() -> Result<(), String> {
     let _ = writeln!(
         consts,
         "pub const LIGHT_COUNT: &[(&[u8], &[u8])] = &[\n{light_count}];"
+    );
+    let _ = writeln!(
+        consts,
+        "pub const SOURCES: &[(&[u8], &str)] = &[\n{sources}];"
     );
     consts.push_str(&technique_constants(&files, &glsl)?);
     if !failures.is_empty() {

@@ -60,6 +60,26 @@ enum Command {
     /// Compare a port's visibility.exr with ours or the reference's: mae_lit, p99_lit,
     /// mae_shadow, the share off by > 0.1, ꟻLIP of two shaded images; a difference PNG.
     Compare(CompareArgs),
+    /// Print a technique's port sheet (Markdown), drawn from its live pipelines and one
+    /// recorded frame: per pass the barriers, attachments, pipeline state, descriptor
+    /// bindings and shaders (docs/port/ holds every technique's).
+    Describe(DescribeArgs),
+}
+
+#[derive(Args)]
+struct DescribeArgs {
+    /// Technique to describe.
+    #[arg(long, value_parser = technique_name(), required_unless_present = "all", conflicts_with = "all")]
+    technique: Option<String>,
+    /// Every technique of the registry, each into --out/TECHNIQUE.md.
+    #[arg(long, requires = "out")]
+    all: bool,
+    /// Built-in scene name or a .toml / .obj / .gltf / .glb file to record the frame on.
+    #[arg(long, default_value = softshadow::render::describe::DEFAULT_SCENE)]
+    scene: String,
+    /// Folder to write TECHNIQUE.md into (default: print the sheet).
+    #[arg(long)]
+    out: Option<PathBuf>,
 }
 
 #[derive(Args)]
@@ -465,13 +485,22 @@ fn load_options(cli: &Cli) -> softshadow::scene::LoadOptions {
 }
 
 fn open_device(cli: &Cli) -> Result<Context> {
+    open_device_on(cli, false)
+}
+
+/// `open_device`, naming the device on standard error when `stderr` (standard output
+/// carries a command's own output).
+fn open_device_on(cli: &Cli, stderr: bool) -> Result<Context> {
     let mut opts = ContextOptions::from_env();
     if cli.device.is_some() {
         opts.device = cli.device.clone();
     }
     opts.validation |= cli.validation;
     let ctx = Context::new(&opts)?;
-    println!("{}", ctx.describe());
+    match stderr {
+        true => eprintln!("{}", ctx.describe()),
+        false => println!("{}", ctx.describe()),
+    }
     Ok(ctx)
 }
 
@@ -481,6 +510,7 @@ fn run(cli: Cli) -> Result<()> {
         Command::Bench(a) => run_bench(&cli, a),
         Command::Stress(a) => stress(&cli, a),
         Command::Compare(a) => compare(&cli, a),
+        Command::Describe(a) => describe(&cli, a),
         Command::Export(a) => {
             if a.width == 0 || a.height == 0 {
                 bail!("--width and --height must be at least 1");
@@ -517,6 +547,57 @@ fn run(cli: Cli) -> Result<()> {
             Ok(())
         }
     }
+}
+
+fn describe(cli: &Cli, a: &DescribeArgs) -> Result<()> {
+    use softshadow::render::describe::{port_sheet, sheet_settings};
+    let names: Vec<&str> = match &a.technique {
+        Some(t) => vec![softshadow::technique::find(t)?.name],
+        None => softshadow::technique::names(),
+    };
+    let scene = Scene::load_with(&a.scene, &load_options(cli))?;
+    let inputs = scene_inputs(&a.scene);
+    let path_of = |dir: &std::path::Path, name: &str| dir.join(format!("{name}.md"));
+    if let Some(dir) = &a.out {
+        softshadow::output::check_dir(dir, "--out")?;
+        for name in &names {
+            check_not_input(&path_of(dir, name), "--out", &inputs)?;
+        }
+    }
+    // The sheet names a scene file by its file name alone: no host path on the sheet.
+    let label = match inputs.is_empty() {
+        true => a.scene.clone(),
+        false => std::path::Path::new(&a.scene)
+            .file_name()
+            .map(|f| f.to_string_lossy().into_owned())
+            .unwrap_or_else(|| a.scene.clone()),
+    };
+    // Standard output carries the sheet, so the device line goes to standard error.
+    let ctx = open_device_on(cli, true)?;
+    let mut sheets = Vec::new();
+    for name in names {
+        let sheet = port_sheet(&ctx, scene.clone(), &label, name, sheet_settings())?;
+        sheets.push((name, sheet));
+    }
+    ctx.check_validation()?;
+    let Some(dir) = &a.out else {
+        for (_, sheet) in &sheets {
+            print!("{sheet}");
+        }
+        return Ok(());
+    };
+    let mut publish = softshadow::output::Publish::new();
+    publish.create_dir(dir)?;
+    for (name, sheet) in &sheets {
+        publish.stage(&path_of(dir, name), |t| {
+            std::fs::write(t, sheet).map_err(anyhow::Error::from)
+        })?;
+    }
+    publish.commit()?;
+    for (name, _) in &sheets {
+        println!("wrote {}", path_of(dir, name).display());
+    }
+    Ok(())
 }
 
 fn render(cli: &Cli, a: &RenderArgs) -> Result<()> {
@@ -657,14 +738,7 @@ fn render(cli: &Cli, a: &RenderArgs) -> Result<()> {
             c.sum(3) as f64 / px,
         );
     }
-    let msgs = ctx.validation_messages();
-    if !msgs.is_empty() {
-        bail!(
-            "{} validation message(s), the first: {}",
-            msgs.len(),
-            msgs[0]
-        );
-    }
+    ctx.check_validation()?;
     Ok(())
 }
 

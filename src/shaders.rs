@@ -30,6 +30,16 @@ pub struct Shader {
     pub hand_tuned: bool,
 }
 
+/// The file under glsl/ (and its build variant, `-DAOV`, `-DCOUNT`) that the SPIR-V module
+/// `spirv` was compiled from, by content: what a port sheet names for each pipeline stage.
+/// Two files that compile to the same module give the first in path order.
+pub fn source_of(spirv: &[u8]) -> Option<&'static str> {
+    SOURCES
+        .iter()
+        .find(|(module, _)| *module == spirv)
+        .map(|(_, path)| *path)
+}
+
 include!(concat!(env!("OUT_DIR"), "/shaders.rs"));
 
 /// The counting build of a light-pass shader (`-DCOUNT_LIGHT`, glsl/common/count.glsl) for

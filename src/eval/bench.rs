@@ -1110,14 +1110,7 @@ pub fn run(ctx: &Context, plan: Plan) -> Result<Outcome> {
     bar.finish_and_clear();
     set_ratios(&mut records);
 
-    let msgs = ctx.validation_messages();
-    if !msgs.is_empty() {
-        bail!(
-            "{} validation message(s), the first: {}",
-            msgs.len(),
-            msgs[0]
-        );
-    }
+    ctx.check_validation()?;
 
     let results = Results {
         schema_version: RESULTS_SCHEMA_VERSION,

@@ -1,5 +1,8 @@
 //! One frame of one technique: frame constants, the camera targets, and the readback of
 //! the image and AOVs. `Renderer` is what `render`, `bench` and the tests drive.
+//! `describe` writes a technique's port sheet from one logged frame.
+
+pub mod describe;
 
 use crate::frustum::{camera_view_proj, check_radius, effective_depth_bias, fit_light};
 use crate::gpu::{CameraTargets, GpuScene};
@@ -7,6 +10,7 @@ use crate::output::FrameImages;
 use crate::scene::{LightView, Scene};
 use crate::settings::Settings;
 use crate::technique::{self, FrameInput, Technique, TechniqueInit};
+use crate::vk::describe::FrameLog;
 use crate::vk::{read_image, Buffer, BufferUsageFlags, Context, FrameRunner, FrameTimings};
 use anyhow::{bail, Context as _, Result};
 use bytemuck::{Pod, Zeroable};
@@ -144,6 +148,20 @@ impl<'c> Renderer<'c> {
 
     pub fn technique_name(&self) -> &'static str {
         self.technique.name()
+    }
+
+    /// The Rust type that implements the technique (`Technique::type_name`).
+    pub fn technique_type(&self) -> &'static str {
+        self.technique.type_name()
+    }
+
+    /// Renders `frames` frames as `render` does, logging every command they record
+    /// (`vk::describe`): what `softshadow describe` draws a port sheet from.
+    pub fn log_frames(&mut self, frames: u32) -> Result<FrameLog> {
+        self.runner.start_log();
+        let rendered = (0..frames).try_for_each(|_| self.render().map(|_| ()));
+        let log = self.runner.take_log();
+        rendered.map(|()| log)
     }
 
     /// The soft shadow maps' micro-patch block side of the last frame

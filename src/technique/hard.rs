@@ -1,4 +1,5 @@
 //! # hard — depth map with the hardware's 2x2 filtered comparison
+//! Port sheet: docs/port/hard.md
 //!
 //! The baseline of the smoothie paper's Fig. 7 (Williams 1978 with the 2x2 bilinear
 //! "percentage closer" filter that shadow hardware gives for free), built as an engine

@@ -60,6 +60,12 @@ pub struct TechniqueInit<'a> {
 pub trait Technique {
     fn name(&self) -> &'static str;
 
+    /// The implementing type's path (`softshadow::technique::pcss::Pcss`): the construction
+    /// a port sheet names.
+    fn type_name(&self) -> &'static str {
+        std::any::type_name::<Self>()
+    }
+
     /// The technique's two vec4s of frame constants (`frame.technique`, `frame.technique2`).
     fn uniforms(&self, _frame: &FrameInput<'_>) -> [[f32; 4]; 2] {
         [[0.0; 4]; 2]

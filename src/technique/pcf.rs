@@ -1,4 +1,5 @@
 //! # pcf — percentage-closer filtering of a shadow map (Reeves, Salesin & Cook 1987)
+//! Port sheet: docs/port/pcf.md
 //!
 //! A hard shadow map filtered by a fixed kernel: the fraction of shadow-map texels around
 //! the point's light uv that are farther than the point is its visibility. The kernel's

@@ -1,4 +1,5 @@
 //! # pcss — Fernando 2005, *Percentage-Closer Soft Shadows* (SIGGRAPH sketch)
+//! Port sheet: docs/port/pcss.md
 //!
 //! A hard shadow map filtered by PCF whose kernel size follows the blocker-to-receiver
 //! distance, so penumbrae are hard where a caster touches its receiver and widen away from

@@ -1,4 +1,5 @@
 //! # pcss-fast — `pcss` (Fernando 2005) over a hierarchy of the shadow map
+//! Port sheet: docs/port/pcss-fast.md
 //!
 //! `pcss` (src/technique/pcss.rs: Equations 1–5, sample counts, known artefacts) with a
 //! caster-depth hierarchy of the shadow map: one look at the search square's coarsest cells

@@ -1,4 +1,5 @@
 //! # pcss-walk — `pcss-fast` whose blocker search walks the hierarchy
+//! Port sheet: docs/port/pcss-walk.md
 //!
 //! `pcss-fast` (src/technique/pcss_fast.rs: the passes, the hierarchy, its cells and
 //! levels, the exact early exits) with step 1 of `pcss` (src/technique/pcss.rs: Equations

@@ -1,4 +1,5 @@
 //! # penumbra-map — Wyman & Hansen 2003, *Penumbra Maps: Approximate Soft Shadows in Real-Time*
+//! Port sheet: docs/port/penumbra-map.md
 //!
 //! A shadow map for the umbra plus a "penumbra map": per shadow-map texel, the light
 //! intensity of the foremost surface seen from the light, rendered by drawing a cone at each

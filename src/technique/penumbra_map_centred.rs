@@ -1,4 +1,5 @@
 //! # penumbra-map-centred — Wyman & Hansen 2003 with the penumbra centred on the hard edge
+//! Port sheet: docs/port/penumbra-map-centred.md
 //!
 //! `penumbra-map` (src/technique/penumbra_map.rs, whose header this one builds on) takes the
 //! hard shadow from the light's centre as the umbra and grows the penumbra outward from it,

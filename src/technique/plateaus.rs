@@ -1,4 +1,5 @@
 //! # plateaus — Haines 2001, *Soft Planar Shadows Using Plateaus*
+//! Port sheet: docs/port/plateaus.md
 //!
 //! A soft shadow texture for ONE planar receiver, rendered from straight above the plane: the
 //! casters' hard drop shadow, then "plateau" geometry around it — a cone at every silhouette

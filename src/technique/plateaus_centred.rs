@@ -1,4 +1,5 @@
 //! # plateaus-centred — Haines 2001 with the penumbra centred on the hard edge
+//! Port sheet: docs/port/plateaus-centred.md
 //!
 //! `plateaus` (src/technique/plateaus.rs, whose header this one builds on; relations
 //! (P1)-(P4) there) takes the hard drop shadow as the umbra and grows the penumbra outward

@@ -1,4 +1,5 @@
 //! # smoothies — Chan & Durand 2003, *Rendering Fake Soft Shadows with Smoothies*
+//! Port sheet: docs/port/smoothies.md
 //!
 //! A shadow map plus "smoothies": screen-space rectangles of width t glued to the casters'
 //! silhouette edges (and fans at their corners), rendered from the light into a smoothie

@@ -1,4 +1,5 @@
 //! # smoothies-centred — Chan & Durand 2003 with the penumbra centred on the hard edge
+//! Port sheet: docs/port/smoothies-centred.md
 //!
 //! `smoothies` (src/technique/smoothies.rs, whose header this one builds on) takes the hard
 //! shadow from the light's centre as the umbra and grows the penumbra outward from it (the

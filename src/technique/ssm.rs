@@ -1,5 +1,6 @@
 //! # ssm / ssm2 — Atty, Holzschuch, Lapierre, Hasenfratz, Hansen, Sillion 2006,
 //! *Soft Shadow Maps: Efficient Sampling of Light Source Visibility*
+//! Port sheets: docs/port/ssm.md, docs/port/ssm2.md
 //!
 //! Every texel of an occluder depth map becomes a micro-patch: a square parallel to the
 //! light at the texel's depth, covering the texel's image extent (Sec. 3.2). Each

@@ -1,4 +1,5 @@
 //! # ssm-bitmask / ssm2-bitmask — soft shadow maps with exact occlusion
+//! Port sheets: docs/port/ssm-bitmask.md, docs/port/ssm2-bitmask.md
 //!
 //! Atty et al. 2006 (`ssm`, src/technique/ssm.rs, whose header this one builds on) back-
 //! project one micro-patch per occluder-map texel onto the light and ADD the hidden areas:

@@ -6,6 +6,7 @@
 
 use super::context::{Context, Shared};
 use super::count::{self, CountSlot, LightPassCount};
+use super::describe::{clear_text, AttachmentInfo, Event, FrameLog, Logger};
 use super::memory::{Buffer, Image};
 use super::pipeline::{BindingKind, DescriptorSet, Pipeline};
 use super::query::{PassStats, QueryPool};
@@ -180,6 +181,8 @@ pub struct FrameRunner {
     statistics: Option<(QueryPool, [Pipeline; 2])>,
     period_ns: f64,
     valid_bits: u32,
+    /// While on, what each frame records (`start_log`).
+    log: Option<Logger>,
     /// The counting frame's per-pass count buffers (`run_counting`), made on first use.
     count_slots: Vec<CountSlot>,
 }
@@ -250,6 +253,7 @@ impl FrameRunner {
             statistics,
             period_ns: ctx.timestamp_period() as f64,
             valid_bits: 64,
+            log: None,
             count_slots: Vec::new(),
         };
         let alloc = vk::CommandBufferAllocateInfo::default()
@@ -270,6 +274,17 @@ impl FrameRunner {
         };
         this.valid_bits = families[ctx.queue_family as usize].timestamp_valid_bits;
         Ok(this)
+    }
+
+    /// Logs every frame `run` records from now on, command by command, for the port sheets
+    /// (`describe::FrameLog`), until `take_log`.
+    pub fn start_log(&mut self) {
+        self.log = Some(Logger::default());
+    }
+
+    /// Stops logging and returns the frames logged since `start_log`.
+    pub fn take_log(&mut self) -> FrameLog {
+        self.log.take().map(Logger::finish).unwrap_or_default()
     }
 
     /// Records `f`, submits, waits, and returns the timings of the passes it recorded.
@@ -331,6 +346,9 @@ impl FrameRunner {
                 }
             }
         }
+        if let Some(log) = &mut self.log {
+            log.begin_frame();
+        }
         let mut rec = Recorder {
             shared: &self.shared,
             cmd: self.cmd,
@@ -348,6 +366,7 @@ impl FrameRunner {
             index_buffer: None,
             scope: None,
             error: None,
+            log: self.log.as_mut(),
             counting: counting.map(|(ctx, extent)| Counting {
                 ctx,
                 slots: &mut self.count_slots,
@@ -512,6 +531,8 @@ pub struct Recorder<'a> {
     /// The first misuse met (a command outside or inside a rendering scope where it cannot
     /// be, a hazard within one scope); `FrameRunner::run` returns it.
     error: Option<anyhow::Error>,
+    /// The port sheets' log, while `FrameRunner::start_log` is on.
+    log: Option<&'a mut Logger>,
     /// Set in the counting frame only (`FrameRunner::run_counting`).
     counting: Option<Counting<'a>>,
 }
@@ -634,6 +655,15 @@ impl Clear {
         };
         Ok(Some(vk::ClearValue { color }))
     }
+
+    /// The clear value as a port sheet prints it; `None` to load.
+    pub(crate) fn text(self) -> Option<String> {
+        match self {
+            Clear::Load => None,
+            Clear::Float(c) => Some(format!("{c:?}")),
+            Clear::Uint(c) => Some(format!("uint {c:?}")),
+        }
+    }
 }
 
 /// Formats whose texels are unsigned integers (cleared through `uint32`).
@@ -677,6 +707,13 @@ impl Recorder<'_> {
         &self.shared.device
     }
 
+    /// Adds an event to the port sheets' log, when one is kept.
+    fn log(&mut self, event: impl FnOnce() -> Event) {
+        if let Some(log) = self.log.as_deref_mut() {
+            log.event(event());
+        }
+    }
+
     fn fail(&mut self, e: anyhow::Error) {
         if self.error.is_none() {
             self.error = Some(e);
@@ -701,6 +738,9 @@ impl Recorder<'_> {
             if let Err(e) = batch.add(u) {
                 self.fail(e);
             }
+        }
+        if let Some(log) = self.log.as_deref_mut() {
+            log.barriers(uses, &batch);
         }
         if !batch.is_empty() {
             // SAFETY: recording outside rendering; every barrier names a live resource.
@@ -798,6 +838,9 @@ impl Recorder<'_> {
         }
         let (a, b) = (self.next_query, self.next_query + 1);
         self.next_query += 2;
+        if let Some(log) = self.log.as_deref_mut() {
+            log.pass_begin(name);
+        }
 
         let label = CString::new(name).unwrap_or_default();
         // SAFETY: the command buffer is recording outside any rendering scope; the queries
@@ -847,6 +890,9 @@ impl Recorder<'_> {
                 b,
             );
         }
+        if let Some(log) = self.log.as_deref_mut() {
+            log.pass_end(name);
+        }
         self.passes.push(RecordedPass {
             name: name.to_string(),
             queries: Some((a, b)),
@@ -857,6 +903,7 @@ impl Recorder<'_> {
 
     /// Records that the pass `name` did not run this frame, and why.
     pub fn skip(&mut self, name: &str, reason: &str) {
+        self.log(|| Event::Skipped(name.to_string(), reason.to_string()));
         self.passes.push(RecordedPass {
             name: name.to_string(),
             queries: None,
@@ -866,6 +913,7 @@ impl Recorder<'_> {
 
     /// Runs CPU work `f`, recording its wall time as `cpu NAME`.
     pub fn cpu<T>(&mut self, name: &str, f: impl FnOnce() -> T) -> T {
+        self.log(|| Event::Cpu(name.to_string()));
         let t = Instant::now();
         let out = f();
         self.cpu
@@ -947,6 +995,20 @@ impl Recorder<'_> {
                     return;
                 }
             }
+        }
+        if let Some(log) = self.log.as_deref_mut() {
+            let info = |img: &Image, clear: Option<String>| AttachmentInfo {
+                image: img.name.clone(),
+                format: img.format,
+                clear,
+                store: true,
+            };
+            log.scope_begin(
+                colors.iter().map(|(i, c)| info(i, c.text())).collect(),
+                depth.map(|(i, c)| info(i, clear_text(&c))),
+                (extent.width, extent.height),
+                area == whole,
+            );
         }
         self.scope = Some(RenderScope {
             colors: attachments,
@@ -1075,7 +1137,12 @@ impl Recorder<'_> {
             uses.push(u);
         }
         uses.extend(draw_uses.iter().cloned());
+        let logged = self.log.as_deref_mut().and_then(Logger::scope_close);
         self.barriers(&uses);
+        if let Some(log) = self.log.as_deref_mut() {
+            let stores: Vec<bool> = colors.iter().chain(&depth).map(|a| a.store).collect();
+            log.scope_emit(logged, &stores);
+        }
 
         let color_infos: Vec<_> = colors
             .iter()
@@ -1124,6 +1191,7 @@ impl Recorder<'_> {
         bound.counted = is_counted;
         bound.uses = Some(p.uses.clone());
         bound.vertex_input = p.vertex_input;
+        self.log(|| Event::BindPipeline(p.info.clone()));
         self.op(Op::BindPipeline(p.bind_point, p.raw));
     }
 
@@ -1150,6 +1218,7 @@ impl Recorder<'_> {
         bound.sets = bindings;
         bound.raw_sets = raw.clone();
         bound.layout = p.layout;
+        self.log(|| Event::BindSets(sets.iter().map(|s| s.info.clone()).collect()));
         self.op(Op::BindSets(p.bind_point, p.layout, raw));
     }
 
@@ -1264,21 +1333,25 @@ impl Recorder<'_> {
             ));
             return;
         }
+        self.log(|| Event::Scissor);
         self.op(Op::SetScissor(area));
     }
 
     pub fn push_constants(&mut self, p: &Pipeline, bytes: &[u8]) {
+        self.log(|| Event::Push(bytes.len()));
         let p = self.counted(p);
         self.op(Op::Push(p.layout, bytes.to_vec()));
     }
 
     pub fn bind_vertex_buffer(&mut self, b: &Buffer) {
         self.vertex_buffer = Some(b.target());
+        self.log(|| Event::VertexBuffer(b.name.clone()));
         self.op(Op::BindVertexBuffer(b.raw));
     }
 
     pub fn bind_index_buffer(&mut self, b: &Buffer) {
         self.index_buffer = Some(b.target());
+        self.log(|| Event::IndexBuffer(b.name.clone()));
         self.op(Op::BindIndexBuffer(b.raw));
     }
 
@@ -1313,15 +1386,18 @@ impl Recorder<'_> {
     }
 
     pub fn draw(&mut self, vertices: u32, instances: u32) {
+        self.log(|| Event::Draw);
         self.draw_op(Op::Draw(vertices, instances), false, None);
     }
 
     pub fn draw_indexed(&mut self, indices: u32) {
+        self.log(|| Event::DrawIndexed);
         self.draw_op(Op::DrawIndexed(indices), true, None);
     }
 
     /// One indirect draw whose `VkDrawIndirectCommand` sits at `offset` in `args`.
     pub fn draw_indirect(&mut self, args: &Buffer, offset: u64) {
+        self.log(|| Event::DrawIndirect(args.name.clone()));
         let extra = Use::buffer(
             args.target(),
             vk::PipelineStageFlags2::DRAW_INDIRECT,
@@ -1340,6 +1416,7 @@ impl Recorder<'_> {
         let mut uses = Vec::new();
         Self::shader_uses(&self.compute, &mut uses);
         self.barriers(&uses);
+        self.log(|| Event::Dispatch([x, y, z]));
         // SAFETY: recording outside rendering with a bound compute pipeline.
         unsafe { self.device().cmd_dispatch(self.cmd, x, y, z) };
     }
@@ -1385,6 +1462,7 @@ impl Recorder<'_> {
             FILL_STAGES,
             vk::AccessFlags2::TRANSFER_WRITE,
         )]);
+        self.log(|| Event::Fill(b.name.clone()));
         // SAFETY: recording outside rendering; buffer has TRANSFER_DST usage.
         unsafe {
             self.device()
@@ -1403,6 +1481,7 @@ impl Recorder<'_> {
             vk::PipelineStageFlags2::HOST,
             vk::AccessFlags2::HOST_READ,
         )]);
+        self.log(|| Event::HostRead(b.name.clone()));
     }
 
     /// Copies the whole image into `dst` (tightly packed rows) and makes it host-visible.
@@ -1420,6 +1499,7 @@ impl Recorder<'_> {
             ),
             Use::buffer(dst.target(), S::COPY, A::TRANSFER_WRITE),
         ]);
+        self.log(|| Event::Copy(image.name.clone(), dst.name.clone()));
         let region = [vk::BufferImageCopy::default()
             .image_subresource(
                 vk::ImageSubresourceLayers::default()
@@ -1462,6 +1542,7 @@ impl Recorder<'_> {
         );
         dst.discard = true;
         self.barriers(&[Use::buffer(src.target(), S::COPY, A::TRANSFER_READ), dst]);
+        self.log(|| Event::Copy(src.name.clone(), image.name.clone()));
         let region = [vk::BufferImageCopy::default()
             .image_subresource(
                 vk::ImageSubresourceLayers::default()
@@ -1498,6 +1579,7 @@ impl Recorder<'_> {
             Use::buffer(src.target(), S::COPY, A::TRANSFER_READ),
             Use::buffer(dst.target(), S::COPY, A::TRANSFER_WRITE),
         ]);
+        self.log(|| Event::Copy(src.name.clone(), dst.name.clone()));
         let region = [vk::BufferCopy::default().size(src.size.min(dst.size))];
         // SAFETY: recording outside rendering; sizes checked above.
         unsafe {

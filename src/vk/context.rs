@@ -370,6 +370,18 @@ impl Context {
         self.shared.log.messages()
     }
 
+    /// An error naming the count and the first of the validation messages so far, if any:
+    /// a command that met one fails.
+    pub fn check_validation(&self) -> anyhow::Result<()> {
+        let msgs = self.validation_messages();
+        match msgs.first() {
+            Some(first) => {
+                anyhow::bail!("{} validation message(s), the first: {first}", msgs.len())
+            }
+            None => Ok(()),
+        }
+    }
+
     /// Nanoseconds per timestamp tick.
     pub fn timestamp_period(&self) -> f32 {
         self.limits.timestamp_period

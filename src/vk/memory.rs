@@ -15,6 +15,8 @@ pub struct Buffer {
     allocation: Option<Allocation>,
     pub size: u64,
     sync: Arc<Tracked>,
+    /// The name it was made with: barriers and port sheets name it by this.
+    pub name: String,
 }
 
 impl Buffer {
@@ -68,6 +70,7 @@ impl Buffer {
             allocation: Some(allocation),
             size,
             sync: Tracked::new(),
+            name: name.to_string(),
         })
     }
 
@@ -117,6 +120,7 @@ impl Buffer {
         Target::Buffer {
             raw: self.raw,
             sync: self.sync.clone(),
+            name: self.name.clone(),
         }
     }
 
@@ -347,6 +351,8 @@ pub enum Filter {
 pub struct Sampler {
     shared: Arc<Shared>,
     pub(crate) raw: vk::Sampler,
+    /// Filter, addressing and comparison, as a port sheet shows them.
+    pub(crate) description: String,
 }
 
 impl Sampler {
@@ -382,9 +388,14 @@ impl Sampler {
         // SAFETY: valid create info; destroyed in Drop.
         let raw =
             unsafe { ctx.device().create_sampler(&info, None) }.context("creating sampler")?;
+        let compare = match compare {
+            Some(op) => format!(", compare {op:?}"),
+            None => String::new(),
+        };
         Ok(Self {
             shared: ctx.shared.clone(),
             raw,
+            description: format!("{f:?}, clamp to edge{compare}"),
         })
     }
 }

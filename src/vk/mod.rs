@@ -59,6 +59,7 @@
 mod cmd;
 mod context;
 mod count;
+pub mod describe;
 mod memory;
 mod pipeline;
 mod query;
@@ -78,6 +79,7 @@ pub use count::LightPassCount;
 pub use gpu_allocator::MemoryLocation;
 pub use memory::{Buffer, Filter, Image, Sampler};
 pub use pipeline::{
-    Attribute, Blend, DepthState, DescriptorSet, GraphicsPipelineDesc, Pipeline, Resource,
+    Attribute, BindingKind, Blend, DepthState, DescriptorSet, GraphicsPipelineDesc, Pipeline,
+    Resource,
 };
 pub use query::{PassStats, NO_PIPELINE_STATISTICS};

@@ -3,6 +3,9 @@
 //! (Vulkan 1.3), so no render-pass or framebuffer objects.
 
 use super::context::{Context, Shared};
+use super::describe::{
+    BindingInfo, BlendInfo, DepthInfo, PipelineInfo, SetInfo, StageInfo, UseInfo,
+};
 use super::memory::{Buffer, Image, Sampler};
 use super::reflect::{self, HostBinding};
 use super::sync::{reflect as reflect_uses, BindingUse, Target};
@@ -76,6 +79,23 @@ impl Resource<'_> {
             Resource::StorageImage(_) => BindingKind::StorageImage,
         }
     }
+
+    /// What a port sheet says is bound: the resource, and an image's format and a
+    /// sampler's state.
+    fn describe(&self) -> (String, String) {
+        match self {
+            Resource::Uniform(b) | Resource::Storage(b) => {
+                (format!("buffer '{}'", b.name), String::new())
+            }
+            Resource::Sampled(img, s) => (
+                format!("image '{}'", img.name),
+                format!("{:?}, sampler {}", img.format, s.description),
+            ),
+            Resource::StorageImage(img) => {
+                (format!("image '{}'", img.name), format!("{:?}", img.format))
+            }
+        }
+    }
 }
 
 /// A descriptor-set layout with one set allocated from its own pool, written once: the
@@ -91,6 +111,8 @@ pub struct DescriptorSet {
     names: Vec<&'static str>,
     /// For errors: which set this is.
     pub name: String,
+    /// What it was made with, for the port sheets.
+    pub(crate) info: Arc<SetInfo>,
 }
 
 impl DescriptorSet {
@@ -99,7 +121,26 @@ impl DescriptorSet {
     /// shadow_map;` is `shadow_map`), or the block's type name when the instance is anonymous
     /// (`buffer Edges { .. };` is `Edges`). Every pipeline made with the set checks each
     /// binding its shaders declare against these names and kinds (`reflect::check`).
+    #[track_caller]
     pub fn new(ctx: &Context, named: &[(&'static str, Resource<'_>)], name: &str) -> Result<Self> {
+        let info = Arc::new(SetInfo {
+            name: name.to_string(),
+            bindings: named
+                .iter()
+                .enumerate()
+                .map(|(i, (n, r))| {
+                    let (resource, detail) = r.describe();
+                    BindingInfo {
+                        binding: i as u32,
+                        name: n,
+                        kind: r.kind(),
+                        resource,
+                        detail,
+                    }
+                })
+                .collect(),
+            made_in: std::panic::Location::caller().file(),
+        });
         let names: Vec<&'static str> = named.iter().map(|(n, _)| *n).collect();
         let resources: Vec<&Resource<'_>> = named.iter().map(|(_, r)| r).collect();
         let device = ctx.device();
@@ -115,9 +156,9 @@ impl DescriptorSet {
                     .stage_flags(stages)
             })
             .collect();
-        let info = vk::DescriptorSetLayoutCreateInfo::default().bindings(&bindings);
+        let layout_info = vk::DescriptorSetLayoutCreateInfo::default().bindings(&bindings);
         // SAFETY: valid create info; destroyed in Drop.
-        let layout = unsafe { device.create_descriptor_set_layout(&info, None) }
+        let layout = unsafe { device.create_descriptor_set_layout(&layout_info, None) }
             .with_context(|| format!("creating descriptor set layout for {name}"))?;
         let sizes: Vec<_> = bindings
             .iter()
@@ -156,6 +197,7 @@ impl DescriptorSet {
                 .collect(),
             names,
             name: name.to_string(),
+            info,
         };
         let layouts = [layout];
         let alloc = vk::DescriptorSetAllocateInfo::default()
@@ -288,6 +330,27 @@ pub struct Pipeline {
     /// Its counting build, bound instead of it in the counting frame (`Counted`).
     pub(crate) counted: Option<Box<Counted>>,
     pub name: String,
+    /// What it was made with, for the port sheets.
+    pub(crate) info: Arc<PipelineInfo>,
+}
+
+/// The port sheets' copy of `uses`.
+fn use_infos(uses: &[BindingUse]) -> Vec<UseInfo> {
+    uses.iter()
+        .map(|u| UseInfo {
+            set: u.set,
+            binding: u.binding,
+            stages: u.stage,
+            writes: u.writes,
+        })
+        .collect()
+}
+
+fn stage_info(stage: &'static str, spirv: &[u8]) -> StageInfo {
+    StageInfo {
+        stage,
+        source: crate::shaders::source_of(spirv).map(str::to_string),
+    }
 }
 
 /// The counting build of a light pipeline: the same state with the shaders' `-DCOUNT_LIGHT`
@@ -420,7 +483,9 @@ fn pipeline_layout(
 }
 
 impl Pipeline {
+    #[track_caller]
     pub fn graphics(ctx: &Context, d: &GraphicsPipelineDesc<'_>) -> Result<Self> {
+        let made_in = std::panic::Location::caller().file();
         // Checked before anything is created, so that nothing leaks on these errors.
         let ors = d.colors.iter().filter(|c| c.1 == Blend::Or).count();
         if ors > 0 && ors < d.colors.len() {
@@ -537,6 +602,7 @@ impl Pipeline {
             .logic_op_enable(ors > 0)
             .logic_op(vk::LogicOp::OR)
             .attachments(&blend_attachments);
+        let front_face = raster.front_face;
         let depth = match d.depth {
             Some(ds) => vk::PipelineDepthStencilStateCreateInfo::default()
                 .depth_test_enable(ds.test)
@@ -580,6 +646,46 @@ impl Pipeline {
                 return Err(e).with_context(|| format!("creating pipeline {}", d.name));
             }
         };
+        let mut stages = vec![stage_info("vertex", d.vertex)];
+        stages.extend(d.fragment.map(|f| stage_info("fragment", f)));
+        let info = PipelineInfo {
+            name: d.name.to_string(),
+            compute: false,
+            stages,
+            vertex_stride: d.vertex_stride,
+            attributes: match d.vertex_stride {
+                0 => Vec::new(),
+                _ => d.attributes.to_vec(),
+            },
+            topology: d.topology,
+            cull: d.cull,
+            front_face,
+            colors: d
+                .colors
+                .iter()
+                .zip(&blend_attachments)
+                .map(|(&(format, _), a)| BlendInfo {
+                    format,
+                    enable: a.blend_enable != vk::FALSE,
+                    color_op: a.color_blend_op,
+                    alpha_op: a.alpha_blend_op,
+                    src_factor: a.src_color_blend_factor,
+                    dst_factor: a.dst_color_blend_factor,
+                    write_mask: a.color_write_mask,
+                })
+                .collect(),
+            logic_op: (ors > 0).then_some(vk::LogicOp::OR),
+            depth: d.depth.map(|ds| DepthInfo {
+                format: ds.format,
+                test: ds.test,
+                write: ds.write,
+                compare: ds.compare,
+            }),
+            push_constant_bytes: d.push_constant_bytes,
+            sets: d.sets.iter().map(|s| s.name.clone()).collect(),
+            uses: use_infos(&uses),
+            made_in,
+        };
         let mut this = Self {
             shared: ctx.shared.clone(),
             raw,
@@ -589,11 +695,13 @@ impl Pipeline {
             vertex_input: d.vertex_stride > 0,
             counted: None,
             name: d.name.to_string(),
+            info: Arc::new(info),
         };
         this.counted = Counted::graphics(ctx, d)?;
         Ok(this)
     }
 
+    #[track_caller]
     pub fn compute(
         ctx: &Context,
         name: &str,
@@ -601,6 +709,7 @@ impl Pipeline {
         sets: &[&DescriptorSet],
         push_constant_bytes: u32,
     ) -> Result<Self> {
+        let made_in = std::panic::Location::caller().file();
         let device = ctx.device();
         let layout = pipeline_layout(ctx, sets, push_constant_bytes, name)?;
         let mut uses = Vec::new();
@@ -632,6 +741,23 @@ impl Pipeline {
                 return Err(e).with_context(|| format!("creating compute pipeline {name}"));
             }
         };
+        let info = PipelineInfo {
+            name: name.to_string(),
+            compute: true,
+            stages: vec![stage_info("compute", spirv)],
+            vertex_stride: 0,
+            attributes: Vec::new(),
+            topology: vk::PrimitiveTopology::default(),
+            cull: vk::CullModeFlags::NONE,
+            front_face: vk::FrontFace::default(),
+            colors: Vec::new(),
+            logic_op: None,
+            depth: None,
+            push_constant_bytes,
+            sets: sets.iter().map(|s| s.name.clone()).collect(),
+            uses: use_infos(&uses),
+            made_in,
+        };
         let mut this = Self {
             shared: ctx.shared.clone(),
             raw,
@@ -641,6 +767,7 @@ impl Pipeline {
             vertex_input: false,
             counted: None,
             name: name.to_string(),
+            info: Arc::new(info),
         };
         this.counted = Counted::compute(ctx, name, spirv, sets, push_constant_bytes)?;
         Ok(this)

@@ -5,6 +5,7 @@
 //! `reflect` reads from a pipeline's SPIR-V which stage uses which binding, and whether it
 //! writes it.
 
+use super::describe::BarrierInfo;
 use anyhow::{bail, Result};
 use ash::vk;
 use std::collections::HashMap;
@@ -104,6 +105,7 @@ pub(crate) enum Target {
     Buffer {
         raw: vk::Buffer,
         sync: Arc<Tracked>,
+        name: String,
     },
     Image {
         raw: vk::Image,
@@ -120,13 +122,14 @@ impl Target {
         }
     }
 
-    fn key(&self) -> usize {
+    /// Which resource this is (the same for every `Target` of one buffer or image).
+    pub(crate) fn key(&self) -> usize {
         Arc::as_ptr(self.sync()) as usize
     }
 
-    fn describe(&self) -> String {
+    pub(crate) fn describe(&self) -> String {
         match self {
-            Target::Buffer { raw, .. } => format!("buffer {raw:?}"),
+            Target::Buffer { name, .. } => format!("buffer '{name}'"),
             Target::Image { name, .. } => format!("image '{name}'"),
         }
     }
@@ -161,7 +164,7 @@ impl Use {
         }
     }
 
-    fn writes(&self) -> bool {
+    pub(crate) fn writes(&self) -> bool {
         self.scope.access.intersects(WRITES)
     }
 }
@@ -184,6 +187,10 @@ pub(crate) struct Batch {
     buffers: Vec<vk::BufferMemoryBarrier2<'static>>,
     images: Vec<vk::ImageMemoryBarrier2<'static>>,
     touched: HashMap<usize, Touch>,
+    /// The resource (`Target::key`, `Target::describe`) of each barrier, buffers' then images'
+    /// in the order of `buffers` and `images`, for the port sheets.
+    buffer_of: Vec<(usize, String)>,
+    image_of: Vec<(usize, String)>,
 }
 
 impl Batch {
@@ -294,6 +301,7 @@ impl Batch {
                         .offset(0)
                         .size(vk::WHOLE_SIZE),
                 );
+                self.buffer_of.push((target.key(), target.describe()));
                 Slot::Buffer(self.buffers.len() - 1)
             }
             Target::Image { raw, aspect, .. } => {
@@ -310,6 +318,7 @@ impl Batch {
                         .image(*raw)
                         .subresource_range(super::memory::subresource(*aspect)),
                 );
+                self.image_of.push((target.key(), target.describe()));
                 Slot::Image(self.images.len() - 1)
             }
         }
@@ -332,6 +341,33 @@ impl Batch {
 
     pub fn is_empty(&self) -> bool {
         self.buffers.is_empty() && self.images.is_empty()
+    }
+
+    /// Every barrier as plain data, with the resource's key (`Target::key`), in recording
+    /// order: buffers', then images'.
+    pub fn described(&self) -> Vec<(usize, BarrierInfo)> {
+        let info = |(key, name): &(usize, String), src, src_access, dst, dst_access, layouts| {
+            let b = BarrierInfo {
+                resource: name.clone(),
+                src_stage: src,
+                src_access,
+                dst_stage: dst,
+                dst_access,
+                layouts,
+                after: Vec::new(),
+            };
+            (*key, b)
+        };
+        let buffers = self.buffers.iter().zip(&self.buffer_of).map(|(b, of)| {
+            let (s, a) = (b.src_stage_mask, b.src_access_mask);
+            info(of, s, a, b.dst_stage_mask, b.dst_access_mask, None)
+        });
+        let images = self.images.iter().zip(&self.image_of).map(|(b, of)| {
+            let (s, a) = (b.src_stage_mask, b.src_access_mask);
+            let layouts = Some((b.old_layout, b.new_layout));
+            info(of, s, a, b.dst_stage_mask, b.dst_access_mask, layouts)
+        });
+        buffers.chain(images).collect()
     }
 
     /// The barriers as one dependency (valid while `self` lives).
@@ -497,6 +533,7 @@ mod tests {
         Target::Buffer {
             raw: vk::Buffer::null(),
             sync: Tracked::new(),
+            name: "test".into(),
         }
     }
 

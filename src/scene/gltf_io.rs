@@ -14,16 +14,21 @@
 //! - the camera is the first perspective camera met depth first (`yfov`, the node's -Z
 //!   axis, its +Y as up); without one, the default framing.
 //!
+//! Compressed geometry (Draco, meshopt, KHR_mesh_quantization's integer attributes) is
+//! decoded by `gltf_decode` before it is read.
+//!
 //! Refused with one error line: skins, morph targets, sparse accessors, point and line
-//! primitives, positions that are not float VEC3, a required extension the `gltf` crate
-//! does not know (Draco, meshopt, quantization). Textures and every material field but
-//! the base colour factor are ignored: shadows need only geometry.
+//! primitives, positions and normals that are neither float nor a quantized form, a
+//! required extension neither the `gltf` crate nor `gltf_decode` knows (GPU instancing).
+//! Textures and every material field but the base colour factor are ignored: shadows need
+//! only geometry.
 //!
 //! Export writes the scene back as glTF: one node per object (its transform as `matrix`,
 //! its role in extras), a mesh per distinct mesh and albedo, the light as a KHR spot light
 //! with its radius in extras, and the camera. `.glb` is one file; `.gltf` writes its buffer
 //! to a `.bin` beside it.
 
+use super::gltf_decode::{self, Compressed, Draco};
 use super::input::{self, LoadOptions};
 use super::{builtin, Aabb, Camera, Light, Mesh, Object, Role, Scene, MAX_LIGHT_FOV_DEG};
 use anyhow::{anyhow, bail, Context, Result};
@@ -111,7 +116,8 @@ fn json_depth(text: &[u8]) -> usize {
 }
 
 /// Keeps of every `extras` only softshadow's own key and of every `extensions` only
-/// KHR_lights_punctual: the rest is never read, and may nest deeper than the parser goes.
+/// KHR_lights_punctual and the compression extensions: the rest is never read, and may
+/// nest deeper than the parser goes.
 fn prune(v: &mut Value) {
     match v {
         Value::Object(m) => {
@@ -123,7 +129,10 @@ fn prune(v: &mut Value) {
                 None => {}
             }
             if let Some(Value::Object(e)) = m.get_mut("extensions") {
-                e.retain(|k, _| k == "KHR_lights_punctual");
+                e.retain(|k, _| {
+                    k == "KHR_lights_punctual"
+                        || gltf_decode::DECODED_EXTENSIONS.contains(&k.as_str())
+                });
             }
             m.values_mut().for_each(prune);
         }
@@ -182,7 +191,10 @@ fn parse_unwinding(
     let mut root = document.into_json();
     // Named here: the crate's validation only says "unsupported". Extensions that change
     // only the look of materials do not matter to shadows and are dropped.
-    root.extensions_required.retain(|e| !appearance_only(e));
+    root.extensions_required
+        .retain(|e| !appearance_only(e) && !gltf_decode::DECODED_EXTENSIONS.contains(&e.as_str()));
+    let compressed = Compressed::scan(&root, file)?;
+    compressed.stand_in_views(&mut root);
     if let Some(ext) = root
         .extensions_required
         .iter()
@@ -201,12 +213,13 @@ fn parse_unwinding(
         .default_scene()
         .or_else(|| doc.scenes().next())
         .ok_or_else(|| anyhow!("{file}: has no scene"))?;
-    check_declared_sizes(&scene, file)?;
-    let buffers = load_buffers(doc, dir, blob, file, opts)?;
+    check_declared_sizes(&scene, &compressed, file)?;
+    let buffers = load_buffers(doc, &compressed, dir, blob, file, opts)?;
 
     let mut walk = Walk {
         file,
         buffers: &buffers,
+        compressed: &compressed,
         meshes: HashMap::new(),
         objects: Vec::new(),
         spot: None,
@@ -359,6 +372,7 @@ struct Eye {
 struct Walk<'a> {
     file: &'a str,
     buffers: &'a [gltf::buffer::Data],
+    compressed: &'a Compressed,
     /// One mesh per distinct mode and POSITION, NORMAL and indices data (`PrimitiveKey`),
     /// shared by every node and every glTF mesh that use the same data.
     meshes: HashMap<PrimitiveKey, Arc<Mesh>>,
@@ -456,11 +470,12 @@ impl Walk<'_> {
         for prim in mesh.primitives() {
             let what = format!("{file}: {label}, {mesh_label}, primitive {}", prim.index());
             // Sizes were bounded by `check_declared_sizes` before any buffer was loaded.
-            let key = primitive_key(&prim);
+            let draco = self.compressed.draco(mesh.index(), prim.index());
+            let key = primitive_key(&prim, draco);
             let m = match self.meshes.get(&key) {
                 Some(m) => m.clone(),
                 None => {
-                    let m = Arc::new(read_primitive(&prim, self.buffers, &what)?);
+                    let m = Arc::new(read_primitive(&prim, draco, self.buffers, &what)?);
                     self.meshes.insert(key, m.clone());
                     m
                 }
@@ -497,14 +512,16 @@ fn axis(world: &Mat4, v: Vec3) -> Option<Vec3> {
     (n != Vec3::ZERO && n.is_finite()).then_some(n)
 }
 
-/// What a primitive's mesh is read from: its mode and its POSITION, NORMAL and indices
-/// accessors (and whether it has morph targets, which `read_primitive` refuses).
+/// What a primitive's mesh is read from: its mode, its POSITION, NORMAL and indices
+/// accessors and its Draco stream (and whether it has morph targets, which
+/// `read_primitive` refuses).
 type PrimitiveKey = (
     bool,
     u32,
     Option<AccessorKey>,
     Option<AccessorKey>,
     Option<AccessorKey>,
+    Option<Draco>,
 );
 
 /// Where an accessor's elements come from: buffer view, offset, count, component type and
@@ -521,20 +538,21 @@ fn accessor_key(a: gltf::Accessor) -> AccessorKey {
     )
 }
 
-fn primitive_key(prim: &gltf::Primitive) -> PrimitiveKey {
+fn primitive_key(prim: &gltf::Primitive, draco: Option<Draco>) -> PrimitiveKey {
     (
         prim.morph_targets().len() > 0,
         prim.mode().as_gl_enum(),
         prim.get(&gltf::Semantic::Positions).map(accessor_key),
         prim.get(&gltf::Semantic::Normals).map(accessor_key),
         prim.indices().map(accessor_key),
+        draco,
     )
 }
 
 /// Bounds the scene's triangles (every instance) and the vertices its distinct meshes read,
 /// from declared counts alone, before any buffer is loaded. Needs a forest
 /// (`check_hierarchy`): every node is met once.
-fn check_declared_sizes(scene: &gltf::Scene, file: &str) -> Result<()> {
+fn check_declared_sizes(scene: &gltf::Scene, compressed: &Compressed, file: &str) -> Result<()> {
     let (mut triangles, mut vertices) = (0usize, 0usize);
     let mut seen = std::collections::HashSet::new();
     let mut stack: Vec<gltf::Node> = scene.nodes().collect();
@@ -543,7 +561,8 @@ fn check_declared_sizes(scene: &gltf::Scene, file: &str) -> Result<()> {
             for prim in mesh.primitives() {
                 let (t, v) = declared_size(&prim);
                 triangles = triangles.saturating_add(t);
-                if seen.insert(primitive_key(&prim)) {
+                let draco = compressed.draco(mesh.index(), prim.index());
+                if seen.insert(primitive_key(&prim, draco)) {
                     vertices = vertices.saturating_add(v);
                 }
                 let at = || {
@@ -676,18 +695,31 @@ fn check_hierarchy(doc: &gltf::Document, file: &str) -> Result<()> {
 }
 
 /// Every buffer's bytes: the GLB blob, a data URI, or a file in the glTF file's folder
-/// (outside it only when `opts` allows). Images are never read: shadows need no textures.
+/// (outside it only when `opts` allows); a meshopt fallback buffer is zeros until its
+/// views are decoded into it. Images are never read: shadows need no textures.
 fn load_buffers(
     doc: &gltf::Document,
+    compressed: &Compressed,
     dir: Option<&Path>,
     mut blob: Option<Vec<u8>>,
     file: &str,
     opts: &LoadOptions,
 ) -> Result<Vec<gltf::buffer::Data>> {
     let mut out = Vec::new();
+    let mut fallback_bytes = 0u64;
     for buffer in doc.buffers() {
         let label = format!("{file}: buffer {}", buffer.index());
         let mut data = match buffer.source() {
+            gltf::buffer::Source::Bin if compressed.is_fallback(buffer.index()) => {
+                fallback_bytes = fallback_bytes.saturating_add(buffer.length() as u64);
+                if fallback_bytes > input::MAX_FILE_BYTES {
+                    bail!(
+                        "{label}: meshopt fallback buffers total {fallback_bytes} bytes, above the limit of {} bytes",
+                        input::MAX_FILE_BYTES
+                    );
+                }
+                vec![0; buffer.length()]
+            }
             gltf::buffer::Source::Bin => blob.take().ok_or_else(|| {
                 anyhow!("{label}: has no URI and the file has no GLB binary chunk for it")
             })?,
@@ -703,9 +735,10 @@ fn load_buffers(
         while !data.len().is_multiple_of(4) {
             data.push(0);
         }
-        out.push(gltf::buffer::Data(data));
+        out.push(data);
     }
-    Ok(out)
+    compressed.decode_meshopt(&mut out, file)?;
+    Ok(out.into_iter().map(gltf::buffer::Data).collect())
 }
 
 /// A buffer URI's bytes: `data:` decoded, a relative path (percent-decoded) or a `file:`
@@ -816,9 +849,11 @@ fn light_radius_extra(extras: &gltf::json::Extras) -> Result<Option<f32>> {
     }
 }
 
-/// One triangle primitive as a mesh in its node's space.
+/// One triangle primitive as a mesh in its node's space, from its accessors or, when
+/// `draco` names one, its Draco stream.
 fn read_primitive(
     prim: &gltf::Primitive,
+    draco: Option<Draco>,
     buffers: &[gltf::buffer::Data],
     what: &str,
 ) -> Result<Mesh> {
@@ -844,6 +879,10 @@ fn read_primitive(
     if let Some(i) = prim.indices() {
         used.push(("indices", i));
     }
+    if let Some(d) = draco {
+        let (positions, normals, raw) = read_draco(prim, d, buffers, what)?;
+        return finish_primitive(mode, positions, normals, raw, what);
+    }
     for (attr, a) in &used {
         if a.sparse().is_some() {
             bail!("{what}: {attr} uses a sparse accessor, which is not supported");
@@ -860,7 +899,10 @@ fn read_primitive(
                 a.dimensions() == Dimensions::Scalar
                     && matches!(a.data_type(), DataType::U8 | DataType::U16 | DataType::U32)
             }
-            _ => a.dimensions() == Dimensions::Vec3 && a.data_type() == DataType::F32,
+            _ => {
+                a.dimensions() == Dimensions::Vec3
+                    && gltf_decode::vec3_type_allowed(attr, a.data_type(), a.normalized())
+            }
         };
         if !ok {
             bail!(
@@ -868,30 +910,20 @@ fn read_primitive(
                 a.index(),
                 a.dimensions(),
                 a.data_type(),
-                if *attr == "indices" {
-                    "unsigned integer scalars"
-                } else {
-                    "float VEC3"
+                match *attr {
+                    "indices" => "unsigned integer scalars",
+                    "NORMAL" => "VEC3 of float or normalized BYTE/SHORT (KHR_mesh_quantization)",
+                    _ => "VEC3 of float or (normalized) BYTE/UNSIGNED_BYTE/SHORT/UNSIGNED_SHORT (KHR_mesh_quantization)",
                 }
             );
         }
     }
     let reader = prim.reader(|b| buffers.get(b.index()).map(|d| &d.0[..]));
     let out_of_range = |attr: &str| anyhow!("{what}: {attr} reaches past the end of its buffer");
-    let positions: Vec<Vec3> = reader
-        .read_positions()
-        .ok_or_else(|| out_of_range("POSITION"))?
-        .map(Vec3::from)
-        .collect();
-    if let Some(i) = positions.iter().position(|p| !p.is_finite()) {
-        bail!(
-            "{what}: vertex {i} has a non-finite coordinate ({})",
-            positions[i]
-        );
-    }
-    let normals: Option<Vec<Vec3>> = match reader.read_normals() {
-        Some(n) => Some(n.map(Vec3::from).collect()),
-        None if prim.get(&gltf::Semantic::Normals).is_some() => return Err(out_of_range("NORMAL")),
+    let with_what = |e: anyhow::Error| anyhow!("{what}: {e}");
+    let positions = gltf_decode::read_vec3(&pos, buffers, "POSITION").map_err(with_what)?;
+    let normals = match prim.get(&gltf::Semantic::Normals) {
+        Some(n) => Some(gltf_decode::read_vec3(&n, buffers, "NORMAL").map_err(with_what)?),
         None => None,
     };
     let raw: Vec<u32> = match reader.read_indices() {
@@ -899,6 +931,58 @@ fn read_primitive(
         None if prim.indices().is_some() => return Err(out_of_range("indices")),
         None => (0..positions.len() as u32).collect(),
     };
+    finish_primitive(mode, positions, normals, raw, what)
+}
+
+/// A Draco primitive's positions, normals and indices, held to the counts its accessors
+/// declare (which bounded the scene's size before anything was read).
+#[allow(clippy::type_complexity)]
+fn read_draco(
+    prim: &gltf::Primitive,
+    d: Draco,
+    buffers: &[gltf::buffer::Data],
+    what: &str,
+) -> Result<(Vec<Vec3>, Option<Vec<Vec3>>, Vec<u32>)> {
+    let pos = prim
+        .get(&gltf::Semantic::Positions)
+        .ok_or_else(|| anyhow!("{what}: has no POSITION attribute"))?;
+    let max_points = pos.count();
+    let max_faces = prim.indices().map_or(max_points, |i| i.count()) / 3;
+    let (buffer, offset, length) = d.stream;
+    let stream = buffers
+        .get(buffer)
+        .and_then(|b| b.0.get(offset..offset.checked_add(length)?))
+        .ok_or_else(|| {
+            anyhow!(
+                "{what}: its Draco buffer view {} reaches past the end of buffer {buffer}",
+                d.view
+            )
+        })?;
+    let m = gltf_decode::decode_draco(stream, d, max_points, max_faces)
+        .map_err(|e| anyhow!("{what}: {e}"))?;
+    let normals = if prim.get(&gltf::Semantic::Normals).is_some() {
+        m.normals
+    } else {
+        None
+    };
+    Ok((m.positions, normals, m.indices))
+}
+
+/// Checks a primitive's vertices and indices and builds its mesh (flat normals when it
+/// has none).
+fn finish_primitive(
+    mode: gltf::mesh::Mode,
+    positions: Vec<Vec3>,
+    normals: Option<Vec<Vec3>>,
+    raw: Vec<u32>,
+    what: &str,
+) -> Result<Mesh> {
+    if let Some(i) = positions.iter().position(|p| !p.is_finite()) {
+        bail!(
+            "{what}: vertex {i} has a non-finite coordinate ({})",
+            positions[i]
+        );
+    }
     // Which entry, not its value: the bytes may belong to a file that is not a scene.
     if let Some(k) = raw.iter().position(|&i| i as usize >= positions.len()) {
         bail!(

@@ -11,6 +11,7 @@ use std::sync::Arc;
 pub mod builtin;
 pub mod export;
 pub mod file;
+mod gltf_decode;
 pub mod gltf_io;
 pub mod input;
 pub mod obj;

@@ -240,7 +240,7 @@ fn decode_stream(src: &[u8], m: &Meshopt) -> Result<Vec<u8>> {
     let fail = |e: meshopt::Error| anyhow!("the {} stream does not decode ({e})", m.mode);
     let bytes = match m.mode.as_str() {
         "ATTRIBUTES" => {
-            if m.stride == 0 || m.stride % 4 != 0 || m.stride > 256 {
+            if m.stride == 0 || !m.stride.is_multiple_of(4) || m.stride > 256 {
                 bail!(
                     "ATTRIBUTES byteStride {} is not a multiple of 4 in 4..=256",
                     m.stride
@@ -252,31 +252,15 @@ fn decode_stream(src: &[u8], m: &Meshopt) -> Result<Vec<u8>> {
         }
         "TRIANGLES" | "INDICES" => {
             let seq = m.mode == "INDICES";
-            if m.mode == "TRIANGLES" && m.count % 3 != 0 {
+            if m.mode == "TRIANGLES" && !m.count.is_multiple_of(3) {
                 bail!("TRIANGLES count {} is not a multiple of 3", m.count);
             }
             if m.filter != "NONE" {
                 bail!("filter {} applies to ATTRIBUTES only", m.filter);
             }
             match m.stride {
-                2 => {
-                    let v: Vec<u16> = if seq {
-                        meshopt::decode_index_sequence(src, m.count)
-                    } else {
-                        meshopt::decode_index_buffer(src, m.count)
-                    }
-                    .map_err(fail)?;
-                    bytemuck::cast_slice(&v).to_vec()
-                }
-                4 => {
-                    let v: Vec<u32> = if seq {
-                        meshopt::decode_index_sequence(src, m.count)
-                    } else {
-                        meshopt::decode_index_buffer(src, m.count)
-                    }
-                    .map_err(fail)?;
-                    bytemuck::cast_slice(&v).to_vec()
-                }
+                2 => decode_indices::<u16>(src, m.count, seq).map_err(fail)?,
+                4 => decode_indices::<u32>(src, m.count, seq).map_err(fail)?,
                 s => bail!("{} byteStride {s} is not 2 or 4", m.mode),
             }
         }
@@ -286,6 +270,21 @@ fn decode_stream(src: &[u8], m: &Meshopt) -> Result<Vec<u8>> {
         ),
     };
     Ok(bytes)
+}
+
+/// `count` indices of type `T` from a TRIANGLES stream, or an INDICES one when `seq`, as
+/// bytes.
+fn decode_indices<T: meshopt::IndexType + bytemuck::Pod>(
+    src: &[u8],
+    count: usize,
+    seq: bool,
+) -> meshopt::Result<Vec<u8>> {
+    let v: Vec<T> = if seq {
+        meshopt::decode_index_sequence(src, count)?
+    } else {
+        meshopt::decode_index_buffer(src, count)?
+    };
+    Ok(bytemuck::cast_slice(&v).to_vec())
 }
 
 /// A vertex of `N` 32-bit words: the unit the vertex decoder is handed, one per stride.

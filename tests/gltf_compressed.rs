@@ -150,8 +150,8 @@ fn compressed_copies_render_the_shadows_of_the_uncompressed_scene() {
         // The geometry alone: gltfpack drops extras (the light's radius, the roles), so
         // the light and camera are the built-in's and the flat ground only receives.
         let mut s = load(&data(name));
-        s.light = bunny.light.clone();
-        s.camera = bunny.camera.clone();
+        s.light = bunny.light;
+        s.camera = bunny.camera;
         for o in &mut s.objects {
             if o.world_bounds().extent().y == 0.0 {
                 o.role = Role::Receiver;

@@ -418,8 +418,11 @@ fn one_line(e: &dyn std::fmt::Display) -> String {
     e.to_string().replace('\n', " ").trim().to_owned()
 }
 
+/// Widens one component's bytes to float, normalized or not.
+type Widen = fn(&[u8], bool) -> f32;
+
 /// How to widen one component to float: its byte size and the conversion.
-fn component(dt: gltf::accessor::DataType) -> (usize, fn(&[u8], bool) -> f32) {
+fn component(dt: gltf::accessor::DataType) -> (usize, Widen) {
     use gltf::accessor::DataType as T;
     // glTF 2.0 spec, "Animations" / KHR_mesh_quantization: normalized signed values map
     // c / max, clamped at -1; unsigned c / max.

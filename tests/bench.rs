@@ -252,6 +252,10 @@ fn the_reference_scores_zero_against_itself() {
         assert_eq!(reference["errors"][k].as_f64(), Some(0.0), "{reference}");
     }
     assert_eq!(reference["flip"].as_f64(), Some(0.0), "{reference}");
+    // The reference has no edge the reference lacks; its penumbra is the pixels counted.
+    let fe = &reference["false_edges"];
+    assert_eq!(fe["pairs"].as_u64(), Some(0), "{reference}");
+    assert!(fe["penumbra_pixels"].as_u64().unwrap() > 0, "{reference}");
     assert!(reference["errors"]["lit_pixels"].as_u64().unwrap() > 50);
     let (e, flip) = (&hard["errors"], hard["flip"].as_f64().unwrap());
     assert!(e["mae_lit"].as_f64().unwrap() > 0.01, "{hard}");

@@ -147,8 +147,6 @@ TARGETS = [
     ("plateaus-centred", "plateaus", 1.5, 0.5, None),
     ("ssm-bitmask", "ssm", 1.0, 0.5, None),
     ("ssm2-bitmask", "ssm2", 1.0, 0.5, None),
-    ("pcss-fast", "pcss", None, None, 1.5),
-    ("pcss-walk", "pcss", None, None, 1.5),
 ]
 
 

@@ -423,8 +423,6 @@ fn split_final_pass_shades_as_the_whole_one() {
         "smoothies",
         "smoothies-centred",
         "pcss",
-        "pcss-fast",
-        "pcss-walk",
         "penumbra-map",
         "penumbra-map-centred",
         // pcf with its widest kernels, whose reach the regions must hold.

@@ -104,10 +104,10 @@
 //! measured ratios). The shadow-map pass is the shared `ShadowMap` (as `pcf`'s); the final pass
 //! dominates, and in it the blocker search: every lit pixel inside the light frustum pays
 //! SEARCH_SAMPLES gathers before it can exit, and on lavapipe one gather costs about as much
-//! as all of `hard`'s final pass. `pcss-fast` (src/technique/pcss_fast.rs) settles most
-//! pixels with a min/max hierarchy of the shadow map first, for the same image; `pcss-walk`
-//! also replaces the search with a walk of that hierarchy and shares steps 2–3
-//! (`pcss_filter`); its penumbrae differ slightly.
+//! as all of `hard`'s final pass. A min/max hierarchy of the shadow map that settles lit and
+//! umbra pixels before the search was tried (`pcss-fast`, and `pcss-walk`, which also walked
+//! it for the search) and removed: it saved too few warp lookups to pay for itself (git
+//! history; BENCHMARKS.md).
 
 use super::{
     regions, shadow_map_buffer, technique_constants, FrameInput, LightBuffer, Technique,
@@ -141,7 +141,7 @@ pub fn sample_counts(kernel: PcfKernel) -> (u32, u32) {
     }
 }
 
-/// The slots of `glsl/pcss/constants.glsl` (shared with `pcss-fast`).
+/// The slots of `glsl/pcss/constants.glsl`.
 pub(crate) fn slots(frame: &FrameInput<'_>, search_samples: u32, filter_samples: u32) -> [f32; 8] {
     let r = frame.light_radius.max(0.0);
     let two_tan = 2.0 * (frame.light.fov_deg.to_radians() * 0.5).tan();

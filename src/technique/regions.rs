@@ -7,8 +7,8 @@
 //! A technique may use it when its final shader gives exactly 1 wherever every texel it
 //! reads holds the buffer's clear value ("far"): `smoothies` and `smoothies-centred` (their
 //! smoothies' reach, which holds the caster's silhouette vertices and so its projection,
-//! in place of the box where it can: `SmoothieRecords::holds_caster`), `pcss`, `pcss-fast`
-//! and `pcss-walk` (the blocker search finds nothing and returns 1 before any filter),
+//! in place of the box where it can: `SmoothieRecords::holds_caster`), `pcss` (the
+//! blocker search finds nothing and returns 1 before any filter),
 //! `penumbra-map` and `penumbra-map-centred` (their cones' and sheets' vertices, with the
 //! box only where a silhouette vertex got no cone, whose tip would hold it; `bilinear_lit`
 //! in glsl/common/shadow.glsl makes four lit texels exactly 1), `pcf` (its kernel's
@@ -208,8 +208,8 @@ pub fn silhouette_areas(
     (MapArea { all, receivers }, render_area(geometry_area))
 }
 
-/// Where a technique reading only a casters' buffer can see a caster (`pcf`, `pcss`,
-/// `pcss-fast`, `pcss-walk`): each caster's outline, the support of its vertices as the
+/// Where a technique reading only a casters' buffer can see a caster (`pcf`, `pcss`):
+/// each caster's outline, the support of its vertices as the
 /// light projects them, kept until the caster or the light moves. A projected triangle
 /// lies in its vertices' hull, so that polygon holds every texel the caster writes; it is
 /// tighter than the caster's projected box wherever the shape fills little of its box

@@ -8,7 +8,7 @@ records: `bench --full --width 512 --height 512 --resolutions 1024 --radii scene
 1. per scene, one row per technique: frame ms, x hard, the passes' median ms, counted work
    per image pixel (the final pass's fragments; the texels the frame read, plain and per
    warp, light passes included; each with its ratio to hard's), mae_lit, p99_lit, flip,
-   mae_shadow; then the Pareto front on
+   false edges per 1,000 penumbra pixels, mae_shadow; then the Pareto front on
    (x hard, mae_lit);
 2. per technique over the scenes: mean mae_lit, on how many scenes it beats hard's mae_lit,
    mean flip, median x hard;
@@ -81,6 +81,12 @@ def count_cell(r, hard, prefix):
     return f"{x:.2f} ({x / h:.2f}×)"
 
 
+def false_edges(r):
+    """False edges per 1,000 penumbra pixels, or – for a run from before the column."""
+    v = r.get("false_edges")
+    return "–" if v in ("", None) else f"{float(v):.1f}"
+
+
 def pareto(rows):
     front, best = [], float("inf")
     for r in sorted(rows, key=lambda r: (float(r["ratio_to_hard"]), float(r["mae_lit"]))):
@@ -94,8 +100,8 @@ def scene_tables(scenes):
     for scene, rows in scenes.items():
         print(f"### {scene}")
         hard = next(r for r in rows if label(r) == "hard")
-        print("| technique | frame ms | × hard | passes, median ms | frags/px | lookups/px | warp lookups/px | mae_lit | p99_lit | flip | mae_shadow |")
-        print("|:---|---:|---:|:---|---:|---:|---:|---:|---:|---:|---:|")
+        print("| technique | frame ms | × hard | passes, median ms | frags/px | lookups/px | warp lookups/px | mae_lit | p99_lit | flip | false edges ‰ | mae_shadow |")
+        print("|:---|---:|---:|:---|---:|---:|---:|---:|---:|---:|---:|---:|")
         for r in rows:
             print(
                 f"| {label(r)} | {fmt_ms(float(r['frame_ms_median']))} "
@@ -103,7 +109,7 @@ def scene_tables(scenes):
                 f"| {count_cell(r, hard, 'frags')} | {count_cell(r, hard, 'texels')} "
                 f"| {count_cell(r, hard, 'texels_warp')} "
                 f"| {float(r['mae_lit']):.3f} | {float(r['p99_lit']):.2f} "
-                f"| {float(r['flip']):.4f} | {float(r['mae_shadow']):.3f} |"
+                f"| {float(r['flip']):.4f} | {false_edges(r)} | {float(r['mae_shadow']):.3f} |"
             )
         by_err = sorted(rows, key=lambda r: float(r["mae_lit"]))
         by_flip = min(rows, key=lambda r: float(r["flip"]))

@@ -406,6 +406,13 @@ fn usage_error(e: &clap::Error) -> String {
     };
     // `--technique <TECHNIQUE>` -> `--technique`.
     let flag = arg.split_whitespace().next().unwrap_or(arg);
+    // A technique this project removed: say why, as `technique::find` does.
+    if let Some((_, why)) = softshadow::technique::REMOVED
+        .iter()
+        .find(|(n, _)| n == value)
+    {
+        return format!("error: technique '{value}' was removed: {why}\n");
+    }
     let mut line = format!(
         "error: invalid value '{value}' for '{flag}': allowed {}",
         valid.join(", ")

@@ -168,7 +168,7 @@ fn tiny_sweep_writes_every_output_and_each_parses() {
         "| smoothies |",
         "| smoothies t=0.02 |",
         "| smoothies/final.frag | frag |",
-        "| mae_lit | p99_lit | flip | mae_shadow |",
+        "| mae_lit | p99_lit | flip | false edges ‰ | mae_shadow |",
         "Pareto front on (× hard, mae_lit): ",
     ] {
         assert!(md.contains(t), "report.md lacks {t}");
@@ -289,6 +289,9 @@ fn rows_agree(rows: &[csv::StringRecord], headers: &csv::StringRecord, json: &se
                 }
                 "cpu_ms_median" => r["cpu_ms"]["median"].clone(),
                 "max_error" => r["errors"]["max"].clone(),
+                "false_edges" => r["false_edges"]["per_1000"].clone(),
+                "false_edge_pairs" => r["false_edges"]["pairs"].clone(),
+                "penumbra_pixels" => r["false_edges"]["penumbra_pixels"].clone(),
                 _ if h.starts_with("pass:") => r["passes"]
                     .as_array()
                     .unwrap()

@@ -239,7 +239,13 @@ fn an_unknown_technique_is_one_line_naming_the_known_ones() {
     // A removed technique: one line saying it was removed and why, for every command.
     for args in [
         &["describe", "--technique", "pcss-fast"][..],
-        &["render", "--technique", "pcss-walk", "--out", "never-written.png"][..],
+        &[
+            "render",
+            "--technique",
+            "pcss-walk",
+            "--out",
+            "never-written.png",
+        ][..],
     ] {
         let out = Command::new(env!("CARGO_BIN_EXE_softshadow"))
             .args(args)

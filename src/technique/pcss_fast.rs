@@ -32,7 +32,7 @@
 //!    `glsl/pcss_fast/final.frag` (`visibility.glsl`): the early exits, then pcss's
 //!    search, then steps 2–3. Writes colour RGBA8, no blending
 //!    (the untimed AOV pass `pcss-fast/aov` also visibility R32F, position RGBA32F, normal
-//!    RGBA16F). Split as pcss's (`FinalPass::split`, src/technique/regions.rs): the shader
+//!    RGBA16F). Split as pcss's (`FinalPass::split`, src/technique/speed/regions.rs): the shader
 //!    only within its reach of a caster's texels (`PcssFast::reach`), no lookup elsewhere.
 //!
 //! Constants: pcss's (`frame.technique`, `frame.technique2.x`, glsl/pcss/constants.glsl) and
@@ -260,7 +260,7 @@ impl PcssFast {
             names.final_pass,
         )
         .with_context(|| format!("{} final descriptor set", names.technique))?;
-        // Split: the shader runs only within the search's reach of a caster (regions.rs).
+        // Split: the shader runs only within the search's reach of a caster (speed/regions.rs).
         let final_pass = FinalPass::split(
             ctx,
             names.final_pass,

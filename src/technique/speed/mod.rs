@@ -13,7 +13,7 @@
 //! | split final pass (`regions::shadowed`, `FinalPass::split`): the final shader only in the screen boxes where a caster's shadow can fall, `glsl/common/unshadowed.frag` elsewhere | the final shader's lookups over lit ground | smoothies, penumbra maps, pcf, pcss, pcss-fast, pcss-walk, plateaus (and their centred forms) | one full-screen final pass |
 //! | light-area-limited clears and draws (`regions::silhouette_areas`, `regions::AroundCasters::map_area`, `regions::LastDrawn`): light buffers cleared and drawn only over the texels a frame reads, joined with last frame's | the clears and the ground's fill of whole light maps | smoothies, penumbra maps, pcf, pcss, pcss-fast, plateaus | whole maps, every object (`Settings::light_areas`) |
 //! | shortened smoothies (`smoothies::CpuSmoothies`, `records::Extent`): quads and fans drawn only as wide as Eq. 1 can still write | smoothie-pass fragments that are all discarded | smoothies, smoothies-centred (inner side) | full width t (`Settings::light_areas`) |
-//! | per-caster geometry caches (`smoothies::CpuSmoothies` over `gpu::passes::CasterCacheOf`) and reused light passes (the renderer skips `record_light` while nothing moved) | rebuilding unchanged geometry and light buffers | the silhouette techniques; every technique | rebuilt every frame (`Settings::cache_light_passes`) |
+//! | per-caster geometry caches (`smoothies::CpuSmoothies`, `penumbra_map::CpuPenumbra` over `gpu::passes::CasterCacheOf`) and reused light passes (the renderer skips `record_light` while nothing moved) | rebuilding unchanged geometry and light buffers | the silhouette techniques; every technique | rebuilt every frame (`Settings::cache_light_passes`) |
 //! | culling (objects outside the light's or the camera's frustum not drawn) | draws of objects that write no texel read and no pixel | every technique | every object drawn (`Settings::culling`) |
 //!
 //! Modules:
@@ -21,6 +21,9 @@
 //!   polygons, the light frustum over them, the areas of the light passes).
 //! - `smoothies`: `smoothies` and `smoothies-centred`: the CPU path's cached smoothie
 //!   records and triangles, shortened smoothies, light areas, split polygons.
+//! - `penumbra_map`: `penumbra-map` and `penumbra-map-centred`: the CPU path's cached cones
+//!   and sheets, light areas, split polygons.
 
+pub mod penumbra_map;
 pub mod regions;
 pub mod smoothies;

@@ -1,8 +1,9 @@
 //! # The speed layer: what the techniques do that is not the technique
 //!
-//! Every trick here saves work without changing an image: a porter may leave all of it out
-//! (and on a GPU may need none of it: much of it exists because lavapipe runs every
-//! fragment of a pass, both sides of every branch, on the CPU). `--plain`
+//! Every trick listed here saves work without changing an image (the table says where each
+//! lives; culling and light-pass reuse are the renderer's, src/render/): a porter may leave
+//! all of it out (and on a GPU may need none of it: much of it exists because lavapipe runs
+//! every fragment of a pass, both sides of every branch, on the CPU). `--plain`
 //! (`Settings::plain`, through `Settings::effective` and `FinalPass::pass_in`) turns every
 //! one off, and tests/plain.rs holds the plain and the optimised images equal on every
 //! built-in scene for every technique (tests/avoided_work.rs holds each trick on its own).

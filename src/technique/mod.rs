@@ -30,11 +30,14 @@ pub mod penumbra_map_centred;
 pub mod plateaus;
 pub mod plateaus_centred;
 pub mod reference;
-pub mod regions;
 pub mod smoothies;
 pub mod smoothies_centred;
+pub mod speed;
 pub mod ssm;
 pub mod ssm_bitmask;
+
+/// The speed layer's regions under their old path, for the modules that name them so.
+pub use speed::regions;
 
 use crate::gpu::passes::ShadowMap;
 pub use crate::gpu::FrameInput;
@@ -118,7 +121,7 @@ pub trait Technique {
     }
 
     /// Where the last frame's timed final pass ran the technique's shader (`FinalPass::split`,
-    /// regions.rs): `None` for a technique that runs it everywhere. For the tests, which
+    /// speed/regions.rs): `None` for a technique that runs it everywhere. For the tests, which
     /// hold every point shadowed in the AOV pass to lie inside.
     fn shadowed(&self) -> Option<&crate::gpu::passes::Shadowed> {
         None

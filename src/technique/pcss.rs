@@ -53,7 +53,7 @@
 //!
 //!    Where no caster texel lies within a search's reach (`search_reach_texels`: Eq. 3 for
 //!    a receiver at infinity, clamped) the search finds nothing and v is exactly 1. So the
-//!    timed pass (`FinalPass::split`, src/technique/regions.rs) runs this shader only on
+//!    timed pass (`FinalPass::split`, src/technique/speed/regions.rs) runs this shader only on
 //!    the receivers' parts inside the light frustum over each caster's outline (the hull of
 //!    its projected vertices, `regions::AroundCasters`) widened by that reach, the normal
 //!    offset and a gather's footprint, and glsl/common/unshadowed.frag (no lookup)
@@ -200,7 +200,7 @@ impl Pcss {
             "pcss/final",
         )
         .context("pcss final descriptor set")?;
-        // Split: the shader runs only within a search's reach of a caster (regions.rs).
+        // Split: the shader runs only within a search's reach of a caster (speed/regions.rs).
         let final_pass = FinalPass::split(
             ctx,
             "pcss/final",

@@ -16,9 +16,9 @@
 //! plateau texture holds 1 outside the drop shadows and plateaus, whose plane polygons
 //! join the casters' outlines: `Plateaus::shadow_regions`).
 
-use super::FrameInput;
 use crate::frustum::PixelBox;
 use crate::gpu::passes::{rect_of, MapArea, Receivers, Shadowed};
+use crate::gpu::FrameInput;
 use crate::vk::Rect2D;
 use glam::{Mat4, Vec2, Vec3, Vec4};
 use rayon::prelude::*;
@@ -432,8 +432,8 @@ mod tests {
                 .trim_end_matches(';');
             value.parse().unwrap_or_else(|_| panic!("{name}: {value}"))
         };
-        let march = include_str!("../../glsl/common/inner_march.glsl");
-        let receiver = include_str!("../../glsl/common/inner_receiver.glsl");
+        let march = include_str!("../../../glsl/common/inner_march.glsl");
+        let receiver = include_str!("../../../glsl/common/inner_receiver.glsl");
         let reach = constant(march, "OUT_TEXELS") + constant(receiver, "PLANE_TEXELS");
         assert!(reach > 0.0, "{reach}");
         assert!(

@@ -31,10 +31,12 @@ pub mod penumbra_map;
 pub mod penumbra_map_centred;
 pub mod plateaus;
 pub mod plateaus_centred;
+pub mod plateaus_common;
 pub mod reference;
 pub mod regions;
 pub mod smoothies;
 pub mod smoothies_centred;
+pub mod speed;
 pub mod ssm;
 pub mod ssm_bitmask;
 

@@ -39,6 +39,8 @@ pub mod smoothies_centred;
 pub mod speed;
 pub mod ssm;
 pub mod ssm_bitmask;
+pub mod ssm_bitmask_table;
+pub mod ssm_common;
 
 use crate::gpu::passes::ShadowMap;
 pub use crate::gpu::FrameInput;
@@ -115,7 +117,7 @@ pub trait Technique {
         Ok(None)
     }
 
-    /// The soft shadow maps' micro-patch block side of the last frame (`ssm::PatchStep`),
+    /// The soft shadow maps' micro-patch block side of the last frame (`speed::ssm::PatchStep`),
     /// for the tests; `None` for the other techniques.
     fn micro_patch_step(&self) -> Option<ssm::PatchStepReport> {
         None

@@ -1,7 +1,6 @@
 //! # plateaus — Haines 2001, *Soft Planar Shadows Using Plateaus*
 //! Port sheet: docs/port/plateaus.md
-//! Speed layer: speed::plateaus (texture and map areas, split final pass), the caster cache
-//! of plateaus_common — off under --plain.
+//! Speed layer: speed::plateaus (light-pass areas, split final pass) — off under --plain.
 //!
 //! A soft shadow texture for ONE planar receiver, rendered from straight above the plane: the
 //! casters' hard drop shadow, then "plateau" geometry around it — a cone at every silhouette

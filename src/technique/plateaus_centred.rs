@@ -1,7 +1,6 @@
 //! # plateaus-centred — Haines 2001 with the penumbra centred on the hard edge
 //! Port sheet: docs/port/plateaus-centred.md
-//! Speed layer: speed::plateaus (texture and map areas, split final pass), the caster cache
-//! of plateaus_common — off under --plain.
+//! Speed layer: speed::plateaus (light-pass areas, split final pass) — off under --plain.
 //!
 //! `plateaus` (src/technique/plateaus.rs, whose header this one builds on; relations
 //! (P1)-(P4) there) takes the hard drop shadow as the umbra and grows the penumbra outward
@@ -52,8 +51,8 @@
 //!    lightened). Bilinear weights, no falloff texture (the profile is in the values). Every
 //!    other point, and every point at R = 0, gets the shadow map's 2x2 bilinear comparison:
 //!    R = 0 is `hard`'s image exactly (unlike the paper form, whose drop shadow only
-//!    matches hard up to the texel grids' aliasing). The speed layer's split final pass holds the inner
-//!    cones and sheets too: they lie in the same discs' hull.
+//!    matches hard up to the texel grids' aliasing). The speed layer's split final pass
+//!    holds the inner cones and sheets too: they lie in the same discs' hull.
 //!
 //! ## Equations: what a porter ports
 //! - (P1)-(P3), both sides: the paper form's functions (src/technique/plateaus.rs), the

@@ -43,7 +43,7 @@ use softshadow::silhouette::{
     build_smoothies, caster_adjacency, extract, extract_serial, Adjacency,
 };
 use softshadow::technique::penumbra_map::cone_base_depth;
-use softshadow::technique::plateaus::{find_planar_receiver, PlaneFrame, PlateauBuilder};
+use softshadow::technique::plateaus_common::{find_planar_receiver, PlaneFrame, PlateauBuilder};
 use softshadow::technique::smoothies::smoothie_width;
 use std::f32::consts::{PI, TAU};
 use std::hint::black_box;

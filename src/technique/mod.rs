@@ -29,12 +29,15 @@ pub mod penumbra_map;
 pub mod penumbra_map_centred;
 pub mod plateaus;
 pub mod plateaus_centred;
+pub mod plateaus_common;
 pub mod reference;
 pub mod smoothies;
 pub mod smoothies_centred;
 pub mod speed;
 pub mod ssm;
 pub mod ssm_bitmask;
+pub mod ssm_bitmask_table;
+pub mod ssm_common;
 
 /// The speed layer's regions under their old path, for the modules that name them so.
 pub use speed::regions;
@@ -114,7 +117,7 @@ pub trait Technique {
         Ok(None)
     }
 
-    /// The soft shadow maps' micro-patch block side of the last frame (`ssm::PatchStep`),
+    /// The soft shadow maps' micro-patch block side of the last frame (`speed::ssm::PatchStep`),
     /// for the tests; `None` for the other techniques.
     fn micro_patch_step(&self) -> Option<ssm::PatchStepReport> {
         None

@@ -14,7 +14,7 @@
 //! in glsl/common/shadow.glsl makes four lit texels exactly 1), `pcf` (its kernel's
 //! reach; every texel lit gives exactly 1), and `plateaus` and `plateaus-centred` (the
 //! plateau texture holds 1 outside the drop shadows and plateaus, whose plane polygons
-//! join the casters' outlines: `Plateaus::shadow_regions`).
+//! join the casters' outlines: `speed::plateaus`).
 
 use crate::frustum::PixelBox;
 use crate::gpu::passes::{rect_of, MapArea, Receivers, Shadowed};

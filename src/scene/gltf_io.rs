@@ -842,30 +842,40 @@ fn role_extra(extras: &gltf::json::Extras) -> Result<Option<Role>> {
 }
 
 fn light_radius_extra(extras: &gltf::json::Extras) -> Result<Option<f32>> {
-    let Some(m) = softshadow_extras(extras)? else {
-        return Ok(None);
-    };
-    match m.get("radius") {
-        None => Ok(None),
-        Some(v) => match v.as_f64() {
-            Some(r) if r.is_finite() && r >= 0.0 => Ok(Some(r as f32)),
-            _ => bail!("extras.{EXTRAS_KEY}.radius {v} must be a number >= 0"),
-        },
-    }
+    number_extra(
+        extras,
+        "radius",
+        |r| r.is_finite() && r >= 0.0,
+        "a number >= 0",
+    )
 }
 
 fn sun_angle_extra(extras: &gltf::json::Extras) -> Result<Option<f32>> {
+    let max = super::MAX_SUN_ANGLE_DEG;
+    number_extra(
+        extras,
+        "angular_radius_deg",
+        |a| (0.0..=max as f64).contains(&a),
+        &format!("a number in 0 ..= {max}"),
+    )
+}
+
+/// The number `extras.softshadow.KEY`, `None` without one; refused unless `ok` (`rule` says
+/// what is allowed).
+fn number_extra(
+    extras: &gltf::json::Extras,
+    key: &str,
+    ok: impl Fn(f64) -> bool,
+    rule: &str,
+) -> Result<Option<f32>> {
     let Some(m) = softshadow_extras(extras)? else {
         return Ok(None);
     };
-    match m.get("angular_radius_deg") {
+    match m.get(key) {
         None => Ok(None),
         Some(v) => match v.as_f64() {
-            Some(a) if (0.0..=super::MAX_SUN_ANGLE_DEG as f64).contains(&a) => Ok(Some(a as f32)),
-            _ => bail!(
-                "extras.{EXTRAS_KEY}.angular_radius_deg {v} must be a number in 0 ..= {}",
-                super::MAX_SUN_ANGLE_DEG
-            ),
+            Some(x) if ok(x) => Ok(Some(x as f32)),
+            _ => bail!("extras.{EXTRAS_KEY}.{key} {v} must be {rule}"),
         },
     }
 }

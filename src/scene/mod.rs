@@ -247,8 +247,19 @@ impl LightView {
         // the unit direction by ulp(|position|), more than a narrow cone's width.
         let view = Mat4::look_to_rh(light.position, dir, up);
         let proj = Mat4::perspective_rh(light.fov_deg.to_radians(), 1.0, near, far);
+        Self::framed(light, light.position, view, proj, (near, far), None)
+    }
+
+    fn framed(
+        light: &Light,
+        position: Vec3,
+        view: Mat4,
+        proj: Mat4,
+        (near, far): (f32, f32),
+        sun: Option<SunView>,
+    ) -> Self {
         Self {
-            position: light.position,
+            position,
             view,
             proj,
             view_proj: proj * view,
@@ -256,7 +267,7 @@ impl LightView {
             far,
             fov_deg: light.fov_deg,
             depth_span: far - near,
-            sun: None,
+            sun,
         }
     }
 
@@ -269,20 +280,11 @@ impl LightView {
         let h = half_width;
         let proj = Mat4::orthographic_rh(-h, h, -h, h, near, far);
         let angle = light.sun_angle_deg().unwrap_or(0.0);
-        Self {
-            position: eye,
-            view,
-            proj,
-            view_proj: proj * view,
-            near,
-            far,
-            fov_deg: light.fov_deg,
-            depth_span: far - near,
-            sun: Some(SunView {
-                half_width,
-                tan_angle: angle.to_radians().tan(),
-            }),
-        }
+        let sun = SunView {
+            half_width,
+            tan_angle: angle.to_radians().tan(),
+        };
+        Self::framed(light, eye, view, proj, (near, far), Some(sun))
     }
 
     /// World size of one of `res` texels across the map at linear depth `depth` (the same

@@ -103,6 +103,7 @@ fn bench(c: &mut Criterion) {
             target: Vec3::ZERO,
             fov_deg: 60.0,
             radius: 0.3,
+            kind: softshadow::scene::LightKind::Spot,
         },
         0.1,
         50.0,

@@ -74,7 +74,11 @@ fn no_technique_module_exceeds_400_lines_without_saying_why() {
     over.sort();
     // Every registry row's module is found: ssm.rs and ssm_bitmask.rs hold two rows each.
     let rows = softshadow::technique::names().len();
-    assert_eq!(modules, rows - 2, "{modules} registry modules under {dir:?} for {rows} rows");
+    assert_eq!(
+        modules,
+        rows - 2,
+        "{modules} registry modules under {dir:?} for {rows} rows"
+    );
     assert!(
         over.is_empty(),
         "technique modules over {LIMIT} lines whose header does not say why (a line \

@@ -226,6 +226,49 @@ pub const TECHNIQUES: &[TechniqueInfo] = &[
     reference::INFO,
 ];
 
+/// Why a technique cannot yet render a sun (`LightKind::Sun`), by name; a technique not
+/// listed serves one. Each listed technique's equations assume the spotlight's perspective
+/// map and a light sphere of radius R (penumbra R (d_r - d_b) / d_b); under a sun the map is
+/// orthographic and the penumbra 2 (d_r - d_b) tan theta, which their shaders do not
+/// compute yet. Rendering them would draw a wrong shadow quietly, so they refuse.
+const NO_SUN: &[(&str, &str)] = &[
+    ("pcss", "its blocker search and filter radii are a spotlight's (R (d_r - d_b) / d_b over a perspective map)"),
+    ("smoothies", "its smoothie width and alpha remap (Eq. 1, b/r) are a spotlight's"),
+    ("smoothies-centred", "its smoothie widths and alpha remaps (b/r) are a spotlight's"),
+    ("penumbra-map", "its cones and sheets are drawn from a light sphere's centre"),
+    ("penumbra-map-centred", "its cones and sheets are drawn from a light sphere's centre"),
+    ("plateaus", "its cones are drawn from a light sphere's centre"),
+    ("plateaus-centred", "its cones are drawn from a light sphere's centre"),
+    ("ssm", "its micro-patches are back-projected onto a light disc, not a disc of directions"),
+    ("ssm2", "its micro-patches are back-projected onto a light disc, not a disc of directions"),
+    ("ssm-bitmask", "its micro-patches are back-projected onto a light disc, not a disc of directions"),
+    ("ssm2-bitmask", "its micro-patches are back-projected onto a light disc, not a disc of directions"),
+];
+
+/// The techniques that render a sun, in registry order.
+pub fn sun_techniques() -> Vec<&'static str> {
+    TECHNIQUES
+        .iter()
+        .map(|t| t.name)
+        .filter(|n| !NO_SUN.iter().any(|(m, _)| m == n))
+        .collect()
+}
+
+/// Refuses, with one line saying why, a technique that cannot render `scene`'s light.
+pub fn check_light(name: &str, scene: &Scene) -> Result<()> {
+    if !scene.light.is_sun() {
+        return Ok(());
+    }
+    if let Some((_, why)) = NO_SUN.iter().find(|(n, _)| *n == name) {
+        bail!(
+            "technique '{name}' cannot render scene '{}' yet: its light is a sun and {why}; techniques that serve a sun: {}",
+            crate::scene::input::shown(&scene.name),
+            sun_techniques().join(", ")
+        );
+    }
+    Ok(())
+}
+
 pub fn names() -> Vec<&'static str> {
     TECHNIQUES.iter().map(|t| t.name).collect()
 }

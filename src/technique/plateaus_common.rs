@@ -786,6 +786,7 @@ mod tests {
                 target,
                 fov_deg: 90.0,
                 radius: 0.5,
+                kind: crate::scene::LightKind::Spot,
             },
             0.1,
             50.0,
@@ -870,6 +871,7 @@ mod tests {
                 target: Vec3::ZERO,
                 fov_deg: 30.0,
                 radius: 0.1,
+                kind: crate::scene::LightKind::Spot,
             },
             0.1,
             10.0,
@@ -978,6 +980,7 @@ mod tests {
                 target: Vec3::ZERO,
                 fov_deg: 60.0,
                 radius: 0.2,
+                kind: crate::scene::LightKind::Spot,
             },
             camera: crate::scene::Camera {
                 position: Vec3::new(0.0, 2.0, 6.0),

@@ -348,6 +348,11 @@ pub fn shadowed(
     let Some(margin) = lookup_margin(frame, res, reach_texels) else {
         return Shadowed::Everywhere;
     };
+    // The regions are the light's perspective frustum over each polygon (clip w as depth):
+    // a sun's orthographic map runs the shader everywhere instead.
+    if frame.light.sun.is_some() {
+        return Shadowed::Everywhere;
+    }
     let m = frame.light.view_proj;
     let (x, y, w) = (m.row(0), m.row(1), m.row(3));
     let dirs = directions();

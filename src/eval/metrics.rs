@@ -254,7 +254,7 @@ pub fn false_edges(
     let n = v.len();
     assert!(
         width > 0
-            && n % width == 0
+            && n.is_multiple_of(width)
             && v_ref.len() == n
             && position.len() == n
             && normal.len() == n

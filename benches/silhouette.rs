@@ -19,8 +19,9 @@
 //! renderer's CPU path builds: compact records the vertex shader expands),
 //! `smoothies_1core` is `build_smoothies` (the expanded triangle list it built before, kept
 //! for comparison), `total_1core` is extract + records caster by caster, as the renderer
-//! does them (`Smoothies::build_geometry`), `total_split_1core` the same work with every
-//! caster's extraction first and then every caster's records, and `penumbra_1core` is
+//! does them (`speed::smoothies::CpuSmoothies::build`), `total_split_1core` the same work
+//! with every caster's extraction first and then every caster's records, and
+//! `penumbra_1core` is
 //! penumbra-map's CPU path (`build_penumbra`: cones and sheets, Lr = the scene's light
 //! radius, bases at `cone_base_depth`) and `plateaus_1core` plateaus' (`PlateauBuilder`:
 //! cones and sheets in a 1024² plane texture; scenes with a planar receiver), all inside a
@@ -42,7 +43,7 @@ use softshadow::silhouette::{
     build_smoothies, caster_adjacency, extract, extract_serial, Adjacency,
 };
 use softshadow::technique::penumbra_map::cone_base_depth;
-use softshadow::technique::plateaus::{find_planar_receiver, PlaneFrame, PlateauBuilder};
+use softshadow::technique::plateaus_common::{find_planar_receiver, PlaneFrame, PlateauBuilder};
 use softshadow::technique::smoothies::smoothie_width;
 use std::f32::consts::{PI, TAU};
 use std::hint::black_box;
@@ -102,6 +103,7 @@ fn bench(c: &mut Criterion) {
             target: Vec3::ZERO,
             fov_deg: 60.0,
             radius: 0.3,
+            kind: softshadow::scene::LightKind::Spot,
         },
         0.1,
         50.0,
@@ -224,8 +226,8 @@ impl Casters {
     }
 
     /// What the renderer's CPU path does per light: extract, then records, one caster after
-    /// the other (`Smoothies::build_geometry`), so a caster's adjacency is still in the
-    /// caches when its records are built.
+    /// the other (`speed::smoothies::CpuSmoothies::build`), so a caster's adjacency is still
+    /// in the caches when its records are built.
     fn extract_records(&self) -> usize {
         self.objects
             .iter()

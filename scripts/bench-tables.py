@@ -8,13 +8,13 @@ records: `bench --full --width 512 --height 512 --resolutions 1024 --radii scene
 1. per scene, one row per technique: frame ms, x hard, the passes' median ms, counted work
    per image pixel (the final pass's fragments; the texels the frame read, plain and per
    warp, light passes included; each with its ratio to hard's), mae_lit, p99_lit, flip,
-   mae_shadow; then the Pareto front on
+   false edges per 1,000 penumbra pixels, mae_shadow; then the Pareto front on
    (x hard, mae_lit);
 2. per technique over the scenes: mean mae_lit, on how many scenes it beats hard's mae_lit,
    mean flip, median x hard;
-3. the accuracy and speed targets of the accurate forms (ratios of mae_lit to pcss's and
-   hard's, frame time to hard's), worst scene first, so that a missed target shows by how
-   much.
+3. the fast-and-accurate goals of the accurate forms (frame time, warp lookups and false
+   edges against hard's, mae_lit against pcss's), worst scene first, so that a missed goal
+   shows by how much.
 
 Standard library only. Figures are printed as the bench wrote them, rounded for reading.
 """
@@ -81,6 +81,12 @@ def count_cell(r, hard, prefix):
     return f"{x:.2f} ({x / h:.2f}×)"
 
 
+def false_edges(r):
+    """False edges per 1,000 penumbra pixels, or – for a run from before the column."""
+    v = r.get("false_edges")
+    return "–" if v in ("", None) else f"{float(v):.1f}"
+
+
 def pareto(rows):
     front, best = [], float("inf")
     for r in sorted(rows, key=lambda r: (float(r["ratio_to_hard"]), float(r["mae_lit"]))):
@@ -94,8 +100,8 @@ def scene_tables(scenes):
     for scene, rows in scenes.items():
         print(f"### {scene}")
         hard = next(r for r in rows if label(r) == "hard")
-        print("| technique | frame ms | × hard | passes, median ms | frags/px | lookups/px | warp lookups/px | mae_lit | p99_lit | flip | mae_shadow |")
-        print("|:---|---:|---:|:---|---:|---:|---:|---:|---:|---:|---:|")
+        print("| technique | frame ms | × hard | passes, median ms | frags/px | lookups/px | warp lookups/px | mae_lit | p99_lit | flip | false edges ‰ | mae_shadow |")
+        print("|:---|---:|---:|:---|---:|---:|---:|---:|---:|---:|---:|---:|")
         for r in rows:
             print(
                 f"| {label(r)} | {fmt_ms(float(r['frame_ms_median']))} "
@@ -103,7 +109,7 @@ def scene_tables(scenes):
                 f"| {count_cell(r, hard, 'frags')} | {count_cell(r, hard, 'texels')} "
                 f"| {count_cell(r, hard, 'texels_warp')} "
                 f"| {float(r['mae_lit']):.3f} | {float(r['p99_lit']):.2f} "
-                f"| {float(r['flip']):.4f} | {float(r['mae_shadow']):.3f} |"
+                f"| {float(r['flip']):.4f} | {false_edges(r)} | {float(r['mae_shadow']):.3f} |"
             )
         by_err = sorted(rows, key=lambda r: float(r["mae_lit"]))
         by_flip = min(rows, key=lambda r: float(r["flip"]))
@@ -140,16 +146,38 @@ def summary(scenes):
     print()
 
 
-# (technique, its paper form or None, max mae_lit / pcss's, max mae_lit / hard's, max x hard)
-TARGETS = [
-    ("smoothies-centred", "smoothies", 1.5, 0.5, 1.3),
-    ("penumbra-map-centred", "penumbra-map", 1.5, 0.5, None),
-    ("plateaus-centred", "plateaus", 1.5, 0.5, None),
-    ("ssm-bitmask", "ssm", 1.0, 0.5, None),
-    ("ssm2-bitmask", "ssm2", 1.0, 0.5, None),
-    ("pcss-fast", "pcss", None, None, 1.5),
-    ("pcss-walk", "pcss", None, None, 1.5),
-]
+CENTRED = ["smoothies-centred", "penumbra-map-centred", "plateaus-centred"]
+BITMASK = ["ssm-bitmask", "ssm2-bitmask"]
+# Scenes whose frame goal for the centred forms is looser (many casters, many silhouettes).
+DENSE = ("dense", "dense-1m")
+
+
+def warp(r):
+    return final_count(r, "texels_warp")
+
+
+def fe(r):
+    v = r.get("false_edges")
+    return None if v in ("", None) else float(v)
+
+
+def checks_for(name, pcss):
+    """(label, per-scene value and limit) of the fast-and-accurate goals that apply to `name`."""
+    out = []
+    if name in CENTRED:
+        out.append(("frame ≤ 1.3x hard's (dense: 1.6x)",
+                    lambda s, r, h: (float(r["ratio_to_hard"]), 1.6 if s in DENSE else 1.3)))
+        out.append(("warp lookups ≤ 1.5x hard's",
+                    lambda s, r, h: (warp(r) / warp(h) if warp(r) and warp(h) else None, 1.5)))
+        out.append(("false edges ≤ 0.15x hard's",
+                    lambda s, r, h: (fe(r) / fe(h) if fe(r) is not None and fe(h) else None, 0.15)))
+        out.append(("mae_lit ≤ 1.0x pcss's",
+                    lambda s, r, h: (float(r["mae_lit"]) / max(pcss[s], 1e-9), 1.0)))
+    if name in BITMASK:
+        out.append(("frame ≤ 3x hard's", lambda s, r, h: (float(r["ratio_to_hard"]), 3.0)))
+        out.append(("mae_lit ≤ 1.0x pcss's",
+                    lambda s, r, h: (float(r["mae_lit"]) / max(pcss[s], 1e-9), 1.0)))
+    return out
 
 
 def targets(scenes):
@@ -158,35 +186,29 @@ def targets(scenes):
     if set(pcss) != set(scenes):
         print("(the run has no `pcss` row on every scene: no targets)\n")
         return
-    print("| technique | target | worst scene | worst value | scenes meeting it |")
+    print("| technique | target | worst scene | worst value / its limit | scenes meeting it |")
     print("|:---|:---|:---|---:|---:|")
-    for name, _paper, vs_pcss, vs_hard, time in TARGETS:
+    for name in CENTRED + BITMASK:
         items = techs.get(name)
         if not items:
             continue
-        checks = []
-        if vs_pcss is not None:
-            checks.append((f"mae_lit ≤ {vs_pcss}x pcss's", vs_pcss,
-                           [(s, float(r["mae_lit"]) / max(pcss[s], 1e-9)) for s, r, _ in items]))
-        if vs_hard is not None:
-            checks.append((f"mae_lit ≤ {vs_hard}x hard's", vs_hard,
-                           [(s, float(r["mae_lit"]) / max(float(h["mae_lit"]), 1e-9)) for s, r, h in items]))
-        if time is not None:
-            checks.append((f"frame ≤ {time}x hard's", time,
-                           [(s, float(r["ratio_to_hard"])) for s, r, _ in items]))
-        for label, limit, values in checks:
-            worst = max(values, key=lambda v: v[1])
-            met = sum(v <= limit for _, v in values)
-            print(f"| {name} | {label} | {worst[0]} | {worst[1]:.2f}x | {met} of {len(values)} |")
-    # Is any technique at least as accurate as pcss on every scene within 1.5x hard's frame?
+        for label_, check in checks_for(name, pcss):
+            values = [(s, *check(s, r, h)) for s, r, h in items]
+            values = [(s, v, lim) for s, v, lim in values if v is not None]
+            if not values:
+                continue
+            worst = max(values, key=lambda v: v[1] / v[2])
+            met = sum(v <= lim for _, v, lim in values)
+            print(f"| {name} | {label_} | {worst[0]} | {worst[1]:.2f}x / {worst[2]}x | {met} of {len(values)} |")
+    # The new Pareto front the goals ask for: mae_lit ≤ pcss's on every scene at ≤ 1.3x hard.
     winners = [
         name for name, items in techs.items()
         if name != "pcss" and all(
-            float(r["mae_lit"]) <= pcss[s] and float(r["ratio_to_hard"]) <= 1.5 for s, r, _ in items
+            float(r["mae_lit"]) <= pcss[s] and float(r["ratio_to_hard"]) <= 1.3 for s, r, _ in items
         )
     ]
     print(
-        "\nA technique with mae_lit ≤ pcss's on every scene at ≤ 1.5x hard's frame: "
+        "\nA technique with mae_lit ≤ pcss's on every scene at ≤ 1.3x hard's frame: "
         + (", ".join(winners) if winners else "none in this run") + ".\n"
     )
 

@@ -50,6 +50,9 @@ pub fn camera_view_proj(scene: &Scene, width: u32, height: u32) -> Mat4 {
 /// when the light sits inside a bounding box); with nothing in the cone the whole scene's
 /// bounds are used.
 pub fn fit_light(scene: &Scene) -> LightView {
+    if scene.light.is_sun() {
+        return fit_sun(scene);
+    }
     let probe = LightView::new(&scene.light, 1.0, 2.0);
     let tan_half = (scene.light.fov_deg.to_radians() * 0.5).tan();
     let mut range: Option<(f32, f32)> = None;
@@ -81,6 +84,81 @@ pub fn fit_light(scene: &Scene) -> LightView {
     let near = (lo * 0.99).max(far * 1e-4);
     let mut view = LightView::new(&scene.light, near, far);
     view.depth_span = (hi - lo).clamp(0.0, far - near);
+    view
+}
+
+/// Widest image a sun's map is fitted for (`fit_sun`): width / height up to this share the
+/// camera's vertical field of view and see no more than it.
+pub const SUN_FIT_ASPECT: f32 = 2.0;
+
+/// A sun's orthographic map, fitted to what the camera sees: across the light's axis the
+/// square over every receiver's part inside the camera's frustum (for an image up to
+/// `SUN_FIT_ASPECT` wide), grown by the widest penumbra (tan theta x the depth range) so that
+/// a blocker just outside still reaches in, 1 % outside; along the axis from the nearest
+/// caster over that square to the farthest seen receiver. One map, no cascades: a view
+/// reaching far from the camera spreads its texels thin. With no receiver in view the whole
+/// scene is fitted. The eye sits half the depth range (at least 1e-3 scene radii) in front of
+/// the nearest caster, so linear depths are positive and the relative depth bias keeps the
+/// scale of the depth range.
+fn fit_sun(scene: &Scene) -> LightView {
+    let light = &scene.light;
+    let dir = light.direction();
+    let up = if dir.y.abs() > 0.99 { Vec3::Z } else { Vec3::Y };
+    // Light space at the world origin: x, y across the axis, depth = -z.
+    let probe = Mat4::look_to_rh(Vec3::ZERO, -dir, up);
+    let cam = camera_view_proj(scene, (SUN_FIT_ASPECT * 1000.0) as u32, 1000);
+    let (r0, r1, r2, r3) = (cam.row(0), cam.row(1), cam.row(2), cam.row(3));
+    let planes = [r3 + r0, r3 - r0, r3 + r1, r3 - r1, r2, r3 - r2];
+    // (x, y, depth) of world points.
+    let light_space = |p: Vec3| {
+        let q = probe.transform_point3(p);
+        Vec3::new(q.x, q.y, -q.z)
+    };
+    let mut seen = Vec::new();
+    for o in scene.objects.iter().filter(|o| o.role.receives()) {
+        let mut cut = Polytope::hexahedron(&o.world_bounds().corners());
+        for p in planes {
+            cut.clip(p);
+        }
+        seen.extend(cut.vertices().map(|&p| light_space(p)));
+    }
+    seen.retain(|q| q.is_finite());
+    if seen.is_empty() {
+        seen.extend(scene.bounds().corners().map(light_space));
+    }
+    let lo = seen.iter().fold(Vec3::INFINITY, |a, &q| a.min(q));
+    let hi = seen.iter().fold(Vec3::NEG_INFINITY, |a, &q| a.max(q));
+    let radius = scene.bounds().radius().max(crate::scene::MIN_SCENE_RADIUS);
+    let tan = light.sun_angle_deg().unwrap_or(0.0).to_radians().tan();
+    // The casters over the receivers' square, with the widest penumbra's reach around it.
+    let reach = |caster_lo: f32| tan * (hi.z - caster_lo).max(0.0);
+    let mut caster_lo = lo.z;
+    for _ in 0..2 {
+        let m = reach(caster_lo);
+        for o in scene.objects.iter().filter(|o| o.role.casts()) {
+            let b = o.world_bounds().transform(&probe);
+            let (blo, bhi) = (b.min, b.max);
+            let overlaps =
+                blo.x <= hi.x + m && bhi.x >= lo.x - m && blo.y <= hi.y + m && bhi.y >= lo.y - m;
+            // Depth is -z: the box's nearest depth is -max.z.
+            if overlaps && -bhi.z < hi.z {
+                caster_lo = caster_lo.min(-bhi.z);
+            }
+        }
+    }
+    let m = reach(caster_lo);
+    let centre = (lo + hi) * 0.5;
+    let half_width = ((hi.x - lo.x).max(hi.y - lo.y) * 0.5 + m).max(radius * 1e-3) * 1.01;
+    let span = (hi.z - caster_lo).max(0.0);
+    let pad = (0.5 * span).max(radius * 1e-3);
+    let eye_depth = caster_lo - pad;
+    let eye = probe
+        .inverse()
+        .transform_point3(Vec3::new(centre.x, centre.y, -eye_depth));
+    let near = pad * 0.99;
+    let far = (pad + span) * 1.01;
+    let mut view = LightView::sun(light, eye, half_width, near, far);
+    view.depth_span = span.clamp(0.0, far - near);
     view
 }
 

@@ -151,9 +151,12 @@ struct RenderArgs {
     /// Side of the light-space buffers (shadow map, smoothie buffer, ...).
     #[arg(long, default_value_t = Settings::default().shadow_res, allow_negative_numbers = true)]
     shadow_res: u32,
-    /// Light radius R (default: the scene's).
+    /// Light radius R (default: the scene's). A spotlight's only: a sun takes --light-angle.
     #[arg(long, allow_negative_numbers = true)]
     light_radius: Option<f32>,
+    /// A sun's angular radius in degrees (default: the scene's).
+    #[arg(long, allow_negative_numbers = true)]
+    light_angle: Option<f32>,
     /// Smoothie width t as a fraction of the shadow map (default: calibrated from R).
     #[arg(long, allow_negative_numbers = true)]
     smoothie_t: Option<f32>,
@@ -406,6 +409,13 @@ fn usage_error(e: &clap::Error) -> String {
     };
     // `--technique <TECHNIQUE>` -> `--technique`.
     let flag = arg.split_whitespace().next().unwrap_or(arg);
+    // A technique this project removed: say why, as `technique::find` does.
+    if let Some((_, why)) = softshadow::technique::REMOVED
+        .iter()
+        .find(|(n, _)| n == value)
+    {
+        return format!("error: technique '{value}' was removed: {why}\n");
+    }
     let mut line = format!(
         "error: invalid value '{value}' for '{flag}': allowed {}",
         valid.join(", ")
@@ -608,7 +618,9 @@ fn render(cli: &Cli, a: &RenderArgs) -> Result<()> {
         ..Settings::default()
     }
     .check_reference_samples()?;
-    let scene = Scene::load_with(&a.scene, &load_options(cli))?;
+    let mut scene = Scene::load_with(&a.scene, &load_options(cli))?;
+    softshadow::scene::apply_light_flags(&mut scene, a.light_radius, a.light_angle)?;
+    softshadow::technique::check_light(&a.technique, &scene)?;
     softshadow::output::check_file(&a.out, "--out")?;
     softshadow::output::check_png_name(&a.out, "--out")?;
     let inputs = scene_inputs(&a.scene);

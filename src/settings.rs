@@ -35,7 +35,7 @@ pub struct Settings {
     /// objects outside the camera's are not drawn from the camera.
     pub culling: bool,
     /// Light passes that know which of their texels a frame reads (smoothies, penumbra
-    /// maps: `light_areas` in their modules) clear and draw only those, and
+    /// maps: `light_areas` in src/technique/speed/) clear and draw only those, and
     /// smoothies-centred's inner smoothies only as wide as a penumbra can be. Off: whole
     /// targets, every object, full-width smoothies, a porter's plain form, which
     /// tests/avoided_work.rs holds to the same image.

@@ -117,13 +117,13 @@ fn camera_moves_reuse_light_passes_light_moves_rebuild_them() {
     }
 }
 
-/// The smoothie pass, the penumbra pass and the shadow map clear only the texels their
-/// draws can reach this frame or could last frame (CPU path; `Smoothies::light_areas`,
-/// `PenumbraMap::light_areas`). While the caster slides off its old smoothies (cones and
-/// sheets), frame after frame, every light-space buffer (shadow map included) and the
-/// image equal those of a new renderer's first frame of the same scene, which clears the
-/// whole buffers; and some texels that held a smoothie (a penumbra) one frame hold none
-/// the next, so stale ones would show.
+/// The smoothie pass, the penumbra pass and the shadow map clear only the texels their draws can
+/// reach this frame or could last frame (CPU path; `speed::smoothies::Areas::light_areas`,
+/// `speed::penumbra_map::Areas::light_areas`). While the caster slides off its old smoothies (cones
+/// and sheets), frame after frame, every light-space buffer (shadow map included) and the image
+/// equal those of a new renderer's first frame of the same scene, which clears the whole buffers;
+/// and some texels that held a smoothie (a penumbra) one frame hold none the next, so stale ones
+/// would show.
 #[test]
 fn light_passes_clear_what_their_last_frame_drew() {
     let gpu = Gpu::new();
@@ -423,8 +423,6 @@ fn split_final_pass_shades_as_the_whole_one() {
         "smoothies",
         "smoothies-centred",
         "pcss",
-        "pcss-fast",
-        "pcss-walk",
         "penumbra-map",
         "penumbra-map-centred",
         // pcf with its widest kernels, whose reach the regions must hold.

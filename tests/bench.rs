@@ -168,7 +168,7 @@ fn tiny_sweep_writes_every_output_and_each_parses() {
         "| smoothies |",
         "| smoothies t=0.02 |",
         "| smoothies/final.frag | frag |",
-        "| mae_lit | p99_lit | flip | mae_shadow |",
+        "| mae_lit | p99_lit | flip | false edges ‰ | mae_shadow |",
         "Pareto front on (× hard, mae_lit): ",
     ] {
         assert!(md.contains(t), "report.md lacks {t}");
@@ -252,6 +252,10 @@ fn the_reference_scores_zero_against_itself() {
         assert_eq!(reference["errors"][k].as_f64(), Some(0.0), "{reference}");
     }
     assert_eq!(reference["flip"].as_f64(), Some(0.0), "{reference}");
+    // The reference has no edge the reference lacks; its penumbra is the pixels counted.
+    let fe = &reference["false_edges"];
+    assert_eq!(fe["pairs"].as_u64(), Some(0), "{reference}");
+    assert!(fe["penumbra_pixels"].as_u64().unwrap() > 0, "{reference}");
     assert!(reference["errors"]["lit_pixels"].as_u64().unwrap() > 50);
     let (e, flip) = (&hard["errors"], hard["flip"].as_f64().unwrap());
     assert!(e["mae_lit"].as_f64().unwrap() > 0.01, "{hard}");
@@ -285,6 +289,9 @@ fn rows_agree(rows: &[csv::StringRecord], headers: &csv::StringRecord, json: &se
                 }
                 "cpu_ms_median" => r["cpu_ms"]["median"].clone(),
                 "max_error" => r["errors"]["max"].clone(),
+                "false_edges" => r["false_edges"]["per_1000"].clone(),
+                "false_edge_pairs" => r["false_edges"]["pairs"].clone(),
+                "penumbra_pixels" => r["false_edges"]["penumbra_pixels"].clone(),
                 _ if h.starts_with("pass:") => r["passes"]
                     .as_array()
                     .unwrap()

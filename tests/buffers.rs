@@ -138,7 +138,7 @@ fn every_technique_lists_its_light_buffers_with_named_channels() {
 }
 
 /// The casters-only shadow map of the techniques that compare against the nearest caster
-/// alone (pcf, pcss, pcss-fast, plateaus) holds, texel for texel, the r channel of the map
+/// alone (pcf, pcss, plateaus) holds, texel for texel, the r channel of the map
 /// of every object (smoothies, penumbra maps): the receivers it leaves out never write r.
 /// And they were there to leave out: the full map's g is nearer than its r somewhere.
 #[test]
@@ -158,7 +158,7 @@ fn casters_only_shadow_map_is_the_full_maps_caster_channel() {
                 .any(|(g, r)| g < r),
             "{name}: no receiver in front of the casters"
         );
-        for t in ["pcf", "pcss", "pcss-fast", "plateaus"] {
+        for t in ["pcf", "pcss", "plateaus"] {
             let mut r = Renderer::new(&gpu.ctx, scene.clone(), t, settings.clone()).unwrap();
             r.render().unwrap();
             let casters = r.read_technique_buffer("shadow_map").unwrap();

@@ -95,6 +95,7 @@ fn contact_scene() -> Scene {
             target: Vec3::new(0.5, 0.0, 0.3),
             fov_deg: 70.0,
             radius: 0.25,
+            kind: softshadow::scene::LightKind::Spot,
         },
         camera: Camera {
             position: Vec3::new(0.5, 6.0, 6.0),

@@ -190,6 +190,7 @@ fn bowtie_special_vertex_renders() {
             target: Vec3::ZERO,
             fov_deg: 60.0,
             radius: 0.5,
+            kind: softshadow::scene::LightKind::Spot,
         },
         camera: Camera {
             position: Vec3::new(0.0, 7.0, 6.0),

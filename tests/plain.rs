@@ -15,11 +15,9 @@ use softshadow::vk::FrameTimings;
 
 /// The techniques whose optimised final pass runs their shader only where a shadow can
 /// fall (`FinalPass::split`).
-const SPLIT: [&str; 10] = [
+const SPLIT: [&str; 8] = [
     "pcf",
     "pcss",
-    "pcss-fast",
-    "pcss-walk",
     "smoothies",
     "smoothies-centred",
     "penumbra-map",

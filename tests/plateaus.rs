@@ -199,6 +199,7 @@ fn scene_without_planar_receiver_is_refused() {
             target: Vec3::ZERO,
             fov_deg: 50.0,
             radius: 0.3,
+            kind: softshadow::scene::LightKind::Spot,
         },
         camera: Camera {
             position: Vec3::new(0.0, 3.0, 6.0),
@@ -260,6 +261,7 @@ fn caster_lying_in_the_plane_is_lit() {
             target: Vec3::ZERO,
             fov_deg: 60.0,
             radius: 0.3,
+            kind: softshadow::scene::LightKind::Spot,
         },
         camera: Camera {
             position: Vec3::new(1.0, 6.0, 6.0),

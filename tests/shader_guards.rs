@@ -285,7 +285,7 @@ fn guards_keep_outputs_finite_at_contact() {
     }
 }
 
-/// PCSS (glsl/pcss/radii.glsl, called by pcss/search.glsl for `pcss` and `pcss-fast`): both
+/// PCSS (glsl/pcss/radii.glsl, called by pcss/search.glsl for `pcss`): both
 /// radii stay finite and in [0, max] from a receiver just past the near plane to one 1e7
 /// times farther, and with blockers from just in front of the receiver to 1e4 times closer;
 /// no filter radius without a blocker. Spot values pin the formulas (Eq. 3, Eq. 1 with 4).

@@ -176,6 +176,7 @@ fn triangle_scene(tri: [[f32; 3]; 3], light: [f32; 3], radius: f32) -> Scene {
             target: Vec3::ZERO,
             fov_deg: 100.0,
             radius,
+            kind: softshadow::scene::LightKind::Spot,
         },
         camera: Camera {
             position: Vec3::new(0.5, 7.0, 6.0),

@@ -53,7 +53,6 @@ fn the_counting_frame_draws_the_timed_frames_image_bit_for_bit() {
             "smoothies" | "smoothies-centred" => &["smoothie"],
             "penumbra-map" | "penumbra-map-centred" => &["penumbra"],
             "plateaus-centred" => &["inner"],
-            "pcss-fast" | "pcss-walk" => &["minmax"],
             "ssm" | "ssm2" | "ssm-bitmask" => &["receiver_bound", "soft_shadow"],
             _ => &[],
         }
@@ -153,36 +152,24 @@ fn a_light_pass_counts_its_tiles_as_worked_out() {
     assert_eq!(t.passes.len(), 1);
 }
 
-/// pcss-fast's min-max hierarchy (glsl/pcss_fast/minmax.comp): the first level gathers each
-/// texel of the R x R shadow map once (4 gathers of 4 a 4x4 cell), each coarser level reads
-/// its 4 children a cell (a storage-buffer read stands in for a texel). Its 8x8 groups hold
-/// two warps of 32; a level under 8 cells a side keeps its live lanes (x, y < size: local
-/// indices y * 8 + x) in the first warp, which pays 32 x 4.
+/// The soft shadow map's micro-patch step (glsl/ssm/patch_step.comp), a compute pass: its
+/// first dispatch fetches each texel of the N x N occluder map once (16 x 16 groups, every
+/// lane in the map when 16 divides N, so each warp of 32 lanes pays 32 x 1), its second picks
+/// the block side and reads no texel.
 #[test]
-fn the_min_max_hierarchy_reads_each_texel_once_and_each_cell_once() {
+fn the_micro_patch_step_reads_each_occluder_texel_once() {
     let gpu = Gpu::new();
-    let res = 128;
-    let (_, _, c, _) = counted(&gpu, "cylinder", "pcss-fast", small(64, res));
+    let settings = small(64, 128);
+    let n = u64::from(settings.occluder_res);
+    assert_eq!(n % 16, 0, "the worked-out figure needs whole groups");
+    let (_, _, c, _) = counted(&gpu, "cylinder", "ssm", settings);
     let l = c
         .light
         .iter()
-        .find(|l| l.name == "pcss-fast/minmax")
+        .find(|l| l.name == "ssm/micro_patch_step")
         .unwrap_or_else(|| panic!("{:?}", c.light));
-    let levels = softshadow::technique::pcss_fast::levels(res);
-    let first = u64::from(res).pow(2);
-    let coarser: u64 = levels[1..]
-        .iter()
-        .map(|v| 4 * u64::from(v.size).pow(2))
-        .sum();
-    assert_eq!(l.texels, first + coarser);
-    let warp_coarser: u64 = levels[1..]
-        .iter()
-        .map(|v| match v.size {
-            s if s >= 8 => 4 * u64::from(s).pow(2),
-            _ => 32 * 4,
-        })
-        .sum();
-    assert_eq!(l.warp_texels, first + warp_coarser);
+    assert_eq!(l.texels, n * n);
+    assert_eq!(l.warp_texels, n * n);
 }
 
 /// `hard` reads one comparison-sampler lookup (4 texels) per fragment that reaches it: every
@@ -282,7 +269,7 @@ fn two_runs_give_identical_counts() {
     let gpu = Gpu::new();
     let run = || {
         let scene = Scene::load("overlap").unwrap();
-        let mut r = Renderer::new(&gpu.ctx, scene, "pcss-fast", small(64, 128)).unwrap();
+        let mut r = Renderer::new(&gpu.ctx, scene, "ssm", small(64, 128)).unwrap();
         let t = r.render().unwrap();
         let stats: Vec<_> = t.passes.iter().map(|p| (p.name.clone(), p.stats)).collect();
         (stats, r.count_lookups().unwrap())
@@ -388,9 +375,9 @@ fn without_the_feature_the_counts_are_empty_not_an_error() {
     let mut gpu = Gpu::new();
     gpu.ctx.pipeline_statistics = false;
     let scene = Scene::load("cylinder").unwrap();
-    let mut r = Renderer::new(&gpu.ctx, scene, "pcss-fast", small(64, 128)).unwrap();
+    let mut r = Renderer::new(&gpu.ctx, scene, "ssm", small(64, 128)).unwrap();
     let t = r.render().unwrap();
     assert!(t.passes.iter().all(|p| p.stats.is_none()), "{:?}", t.passes);
     assert!(!t.report().contains("frags"), "{}", t.report());
-    assert!(t.report().contains("pcss-fast/final"));
+    assert!(t.report().contains("ssm/micro_patch_step"));
 }

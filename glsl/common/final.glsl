@@ -32,13 +32,13 @@ void main() {
     surface_light_clip = v_light_clip;
     surface_light_normal = v_light_normal * (side * inversesqrt(dot(v_normal, v_normal)));
     float vis = draw.albedo_receives.w > 0.5 ? visibility(v_world, n) : 1.0;
-    vec3 to_light = frame.light_pos_radius.xyz - v_world;
-    vec3 l = normalize(to_light);
+    vec3 l = light_direction(v_world);
     float ndl = max(dot(n, l), 0.0);
-    // Spot cone: dark outside the shadow frustum, as a spotlight's would be.
+    // Spot cone: dark outside the shadow frustum, as a spotlight's would be. A sun lights
+    // everything; its map covers what the camera sees (frustum::fit_sun).
     vec4 c = v_light_clip;
     vec2 ndc = c.xy / max(c.w, 1e-30);
-    float spot = c.w > 0.0 ? 1.0 - smoothstep(0.85, 1.0, max(abs(ndc.x), abs(ndc.y))) : 0.0;
+    float spot = light_is_sun() ? 1.0 : c.w > 0.0 ? 1.0 - smoothstep(0.85, 1.0, max(abs(ndc.x), abs(ndc.y))) : 0.0;
     float k = 0.12 + 0.88 * ndl * vis * spot;
     // pow(min(albedo * k, 1), 1/2.2) as min(albedo^(1/2.2) * k^(1/2.2), 1): equal for
     // albedo, k >= 0, with albedo^(1/2.2) per draw from the CPU (draw.flags.yzw). One scalar

@@ -9,13 +9,30 @@ layout(set = 0, binding = 0, std140) uniform Frame {
     mat4 cam_view_proj;
     mat4 light_view;
     mat4 light_view_proj;
-    vec4 light_pos_radius;   // xyz: light centre (world), w: light radius R
+    vec4 light_pos_radius;   // xyz: light centre (world), w: light radius R; a sun: its unit direction towards the light, 0
     vec4 cam_pos;            // xyz: camera position
     vec4 light_params;       // near, far, shadow-map resolution, 1 / resolution
     vec4 light_frustum;      // tan(fov/2), world texel size per unit depth, normal offset (texels), relative depth bias
     vec4 technique;          // technique-specific, named by each glsl/<technique>/constants.glsl
     vec4 technique2;         // technique-specific, named likewise
+    vec4 sun;                // x: 1 for a sun (orthographic light), y: tan of its angular radius, z: world texel size
 } frame;
+
+// A sun's shadow map is orthographic: clip w is 1 and clip z = (d - near) / (far - near)
+// carries the linear depth d. A spotlight's perspective clip w is d itself.
+bool light_is_sun() {
+    return frame.sun.x > 0.5;
+}
+
+// The linear light depth (distance along the light's axis) of light clip coordinates c.
+float clip_linear_depth(vec4 c) {
+    return light_is_sun() ? frame.light_params.x + c.z * (frame.light_params.y - frame.light_params.x) : c.w;
+}
+
+// Unit direction from the world point p towards the light (a sun's is the same everywhere).
+vec3 light_direction(vec3 p) {
+    return light_is_sun() ? frame.light_pos_radius.xyz : normalize(frame.light_pos_radius.xyz - p);
+}
 
 #ifndef FRAME_NO_DRAW_PUSH
 layout(push_constant, std430) uniform Draw {

@@ -25,16 +25,17 @@ vec4 surface_light_normal;
 // without the large constant bias that detaches contact shadows.
 LightSample light_sample(vec3 p, vec3 n) {
     float d0 = surface_light_clip.w;
-    vec3 l = normalize(frame.light_pos_radius.xyz - p);
+    vec3 l = light_direction(p);
     // Grazing light needs more offset; clamp so the offset never leaves the texel scale.
     float slope = clamp(sqrt(max(1.0 - dot(n, l) * dot(n, l), 0.0)), 0.2, 1.0);
-    // light_view_proj * (p + n k, 1), k the offset length.
-    float k = d0 * frame.light_frustum.y * frame.light_frustum.z * slope;
+    // light_view_proj * (p + n k, 1), k the offset length; a sun's texels have one size.
+    float k = light_is_sun() ? frame.sun.z * frame.light_frustum.z * slope
+                             : d0 * frame.light_frustum.y * frame.light_frustum.z * slope;
     vec4 c = surface_light_clip + surface_light_normal * k;
     LightSample s;
-    s.depth = c.w;
+    s.depth = clip_linear_depth(c);
     s.uv = (c.xy / max(c.w, 1e-30)) * 0.5 + 0.5;
-    s.inside = c.w > frame.light_params.x && all(greaterThanEqual(s.uv, vec2(0.0))) && all(lessThanEqual(s.uv, vec2(1.0)));
+    s.inside = s.depth > frame.light_params.x && all(greaterThanEqual(s.uv, vec2(0.0))) && all(lessThanEqual(s.uv, vec2(1.0)));
     return s;
 }
 

@@ -9,6 +9,7 @@ layout(location = 0) out float v_depth;
 void main() {
     vec4 world = draw.model * vec4(in_pos, 1.0);
     gl_Position = frame.light_view_proj * world;
-    // Perspective projection: clip w is exactly the linear depth along the view axis.
-    v_depth = gl_Position.w;
+    // Perspective projection: clip w is exactly the linear depth along the view axis (a
+    // sun's orthographic one carries it in z).
+    v_depth = clip_linear_depth(gl_Position);
 }

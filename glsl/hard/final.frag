@@ -15,7 +15,8 @@ float visibility(vec3 p, vec3 n) {
     // float rounding of z (~6e-8 at z ~ 1), so it still absorbs it.
     float near = frame.light_params.x, far = frame.light_params.y;
     float d = s.depth / (1.0 + frame.light_frustum.w);
-    float z = far / (far - near) * (1.0 - near / d);
+    // A sun's orthographic map stores z = (d - n) / (f - n).
+    float z = light_is_sun() ? (d - near) / (far - near) : far / (far - near) * (1.0 - near / d);
     return texture(shadow_map, vec3(s.uv, z));
 }
 

@@ -41,13 +41,22 @@ struct ReceiverPlane {
     float max_shift;  // a guard for planes edge-on to the light
 };
 
+// Under a sun's parallel rays (x = (2u - 1) h, h the map's half width) the plane's depth is
+// linear in uv instead: d0 (1 - g . (uv - uv0)) with g = 2 h (Nx, Ny) / (d0 (N . D)).
 ReceiverPlane receiver_plane(LightSample s, vec3 n, float radius_texels) {
     float t = frame.light_frustum.x;
     vec3 nv = mat3(frame.light_view) * n;
-    float den = dot(nv, vec3((2.0 * s.uv - 1.0) * t, -1.0));
     ReceiverPlane rp;
-    rp.g = abs(den) > 1e-6 ? 2.0 * t * nv.xy / den : vec2(0.0);
     rp.depth = s.depth;
+    if (light_is_sun()) {
+        float h = 0.5 * frame.sun.z * frame.light_params.z;
+        float den = -nv.z;
+        rp.g = abs(den) > 1e-6 ? 2.0 * h * nv.xy / (den * s.depth) : vec2(0.0);
+        rp.max_shift = 8.0 * radius_texels * frame.sun.z;
+        return rp;
+    }
+    float den = dot(nv, vec3((2.0 * s.uv - 1.0) * t, -1.0));
+    rp.g = abs(den) > 1e-6 ? 2.0 * t * nv.xy / den : vec2(0.0);
     // At most a slope of 8 over the kernel radius.
     rp.max_shift = 8.0 * radius_texels * s.depth * frame.light_frustum.y;
     return rp;
@@ -56,7 +65,7 @@ ReceiverPlane receiver_plane(LightSample s, vec3 n, float radius_texels) {
 // Comparison depth of a tap offset by duv from the point.
 float plane_depth(ReceiverPlane rp, vec2 duv) {
     float q = 1.0 + dot(rp.g, duv);
-    float shift = q > 1.0 ? rp.depth * (1.0 / q - 1.0) : 0.0;
+    float shift = q > 1.0 ? (light_is_sun() ? rp.depth * (1.0 - q) : rp.depth * (1.0 / q - 1.0)) : 0.0;
     return rp.depth + max(shift, -rp.max_shift);
 }
 

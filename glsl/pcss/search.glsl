@@ -1,5 +1,4 @@
-// pcss's three steps (Fernando 2005) for one point, shared by `pcss` and `pcss-fast`, which
-// differ only in what they try before the blocker search. Equation numbers as in
+// pcss's three steps (Fernando 2005) for one point. Equation numbers as in
 // src/technique/pcss.rs.
 #ifndef PCSS_SEARCH_GLSL
 #define PCSS_SEARCH_GLSL
@@ -19,7 +18,7 @@ float pcss_search_radius(LightSample s) {
 }
 
 // Steps 2 and 3 for a point whose blocker search found blockers at mean linear depth d_b
-// (pcss's own search below, or pcss-fast's walk of its hierarchy); `rp` as for the search.
+// (the blocker search below); `rp` as for the search.
 float pcss_filter(LightSample s, ReceiverPlane rp, float d_b) {
     float res = frame.light_params.z;
     float d_r = s.depth;

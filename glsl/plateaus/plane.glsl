@@ -1,5 +1,5 @@
 // The plateau texture's plane (Haines 2001): its frame and the top-down mapping, written by
-// the CPU once per frame. Mirrors `PlaneUniforms` in src/technique/plateaus.rs (std140).
+// the CPU once per frame. Mirrors `PlaneUniforms` in src/technique/plateaus_common.rs (std140).
 #ifndef PLATEAUS_PLANE_GLSL
 #define PLATEAUS_PLANE_GLSL
 

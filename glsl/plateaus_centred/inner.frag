@@ -1,7 +1,7 @@
 #version 450
 #extension GL_GOOGLE_include_directive : require
 #include "common/count.glsl"  // by name: build.rs also builds it counted (-DCOUNT_LIGHT)
-// plateaus-centred/inner: the cones and the INNER sheets (src/technique/plateaus.rs
+// plateaus-centred/inner: the cones and the INNER sheets (src/technique/plateaus_common.rs
 // `PlateauBuilder` with `Side::Inner`: (P3) with p -> -p, opening into the drop shadow), in
 // the texture's clip space with depth t = 0 at the hard edge and 1 at the inner rim. The
 // receiver is the plane itself, so t is s, the fragment's share of the penumbra half-width

@@ -1,6 +1,6 @@
 // The soft shadow maps' per-technique constants (frame.technique, common/frame.glsl), named
 // once here: build.rs turns each #define into `shaders::constants::NAME`, the slot that
-// src/technique/ssm.rs fills by that name (ssm and ssm2 alike).
+// src/technique/ssm_common.rs fills by that name (`ssm_uniforms`, every form).
 #ifndef SSM_CONSTANTS_GLSL
 #define SSM_CONSTANTS_GLSL
 #include "common/frame.glsl"

@@ -1,5 +1,5 @@
 // Shared by the micro-quad pass of ssm-bitmask and ssm2-bitmask: the light frame, and the
-// light samples on one side of a line, from the edge table (src/technique/ssm_bitmask.rs).
+// light samples on one side of a line, from the edge table (src/technique/ssm_bitmask_table.rs).
 #ifndef SSM_BITMASK_GLSL
 #define SSM_BITMASK_GLSL
 #include "ssm_bitmask/constants.glsl"

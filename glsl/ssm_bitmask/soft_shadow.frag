@@ -21,7 +21,7 @@ layout(set = 0, binding = 3) uniform sampler2D receiver_pure;    // R32F nearest
 layout(set = 0, binding = 4, std430) readonly buffer Bound { uint zmax_bits; } bound;
 // The edge table: row a (line direction (a + 1/2) pi / SSMB_LUT_ANGLES), column d (signed
 // distance of the line from the disc centre, (d + 1/2) 2 / columns - 1): the mask of the
-// samples left of the directed line (src/technique/ssm_bitmask.rs, `edge_table`).
+// samples left of the directed line (src/technique/ssm_bitmask_table.rs, `edge_table`).
 layout(set = 0, binding = 5, std430) readonly buffer Table { uvec4 masks[]; } table;
 
 layout(location = 0) flat in vec3 v_patch;    // the quad's first texel, its guard depth

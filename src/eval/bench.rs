@@ -877,6 +877,8 @@ pub struct Record {
     pub errors: Errors,
     /// Mean ꟻLIP error of the shaded image against the reference technique's (`metrics::flip`).
     pub flip: f64,
+    /// Steps in the visibility where the reference is smooth (`metrics::false_edges`).
+    pub false_edges: metrics::FalseEdges,
     /// Paths relative to the output folder: the shaded image, its false-colour |v - v_ref|,
     /// its ꟻLIP error map, the reference visibility (grey) and the reference's shaded image.
     pub image: String,
@@ -1273,6 +1275,15 @@ impl Sweep<'_> {
         let covered = metrics::judged(&images.position, &images.spot);
         let facing = metrics::faces_light(&images.position, &images.normal, base.light.position);
         let errors = metrics::errors(&images.visibility, v_ref, &covered, &facing);
+        let false_edges = metrics::false_edges(
+            &images.visibility,
+            v_ref,
+            cfg.width as usize,
+            &images.position,
+            &images.normal,
+            &covered,
+            &facing,
+        );
         let flip = metrics::flip(&images.color, &live.images.color, cfg.width, cfg.height)
             .with_context(|| format!("FLIP of {what}"))?;
         let stem = format!(
@@ -1328,6 +1339,7 @@ impl Sweep<'_> {
             cpu: timing.cpu,
             errors,
             flip: flip.mean,
+            false_edges,
             image,
             error_image,
             flip_image,

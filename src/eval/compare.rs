@@ -49,6 +49,8 @@ pub struct Comparison {
     pub off_by_0_1: f64,
     /// Mean ꟻLIP of the test's shaded image against the reference's, when both were given.
     pub flip: Option<f64>,
+    /// Steps in the visibility where the reference is smooth (`metrics::false_edges`).
+    pub false_edges: metrics::FalseEdges,
     /// False-colour |v − v_ref| (`metrics::error_image`, full scale `DIFF_SCALE`), RGBA8.
     pub diff: Vec<[u8; 4]>,
 }
@@ -280,7 +282,7 @@ pub fn compare(inputs: &CompareInputs) -> Result<Comparison> {
         }
         Err(_) => {
             warnings.push(format!(
-                "{} has no A channel (the spot factor): every covered pixel is judged,                  outside the light's cone too",
+                "{} has no A channel (the spot factor): every covered pixel is judged, outside the light's cone too",
                 nrm_path.display()
             ));
             vec![1.0; w * h]
@@ -299,6 +301,7 @@ pub fn compare(inputs: &CompareInputs) -> Result<Comparison> {
         .filter(|(c, f)| **c && **f)
         .count();
     let errors = metrics::errors(&v, &v_ref, &covered, &facing);
+    let false_edges = metrics::false_edges(&v, &v_ref, w, &positions, &normals, &covered, &facing);
     let off = v
         .iter()
         .zip(&v_ref)
@@ -327,6 +330,7 @@ pub fn compare(inputs: &CompareInputs) -> Result<Comparison> {
         warnings,
         off_by_0_1,
         flip,
+        false_edges,
         diff,
     })
 }
@@ -363,6 +367,15 @@ impl Comparison {
         s += &format!(
             "off_0.1     {:.6}  (share of covered pixels with |v - v_ref| > 0.1)\n",
             self.off_by_0_1
+        );
+        let fe = &self.false_edges;
+        s += &format!(
+            "false_edges {:.3}  (per 1000 penumbra pixels: {} steps > {} where the reference steps < {}, {} penumbra pixels)\n",
+            fe.per_1000,
+            fe.pairs,
+            metrics::EDGE_STEP,
+            metrics::SMOOTH_STEP,
+            fe.penumbra_pixels
         );
         if let Some(f) = self.flip {
             s += &format!("flip        {f:.6}\n");

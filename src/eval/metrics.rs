@@ -193,6 +193,109 @@ pub fn errors_at(
     )
 }
 
+/// Neighbours whose normals are closer than this (cos 25.8°) can lie on one surface.
+pub const SAME_SURFACE_COS: f64 = 0.9;
+/// Largest |n · d| of the unit step d between two neighbours on one surface (sin 14.5°): a
+/// chord of a surface whose normal turns by at most 25.8° over the step leaves its tangent
+/// plane by about half that; a step onto another surface (an edge, a depth jump) leaves it by
+/// more.
+pub const SAME_SURFACE_SIN: f64 = 0.25;
+/// A technique's step between two neighbours that a viewer sees as an edge.
+pub const EDGE_STEP: f32 = 0.1;
+/// The reference's step below which the truth is smooth between two neighbours.
+pub const SMOOTH_STEP: f32 = 0.05;
+
+/// `false_edges` (docs/DESIGN.md): steps in a technique's visibility where the reference is
+/// smooth, on one receiving surface.
+#[derive(Clone, Copy, Debug, Default, serde::Serialize, PartialEq)]
+pub struct FalseEdges {
+    /// Neighbouring pairs (right and down) on one surface, both judged and facing the light,
+    /// where |v_a - v_b| > `EDGE_STEP` while |v_ref,a - v_ref,b| < `SMOOTH_STEP`.
+    pub pairs: usize,
+    /// Judged pixels facing the light whose reference is strictly inside (0.001, 0.999).
+    pub penumbra_pixels: usize,
+    /// `pairs` per 1,000 `penumbra_pixels` (per 1,000 pixels when there is no penumbra).
+    pub per_1000: f64,
+}
+
+/// Whether two neighbouring surface points lie on one receiving surface: their unit normals
+/// agree within `SAME_SURFACE_COS` and the step between them stays in both tangent planes
+/// within `SAME_SURFACE_SIN` (a depth jump or a crease between two surfaces does not).
+fn same_surface(pa: [f32; 4], pb: [f32; 4], na: [f32; 3], nb: [f32; 3]) -> bool {
+    let na = glam::Vec3::from(na).as_dvec3().normalize_or_zero();
+    let nb = glam::Vec3::from(nb).as_dvec3().normalize_or_zero();
+    let d = (glam::Vec4::from(pb) - glam::Vec4::from(pa))
+        .truncate()
+        .as_dvec3()
+        .normalize_or_zero();
+    na != glam::DVec3::ZERO
+        && nb != glam::DVec3::ZERO
+        && na.dot(nb) >= SAME_SURFACE_COS
+        && na.dot(d).abs() <= SAME_SURFACE_SIN
+        && nb.dot(d).abs() <= SAME_SURFACE_SIN
+}
+
+/// Counts the false edges of `v` against `v_ref` in a `width`-wide image: the edge a viewer
+/// sees first where the truth is smooth (a hard outline inside a penumbra, PCSS's bands),
+/// which a mean error hides. Only pixels where `judged` and `facing` both hold take part
+/// (`judged`, `faces_light`: `mae_lit`'s pixels); a non-finite `v` steps from everything.
+///
+/// # Panics
+/// When the slices differ in length or `width` does not divide it.
+pub fn false_edges(
+    v: &[f32],
+    v_ref: &[f32],
+    width: usize,
+    position: &[[f32; 4]],
+    normal: &[[f32; 3]],
+    judged: &[bool],
+    facing: &[bool],
+) -> FalseEdges {
+    let n = v.len();
+    assert!(
+        width > 0
+            && n.is_multiple_of(width)
+            && v_ref.len() == n
+            && position.len() == n
+            && normal.len() == n
+            && judged.len() == n
+            && facing.len() == n,
+        "false_edges: {n} values, width {width}, {} reference values, {} positions, {} normals, {} judged, {} facing",
+        v_ref.len(),
+        position.len(),
+        normal.len(),
+        judged.len(),
+        facing.len()
+    );
+    let counted = |i: usize| judged[i] && facing[i];
+    let step = |a: f32, b: f32| !(a.is_finite() && b.is_finite()) || (a - b).abs() > EDGE_STEP;
+    let false_step = |a: usize, b: usize| {
+        counted(a)
+            && counted(b)
+            && step(v[a], v[b])
+            && (v_ref[a] - v_ref[b]).abs() < SMOOTH_STEP
+            && same_surface(position[a], position[b], normal[a], normal[b])
+    };
+    let mut pairs = 0;
+    for i in 0..n {
+        let (x, right, down) = (i % width, i + 1, i + width);
+        if x + 1 < width && false_step(i, right) {
+            pairs += 1;
+        }
+        if down < n && false_step(i, down) {
+            pairs += 1;
+        }
+    }
+    let penumbra_pixels = (0..n)
+        .filter(|&i| counted(i) && v_ref[i] > 1.0 - SHADOW_THRESHOLD && v_ref[i] < SHADOW_THRESHOLD)
+        .count();
+    FalseEdges {
+        pairs,
+        penumbra_pixels,
+        per_1000: 1000.0 * pairs as f64 / penumbra_pixels.max(1) as f64,
+    }
+}
+
 /// The mean ꟻLIP error of an image against a reference and its error map.
 pub struct Flip {
     /// Mean of the per-pixel ꟻLIP error in [0, 1] over the whole image.
@@ -286,6 +389,53 @@ pub fn error_image(v: &[f32], v_ref: &[f32], covered: &[bool], scale: f32) -> Ve
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// An 8x4 ground whose reference ramps by 0.03 a column (smooth), and a technique that
+    /// adds 0.2 to the top-right 4x2 block (2 steps across its left side, 4 under it), writes
+    /// NaN at (3, 3) (3 steps to its judged neighbours), follows a true edge of the reference
+    /// (no step counted) and steps by 0.5 at a pixel raised onto another surface (no step
+    /// counted): 9 false edges, worked out by hand.
+    #[test]
+    fn false_edges_counts_the_known_steps_and_only_those() {
+        let (w, h) = (8usize, 4usize);
+        let at = |x: usize, y: usize| y * w + x;
+        let mut position: Vec<[f32; 4]> = (0..w * h)
+            .map(|i| [(i % w) as f32 * 0.1, 0.0, (i / w) as f32 * 0.1, 1.0])
+            .collect();
+        let normal = vec![[0.0, 1.0, 0.0]; w * h];
+        let mut v_ref: Vec<f32> = (0..w * h).map(|i| 0.1 + 0.03 * (i % w) as f32).collect();
+        for x in 6..8 {
+            v_ref[at(x, 3)] += 0.5;
+        }
+        let mut v = v_ref.clone();
+        for y in 0..2 {
+            for x in 4..8 {
+                v[at(x, y)] += 0.2;
+            }
+        }
+        v[at(3, 3)] = f32::NAN;
+        position[at(0, 2)][1] = 1.0;
+        v[at(0, 2)] += 0.5;
+        let all = vec![true; w * h];
+        let e = false_edges(&v, &v_ref, w, &position, &normal, &all, &all);
+        assert_eq!(e.pairs, 9, "{e:?}");
+        assert_eq!(e.penumbra_pixels, w * h);
+        assert!((e.per_1000 - 9000.0 / 32.0).abs() < 1e-9, "{e:?}");
+        // The raised pixel's three steps count once it lies on the ground.
+        position[at(0, 2)][1] = 0.0;
+        let e = false_edges(&v, &v_ref, w, &position, &normal, &all, &all);
+        assert_eq!(e.pairs, 12, "{e:?}");
+        // A pixel left out (outside the cone, or facing away) takes its pairs with it.
+        let mut judged = all.clone();
+        judged[at(3, 3)] = false;
+        let e = false_edges(&v, &v_ref, w, &position, &normal, &judged, &all);
+        assert_eq!((e.pairs, e.penumbra_pixels), (9, w * h - 1), "{e:?}");
+        let e = false_edges(&v, &v_ref, w, &position, &normal, &all, &judged);
+        assert_eq!((e.pairs, e.penumbra_pixels), (9, w * h - 1), "{e:?}");
+        // The reference against itself has none.
+        let e = false_edges(&v_ref, &v_ref, w, &position, &normal, &all, &all);
+        assert_eq!(e.pairs, 0);
+    }
 
     /// `errors` with every pixel facing the light: the lit figures equal the shadow ones.
     fn facing_all(v: &[f32], r: &[f32], covered: &[bool]) -> Errors {

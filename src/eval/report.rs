@@ -39,6 +39,9 @@ pub const CSV_COLUMNS: &[&str] = &[
     "mae_lit",
     "p99_lit",
     "flip",
+    "false_edges",
+    "false_edge_pairs",
+    "penumbra_pixels",
     "mae_shadow",
     "rmse",
     "p99",
@@ -95,6 +98,9 @@ fn csv_cells(res: &Results<'_>, r: &Record) -> Vec<String> {
         num(e.mae_lit),
         num(e.p99_lit),
         num(r.flip),
+        num(r.false_edges.per_1000),
+        r.false_edges.pairs.to_string(),
+        r.false_edges.penumbra_pixels.to_string(),
         num(e.mae_shadow),
         num(e.rmse),
         num(e.p99),
@@ -284,11 +290,11 @@ pub fn markdown(res: &Results<'_>) -> String {
         let motion_a = if moving { ":---|" } else { "" };
         let _ = writeln!(
             s,
-            "| technique | buffer | R |{motion_h} smoothie t | frame ms (min–max) | × {BASELINE} | CPU ms | mae_lit | p99_lit | flip | mae_shadow | rmse | p99 | max |"
+            "| technique | buffer | R |{motion_h} smoothie t | frame ms (min–max) | × {BASELINE} | CPU ms | mae_lit | p99_lit | flip | false edges ‰ | mae_shadow | rmse | p99 | max |"
         );
         let _ = writeln!(
             s,
-            "|:---|---:|---:|{motion_a}:---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"
+            "|:---|---:|---:|{motion_a}:---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"
         );
         for r in &rows {
             let motion = if moving {
@@ -298,7 +304,7 @@ pub fn markdown(res: &Results<'_>) -> String {
             };
             let _ = writeln!(
                 s,
-                "| {} | {} | {} |{motion} {} | {} ({}–{}) | {} | {} | {:.4} | {:.3} | {:.4} | {:.4} | {:.4} | {:.4} | {:.3} |",
+                "| {} | {} | {} |{motion} {} | {} ({}–{}) | {} | {} | {:.4} | {:.3} | {:.4} | {:.1} | {:.4} | {:.4} | {:.4} | {:.3} |",
                 r.technique,
                 r.shadow_res,
                 radius_cell(r),
@@ -311,6 +317,7 @@ pub fn markdown(res: &Results<'_>) -> String {
                 r.errors.mae_lit,
                 r.errors.p99_lit,
                 r.flip,
+                r.false_edges.per_1000,
                 r.errors.mae_shadow,
                 r.errors.rmse,
                 r.errors.p99,

@@ -1460,6 +1460,7 @@ mod tests {
             target: Vec3::ZERO,
             fov_deg: 60.0,
             radius: 0.1,
+            kind: crate::scene::LightKind::Spot,
         };
         let texel = 2.0 * 30f32.to_radians().tan() * 10.0 / 256.0;
         let a = snap_light(&base, moving_light(&base, 1), 256);

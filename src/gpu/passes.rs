@@ -28,7 +28,7 @@ pub const FAR_DEPTH: f32 = 1.0e30;
 ///   smoothies and penumbra-map geometry: a receiver-only ground plane must be there, or
 ///   the smoothie remap alpha / (1 - b/r) sees no receiver and never hardens at contacts).
 ///   Fragment `common/shadow_depth.frag` (the draw's cast flag picks r's value);
-/// - casters only, for techniques that read r alone (pcf, pcss, pcss-fast, plateaus):
+/// - casters only, for techniques that read r alone (pcf, pcss, plateaus):
 ///   `depth` R32_SFLOAT, clear FAR_DEPTH, blend MIN, no depth attachment; the same r texel
 ///   for texel, without drawing the receivers (a ground fills the whole map: 0.7-1.5 ms on
 ///   lavapipe at 1024^2) or clearing a second channel. Fragment `common/caster_depth.frag`.

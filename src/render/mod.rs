@@ -33,6 +33,9 @@ pub struct FrameUniforms {
     pub light_frustum: [f32; 4],
     pub technique: [f32; 4],
     pub technique2: [f32; 4],
+    /// x: 1 for a sun (orthographic map), 0 for a spotlight; y: tan of the sun's angular
+    /// radius; z: a sun's world texel size; w: 0.
+    pub sun: [f32; 4],
 }
 
 impl FrameUniforms {
@@ -52,7 +55,11 @@ impl FrameUniforms {
             cam_view_proj: camera_view_proj(scene, s.width, s.height).to_cols_array(),
             light_view: l.view.to_cols_array(),
             light_view_proj: l.view_proj.to_cols_array(),
-            light_pos_radius: l.position.extend(light_radius).to_array(),
+            // A sun has no position: its unit direction towards the light instead.
+            light_pos_radius: match l.sun {
+                Some(_) => scene.light.direction().extend(0.0).to_array(),
+                None => l.position.extend(light_radius).to_array(),
+            },
             cam_pos: scene.camera.position.extend(1.0).to_array(),
             light_params: [
                 l.near,
@@ -68,6 +75,10 @@ impl FrameUniforms {
             ],
             technique: technique[0],
             technique2: technique[1],
+            sun: match l.sun {
+                Some(sun) => [1.0, sun.tan_angle, l.texel_world(0.0, s.shadow_res), 0.0],
+                None => [0.0; 4],
+            },
         }
     }
 }
@@ -113,6 +124,7 @@ impl<'c> Renderer<'c> {
         scene.validate()?;
         check_radius(&scene, settings.radius_for(&scene))?;
         let info = technique::find(technique_name)?;
+        technique::check_light(info.name, &scene)?;
         let gpu = GpuScene::new(ctx, &scene).context("uploading the scene")?;
         let ubo = Buffer::new(
             ctx,

@@ -146,6 +146,7 @@ pub(crate) fn fit_light(position: Vec3, region: &Aabb, radius: f32) -> Light {
         target,
         fov_deg,
         radius,
+        kind: super::LightKind::Spot,
     }
 }
 

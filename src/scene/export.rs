@@ -12,12 +12,22 @@ use std::fs::File;
 use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
 
+/// `kind` "spot": `position`, `target`, `fov_deg`, `radius`. `kind` "sun": `direction`
+/// (unit, towards the light), `angular_radius_deg`, and `position`/`target` a point on its
+/// axis and the point it is aimed at; `fov_deg` and `radius` are left out.
 #[derive(Serialize)]
 struct LightJson {
+    kind: &'static str,
     position: [f32; 3],
     target: [f32; 3],
-    fov_deg: f32,
-    radius: f32,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    fov_deg: Option<f32>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    radius: Option<f32>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    direction: Option<[f32; 3]>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    angular_radius_deg: Option<f32>,
 }
 
 #[derive(Serialize)]
@@ -139,10 +149,13 @@ fn write_json(scene: &Scene, obj_path: &Path, path: &Path, width: u32, height: u
         up_axis: "y",
         triangles: scene.triangle_count(),
         lights: vec![LightJson {
+            kind: l.kind_name(),
             position: l.position.to_array(),
             target: l.target.to_array(),
-            fov_deg: l.fov_deg,
-            radius: l.radius,
+            fov_deg: (!l.is_sun()).then_some(l.fov_deg),
+            radius: (!l.is_sun()).then_some(l.radius),
+            direction: l.is_sun().then(|| l.direction().to_array()),
+            angular_radius_deg: l.sun_angle_deg(),
         }],
         camera: CameraJson {
             position: c.position.to_array(),

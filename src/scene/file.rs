@@ -62,10 +62,16 @@ pub enum Size {
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct LightSpec {
+    /// "spot" (the default) or "sun".
+    pub kind: Option<String>,
     pub position: Option<[f32; 3]>,
     pub target: Option<[f32; 3]>,
     pub fov_deg: Option<f32>,
     pub radius: Option<f32>,
+    /// A sun's direction towards the light.
+    pub direction: Option<[f32; 3]>,
+    /// A sun's angular radius.
+    pub angular_radius_deg: Option<f32>,
 }
 
 #[derive(Debug, Deserialize)]
@@ -76,6 +82,10 @@ pub struct CameraSpec {
     pub up: Option<[f32; 3]>,
     pub fov_deg: Option<f32>,
 }
+
+/// How far along its direction a sun's `Light::position` sits, in scene sizes: only a point
+/// for exports and the default camera's framing (a sun has no position).
+const SUN_RIG_DISTANCE: f32 = 4.0;
 
 /// Loads and builds a scene file; OBJ meshes are resolved against the file's folder and,
 /// unless `opts` allows otherwise, must lie inside it.
@@ -255,34 +265,91 @@ fn build(spec: SceneFile, file: &str, stem: &str, dir: &Path, opts: &LoadOptions
     let size = bounds.extent().max_element().max(1e-3);
     let default_light = bounds.center() + Vec3::new(-1.2, 2.5, 0.8) * size;
     let ls = spec.light.unwrap_or(LightSpec {
+        kind: None,
         position: None,
         target: None,
         fov_deg: None,
         radius: None,
+        direction: None,
+        angular_radius_deg: None,
     });
+    let sun = match ls.kind.as_deref() {
+        None | Some("spot") => false,
+        Some("sun") => true,
+        Some(k) => bail!(
+            "{file}: light kind '{}' is unknown: expected \"spot\" or \"sun\"",
+            input::shown(k)
+        ),
+    };
+    for (key, set) in [
+        ("direction", ls.direction.is_some()),
+        ("angular_radius_deg", ls.angular_radius_deg.is_some()),
+    ] {
+        if set && !sun {
+            bail!("{file}: light {key} applies only to a sun (kind = \"sun\"); a spotlight takes position, target, fov_deg and radius");
+        }
+    }
+    let sun_dir = match ls.direction {
+        Some(d) => {
+            let d = vec3(file, "light direction", d)?;
+            if d.length_squared() <= 1e-12 {
+                bail!("{file}: light direction {d} has no length: it must point towards the sun");
+            }
+            d.normalize()
+        }
+        None => (default_light - bounds.center()).normalize(),
+    };
     let lpos = match ls.position {
         Some(p) => vec3(file, "light position", p)?,
+        // A sun's shadows are parallel: the rig's camera frames them as a distant light's.
+        None if sun => bounds.center() + sun_dir * (SUN_RIG_DISTANCE * size),
         None => default_light,
     };
     let (auto_light, auto_cam) =
         builtin::rig(&objects, lpos, ground_y, 0.04, Vec3::new(0.4, 0.6, 1.0));
-    let light = Light {
-        position: lpos,
-        target: match ls.target {
-            Some(t) => vec3(file, "light target", t)?,
-            None => auto_light.target,
-        },
-        fov_deg: match ls.fov_deg {
-            Some(f) => fov(file, "light fov_deg", f)?,
-            None => auto_light.fov_deg,
-        },
-        radius: match ls.radius {
-            Some(r) if !r.is_finite() || r < 0.0 => {
-                bail!("{file}: light radius {r} must be finite and >= 0")
+    let light = if sun {
+        for (key, set) in [
+            ("position", ls.position.is_some()),
+            ("fov_deg", ls.fov_deg.is_some()),
+            ("radius", ls.radius.is_some()),
+        ] {
+            if set {
+                bail!("{file}: light {key} does not apply to a sun (kind = \"sun\"): a sun takes direction (towards the light), angular_radius_deg and target");
             }
-            Some(r) => r,
-            None => auto_light.radius,
-        },
+        }
+        let target = match ls.target {
+            Some(t) => vec3(file, "light target", t)?,
+            None => bounds.center(),
+        };
+        let angle = match ls.angular_radius_deg {
+            Some(a) if !(0.0..=super::MAX_SUN_ANGLE_DEG).contains(&a) => bail!(
+                "{file}: light angular_radius_deg {a} is out of range: allowed 0 ..= {} degrees",
+                super::MAX_SUN_ANGLE_DEG
+            ),
+            Some(a) => a,
+            None => super::DEFAULT_SUN_ANGLE_DEG,
+        };
+        Light::sun(sun_dir, target, angle, SUN_RIG_DISTANCE * size)
+    } else {
+        Light {
+            position: lpos,
+            target: match ls.target {
+                Some(t) => vec3(file, "light target", t)?,
+                None => auto_light.target,
+            },
+            fov_deg: match ls.fov_deg {
+                Some(f) => fov(file, "light fov_deg", f)?,
+                None => auto_light.fov_deg,
+            },
+            radius: match ls.radius {
+                Some(r) if !r.is_finite() || r < 0.0 => {
+                    bail!("{file}: light radius {r} must be finite and >= 0")
+                }
+                Some(r) => r,
+                None => auto_light.radius,
+            },
+            kind: super::LightKind::Spot,
+        }
     };
     let cs = spec.camera.unwrap_or(CameraSpec {
         position: None,

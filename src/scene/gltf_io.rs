@@ -10,7 +10,10 @@
 //!   position, its -Z axis, a field of view of twice `outerConeAngle`, and the radius from
 //!   the light's extras `{"softshadow": {"radius": R}}`, else the scene-size default
 //!   (`--light-radius` overrides both); without a spot light, the first point light gives
-//!   the position and the aim and cone are fitted; without either, the default light;
+//!   the position and the aim and cone are fitted; without either, the first directional
+//!   light is a sun shining along its node's -Z axis, its angular radius from extras
+//!   `{"softshadow": {"angular_radius_deg": A}}`, else 1 degree (`--light-angle` overrides
+//!   both); without any, the default light;
 //! - the camera is the first perspective camera met depth first (`yfov`, the node's -Z
 //!   axis, its +Y as up); without one, the default framing.
 //!
@@ -25,7 +28,8 @@
 //!
 //! Export writes the scene back as glTF: one node per object (its transform as `matrix`,
 //! its role in extras), a mesh per distinct mesh and albedo, the light as a KHR spot light
-//! with its radius in extras, and the camera. `.glb` is one file; `.gltf` writes its buffer
+//! with its radius in extras (a sun as a directional light with its angular radius), and
+//! the camera. `.glb` is one file; `.gltf` writes its buffer
 //! to a `.bin` beside it.
 
 use super::gltf_decode::{self, Compressed, Draco};
@@ -37,6 +41,10 @@ use serde_json::{json, Value};
 use std::collections::HashMap;
 use std::path::Path;
 use std::sync::Arc;
+
+/// How far along its direction an imported sun's `Light::position` sits, in scene sizes (as
+/// for TOML scenes): a point for the default camera's framing and exports only.
+const SUN_RIG_DISTANCE: f32 = 4.0;
 
 /// The extras key under which softshadow keeps its own fields.
 const EXTRAS_KEY: &str = "softshadow";
@@ -224,6 +232,7 @@ fn parse_unwinding(
         objects: Vec::new(),
         spot: None,
         point: None,
+        sun: None,
         camera: None,
     };
     // Depth first, parents before children, children in file order: an explicit stack,
@@ -253,6 +262,7 @@ fn parse_unwinding(
         objects,
         spot,
         point,
+        sun,
         camera,
         ..
     } = walk;
@@ -267,10 +277,13 @@ fn parse_unwinding(
     let ground_y = bounds.min.y;
     let size = bounds.extent().max_element().max(1e-3);
     let centre = bounds.center();
-    let light_pos = match (&spot, &point) {
-        (Some(s), _) => s.position,
-        (None, Some(p)) => *p,
-        (None, None) => centre + Vec3::new(-1.2, 2.5, 0.8) * size,
+    // A sun's position is only a point on its axis, for the default camera's framing.
+    let sun = sun.filter(|_| spot.is_none() && point.is_none());
+    let light_pos = match (&spot, &point, &sun) {
+        (Some(s), _, _) => s.position,
+        (None, Some(p), _) => *p,
+        (None, None, Some(s)) => centre + s.direction * (SUN_RIG_DISTANCE * size),
+        (None, None, None) => centre + Vec3::new(-1.2, 2.5, 0.8) * size,
     };
     let (auto_light, auto_camera) = builtin::rig(
         &objects,
@@ -279,14 +292,21 @@ fn parse_unwinding(
         0.04,
         Vec3::new(0.4, 0.6, 1.0),
     );
-    let light = match spot {
-        Some(s) => Light {
+    let light = match (spot, sun) {
+        (None, Some(s)) => Light::sun(
+            s.direction,
+            centre,
+            s.angular_radius_deg.unwrap_or(super::DEFAULT_SUN_ANGLE_DEG),
+            SUN_RIG_DISTANCE * size,
+        ),
+        (Some(s), _) => Light {
             position: s.position,
             target: s.position + s.direction * aim_distance(s.position, s.direction, centre, size),
             fov_deg: s.fov_deg,
             radius: s.radius.unwrap_or(auto_light.radius),
+            kind: super::LightKind::Spot,
         },
-        None => auto_light,
+        (None, None) => auto_light,
     };
     let camera = match camera {
         Some(c) => Camera {
@@ -361,6 +381,12 @@ struct Spot {
     radius: Option<f32>,
 }
 
+/// A directional light: its direction towards the light, its angular radius from extras.
+struct SunSpec {
+    direction: Vec3,
+    angular_radius_deg: Option<f32>,
+}
+
 struct Eye {
     position: Vec3,
     forward: Vec3,
@@ -379,6 +405,7 @@ struct Walk<'a> {
     objects: Vec<Object>,
     spot: Option<Spot>,
     point: Option<Vec3>,
+    sun: Option<SunSpec>,
     camera: Option<Eye>,
 }
 
@@ -423,6 +450,17 @@ impl Walk<'_> {
                         direction,
                         fov_deg,
                         radius,
+                    });
+                }
+                gltf::khr_lights_punctual::Kind::Directional if self.sun.is_none() => {
+                    let travel = axis(&world, Vec3::NEG_Z).ok_or_else(|| {
+                        anyhow!("{file}: {label}: the directional light's node transform has no direction (a scale of 0?)")
+                    })?;
+                    let angular_radius_deg = sun_angle_extra(light.extras())
+                        .with_context(|| format!("{file}: {label}: light"))?;
+                    self.sun = Some(SunSpec {
+                        direction: -travel,
+                        angular_radius_deg,
                     });
                 }
                 gltf::khr_lights_punctual::Kind::Point if self.point.is_none() => {
@@ -837,14 +875,40 @@ fn role_extra(extras: &gltf::json::Extras) -> Result<Option<Role>> {
 }
 
 fn light_radius_extra(extras: &gltf::json::Extras) -> Result<Option<f32>> {
+    number_extra(
+        extras,
+        "radius",
+        |r| r.is_finite() && r >= 0.0,
+        "a number >= 0",
+    )
+}
+
+fn sun_angle_extra(extras: &gltf::json::Extras) -> Result<Option<f32>> {
+    let max = super::MAX_SUN_ANGLE_DEG;
+    number_extra(
+        extras,
+        "angular_radius_deg",
+        |a| (0.0..=max as f64).contains(&a),
+        &format!("a number in 0 ..= {max}"),
+    )
+}
+
+/// The number `extras.softshadow.KEY`, `None` without one; refused unless `ok` (`rule` says
+/// what is allowed).
+fn number_extra(
+    extras: &gltf::json::Extras,
+    key: &str,
+    ok: impl Fn(f64) -> bool,
+    rule: &str,
+) -> Result<Option<f32>> {
     let Some(m) = softshadow_extras(extras)? else {
         return Ok(None);
     };
-    match m.get("radius") {
+    match m.get(key) {
         None => Ok(None),
         Some(v) => match v.as_f64() {
-            Some(r) if r.is_finite() && r >= 0.0 => Ok(Some(r as f32)),
-            _ => bail!("extras.{EXTRAS_KEY}.radius {v} must be a number >= 0"),
+            Some(x) if ok(x) => Ok(Some(x as f32)),
+            _ => bail!("extras.{EXTRAS_KEY}.{key} {v} must be {rule}"),
         },
     }
 }
@@ -1322,17 +1386,7 @@ fn build_document(
         "extensionsUsed": ["KHR_lights_punctual"],
         "extensions": {
             "KHR_lights_punctual": {
-                "lights": [{
-                    "name": "light",
-                    "type": "spot",
-                    "color": [1.0, 1.0, 1.0],
-                    "intensity": 1.0,
-                    "spot": {
-                        "innerConeAngle": 0.0,
-                        "outerConeAngle": (l.fov_deg * 0.5).to_radians()
-                    },
-                    "extras": { EXTRAS_KEY: { "radius": l.radius } }
-                }]
+                "lights": [light_json(l)]
             }
         },
         "scene": 0,
@@ -1353,6 +1407,31 @@ fn build_document(
         "buffers": [buffer]
     });
     (doc, bin)
+}
+
+/// The KHR_lights_punctual light of `l`: a spot with its radius in extras, or a directional
+/// light (shining along its node's -Z) with its angular radius in extras.
+fn light_json(l: &Light) -> Value {
+    match l.sun_angle_deg() {
+        Some(a) => json!({
+            "name": "light",
+            "type": "directional",
+            "color": [1.0, 1.0, 1.0],
+            "intensity": 1.0,
+            "extras": { EXTRAS_KEY: { "angular_radius_deg": a } }
+        }),
+        None => json!({
+            "name": "light",
+            "type": "spot",
+            "color": [1.0, 1.0, 1.0],
+            "intensity": 1.0,
+            "spot": {
+                "innerConeAngle": 0.0,
+                "outerConeAngle": (l.fov_deg * 0.5).to_radians()
+            },
+            "extras": { EXTRAS_KEY: { "radius": l.radius } }
+        }),
+    }
 }
 
 #[cfg(test)]

@@ -1,5 +1,5 @@
 //! Scenes: meshes (OBJ through tobj, built-in primitives), objects with a role, one
-//! spotlight with a radius, one camera. Built-in scenes by name, TOML scene files, glTF
+//! light (a spotlight with a radius, or a sun with an angular radius), one camera. Built-in scenes by name, TOML scene files, glTF
 //! scenes, bare OBJ files framed on a ground plane. `export` writes the scene back out for
 //! outside tools (OBJ + JSON, or glTF).
 
@@ -103,13 +103,84 @@ impl std::fmt::Debug for BoundsCache {
     }
 }
 
-/// A spherical light of `radius` at `position`, shadow-mapped as a spotlight towards `target`.
+/// The scene's light. A spotlight (`LightKind::Spot`) is a sphere of `radius` at `position`,
+/// shadow-mapped with a perspective frustum of `fov_deg` towards `target`. A sun
+/// (`LightKind::Sun`) shines from the direction `position - target` (see [`Light::sun`]);
+/// its `fov_deg` and `radius` are unused.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Light {
     pub position: Vec3,
     pub target: Vec3,
     pub fov_deg: f32,
     pub radius: f32,
+    pub kind: LightKind,
+}
+
+/// Which light a scene holds.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum LightKind {
+    Spot,
+    /// A directional light whose directions fill a disc (a cone) of `angular_radius_deg`
+    /// around its axis, as the sun's do (0.27 degrees). Shadow-mapped with one orthographic
+    /// map fitted to what the camera sees (`frustum::fit_light`), no cascades.
+    Sun {
+        angular_radius_deg: f32,
+    },
+}
+
+/// The sun's angular radius when a scene gives none: 1 degree, about four times the real
+/// sun's 0.27. Under the real sun a penumbra is 0.9 % of the blocker-to-receiver distance,
+/// under a texel of a scene-sized shadow map for most contacts, so every technique would
+/// look like `hard`; at 1 degree it is 3.5 %, soft enough to tell the techniques apart while
+/// still reading as sunlight through thin haze (whose aureole widens the sun's disc).
+pub const DEFAULT_SUN_ANGLE_DEG: f32 = 1.0;
+
+/// Largest sun angular radius: beyond it the sun is a sky patch, not a sun, and the
+/// orthographic map's penumbra margin (2 tan theta x the depth span) outgrows the scene.
+pub const MAX_SUN_ANGLE_DEG: f32 = 20.0;
+
+/// The (unused) cone a sun carries in `Light::fov_deg`, valid for `Scene::validate`.
+const SUN_FOV_DEG: f32 = 60.0;
+
+impl Light {
+    /// A sun shining from `direction` (towards the light, any length) onto `target`, with
+    /// its disc of directions `angular_radius_deg` in radius. `distance` places `position`
+    /// on the axis: the point the light is drawn from in exports (a sun has no position).
+    pub fn sun(direction: Vec3, target: Vec3, angular_radius_deg: f32, distance: f32) -> Light {
+        Light {
+            position: target + direction.normalize_or(Vec3::Y) * distance,
+            target,
+            fov_deg: SUN_FOV_DEG,
+            radius: 0.0,
+            kind: LightKind::Sun { angular_radius_deg },
+        }
+    }
+
+    pub fn is_sun(&self) -> bool {
+        matches!(self.kind, LightKind::Sun { .. })
+    }
+
+    /// The sun's angular radius in degrees; `None` for a spotlight.
+    pub fn sun_angle_deg(&self) -> Option<f32> {
+        match self.kind {
+            LightKind::Sun { angular_radius_deg } => Some(angular_radius_deg),
+            LightKind::Spot => None,
+        }
+    }
+
+    /// Unit direction from the scene towards the light's axis (a sun's `direction`).
+    pub fn direction(&self) -> Vec3 {
+        (self.position - self.target).normalize_or(Vec3::Y)
+    }
+
+    /// The kind's name in scene files and exports: `spot` or `sun`.
+    pub fn kind_name(&self) -> &'static str {
+        if self.is_sun() {
+            "sun"
+        } else {
+            "spot"
+        }
+    }
 }
 
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -152,6 +223,20 @@ pub struct LightView {
     /// Depth extent of what the light sees, before the near/far headroom (`far - near` unless
     /// fitted by `frustum::fit_light`): the scale of the depth bias.
     pub depth_span: f32,
+    /// A sun's orthographic frame; `None` for a spotlight's perspective one.
+    pub sun: Option<SunView>,
+}
+
+/// A sun's shadow-map frame: `proj` is orthographic (clip w = 1), the map a square of
+/// `2 half_width` world units across the light's axis. Linear depth is still the distance
+/// along the view axis from `LightView::position` (a point behind every caster), z in
+/// \[0, 1\] maps it linearly from near to far.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SunView {
+    pub half_width: f32,
+    /// tan of the angular radius: a penumbra's width per unit of blocker-to-receiver distance
+    /// is twice it.
+    pub tan_angle: f32,
 }
 
 impl LightView {
@@ -163,8 +248,19 @@ impl LightView {
         // the unit direction by ulp(|position|), more than a narrow cone's width.
         let view = Mat4::look_to_rh(light.position, dir, up);
         let proj = Mat4::perspective_rh(light.fov_deg.to_radians(), 1.0, near, far);
+        Self::framed(light, light.position, view, proj, (near, far), None)
+    }
+
+    fn framed(
+        light: &Light,
+        position: Vec3,
+        view: Mat4,
+        proj: Mat4,
+        (near, far): (f32, f32),
+        sun: Option<SunView>,
+    ) -> Self {
         Self {
-            position: light.position,
+            position,
             view,
             proj,
             view_proj: proj * view,
@@ -172,6 +268,32 @@ impl LightView {
             far,
             fov_deg: light.fov_deg,
             depth_span: far - near,
+            sun,
+        }
+    }
+
+    /// A sun's orthographic frame: seen from `eye` along `-light.direction()`, a square of
+    /// `2 half_width` centred on the axis through `eye`, depths `near..far` from `eye`.
+    pub fn sun(light: &Light, eye: Vec3, half_width: f32, near: f32, far: f32) -> Self {
+        let dir = -light.direction();
+        let up = if dir.y.abs() > 0.99 { Vec3::Z } else { Vec3::Y };
+        let view = Mat4::look_to_rh(eye, dir, up);
+        let h = half_width;
+        let proj = Mat4::orthographic_rh(-h, h, -h, h, near, far);
+        let angle = light.sun_angle_deg().unwrap_or(0.0);
+        let sun = SunView {
+            half_width,
+            tan_angle: angle.to_radians().tan(),
+        };
+        Self::framed(light, eye, view, proj, (near, far), Some(sun))
+    }
+
+    /// World size of one of `res` texels across the map at linear depth `depth` (the same
+    /// at every depth for a sun).
+    pub fn texel_world(&self, depth: f32, res: u32) -> f32 {
+        match self.sun {
+            Some(s) => 2.0 * s.half_width / res.max(1) as f32,
+            None => 2.0 * (self.fov_deg.to_radians() * 0.5).tan() * depth / res.max(1) as f32,
         }
     }
 
@@ -179,7 +301,12 @@ impl LightView {
     pub fn project(&self, p: Vec3) -> (glam::Vec2, f32) {
         let c = self.view_proj * p.extend(1.0);
         let ndc = c.truncate().truncate() / c.w;
-        (ndc * 0.5 + glam::Vec2::splat(0.5), c.w)
+        let depth = if self.sun.is_some() {
+            self.linear_depth(p)
+        } else {
+            c.w
+        };
+        (ndc * 0.5 + glam::Vec2::splat(0.5), depth)
     }
 
     /// Linear depth of a world point (distance along the light's view axis).
@@ -554,6 +681,13 @@ impl Scene {
         }
         let l = &self.light;
         check_view(name, "light", l.position, l.target, l.fov_deg)?;
+        if let Some(a) = l.sun_angle_deg() {
+            if !(0.0..=MAX_SUN_ANGLE_DEG).contains(&a) {
+                bail!(
+                    "scene '{name}': sun angular_radius_deg {a} is out of range: allowed 0 ..= {MAX_SUN_ANGLE_DEG} (a wider disc is a patch of sky, not a sun)"
+                );
+            }
+        }
         if l.fov_deg > MAX_LIGHT_FOV_DEG {
             bail!(
                 "scene '{name}': light fov_deg {} is out of range: allowed (0, {MAX_LIGHT_FOV_DEG}] (a wider cone spreads the shadow map over so much that casters get too few texels)",
@@ -576,6 +710,33 @@ impl Scene {
         }
         Ok(())
     }
+}
+
+/// The command line's light overrides: `--light-angle` sets a sun's angular radius;
+/// `--light-radius` (applied later, through `Settings::light_radius`) is a spotlight's only.
+/// Each is refused, with one line naming the other, for the wrong kind of light.
+pub fn apply_light_flags(
+    scene: &mut Scene,
+    light_radius: Option<f32>,
+    light_angle: Option<f32>,
+) -> Result<()> {
+    let name = input::shown(&scene.name);
+    match (&mut scene.light.kind, light_radius, light_angle) {
+        (LightKind::Sun { .. }, Some(_), _) => bail!(
+            "--light-radius does not apply to scene '{name}': its light is a sun, which has an angular radius: use --light-angle DEGREES"
+        ),
+        (LightKind::Spot, _, Some(_)) => bail!(
+            "--light-angle does not apply to scene '{name}': its light is a spotlight, which has a radius: use --light-radius R"
+        ),
+        (LightKind::Sun { angular_radius_deg }, None, Some(a)) => {
+            if !(0.0..=MAX_SUN_ANGLE_DEG).contains(&a) {
+                bail!("--light-angle {a} is out of range: allowed 0 ..= {MAX_SUN_ANGLE_DEG} degrees");
+            }
+            *angular_radius_deg = a;
+        }
+        _ => {}
+    }
+    Ok(())
 }
 
 /// Whether a world triangle has no usable area at f32 precision: an edge under 1e-30 (denormal

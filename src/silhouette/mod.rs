@@ -962,6 +962,7 @@ mod tests {
                             target: model.transform_point3(Vec3::ZERO),
                             fov_deg: 90.0,
                             radius: 0.2,
+                            kind: crate::scene::LightKind::Spot,
                         },
                         0.05,
                         50.0,

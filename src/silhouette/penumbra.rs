@@ -485,6 +485,7 @@ mod tests {
                 target,
                 fov_deg: 60.0,
                 radius: 0.2,
+                kind: crate::scene::LightKind::Spot,
             },
             0.1,
             50.0,

@@ -45,7 +45,7 @@
 //!    lit the filter returns exactly 1 (it would be 1 only up to rounding as a weighted
 //!    sum), and beyond the kernel's reach of every caster's projected outline (the hull of
 //!    its projected vertices, `regions::AroundCasters`) every texel is the clear value. So
-//!    the timed pass (`FinalPass::split`, src/technique/regions.rs, reach `reach_texels`)
+//!    the timed pass (`FinalPass::split`, src/technique/speed/regions.rs, reach `reach_texels`)
 //!    runs this shader only within that reach and glsl/common/unshadowed.frag elsewhere:
 //!    the same image (tests/avoided_work.rs), for a fraction of the pass on lavapipe, which
 //!    runs every branch for every fragment.
@@ -159,7 +159,7 @@ impl Pcf {
             "pcf/final",
         )
         .context("pcf final descriptor set")?;
-        // Split: the shader runs only within the kernel's reach of a caster (regions.rs).
+        // Split: the shader runs only within the kernel's reach of a caster (speed/regions.rs).
         let final_pass = FinalPass::split(
             ctx,
             "pcf/final",

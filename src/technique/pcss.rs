@@ -53,7 +53,7 @@
 //!
 //!    Where no caster texel lies within a search's reach (`search_reach_texels`: Eq. 3 for
 //!    a receiver at infinity, clamped) the search finds nothing and v is exactly 1. So the
-//!    timed pass (`FinalPass::split`, src/technique/regions.rs) runs this shader only on
+//!    timed pass (`FinalPass::split`, src/technique/speed/regions.rs) runs this shader only on
 //!    the receivers' parts inside the light frustum over each caster's outline (the hull of
 //!    its projected vertices, `regions::AroundCasters`) widened by that reach, the normal
 //!    offset and a gather's footprint, and glsl/common/unshadowed.frag (no lookup)
@@ -104,10 +104,10 @@
 //! measured ratios). The shadow-map pass is the shared `ShadowMap` (as `pcf`'s); the final pass
 //! dominates, and in it the blocker search: every lit pixel inside the light frustum pays
 //! SEARCH_SAMPLES gathers before it can exit, and on lavapipe one gather costs about as much
-//! as all of `hard`'s final pass. `pcss-fast` (src/technique/pcss_fast.rs) settles most
-//! pixels with a min/max hierarchy of the shadow map first, for the same image; `pcss-walk`
-//! also replaces the search with a walk of that hierarchy and shares steps 2–3
-//! (`pcss_filter`); its penumbrae differ slightly.
+//! as all of `hard`'s final pass. A min/max hierarchy of the shadow map that settles lit and
+//! umbra pixels before the search was tried (`pcss-fast`, and `pcss-walk`, which also walked
+//! it for the search) and removed: it saved too few warp lookups to pay for itself (git
+//! history; BENCHMARKS.md).
 
 use super::{
     regions, shadow_map_buffer, technique_constants, FrameInput, LightBuffer, Technique,
@@ -141,7 +141,7 @@ pub fn sample_counts(kernel: PcfKernel) -> (u32, u32) {
     }
 }
 
-/// The slots of `glsl/pcss/constants.glsl` (shared with `pcss-fast`).
+/// The slots of `glsl/pcss/constants.glsl`.
 pub(crate) fn slots(frame: &FrameInput<'_>, search_samples: u32, filter_samples: u32) -> [f32; 8] {
     let r = frame.light_radius.max(0.0);
     let two_tan = 2.0 * (frame.light.fov_deg.to_radians() * 0.5).tan();
@@ -200,7 +200,7 @@ impl Pcss {
             "pcss/final",
         )
         .context("pcss final descriptor set")?;
-        // Split: the shader runs only within a search's reach of a caster (regions.rs).
+        // Split: the shader runs only within a search's reach of a caster (speed/regions.rs).
         let final_pass = FinalPass::split(
             ctx,
             "pcss/final",

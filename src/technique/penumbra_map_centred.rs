@@ -1,5 +1,6 @@
 //! # penumbra-map-centred — Wyman & Hansen 2003 with the penumbra centred on the hard edge
 //! Port sheet: docs/port/penumbra-map-centred.md
+//! Speed layer: speed::penumbra_map, speed::regions — off under --plain.
 //!
 //! `penumbra-map` (src/technique/penumbra_map.rs, whose header this one builds on) takes the
 //! hard shadow from the light's centre as the umbra and grows the penumbra outward from it,
@@ -12,7 +13,9 @@
 //! outer cones and sheets AND their mirror images inside the hard shadow (our accurate form; Cai et
 //! al. 2006's inner and outer fins are the same idea for shadow fins). Same pass structure,
 //! same geometry builder (`silhouette::penumbra::build_penumbra_sides`, `Side::Outer` /
-//! `Side::Inner`), same struct as the paper form (`penumbra_map::PenumbraMap`, `Form`).
+//! `Side::Inner`), same struct as the paper form (`penumbra_map::PenumbraMap`, `Form`); this
+//! module holds what is the centred form's own: the penumbra pass's attachment (`TARGET`),
+//! its outer and inner pipelines (`pipelines`) and the final shader (`FINAL_SHADER`).
 //!
 //! ## Geometry
 //! Half-width of the penumbra that a receiver at linear light depth Z gets from a
@@ -31,11 +34,8 @@
 //!    `PenumbraVertex`, as the paper form), uploaded to two host-visible vertex buffers.
 //! 1. `penumbra-map-centred/shadow_map` — the shared `ShadowMap`: R32G32_SFLOAT, clear 1e30,
 //!    blend MIN, no depth attachment; r = nearest caster's linear depth, g = nearest
-//!    surface's of any role. Cleared and drawn as the paper form's, the receivers that
-//!    cast nothing only under the cones and sheets grown by how far an inner fragment
-//!    reads g beside them (`inner_read_texels`: its distance inside the hard edge, at most
-//!    the widest inner cone, plus 7 texels); drawing the whole map gives the same image
-//!    (`--plain`).
+//!    surface's of any role. g is read at each penumbra fragment's own texel and, for an
+//!    inner one, beside it (up to its distance inside the hard edge plus 7 texels).
 //! 2. `penumbra-map-centred/penumbra` — one rendering scope, no depth attachment, culling
 //!    off, one colour attachment, the penumbra map: R16G16B16A16_SFLOAT, clear (1, 1, 1, 1),
 //!    blend MIN; r = the outer visibility (darkest wins, the paper's rule), g = the inner
@@ -72,10 +72,7 @@
 //!    two stacked boxes, stays in the umbra), and never more than the outer visibility.
 //!    Bilinear weights as `hard`. R = 0 draws no cones or sheets: the map stays (1, 1, 1, 1),
 //!    and the result is `hard`'s exactly. Where the penumbra map holds its clear value and no
-//!    caster is in front, v is exactly 1 (`bilinear_lit`), so the timed pass is split as the
-//!    paper form's (its header, pass 3: the shader only over each caster's box and its outer
-//!    and inner cones and sheets), and both light buffers cleared and drawn as the paper
-//!    form's (pass 1).
+//!    caster is in front, v is exactly 1 (`bilinear_lit`).
 //!
 //! ## Equations: what a porter ports
 //! - The geometry, both sides: `build_penumbra_sides` (src/silhouette/penumbra.rs).
@@ -87,16 +84,8 @@
 //!   `far_edge_texels` (glsl/common/inner_march.glsl).
 //! - The final combination: `visibility` (glsl/penumbra_map_centred/final.frag).
 //!
-//! Where the speed layer (`--plain` turns it off, `Settings::effective`) may change
-//! these functions' inputs:
-//! - Light areas (`regions::silhouette_areas`, grown by `inner_read_texels` for the inner
-//!   fragments' receiver samples): every texel read holds what the whole passes write.
-//! - `FinalPass::split` chooses which pixels run the final shader and which get 1 without
-//!   a lookup; where the shader runs its inputs are the whole pass's (bit for bit).
-//! - Culling leaves out objects outside the light's frustum (light passes) and the
-//!   camera's (final pass): they write no texel a lookup reads and no pixel.
-//! - Reuse skips the light passes when the light, its radius and every object are
-//!   unchanged: the buffers then hold what the same passes wrote.
+//! The speed layer leaves each texel read and each shaded pixel's inputs as the whole
+//! passes give them (src/technique/speed/penumbra_map.rs).
 //!
 //! ## Combining edges (what the centring approximates)
 //! - Several outer wedges at a texel: the darkest (MIN), as the paper. Exact for one edge;
@@ -139,11 +128,60 @@
 //! shadow-map fetches each (two receiver samples, own texel, 8 + 3 march steps), only in
 //! the inner band.
 
-use super::penumbra_map::PenumbraMap;
-use super::{Form, TechniqueInfo};
+use super::penumbra_map::{penumbra_pipeline_desc, PenumbraMap, PenumbraTarget};
+use super::{Form, TechniqueInfo, TechniqueInit};
+use crate::gpu::passes::FinalShader;
+use crate::shaders;
+use crate::vk::{Blend, DescriptorSet, Format, Pipeline};
+use anyhow::Result;
 
 pub const INFO: TechniqueInfo = TechniqueInfo {
     name: "penumbra-map-centred",
     summary: "penumbra maps with inner and outer cones and sheets: disc-chord penumbra centred on the hard edge",
     create: |init| PenumbraMap::create(init, Form::Centred),
+};
+
+/// Pass 2's one attachment: the outer and the inner values packed into one RGBA16F target
+/// so that one MIN blend serves both.
+pub(super) const TARGET: PenumbraTarget = PenumbraTarget {
+    label: "penumbra map (outer, inner, receiver)",
+    format: Format::R16G16B16A16_SFLOAT,
+    // The darkest outer visibility (1 = lit), the least inner occlusion (1 = umbra) and
+    // 1 - the farthest receiver depth / far an inner value was made for, all MIN.
+    channels: &[
+        "outer_visibility",
+        "inner_occlusion",
+        "inner_receiver_nearness",
+        "unused",
+    ],
+};
+
+/// Pass 2's two pipelines, both into `TARGET` with MIN blending: the outer cones' and
+/// sheets' (glsl/penumbra_map_centred/outer.frag), then the inner ones' (inner.frag).
+pub(super) fn pipelines(
+    init: &TechniqueInit<'_>,
+    penumbra_set: &DescriptorSet,
+) -> Result<[Pipeline; 2]> {
+    let colors = [(TARGET.format, Blend::Min)];
+    let name = Form::Centred.names().penumbra;
+    let sets = [penumbra_set];
+    let outer = shaders::PENUMBRA_MAP_CENTRED_OUTER_FRAG;
+    let inner = shaders::PENUMBRA_MAP_CENTRED_INNER_FRAG;
+    Ok([
+        Pipeline::graphics(
+            init.ctx,
+            &penumbra_pipeline_desc(name, outer, &colors, &sets),
+        )?,
+        Pipeline::graphics(
+            init.ctx,
+            &penumbra_pipeline_desc(name, inner, &colors, &sets),
+        )?,
+    ])
+}
+
+/// Pass 3's fragment shader.
+pub(super) const FINAL_SHADER: FinalShader = FinalShader {
+    color: shaders::PENUMBRA_MAP_CENTRED_FINAL_FRAG,
+    aov: shaders::PENUMBRA_MAP_CENTRED_FINAL_FRAG_AOV,
+    count: shaders::PENUMBRA_MAP_CENTRED_FINAL_FRAG_COUNT,
 };

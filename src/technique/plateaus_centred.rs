@@ -1,5 +1,6 @@
 //! # plateaus-centred — Haines 2001 with the penumbra centred on the hard edge
 //! Port sheet: docs/port/plateaus-centred.md
+//! Speed layer: speed::plateaus (light-pass areas, split final pass) — off under --plain.
 //!
 //! `plateaus` (src/technique/plateaus.rs, whose header this one builds on; relations
 //! (P1)-(P4) there) takes the hard drop shadow as the umbra and grows the penumbra outward
@@ -13,12 +14,13 @@
 //! (the other common tangent of the two discs, (P3) with p -> -p: `PlateauBuilder` with
 //! `Side::Inner`) opening into the drop shadow. On the plane the receiver is known, so the
 //! inner side needs no receiver estimate (unlike smoothies-centred and
-//! penumbra-map-centred): a plateau's depth t is s itself. Same struct as the paper form
-//! (`plateaus::Plateaus`, `Form::Centred`); same planar-receiver rule (a scene without one
-//! is refused), same plane frame and texture square.
+//! penumbra-map-centred): a plateau's depth t is s itself. The passes below are this module's;
+//! the planar-receiver rule (a scene without one is refused), the plane frame, the texture
+//! square and the cone and sheet builder are the paper form's
+//! (src/technique/plateaus_common.rs).
 //!
 //! ## Passes, in order
-//! 0. CPU `plateaus-centred/silhouettes` (R > 0, light above the plane) — per moved caster:
+//! 0. CPU `plateaus-centred/silhouettes` (R > 0, light above the plane) — per caster:
 //!    silhouette from the light centre, then its cones and outer sheets and its cones and
 //!    inner sheets in the texture's clip space (12-byte `PlateauVertex`, depth = t),
 //!    uploaded to two host-visible vertex buffers.
@@ -49,8 +51,8 @@
 //!    lightened). Bilinear weights, no falloff texture (the profile is in the values). Every
 //!    other point, and every point at R = 0, gets the shadow map's 2x2 bilinear comparison:
 //!    R = 0 is `hard`'s image exactly (unlike the paper form, whose drop shadow only
-//!    matches hard up to the texel grids' aliasing). At R > 0 split as the paper form's
-//!    (`Plateaus::shadow_regions`): the inner cones and sheets lie in the same discs' hull.
+//!    matches hard up to the texel grids' aliasing). The speed layer's split final pass
+//!    holds the inner cones and sheets too: they lie in the same discs' hull.
 //!
 //! ## Equations: what a porter ports
 //! - (P1)-(P3), both sides: the paper form's functions (src/technique/plateaus.rs), the
@@ -60,17 +62,9 @@
 //!   (glsl/common/inner_march.glsl).
 //! - The final combination: `visibility` (glsl/plateaus_centred/final.frag).
 //!
-//! Where the speed layer (`--plain` turns it off, `Settings::effective`) may change
-//! these functions' inputs:
-//! - The plateau, coverage and inner images are cleared and drawn only over the texels the
-//!   final pass can read, as the paper form's: every texel read holds what the whole passes
-//!   write.
-//! - `FinalPass::split` chooses which pixels run the final shader and which get 1 without
-//!   a lookup; where the shader runs its inputs are the whole pass's (bit for bit).
-//! - Culling leaves out objects outside the light's frustum (light passes) and the
-//!   camera's (final pass): they write no texel a lookup reads and no pixel.
-//! - Reuse skips the light passes when the light, its radius and every object are
-//!   unchanged: the buffers then hold what the same passes wrote.
+//! Where the speed layer may change these functions' inputs: as the paper form's (the
+//! plateau, coverage and inner images are cleared and drawn only over the texels the final
+//! pass can read; every texel read holds what the whole passes write).
 //!
 //! ## Combining edges (what the centring approximates)
 //! - Outer: the darkest (LESS on depth t), as the paper. Exact for one edge; two casters'
@@ -103,11 +97,248 @@
 //! fragments cost up to 13 texel fetches each (own texel, hidden-edge test, 8 + 3 march
 //! steps), only inside the drop shadow.
 
-use super::plateaus::Plateaus;
-use super::{Form, TechniqueInfo};
+use super::plateaus::{drop_shadow_pipeline, plateau_pipeline};
+use super::plateaus_common::{PlateauCommon, PLATEAU_ATTRIBUTES, PLATEAU_VERTEX_BYTES};
+use super::{shadow_map_buffer, FrameInput, LightBuffer, Technique, TechniqueInfo, TechniqueInit};
+use crate::gpu::passes::{DynamicVertices, FinalPass, FinalShader, Shadowed};
+use crate::shaders;
+use crate::vk::{
+    Blend, Clear, Context, CullModeFlags, DescriptorSet, Format, GraphicsPipelineDesc, Image,
+    ImageUsageFlags, Pipeline, PrimitiveTopology, Recorder, Resource,
+};
+use anyhow::Result;
 
 pub const INFO: TechniqueInfo = TechniqueInfo {
     name: "plateaus-centred",
     summary: "plateaus with inner cones and sheets: disc-chord penumbra centred on the hard edge",
-    create: |init| Plateaus::create(init, Form::Centred),
+    create: |init| Ok(Box::new(PlateausCentred::create(init)?)),
 };
+
+/// The pass names (= timestamp and debug labels).
+struct Names {
+    technique: &'static str,
+    silhouettes: &'static str,
+    drop_shadow: &'static str,
+    plateaus: &'static str,
+    inner: &'static str,
+    shadow_map: &'static str,
+    final_pass: &'static str,
+}
+
+const NAMES: Names = super::pass_names!(
+    Names {
+        silhouettes: "silhouettes",
+        drop_shadow: "drop_shadow",
+        plateaus: "plateaus",
+        inner: "inner",
+        shadow_map: "shadow_map",
+        final_pass: "final",
+    },
+    "plateaus-centred"
+);
+
+pub struct PlateausCentred {
+    /// The receiver, plane uniforms, plateau texture, z-buffer, shadow map and geometry.
+    common: PlateauCommon,
+    /// R16F, clear 1: 0 where a caster's drop shadow falls.
+    coverage: Image,
+    /// R16F, clear 0, MAX: the lightest inner visibility.
+    inner: Image,
+    drop_pipeline: Pipeline,
+    plateau_pipeline: Pipeline,
+    inner_pipeline: Pipeline,
+    inner_set: DescriptorSet,
+    /// Every caster's cones and inner sheets.
+    inner_vertices: DynamicVertices,
+    final_pass: FinalPass,
+    final_set: DescriptorSet,
+}
+
+impl PlateausCentred {
+    fn create(init: &TechniqueInit<'_>) -> Result<Self> {
+        let ctx = init.ctx;
+        let res = init.settings.shadow_res;
+        let common = PlateauCommon::new(init, NAMES.drop_shadow, NAMES.shadow_map)?;
+        ctx.require_blend(Format::R16_SFLOAT, Blend::Max, NAMES.technique)?;
+        let usage = ImageUsageFlags::COLOR_ATTACHMENT
+            | ImageUsageFlags::SAMPLED
+            | ImageUsageFlags::TRANSFER_SRC;
+        let coverage = Image::new_2d(ctx, res, res, Format::R16_SFLOAT, usage, "plateau coverage")?;
+        let inner = Image::new_2d(ctx, res, res, Format::R16_SFLOAT, usage, "plateau inner")?;
+        // The drop shadow into its own coverage image, without the z-buffer: the outer
+        // plateaus of other casters must stay visible inside it.
+        let drop_pipeline = drop_shadow_pipeline(
+            ctx,
+            NAMES.drop_shadow,
+            &common.drop_set,
+            Format::R16_SFLOAT,
+            None,
+        )?;
+        let plateau_pipeline = plateau_pipeline(ctx, NAMES.plateaus)?;
+        let nearest = &common.nearest;
+        let inner_set = DescriptorSet::new(
+            ctx,
+            &[("coverage", Resource::Sampled(&coverage, nearest))],
+            NAMES.inner,
+        )?;
+        let inner_pipeline = Pipeline::graphics(
+            ctx,
+            &GraphicsPipelineDesc {
+                name: NAMES.inner,
+                vertex: shaders::PLATEAUS_PLATEAU_VERT,
+                fragment: Some(shaders::PLATEAUS_CENTRED_INNER_FRAG),
+                vertex_stride: PLATEAU_VERTEX_BYTES,
+                attributes: PLATEAU_ATTRIBUTES,
+                topology: PrimitiveTopology::TRIANGLE_LIST,
+                cull: CullModeFlags::NONE,
+                // Lightest inner estimate wins.
+                colors: &[(Format::R16_SFLOAT, Blend::Max)],
+                depth: None,
+                push_constant_bytes: 0,
+                sets: &[&inner_set],
+            },
+        )?;
+        // The final pass reads the shadow map's r alone: the inner plateaus are built on
+        // the plane, from the drop shadow's coverage, not from receiver depths.
+        let final_set = DescriptorSet::new(
+            ctx,
+            &[
+                ("frame", Resource::Uniform(init.ubo)),
+                ("plane", Resource::Uniform(&common.plane_ubo)),
+                ("plateau_tex", Resource::Sampled(&common.texture, nearest)),
+                (
+                    "shadow_map",
+                    Resource::Sampled(&common.shadow.depth, nearest),
+                ),
+                ("coverage", Resource::Sampled(&coverage, nearest)),
+                ("inner_tex", Resource::Sampled(&inner, nearest)),
+            ],
+            NAMES.final_pass,
+        )?;
+        let final_shader = FinalShader {
+            color: shaders::PLATEAUS_CENTRED_FINAL_FRAG,
+            aov: shaders::PLATEAUS_CENTRED_FINAL_FRAG_AOV,
+            count: shaders::PLATEAUS_CENTRED_FINAL_FRAG_COUNT,
+        };
+        let final_pass = FinalPass::split(ctx, NAMES.final_pass, final_shader, &final_set)?;
+        Ok(Self {
+            common,
+            coverage,
+            inner,
+            drop_pipeline,
+            plateau_pipeline,
+            inner_pipeline,
+            inner_set,
+            inner_vertices: DynamicVertices::new("plateau inner vertices"),
+            final_pass,
+            final_set,
+        })
+    }
+}
+
+impl Technique for PlateausCentred {
+    fn name(&self) -> &'static str {
+        NAMES.technique
+    }
+
+    fn record_light(
+        &mut self,
+        ctx: &Context,
+        rec: &mut Recorder<'_>,
+        frame: &FrameInput<'_>,
+    ) -> Result<()> {
+        // Pass 0, and where the speed layer lets passes 1-4 draw.
+        let p = self
+            .common
+            .prepare(ctx, rec, frame, NAMES.silhouettes, true)?;
+        self.inner_vertices.upload(ctx, &p.inner)?;
+        let (c, area) = (&self.common, p.areas.texture);
+        rec.pass(NAMES.drop_shadow, |rec| {
+            rec.begin_rendering_in(&[(&self.coverage, Clear::Float([1.0; 4]))], None, area);
+            if p.lit_plane {
+                c.draw_drop_shadow(rec, frame, &self.drop_pipeline);
+            }
+            rec.end_rendering();
+            Ok(())
+        })?;
+        // Outer plateaus over a cleared texture and z-buffer (no drop shadow in them), then
+        // the inner ones; both passes run at R = 0 too, so that the final pass always reads
+        // written images.
+        rec.pass(NAMES.plateaus, |rec| {
+            rec.begin_rendering_in(
+                &[(&c.texture, Clear::Float([1.0; 4]))],
+                Some((&c.zbuffer, Some(1.0))),
+                area,
+            );
+            rec.discard_after(&c.zbuffer);
+            if !c.vertices.is_empty() {
+                rec.bind_pipeline(&self.plateau_pipeline);
+                c.vertices.draw(rec);
+            }
+            rec.end_rendering();
+            Ok(())
+        })?;
+        rec.pass(NAMES.inner, |rec| {
+            rec.begin_rendering_in(&[(&self.inner, Clear::Float([0.0; 4]))], None, area);
+            if !self.inner_vertices.is_empty() {
+                rec.bind_pipeline(&self.inner_pipeline);
+                rec.bind_sets(&self.inner_pipeline, &[&self.inner_set]);
+                self.inner_vertices.draw(rec);
+            }
+            rec.end_rendering();
+            Ok(())
+        })?;
+        c.shadow.pass_in(rec, frame.gpu, &p.areas.map)
+    }
+
+    fn light_passes(&self) -> Vec<String> {
+        [
+            NAMES.drop_shadow,
+            NAMES.plateaus,
+            NAMES.inner,
+            NAMES.shadow_map,
+        ]
+        .map(String::from)
+        .to_vec()
+    }
+
+    fn record_final(
+        &mut self,
+        _ctx: &Context,
+        rec: &mut Recorder<'_>,
+        frame: &FrameInput<'_>,
+    ) -> Result<()> {
+        let shadowed = self.common.speed.shadowed();
+        self.final_pass
+            .pass_in(rec, frame, &self.final_set, shadowed)
+    }
+
+    fn shadowed(&self) -> Option<&Shadowed> {
+        Some(self.common.speed.shadowed())
+    }
+
+    fn light_buffers(&self) -> Vec<LightBuffer<'_>> {
+        vec![
+            // The outer plateaus' fraction f only (no drop shadow), 1 lit.
+            LightBuffer {
+                name: "plateaus",
+                image: &self.common.texture,
+                channels: &["fraction"],
+            },
+            shadow_map_buffer("shadow_map", &self.common.shadow),
+            // 0 under a caster's drop shadow, 1 elsewhere.
+            LightBuffer {
+                name: "coverage",
+                image: &self.coverage,
+                channels: &["drop_shadow_visibility"],
+            },
+            // The lightest inner visibility in [0, 1]: disc_chord(s) in [0, 0.5] plus, for a
+            // thin blocker, the share beyond its far edge (0: umbra, and where none was drawn).
+            LightBuffer {
+                name: "inner",
+                image: &self.inner,
+                channels: &["inner_visibility"],
+            },
+        ]
+    }
+}

@@ -1,5 +1,6 @@
 //! # smoothies-centred — Chan & Durand 2003 with the penumbra centred on the hard edge
 //! Port sheet: docs/port/smoothies-centred.md
+//! Speed layer: speed::smoothies, speed::regions — off under --plain.
 //!
 //! `smoothies` (src/technique/smoothies.rs, whose header this one builds on) takes the hard
 //! shadow from the light's centre as the umbra and grows the penumbra outward from it (the
@@ -12,7 +13,10 @@
 //! draws the paper's outer smoothies AND inner smoothies, extruded from the silhouette into
 //! the hard shadow: the inner and outer fins of Cai, Jia, Wang, Hu & Martin, *Multilayered
 //! shadow fins* (CGF 25(1) 2006), which avoid the umbra over-estimation the same way. Same
-//! pass structure and struct as the paper form (`smoothies::Smoothies`, `Form::Centred`).
+//! pass order and struct as the paper form (`smoothies::Smoothies`, `Form::Centred`); this
+//! module holds what is the centred form's own: the smoothie pass's attachments
+//! (`TARGETS`), its outer and inner pipelines (`pipelines`) and the final shader
+//! (`FINAL_SHADER`).
 //!
 //! ## Geometry
 //! The reference construction, `silhouette::smoothie::build_smoothies_side`: `Side::Outer`
@@ -42,12 +46,7 @@
 //! 1. `smoothies-centred/shadow_map` — the shared `ShadowMap`: R32G32_SFLOAT, clear 1e30,
 //!    blend MIN, no depth attachment; r = nearest caster's linear depth, g = nearest
 //!    surface's of any role. g is read only by pass 2, at the smoothie fragment's own
-//!    texel and, for an inner one, 1.5 and 5.5 texels outside its edge: so, as the paper
-//!    form's, the pass clears and draws only the casters' boxes and the smoothies' box
-//!    (here grown by 7 texels, `regions::INNER_RECEIVER_TEXELS`), the receivers that cast
-//!    nothing only inside the latter (CPU path; the saving on lavapipe is in
-//!    docs/notes/performance-lessons.md). Drawing the whole map gives the same image
-//!    (tests/avoided_work.rs; `--plain`).
+//!    texel and, for an inner one, 1.5 and 5.5 texels outside its edge.
 //! 2. `smoothies-centred/smoothie` — ONE pass (the paper's single MRT smoothie pass), no
 //!    depth attachment, culling off, two colour attachments:
 //!    location 0 = smoothie linear depth b, R32_SFLOAT, clear 1e30, blend MIN (outer
@@ -60,9 +59,7 @@
 //!    one MIN blend state for all the values (MIN on some and MAX on others would need
 //!    independentBlend), one clear, and 16 bits are enough for fractions and for the
 //!    receiver depth at the final pass's 5 % tolerance; b keeps its own 32-bit attachment
-//!    because the b/r tests need it (REMAP_EPS 1e-4). 12 bytes per texel. Both cleared and
-//!    drawn only inside the box the paper form's pass uses (this frame's records, inner
-//!    ones included, and last frame's: `smoothies.rs`, pass 2).
+//!    because the b/r tests need it (REMAP_EPS 1e-4). 12 bytes per texel.
 //!    Two pipelines, both with glsl/smoothies/smoothie.vert over the CPU path's expanded
 //!    triangles (`SmoothieRecords::expand_side`), one draw each: every caster's outer
 //!    smoothies, then every caster's inner ones (the same records mirrored):
@@ -89,12 +86,8 @@
 //!      [0, 0.5], plus the thin-blocker term below; writes b = 1e30 (neutral) and
 //!      (1, 1 - v, 1 - Z_R / far, 1). Z_R is at most Z = 1.05 x the light's far plane
 //!      (a depth the map holds, extrapolated by at most 5 %), so nothing is written
-//!      beyond t (1 - b/Z) from the edge: the inner quads and fans are drawn only that
-//!      wide, plus a texel (`records::Extent` with depth Z, `inner_extent_depth`). The
-//!      inner fragments' receiver samples and march are most of this pass's cost on
-//!      lavapipe, and the narrower geometry made the pass 31-40 % cheaper on `cylinder`,
-//!      `bunny`, `dense`. The varyings are the full-width geometry's up to interpolation
-//!      rounding (tests/avoided_work.rs): a porter may draw the full width t.
+//!      beyond t (1 - b/Z) from the edge (what the speed layer's shortened inner
+//!      smoothies rely on).
 //! 3. `smoothies-centred/final` — `FinalPass` with `glsl/smoothies_centred/final.frag`:
 //!    per texel of the 2x2 footprint (textureGather of the shadow map's r, the smoothie
 //!    depth and the penumbra values' r, g, b at the normal-offset point): outer = the outer
@@ -105,8 +98,7 @@
 //!    umbra). Bilinear weights as `hard`; no falloff texture (the profile is in the
 //!    values). R = 0 draws no smoothie and returns `hard`'s bilinear value: `hard`'s image
 //!    exactly. Outside the casters' projections and their smoothies every lookup reads "far"
-//!    and the shader returns 1, so the timed pass runs it only where a shadow can fall, as
-//!    the paper form's does (src/technique/smoothies.rs, pass 3).
+//!    and the shader returns 1.
 //!
 //! ## Equations: what a porter ports
 //! - The geometry, both sides: `build_smoothies_side` (src/silhouette/smoothie.rs); the
@@ -119,19 +111,10 @@
 //!   blocker's far edge `far_edge_texels` (glsl/common/inner_march.glsl).
 //! - The final combination: `visibility` (glsl/smoothies_centred/final.frag).
 //!
-//! Where the speed layer (`--plain` turns it off, `Settings::effective`) may change
-//! these functions' inputs:
-//! - Shortened inner smoothies (`records::Extent`, `inner_extent_depth`): drawn only as
-//!   wide as an inner penumbra can be; t and 1/b, interpolated over other triangles, round
-//!   differently (visibility within 2e-4, tests/plain.rs).
-//! - Light areas (`regions::silhouette_areas`), as the paper form's: every texel read holds
-//!   what the whole passes write.
-//! - `FinalPass::split` chooses which pixels run the final shader and which get 1 without
-//!   a lookup; where the shader runs its inputs are the whole pass's (bit for bit).
-//! - Culling leaves out objects outside the light's frustum (light passes) and the
-//!   camera's (final pass): they write no texel a lookup reads and no pixel.
-//! - Reuse skips the light passes when the light, its radius and every object are
-//!   unchanged: the buffers then hold what the same passes wrote.
+//! The speed layer may change these functions' inputs: shortened inner smoothies round t
+//! and 1/b, interpolated over other triangles, differently (visibility within 2e-4,
+//! tests/plain.rs); every other trick leaves each texel read and each shaded pixel's
+//! inputs as the whole passes give them (src/technique/speed/smoothies.rs).
 //!
 //! ## Combining edges (what the centring approximates)
 //! - Several outer smoothies at a texel: the darkest (MIN), as the paper. Exact for one
@@ -166,12 +149,71 @@
 //! shadow-map fetches each (two receiver samples, own texel, 8 + 3 march steps), only in
 //! the inner band; the outer ones one, as the paper's.
 
-use super::smoothies::Smoothies;
-use super::{Form, TechniqueInfo};
+use super::smoothies::{smoothie_pipeline_desc, SmoothieTarget, Smoothies};
+use super::{Form, TechniqueInfo, TechniqueInit};
+use crate::gpu::passes::{FinalShader, FAR_DEPTH};
+use crate::shaders;
+use crate::vk::{Blend, DescriptorSet, Format, Pipeline};
+use anyhow::Result;
 
 pub const INFO: TechniqueInfo = TechniqueInfo {
     name: "smoothies-centred",
     summary:
         "smoothies with inner and outer smoothies: disc-chord penumbra centred on the hard edge",
     create: |init| Smoothies::create(init, Form::Centred),
+};
+
+/// Pass 2's attachments: the outer smoothies' depth apart from the penumbra values, which
+/// RGBA16F holds (both MIN-blended).
+pub(super) const TARGETS: &[SmoothieTarget] = &[
+    SmoothieTarget {
+        name: "smoothie_depth",
+        format: Format::R32_SFLOAT,
+        clear: [FAR_DEPTH; 4],
+        // The nearest outer smoothie's linear depth (1e30: none).
+        channels: &["depth"],
+    },
+    SmoothieTarget {
+        name: "smoothie_penumbra",
+        format: Format::R16G16B16A16_SFLOAT,
+        clear: [1.0; 4],
+        // The darkest outer visibility (1 = lit), the least inner occlusion (1 = umbra) and
+        // 1 - the farthest inner receiver depth / far, all MIN.
+        channels: &[
+            "outer_visibility",
+            "inner_occlusion",
+            "inner_receiver_nearness",
+            "unused",
+        ],
+    },
+];
+
+/// Pass 2's two pipelines, both into `TARGETS` with MIN blending: the outer smoothies'
+/// (glsl/smoothies_centred/outer.frag), then the inner ones' (inner.frag).
+pub(super) fn pipelines(
+    init: &TechniqueInit<'_>,
+    smoothie_set: &DescriptorSet,
+) -> Result<[Pipeline; 2]> {
+    let colors: Vec<_> = TARGETS.iter().map(|t| (t.format, Blend::Min)).collect();
+    let name = Form::Centred.smoothie_names().smoothie;
+    let sets = [smoothie_set];
+    let outer = shaders::SMOOTHIES_CENTRED_OUTER_FRAG;
+    let inner = shaders::SMOOTHIES_CENTRED_INNER_FRAG;
+    Ok([
+        Pipeline::graphics(
+            init.ctx,
+            &smoothie_pipeline_desc(name, outer, &colors, &sets),
+        )?,
+        Pipeline::graphics(
+            init.ctx,
+            &smoothie_pipeline_desc(name, inner, &colors, &sets),
+        )?,
+    ])
+}
+
+/// Pass 3's fragment shader (no falloff texture: the profile is in the values).
+pub(super) const FINAL_SHADER: FinalShader = FinalShader {
+    color: shaders::SMOOTHIES_CENTRED_FINAL_FRAG,
+    aov: shaders::SMOOTHIES_CENTRED_FINAL_FRAG_AOV,
+    count: shaders::SMOOTHIES_CENTRED_FINAL_FRAG_COUNT,
 };

@@ -1,5 +1,8 @@
 //! # ssm-bitmask / ssm2-bitmask — soft shadow maps with exact occlusion
 //! Port sheets: docs/port/ssm-bitmask.md, docs/port/ssm2-bitmask.md
+//! Speed layer: speed::ssm (the micro-patch step, pass 5; kept under --plain, see there).
+//! Over 400 lines because the header (about 110 lines) explains the disc light, the
+//! micro-quads and the eight passes of two forms; the code is about 310 lines.
 //!
 //! Atty et al. 2006 (`ssm`, src/technique/ssm.rs, whose header this one builds on) back-
 //! project one micro-patch per occluder-map texel onto the light and ADD the hidden areas:
@@ -10,40 +13,26 @@
 //! *Bitmask Soft Shadows*, CGF 26(3) 2007): per soft-shadow-map texel one bit per light
 //! sample, set when some micro-patch hides that sample, OR-combined; micro-quads that join
 //! neighbouring texels close the gaps. Same occluder, receiver and bound passes as `ssm`
-//! (shared code: `ssm::LightInputs`, passes 1-5 of both).
+//! (shared code: `ssm_common::LightInputs`, passes 1-5 of both).
 //!
-//! ## Resolution rule: light samples and bits
-//! 128 samples on the disc light, one bit each in a `uvec4` (R32G32B32A32_UINT attachment):
-//! sample k is bit k % 32 of word k / 32. Visibility = 1 - popcount(mask) / 128, so it moves
-//! in steps of 1/128 (the reference averages at least 256 rays). Positions: a golden-angle
-//! (Vogel) spiral, radius sqrt((k + 1/2) / 128), angle k * 137.5 degrees — equal area per
-//! sample, no rows or columns for an edge to line up with, the same for every pixel (no noise;
-//! its banding is 1/128 steps, half an 8-bit display step).
+//! ## Light samples and the edge table (src/technique/ssm_bitmask_table.rs)
+//! 128 samples on the disc light, one bit each in a `uvec4` (R32G32B32A32_UINT): visibility
+//! = 1 - popcount(mask) / 128. A storage buffer built once on the CPU (`edge_table`) holds,
+//! per quantised directed line, the mask of the samples left of it; a triangle's samples
+//! are the AND of its three edges' masks.
 //!
 //! ## The light
-//! The disc of docs/DESIGN.md: centre at the light position, radius R, **facing the receiver
-//! point** (`ssm` uses a square of the same area parallel to the map). Each micro-quad corner
-//! is projected from the receiver onto the disc's plane; projection from a point maps lines
-//! to lines, so each of the quad's two triangles is a triangle on the disc and the samples
-//! inside it are the AND of three half-planes.
+//! The disc of docs/DESIGN.md, radius R, **facing the receiver point** (`ssm` uses a square
+//! parallel to the map). Each micro-quad corner is projected from the receiver onto the
+//! disc's plane; lines stay lines, so each of the quad's two triangles is a triangle on the
+//! disc and its samples are the AND of three half-planes.
 //!
 //! ## R = 0
-//! A point light has no penumbra to sample: the masks would hold all or nothing, a hard
-//! shadow at the occluder map's resolution (256² by default), looked up without `hard`'s
-//! normal offset. So at R = 0 (the radius in effect when the technique is created) both
-//! forms *are* `hard` (src/technique/hard.rs: its D32 pass and comparison lookup, under
-//! this technique's name: `ssm-bitmask/shadow_map`, `ssm-bitmask/final`), as every
-//! accurate form gives exactly `hard` at R = 0 (tests/ssm_bitmask.rs).
-//!
-//! ## The edge table (a storage buffer, built once on the CPU, `edge_table`)
-//! 512 rows (line direction phi = (row + 1/2) pi / 512, canonical directions only: +y, or +x
-//! when horizontal) x 256 columns (signed distance of the line from the disc centre, (col +
-//! 1/2) 2 / 256 - 1, in disc radii): the `uvec4` mask of the samples strictly left of the
-//! directed line, 2 MiB. A shader takes a line in its canonical direction and the complement
-//! for the other side, so the two triangles that share an edge split the samples near it
-//! exactly, whatever the table's rounding: no sample falls between two micro-quads, none is
-//! counted twice (counting twice would be harmless in a union, but it is not needed). Table
-//! rounding moves each edge by at most pi/1024 radians and 1/256 disc radius; unbiased.
+//! A point light has no penumbra to sample (the masks would hold a hard shadow at the
+//! occluder map's resolution), so at R = 0 (the radius in effect at creation) both forms
+//! *are* `hard` (src/technique/hard.rs, under this technique's name:
+//! `ssm-bitmask/shadow_map`, `ssm-bitmask/final`), as every accurate form is at R = 0
+//! (tests/ssm_bitmask.rs).
 //!
 //! ## Micro-quads (the gap closing), and the dilation constant
 //! The micro-quad of texel (i, j) spans the texel's square of the map, as the paper's micro-
@@ -52,30 +41,26 @@
 //! `CONNECT_TEXELS` = 4 texels of depth slope (surfaces up to ~76 degrees from the map's
 //! image plane). Neighbouring quads of one surface share corners, so their back-projections
 //! meet exactly; at a silhouette or a larger depth step the corner keeps the texel's depth,
-//! so the quad ends at the texel's edge (the occluder is not eroded by half a texel, and R =
-//! 0 is `ssm` and `hard`). There is no dilation of the back-projections: the dilation constant
-//! is 0, the gaps are closed by the shared corners and the table's complementary halves.
+//! so the quad ends at the texel's edge (the occluder is not eroded by half a texel). The
+//! dilation constant is 0: the shared corners and the table's complementary halves close
+//! the gaps.
 //!
 //! ## Passes, in order (`ssm2-bitmask` names its passes `ssm2-bitmask/...`)
-//! 1. `ssm-bitmask/occluder_map` — as ssm's: `gpu::passes::ShadowMap`, R32G32_SFLOAT, clear
-//!    1e30, blend MIN; r = nearest caster depth.
-//! 2. `ssm2-bitmask/back_occluder_map` (two-sided only) — as ssm2's: R32_SFLOAT clear 1e30 +
-//!    D32_SFLOAT clear 0.0, compare GREATER, no culling: the farthest caster surfaces.
-//! 3. `ssm-bitmask/receiver_map` — as ssm's: two R32_SFLOAT layers (nearest receiver,
-//!    nearest pure receiver), clear 1e30, blend MIN (`glsl/ssm/receiver_*.frag`).
-//! 4. `ssm-bitmask/receiver_bound` — as ssm's: z_max of both layers into a storage buffer
-//!    (`glsl/ssm/receiver_bound.comp`).
-//! 5. `ssm-bitmask/micro_patch_step` — as ssm's (`glsl/ssm/patch_step.comp`) with this
-//!    form's extents: the side s of the texel blocks drawn as one micro-quad, 1 unless the
-//!    quads would shade more than N^4 / 64 fragments (then a `warning:` line names the bound).
+//! 1-4. As ssm's (src/technique/ssm_common.rs): `ssm-bitmask/occluder_map` (nearest caster
+//!    depth), `ssm2-bitmask/back_occluder_map` (two-sided only: the farthest caster
+//!    surfaces), `ssm-bitmask/receiver_map` (two R32_SFLOAT layers: nearest receiver,
+//!    nearest pure receiver) and `ssm-bitmask/receiver_bound` (z_max).
+//! 5. `ssm-bitmask/micro_patch_step` — as ssm's (speed::ssm) with this form's extents: the
+//!    side s of the texel blocks drawn as one micro-quad, 1 unless the quads would shade
+//!    more than N^4 / 64 fragments (then a `warning:` line names the bound).
 //! 6. `ssm-bitmask/soft_shadow` — one instanced draw of N^2 instances x 4 vertices (triangle
 //!    strip), no vertex buffer. Two colour attachments R32G32B32A32_UINT (layer 0, layer 1),
 //!    clear 0, **logic op OR** (the `logicOp` device feature; blending off).
 //!    `glsl/ssm_bitmask/soft_shadow.vert` reads the occluder map's 3x3 neighbourhood and
 //!    writes the texel, its four corner depths and its reach (flat), drawing the penumbra
-//!    extent grown by h = R' N / (2 tan(fov/2)) (1/z_near - 1/z_max) texels. R' =
-//!    `EXTENT_MARGIN` R / cos(alpha): a disc facing the receiver is R wide across the line to the light's centre
-//!    and R / cos(alpha) in the map's plane, alpha that line's angle to the light's axis,
+//!    extent grown by h = R' N / (2 tan(fov/2)) (1/z_near - 1/z_max) texels. R' = `EXTENT_MARGIN`
+//!    R / cos(alpha): a disc facing the receiver is R wide across the line to the light's
+//!    centre and R / cos(alpha) in the map's plane, alpha that line's angle to the light's axis,
 //!    bounded over the receivers the quad can reach (at most sqrt(1 + 2 tan^2(fov/2)) at the
 //!    frustum's corner). `glsl/ssm_bitmask/soft_shadow.frag` reads both receiver layers at
 //!    its texel, the bound and the edge table; per layer it skips quads within the self-
@@ -89,34 +74,24 @@
 //!    same masks (ssm2 keeps two maps and takes their max, an approximation a union does not
 //!    need).
 //! 8. `ssm-bitmask/final` — `FinalPass` with `glsl/ssm_bitmask/final.frag` (both forms): as
-//!    ssm's final pass (2x2 footprint of the receiver map and the masks, layer 0 for the
-//!    texel's own receiver, layer 1 behind it, bilinear weights) but the footprint is read at
-//!    the point itself, **not at a normal-offset point**: a mask holds the visibility of the
-//!    receiver at its texel's centre, and ssm's offset of 2 occluder texels shifts every
-//!    penumbra by a fraction of a texel (on `fence`, whose rails are two texels tall, that
-//!    alone is most of ssm's error). Only the depth that picks the layer is the offset
-//!    point's, so a caster's own steep surface is not taken for something behind its
-//!    texel's receiver. Each texel's occlusion = popcount / 128, visibility = 1 - occlusion.
+//!    ssm's (2x2 footprint of the receiver map and the masks, layer 0 for the texel's own
+//!    receiver, layer 1 behind it, bilinear weights) but read at the point itself, **not at
+//!    a normal-offset point**: a mask holds the visibility at its texel's centre (ssm's
+//!    offset shifts every penumbra: most of its error on `fence`). Only the depth that picks
+//!    the layer is the offset point's. Occlusion = popcount / 128, visibility = 1 - it.
 //!
 //! ## Frame constants
-//! `frame.technique` as ssm's (N, 1/N, guard) but for its first slot (ssm's L), which holds
-//! 1 / `SAMPLES`; `frame.technique2` = (R, R' = `EXTENT_MARGIN` R sqrt(1 + 2 tan^2(fov/2)),
-//! connect texels, edge-table rows): glsl/ssm_bitmask/constants.glsl. The shaders take the
-//! sample count and the margin from these slots only.
+//! `frame.technique` as ssm's but its first slot holds 1 / `SAMPLES`; `frame.technique2` =
+//! (R, R' = `EXTENT_MARGIN` R sqrt(1 + 2 tan^2(fov/2)), connect texels, edge-table rows):
+//! glsl/ssm_bitmask/constants.glsl, the shaders' only source of both numbers.
 //!
 //! ## Cost
 //! As ssm's: N^2 quads times their extents in `soft_shadow`, each fragment up to ten table
 //! reads (five edges per receiver layer, one when both layers are the same surface); the
-//! back-face pass nearly doubles it for ssm2-bitmask. The final pass reads four masks instead
-//! of ssm's gathers. On lavapipe (bunny, 512^2 image, one frame, 2 shared cores) the
-//! micro-quad pass costs about 5x ssm's micro-patch pass (larger extents: the disc faces the
-//! receiver; ten times the fragment work), the frame about 3x ssm's and 11x hard's.
-//!
-//! Accuracy is then limited by the occluder map's resolution (`--occluder-res`, 256 by
-//! default, shared with ssm): at 512 mae_lit is at most pcss's on cylinder, bunny, primitives
-//! and fence (tests/ssm_bitmask.rs), but the micro-quad pass grows as N^4 (N^2 quads, each
-//! extent's area in texels N^2): about 10x the 256 pass on lavapipe. Pass 5 holds it to
-//! N^4 / 64 fragments, which only narrow cones under wide lights reach (tests/ssm_bitmask.rs).
+//! back-face pass nearly doubles it for ssm2-bitmask. Accuracy is limited by the occluder
+//! map's resolution (`--occluder-res`, shared with ssm): at 512 mae_lit is at most pcss's
+//! on cylinder, bunny, primitives and fence (tests/ssm_bitmask.rs), but the micro-quad pass
+//! grows as N^4, which pass 5 bounds. Measured figures: BENCHMARKS.md.
 //!
 //! ## Known artefacts
 //! - Only what the light's centre sees of the occluders is discretised (ssm's Sec. 5.1.1):
@@ -127,48 +102,37 @@
 //!   surfaces: a little too much occlusion behind small steps.
 //! - 128 samples: visibility in steps of 1/128, the same pattern everywhere (no noise, faint
 //!   1/128 contours in wide penumbrae).
-//! - Occluder-map aliasing at small R (ssm's Sec. 5.2.4), the receiver layers'
-//!   limits and the self-occlusion guard: as ssm.
-//! - The disc faces each receiver texel's centre, not the camera pixel's point: the
-//!   bilinear footprint blends four receivers' masks (as ssm blends four sums).
+//! - Occluder-map aliasing at small R, the receiver layers and the guard: as ssm.
+//! - The disc faces each receiver texel's centre, not the camera pixel's point.
 //! - At small R > 0, on a caster's own surface near its terminator (n.l < 0.2), the point
 //!   looked up without an offset can read the texel of the caster's nearer part and go dark
 //!   where `hard`'s offset point is lit (docs/DESIGN.md's mae_lit leaves these pixels out).
 
-use super::hard;
-use super::ssm::{ssm_uniforms, LightInputs, PatchStepReport, MAP_USAGE, SELF_GUARD_TEXELS};
+use super::hard::{self, Names as HardNames};
+use super::speed::ssm::PatchStepReport;
+use super::ssm_bitmask_table::TABLE_ANGLES;
+pub use super::ssm_bitmask_table::{edge_table, light_samples, SAMPLES};
+use super::ssm_common::{ssm_uniforms, LightInputs, MAP_USAGE, SELF_GUARD_TEXELS};
 use super::{shadow_map_buffer, FrameInput, LightBuffer, Technique, TechniqueInfo, TechniqueInit};
 use crate::gpu::passes::{FinalPass, FinalShader};
 use crate::shaders::{self, constants as k};
 use crate::vk::{
-    Blend, Buffer, BufferUsageFlags, Context, CullModeFlags, DescriptorSet, Filter, Format,
+    Blend, Buffer, BufferUsageFlags, Clear, Context, CullModeFlags, DescriptorSet, Filter, Format,
     GraphicsPipelineDesc, Image, Pipeline, PrimitiveTopology, Recorder, Resource, Sampler,
 };
 use anyhow::{bail, Context as _, Result};
-use glam::Vec2;
-use std::sync::OnceLock;
 
 pub const INFO: TechniqueInfo = TechniqueInfo {
     name: "ssm-bitmask",
     summary: "soft shadow map with exact occlusion: micro-quads OR a 128-sample light bitmask (Schwarz & Stamminger 2007)",
-    create: create_one_sided,
+    create: |init| create_either(init, false),
 };
 
 pub const INFO2: TechniqueInfo = TechniqueInfo {
     name: "ssm2-bitmask",
     summary: "two-sided ssm-bitmask: front and back micro-quads ORed into one light bitmask",
-    create: create_two_sided,
+    create: |init| create_either(init, true),
 };
-
-/// Light samples, one bit each in a `uvec4` (the shaders read 1 / SAMPLES, `SSMB_INV_SAMPLES`).
-pub const SAMPLES: usize = 128;
-const _: () = assert!(SAMPLES == 4 * 32, "one bit per sample of a uvec4 mask");
-
-/// Rows of the edge table: line directions over [0, pi).
-const TABLE_ANGLES: usize = 512;
-
-/// Columns of the edge table: signed distances from the disc centre over [-1, 1] radii.
-const TABLE_DISTANCES: usize = 256;
 
 /// Neighbouring occluder texels whose depths differ by at most this many texels of depth
 /// slope are one surface, and their micro-quads share corners.
@@ -188,72 +152,23 @@ fn extent_radius(frame: &FrameInput<'_>) -> f32 {
 /// The mask format: 128 bits.
 const MASK_FORMAT: Format = Format::R32G32B32A32_UINT;
 
-fn create_one_sided(init: &TechniqueInit<'_>) -> Result<Box<dyn Technique>> {
-    create_either(init, false)
-}
-
-fn create_two_sided(init: &TechniqueInit<'_>) -> Result<Box<dyn Technique>> {
-    create_either(init, true)
-}
-
 /// At R = 0 `hard` under this technique's name (module header, "R = 0"), else the soft
 /// shadow map.
 fn create_either(init: &TechniqueInit<'_>, two_sided: bool) -> Result<Box<dyn Technique>> {
     if init.settings.radius_for(init.scene) == 0.0 {
-        let names = if two_sided {
-            hard::Names {
-                technique: INFO2.name,
-                shadow_map: "ssm2-bitmask/shadow_map",
-                final_pass: "ssm2-bitmask/final",
+        let names = super::pass_names!(
+            HardNames {
+                shadow_map: "shadow_map",
+                final_pass: "final"
+            },
+            match two_sided {
+                false => "ssm-bitmask",
+                true => "ssm2-bitmask",
             }
-        } else {
-            hard::Names {
-                technique: INFO.name,
-                shadow_map: "ssm-bitmask/shadow_map",
-                final_pass: "ssm-bitmask/final",
-            }
-        };
+        );
         return Ok(Box::new(hard::Hard::create(init, names)?));
     }
     Ok(Box::new(SsmBitmask::create(init, two_sided)?))
-}
-
-/// The light samples on the unit disc: a golden-angle spiral, equal area per sample.
-pub fn light_samples() -> Vec<Vec2> {
-    let golden = std::f32::consts::PI * (3.0 - 5f32.sqrt());
-    (0..SAMPLES)
-        .map(|k| {
-            let r = ((k as f32 + 0.5) / SAMPLES as f32).sqrt();
-            let a = k as f32 * golden;
-            Vec2::new(r * a.cos(), r * a.sin())
-        })
-        .collect()
-}
-
-/// The edge table (row-major, `TABLE_ANGLES` x `TABLE_DISTANCES`): for the line of direction
-/// (cos phi, sin phi) at signed distance d from the centre (its left normal n = (-sin phi,
-/// cos phi), the line = {x : n.x = d}), the samples with n.s > d, bit k of the mask.
-pub fn edge_table() -> &'static [[u32; 4]] {
-    static TABLE: OnceLock<Vec<[u32; 4]>> = OnceLock::new();
-    TABLE.get_or_init(|| {
-        let samples = light_samples();
-        let mut table = Vec::with_capacity(TABLE_ANGLES * TABLE_DISTANCES);
-        for row in 0..TABLE_ANGLES {
-            let phi = (row as f32 + 0.5) / TABLE_ANGLES as f32 * std::f32::consts::PI;
-            let n = Vec2::new(-phi.sin(), phi.cos());
-            for col in 0..TABLE_DISTANCES {
-                let d = (col as f32 + 0.5) * 2.0 / TABLE_DISTANCES as f32 - 1.0;
-                let mut mask = [0u32; 4];
-                for (k, s) in samples.iter().enumerate() {
-                    if n.dot(*s) > d {
-                        mask[k / 32] |= 1 << (k % 32);
-                    }
-                }
-                table.push(mask);
-            }
-        }
-        table
-    })
 }
 
 /// One occluder map's micro-quads into the two mask layers.
@@ -296,7 +211,6 @@ impl SsmBitmask {
             occluder,
             back,
             receivers,
-            bound,
             ..
         } = &inputs;
 
@@ -310,11 +224,9 @@ impl SsmBitmask {
                 MAP_USAGE,
                 &format!("{name} light-sample mask ({what})"),
             )
+            .context("ssm-bitmask masks")
         };
-        let masks = [
-            mask("front").context("ssm-bitmask masks")?,
-            mask("pure").context("ssm-bitmask masks")?,
-        ];
+        let masks = [mask("front")?, mask("pure")?];
         let table = Buffer::with_data(
             ctx,
             bytemuck::cast_slice(edge_table()),
@@ -324,33 +236,16 @@ impl SsmBitmask {
         .context("ssm-bitmask edge table")?;
         let quads = |map: &Image, pass: &str| -> Result<QuadPass> {
             let name = format!("{name}/{pass}");
-            let set = DescriptorSet::new(
-                ctx,
-                &[
-                    ("frame", Resource::Uniform(init.ubo)),
-                    ("occluder_map", Resource::Sampled(map, &nearest)),
-                    (
-                        "receiver_front",
-                        Resource::Sampled(&receivers.layers[0], &nearest),
-                    ),
-                    (
-                        "receiver_pure",
-                        Resource::Sampled(&receivers.layers[1], &nearest),
-                    ),
-                    ("bound", Resource::Storage(&bound.buffer)),
-                    ("table", Resource::Storage(&table)),
-                ],
-                &name,
-            )?;
+            let table = Some(("table", Resource::Storage(&table)));
+            let set = inputs.patch_set(init, map, &nearest, table, &name)?;
             Ok(QuadPass { set, name })
         };
         let front = quads(&occluder.depth, "soft_shadow").context("ssm-bitmask micro-quads")?;
-        let back_quads = match back {
-            Some(b) => {
-                Some(quads(&b.depth, "soft_shadow_back").context("ssm2-bitmask back micro-quads")?)
-            }
-            None => None,
-        };
+        let back_quads = back
+            .as_ref()
+            .map(|b| quads(&b.depth, "soft_shadow_back"))
+            .transpose()
+            .context("ssm2-bitmask back micro-quads")?;
         // Both sets are defined identically, so one pipeline serves both.
         let quad_pipeline = Pipeline::graphics(
             ctx,
@@ -416,9 +311,9 @@ impl SsmBitmask {
     /// (the back faces) ORs into them.
     fn record_quads(&self, rec: &mut Recorder<'_>, quads: &QuadPass, clear: bool) {
         let clear = if clear {
-            crate::vk::Clear::Uint([0; 4])
+            Clear::Uint([0; 4])
         } else {
-            crate::vk::Clear::Load
+            Clear::Load
         };
         rec.begin_rendering(&[(&self.masks[0], clear), (&self.masks[1], clear)], None);
         rec.bind_pipeline(&self.quad_pipeline);
@@ -437,9 +332,8 @@ impl Technique for SsmBitmask {
         let [mut first, _] = ssm_uniforms(self.res, frame);
         debug_assert_eq!(first[k::SSM_SELF_GUARD_TEXELS], SELF_GUARD_TEXELS);
         first[k::SSMB_INV_SAMPLES] = 1.0 / SAMPLES as f32;
-        let r = frame.light_radius;
         let mut second = [0.0; 4];
-        second[k::SSMB_RADIUS - 4] = r;
+        second[k::SSMB_RADIUS - 4] = frame.light_radius;
         second[k::SSMB_EXTENT_RADIUS - 4] = extent_radius(frame);
         second[k::SSMB_CONNECT_TEXELS - 4] = CONNECT_TEXELS;
         second[k::SSMB_LUT_ANGLES - 4] = TABLE_ANGLES as f32;
@@ -511,16 +405,13 @@ impl Technique for SsmBitmask {
         out.extend(self.inputs.receivers.buffers());
         // The masks, read back as the fraction of the 128 samples hidden
         // (`Renderer::read_technique_buffer` decodes an RGBA32UI mask so).
-        out.push(LightBuffer {
-            name: "soft_shadow",
-            image: &self.masks[0],
+        let mask = |name, image| LightBuffer {
+            name,
+            image,
             channels: &["occluded_fraction"],
-        });
-        out.push(LightBuffer {
-            name: "soft_shadow_pure",
-            image: &self.masks[1],
-            channels: &["occluded_fraction"],
-        });
+        };
+        out.push(mask("soft_shadow", &self.masks[0]));
+        out.push(mask("soft_shadow_pure", &self.masks[1]));
         if let Some(b) = &self.inputs.back {
             out.push(b.buffer());
         }

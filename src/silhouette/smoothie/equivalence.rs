@@ -42,6 +42,7 @@ fn light_at(position: Vec3, target: Vec3) -> LightView {
             target,
             fov_deg: 60.0,
             radius: 0.2,
+            kind: crate::scene::LightKind::Spot,
         },
         0.1,
         50.0,

@@ -942,6 +942,7 @@ mod tests {
                 target: glam::Vec3::ZERO,
                 fov_deg: 60.0,
                 radius: 0.2,
+                kind: crate::scene::LightKind::Spot,
             },
             0.1,
             20.0,

@@ -7,18 +7,18 @@
 //! A technique may use it when its final shader gives exactly 1 wherever every texel it
 //! reads holds the buffer's clear value ("far"): `smoothies` and `smoothies-centred` (their
 //! smoothies' reach, which holds the caster's silhouette vertices and so its projection,
-//! in place of the box where it can: `SmoothieRecords::holds_caster`), `pcss`, `pcss-fast`
-//! and `pcss-walk` (the blocker search finds nothing and returns 1 before any filter),
+//! in place of the box where it can: `SmoothieRecords::holds_caster`), `pcss` (the
+//! blocker search finds nothing and returns 1 before any filter),
 //! `penumbra-map` and `penumbra-map-centred` (their cones' and sheets' vertices, with the
 //! box only where a silhouette vertex got no cone, whose tip would hold it; `bilinear_lit`
 //! in glsl/common/shadow.glsl makes four lit texels exactly 1), `pcf` (its kernel's
 //! reach; every texel lit gives exactly 1), and `plateaus` and `plateaus-centred` (the
 //! plateau texture holds 1 outside the drop shadows and plateaus, whose plane polygons
-//! join the casters' outlines: `Plateaus::shadow_regions`).
+//! join the casters' outlines: `speed::plateaus`).
 
-use super::FrameInput;
 use crate::frustum::PixelBox;
 use crate::gpu::passes::{rect_of, MapArea, Receivers, Shadowed};
+use crate::gpu::FrameInput;
 use crate::vk::Rect2D;
 use glam::{Mat4, Vec2, Vec3, Vec4};
 use rayon::prelude::*;
@@ -208,8 +208,8 @@ pub fn silhouette_areas(
     (MapArea { all, receivers }, render_area(geometry_area))
 }
 
-/// Where a technique reading only a casters' buffer can see a caster (`pcf`, `pcss`,
-/// `pcss-fast`, `pcss-walk`): each caster's outline, the support of its vertices as the
+/// Where a technique reading only a casters' buffer can see a caster (`pcf`, `pcss`):
+/// each caster's outline, the support of its vertices as the
 /// light projects them, kept until the caster or the light moves. A projected triangle
 /// lies in its vertices' hull, so that polygon holds every texel the caster writes; it is
 /// tighter than the caster's projected box wherever the shape fills little of its box
@@ -348,6 +348,11 @@ pub fn shadowed(
     let Some(margin) = lookup_margin(frame, res, reach_texels) else {
         return Shadowed::Everywhere;
     };
+    // The regions are the light's perspective frustum over each polygon (clip w as depth):
+    // a sun's orthographic map runs the shader everywhere instead.
+    if frame.light.sun.is_some() {
+        return Shadowed::Everywhere;
+    }
     let m = frame.light.view_proj;
     let (x, y, w) = (m.row(0), m.row(1), m.row(3));
     let dirs = directions();
@@ -432,8 +437,8 @@ mod tests {
                 .trim_end_matches(';');
             value.parse().unwrap_or_else(|_| panic!("{name}: {value}"))
         };
-        let march = include_str!("../../glsl/common/inner_march.glsl");
-        let receiver = include_str!("../../glsl/common/inner_receiver.glsl");
+        let march = include_str!("../../../glsl/common/inner_march.glsl");
+        let receiver = include_str!("../../../glsl/common/inner_receiver.glsl");
         let reach = constant(march, "OUT_TEXELS") + constant(receiver, "PLANE_TEXELS");
         assert!(reach > 0.0, "{reach}");
         assert!(

@@ -1,0 +1,350 @@
+//! Speed layer of `smoothies` and `smoothies-centred` (src/technique/smoothies.rs,
+//! smoothies_centred.rs). None of it is the technique; `--plain` turns each part off and
+//! gives the same image (tests/plain.rs, tests/avoided_work.rs).
+//!
+//! - `CpuSmoothies`, the CPU path's geometry: per caster the silhouette and the compact
+//!   smoothie records (`silhouette::smoothie::records`, the optimised form of the reference
+//!   construction `build_smoothies_width`), kept until the caster or the light moves
+//!   (`CasterCacheOf`; rebuilt every frame without `cache_light_passes`), expanded into
+//!   `SmoothieVertex` triangles and uploaded side by side (outer, then the centred form's
+//!   inner) to host-visible vertex buffers.
+//! - Shortened smoothies (`extents`): the triangles stop where every fragment further out is
+//!   discarded. The paper form's outer side at t (1 - b / Z) plus a texel, Z the deepest
+//!   surface under the full-width smoothies' box (`regions::deepest_surface`), since the
+//!   receiver depth r <= Z (`records::Extent`; an edge takes its nearer end's b at both
+//!   ends, as b is convex along it): a blocker resting on its receiver saturates Eq. 1 close
+//!   to the silhouette. The centred form's inner side at the farthest receiver an inner
+//!   fragment can find (`inner_extent_depth`). The same image up to the rounding of t and
+//!   1/b interpolated over other triangles. Off without `light_areas`: full width t.
+//! - Light areas (`Areas::light_areas`, `regions::silhouette_areas`): the smoothie buffer
+//!   is cleared and drawn only where this frame's smoothies can reach (each vertex record's
+//!   uv plus and minus its reach, `SmoothieRecords::uv_bounds`) joined with last frame's;
+//!   the shadow map over the casters' texels beyond their smoothies' and where the smoothie
+//!   pass reads g (the centred form's grown by `regions::INNER_RECEIVER_TEXELS`), the
+//!   objects that receive but cast nothing only there. Every texel read holds what the
+//!   whole passes write. The GPU path's geometry is known only on the device: whole
+//!   buffers. Off without `light_areas`.
+//! - Split final pass (`Areas::shadowed`, `regions::shadowed`, `FinalPass::split`): per
+//!   caster a 16-sided light-uv polygon around its smoothies' reach, which holds the
+//!   caster's own projection when every silhouette edge was kept
+//!   (`SmoothieRecords::holds_caster`; else its box's projected corners are added); the
+//!   final shader runs only over the receivers' parts inside the light frustum over those
+//!   polygons, glsl/common/unshadowed.frag (visibility 1, no lookup) elsewhere: outside
+//!   them every lookup reads "far" and v is exactly 1. The paper form cuts a light mesh
+//!   into `PAPER_SPLIT_BANDS` rows (its lookup is cheap against a draw per part). Off
+//!   under `--plain`: one full-screen pass.
+
+use super::regions::{self, LastDrawn, Support};
+use crate::frustum::PixelBox;
+use crate::gpu::passes::{CasterCacheOf, DynamicVertices, MapArea, Shadowed};
+use crate::gpu::FrameInput;
+use crate::scene::LightView;
+use crate::silhouette::smoothie::records::{build_records, Extent, SmoothieRecords};
+use crate::silhouette::smoothie::{GeometryKey, SmoothieVertex, Width};
+use crate::silhouette::{self, Adjacency, Side};
+use crate::vk::{Context, Rect2D};
+use anyhow::Result;
+use glam::Vec2;
+use rayon::prelude::*;
+use std::sync::Arc;
+
+/// Rows the paper form's split final pass cuts a ground into (`FinalPass::with_bands`),
+/// not the default 8: its lookup (three gathers) costs little against a draw per part
+/// (docs/notes/engine-like-frames.md). `pcss`, whose lookup is several times dearer, gained
+/// nothing from fewer rows.
+pub const PAPER_SPLIT_BANDS: u32 = 2;
+
+/// The farthest receiver depth z_r an inner fragment of the centred form can find
+/// (glsl/common/inner_receiver.glsl): a depth the shadow map holds, at most the light's
+/// far plane, extrapolated by at most PLANE_LIMIT (5 %); 0.1 % more for the rounding of
+/// the stored depths. Its penumbra's half-width t (1 - b / z_r) is then at most
+/// t (1 - b / Z), and every fragment beyond is discarded, so the inner smoothies are drawn
+/// only that far (`Extent`; the same image up to the rounding of the interpolated t and
+/// 1/b).
+fn inner_extent_depth(light: &LightView) -> f32 {
+    light.far * (1.0 + regions::INNER_PLANE_LIMIT) * 1.001
+}
+
+/// One caster's smoothies on the CPU path: records rebuilt when it or the light moves,
+/// triangles also when the extent they were expanded with changes.
+struct CasterSmoothies {
+    /// The compact construction (`silhouette::smoothie::records`), which the regions
+    /// bound (`SmoothieRecords::uv_support`, `holds_caster`).
+    records: SmoothieRecords,
+    /// Its triangle lists (`SmoothieRecords::expand_side`): the outer side (the paper
+    /// form's shortened by `outer_extent`), then (centred form; empty in the paper form)
+    /// the inner side, shortened by `inner_extent_depth`.
+    sides: [Vec<SmoothieVertex>; 2],
+    /// The outer and inner extents `sides` were expanded with; `None` after a rebuild.
+    expanded: Option<[Extent; 2]>,
+    /// The full-width smoothies' light-uv box (`SmoothieRecords::uv_bounds`), from the
+    /// records: where `outer_extent` looks for the deepest surface.
+    full_box: Option<(Vec2, Vec2)>,
+    /// The box and the support (`regions::directions`) of the triangles in `sides`' outer
+    /// side, from the records and its extent: where the smoothie pass draws
+    /// (`Areas::light_areas`) and the final pass looks (`shadow_regions`). Kept with
+    /// `sides`, so a frame that moves nothing computes neither.
+    drawn_box: Option<(Vec2, Vec2)>,
+    drawn_support: Option<Support>,
+}
+
+/// The CPU path's smoothies: per caster, what it was built for (model, light key), so that
+/// a frame rebuilds only the casters that moved; every caster's outer triangles, then
+/// (centred form) every caster's inner ones, in host-visible vertex buffers.
+pub struct CpuSmoothies {
+    cache: CasterCacheOf<GeometryKey, CasterSmoothies>,
+    vertices: [DynamicVertices; 2],
+}
+
+impl CpuSmoothies {
+    /// One cache slot per scene object.
+    pub fn new(objects: usize) -> Self {
+        Self {
+            cache: CasterCacheOf::new(objects),
+            vertices: [
+                DynamicVertices::new("smoothie vertices"),
+                DynamicVertices::new("inner smoothie vertices"),
+            ],
+        }
+    }
+
+    /// Silhouettes and smoothie records of every caster that moved (or of all of them when
+    /// the light changed, or `force`) for this light, then the triangles of every caster
+    /// rebuilt or whose extents changed (`extents`), the inner side only when `centred`,
+    /// in a side-`res` buffer; returns how many were rebuilt.
+    pub fn build(
+        &mut self,
+        frame: &FrameInput<'_>,
+        adjacency: &[Option<Arc<Adjacency>>],
+        width: Width,
+        force: bool,
+        centred: bool,
+        res: u32,
+    ) -> usize {
+        let light = frame.light;
+        let rebuilt = self.cache.update(
+            &frame.scene.objects,
+            adjacency,
+            GeometryKey::new(light, width),
+            force,
+            |adj, model| {
+                let sil = silhouette::extract(adj, model, light.position);
+                let records = build_records(adj, &sil, model, light, width);
+                CasterSmoothies {
+                    full_box: records.uv_bounds(Extent::FULL),
+                    records,
+                    sides: Default::default(),
+                    expanded: None,
+                    drawn_box: None,
+                    drawn_support: None,
+                }
+            },
+        );
+        let extents = self.extents(frame, centred, res);
+        self.cache.par_values_mut().for_each(|c| {
+            if c.expanded == Some(extents) {
+                return;
+            }
+            let [outer, inner_side] = &mut c.sides;
+            outer.clear();
+            inner_side.clear();
+            c.records.expand_side(Side::Outer, extents[0], outer);
+            if centred {
+                c.records.expand_side(Side::Inner, extents[1], inner_side);
+            }
+            c.expanded = Some(extents);
+            c.drawn_box = c.records.uv_bounds(extents[0]);
+            c.drawn_support = c.records.uv_support(&regions::directions(), extents[0]);
+        });
+        rebuilt
+    }
+
+    /// Uploads every cached caster's triangles, the outer sides into one vertex buffer and
+    /// the inner ones into another.
+    pub fn upload(&mut self, ctx: &Context) -> Result<()> {
+        for (side, buffer) in self.vertices.iter_mut().enumerate() {
+            buffer.upload(ctx, &self.cache.concat_by(|c| &c.sides[side]))?;
+        }
+        Ok(())
+    }
+
+    /// Each side's vertex buffer, outer then inner.
+    pub fn sides(&self) -> impl Iterator<Item = &DynamicVertices> {
+        self.vertices.iter()
+    }
+
+    /// The extents of the outer and the inner smoothies this frame (the file header): full
+    /// width without `light_areas`, and for the centred form's outer side.
+    fn extents(&self, frame: &FrameInput<'_>, centred: bool, res: u32) -> [Extent; 2] {
+        let pad = 1.0 / res as f32;
+        let areas = frame.settings.light_areas;
+        let outer = match centred {
+            false if areas => self.outer_extent(frame, pad),
+            _ => Extent::FULL,
+        };
+        let inner = if areas {
+            Extent::at_most(inner_extent_depth(frame.light), pad)
+        } else {
+            Extent::FULL
+        };
+        [outer, inner]
+    }
+
+    /// The paper form's outer smoothies, shortened to where Eq. 1 saturates for the
+    /// deepest receiver they can find (`records::Extent`): the deepest surface under the
+    /// full-width smoothies' box (`regions::deepest_surface`), 0.1 % more for the rounding
+    /// of the stored depths, rounded up to its grid (`Extent::at_most`) so that a moving
+    /// object leaves the other casters' triangles alone while the bound holds. Where that
+    /// depth is not known, the full width.
+    fn outer_extent(&self, frame: &FrameInput<'_>, pad: f32) -> Extent {
+        // Each caster's full-width box inside the map (a caster outside the light's view
+        // adds nothing, culled or not).
+        let full = self
+            .cache
+            .iter()
+            .filter_map(|c| c.full_box)
+            .map(|(lo, hi)| (lo.max(Vec2::ZERO), hi.min(Vec2::ONE)))
+            .filter(|(lo, hi)| lo.cmple(*hi).all())
+            .reduce(|(a, b), (c, d)| (a.min(c), b.max(d)));
+        let Some(deepest) = full.and_then(|(lo, hi)| {
+            // The texel a fragment's centre lies in, beyond the box by rounding.
+            regions::deepest_surface(frame, lo - pad, hi + pad)
+        }) else {
+            return Extent::FULL;
+        };
+        Extent::at_most(deepest * 1.001, pad)
+    }
+}
+
+/// What the smoothie pass draws this frame, for `Areas::light_areas`.
+pub enum Drawn<'a> {
+    /// No smoothie (t = 0).
+    Nothing,
+    /// The GPU path's smoothies, known only on the device.
+    Gpu,
+    /// The CPU path's.
+    Cpu(&'a CpuSmoothies),
+}
+
+impl Drawn<'_> {
+    /// Caster `i`'s smoothies, when they are drawn from the CPU path's cache.
+    fn caster(&self, i: usize) -> Option<&CasterSmoothies> {
+        match self {
+            Drawn::Cpu(cpu) => cpu.cache.get(i),
+            _ => None,
+        }
+    }
+}
+
+/// Where the light passes clear and draw and where the final shader runs, kept from frame
+/// to frame: every texel outside an area must hold the clear value, so each area joins
+/// last frame's.
+pub struct Areas {
+    /// The texels the last smoothie pass may have drawn; the next pass clears them with its
+    /// own.
+    smoothie_drawn: LastDrawn,
+    /// The same for the last shadow-map pass.
+    map_drawn: LastDrawn,
+    /// Where the final pass's visibility can be below 1, from where the last light passes
+    /// can have left r or the smoothie buffer holding anything but the clear value
+    /// (`shadow_regions`, `regions::shadowed`; `Everywhere`: not known).
+    shadowed: Shadowed,
+}
+
+impl Default for Areas {
+    fn default() -> Self {
+        Self {
+            smoothie_drawn: LastDrawn::default(),
+            map_drawn: LastDrawn::default(),
+            shadowed: Shadowed::Everywhere,
+        }
+    }
+}
+
+impl Areas {
+    /// Where the final pass's shader runs (`FinalPass::pass_in`).
+    pub fn shadowed(&self) -> &Shadowed {
+        &self.shadowed
+    }
+
+    /// Where the two light-space passes clear and draw (`regions::silhouette_areas`), in
+    /// side-`res` buffers: the smoothie pass where this frame's smoothies can reach, on the
+    /// CPU path (`SmoothieRecords::uv_bounds`); the shadow map over the casters' texels of
+    /// r beyond their smoothies' (`casters_texels`) and where the smoothie pass reads g:
+    /// the smoothies' texels, grown by `grow` (the centred form's inner fragments read the
+    /// hidden receiver just outside their edge). Also sets where the final pass's shader
+    /// can give less than 1 (`shadow_regions`).
+    pub fn light_areas(
+        &mut self,
+        frame: &FrameInput<'_>,
+        res: u32,
+        grow: u32,
+        drawn: Drawn<'_>,
+    ) -> (MapArea, Rect2D) {
+        let corners = regions::caster_corner_uvs(frame);
+        let smoothies = match &drawn {
+            Drawn::Nothing => Some(PixelBox::EMPTY),
+            Drawn::Gpu => None,
+            Drawn::Cpu(cpu) => Some(
+                cpu.cache
+                    .iter()
+                    .filter_map(|c| c.drawn_box)
+                    .fold(PixelBox::EMPTY, |b, (lo, hi)| {
+                        b.union(PixelBox::of_uv(res, lo, hi))
+                    }),
+            ),
+        };
+        self.shadowed = match (smoothies, &corners) {
+            (Some(_), Some(c)) => {
+                let supports = shadow_regions(&drawn, c);
+                regions::shadowed(frame, &supports, res, 0.0)
+            }
+            _ => Shadowed::Everywhere,
+        };
+        let casters = corners.as_ref().map(|c| casters_texels(&drawn, c, res));
+        regions::silhouette_areas(
+            frame,
+            res,
+            smoothies,
+            casters,
+            grow,
+            [&mut self.smoothie_drawn, &mut self.map_drawn],
+        )
+    }
+}
+
+/// The texels of r the casters can write outside their smoothies' (which the shadow map's
+/// area holds anyway): the projected box of each caster whose records do not hold it
+/// (`SmoothieRecords::holds_caster`).
+fn casters_texels(drawn: &Drawn<'_>, corners: &[(usize, [Vec2; 8])], res: u32) -> PixelBox {
+    let beyond: Vec<_> = corners
+        .iter()
+        .filter(|(i, _)| !drawn.caster(*i).is_some_and(|c| c.records.holds_caster()))
+        .copied()
+        .collect();
+    regions::casters_box(&beyond, res)
+}
+
+/// Per caster, the light-uv polygon its texels in r and the smoothie buffer lie in: the
+/// support of its smoothies (`SmoothieRecords::uv_support`; every caster's are drawn),
+/// which holds the caster's own texels too when every silhouette edge was kept
+/// (`SmoothieRecords::holds_caster`: the convex hull of a projected mesh is its silhouette
+/// vertices'), and else of its world box's corners projected by the light (the r texels;
+/// casters in the light's frustum) as well. On `bunny` that takes the lookups from 48 % to
+/// 38 % of the area drawn (full-width smoothies): it fills little of its box.
+fn shadow_regions(drawn: &Drawn<'_>, corners: &[(usize, [Vec2; 8])]) -> Vec<Support> {
+    corners
+        .iter()
+        .filter_map(|(i, uvs)| {
+            let caster = drawn.caster(*i);
+            let smoothies = caster.and_then(|c| c.drawn_support);
+            if caster.is_some_and(|c| c.records.holds_caster()) {
+                return smoothies;
+            }
+            match (regions::support_of(uvs), smoothies) {
+                (Some(a), Some(b)) => Some(regions::union(a, b)),
+                (a, b) => a.or(b),
+            }
+        })
+        .collect()
+}

@@ -147,7 +147,7 @@ def summary(scenes):
 
 
 CENTRED = ["smoothies-centred", "penumbra-map-centred", "plateaus-centred"]
-BITMASK = ["ssm-bitmask", "ssm2-bitmask"]
+BITMASK = ["ssm-bitmask"]
 # Scenes whose frame goal for the centred forms is looser (many casters, many silhouettes).
 DENSE = ("dense", "dense-1m")
 

@@ -286,7 +286,7 @@ def interrupt_and_cliff_checks(exe, base):
     """The number of checks, and (label, problem) for each failed one, of the classes the
     main loop cannot run: an
     export signalled mid-write must remove its partial file and exit non-zero with one
-    error line; ssm-bitmask and ssm2-bitmask at 1 and 2 degree cones must render within
+    error line; ssm-bitmask at 1 and 2 degree cones must render within
     60 s, with no line on stderr but the warning that names the micro-patch work bound."""
     failures = []
     env = dict(os.environ)
@@ -321,7 +321,7 @@ def interrupt_and_cliff_checks(exe, base):
         folder = tempfile.mkdtemp(dir=base)
         with open(os.path.join(folder, "cone.toml"), "w") as fh:
             fh.write(narrow_cone(fov))
-        for t in ("ssm-bitmask", "ssm2-bitmask"):
+        for t in ("ssm-bitmask",):
             label = f"render {t} at a {fov} degree cone"
             try:
                 p = subprocess.run([exe, "render", "--scene", "cone.toml", "--technique", t, "--width",

@@ -5,7 +5,7 @@
 //! - an inner penumbra: the umbra shrinks as the light grows, as the reference's does;
 //! - thin blockers: no pixel at 0 where the reference lets more than 0.2 through;
 //! - two overlapping blockers: never lighter than the darker single-blocker image;
-//!   (these three also for the other accurate forms, `ssm-bitmask` and `ssm2-bitmask`)
+//!   (these three also for the other accurate form, `ssm-bitmask`)
 //! - R = 0: exactly `hard`;
 //! - smoothies-centred's outer smoothies, overlapping on `dense`: no speck darker than the
 //!   reference.
@@ -27,10 +27,10 @@ const FORMS: &[(&str, &str)] = &[
     ("plateaus-centred", "plateaus"),
 ];
 
-/// The other accurate forms (issue 22 item 3), held to the same umbra, thin-blocker and
-/// overlap rules as the centred forms; their paper forms' failings differ (ssm's umbra does
+/// The other accurate form (issue 22 item 3), held to the same umbra, thin-blocker and
+/// overlap rules as the centred forms; its paper form's failings differ (ssm's umbra does
 /// shrink, it leaks under thin blockers instead: tests/ssm_bitmask.rs).
-const BITMASK: &[&str] = &["ssm-bitmask", "ssm2-bitmask"];
+const BITMASK: &[&str] = &["ssm-bitmask"];
 
 /// How far below its paper form's and `hard`'s mae_lit each centred form is at least, on
 /// each of `cylinder`, `bunny`, `primitives` (160x160, default settings). Measured (paper -

@@ -1,4 +1,4 @@
-// Shared by the micro-quad pass of ssm-bitmask and ssm2-bitmask: the light frame, and the
+// Shared by the micro-quad pass of ssm-bitmask: the light frame, and the
 // light samples on one side of a line, from the edge table (src/technique/ssm_bitmask_table.rs).
 #ifndef SSM_BITMASK_GLSL
 #define SSM_BITMASK_GLSL

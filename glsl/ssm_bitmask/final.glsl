@@ -1,4 +1,4 @@
-// Final pass of ssm-bitmask and ssm2-bitmask. As ssm's (glsl/ssm/final.glsl) in its 2x2
+// Final pass of ssm-bitmask. As ssm's (glsl/ssm/final.glsl) in its 2x2
 // footprint of the receiver map: layer 0 where the point is its texel's nearest receiver,
 // layer 1 behind it, no data where the texel's receiver is behind the point. Unlike ssm's,
 // the footprint is read at the point itself, not at the normal-offset point: only the depth

@@ -24,8 +24,7 @@
 #include "ssm/ssm.glsl"
 #include "ssm_bitmask/constants.glsl"
 
-// r = the casters' linear depth: the RG32F MIN-blended shared shadow map (front surfaces),
-// or ssm2-bitmask's R32F back occluder map (farthest surfaces).
+// r = the casters' linear depth: the RG32F MIN-blended shared shadow map (front surfaces).
 layout(set = 0, binding = 1) uniform sampler2D occluder_map;
 layout(set = 0, binding = 4, std430) readonly buffer Bound { uint zmax_bits; uint step; } bound;
 

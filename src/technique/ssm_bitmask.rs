@@ -1,8 +1,6 @@
-//! # ssm-bitmask / ssm2-bitmask — soft shadow maps with exact occlusion
-//! Port sheets: docs/port/ssm-bitmask.md, docs/port/ssm2-bitmask.md
-//! Speed layer: speed::ssm (the micro-patch step, pass 5; kept under --plain, see there).
-//! Over 400 lines because the header (about 110 lines) explains the disc light, the
-//! micro-quads and the eight passes of two forms; the code is about 310 lines.
+//! # ssm-bitmask — soft shadow maps with exact occlusion
+//! Port sheet: docs/port/ssm-bitmask.md
+//! Speed layer: speed::ssm (the micro-patch step, pass 4; kept under --plain, see there).
 //!
 //! Atty et al. 2006 (`ssm`, src/technique/ssm.rs, whose header this one builds on) back-
 //! project one micro-patch per occluder-map texel onto the light and ADD the hidden areas:
@@ -13,7 +11,7 @@
 //! *Bitmask Soft Shadows*, CGF 26(3) 2007): per soft-shadow-map texel one bit per light
 //! sample, set when some micro-patch hides that sample, OR-combined; micro-quads that join
 //! neighbouring texels close the gaps. Same occluder, receiver and bound passes as `ssm`
-//! (shared code: `ssm_common::LightInputs`, passes 1-5 of both).
+//! (shared code: `ssm_common::LightInputs`, its passes 1-5 but the back occluder map of the two-sided `ssm2`).
 //!
 //! ## Light samples and the edge table (src/technique/ssm_bitmask_table.rs)
 //! 128 samples on the disc light, one bit each in a `uvec4` (R32G32B32A32_UINT): visibility
@@ -29,8 +27,8 @@
 //!
 //! ## R = 0
 //! A point light has no penumbra to sample (the masks would hold a hard shadow at the
-//! occluder map's resolution), so at R = 0 (the radius in effect at creation) both forms
-//! *are* `hard` (src/technique/hard.rs, under this technique's name:
+//! occluder map's resolution), so at R = 0 (the radius in effect at creation) this form
+//! *is* `hard` (src/technique/hard.rs, under this technique's name:
 //! `ssm-bitmask/shadow_map`, `ssm-bitmask/final`), as every accurate form is at R = 0
 //! (tests/ssm_bitmask.rs).
 //!
@@ -45,15 +43,14 @@
 //! dilation constant is 0: the shared corners and the table's complementary halves close
 //! the gaps.
 //!
-//! ## Passes, in order (`ssm2-bitmask` names its passes `ssm2-bitmask/...`)
-//! 1-4. As ssm's (src/technique/ssm_common.rs): `ssm-bitmask/occluder_map` (nearest caster
-//!    depth), `ssm2-bitmask/back_occluder_map` (two-sided only: the farthest caster
-//!    surfaces), `ssm-bitmask/receiver_map` (two R32_SFLOAT layers: nearest receiver,
+//! ## Passes, in order
+//! 1-3. As ssm's (src/technique/ssm_common.rs): `ssm-bitmask/occluder_map` (nearest caster
+//!    depth), `ssm-bitmask/receiver_map` (two R32_SFLOAT layers: nearest receiver,
 //!    nearest pure receiver) and `ssm-bitmask/receiver_bound` (z_max).
-//! 5. `ssm-bitmask/micro_patch_step` — as ssm's (speed::ssm) with this form's extents: the
+//! 4. `ssm-bitmask/micro_patch_step` — as ssm's (speed::ssm) with this form's extents: the
 //!    side s of the texel blocks drawn as one micro-quad, 1 unless the quads would shade
 //!    more than N^4 / 64 fragments (then a `warning:` line names the bound).
-//! 6. `ssm-bitmask/soft_shadow` — one instanced draw of N^2 instances x 4 vertices (triangle
+//! 5. `ssm-bitmask/soft_shadow` — one instanced draw of N^2 instances x 4 vertices (triangle
 //!    strip), no vertex buffer. Two colour attachments R32G32B32A32_UINT (layer 0, layer 1),
 //!    clear 0, **logic op OR** (the `logicOp` device feature; blending off).
 //!    `glsl/ssm_bitmask/soft_shadow.vert` reads the occluder map's 3x3 neighbourhood and
@@ -69,11 +66,7 @@
 //!    mask of the samples inside the two triangles. With s > 1 instance k draws block k of
 //!    s x s texels: the bounding rectangle of its occupied texels, each corner at the depth of
 //!    the occupied texel nearest it, its guard depth the block's farthest.
-//! 7. `ssm2-bitmask/soft_shadow_back` (two-sided only) — pass 6 with the back occluder map,
-//!    loading (not clearing) the same two attachments: the back micro-quads are ORed into the
-//!    same masks (ssm2 keeps two maps and takes their max, an approximation a union does not
-//!    need).
-//! 8. `ssm-bitmask/final` — `FinalPass` with `glsl/ssm_bitmask/final.frag` (both forms): as
+//! 6. `ssm-bitmask/final` — `FinalPass` with `glsl/ssm_bitmask/final.frag`: as
 //!    ssm's (2x2 footprint of the receiver map and the masks, layer 0 for the texel's own
 //!    receiver, layer 1 behind it, bilinear weights) but read at the point itself, **not at
 //!    a normal-offset point**: a mask holds the visibility at its texel's centre (ssm's
@@ -87,17 +80,18 @@
 //!
 //! ## Cost
 //! As ssm's: N^2 quads times their extents in `soft_shadow`, each fragment up to ten table
-//! reads (five edges per receiver layer, one when both layers are the same surface); the
-//! back-face pass nearly doubles it for ssm2-bitmask. Accuracy is limited by the occluder
+//! reads (five edges per receiver layer, one when both layers are the same surface).
+//! Accuracy is limited by the occluder
 //! map's resolution (`--occluder-res`, shared with ssm): at 512 mae_lit is at most pcss's
 //! on cylinder, bunny, primitives and fence (tests/ssm_bitmask.rs), but the micro-quad pass
-//! grows as N^4, which pass 5 bounds. Measured figures: BENCHMARKS.md.
+//! grows as N^4, which pass 4 bounds. Measured figures: BENCHMARKS.md.
 //!
 //! ## Known artefacts
 //! - Only what the light's centre sees of the occluders is discretised (ssm's Sec. 5.1.1):
 //!   behind a depth discontinuity (an ear in front of the body) nothing is known, so light
-//!   seen from the disc's edge through that unknown region passes; ssm2-bitmask's back faces
-//!   fill part of it.
+//!   seen from the disc's edge through that unknown region passes. A two-sided form
+//!   (`ssm2-bitmask`, the back faces' micro-quads ORed into the same masks) filled part of
+//!   it and was removed for its cost (README).
 //! - A depth step smaller than `CONNECT_TEXELS` is bridged by a "skirt" between the two
 //!   surfaces: a little too much occlusion behind small steps.
 //! - 128 samples: visibility in steps of 1/128, the same pattern everywhere (no noise, faint
@@ -125,13 +119,7 @@ use anyhow::{bail, Context as _, Result};
 pub const INFO: TechniqueInfo = TechniqueInfo {
     name: "ssm-bitmask",
     summary: "soft shadow map with exact occlusion: micro-quads OR a 128-sample light bitmask (Schwarz & Stamminger 2007)",
-    create: |init| create_either(init, false),
-};
-
-pub const INFO2: TechniqueInfo = TechniqueInfo {
-    name: "ssm2-bitmask",
-    summary: "two-sided ssm-bitmask: front and back micro-quads ORed into one light bitmask",
-    create: |init| create_either(init, true),
+    create: create_either,
 };
 
 /// Neighbouring occluder texels whose depths differ by at most this many texels of depth
@@ -154,21 +142,18 @@ const MASK_FORMAT: Format = Format::R32G32B32A32_UINT;
 
 /// At R = 0 `hard` under this technique's name (module header, "R = 0"), else the soft
 /// shadow map.
-fn create_either(init: &TechniqueInit<'_>, two_sided: bool) -> Result<Box<dyn Technique>> {
+fn create_either(init: &TechniqueInit<'_>) -> Result<Box<dyn Technique>> {
     if init.settings.radius_for(init.scene) == 0.0 {
         let names = super::pass_names!(
             HardNames {
                 shadow_map: "shadow_map",
                 final_pass: "final"
             },
-            match two_sided {
-                false => "ssm-bitmask",
-                true => "ssm2-bitmask",
-            }
+            "ssm-bitmask"
         );
         return Ok(Box::new(hard::Hard::create(init, names)?));
     }
-    Ok(Box::new(SsmBitmask::create(init, two_sided)?))
+    Ok(Box::new(SsmBitmask::create(init)?))
 }
 
 /// One occluder map's micro-quads into the two mask layers.
@@ -185,7 +170,6 @@ pub struct SsmBitmask {
     masks: [Image; 2],
     _table: Buffer,
     front: QuadPass,
-    back_quads: Option<QuadPass>,
     quad_pipeline: Pipeline,
     final_pass: FinalPass,
     final_set: DescriptorSet,
@@ -193,10 +177,10 @@ pub struct SsmBitmask {
 }
 
 impl SsmBitmask {
-    fn create(init: &TechniqueInit<'_>, two_sided: bool) -> Result<Self> {
+    fn create(init: &TechniqueInit<'_>) -> Result<Self> {
         let ctx = init.ctx;
         let res = init.settings.occluder_res;
-        let name = if two_sided { INFO2.name } else { INFO.name };
+        let name = INFO.name;
         if !ctx.logic_op {
             bail!(
                 "{name} needs the logicOp device feature (OR-combining the light-sample masks), which {} does not offer",
@@ -205,16 +189,16 @@ impl SsmBitmask {
         }
         let nearest = Sampler::new(ctx, Filter::Nearest).context("ssm-bitmask sampler")?;
 
-        // Passes 1-5, as ssm's.
-        let inputs = LightInputs::new(init, name, two_sided, &nearest)?;
+        // Passes 1-4, as ssm's; one-sided: the back occluder map of the two-sided ssm2 is
+        // not drawn.
+        let inputs = LightInputs::new(init, name, false, &nearest)?;
         let LightInputs {
             occluder,
-            back,
             receivers,
             ..
         } = &inputs;
 
-        // Passes 6-7: the micro-quads of each occluder map into one pair of masks.
+        // Pass 6: the micro-quads of the occluder map into one pair of masks.
         let mask = |what: &str| {
             Image::new_2d(
                 ctx,
@@ -241,12 +225,6 @@ impl SsmBitmask {
             Ok(QuadPass { set, name })
         };
         let front = quads(&occluder.depth, "soft_shadow").context("ssm-bitmask micro-quads")?;
-        let back_quads = back
-            .as_ref()
-            .map(|b| quads(&b.depth, "soft_shadow_back"))
-            .transpose()
-            .context("ssm2-bitmask back micro-quads")?;
-        // Both sets are defined identically, so one pipeline serves both.
         let quad_pipeline = Pipeline::graphics(
             ctx,
             &GraphicsPipelineDesc {
@@ -266,7 +244,7 @@ impl SsmBitmask {
         )
         .context("ssm-bitmask micro-quad pipeline")?;
 
-        // Pass 8.
+        // Pass 7.
         let final_name = format!("{name}/final");
         let final_set = DescriptorSet::new(
             ctx,
@@ -299,7 +277,6 @@ impl SsmBitmask {
             masks,
             _table: table,
             front,
-            back_quads,
             quad_pipeline,
             final_pass,
             final_set,
@@ -307,14 +284,9 @@ impl SsmBitmask {
         })
     }
 
-    /// Draws one occluder map's micro-quads; the first pass clears the masks, a second
-    /// (the back faces) ORs into them.
-    fn record_quads(&self, rec: &mut Recorder<'_>, quads: &QuadPass, clear: bool) {
-        let clear = if clear {
-            Clear::Uint([0; 4])
-        } else {
-            Clear::Load
-        };
+    /// Draws the occluder map's micro-quads into the cleared masks.
+    fn record_quads(&self, rec: &mut Recorder<'_>, quads: &QuadPass) {
+        let clear = Clear::Uint([0; 4]);
         rec.begin_rendering(&[(&self.masks[0], clear), (&self.masks[1], clear)], None);
         rec.bind_pipeline(&self.quad_pipeline);
         rec.bind_sets(&self.quad_pipeline, &[&quads.set]);
@@ -362,16 +334,9 @@ impl Technique for SsmBitmask {
         }
         self.inputs.record(rec, frame, reach)?;
         rec.pass(&self.front.name, |rec| {
-            self.record_quads(rec, &self.front, true);
+            self.record_quads(rec, &self.front);
             Ok(())
-        })?;
-        if let Some(back) = &self.back_quads {
-            rec.pass(&back.name, |rec| {
-                self.record_quads(rec, back, false);
-                Ok(())
-            })?;
-        }
-        Ok(())
+        })
     }
 
     fn frame_warning(&mut self) -> Result<Option<String>> {
@@ -385,9 +350,6 @@ impl Technique for SsmBitmask {
     fn light_passes(&self) -> Vec<String> {
         let mut names = self.inputs.pass_names();
         names.push(self.front.name.clone());
-        if let Some(b) = &self.back_quads {
-            names.push(b.name.clone());
-        }
         names
     }
 
@@ -412,9 +374,6 @@ impl Technique for SsmBitmask {
         };
         out.push(mask("soft_shadow", &self.masks[0]));
         out.push(mask("soft_shadow_pure", &self.masks[1]));
-        if let Some(b) = &self.inputs.back {
-            out.push(b.buffer());
-        }
         out
     }
 }

@@ -1,4 +1,4 @@
-//! The light samples and the edge table of `ssm-bitmask` and `ssm2-bitmask`
+//! The light samples and the edge table of `ssm-bitmask`
 //! (src/technique/ssm_bitmask.rs): what the micro-quad fragment shader
 //! (glsl/ssm_bitmask/soft_shadow.frag) reads to turn a triangle on the disc light into the
 //! mask of the samples inside it.

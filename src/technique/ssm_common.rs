@@ -1,5 +1,5 @@
 //! Passes 1-4 of every soft shadow map form (`ssm`, `ssm2`, src/technique/ssm.rs, and
-//! `ssm-bitmask`, `ssm2-bitmask`, src/technique/ssm_bitmask.rs), which they share, with
+//! `ssm-bitmask`, src/technique/ssm_bitmask.rs), which they share, with
 //! pass 5 of the speed layer (speed::ssm): `LightInputs` records them in order.
 //!
 //! 1. `NAME/occluder_map` — casters from the light, front (nearest) surfaces

@@ -1,4 +1,4 @@
-//! The speed layer of the soft shadow maps (`ssm`, `ssm2`, `ssm-bitmask`, `ssm2-bitmask`):
+//! The speed layer of the soft shadow maps (`ssm`, `ssm2`, `ssm-bitmask`):
 //! the micro-patch step, pass 5 of every form (`NAME/micro_patch_step`). One patch per
 //! occluder texel (the paper) costs N^2 patches times their penumbra extents, up to N^4
 //! fragments; the step draws blocks of s x s texels as one patch once the estimate passes

@@ -1,5 +1,6 @@
 //! # hard — depth map with the hardware's 2x2 filtered comparison
 //! Port sheet: docs/port/hard.md
+//! Speed layer: none of its own; the renderer's culling and light-pass reuse — off under --plain.
 //!
 //! The baseline of the smoothie paper's Fig. 7 (Williams 1978 with the 2x2 bilinear
 //! "percentage closer" filter that shadow hardware gives for free), built as an engine

@@ -1,5 +1,6 @@
 //! # reference — ray-cast ground truth at the camera's pixels
 //! Port sheet: docs/port/reference.md
+//! Speed layer: none; the ray cast is reused on a still frame — off under --plain.
 //!
 //! docs/DESIGN.md's exact visibility: the fraction of the spherical light's disc (centre L,
 //! radius R, facing the shaded point) that the point sees, by stratified shadow rays (at least

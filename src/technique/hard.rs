@@ -14,7 +14,8 @@
 //!    depth bias, two-sided (open meshes and planes cast from both sides). Vertex:
 //!    `glsl/hard/shadow_map.vert` (the light's view-projection: the buffer holds
 //!    z = f / (f - n) * (1 - n / d) of linear depth d, near n and far f of the light).
-//!    Left in SHADER_READ_ONLY_OPTIMAL.
+//!    The barrier in front of pass 2 waits for its depth writes and moves it to
+//!    SHADER_READ_ONLY_OPTIMAL.
 //! 2. `hard/final` — every object from the camera (`gpu::passes::FinalPass`). Fragment
 //!    `glsl/hard/final.frag` samples the map through a `sampler2DShadow` (compare
 //!    LESS_OR_EQUAL, linear filter, clamp to edge) at the normal-offset point's light uv

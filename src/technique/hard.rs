@@ -13,7 +13,8 @@
 //!    test LESS, depth write on; no colour attachment, no fragment shader, no rasterizer
 //!    depth bias, two-sided (open meshes and planes cast from both sides). Vertex:
 //!    `glsl/hard/shadow_map.vert` (the light's view-projection: the buffer holds
-//!    z = f / (f - n) * (1 - n / d) of linear depth d, near n and far f of the light).
+//!    z = f / (f - n) * (1 - n / d) of linear depth d, near n and far f of the light; a
+//!    sun's orthographic map holds z = (d - n) / (f - n)).
 //!    The barrier in front of pass 2 waits for its depth writes and moves it to
 //!    SHADER_READ_ONLY_OPTIMAL.
 //! 2. `hard/final` — every object from the camera (`gpu::passes::FinalPass`). Fragment

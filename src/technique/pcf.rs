@@ -23,8 +23,9 @@
 //! ray where the plane is closer than the point (after Isidoro 2006, receiver plane depth
 //! bias; `glsl/pcf/filter.glsl`): d(uv) = d0 / (1 + g . (uv - uv0)), g = 2 tan(fov/2)
 //! (Nx, Ny) / (N . D(uv0)) with N the light-view normal and D(uv) the light ray direction
-//! ((2u-1) tan, (2v-1) tan, -1) (Eq. 3), shifted by at most a slope of 8 over the kernel
-//! radius. Without it a wide kernel reads the surface's own texels and shadows a surface
+//! ((2u-1) tan, (2v-1) tan, -1) (Eq. 3); under a sun's parallel rays d(uv) = d0 (1 - g .
+//! (uv - uv0)), g = 2 h (Nx, Ny) / (d0 (N . D)), h the map's half width. Shifted by at most
+//! a slope of 8 over the kernel radius. Without it a wide kernel reads the surface's own texels and shadows a surface
 //! that slopes away from the light. Offsets are whole texels from the point's own 2x2
 //! footprint, so box1 still compares at the point's depth: `box1` = `hard` exactly.
 //!

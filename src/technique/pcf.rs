@@ -70,7 +70,6 @@
 //! steps; the acne of `hard` on faces lit at grazing angles (shared normal offset and bias)
 //! remains, slightly smoothed.
 
-
 use super::{
     regions, shadow_map_buffer, technique_constants, FrameInput, LightBuffer, Technique,
     TechniqueInfo, TechniqueInit,

@@ -1,5 +1,6 @@
 //! # hard — depth map with the hardware's 2x2 filtered comparison
 //! Port sheet: docs/port/hard.md
+//! Speed layer: none of its own; the renderer's culling and light-pass reuse — off under --plain.
 //!
 //! The baseline of the smoothie paper's Fig. 7 (Williams 1978 with the 2x2 bilinear
 //! "percentage closer" filter that shadow hardware gives for free), built as an engine
@@ -12,8 +13,10 @@
 //!    test LESS, depth write on; no colour attachment, no fragment shader, no rasterizer
 //!    depth bias, two-sided (open meshes and planes cast from both sides). Vertex:
 //!    `glsl/hard/shadow_map.vert` (the light's view-projection: the buffer holds
-//!    z = f / (f - n) * (1 - n / d) of linear depth d, near n and far f of the light).
-//!    Left in SHADER_READ_ONLY_OPTIMAL.
+//!    z = f / (f - n) * (1 - n / d) of linear depth d, near n and far f of the light; a
+//!    sun's orthographic map holds z = (d - n) / (f - n)).
+//!    The barrier in front of pass 2 waits for its depth writes and moves it to
+//!    SHADER_READ_ONLY_OPTIMAL.
 //! 2. `hard/final` — every object from the camera (`gpu::passes::FinalPass`). Fragment
 //!    `glsl/hard/final.frag` samples the map through a `sampler2DShadow` (compare
 //!    LESS_OR_EQUAL, linear filter, clamp to edge) at the normal-offset point's light uv

@@ -1,5 +1,6 @@
 //! # pcf — percentage-closer filtering of a shadow map (Reeves, Salesin & Cook 1987)
 //! Port sheet: docs/port/pcf.md
+//! Speed layer: speed::regions (light-area-limited map, split final pass) — off under --plain.
 //!
 //! A hard shadow map filtered by a fixed kernel: the fraction of shadow-map texels around
 //! the point's light uv that are farther than the point is its visibility. The kernel's
@@ -22,8 +23,9 @@
 //! ray where the plane is closer than the point (after Isidoro 2006, receiver plane depth
 //! bias; `glsl/pcf/filter.glsl`): d(uv) = d0 / (1 + g . (uv - uv0)), g = 2 tan(fov/2)
 //! (Nx, Ny) / (N . D(uv0)) with N the light-view normal and D(uv) the light ray direction
-//! ((2u-1) tan, (2v-1) tan, -1) (Eq. 3), shifted by at most a slope of 8 over the kernel
-//! radius. Without it a wide kernel reads the surface's own texels and shadows a surface
+//! ((2u-1) tan, (2v-1) tan, -1) (Eq. 3); under a sun's parallel rays d(uv) = d0 (1 - g .
+//! (uv - uv0)), g = 2 h (Nx, Ny) / (d0 (N . D)), h the map's half width. Shifted by at most
+//! a slope of 8 over the kernel radius. Without it a wide kernel reads the surface's own texels and shadows a surface
 //! that slopes away from the light. Offsets are whole texels from the point's own 2x2
 //! footprint, so box1 still compares at the point's depth: `box1` = `hard` exactly.
 //!
@@ -31,10 +33,7 @@
 //! 1. `pcf/shadow_map` — casters from the light (`gpu::passes::ShadowMap::casters`).
 //!    Attachment: R32_SFLOAT linear depth, clear 1e30 (`FAR_DEPTH`), blend MIN, no depth
 //!    attachment; receivers are not drawn. Vertex `glsl/common/shadow_depth.vert`, fragment
-//!    `glsl/common/caster_depth.frag`.
-//!    Cleared and drawn only over the casters' projected boxes, joined with last frame's
-//!    (`regions::AroundCasters::map_area`): every texel outside holds the clear value, as in
-//!    a whole map (a porter can clear and draw the whole map: same image).
+//!    `glsl/common/caster_depth.frag`. Whole map under `--plain`; sampled by pass 2.
 //! 2. `pcf/final` — every object from the camera (`gpu::passes::FinalPass`), fragment
 //!    `glsl/pcf/final.frag`: reads the shadow map (nearest sampler, gathers) at the
 //!    normal-offset point's light uv, compares each texel with the point's linear depth
@@ -43,12 +42,8 @@
 //!    Writes colour RGBA8, no blending (the untimed AOV pass `pcf/aov` also visibility R32F,
 //!    position RGBA32F, normal RGBA16F: `FinalPass`). Where every texel the kernel reads is
 //!    lit the filter returns exactly 1 (it would be 1 only up to rounding as a weighted
-//!    sum), and beyond the kernel's reach of every caster's projected outline (the hull of
-//!    its projected vertices, `regions::AroundCasters`) every texel is the clear value. So
-//!    the timed pass (`FinalPass::split`, src/technique/speed/regions.rs, reach `reach_texels`)
-//!    runs this shader only within that reach and glsl/common/unshadowed.frag elsewhere:
-//!    the same image (tests/avoided_work.rs), for a fraction of the pass on lavapipe, which
-//!    runs every branch for every fragment.
+//!    sum): what lets the speed layer's split pass give 1 without a lookup beyond the
+//!    kernel's reach (`reach_texels`) of every caster.
 //!
 //! ## Equations: what a porter ports
 //! - Eq. 1 (the box's per-texel weights): `pcf_box` (glsl/pcf/filter.glsl).
@@ -74,11 +69,6 @@
 //! the receiver plane being flat; few Poisson samples band the penumbra into N visible
 //! steps; the acne of `hard` on faces lit at grazing angles (shared normal offset and bias)
 //! remains, slightly smoothed.
-//!
-//! ## Cost (lavapipe, 2 busy cores, 1024^2 image and map, `primitives`)
-//! Where its shader runs, `pcf/final` box3 costs about 2.3x `hard/final` (4 gathers a
-//! pixel against 1), box5 about 3x (9 gathers), poisson16 about 3.5x: on lavapipe a gather
-//! costs about as much as the rest of the final pass.
 
 use super::{
     regions, shadow_map_buffer, technique_constants, FrameInput, LightBuffer, Technique,

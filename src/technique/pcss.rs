@@ -1,5 +1,6 @@
 //! # pcss — Fernando 2005, *Percentage-Closer Soft Shadows* (SIGGRAPH sketch)
 //! Port sheet: docs/port/pcss.md
+//! Speed layer: speed::regions (light-area-limited map, split final pass) — off under --plain.
 //!
 //! A hard shadow map filtered by PCF whose kernel size follows the blocker-to-receiver
 //! distance, so penumbrae are hard where a caster touches its receiver and widen away from
@@ -29,10 +30,8 @@
 //!    Attachment: R32_SFLOAT linear depth, clear 1e30 (`FAR_DEPTH`), blend MIN, no depth
 //!    attachment; receivers are not drawn. Vertex `glsl/common/shadow_depth.vert`, fragment
 //!    `glsl/common/caster_depth.frag`.
-//!    Linear depths are what Eq. 1, 3 and 4 take.
-//!    Cleared and drawn only over the casters' projected boxes, joined with last frame's
-//!    (`regions::AroundCasters::map_area`): every texel outside holds the clear value, as in
-//!    a whole map (a porter can clear and draw the whole map: same image).
+//!    Linear depths are what Eq. 1, 3 and 4 take. Whole map under `--plain`; sampled by
+//!    pass 2 (nearest sampler, gathers).
 //! 2. `pcss/final` — every object from the camera (`gpu::passes::FinalPass`), fragment
 //!    `glsl/pcss/final.frag`, the steps in `glsl/pcss/search.glsl`. As in Fernando's
 //!    original, all three steps run in this one fragment shader (no separate blocker-search
@@ -52,17 +51,12 @@
 //!    `pcss/aov` also visibility R32F, position RGBA32F, normal RGBA16F: `FinalPass`).
 //!
 //!    Where no caster texel lies within a search's reach (`search_reach_texels`: Eq. 3 for
-//!    a receiver at infinity, clamped) the search finds nothing and v is exactly 1. So the
-//!    timed pass (`FinalPass::split`, src/technique/speed/regions.rs) runs this shader only on
-//!    the receivers' parts inside the light frustum over each caster's outline (the hull of
-//!    its projected vertices, `regions::AroundCasters`) widened by that reach, the normal
-//!    offset and a gather's footprint, and glsl/common/unshadowed.frag (no lookup)
-//!    elsewhere: the same image (tests/avoided_work.rs), for a fraction of the pass on
-//!    lavapipe, which runs every branch for every fragment, and on a GPU too, which pays
-//!    the search before it can exit.
+//!    a receiver at infinity, clamped) the search finds nothing and v is exactly 1: what
+//!    lets the speed layer's split pass give 1 without a lookup there (worth keeping on a
+//!    GPU too, which pays the search before it can exit).
 //!
 //! ## Equations: what a porter ports
-//! - Eq. 2 and 4's constants: `uniforms` here (`frame.technique`).
+//! - Eq. 2 and 4's constants: `light_uv_near` and `slots` here (`frame.technique`).
 //! - Eq. 3 (search radius): `pcss_search_radius` (glsl/pcss/search.glsl), through
 //!   `pcss_search_texels` (glsl/pcss/radii.glsl).
 //! - Step 1 (the blocker search) and the umbra and lit exits: `pcss_visibility`
@@ -100,14 +94,10 @@
 //! into visible rings (`cylinder`, far end of the shadow).
 //!
 //! ## Cost
-//! Several times `hard`'s frame on lavapipe, over the goal of 2x (BENCHMARKS.md has the
-//! measured ratios). The shadow-map pass is the shared `ShadowMap` (as `pcf`'s); the final pass
-//! dominates, and in it the blocker search: every lit pixel inside the light frustum pays
-//! SEARCH_SAMPLES gathers before it can exit, and on lavapipe one gather costs about as much
-//! as all of `hard`'s final pass. A min/max hierarchy of the shadow map that settles lit and
-//! umbra pixels before the search was tried (`pcss-fast`, and `pcss-walk`, which also walked
-//! it for the search) and removed: it saved too few warp lookups to pay for itself (git
-//! history; BENCHMARKS.md).
+//! The final pass dominates, and in it the blocker search: every lit pixel inside the light
+//! frustum pays SEARCH_SAMPLES gathers before it can exit. Measured ratios to `hard`:
+//! BENCHMARKS.md; a min/max hierarchy tried against the search, and why it went:
+//! docs/TECHNIQUES.md ("Removed").
 
 use super::{
     regions, shadow_map_buffer, technique_constants, FrameInput, LightBuffer, Technique,

@@ -34,8 +34,9 @@
 //!    `PenumbraVertex`, as the paper form), uploaded to two host-visible vertex buffers.
 //! 1. `penumbra-map-centred/shadow_map` — the shared `ShadowMap`: R32G32_SFLOAT, clear 1e30,
 //!    blend MIN, no depth attachment; r = nearest caster's linear depth, g = nearest
-//!    surface's of any role. g is read at each penumbra fragment's own texel and, for an
-//!    inner one, beside it (up to its distance inside the hard edge plus 7 texels).
+//!    surface's of any role. Pass 2 reads g at each outer fragment's own texel and, for an
+//!    inner one, 1.5 and 5.5 texels outside its edge; r (is a caster there?) 1.5 texels
+//!    outside, at its own texel and along its inward march (thin blockers, below).
 //! 2. `penumbra-map-centred/penumbra` — one rendering scope, no depth attachment, culling
 //!    off, one colour attachment, the penumbra map: R16G16B16A16_SFLOAT, clear (1, 1, 1, 1),
 //!    blend MIN; r = the outer visibility (darkest wins, the paper's rule), g = the inner
@@ -68,8 +69,9 @@
 //!    point), in front of the nearest caster: the outer visibility if the texel's foremost
 //!    surface is the point's own (the paper form's window, glsl/penumbra_map/surface.glsl),
 //!    else 1; behind it: 1 - the inner occlusion if the point is at most 5 % beyond the
-//!    farthest receiver depth of the inner values there, else 0 (a point behind a second caster, e.g. the ground under
-//!    two stacked boxes, stays in the umbra), and never more than the outer visibility.
+//!    farthest receiver depth of the inner values there, else 0 (a point behind a second
+//!    caster, e.g. the ground under two stacked boxes, stays in the umbra), and never more
+//!    than the outer visibility.
 //!    Bilinear weights as `hard`. R = 0 draws no cones or sheets: the map stays (1, 1, 1, 1),
 //!    and the result is `hard`'s exactly. Where the penumbra map holds its clear value and no
 //!    caster is in front, v is exactly 1 (`bilinear_lit`).
@@ -92,10 +94,11 @@
 //!   two blockers' overlapping outer penumbrae are never lighter than either alone (the
 //!   union of two blockers hides at least what each hides), but darker-than-both (the sum of
 //!   their occlusions) is not modelled.
-//! - Several inner wedges at a texel: the lightest (MIN of the occlusion). For a convex blocker the light that
-//!   reaches a point is at least what the nearest edge alone lets through, so MAX of the
-//!   per-edge values is a lower bound there; neighbouring edges of a curved silhouette
-//!   (nearly parallel, same side) give nearly equal values and are not counted twice.
+//! - Several inner wedges at a texel: the lightest (MIN of the occlusion). For a convex
+//!   blocker the light that reaches a point is at least what the nearest edge alone lets
+//!   through, so MAX of the per-edge values is a lower bound there; neighbouring edges of
+//!   a curved silhouette (nearly parallel, same side) give nearly equal values and are not
+//!   counted twice.
 //! - Thin blockers: a MAX over edges alone would leave a strip narrower than its penumbra
 //!   half as bright as it is. Each inner fragment marches the shadow map inward along its
 //!   normal (8 steps over w, then 3 bisections) for the blocker's far edge, d beyond the

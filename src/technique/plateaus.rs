@@ -42,15 +42,19 @@
 //!    then cones and sheets in the texture's clip space (x, y, depth), 12 bytes a vertex,
 //!    uploaded to a host-visible vertex buffer.
 //! 1. `plateaus/drop_shadow` — casters (every caster but the plane) through the matrix of (P1)
-//!    then the top-down orthographic map, clip z = 0. Attachments: `plateaus` R32_SFLOAT
-//!    penumbra fraction, clear 1.0 (lit), no blend; D32_SFLOAT, clear 1.0, LESS, write.
+//!    then the top-down orthographic map, clip z = 0. Attachments: the plateau texture,
+//!    R32_SFLOAT penumbra fraction, clear 1.0 (lit), no blend; its z-buffer D32_SFLOAT,
+//!    clear 1.0, LESS, write.
 //!    `glsl/plateaus/drop_shadow.vert` reads the scene vertices, the model push constant and
 //!    the plane UBO; `drop_shadow.frag` writes 0 and discards the parts of casters below the
-//!    plane (height interpolated perspective-correctly).
-//! 2. `plateaus/plateaus` (skipped when R = 0) — the cones and sheets into the same two
-//!    attachments (loaded): `plateau.vert` passes the clip position through, `plateau.frag`
-//!    writes its own depth as colour (Sec. 3: "use the Z-buffer depth values directly as
-//!    grayscale"), so colour and depth test agree exactly. Only the OUTER penumbra is drawn:
+//!    plane (height interpolated perspective-correctly). With the light not above the plane
+//!    nothing is drawn: the cleared texture, all lit.
+//! 2. `plateaus/plateaus` (skipped when there is nothing to draw: R = 0, the light not
+//!    above the plane, no silhouette edge) — the cones and sheets into the same two
+//!    attachments (loaded; the z-buffer is not stored after it): `plateau.vert` passes the
+//!    clip position through, `plateau.frag` writes its own depth as colour (Sec. 3: "use
+//!    the Z-buffer depth values directly as grayscale"), so colour and depth test agree
+//!    exactly. Only the OUTER penumbra is drawn:
 //!    inside the drop shadow, depth 0 always wins (Sec. 2).
 //! 3. `plateaus/shadow_map` — `ShadowMap::casters`: R32_SFLOAT, the nearest caster's linear
 //!    depth, clear 1e30, blend MIN, no depth attachment, casters only (fragment

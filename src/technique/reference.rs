@@ -1,5 +1,6 @@
 //! # reference — ray-cast ground truth at the camera's pixels
 //! Port sheet: docs/port/reference.md
+//! Speed layer: none; the ray cast is reused on a still frame — off under --plain.
 //!
 //! docs/DESIGN.md's exact visibility: the fraction of the spherical light's disc (centre L,
 //! radius R, facing the shaded point) that the point sees, by stratified shadow rays (at least
@@ -17,9 +18,11 @@
 //!    last computed frame.
 //! 2. `reference/ray_cast` (CPU): `reference::visibility_cached` at those points
 //!    (read from the on-disk cache when the same inputs were computed before).
-//! 3. `reference/upload` (CPU + a copy on the technique's command buffer): the values into
-//!    `reference visibility`, R32_SFLOAT of the camera's size, sampled in
-//!    SHADER_READ_ONLY_OPTIMAL (filled with 1 at creation so it is never undefined).
+//! 3. `reference/upload` (CPU + a copy on the technique's command buffer, submitted and
+//!    waited for): the values into `reference visibility`, R32_SFLOAT of the camera's size
+//!    (filled with 1 at creation so it is never undefined). The copy leaves it in
+//!    TRANSFER_DST_OPTIMAL; the frame's barrier in front of step 4 moves it to
+//!    SHADER_READ_ONLY_OPTIMAL for the fragment shader.
 //! 4. `reference/final` — every object from the camera (`gpu::passes::FinalPass`).
 //!    Fragment `glsl/reference/final.frag` reads the image with `texelFetch` at
 //!    `gl_FragCoord` (no filtering: one value per pixel). Writes colour RGBA8 (and, in the

@@ -76,7 +76,7 @@
 //! ## Frame constants
 //! `frame.technique` as ssm's but its first slot holds 1 / `SAMPLES`; `frame.technique2` =
 //! (R, R' = `EXTENT_MARGIN` R sqrt(1 + 2 tan^2(fov/2)), connect texels, edge-table rows):
-//! glsl/ssm_bitmask/constants.glsl, the shaders' only source of both numbers.
+//! glsl/ssm_bitmask/constants.glsl, the shaders' only source of `SAMPLES` and `EXTENT_MARGIN`.
 //!
 //! ## Cost
 //! As ssm's: N^2 quads times their extents in `soft_shadow`, each fragment up to ten table

@@ -385,6 +385,9 @@ fn normal_of(s: Surface) -> Vec3 {
 /// and the ground right under the box (projected through this file's camera) is in shadow
 /// while a ground point away from it is lit. A picture upside down, mirrored, unshadowed
 /// or shadowed in the wrong place fails.
+///
+/// Seen failing under: `encode_png` writing the rows bottom-up (`frame.color` taken by
+/// `chunks(width).rev()`): the shadowed point under the box shows the box's red.
 #[test]
 fn png_pixels_are_the_scene_seen_by_the_camera_lit_and_shadowed_where_it_puts_them() {
     let dir = scratch("png");
@@ -462,6 +465,9 @@ fn png_pixels_are_the_scene_seen_by_the_camera_lit_and_shadowed_where_it_puts_th
 /// ground's (0, 1, 0) with y = 0 positions, the box's +X, +Y and +Z faces' own axes, the
 /// tilted box's faces' normals with three distinct non-zero components. Each channel is
 /// checked on its own (only R, G and B of normal.exr).
+///
+/// Seen failing under: `stage_aovs` writing normal.exr's R, G and B all from channel 0
+/// (`p[c]` -> `p[0]`): the ground's normal reads (0, 0, 0); the same for position.exr.
 #[test]
 fn position_and_normal_exrs_hold_each_pixels_world_point_and_normal() {
     let dir = scratch("aov");
@@ -600,6 +606,10 @@ fn parse_obj(text: &str) -> Vec<Group> {
 /// and every vertex normal is the world normal: the face's unit normal on the boxes and the
 /// ground, (p - centre) / radius on the sphere. Object-space normals, or a mirrored object's
 /// winding left as it was, fail.
+///
+/// Seen failing under: `export --obj` writing the object-space normal (`nm * n` -> `n`):
+/// the turned box's normals are its own axes; and under the mirror's corner swap switched
+/// off (`flip = false`): the mirrored box's faces wind clockwise.
 #[test]
 fn export_obj_normals_point_out_and_faces_wind_counter_clockwise_also_when_mirrored() {
     let dir = scratch("export");
@@ -717,6 +727,9 @@ fn transforms_of(objects: &str) -> Vec<Mat4> {
 /// T · Rz · Ry · Rx · S · object), each right-handed: 90 about X takes +Y to +Z, 90 about Z
 /// takes +X to +Y, 90 about Y takes +Z to +X. A composed rotation with a translation and a
 /// per-axis scale matches the product written out here; X then Z differs from Z then X.
+///
+/// Seen failing under: the TOML loader turning about Z the wrong way
+/// (`from_rotation_z(-r.z)`): 90 about Z takes +X to -Y.
 #[test]
 fn toml_rotations_about_x_and_z_and_their_order_match_matrices_written_out() {
     let box_with = |r: [f32; 3]| {
@@ -805,6 +818,10 @@ fn figure(stdout: &str, name: &str) -> f64 {
 /// EXRs (docs/DESIGN.md: mean |v - v_ref| over covered pixels with v or v_ref < 0.999 whose
 /// normal faces the light's centre by n.l >= 0.2), and is above 0; ꟻLIP of the reference's
 /// PNG against itself is 0, of hard's PNG against it above 0.
+///
+/// Seen failing under: `compare` reading `--test-image` in place of `--reference-image`
+/// (ꟻLIP of hard's image is 0); and `compare` reading the reference's visibility as the
+/// test's (no shadow region left to judge: mae_lit 0 and a failing exit).
 #[test]
 fn render_aov_compare_and_flip_chain_measures_what_the_exrs_hold() {
     let dir = scratch("chain");
@@ -927,6 +944,10 @@ fn differing(a: &[u8], b: &[u8]) -> usize {
 /// Two `bench --seed 7` runs, each ray casting its own reference (empty caches), give the
 /// same reference bit for bit and the same errors in every row; `--seed 8` gives another
 /// reference, and other errors.
+///
+/// Seen failing under: the reference technique casting with the default seed whatever
+/// `--seed` says (seeds 7 and 8 cast the same reference); and the jitter hashing the
+/// process id beside the seed (two runs of seed 7 differ).
 #[test]
 fn bench_seed_reproduces_the_reference_and_errors_and_another_seed_changes_them() {
     let dir = scratch("seed");
@@ -966,6 +987,9 @@ fn bench_seed_reproduces_the_reference_and_errors_and_another_seed_changes_them(
 /// module's calibration, written out: t = R / (2 b tan(fov / 2)) in light-uv units, b the
 /// depth of the casters' centre along the light's axis, at most 0.2 (the paper's largest
 /// t); at R = 0.3 and at R = 2 (capped). The fixed row reports its fixed t.
+///
+/// Seen failing under: `Width::at` without its factor 2 (`R / (b tan)`): at R = 0.3 the
+/// bench reports twice the width the formula gives.
 #[test]
 fn bench_calibrated_smoothie_width_follows_the_light_radius_formula() {
     let dir = scratch("width");

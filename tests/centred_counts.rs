@@ -45,5 +45,8 @@ fn shortened_centred_smoothies_shade_fewer_fragments() {
     assert!(frags < 260_000, "smoothie fragments {frags}");
     assert!(warp < 470_000, "smoothie warp texels {warp}");
     let (plain_frags, _) = smoothie_pass_work(&gpu, "bunny", true);
-    assert!(plain_frags > 260_000, "plain smoothie fragments {plain_frags}");
+    assert!(
+        plain_frags > 260_000,
+        "plain smoothie fragments {plain_frags}"
+    );
 }

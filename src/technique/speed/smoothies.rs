@@ -189,7 +189,9 @@ impl CpuSmoothies {
         }
         let outer = self
             .deepest_under(frame, 0.0, pad)
-            .map_or(Extent::FULL, |deepest| Extent::at_most(deepest * 1.001, pad));
+            .map_or(Extent::FULL, |deepest| {
+                Extent::at_most(deepest * 1.001, pad)
+            });
         if !centred {
             return [outer, Extent::FULL];
         }

@@ -84,10 +84,10 @@
 //!      inner penumbra through it), when this texel is not behind a caster 1 % nearer than
 //!      Z_R, or when s = x / (t (1 - b/Z_R)) >= 1 (umbra). Else v = disc_chord(s) in
 //!      [0, 0.5], plus the thin-blocker term below; writes b = 1e30 (neutral) and
-//!      (1, 1 - v, 1 - Z_R / far, 1). Z_R is at most Z = 1.05 x the light's far plane
-//!      (a depth the map holds, extrapolated by at most 5 %), so nothing is written
-//!      beyond t (1 - b/Z) from the edge (what the speed layer's shortened inner
-//!      smoothies rely on).
+//!      (1, 1 - v, 1 - Z_R / far, 1). Z_R is at most Z = 1.05 x the deepest surface
+//!      where it reads g (a depth the map holds, extrapolated by at most 5 %), so
+//!      nothing is written beyond t (1 - b/Z) from the edge (what the speed layer's
+//!      shortened inner smoothies rely on).
 //! 3. `smoothies-centred/final` — `FinalPass` with `glsl/smoothies_centred/final.frag`:
 //!    per texel of the 2x2 footprint (textureGather of the shadow map's r, the smoothie
 //!    depth and the penumbra values' r, g, b at the normal-offset point): outer = the outer
@@ -111,7 +111,7 @@
 //!   blocker's far edge `far_edge_texels` (glsl/common/inner_march.glsl).
 //! - The final combination: `visibility` (glsl/smoothies_centred/final.frag).
 //!
-//! The speed layer may change these functions' inputs: shortened inner smoothies round t
+//! The speed layer may change these functions' inputs: shortened smoothies round t
 //! and 1/b, interpolated over other triangles, differently (visibility within 2e-4,
 //! tests/plain.rs); every other trick leaves each texel read and each shaded pixel's
 //! inputs as the whole passes give them (src/technique/speed/smoothies.rs).

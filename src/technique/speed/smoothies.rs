@@ -13,8 +13,10 @@
 //!   surface under the full-width smoothies' box (`regions::deepest_surface`), since the
 //!   receiver depth r <= Z (`records::Extent`; an edge takes its nearer end's b at both
 //!   ends, as b is convex along it): a blocker resting on its receiver saturates Eq. 1 close
-//!   to the silhouette. The centred form's inner side at the farthest receiver an inner
-//!   fragment can find (`inner_extent_depth`). The same image up to the rounding of t and
+//!   to the silhouette. The centred form's outer side the same (its outer fragments take
+//!   the paper form's decision), its inner side at the farthest receiver an inner
+//!   fragment can find (`inner_extent_depth`: the deepest surface where it reads g, 5 %
+//!   deeper for the extrapolation). The same image up to the rounding of t and
 //!   1/b interpolated over other triangles. Off without `light_areas`: full width t.
 //! - Light areas (`Areas::light_areas`, `regions::silhouette_areas`): the smoothie buffer
 //!   is cleared and drawn only where this frame's smoothies can reach (each vertex record's
@@ -55,14 +57,15 @@ use std::sync::Arc;
 pub const PAPER_SPLIT_BANDS: u32 = 2;
 
 /// The farthest receiver depth z_r an inner fragment of the centred form can find
-/// (glsl/common/inner_receiver.glsl): a depth the shadow map holds, at most the light's
-/// far plane, extrapolated by at most PLANE_LIMIT (5 %); 0.1 % more for the rounding of
-/// the stored depths. Its penumbra's half-width t (1 - b / z_r) is then at most
+/// (glsl/common/inner_receiver.glsl): a depth the shadow map holds where the fragment
+/// reads it, so at most `deepest` (the deepest surface there, `deepest_under`) and the
+/// light's far plane, extrapolated by at most PLANE_LIMIT (5 %); 0.1 % more for the
+/// rounding of the stored depths. Its penumbra's half-width t (1 - b / z_r) is then at most
 /// t (1 - b / Z), and every fragment beyond is discarded, so the inner smoothies are drawn
 /// only that far (`Extent`; the same image up to the rounding of the interpolated t and
 /// 1/b).
-fn inner_extent_depth(light: &LightView) -> f32 {
-    light.far * (1.0 + regions::INNER_PLANE_LIMIT) * 1.001
+fn inner_extent_depth(light: &LightView, deepest: Option<f32>) -> f32 {
+    deepest.unwrap_or(light.far).min(light.far) * (1.0 + regions::INNER_PLANE_LIMIT) * 1.001
 }
 
 /// One caster's smoothies on the CPU path: records rebuilt when it or the light moves,
@@ -153,8 +156,11 @@ impl CpuSmoothies {
                 c.records.expand_side(Side::Inner, extents[1], inner_side);
             }
             c.expanded = Some(extents);
-            c.drawn_box = c.records.uv_bounds(extents[0]);
-            c.drawn_support = c.records.uv_support(&regions::directions(), extents[0]);
+            // The widest side drawn bounds the texels written: the centred form's inner
+            // side reaches farther than its outer one (its receiver bound is 5 % deeper).
+            let reach = if centred { extents[1] } else { extents[0] };
+            c.drawn_box = c.records.uv_bounds(reach);
+            c.drawn_support = c.records.uv_support(&regions::directions(), reach);
         });
         rebuilt
     }
@@ -178,41 +184,47 @@ impl CpuSmoothies {
     fn extents(&self, frame: &FrameInput<'_>, centred: bool, res: u32) -> [Extent; 2] {
         let pad = 1.0 / res as f32;
         let areas = frame.settings.light_areas;
-        let outer = match centred {
-            false if areas => self.outer_extent(frame, pad),
-            _ => Extent::FULL,
-        };
-        let inner = if areas {
-            Extent::at_most(inner_extent_depth(frame.light), pad)
-        } else {
-            Extent::FULL
-        };
+        if !areas {
+            return [Extent::FULL; 2];
+        }
+        let outer = self
+            .deepest_under(frame, 0.0, pad)
+            .map_or(Extent::FULL, |deepest| {
+                Extent::at_most(deepest * 1.001, pad)
+            });
+        if !centred {
+            return [outer, Extent::FULL];
+        }
+        // The inner fragments read g up to INNER_RECEIVER_TEXELS beyond the smoothies.
+        let grow = regions::INNER_RECEIVER_TEXELS as f32 * pad;
+        let inner = Extent::at_most(
+            inner_extent_depth(frame.light, self.deepest_under(frame, grow, pad)),
+            pad,
+        );
         [outer, inner]
     }
 
-    /// The paper form's outer smoothies, shortened to where Eq. 1 saturates for the
-    /// deepest receiver they can find (`records::Extent`): the deepest surface under the
-    /// full-width smoothies' box (`regions::deepest_surface`), 0.1 % more for the rounding
-    /// of the stored depths, rounded up to its grid (`Extent::at_most`) so that a moving
-    /// object leaves the other casters' triangles alone while the bound holds. Where that
-    /// depth is not known, the full width.
-    fn outer_extent(&self, frame: &FrameInput<'_>, pad: f32) -> Extent {
+    /// The deepest surface under every caster's full-width smoothies' box grown by `grow`
+    /// (light uv), `regions::deepest_surface`: the deepest receiver an outer fragment
+    /// (`grow` 0) or an inner one (`grow` its reads of g beyond the smoothies) can find.
+    /// Each outer side is shortened to where Eq. 1 saturates for it (`records::Extent`),
+    /// 0.1 % more for the rounding of the stored depths, rounded up to its grid
+    /// (`Extent::at_most`) so that a moving object leaves the other casters' triangles
+    /// alone while the bound holds. `None` where that depth is not known: the full width.
+    /// The centred form's outer side takes the paper form's decision (`smoothie_alpha`),
+    /// so the same bound holds for it.
+    fn deepest_under(&self, frame: &FrameInput<'_>, grow: f32, pad: f32) -> Option<f32> {
         // Each caster's full-width box inside the map (a caster outside the light's view
         // adds nothing, culled or not).
         let full = self
             .cache
             .iter()
             .filter_map(|c| c.full_box)
-            .map(|(lo, hi)| (lo.max(Vec2::ZERO), hi.min(Vec2::ONE)))
+            .map(|(lo, hi)| ((lo - grow).max(Vec2::ZERO), (hi + grow).min(Vec2::ONE)))
             .filter(|(lo, hi)| lo.cmple(*hi).all())
             .reduce(|(a, b), (c, d)| (a.min(c), b.max(d)));
-        let Some(deepest) = full.and_then(|(lo, hi)| {
-            // The texel a fragment's centre lies in, beyond the box by rounding.
-            regions::deepest_surface(frame, lo - pad, hi + pad)
-        }) else {
-            return Extent::FULL;
-        };
-        Extent::at_most(deepest * 1.001, pad)
+        // The texel a fragment's centre lies in, beyond the box by rounding.
+        full.and_then(|(lo, hi)| regions::deepest_surface(frame, lo - pad, hi + pad))
     }
 }
 

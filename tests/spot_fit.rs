@@ -181,3 +181,46 @@ fn the_cli_warns_about_a_sub_texel_caster_and_keeps_rendering() {
     }
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// Every pixel the camera sees lit inside the cone lies inside the fitted map, on the fit
+/// cases and on every built-in scene (the fitted ones are printed). Mutation that fails this
+/// test — `spot_window` dropping the camera's frustum planes' receivers for the casters'
+/// bounds alone (`.filter(|o| o.role.receives())` replaced by `.filter(|o| o.role.casts())`).
+#[test]
+fn every_lit_pixel_the_camera_sees_lies_inside_the_fitted_map() {
+    let gpu = Gpu::new();
+    let mut scenes: Vec<Scene> = ["far-spot", "tiny-caster", "wide-cone-small-caster"]
+        .iter()
+        .map(|n| stress::case_scene(n).unwrap())
+        .collect();
+    scenes.extend(
+        softshadow::scene::builtin::BUILTIN_SCENES
+            .iter()
+            .map(|n| Scene::load(n).unwrap()),
+    );
+    for scene in scenes {
+        let light = fit_light(&scene);
+        let (fit, cone) = (light.fov_deg, scene.light.fov_deg);
+        if fit != cone {
+            println!("{}: fitted, fov {fit:.4} of the cone's {cone}", scene.name);
+        }
+        let (img, _) = gpu.render_frames(scene.clone(), "hard", small(96, 256), 1);
+        let mut checked = 0;
+        for i in covered(&img) {
+            if img.spot[i] <= 0.0 {
+                continue;
+            }
+            let p = Vec4::from(img.position[i]).truncate();
+            let (uv, d) = light.project(p);
+            assert!(
+                d > 0.0
+                    && uv.cmpge(glam::Vec2::splat(-1e-3)).all()
+                    && uv.cmple(glam::Vec2::splat(1.001)).all(),
+                "{}: lit pixel at {p} outside the map (uv {uv})",
+                scene.name
+            );
+            checked += 1;
+        }
+        assert!(checked > 500, "{}: {checked}", scene.name);
+    }
+}

@@ -228,7 +228,7 @@ pub fn caster_texel_warning(scene: &Scene, light: &LightView, res: u32) -> Optio
         let projected: Vec<(Vec2, f32)> = corners.iter().map(|&c| light.project(c)).collect();
         if projected
             .iter()
-            .any(|(uv, d)| !(*d > 0.0) || !uv.is_finite())
+            .any(|(uv, d)| *d <= 0.0 || !d.is_finite() || !uv.is_finite())
         {
             continue;
         }

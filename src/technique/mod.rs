@@ -232,7 +232,6 @@ pub const TECHNIQUES: &[TechniqueInfo] = &[
 /// orthographic and the penumbra 2 (d_r - d_b) tan theta, which their shaders do not
 /// compute yet. Rendering them would draw a wrong shadow quietly, so they refuse.
 const NO_SUN: &[(&str, &str)] = &[
-    ("pcss", "its blocker search and filter radii are a spotlight's (R (d_r - d_b) / d_b over a perspective map)"),
     ("smoothies", "its smoothie width and alpha remap (Eq. 1, b/r) are a spotlight's"),
     ("smoothies-centred", "its smoothie widths and alpha remaps (b/r) are a spotlight's"),
     ("penumbra-map", "its cones and sheets are drawn from a light sphere's centre"),

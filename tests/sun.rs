@@ -471,10 +471,7 @@ fn edge_widths(gpu: &Gpu, technique: &str) -> Vec<(f64, f64, f64)> {
         let bins = 60;
         let x_at = |b: usize| (b as f64 + 0.5) / bins as f64 * 3.0 * half - 1.5 * half;
         let xs: Vec<f64> = (0..bins).map(x_at).collect();
-        let exact: Vec<f64> = xs
-            .iter()
-            .map(|&x| edge_visibility(x, hd, theta))
-            .collect();
+        let exact: Vec<f64> = xs.iter().map(|&x| edge_visibility(x, hd, theta)).collect();
         let (img, _) = gpu.render_frames(
             overhead_edge_scene(h, EDGE_ANGLE_DEG),
             technique,
@@ -575,5 +572,47 @@ fn pcss_penumbra_under_a_sun_grows_linearly_as_the_closed_form() {
 fn pcss_at_a_tiny_sun_equals_hard() {
     let gpu = Gpu::new();
     let (max, off, _) = tiny_sun_against_hard(&gpu, "pcss");
-    assert!(max < 0.005 && off == 0, "pcss: max {max}, {off} pixels over 0.01");
+    assert!(
+        max < 0.005 && off == 0,
+        "pcss: max {max}, {off} pixels over 0.01"
+    );
+}
+
+/// plateaus (the paper's form) grows its penumbra outward only, over (P2s)'s r = h tan(theta)
+/// with the sine falloff 0.5 - 0.5 cos(pi f): its 10-90 width is (acos(-0.8) - acos(0.8)) /
+/// pi x r, 0.433 of the closed form's (computed here from `edge_visibility`), at every
+/// height. Measured x0.433, x0.433, x0.432 of the closed form. plateaus-centred spans the
+/// whole penumbra with the disc-chord profile, the closed form's: measured x1.002, x0.998,
+/// x1.001.
+#[test]
+fn plateaus_penumbrae_under_a_sun_grow_linearly_as_the_closed_form() {
+    let gpu = Gpu::new();
+    let theta = (EDGE_ANGLE_DEG as f64).to_radians();
+    let ramp = ((-0.8f64).acos() - 0.8f64.acos()) / std::f64::consts::PI;
+    let widths = edge_widths(&gpu, "plateaus");
+    let expected: Vec<(f64, f64, f64)> = widths
+        .iter()
+        .map(|&(h, w, _)| (h, w, ramp * h * theta.tan()))
+        .collect();
+    assert_linear("plateaus (its outward ramp)", &expected, 0.05, 0.02);
+    let ratios: Vec<f64> = widths.iter().map(|&(_, w, e)| w / e).collect();
+    println!("plateaus over the closed form: {ratios:?}");
+    assert_linear(
+        "plateaus-centred",
+        &edge_widths(&gpu, "plateaus-centred"),
+        0.03,
+        0.02,
+    );
+}
+
+/// Measured (the same 512 texel grid for the soft shadow maps' occluder map as hard's
+/// map; the plateau texture's grid is the plane's, not the light's): plateaus 50 of 28005
+/// pixels over 0.01 (one-texel steps along the hard edge), plateaus-centred 51.
+#[test]
+fn plateaus_at_a_tiny_sun_equal_hard() {
+    let gpu = Gpu::new();
+    for technique in ["plateaus", "plateaus-centred"] {
+        let (_, off, n) = tiny_sun_against_hard(&gpu, technique);
+        assert!(off * 200 < n, "{technique}: {off} of {n} pixels over 0.01");
+    }
 }

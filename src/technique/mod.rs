@@ -249,14 +249,6 @@ const NO_SUN: &[(&str, &str)] = &[
         "its cones and sheets are drawn from a light sphere's centre",
     ),
     (
-        "ssm",
-        "its micro-patches are back-projected onto a light disc, not a disc of directions",
-    ),
-    (
-        "ssm2",
-        "its micro-patches are back-projected onto a light disc, not a disc of directions",
-    ),
-    (
         "ssm-bitmask",
         "its micro-patches are back-projected onto a light disc, not a disc of directions",
     ),

@@ -2,6 +2,8 @@
 //! *Soft Shadow Maps: Efficient Sampling of Light Source Visibility*
 //! Port sheets: docs/port/ssm.md, docs/port/ssm2.md
 //! Speed layer: speed::ssm (the micro-patch step, pass 5; kept under --plain, see there).
+//! Over 400 lines because the header (about 130 lines) carries both lights' equations, the
+//! spotlight's square light and the sun's square of directions, for a porter in one place.
 //!
 //! Every texel of an occluder depth map becomes a micro-patch: a square parallel to the
 //! light at the texel's depth, covering the texel's image extent (Sec. 3.2). Each

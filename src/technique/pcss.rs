@@ -38,6 +38,7 @@
 //!   `(d_r - near) tan(theta) / texel` texels (Eq. 1s at d_b = near).
 //! * (4s) Filter radius: `(d_r - d_b) tan(theta) / texel` texels, d_b the mean blocker depth.
 //!   Both clamped to `MAX_RADIUS_TEXELS` as for a spotlight; theta = 0 gives `hard`.
+//!
 //! Eq. 1/3/4 and 1s/3s/4s are one function of (d_r, d_b) for either light,
 //! `penumbra_half_uv` (glsl/common/frame.glsl); the spotlight's path keeps its own radii
 //! (glsl/pcss/radii.glsl), which equal it. The search's reach for the speed layer is Eq. 3s

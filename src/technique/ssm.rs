@@ -35,6 +35,7 @@
 //!   (1/z_O - 1/z_max)); the micro-patch step (pass 5) takes the same h;
 //! * the final lookup's normal offset and depth tolerances take the world texel E / N,
 //!   its depth the orthographic clip z (`clip_linear_depth`).
+//!
 //! Both are `penumbra_half_uv` (glsl/common/frame.glsl) scaled by L / (2 R) = sqrt(pi) / 2:
 //! S = 1 / (2 N (L / 2R) penumbra_half_uv(z_R, z_O)), h = N (L / 2R) penumbra_half_uv(z_max,
 //! z_O); the spotlight keeps its own expressions, which equal them.

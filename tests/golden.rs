@@ -170,6 +170,25 @@ fn every_technique_on_every_scene_matches_its_golden() {
     );
 }
 
+/// The techniques made to serve a sun after `hard`, `pcf` and the reference, each with a
+/// golden on the built-in sun scene (the same size, settings and gates as above).
+const SUN_GOLDENS: &[&str] = &["pcss", "plateaus", "plateaus-centred", "ssm", "ssm2"];
+
+#[test]
+fn sun_techniques_on_the_sun_courtyard_match_their_goldens() {
+    let bless = std::env::var("SOFTSHADOW_BLESS").is_ok_and(|v| v == "1");
+    let gpu = Gpu::new();
+    let scene = Scene::load("assets/scenes/sun-courtyard.toml").unwrap();
+    let mut failures = Vec::new();
+    for &t in SUN_GOLDENS {
+        let (img, _) = gpu.render_frames(scene.clone(), t, settings(), 1);
+        if let Err(e) = check(&format!("sun-courtyard-{t}"), &img, bless) {
+            failures.push(e);
+        }
+    }
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
+}
+
 /// Pixels whose luma differs by more than `PIXEL_DELTA` (of 255), and the largest difference.
 fn pixels_off(a: &image::GrayImage, b: &image::GrayImage) -> (usize, u8) {
     let d = a

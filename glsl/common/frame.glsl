@@ -35,6 +35,22 @@ vec3 light_direction(vec3 p) {
     return light_is_sun() ? frame.light_pos_radius.xyz : normalize(frame.light_pos_radius.xyz - p);
 }
 
+// Half the width of the penumbra, in shadow-map uv at the receiver, that a blocker at linear
+// light depth d_b throws onto a receiver at d_r (d_b <= d_r), for either light kind:
+// - spotlight (a disc of radius R at the frustum's apex, perspective map): the light seen
+//   through the blocker's edge spans R (d_r - d_b) / d_b world units at the receiver, where
+//   the map spans 2 d_r tan(fov/2);
+// - sun (every direction within theta of its axis, orthographic map): parallel projection,
+//   so the edge's penumbra grows as (d_r - d_b) tan(theta) and the map spans the same
+//   res x texel world units at every depth.
+// With d_b = near it is the widest penumbra any blocker in front of d_r can throw: the
+// reach of a blocker search.
+float penumbra_half_uv(float d_r, float d_b) {
+    float d = max(d_r - d_b, 0.0);
+    if (light_is_sun()) return d * frame.sun.y / (frame.sun.z * frame.light_params.z);
+    return frame.light_pos_radius.w * d / (2.0 * frame.light_frustum.x * d_b * d_r);
+}
+
 #ifndef FRAME_NO_DRAW_PUSH
 layout(push_constant, std430) uniform Draw {
     mat4 model;

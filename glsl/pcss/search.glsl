@@ -13,6 +13,10 @@ layout(set = 0, binding = 1) uniform sampler2D shadow_map;
 // Blocker-search radius in texels (Eq. 3): the light's projection through the receiver onto
 // the near plane, clamped to the largest radius.
 float pcss_search_radius(LightSample s) {
+    // A sun: the widest penumbra a blocker at the near plane throws (Eq. 3s).
+    if (light_is_sun())
+        return min(penumbra_half_uv(s.depth, frame.light_params.x) * frame.light_params.z,
+                   PCSS_MAX_RADIUS_TEXELS);
     return pcss_search_texels(PCSS_LIGHT_UV_NEAR, s.depth, frame.light_params.x,
                               frame.light_params.z, PCSS_MAX_RADIUS_TEXELS);
 }
@@ -24,12 +28,16 @@ float pcss_filter(LightSample s, ReceiverPlane rp, float d_b) {
     float d_r = s.depth;
 
     // Step 2, penumbra estimate (Eq. 1) in world units at the receiver, as uv (Eq. 4).
-    float radius = pcss_filter_texels(PCSS_PENUMBRA_SCALE, d_r, d_b, res, PCSS_MAX_RADIUS_TEXELS);
+    // A sun: parallel projection, (d_r - d_b) tan(theta) at every depth (Eq. 4s).
+    float radius = light_is_sun()
+        ? min(penumbra_half_uv(d_r, d_b) * res, PCSS_MAX_RADIUS_TEXELS)
+        : pcss_filter_texels(PCSS_PENUMBRA_SCALE, d_r, d_b, res, PCSS_MAX_RADIUS_TEXELS);
 
     // Step 3, PCF over a Poisson disc of that radius; each tap is a 2x2 bilinear footprint.
     // A point light (R = 0) leaves one 2x2 footprint: the `hard` result, one tap.
     int samples = radius < 0.01 ? 1 : int(PCSS_FILTER_SAMPLES);
-    rp.max_shift = 8.0 * (radius + 1.0) * d_r * frame.light_frustum.y;
+    rp.max_shift = light_is_sun() ? 8.0 * (radius + 1.0) * frame.sun.z
+                                  : 8.0 * (radius + 1.0) * d_r * frame.light_frustum.y;
     return pcf_poisson(shadow_map, s.uv, rp, samples, radius);
 }
 

@@ -5,8 +5,9 @@
 // outer plateaus' fraction, 1 where none: lit), under a drop shadow min(inner, outer) (the
 // inner visibility, 0 where no inner cone or sheet reached: the umbra; never lighter than a
 // second caster's outer plateau over it); bilinear weights, no falloff lookup (the profile
-// is in the values). Every other receiver, and every point at R = 0, gets the shadow map's
-// 2x2 bilinear comparison (`hard`'s filter: R = 0 is `hard`'s image exactly).
+// is in the values). Every other receiver, and every point at R = 0 (a sun's theta = 0),
+// gets the shadow map's 2x2 bilinear comparison (`hard`'s filter: R = 0 is `hard`'s image
+// exactly).
 #include "common/shadow.glsl"
 #include "common/penumbra.glsl"
 #include "plateaus/plane.glsl"
@@ -24,7 +25,9 @@ float visibility(vec3 p, vec3 n) {
     vec4 q = plane.to_texture * vec4(p, 1.0);
     bool on_plane = abs(q.z) <= plane.params.x && abs(dot(n, plane.normal.xyz)) >= plane.params.y;
     bool in_texture = all(greaterThanEqual(q.xy, vec2(0.0))) && all(lessThanEqual(q.xy, vec2(1.0)));
-    if (!on_plane || !in_texture || frame.light_pos_radius.w <= 0.0) {
+    // The light's spread: a spotlight's R, a sun's tan(theta).
+    float spread = light_is_sun() ? frame.sun.y : frame.light_pos_radius.w;
+    if (!on_plane || !in_texture || spread <= 0.0) {
         return bilinear(lit_test(textureGather(shadow_map, s.uv, 0), s.depth), s.uv);
     }
     vec4 f = textureGather(plateau_tex, q.xy, 0);

@@ -10,4 +10,14 @@
 #define SSM_INV_RES frame.technique.z             // 1 / n
 #define SSM_SELF_GUARD_TEXELS frame.technique.w   // receiver self-occlusion guard, texels of slope
 
+// The square light's half-side over the disc's radius: L / 2 = (sqrt(pi) / 2) R, the same
+// for a sun's square of directions (tan units) over tan(theta).
+const float SSM_HALF_SIDE_PER_RADIUS = 0.88622692545275801;
+
+// A sun's world texel of the occluder and soft shadow maps: its orthographic map spans
+// the same world width as the shadow map's at every depth, over SSM_RES texels.
+float ssm_sun_texel() {
+    return frame.sun.z * frame.light_params.z / SSM_RES;
+}
+
 #endif

@@ -20,13 +20,15 @@ layout(set = 0, binding = 5) uniform sampler2D ssm_back_pure;    // back-face oc
 
 float visibility(vec3 p, vec3 n) {
     float res = SSM_RES;
-    float texel = 2.0 * frame.light_frustum.x / res;   // world texel size per unit depth
+    // World texel size per unit depth; a sun's world texel (footprint.glsl).
+    float texel = light_is_sun() ? ssm_sun_texel() : 2.0 * frame.light_frustum.x / res;
     vec3 po = ssm_offset_point(p, n, texel);
     vec4 c = frame.light_view_proj * vec4(po, 1.0);
-    if (c.w <= frame.light_params.x) return 1.0;
+    // A sun's clip w is 1: in front of its near plane is clip z >= 0.
+    if (light_is_sun() ? c.z < 0.0 : c.w <= frame.light_params.x) return 1.0;
     vec2 uv = (c.xy / c.w) * 0.5 + 0.5;
     if (any(lessThan(uv, vec2(0.0))) || any(greaterThan(uv, vec2(1.0)))) return 1.0;
-    float depth = c.w;
+    float depth = clip_linear_depth(c);
 
     vec4 z1 = textureGather(receiver_front, uv, 0);
     vec4 o1 = textureGather(ssm_front, uv, 0);

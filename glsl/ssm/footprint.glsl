@@ -12,7 +12,13 @@ const float MATCH_TEXELS = 3.0;
 
 // Normal offset as common/shadow.glsl, in occluder-map texels (`texel`: world texel size
 // per unit depth).
+// A sun: `texel` is the world texel (its map's texels have one size).
 vec3 ssm_offset_point(vec3 p, vec3 n, float texel) {
+    if (light_is_sun()) {
+        vec3 d = light_direction(p);
+        float sun_slope = clamp(sqrt(max(1.0 - dot(n, d) * dot(n, d), 0.0)), 0.2, 1.0);
+        return p + n * (texel * frame.light_frustum.z * sun_slope);
+    }
     float d0 = -(frame.light_view * vec4(p, 1.0)).z;
     vec3 l = normalize(frame.light_pos_radius.xyz - p);
     float slope = clamp(sqrt(max(1.0 - dot(n, l) * dot(n, l), 0.0)), 0.2, 1.0);
@@ -23,7 +29,8 @@ vec3 ssm_offset_point(vec3 p, vec3 n, float texel) {
 // that receiver (it reads layer 1, the pure receivers, e.g. the ground under a caster), and
 // whether the texel knows the point at all (its receiver is not behind the point).
 void ssm_layers(float depth, vec4 z1, float texel, out bvec4 behind, out vec4 known) {
-    vec4 tol = z1 * (frame.light_frustum.w + MATCH_TEXELS * texel);
+    vec4 tol = light_is_sun() ? z1 * frame.light_frustum.w + MATCH_TEXELS * texel
+                              : z1 * (frame.light_frustum.w + MATCH_TEXELS * texel);
     behind = greaterThan(vec4(depth), z1 + tol);
     known = vec4(greaterThanEqual(vec4(depth), z1 - tol));
 }

@@ -67,7 +67,9 @@ void main() {
         float zo = texelFetch(occluder_map, t, 0).r;
         float zmax = uintBitsToFloat(bound.zmax_bits);
         if (zo < EMPTY && zo < zmax) {
-            float h = max(pc.reach * (1.0 / zo - 1.0 / zmax), 0.0);
+            float h = light_is_sun()
+                ? penumbra_half_uv(zmax, zo) * SSM_HALF_SIDE_PER_RADIUS * float(n)
+                : max(pc.reach * (1.0 / zo - 1.0 / zmax), 0.0);
             for (int l = 0; (1 << l) <= n; ++l) {
                 float s = float(1 << l);
                 float side = min(s + 2.0 * h + 2.0, float(n));

@@ -33,7 +33,9 @@ float occlusion(float zr, vec2 r) {
     // Self-occlusion guard (the paper separates occluders from receivers): a patch less than
     // `SSM_SELF_GUARD_TEXELS` texels of depth slope in front of the receiver is the receiver's own
     // surface (same texel, or a staircase step of a sloped surface), not an occluder.
-    float guard = zr * (frame.light_frustum.w + SSM_SELF_GUARD_TEXELS * 2.0 * t / n);
+    float guard = light_is_sun()
+        ? zr * frame.light_frustum.w + SSM_SELF_GUARD_TEXELS * ssm_sun_texel()
+        : zr * (frame.light_frustum.w + SSM_SELF_GUARD_TEXELS * 2.0 * t / n);
     if (zr - v_block.w <= guard) return 0.0;
     vec2 size = v_block.xy;
     vec2 d0 = v_patch.xy - r;   // patch's low edge minus receiver, in texels
@@ -42,7 +44,12 @@ float occlusion(float zr, vec2 r) {
         // Point light: the patch hides the whole light iff it covers the receiver's ray.
         return all(lessThanEqual(d0, vec2(0.0))) && all(greaterThan(d0 + size, vec2(0.0))) ? v_block.z : 0.0;
     }
-    float s = 2.0 * t / (n * L) * zo * zr / (zr - zo);
+    // A sun: one texel of (a - r) is E / N world units, a direction tangent of
+    // E / (N (z_R - z_O)), in sides L_s = sqrt(pi) tan(theta) of the square of directions:
+    // the same 1 / (2 N x the half-side's penumbra in uv) as the spotlight's S.
+    float s = light_is_sun()
+        ? 0.5 / (SSM_HALF_SIDE_PER_RADIUS * n * penumbra_half_uv(zr, zo))
+        : 2.0 * t / (n * L) * zo * zr / (zr - zo);
     vec2 w = clamp((d0 + size) * s, -0.5, 0.5) - clamp(d0 * s, -0.5, 0.5);
     return v_block.z * (w.x * w.y);
 }

@@ -29,7 +29,11 @@ layout(location = 1) flat out vec4 v_block;   // side in texels (x, y), density,
 
 // The extent of the patch [lo, lo + size) whose nearest depth is `znear`.
 vec4 extent(vec2 lo, vec2 size, float znear, float zmax, int n) {
-    float h = SSM_LIGHT_SIDE * float(n) / (4.0 * frame.light_frustum.x) * (1.0 / znear - 1.0 / zmax);
+    // A sun: the square of directions' half-side penumbra at z_max, (d_r - d_b) tan grows
+    // linearly (src/technique/ssm.rs, "Under a sun").
+    float h = light_is_sun()
+        ? penumbra_half_uv(zmax, znear) * SSM_HALF_SIDE_PER_RADIUS * float(n)
+        : SSM_LIGHT_SIDE * float(n) / (4.0 * frame.light_frustum.x) * (1.0 / znear - 1.0 / zmax);
     // A hair of margin: fragments on the exact border contribute 0 anyway.
     vec2 a = lo - h - 1e-3;
     vec2 b = lo + size + h + 1e-3;

@@ -231,16 +231,26 @@ pub const TECHNIQUES: &[TechniqueInfo] = &[
 /// orthographic and the penumbra 2 (d_r - d_b) tan theta, which their shaders do not
 /// compute yet. Rendering them would draw a wrong shadow quietly, so they refuse.
 const NO_SUN: &[(&str, &str)] = &[
-    ("pcss", "its blocker search and filter radii are a spotlight's (R (d_r - d_b) / d_b over a perspective map)"),
-    ("smoothies", "its smoothie width and alpha remap (Eq. 1, b/r) are a spotlight's"),
-    ("smoothies-centred", "its smoothie widths and alpha remaps (b/r) are a spotlight's"),
-    ("penumbra-map", "its cones and sheets are drawn from a light sphere's centre"),
-    ("penumbra-map-centred", "its cones and sheets are drawn from a light sphere's centre"),
-    ("plateaus", "its cones are drawn from a light sphere's centre"),
-    ("plateaus-centred", "its cones are drawn from a light sphere's centre"),
-    ("ssm", "its micro-patches are back-projected onto a light disc, not a disc of directions"),
-    ("ssm2", "its micro-patches are back-projected onto a light disc, not a disc of directions"),
-    ("ssm-bitmask", "its micro-patches are back-projected onto a light disc, not a disc of directions"),
+    (
+        "smoothies",
+        "its smoothie width and alpha remap (Eq. 1, b/r) are a spotlight's",
+    ),
+    (
+        "smoothies-centred",
+        "its smoothie widths and alpha remaps (b/r) are a spotlight's",
+    ),
+    (
+        "penumbra-map",
+        "its cones and sheets are drawn from a light sphere's centre",
+    ),
+    (
+        "penumbra-map-centred",
+        "its cones and sheets are drawn from a light sphere's centre",
+    ),
+    (
+        "ssm-bitmask",
+        "its micro-patches are back-projected onto a light disc, not a disc of directions",
+    ),
 ];
 
 /// The techniques that render a sun, in registry order.

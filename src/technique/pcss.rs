@@ -25,6 +25,26 @@
 //!   light ray where it is closer than the point (`pcf` module header, Eq. 3, in
 //!   `glsl/pcf/filter.glsl`), so the receiver's own texels are neither blockers nor shadow.
 //!
+//! ## Equations under a sun
+//! A sun (`LightKind::Sun`) is every direction within its angular radius theta of its axis;
+//! its map is orthographic, `res` texels of `texel` world units at every depth
+//! (`frustum::fit_sun`). Seen from a receiver, the sun is a disc of directions: through a
+//! blocker plane at depth d_b it covers a circle of radius (d_r - d_b) tan(theta) around the
+//! receiver's own map point, the same in world units at every depth (parallel projection).
+//! * (1s) `w_penumbra = (d_r - d_b) tan(theta)`: the half-width of a straight edge's
+//!   penumbra, growing linearly with the blocker-to-receiver distance (the full width
+//!   2 (d_r - d_b) tan(theta)), where a spotlight's grows as R (d_r - d_b) / d_b.
+//! * (3s) Blocker search: a blocker can lie anywhere from the near plane to the receiver; the
+//!   disc of directions through the near plane is the widest, so the search radius is
+//!   `(d_r - near) tan(theta) / texel` texels (Eq. 1s at d_b = near).
+//! * (4s) Filter radius: `(d_r - d_b) tan(theta) / texel` texels, d_b the mean blocker depth.
+//!   Both clamped to `MAX_RADIUS_TEXELS` as for a spotlight; theta = 0 gives `hard`.
+//!
+//! Eq. 1/3/4 and 1s/3s/4s are one function of (d_r, d_b) for either light,
+//! `penumbra_half_uv` (glsl/common/frame.glsl); the spotlight's path keeps its own radii
+//! (glsl/pcss/radii.glsl), which equal it. The search's reach for the speed layer is Eq. 3s
+//! at the far plane (`search_reach_texels`).
+//!
 //! ## Passes, in order
 //! 1. `pcss/shadow_map` — casters from the light (`gpu::passes::ShadowMap::casters`).
 //!    Attachment: R32_SFLOAT linear depth, clear 1e30 (`FAR_DEPTH`), blend MIN, no depth
@@ -149,7 +169,13 @@ pub(crate) fn slots(frame: &FrameInput<'_>, search_samples: u32, filter_samples:
 /// the unit disc; a tap's 2x2 footprint is `regions::shadowed`'s). Outside that reach of
 /// every caster's texels the search finds no blocker and the pass returns exactly 1.
 pub(crate) fn search_reach_texels(frame: &FrameInput<'_>, res: u32) -> f32 {
-    (light_uv_near(frame) * res as f32).min(MAX_RADIUS_TEXELS)
+    let l = frame.light;
+    let reach = match l.sun {
+        // Eq. 3s for a receiver at the far plane.
+        Some(sun) => (l.far - l.near).max(0.0) * sun.tan_angle / l.texel_world(0.0, res),
+        None => light_uv_near(frame) * res as f32,
+    };
+    reach.min(MAX_RADIUS_TEXELS)
 }
 
 /// Eq. 2: the light's radius in shadow-map uv at the near plane.

@@ -36,6 +36,24 @@
 //!
 //! the sheet runs from the edge (depth 0) to the tangent line (depth 1).
 //!
+//! ## Under a sun
+//! A sun is every direction within its angular radius theta of its unit direction s
+//! (towards it). Its rays are parallel, so the drop shadow is a parallel projection along s
+//! and a point's shadow spreads over the directions' disc, whose radius grows linearly with
+//! the distance h / (n . s) along the ray from x to the plane:
+//!
+//! (P1s) P(x) = x - s h / (n . s)   (affine, w = 1: `PlaneFrame::drop_shadow`),
+//!
+//! (P2s) r(x) = h tan(theta) / (n . s)   (`PlaneFrame::vertex_disc` with radius tan theta),
+//!
+//! the cone's aperture theta at every height: a straight edge at height h over the plane
+//! throws the full penumbra 2 h tan(theta) under an overhead sun. (P3) is unchanged.
+//! Silhouettes are taken from a point `SUN_DISTANCE` plane diagonals along s (the facing
+//! test only needs the direction). A low sun stretches the true penumbra along its azimuth
+//! by 1 / (n . s); (P2s) keeps the circle across it, as the spotlight's circles are (Known
+//! artefacts). The speed layer's regions follow the central projection and are not planned
+//! for a sun: its final pass runs everywhere and its textures are drawn whole.
+//!
 //! ## Passes, in order
 //! 0. CPU `plateaus/silhouettes` (only when R > 0) — per caster (not the plane) silhouette
 //!    edges from the light centre (`silhouette::extract` over an `Adjacency` built once),

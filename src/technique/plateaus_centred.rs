@@ -19,6 +19,11 @@
 //! square and the cone and sheet builder are the paper form's
 //! (src/technique/plateaus_common.rs).
 //!
+//! Under a sun (plateaus.rs, "Under a sun"): the drop shadow is (P1s)'s parallel
+//! projection and the half-width (P2s) r = h tan(theta) / (n . s), the same on both sides of
+//! the hard edge; the inner sheets need no change (t is still s), so the centred profile
+//! spans 2 h tan(theta) overhead, the sun's straight-edge penumbra.
+//!
 //! ## Passes, in order
 //! 0. CPU `plateaus-centred/silhouettes` (R > 0, light above the plane) — per caster:
 //!    silhouette from the light centre, then its cones and outer sheets and its cones and

@@ -79,6 +79,11 @@ const ON_PLANE_COS: f32 = 0.98;
 /// (P1) and (P2) blow up as h -> H.
 pub(crate) const MAX_HEIGHT_FRACTION: f32 = 0.99;
 
+/// A sun's stand-in light point for the silhouettes' facing test, in plane diagonals
+/// along its direction: the rays to it stray from the sun's direction by under a
+/// millionth of a radian over the plane, and f32 still holds it with the plane's points.
+const SUN_DISTANCE: f32 = 1e6;
+
 /// One plateau vertex: texture clip-space x, y and the depth (= penumbra fraction).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
@@ -202,9 +207,13 @@ pub struct PlaneFrame {
     pub v: Vec3,
     /// Unit normal, on the light's side.
     pub n: Vec3,
+    /// The light centre; a sun's: a point `SUN_DISTANCE` plane diagonals away towards it,
+    /// which only the silhouettes' facing test reads.
     pub light: Vec3,
     /// H: the light centre's height above the plane.
     pub light_height: f32,
+    /// A sun: its unit direction towards the light, (P1s)-(P2s) in place of (P1)-(P2).
+    pub sun: Option<Vec3>,
     /// Lower corner of the texture's square in plane coordinates (u, v).
     pub min: Vec2,
     /// Side of that square (world units).
@@ -234,7 +243,12 @@ impl PlaneFrame {
     pub fn new(recv: &PlanarReceiver, model: Mat4, light: &LightView, res: u32) -> Self {
         let origin = model.transform_point3(recv.origin);
         let mut n = (normal_matrix(model) * recv.normal).normalize_or(Vec3::Y);
-        if n.dot(light.position - origin) < 0.0 {
+        // A sun's view looks along -(its direction): the view's z row.
+        let sun = light
+            .sun
+            .map(|_| light.view.row(2).truncate().normalize_or(Vec3::Y));
+        let towards = sun.unwrap_or(light.position - origin);
+        if n.dot(towards) < 0.0 {
             n = -n;
         }
         let u = n.any_orthonormal_vector();
@@ -264,6 +278,10 @@ impl PlaneFrame {
             .length()
             .max((corners[3] - corners[1]).length());
         let res = res.max(1);
+        let light_pos = match sun {
+            Some(d) => origin + d * (SUN_DISTANCE * diag.max(f32::MIN_POSITIVE)),
+            None => light.position,
+        };
         // Square texels; one texel of margin each side so the border texels stay inside.
         let side = (hi - lo)
             .max_element()
@@ -275,8 +293,9 @@ impl PlaneFrame {
             u,
             v,
             n,
-            light: light.position,
-            light_height: n.dot(light.position - origin),
+            light: light_pos,
+            light_height: n.dot(light_pos - origin),
+            sun,
             min: (lo + hi) * 0.5 - Vec2::splat(side * 0.5),
             side,
             res,
@@ -310,9 +329,17 @@ impl PlaneFrame {
 
     /// Where `x` lands on the plane seen from the light centre (P1), with its cone radius for
     /// a light of radius `radius` (P2); `None` above `MAX_HEIGHT_FRACTION` of the light.
+    /// A sun: (P1s), (P2s) with `radius` = tan(theta).
     pub fn vertex_disc(&self, x: Vec3, radius: f32) -> Option<(Vec2, f32)> {
         let big_h = self.light_height;
         let h = self.height(x);
+        if let Some(d) = self.sun {
+            let dn = self.n.dot(d);
+            if h.is_nan() || dn <= 0.0 {
+                return None;
+            }
+            return Some((self.coords(x - d * (h / dn)), radius * h.max(0.0) / dn));
+        }
         if h.is_nan() || h >= big_h * MAX_HEIGHT_FRACTION {
             return None;
         }
@@ -337,6 +364,19 @@ impl PlaneFrame {
     pub fn drop_shadow(&self) -> Mat4 {
         let (n, l, big_h) = (self.n, self.light, self.light_height);
         let n_o = n.dot(self.origin);
+        let to_clip = Mat4::from_cols(
+            Vec4::new(2.0, 0.0, 0.0, 0.0),
+            Vec4::new(0.0, 2.0, 0.0, 0.0),
+            Vec4::ZERO,
+            Vec4::new(-1.0, -1.0, 0.0, 1.0),
+        );
+        if let Some(d) = self.sun {
+            // (P1s): x -> x - d h(x) / (n . d), affine (w = 1).
+            let dn = n.dot(d);
+            let col = |j: usize| (Vec3::AXES[j] - d * (n[j] / dn)).extend(0.0);
+            let along = Mat4::from_cols(col(0), col(1), col(2), (d * (n_o / dn)).extend(1.0));
+            return to_clip * self.to_texture() * along;
+        }
         // (x, 1) -> (H x - h(x) L, H - h(x)) with h(x) = n.x - n.O.
         let col = |j: usize| {
             let mut e = Vec3::ZERO;
@@ -344,12 +384,6 @@ impl PlaneFrame {
             (e - l * n[j]).extend(-n[j])
         };
         let blinn = Mat4::from_cols(col(0), col(1), col(2), (l * n_o).extend(big_h + n_o));
-        let to_clip = Mat4::from_cols(
-            Vec4::new(2.0, 0.0, 0.0, 0.0),
-            Vec4::new(0.0, 2.0, 0.0, 0.0),
-            Vec4::ZERO,
-            Vec4::new(-1.0, -1.0, 0.0, 1.0),
-        );
         to_clip * self.to_texture() * blinn
     }
 
@@ -546,6 +580,15 @@ impl<'a> PlateauBuilder<'a> {
     }
 }
 
+/// The light's spread that (P2) or (P2s) scales: a spotlight's radius R, a sun's
+/// tan(theta).
+fn spread(frame: &FrameInput<'_>) -> f32 {
+    match frame.light.sun {
+        Some(sun) => sun.tan_angle,
+        None => frame.light_radius,
+    }
+}
+
 /// One caster's plateaus.
 struct CasterPlateaus {
     /// Its cones and outer sheets, then (centred form; empty in the paper form) its cones
@@ -684,7 +727,7 @@ impl PlateauCommon {
             .write(0, bytemuck::bytes_of(&plane.uniforms()))?;
         // A light in (or under) the plane's level casts nothing onto it that it could light.
         let lit_plane = plane.light_height > plane.texel() * 1e-3;
-        let soft = lit_plane && frame.light_radius > 0.0;
+        let soft = lit_plane && spread(frame) > 0.0;
         let (outer, inner) = if soft {
             // Without pass caching every frame rebuilds everything (the bench's baseline).
             let force = !frame.settings.cache_light_passes;
@@ -722,7 +765,7 @@ impl PlateauCommon {
         inner: bool,
         force: bool,
     ) -> usize {
-        let radius = frame.light_radius;
+        let radius = spread(frame);
         let key = GeometryKey {
             plane: *plane,
             radius,

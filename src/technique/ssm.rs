@@ -2,6 +2,8 @@
 //! *Soft Shadow Maps: Efficient Sampling of Light Source Visibility*
 //! Port sheets: docs/port/ssm.md, docs/port/ssm2.md
 //! Speed layer: speed::ssm (the micro-patch step, pass 5; kept under --plain, see there).
+//! Over 400 lines because the header (about 130 lines) carries both lights' equations, the
+//! spotlight's square light and the sun's square of directions, for a porter in one place.
 //!
 //! Every texel of an occluder depth map becomes a micro-patch: a square parallel to the
 //! light at the texel's depth, covering the texel's image extent (Sec. 3.2). Each
@@ -18,6 +20,25 @@
 //! L = R sqrt(pi), centred at the light position, in the light's view plane (axes = the
 //! occluder map's axes). R = 0 is a point light: each micro-patch hides the light
 //! entirely from the receivers behind its own texel, i.e. a hard shadow at occluder_res.
+//!
+//! ## Under a sun
+//! A sun is every direction within theta of its axis, its map orthographic (`res` texels
+//! of one world size E / N at every depth). Its "light" is the square of directions of the
+//! same solid angle (small theta): side L_s = sqrt(pi) tan(theta) in tangent units, across
+//! the map's axes. A micro-patch is back-projected onto it along directions, not through a
+//! point: from the receiver at map texel r and depth z_R, the patch edge at texel a and depth
+//! z_O lies in the direction of tangent (a - r) (E / N) / (z_R - z_O), so
+//! * (Ss) S = E / (N L_s (z_R - z_O)) squares of directions per texel of (a - r), the
+//!   occluded fraction the same product of overlaps with [-1/2, 1/2];
+//! * (Hs) the extent grows by h = (L_s / 2) (z_max - z_O) / (E / N) texels: the half-side's
+//!   penumbra grows linearly with the blocker-to-receiver distance (under a spotlight as
+//!   (1/z_O - 1/z_max)); the micro-patch step (pass 5) takes the same h;
+//! * the final lookup's normal offset and depth tolerances take the world texel E / N,
+//!   its depth the orthographic clip z (`clip_linear_depth`).
+//!
+//! Both are `penumbra_half_uv` (glsl/common/frame.glsl) scaled by L / (2 R) = sqrt(pi) / 2:
+//! S = 1 / (2 N (L / 2R) penumbra_half_uv(z_R, z_O)), h = N (L / 2R) penumbra_half_uv(z_max,
+//! z_O); the spotlight keeps its own expressions, which equal them.
 //!
 //! ## Resolutions and parameters
 //! All light-space buffers of this technique are `Settings::occluder_res` square (occluder

@@ -401,7 +401,11 @@ impl BackOccluderMap {
 pub(crate) fn ssm_uniforms(res: u32, frame: &FrameInput<'_>) -> [[f32; 4]; 2] {
     let n = res as f32;
     let mut c = [0.0; 8];
-    c[k::SSM_LIGHT_SIDE] = light_square_side(frame.light_radius);
+    // A sun's square of directions, in tan units: sqrt(pi) tan(theta).
+    c[k::SSM_LIGHT_SIDE] = match frame.light.sun {
+        Some(sun) => light_square_side(sun.tan_angle),
+        None => light_square_side(frame.light_radius),
+    };
     c[k::SSM_RES] = n;
     c[k::SSM_INV_RES] = 1.0 / n;
     c[k::SSM_SELF_GUARD_TEXELS] = SELF_GUARD_TEXELS;

@@ -70,7 +70,9 @@ impl PlateauAreas {
         reach: impl Fn(usize) -> Option<Option<Support>>,
     ) -> Areas {
         let res = plane.res;
-        let supports = soft
+        // A sun's regions are not planned: its projection is not the central one they
+        // follow, so its final pass runs everywhere and its textures are drawn whole.
+        let supports = (soft && plane.sun.is_none())
             .then(|| self.shadow_regions(frame, plane, plane_object, reach))
             .flatten();
         self.shadowed = supports.as_ref().map_or(Shadowed::Everywhere, |supports| {

@@ -4,7 +4,7 @@
 
 use crate::scene::{LightView, Scene};
 use anyhow::{bail, Result};
-use glam::{Mat4, Vec3, Vec4};
+use glam::{Mat3, Mat4, Vec2, Vec3, Vec4};
 
 /// The camera's view-projection for a `width` x `height` image, y flipped so that row 0 of
 /// the image is the top (Vulkan's framebuffer y points down).
@@ -41,20 +41,47 @@ pub fn camera_view_proj(scene: &Scene, width: u32, height: u32) -> Mat4 {
     proj * view
 }
 
-/// The light frustum with near/far fitted for depth precision: `far` to what the light
-/// actually sees (each object's world bounds clipped to the light's side planes and to
-/// depth > 0), `near` to that and to every caster in front of the light, seen or not (a
-/// caster just outside the cone still throws a penumbra into it; cutting it at `near` would
-/// drop its silhouette). 1 % outside on each side. A large receiver whose lit part is small
-/// and anything behind the light add nothing. Near is never closer than far * 1e-4 (also
-/// when the light sits inside a bounding box); with nothing in the cone the whole scene's
-/// bounds are used.
+/// The light frustum. A spotlight's is fitted across its axis first (`spot_window`): a
+/// square frustum inside the cone over what the camera sees lit and the penumbrae reaching
+/// it, when that gains at least `SPOT_FIT_MIN_GAIN` texels per texel; else the whole cone.
+/// Then near/far for depth precision: `far` to what the frustum actually sees (each object's
+/// world bounds clipped to its side planes and to depth > 0), `near` to that and to every
+/// caster in front of the light, seen or not (a caster just outside the frustum still throws
+/// a penumbra into it; cutting it at `near` would drop its silhouette). 1 % outside on each
+/// side. A large receiver whose lit part is small and anything behind the light add nothing.
+/// Near is never closer than far * 1e-4 (also when the light sits inside a bounding box);
+/// with nothing in the frustum the whole scene's bounds are used.
 pub fn fit_light(scene: &Scene) -> LightView {
     if scene.light.is_sun() {
         return fit_sun(scene);
     }
-    let probe = LightView::new(&scene.light, 1.0, 2.0);
-    let tan_half = (scene.light.fov_deg.to_radians() * 0.5).tan();
+    let cone = LightView::new(&scene.light, 1.0, 2.0);
+    let tan_cone = (scene.light.fov_deg.to_radians() * 0.5).tan();
+    let fitted = spot_window(scene, &cone, tan_cone).and_then(|(lo, hi)| {
+        // The square frustum around the window's centre ray holding its four corner rays
+        // holds the whole window (a convex set of rays), 1 % outside.
+        let to_world = Mat3::from_mat4(cone.view).transpose();
+        let ray = |t: Vec2| to_world * t.extend(-1.0);
+        let dir = ray((lo + hi) * 0.5).normalize();
+        let up = to_world * Vec3::Y;
+        let view = Mat4::look_to_rh(Vec3::ZERO, dir, up);
+        let tan_half = [lo, Vec2::new(lo.x, hi.y), Vec2::new(hi.x, lo.y), hi]
+            .into_iter()
+            .map(|c| {
+                let v = view.transform_vector3(ray(c));
+                v.x.abs().max(v.y.abs()) / -v.z
+            })
+            .fold(0.0f32, f32::max)
+            * 1.01;
+        (tan_half.is_finite() && tan_half * SPOT_FIT_MIN_GAIN <= tan_cone)
+            .then_some((dir, up, tan_half))
+    });
+    let frame = |near: f32, far: f32| match fitted {
+        Some((dir, up, t)) => LightView::fitted(&scene.light, dir, up, t, near, far),
+        None => LightView::new(&scene.light, near, far),
+    };
+    let probe = frame(1.0, 2.0);
+    let tan_half = (probe.fov_deg.to_radians() * 0.5).tan();
     let mut range: Option<(f32, f32)> = None;
     let mut caster_near = f32::MAX;
     for o in &scene.objects {
@@ -82,10 +109,167 @@ pub fn fit_light(scene: &Scene) -> LightView {
     });
     let far = (hi * 1.01).max(1e-6);
     let near = (lo * 0.99).max(far * 1e-4);
-    let mut view = LightView::new(&scene.light, near, far);
+    let mut view = frame(near, far);
     view.depth_span = (hi - lo).clamp(0.0, far - near);
     view
 }
+
+/// A spotlight's map is fitted inside its cone only when the fitted frustum is at most
+/// 1 / this as wide (this many times the texels along each side on what matters): a smaller
+/// gain is not worth a map that moves with the camera.
+pub const SPOT_FIT_MIN_GAIN: f32 = 2.0;
+
+/// The part of a spotlight's cone that matters, as a rectangle lo..hi of (x, y) / depth in
+/// the cone's frame (`cone`, half-width `tan_cone`): every receiver's part inside the
+/// camera's frustum (for an image up to `SUN_FIT_ASPECT` wide) and the cone, grown by the
+/// widest penumbra reaching it, R (1 / b - 1 / r) for the nearest caster depth b over the
+/// rectangle (casters outside the view shadow what is in it) and the farthest seen receiver
+/// depth r; clamped to the cone. `None` when the camera sees no lit receiver.
+fn spot_window(scene: &Scene, cone: &LightView, tan_cone: f32) -> Option<(Vec2, Vec2)> {
+    let t = tan_cone;
+    // The cone's side planes and depth > 0, as world planes (a view-space plane q holds
+    // view p where q . p >= 0; q . (V p) = (V^T q) . p).
+    let to_world = cone.view.transpose();
+    let cone_planes = [
+        Vec4::new(-1.0, 0.0, -t, 0.0),
+        Vec4::new(1.0, 0.0, -t, 0.0),
+        Vec4::new(0.0, -1.0, -t, 0.0),
+        Vec4::new(0.0, 1.0, -t, 0.0),
+        Vec4::new(0.0, 0.0, -1.0, 0.0),
+    ]
+    .map(|q| to_world * q);
+    let cam = camera_view_proj(scene, (SUN_FIT_ASPECT * 1000.0) as u32, 1000);
+    let (r0, r1, r2, r3) = (cam.row(0), cam.row(1), cam.row(2), cam.row(3));
+    let cam_planes = [r3 + r0, r3 - r0, r3 + r1, r3 - r1, r2, r3 - r2];
+    // (x / depth, y / depth, depth) in the cone's frame of the part of `b` inside `planes`.
+    let cut = |b: &crate::scene::Aabb, planes: &[Vec4]| -> Vec<Vec3> {
+        let mut p = Polytope::hexahedron(&b.corners());
+        for &q in planes {
+            p.clip(q);
+        }
+        p.vertices()
+            .map(|&v| {
+                let q = cone.view.transform_point3(v);
+                let d = -q.z;
+                Vec3::new(q.x / d, q.y / d, d)
+            })
+            .filter(|q| q.is_finite() && q.z > 0.0)
+            .collect()
+    };
+    let seen: Vec<Vec3> = scene
+        .objects
+        .iter()
+        .filter(|o| o.role.receives())
+        .flat_map(|o| {
+            let planes: Vec<Vec4> = cam_planes.iter().chain(&cone_planes).copied().collect();
+            cut(&o.world_bounds(), &planes)
+        })
+        .collect();
+    if seen.is_empty() {
+        return None;
+    }
+    let lo = seen.iter().fold(Vec3::INFINITY, |a, &q| a.min(q));
+    let hi = seen.iter().fold(Vec3::NEG_INFINITY, |a, &q| a.max(q));
+    let far_seen = hi.z;
+    let (lo, hi) = (
+        lo.truncate().max(Vec2::splat(-t)),
+        hi.truncate().min(Vec2::splat(t)),
+    );
+    let casters: Vec<Vec<Vec3>> = scene
+        .objects
+        .iter()
+        .filter(|o| o.role.casts())
+        .map(|o| cut(&o.world_bounds(), &cone_planes))
+        .filter(|c| !c.is_empty())
+        .collect();
+    let radius = scene.light.radius.max(0.0);
+    let reach = |b: f32| (radius * (1.0 / b - 1.0 / far_seen)).max(0.0);
+    let mut nearest = f32::INFINITY;
+    for _ in 0..2 {
+        let m = if nearest.is_finite() {
+            reach(nearest)
+        } else {
+            0.0
+        };
+        for c in &casters {
+            let clo = c.iter().fold(Vec3::INFINITY, |a, &q| a.min(q));
+            let chi = c.iter().fold(Vec3::NEG_INFINITY, |a, &q| a.max(q));
+            let overlaps =
+                clo.x <= hi.x + m && chi.x >= lo.x - m && clo.y <= hi.y + m && chi.y >= lo.y - m;
+            if overlaps && clo.z < far_seen {
+                nearest = nearest.min(clo.z);
+            }
+        }
+    }
+    let m = if nearest.is_finite() {
+        reach(nearest) * 1.01
+    } else {
+        0.0
+    };
+    let lo = (lo - Vec2::splat(m)).max(Vec2::splat(-t));
+    let hi = (hi + Vec2::splat(m)).min(Vec2::splat(t));
+    // A window a hair wide (a receiver seen edge-on) still gets a frustum around it.
+    let pad = Vec2::splat(t * 1e-3);
+    (lo.cmple(hi).all()).then_some((lo - pad, hi + pad))
+}
+
+/// Casters whose shadow-map image is under `MIN_CASTER_TEXELS` texels across (the widest
+/// side of its bounds' light-uv box) in a side-`res` map of `light`: named in one warning
+/// line saying what to change, or `None`. Casters outside the frustum or reaching behind the
+/// light are not judged.
+pub fn caster_texel_warning(scene: &Scene, light: &LightView, res: u32) -> Option<String> {
+    let mut small: Vec<(String, f32)> = Vec::new();
+    for o in scene.objects.iter().filter(|o| o.role.casts()) {
+        let b = o.world_bounds();
+        if b.is_empty() {
+            continue;
+        }
+        let corners = b.corners();
+        let projected: Vec<(Vec2, f32)> = corners.iter().map(|&c| light.project(c)).collect();
+        if projected
+            .iter()
+            .any(|(uv, d)| *d <= 0.0 || !d.is_finite() || !uv.is_finite())
+        {
+            continue;
+        }
+        let lo = projected
+            .iter()
+            .fold(Vec2::INFINITY, |a, (uv, _)| a.min(*uv));
+        let hi = projected
+            .iter()
+            .fold(Vec2::NEG_INFINITY, |a, (uv, _)| a.max(*uv));
+        let inside = lo.cmple(Vec2::ONE).all() && hi.cmpge(Vec2::ZERO).all();
+        let texels = (hi - lo).max_element() * res as f32;
+        if inside && texels < MIN_CASTER_TEXELS {
+            small.push((o.name.clone(), texels));
+        }
+    }
+    if small.is_empty() {
+        return None;
+    }
+    let names: Vec<String> = small
+        .iter()
+        .take(3)
+        .map(|(n, t)| format!("'{n}' ({t:.2} texels)"))
+        .collect();
+    let more = match small.len() {
+        n if n > 3 => format!(" and {} more", n - 3),
+        _ => String::new(),
+    };
+    let fix = if light.sun.is_some() {
+        "narrow the camera's view or raise --shadow-res"
+    } else {
+        "narrow the light's cone, move the light closer or raise --shadow-res"
+    };
+    Some(format!(
+        "warning: caster {}{more} spans fewer than {MIN_CASTER_TEXELS} texels of the {res}x{res} shadow map: its shadow may vanish; {fix}",
+        names.join(", ")
+    ))
+}
+
+/// Fewest texels a caster should span in the shadow map (`caster_texel_warning`): below
+/// about two, a caster's shadow falls between texel centres and comes and goes.
+pub const MIN_CASTER_TEXELS: f32 = 2.0;
 
 /// Widest image a sun's map is fitted for (`fit_sun`): width / height up to this share the
 /// camera's vertical field of view and see no more than it.

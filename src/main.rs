@@ -667,6 +667,12 @@ fn render(cli: &Cli, a: &RenderArgs) -> Result<()> {
         eprintln!("{w}");
     }
     let mut r = Renderer::new(&ctx, scene, &a.technique, settings)?;
+    let light = softshadow::frustum::fit_light(&r.scene);
+    if let Some(w) =
+        softshadow::frustum::caster_texel_warning(&r.scene, &light, r.settings.shadow_res)
+    {
+        eprintln!("{w}");
+    }
     let frames = if a.timings { 7 } else { 1 };
     let mut all = Vec::new();
     for _ in 0..frames {

@@ -34,9 +34,10 @@ void main() {
     float vis = draw.albedo_receives.w > 0.5 ? visibility(v_world, n) : 1.0;
     vec3 l = light_direction(v_world);
     float ndl = max(dot(n, l), 0.0);
-    // Spot cone: dark outside the shadow frustum, as a spotlight's would be. A sun lights
-    // everything; its map covers what the camera sees (frustum::fit_sun).
-    vec4 c = v_light_clip;
+    // Spot cone: dark outside the light's cone, as a spotlight's would be, from the cone's
+    // own axis and angle (the map may be fitted inside it). A sun lights everything; its map
+    // covers what the camera sees (frustum::fit_sun).
+    vec4 c = frame.spot_from_light_clip * v_light_clip;
     vec2 ndc = c.xy / max(c.w, 1e-30);
     float spot = light_is_sun() ? 1.0 : c.w > 0.0 ? 1.0 - smoothstep(0.85, 1.0, max(abs(ndc.x), abs(ndc.y))) : 0.0;
     float k = 0.12 + 0.88 * ndl * vis * spot;

@@ -16,6 +16,7 @@ layout(set = 0, binding = 0, std140) uniform Frame {
     vec4 technique;          // technique-specific, named by each glsl/<technique>/constants.glsl
     vec4 technique2;         // technique-specific, named likewise
     vec4 sun;                // x: 1 for a sun (orthographic light), y: tan of its angular radius, z: world texel size
+    mat4 spot_from_light_clip; // light clip -> the spot cone's own clip (the map may be fitted inside the cone)
 } frame;
 
 // A sun's shadow map is orthographic: clip w is 1 and clip z = (d - near) / (far - near)

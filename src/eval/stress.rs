@@ -87,6 +87,10 @@ pub const CASES: &[(&str, &str)] = &[
     ("far-caster", "cylinder plus a box 1e6 away from the origin, outside the light and the view"),
     ("far-light", "cylinder with the light 1e3 scene sizes away, its cone narrowed to the scene"),
     ("fov-limit", "cylinder under a light cone of the widest allowed fov"),
+    // The spotlight's map fitted to what the camera sees (frustum::fit_light).
+    ("far-spot", "a unit box under a 40 degree spotlight 5,000 units away"),
+    ("tiny-caster", "a caster 0.05 wide among receivers 400 wide, all under the light's cone"),
+    ("wide-cone-small-caster", "one caster 0.1 wide under a cone of the widest allowed fov"),
     ("shadow-res-min", "cylinder with the smallest allowed shadow map"),
     ("occluder-res-min", "cylinder with the smallest allowed occluder map (ssm, ssm2)"),
 ];
@@ -533,6 +537,55 @@ fn rigged(name: &str, objects: Vec<Object>, light_pos: Vec3) -> Scene {
     scene(name, objects, light, camera)
 }
 
+/// The cases of a spotlight whose cone is far wider than what the camera sees: the camera
+/// framed on a small caster resting on the ground, the light's cone holding far more.
+fn spot_fit_case(name: &str) -> Scene {
+    let (ground_size, caster, light_pos, fov_deg, radius) = match name {
+        // 40 degrees from 5,000 units: the cone is 3,600 wide at the ground.
+        "far-spot" => (12.0, 1.0, Vec3::new(-1500.0, 4700.0, 1000.0), 40.0, 100.0),
+        // The light 200 up over a ground 400 wide and two tall walls: its cone holds them.
+        "tiny-caster" => (400.0, 0.05, Vec3::new(-20.0, 200.0, 10.0), 100.0, 0.5),
+        _ => (
+            40.0,
+            0.1,
+            Vec3::new(-0.5, 4.0, 0.3),
+            crate::scene::MAX_LIGHT_FOV_DEG,
+            0.05,
+        ),
+    };
+    let mut o = Vec::new();
+    ground(&mut o, ground_size);
+    if name == "tiny-caster" {
+        for (k, x) in [-150.0f32, 150.0].into_iter().enumerate() {
+            add(
+                &mut o,
+                &format!("wall{k}"),
+                prim::cuboid(Vec3::new(4.0, 60.0, 300.0)),
+                Mat4::from_translation(Vec3::new(x, 30.0, 0.0)),
+                Role::Receiver,
+            );
+        }
+    }
+    // Raised a little above the ground so that the shadow is not only contact.
+    add(
+        &mut o,
+        "box",
+        prim::cuboid(Vec3::splat(caster)),
+        Mat4::from_translation(Vec3::new(0.0, caster, 0.0)),
+        Role::Both,
+    );
+    let focus: Vec<Object> = o.iter().filter(|b| b.name == "box").cloned().collect();
+    let (_, camera) = rig(&focus, light_pos, 0.0, 0.05, Vec3::new(0.3, 0.8, 1.0));
+    let light = Light {
+        position: light_pos,
+        target: Vec3::ZERO,
+        fov_deg,
+        radius,
+        kind: crate::scene::LightKind::Spot,
+    };
+    scene(name, o, light, camera)
+}
+
 /// A `size`-wide grid of `cells`^2 quads whose height rolls by up to 2 `amplitude`, sunk below
 /// y = 0 within a tenth of `size` of its centre: hills around a valley.
 fn terrain(size: f32, cells: u32, amplitude: f32) -> Mesh {
@@ -776,6 +829,7 @@ fn build(name: &str, sizes: &Sizes) -> Result<Case> {
             s.name = name.into();
             stat(s)
         }
+        "far-spot" | "tiny-caster" | "wide-cone-small-caster" => stat(spot_fit_case(name)),
         "fov-limit" => {
             let mut s = builtin_scene("cylinder")?;
             s.light.fov_deg = crate::scene::MAX_LIGHT_FOV_DEG;

@@ -36,6 +36,9 @@ pub struct FrameUniforms {
     /// x: 1 for a sun (orthographic map), 0 for a spotlight; y: tan of the sun's angular
     /// radius; z: a sun's world texel size; w: 0.
     pub sun: [f32; 4],
+    /// `LightView::spot_from_clip`: light clip coordinates to the spot cone's own, for the
+    /// spot falloff when the map is fitted inside the cone.
+    pub spot_from_light_clip: [f32; 16],
 }
 
 impl FrameUniforms {
@@ -79,6 +82,7 @@ impl FrameUniforms {
                 Some(sun) => [1.0, sun.tan_angle, l.texel_world(0.0, s.shadow_res), 0.0],
                 None => [0.0; 4],
             },
+            spot_from_light_clip: l.spot_from_clip.to_cols_array(),
         }
     }
 }
@@ -107,6 +111,8 @@ struct LightKey {
     light: crate::scene::Light,
     radius: f32,
     near_far: (f32, f32),
+    /// The light's frame: fitted to what the camera sees, it moves with the camera.
+    view_proj: Mat4,
     transforms: Vec<Mat4>,
     any_caster: bool,
     settings: Settings,
@@ -123,6 +129,10 @@ impl<'c> Renderer<'c> {
         let settings = settings.effective();
         scene.validate()?;
         check_radius(&scene, settings.radius_for(&scene))?;
+        // The radius in effect is the scene's from here on: the light's fit reads it for
+        // the penumbrae's reach (`frustum::fit_light`).
+        let mut scene = scene;
+        scene.light.radius = settings.radius_for(&scene);
         let info = technique::find(technique_name)?;
         technique::check_light(info.name, &scene)?;
         let gpu = GpuScene::new(ctx, &scene).context("uploading the scene")?;
@@ -201,11 +211,12 @@ impl<'c> Renderer<'c> {
         let any_caster = self
             .gpu
             .cull(self.light.view_proj, cam, self.settings.culling);
-        // Everything the light-space passes depend on; the camera is not part of it.
+        // Everything the light-space passes depend on; the camera only through the light's fit.
         let light_key = Some(LightKey {
             light: self.scene.light,
             radius: self.light_radius(),
             near_far: (self.light.near, self.light.far),
+            view_proj: self.light.view_proj,
             transforms: self.scene.objects.iter().map(|o| o.transform).collect(),
             any_caster,
             settings: self.settings.clone(),

@@ -4,7 +4,7 @@
 //! outside tools (OBJ + JSON, or glTF).
 
 use anyhow::{bail, Result};
-use glam::{Mat3, Mat4, Vec3};
+use glam::{Mat3, Mat4, Vec3, Vec4};
 use std::path::Path;
 use std::sync::Arc;
 
@@ -206,8 +206,9 @@ pub struct Aabb {
     pub max: Vec3,
 }
 
-/// The light's shadow-map frame: a square perspective frustum from `Light::position`
-/// towards `Light::target`. Light screen space is uv in \[0,1\]^2 with uv = ndc * 0.5 + 0.5
+/// The light's shadow-map frame: a square perspective frustum from `Light::position`,
+/// towards `Light::target` with the cone's `fov_deg`, or, fitted (`LightView::fitted`), a
+/// narrower square one inside the cone aimed at what matters. Light screen space is uv in \[0,1\]^2 with uv = ndc * 0.5 + 0.5
 /// (no flip: rendering and sampling use the same mapping). Linear depth is the distance
 /// along the light's view axis (-z in view space); along one texel's ray the ratio of two
 /// linear depths equals the ratio of their distances to the light (smoothies' b/r).
@@ -219,7 +220,13 @@ pub struct LightView {
     pub view_proj: Mat4,
     pub near: f32,
     pub far: f32,
+    /// The map's own field of view (the frustum's, not the spot's cone when fitted): every
+    /// uv size and texel size derives from it.
     pub fov_deg: f32,
+    /// Maps this frame's light clip coordinates to the spot cone's own (its xy / w in
+    /// [-1, 1] inside the cone), so that the spot falloff follows the light's real axis and
+    /// angle whatever the map is fitted to. The identity unless fitted.
+    pub spot_from_clip: Mat4,
     /// Depth extent of what the light sees, before the near/far headroom (`far - near` unless
     /// fitted by `frustum::fit_light`): the scale of the depth bias.
     pub depth_span: f32,
@@ -267,9 +274,41 @@ impl LightView {
             near,
             far,
             fov_deg: light.fov_deg,
+            spot_from_clip: Mat4::IDENTITY,
             depth_span: far - near,
             sun,
         }
+    }
+
+    /// A spotlight's map fitted inside its cone: a square frustum of half-angle
+    /// atan(`tan_half`) from the light along `dir`, rolled by `up`. `spot_from_clip` carries
+    /// its clip coordinates back to the cone's frame (`LightView::new`'s).
+    pub fn fitted(light: &Light, dir: Vec3, up: Vec3, tan_half: f32, near: f32, far: f32) -> Self {
+        let cone = Self::new(light, near, far);
+        let view = Mat4::look_to_rh(light.position, dir, up);
+        let fov = 2.0 * tan_half.atan();
+        let proj = Mat4::perspective_rh(fov, 1.0, near, far);
+        let mut v = Self::framed(light, light.position, view, proj, (near, far), None);
+        v.fov_deg = fov.to_degrees();
+        // Clip (x, y, _, w) -> view (x t, y t, -w) -> the cone's view -> its clip; built from
+        // rotations and scales only, so the light's distance from the origin costs no
+        // precision (an inverse of view_proj would).
+        let to_view = Mat4::from_cols(
+            Vec4::new(tan_half, 0.0, 0.0, 0.0),
+            Vec4::new(0.0, tan_half, 0.0, 0.0),
+            Vec4::ZERO,
+            Vec4::new(0.0, 0.0, -1.0, 0.0),
+        );
+        let rotate = Mat3::from_mat4(cone.view) * Mat3::from_mat4(view).transpose();
+        let tc = (light.fov_deg.to_radians() * 0.5).tan();
+        let to_clip = Mat4::from_cols(
+            Vec4::new(1.0 / tc, 0.0, 0.0, 0.0),
+            Vec4::new(0.0, 1.0 / tc, 0.0, 0.0),
+            Vec4::new(0.0, 0.0, 0.0, -1.0),
+            Vec4::ZERO,
+        );
+        v.spot_from_clip = to_clip * Mat4::from_mat3(rotate) * to_view;
+        v
     }
 
     /// A sun's orthographic frame: seen from `eye` along `-light.direction()`, a square of

@@ -89,8 +89,7 @@ fn plain_against_optimised(
     // run on the still frame, the final pass whole.
     let n = scene.objects.len();
     assert_eq!(kept, (n, n), "{case}: plain culled");
-    let skipped =
-        |t: &FrameTimings| t.passes.iter().filter(|p| p.skipped.is_some()).count();
+    let skipped = |t: &FrameTimings| t.passes.iter().filter(|p| p.skipped.is_some()).count();
     assert_eq!(skipped(&plain_t), 0, "{case}: plain skipped a pass");
     let final_pass = format!("{name}/final");
     let area = |t: &FrameTimings| t.lookup_area_of(&final_pass).unwrap_or(1.0);

@@ -607,7 +607,12 @@ fn plateaus_and_smoothies_penumbrae_under_a_sun_grow_linearly_as_the_closed_form
             .iter()
             .map(|&(h, w, _)| (h, w, ramp * h * theta.tan()))
             .collect();
-        assert_linear(&format!("{outward} (its outward ramp)"), &expected, within, spread);
+        assert_linear(
+            &format!("{outward} (its outward ramp)"),
+            &expected,
+            within,
+            spread,
+        );
         let ratios: Vec<f64> = widths.iter().map(|&(_, w, e)| w / e).collect();
         println!("{outward} over the closed form: {ratios:?}");
         assert_linear(centred, &edge_widths(&gpu, centred), c_within, c_spread);
@@ -646,4 +651,3 @@ fn plateaus_ssm_and_smoothies_at_a_tiny_sun_equal_hard() {
         assert!(off * 200 < n, "{technique}: {off} of {n} pixels over 0.01");
     }
 }
-

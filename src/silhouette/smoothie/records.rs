@@ -1109,9 +1109,10 @@ mod tests {
             inv_depth: 1.0 / b,
             width: t,
         };
-        // A sun (span 7): b interpolated linearly, the factor (depth - b) / span.
-        let sun = extent.for_sun(Some(7.0));
-        assert_eq!(sun.span, 7.0);
+        // A sun whose map spans depths 1 to 10 (span 9, so every b here lies in it): b
+        // interpolated linearly, the factor (depth - b) / span.
+        let sun = extent.for_sun(Some(9.0));
+        assert_eq!(sun.span, 9.0);
         for (b0, b1, t0, t1) in [
             (4.0, 8.0, 0.03, 0.03),
             (4.0, 8.0, 0.05, 0.02),
@@ -1133,7 +1134,7 @@ mod tests {
                     drawn >= needed * (1.0 - 1e-6),
                     "ends {b0}, {b1} at {x}: quad reaches {drawn}, fragments kept to {needed}"
                 );
-                let needed = t * ((depth - (b0 + (b1 - b0) * x)) / 7.0).max(0.0);
+                let needed = t * ((depth - (b0 + (b1 - b0) * x)) / 9.0).max(0.0);
                 let drawn = s0 + (s1 - s0) * x;
                 assert!(
                     drawn >= needed * (1.0 - 1e-6) && drawn <= t * (1.0 + 1e-6),
@@ -1142,10 +1143,10 @@ mod tests {
             }
         }
         // A sun's extent is no spotlight's: the deep end of the (4, 8) edge reaches
-        // t (10 - 4) / 7 there, not t (1 - 4 / 10).
+        // t (10 - 4) / 9 there, not t (1 - 4 / 10).
         let (a, b) = (record(4.0, 0.05), record(8.0, 0.05));
         let (s0, _) = sun.of_edge(&a, &b);
-        assert!((s0 - 0.05 * 6.0 / 7.0).abs() < 1e-6, "{s0}");
+        assert!((s0 - 0.05 * 6.0 / 9.0).abs() < 1e-6, "{s0}");
         // The full width is each end's own t.
         let (a, b) = (record(4.0, 0.05), record(8.0, 0.02));
         assert_eq!(Extent::FULL.of_edge(&a, &b), (0.05, 0.02));

@@ -114,7 +114,9 @@ fn gpu_finds_exactly_the_cpu_silhouette_edges() {
 #[test]
 fn gpu_and_cpu_paths_render_the_same_image() {
     let gpu = Gpu::new();
-    for scene in scenes() {
+    // And under a sun: orthographic depth, one width, the facing test's stand-in point.
+    let sun = Scene::load("assets/scenes/sun-courtyard.toml").unwrap();
+    for scene in scenes().into_iter().chain([sun]) {
         let name = scene.name.clone();
         let cpu = gpu
             .render_frames(scene.clone(), "smoothies", settings(SilhouettePath::Cpu), 1)

@@ -59,6 +59,85 @@ fn visibility_diff(a: &[f32], b: &[f32]) -> (f32, usize) {
     (diffs.iter().copied().fold(0.0, f32::max), diffs.len())
 }
 
+/// `name` on `scene` with and without the speed layer: asserts the plain path ran without
+/// it and draws the optimised image (and, with `split`, that the optimised final pass of a
+/// `SPLIT` technique was split); returns whether the optimised path reused its light
+/// passes on the still frame, and where the two differ at all.
+fn plain_against_optimised(
+    gpu: &Gpu,
+    scene: &Scene,
+    scene_name: &str,
+    name: &str,
+    split: bool,
+) -> (bool, Option<String>) {
+    let settings = Settings {
+        silhouettes: SilhouettePath::Cpu,
+        ..small(64, 256)
+    };
+    let (fast, fast_t, _) = frames(gpu, scene, name, settings.clone());
+    let (plain, plain_t, kept) = frames(
+        gpu,
+        scene,
+        name,
+        Settings {
+            plain: true,
+            ..settings
+        },
+    );
+    let case = format!("{name} on {scene_name}");
+    // The plain path ran without the speed layer: every object kept, every pass
+    // run on the still frame, the final pass whole.
+    let n = scene.objects.len();
+    assert_eq!(kept, (n, n), "{case}: plain culled");
+    let skipped = |t: &FrameTimings| t.passes.iter().filter(|p| p.skipped.is_some()).count();
+    assert_eq!(skipped(&plain_t), 0, "{case}: plain skipped a pass");
+    let final_pass = format!("{name}/final");
+    let area = |t: &FrameTimings| t.lookup_area_of(&final_pass).unwrap_or(1.0);
+    assert_eq!(area(&plain_t), 1.0, "{case}: plain split its final pass");
+    if split && SPLIT.contains(&name) {
+        assert!(
+            area(&fast_t) < 1.0,
+            "{case}: the optimised final pass was whole"
+        );
+    }
+    let reused = skipped(&fast_t) > 0;
+    assert_eq!(fast.visibility.len(), 64 * 64, "{case}");
+    let (vis, n_vis) = visibility_diff(&fast.visibility, &plain.visibility);
+    let levels = common::max_colour_diff(&fast, &plain);
+    let n_colour = fast
+        .color
+        .iter()
+        .zip(&plain.color)
+        .filter(|(a, b)| a != b)
+        .count();
+    // Shortened smoothies (`records::Extent`: the paper form's outer ones, the
+    // centred form's inner ones) interpolate alpha, t and 1/b over triangles other
+    // than the full-width ones, so a few visibilities move by that rounding (as in
+    // tests/avoided_work.rs `light_areas_change_no_pixel`): measured up to 3.0e-6
+    // on up to 152 of 4096 pixels for the paper form, 7.6e-5 on one pixel for the
+    // centred form (16-bit penumbra), never a colour level. Everything else is bit
+    // for bit.
+    let vis_bound = match name {
+        "smoothies" => 1e-5,
+        "smoothies-centred" => 2e-4,
+        _ => 0.0,
+    };
+    let level_bound = 0;
+    assert!(
+        vis <= vis_bound && levels <= level_bound,
+        "{case}: plain differs in {n_vis} visibilities by up to {vis}, in {n_colour} pixels by up to {levels} levels"
+    );
+    // Not a blank frame on either side: the comparison saw shading.
+    assert!(
+        fast.position.iter().any(|p| p[3] > 0.5),
+        "{case}: nothing covered"
+    );
+    let worst = (n_vis > 0 || n_colour > 0).then(|| {
+        format!("{case}: {n_vis} visibilities by up to {vis}, {n_colour} pixels by up to {levels}")
+    });
+    (reused, worst)
+}
+
 #[test]
 fn plain_draws_the_optimised_image() {
     let gpu = Gpu::new();
@@ -69,75 +148,9 @@ fn plain_draws_the_optimised_image() {
     for &scene_name in BUILTIN_SCENES.iter().filter(|&&s| s != "dense-1m") {
         let scene = Scene::load(scene_name).unwrap();
         for t in TECHNIQUES {
-            let name = t.name;
-            let settings = Settings {
-                silhouettes: SilhouettePath::Cpu,
-                ..small(64, 256)
-            };
-            let (fast, fast_t, _) = frames(&gpu, &scene, name, settings.clone());
-            let (plain, plain_t, kept) = frames(
-                &gpu,
-                &scene,
-                name,
-                Settings {
-                    plain: true,
-                    ..settings
-                },
-            );
-            let case = format!("{name} on {scene_name}");
-            // The plain path ran without the speed layer: every object kept, every pass
-            // run on the still frame, the final pass whole.
-            let n = scene.objects.len();
-            assert_eq!(kept, (n, n), "{case}: plain culled");
-            let skipped =
-                |t: &FrameTimings| t.passes.iter().filter(|p| p.skipped.is_some()).count();
-            assert_eq!(skipped(&plain_t), 0, "{case}: plain skipped a pass");
-            let final_pass = format!("{name}/final");
-            let area = |t: &FrameTimings| t.lookup_area_of(&final_pass).unwrap_or(1.0);
-            assert_eq!(area(&plain_t), 1.0, "{case}: plain split its final pass");
-            if SPLIT.contains(&name) {
-                assert!(
-                    area(&fast_t) < 1.0,
-                    "{case}: the optimised final pass was whole"
-                );
-            }
-            reused += usize::from(skipped(&fast_t) > 0);
-            assert_eq!(fast.visibility.len(), 64 * 64, "{case}");
-            let (vis, n_vis) = visibility_diff(&fast.visibility, &plain.visibility);
-            let levels = common::max_colour_diff(&fast, &plain);
-            let n_colour = fast
-                .color
-                .iter()
-                .zip(&plain.color)
-                .filter(|(a, b)| a != b)
-                .count();
-            // Shortened smoothies (`records::Extent`: the paper form's outer ones, the
-            // centred form's inner ones) interpolate alpha, t and 1/b over triangles other
-            // than the full-width ones, so a few visibilities move by that rounding (as in
-            // tests/avoided_work.rs `light_areas_change_no_pixel`): measured up to 3.0e-6
-            // on up to 152 of 4096 pixels for the paper form, 7.6e-5 on one pixel for the
-            // centred form (16-bit penumbra), never a colour level. Everything else is bit
-            // for bit.
-            let vis_bound = match name {
-                "smoothies" => 1e-5,
-                "smoothies-centred" => 2e-4,
-                _ => 0.0,
-            };
-            let level_bound = 0;
-            assert!(
-                vis <= vis_bound && levels <= level_bound,
-                "{case}: plain differs in {n_vis} visibilities by up to {vis}, in {n_colour} pixels by up to {levels} levels"
-            );
-            // Not a blank frame on either side: the comparison saw shading.
-            assert!(
-                fast.position.iter().any(|p| p[3] > 0.5),
-                "{case}: nothing covered"
-            );
-            if n_vis > 0 || n_colour > 0 {
-                worst.push(format!(
-                    "{case}: {n_vis} visibilities by up to {vis}, {n_colour} pixels by up to {levels}"
-                ));
-            }
+            let (r, w) = plain_against_optimised(&gpu, &scene, scene_name, t.name, true);
+            reused += usize::from(r);
+            worst.extend(w);
         }
     }
     // And the optimised path did what plain does not: skipped its light passes (the
@@ -146,6 +159,26 @@ fn plain_draws_the_optimised_image() {
     let cases = (BUILTIN_SCENES.len() - 1) * TECHNIQUES.len();
     assert_eq!(reused, cases, "light passes reused");
     // Shown with --nocapture: where rounding made the two differ at all.
+    for w in worst {
+        println!("{w}");
+    }
+}
+
+/// The same under a sun (the courtyard scene file), for every technique that serves one.
+/// Their split final passes follow a spotlight's central projection and run whole under a
+/// sun (`regions::shadowed`), so only the image and the reuse are checked.
+#[test]
+fn plain_draws_the_optimised_image_under_a_sun() {
+    let gpu = Gpu::new();
+    let path = "assets/scenes/sun-courtyard.toml";
+    let scene = Scene::load(path).unwrap();
+    assert!(scene.light.is_sun());
+    let mut worst = Vec::new();
+    for name in softshadow::technique::sun_techniques() {
+        let (reused, w) = plain_against_optimised(&gpu, &scene, path, name, false);
+        assert!(reused, "{name} on {path}: light passes not reused");
+        worst.extend(w);
+    }
     for w in worst {
         println!("{w}");
     }

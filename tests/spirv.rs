@@ -103,9 +103,11 @@ fn compare(gpu: &Gpu, scene: &str, settings: Settings) -> (Vec<f32>, usize) {
 }
 
 #[test]
-fn tuned_matches_glslang_on_cylinder_and_primitives() {
+fn tuned_matches_glslang_on_cylinder_primitives_and_a_sun() {
     let gpu = Gpu::new();
-    for scene in ["cylinder", "primitives"] {
+    // The courtyard under a sun: the tuned modules' light-kind selects (orthographic depth,
+    // the sun's direction and normal offset, Eq. 1s, b interpolated itself).
+    for scene in ["cylinder", "primitives", "assets/scenes/sun-courtyard.toml"] {
         let img = gpu.render(scene, "hard", small(192, 256));
         let cov = covered(&img);
         let (vis, rounded) = compare(&gpu, scene, small(192, 256));

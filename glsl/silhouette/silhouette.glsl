@@ -113,11 +113,12 @@ bool finite2(vec2 v) {
     return !any(isnan(v)) && !any(isinf(v));
 }
 
-// LightView::project plus the near-plane and finiteness guard of Projector::project.
+// LightView::project plus the near-plane and finiteness guard of Projector::project (a
+// sun's depth from its orthographic clip z, common/frame.glsl).
 bool project(vec3 p, out vec2 uv, out float depth) {
     vec4 c = frame.light_view_proj * vec4(p, 1.0);
     uv = c.xy / c.w * 0.5 + 0.5;
-    depth = c.w;
+    depth = clip_linear_depth(c);
     return depth > frame.light_params.x && finite2(uv) && !isnan(depth) && !isinf(depth);
 }
 
@@ -139,7 +140,8 @@ vec2 project_normal(vec3 p, float depth, vec2 uv, vec3 n_obj) {
     return (c.w > 0.0 && finite2(v)) ? v : vec2(0.0);
 }
 
-// Width::at: the fixed t (SMOOTHIE_FIXED_T >= 0) or R / (2 b tan(fov/2)), clamped.
+// Width::at: the fixed t (SMOOTHIE_FIXED_T >= 0; a sun's one width too) or R / (2 b
+// tan(fov/2)), clamped.
 float width_at(float depth) {
     if (SMOOTHIE_FIXED_T >= 0.0) {
         return SMOOTHIE_FIXED_T;

@@ -11,7 +11,8 @@ layout(location = 3) in vec2 in_anchor;
 layout(location = 4) in vec2 in_dir;
 layout(location = 5) in float in_width;
 
-// 1/depth is linear in screen space for a planar smoothie, depth itself is not.
+// 1/depth is linear in a perspective map's screen space for a planar smoothie, depth itself
+// is not; in a sun's orthographic map depth is, so a sun interpolates b (smoothies/light.glsl).
 layout(location = 0) noperspective out float v_inv_depth;
 layout(location = 1) flat out float v_kind;
 layout(location = 2) flat out vec2 v_anchor;
@@ -21,7 +22,7 @@ layout(location = 4) noperspective out float v_width;
 
 void main() {
     gl_Position = vec4(in_uv * 2.0 - 1.0, 0.0, 1.0);
-    v_inv_depth = in_inv_depth;
+    v_inv_depth = light_is_sun() ? 1.0 / in_inv_depth : in_inv_depth;
     v_kind = in_kind;
     v_anchor = in_anchor;
     v_dir = in_dir;

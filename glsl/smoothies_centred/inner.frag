@@ -29,14 +29,14 @@ void main() {
     float t = v_width;
     float texel = frame.light_params.w;   // uv per texel
     vec2 here = gl_FragCoord.xy;
-    float b = 1.0 / v_inv_depth;
+    float b = smoothie_b(v_inv_depth);
     vec2 dir;
     float x = max(smoothie_distance(here * texel, dir), 0.0);
     if (x >= t || dir == vec2(0.0)) discard;
     float x_tex = x / texel;
     float zr;
     if (!receiver_beyond(here, dir, x_tex, b, zr)) discard;
-    float denom = 1.0 - b / zr;
+    float denom = remap_denom(b, zr, remap_span());
     if (!(denom > REMAP_EPS)) discard;
     if (!blocked_at(here, zr)) discard;
     float w = t * denom;   // penumbra half-width at Z_R, uv

@@ -23,12 +23,12 @@
 void main() {
     float t = v_width;
     vec2 uv = gl_FragCoord.xy * frame.light_params.w;
-    float b = 1.0 / v_inv_depth;
+    float b = smoothie_b(v_inv_depth);
     float r = texelFetch(shadow_map, ivec2(gl_FragCoord.xy), 0).g;
     vec2 dir;
     float x = smoothie_distance(uv, dir);
     float s;
-    if (!smoothie_alpha(b, r, x, t, s)) discard;
+    if (!smoothie_alpha(b, r, x, t, remap_span(), s)) discard;
     o_depth = b;
     o_penumbra = vec4(disc_chord(-s), 1.0, 1.0, 1.0);
 }

@@ -23,6 +23,8 @@ layout(location = 1) out vec4 o_penumbra;
 #include "common/far_depth.glsl"
 // REMAP_EPS and the outer smoothies' decision: the paper form's own.
 #include "smoothies/alpha.glsl"
+// smoothie_b, remap_span: the light kind's depth varying and remap.
+#include "smoothies/light.glsl"
 
 // Distance (light uv) of this fragment from its smoothie's hard-edge line (edge quads) or
 // silhouette vertex (corner fans), along the smoothie's extrusion direction `dir`.

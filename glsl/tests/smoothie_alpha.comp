@@ -14,6 +14,7 @@ void main() {
     uint i = gl_GlobalInvocationID.x;
     vec4 x = inputs[i];
     float alpha = -1.0;
-    bool kept = smoothie_alpha(x.x, x.y, x.z, x.w, alpha);
+    // Span 0: the spotlight's remap 1 - b/r.
+    bool kept = smoothie_alpha(x.x, x.y, x.z, x.w, 0.0, alpha);
     outputs[i] = vec4(kept ? 1.0 : 0.0, alpha, 0.0, 0.0);
 }

@@ -273,7 +273,7 @@ impl GpuSilhouettes {
             adjacency,
             Emitter::Smoothies,
             |adj, o| {
-                let sil = extract(adj, o.transform, light.position);
+                let sil = extract(adj, o.transform, super::light_point(light));
                 build_smoothies_width(adj, &sil, o.transform, light, width)
                     .vertices
                     .len()
@@ -901,7 +901,7 @@ fn output_set(ctx: &Context, vertices: &Buffer) -> Result<DescriptorSet> {
 /// The caster's constants: as the CPU path's `Projector`, a singular model gets a zero
 /// normal matrix, and the light in object space comes from the same `light_in_object`.
 fn caster_data(c: &Caster, model: Mat4, light: &LightView, dirty: bool) -> CasterData {
-    let (l, mirror) = light_in_object(model, light.position);
+    let (l, mirror) = light_in_object(model, super::light_point(light));
     let nm = Mat3::from_mat4(model).inverse().transpose();
     let nm = if nm.is_finite() { nm } else { Mat3::ZERO };
     let col = |c: glam::Vec3, w: f32| [c.x, c.y, c.z, w];

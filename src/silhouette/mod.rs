@@ -623,6 +623,25 @@ fn classify_range(
     }
 }
 
+/// A sun's stand-in light point for the facing test, in map widths plus depths towards it.
+const SUN_DISTANCE: f32 = 1e6;
+
+/// The point silhouettes are taken from (`extract`'s `light_pos_world`): a spotlight's
+/// centre; a sun's, a point `SUN_DISTANCE` times its map's width and depth towards it from
+/// the map's eye. The facing test only needs the sun's direction: rays to that point stray
+/// from it by about a millionth of a radian over the map, and f32 still holds the point
+/// with the scene's.
+pub fn light_point(light: &crate::scene::LightView) -> Vec3 {
+    match light.sun {
+        None => light.position,
+        Some(s) => {
+            // The view looks along -(the direction towards the sun): its z row.
+            let towards = light.view.row(2).truncate().normalize_or(Vec3::Y);
+            light.position + towards * (SUN_DISTANCE * (2.0 * s.half_width + light.far))
+        }
+    }
+}
+
 pub(crate) fn light_in_object(model: Mat4, light_pos_world: Vec3) -> (Vec3, bool) {
     // A singular model has no object-space light; such an object is flat and casts no
     // meaningful silhouette, so any finite light position will do.

@@ -174,6 +174,8 @@ pub struct GeometryKey {
     fov_deg: f32,
     near: f32,
     width: Width,
+    /// A sun's map side (its uv scale) and angle; `None` for a spotlight.
+    sun: Option<crate::scene::SunView>,
 }
 
 impl GeometryKey {
@@ -183,6 +185,7 @@ impl GeometryKey {
             fov_deg: light.fov_deg,
             near: light.near,
             width,
+            sun: light.sun,
         }
     }
 }

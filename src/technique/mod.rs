@@ -232,14 +232,6 @@ pub const TECHNIQUES: &[TechniqueInfo] = &[
 /// compute yet. Rendering them would draw a wrong shadow quietly, so they refuse.
 const NO_SUN: &[(&str, &str)] = &[
     (
-        "smoothies",
-        "its smoothie width and alpha remap (Eq. 1, b/r) are a spotlight's",
-    ),
-    (
-        "smoothies-centred",
-        "its smoothie widths and alpha remaps (b/r) are a spotlight's",
-    ),
-    (
         "penumbra-map",
         "its cones and sheets are drawn from a light sphere's centre",
     ),

@@ -26,8 +26,8 @@
 //! records (same edges, same image).
 //!
 //! ## Passes, in order
-//! 0. `smoothies/silhouettes` — per caster, per light: silhouette edges over the edge
-//!    adjacency built once per mesh, then smoothie geometry in light screen space: per edge
+//! 0. `smoothies/silhouettes` — per caster, per light: silhouette edges (from the light's
+//!    centre; a sun's stand-in point, "Under a sun") over the edge adjacency built once per mesh, then smoothie geometry in light screen space: per edge
 //!    a quad from the edge outward by t (alpha 0 -> 1, Sec. 3 step 3, Fig. 2); per
 //!    silhouette vertex a fan covering the gap between its two edges with radial alpha
 //!    |v - p| / t (Fig. 6); vertices with one or more than two silhouette edges get a fan
@@ -48,7 +48,8 @@
 //!    halves the blend work, and the final pass's two gathers share one texel address.
 //!    `glsl/smoothies/smoothie.frag` reads the shadow map's g at its own texel for the
 //!    receiver depth r, computes the distance x from the silhouette (edge: along the
-//!    outward normal; corner: radial) and Eq. 1's alpha' = (x / t) / (1 - b/r), written
+//!    outward normal; corner: radial) and Eq. 1's alpha' = (x / t) / (1 - b/r) (a sun:
+//!    Eq. 1s, (x / t) / ((r - b) / D)), written
 //!    only where the smoothie darkens a surface (`glsl/smoothies/alpha.glsl`). Discarded:
 //!    g = 1e30 (no surface at the texel), b/r > 1 (smoothie behind the surface), 1 - b/r
 //!    < 1e-4 (Volokh 3.5: b ~ r; no NaN, no Inf, no speckles), and alpha' >= 1, i.e.
@@ -71,8 +72,9 @@
 //! - The smoothie geometry (Sec. 3, Fig. 2 and 6; Volokh's corners): the reference
 //!   construction `build_smoothies_width` (src/silhouette/smoothie.rs).
 //! - The width t (see "The width t"): `Width::at` (src/silhouette/smoothie.rs).
-//! - Eq. 1 (alpha' = alpha / (1 - b/r)) and which fragments are written:
-//!   `smoothie_alpha` (glsl/smoothies/alpha.glsl).
+//! - Eq. 1 (alpha' = alpha / (1 - b/r); a sun's Eq. 1s, alpha / ((r - b) / D)) and which
+//!   fragments are written: `smoothie_alpha`, `remap_denom` (glsl/smoothies/alpha.glsl),
+//!   with b and D from glsl/smoothies/light.glsl.
 //! - Step 5 (blocker, smoothie, lit per texel, bilinear weights, falloff): `visibility`
 //!   (glsl/smoothies/final.frag).
 //!
@@ -93,8 +95,39 @@
 //! gives t = 0 and exactly the hard result. Reports print `Width::at` at the casters'
 //! centre (`smoothie_width`).
 //!
+//! ## Under a sun
+//! A sun is every direction within its angular radius theta of its unit direction s
+//! (towards it), shadow-mapped with an orthographic map of side 2 h world units and depth
+//! range D = far - near (`frustum::fit_sun`). Its rays are parallel, so a blocker edge at
+//! linear depth b spreads the disc of directions over (r - b) tan(theta) world units on
+//! either side of its hard edge at a receiver at depth r (the full penumbra 2 (r - b)
+//! tan(theta) under an overhead sun), i.e. (r - b) tan(theta) / (2 h) uv at every depth
+//! (common/frame.glsl `penumbra_half_uv`), not (1 - b/r) R / (2 b tan(fov/2)). Eq. 1's
+//! remap becomes
+//!
+//! (Eq. 1s) alpha' = alpha / ((r - b) / D),
+//!
+//! whose shadow reaches t (r - b) / D uv from the silhouette: the outer penumbra for every
+//! r when t = D tan(theta) / (2 h), one width for every silhouette vertex
+//! (`sun_smoothie_width`, `Width::Fixed`; `--smoothie-t` fixes it likewise). It is not
+//! capped at 0.2: the cap is for blockers near a spotlight, which a sun has not, and
+//! `fit_sun` widens the map by tan(theta) D around what the camera sees, so t stays under
+//! about half the map. b >= near and r <= far give r - b <= D: the remapped shadow never
+//! outgrows its smoothie. theta = 0 gives t = 0 and exactly `hard`. The b ~ r guard is
+//! (r - b) / D > 1e-4 (`remap_denom`, glsl/smoothies/alpha.glsl).
+//! Depths: the map's linear depth is the view's (clip z carries it, common/frame.glsl
+//! `clip_linear_depth`; `LightView::project` and the records' projection use it), and
+//! under a parallel projection depth, not 1/depth, is affine in screen space, so the
+//! smoothie pass interpolates b itself for a sun (glsl/smoothies/light.glsl, the same
+//! `inv_depth` vertex field inverted in glsl/smoothies/smoothie.vert). Silhouettes are taken
+//! from a stand-in point far towards the sun (`silhouette::light_point`), on both paths.
+//! The speed layer's shortened smoothies use (Eq. 1s)'s factor (`records::Extent::for_sun`);
+//! its split final pass follows the central projection and is not planned for a sun.
+//!
 //! ## Known artefacts
-//! Penumbrae only grow outward (no inner penumbra: umbrae are too large for big lights);
+//! Penumbrae only grow outward (no inner penumbra: umbrae are too large for big lights; a
+//! sun's straight edge gets half its closed-form penumbra, the outer half, under the
+//! falloff's sine ramp);
 //! overlapping penumbrae use min, not the product; thick smoothies snap when the silhouette
 //! of a coarse mesh changes under a moving light (Volokh Sec. 7); a depth bias that detaches
 //! the shadow also detaches the smoothie (Volokh Fig. 8), hence normal offset.
@@ -163,8 +196,12 @@ const SMOOTHIE_ATTRIBUTES: &[crate::vk::Attribute] = &[
 ];
 
 /// The smoothie widths: the fixed knob when given, else calibrated per silhouette vertex
-/// from the light radius and the vertex's depth (see the module header).
+/// from the light radius and the vertex's depth, or for a sun the one width
+/// `sun_smoothie_width` (see the module header).
 pub fn smoothie_widths(fixed: Option<f32>, light: &LightView, radius: f32) -> Width {
+    if light.sun.is_some() {
+        return Width::Fixed(fixed.unwrap_or_else(|| sun_smoothie_width(light)));
+    }
     match fixed {
         Some(t) => Width::Fixed(t),
         None => Width::Calibrated {
@@ -172,6 +209,20 @@ pub fn smoothie_widths(fixed: Option<f32>, light: &LightView, radius: f32) -> Wi
             tan_half_fov: (light.fov_deg.to_radians() * 0.5).tan(),
         },
     }
+}
+
+/// A sun's calibrated width (module header, "Under a sun"): t = D tan(theta) / (2 h), D the
+/// map's depth range far - near (Eq. 1s's span) and 2 h its side in world units, the same
+/// for every silhouette vertex; 0 for a spotlight.
+pub fn sun_smoothie_width(light: &LightView) -> f32 {
+    light.sun.map_or(0.0, |s| {
+        let t = s.tan_angle * (light.far - light.near) / (2.0 * s.half_width);
+        if t.is_finite() {
+            t.max(0.0)
+        } else {
+            0.0
+        }
+    })
 }
 
 /// A representative smoothie width t in light-uv units, for reports: the fixed knob when
@@ -429,8 +480,12 @@ impl Technique for Smoothies {
         );
         let mut c = [0.0; 8];
         c[k::SMOOTHIE_T] = t;
-        // The GPU silhouette passes' fixed width, or -1 for the calibrated one.
-        c[k::SMOOTHIE_FIXED_T] = frame.settings.smoothie_t.unwrap_or(-1.0);
+        // The GPU silhouette passes' fixed width (a sun's too), or -1 for the calibrated one.
+        let width = smoothie_widths(frame.settings.smoothie_t, frame.light, frame.light_radius);
+        c[k::SMOOTHIE_FIXED_T] = match width {
+            Width::Fixed(t) => t,
+            Width::Calibrated { .. } => -1.0,
+        };
         technique_constants(c)
     }
 

@@ -37,6 +37,16 @@
 //! side of the hard edge of a blocker edge at depth b: the paper's remap
 //! alpha' = alpha / (1 - b/r) (Eq. 1) is s itself, on both sides.
 //!
+//! Under a sun (smoothies.rs, "Under a sun"): t = D tan(theta) / (2 h) for every vertex,
+//! D the map's depth range and 2 h its side, and (Eq. 1s) alpha' = alpha / ((r - b) / D)
+//! in place of Eq. 1, so the half-width is t (r - b) / D = (r - b) tan(theta) / (2 h) uv on
+//! either side of the hard edge: outer s = alpha' as above, inner s = x / (t (Z_R - b) /
+//! D) (`remap_denom` in inner.frag); the centred profile spans 2 (r - b) tan(theta), the
+//! sun's straight-edge penumbra under an overhead sun. b is interpolated linearly for a
+//! sun (glsl/smoothies/light.glsl). The inner side's hidden-receiver estimate is the
+//! spotlight's (1/depth extrapolated over a plane); under a parallel projection depth
+//! itself is affine there, so on a tilted receiver Z_R bends by up to its 5 % limit.
+//!
 //! ## Passes, in order
 //! 0. CPU `smoothies-centred/silhouettes` (R > 0) — per moved caster: silhouette from the
 //!    light centre, then the smoothie records (`build_records`, as the paper form's CPU
@@ -82,7 +92,7 @@
 //!      this texel, within 5 % of the nearer sample. Discarded when that near sample shows
 //!      a caster more than 1 % in front of b (the edge is hidden by another caster: no
 //!      inner penumbra through it), when this texel is not behind a caster 1 % nearer than
-//!      Z_R, or when s = x / (t (1 - b/Z_R)) >= 1 (umbra). Else v = disc_chord(s) in
+//!      Z_R, or when s = x / (t (1 - b/Z_R)) >= 1 (umbra; a sun's t (Z_R - b) / D). Else v = disc_chord(s) in
 //!      [0, 0.5], plus the thin-blocker term below; writes b = 1e30 (neutral) and
 //!      (1, 1 - v, 1 - Z_R / far, 1). Z_R is at most Z = 1.05 x the deepest surface
 //!      where it reads g (a depth the map holds, extrapolated by at most 5 %), so

@@ -399,19 +399,38 @@ impl SmoothieRecords {
 /// edge therefore takes the smaller b of its two ends at both (`of_edge`): each end's t
 /// times one factor, linear along the edge and at least the bound everywhere on it. A fan
 /// has one b, its centre's (`of`).
+///
+/// Under a sun (`span` > 0, the map's depth range) Eq. 1's factor is (z_r - b) / span
+/// (src/technique/smoothies.rs, "Under a sun") and b is interpolated linearly: the same
+/// bound with (depth - b) / span, again largest at the smaller b.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Extent {
     /// The farthest receiver depth a fragment can find; 0: the full width t.
     pub depth: f32,
     /// Light uv added to a shortened extent (a rasterisation margin: one texel).
     pub pad: f32,
+    /// A sun's depth range far - near (Eq. 1s's span); 0: a spotlight's 1 - b / depth.
+    pub span: f32,
 }
 
 impl Extent {
     pub const FULL: Extent = Extent {
         depth: 0.0,
         pad: 0.0,
+        span: 0.0,
     };
+
+    /// This extent for a sun whose map spans `span` in depth (`None`: a spotlight's).
+    pub fn for_sun(self, span: Option<f32>) -> Extent {
+        match span {
+            Some(span) if self.depth > 0.0 && span > 0.0 && span.is_finite() => {
+                Extent { span, ..self }
+            }
+            // No usable span: the full width, never a cut.
+            Some(_) => Extent::FULL,
+            None => self,
+        }
+    }
 
     /// The extent for receivers at most `depth` deep, with `pad`: the depth rounded up to a
     /// grid of 1/64 octave (1.1 %), so that a bound that moves a little (an object moving,
@@ -421,14 +440,21 @@ impl Extent {
         let grid = (depth.log2() * 64.0).ceil() / 64.0;
         let depth = grid.exp2().max(depth);
         if depth > 0.0 && depth.is_finite() {
-            Extent { depth, pad }
+            Extent {
+                depth,
+                pad,
+                span: 0.0,
+            }
         } else {
             Extent::FULL
         }
     }
 
-    /// 1 - b / depth for the largest 1 / b, at least 0.
+    /// 1 - b / depth for the largest 1 / b, at least 0; a sun's (depth - b) / span.
     fn factor(self, inv_depth: f32) -> f32 {
+        if self.span > 0.0 {
+            return ((self.depth - 1.0 / inv_depth) / self.span).max(0.0);
+        }
         (1.0 - 1.0 / (inv_depth * self.depth)).max(0.0)
     }
 
@@ -597,15 +623,23 @@ fn project(
             .map(|&v| light.view_proj * pr.world(adj.positions[v as usize]).extend(1.0)),
     );
     let mut vertices = Vec::new();
-    vertices.extend(clips.iter().map(|&c| {
+    vertices.extend(clips.iter().zip(welded).map(|(&c, &v)| {
         // x / w, y / w and 1 / w in one division (each lane rounds as its own would).
         let q = Vec4::new(c.x, c.y, 1.0, 1.0) / c.w;
-        let (s, z) = (q.xy() * 0.5 + Vec2::splat(0.5), c.w);
+        let s = q.xy() * 0.5 + Vec2::splat(0.5);
+        // A sun's clip w is 1: its linear depth is the view's, as `LightView::project`'s.
+        let (z, inv_depth) = match light.sun {
+            None => (c.w, q.z),
+            Some(_) => {
+                let z = light.linear_depth(pr.world(adj.positions[v as usize]));
+                (z, 1.0 / z)
+            }
+        };
         let ok = z > light.near && s.is_finite() && z.is_finite();
         if ok {
             VertexRecord {
                 uv: s.to_array(),
-                inv_depth: q.z,
+                inv_depth,
                 width: width.at(z),
             }
         } else {
@@ -995,6 +1029,7 @@ mod tests {
             let short = Extent {
                 depth: light.far,
                 pad: 1.0 / 1024.0,
+                span: 0.0,
             };
             for width in [Width::Fixed(0.02), Width::Fixed(0.2), calibrated] {
                 for o in scene.objects.iter().filter(|o| o.role.casts()) {
@@ -1064,12 +1099,20 @@ mod tests {
     #[test]
     fn shortened_edges_reach_what_the_shader_keeps() {
         let depth = 10.0f32;
-        let extent = Extent { depth, pad: 0.0 };
+        let extent = Extent {
+            depth,
+            pad: 0.0,
+            span: 0.0,
+        };
         let record = |b: f32, t: f32| VertexRecord {
             uv: [0.0; 2],
             inv_depth: 1.0 / b,
             width: t,
         };
+        // A sun whose map spans depths 1 to 10 (span 9, so every b here lies in it): b
+        // interpolated linearly, the factor (depth - b) / span.
+        let sun = extent.for_sun(Some(9.0));
+        assert_eq!(sun.span, 9.0);
         for (b0, b1, t0, t1) in [
             (4.0, 8.0, 0.03, 0.03),
             (4.0, 8.0, 0.05, 0.02),
@@ -1080,6 +1123,7 @@ mod tests {
         ] {
             let (a, b) = (record(b0, t0), record(b1, t1));
             let (e0, e1) = extent.of_edge(&a, &b);
+            let (s0, s1) = sun.of_edge(&a, &b);
             for i in 0..=100 {
                 let x = i as f32 / 100.0;
                 let inv = a.inv_depth + (b.inv_depth - a.inv_depth) * x;
@@ -1090,8 +1134,19 @@ mod tests {
                     drawn >= needed * (1.0 - 1e-6),
                     "ends {b0}, {b1} at {x}: quad reaches {drawn}, fragments kept to {needed}"
                 );
+                let needed = t * ((depth - (b0 + (b1 - b0) * x)) / 9.0).max(0.0);
+                let drawn = s0 + (s1 - s0) * x;
+                assert!(
+                    drawn >= needed * (1.0 - 1e-6) && drawn <= t * (1.0 + 1e-6),
+                    "sun, ends {b0}, {b1} at {x}: quad reaches {drawn}, fragments kept to {needed}"
+                );
             }
         }
+        // A sun's extent is no spotlight's: the deep end of the (4, 8) edge reaches
+        // t (10 - 4) / 9 there, not t (1 - 4 / 10).
+        let (a, b) = (record(4.0, 0.05), record(8.0, 0.05));
+        let (s0, _) = sun.of_edge(&a, &b);
+        assert!((s0 - 0.05 * 6.0 / 9.0).abs() < 1e-6, "{s0}");
         // The full width is each end's own t.
         let (a, b) = (record(4.0, 0.05), record(8.0, 0.02));
         assert_eq!(Extent::FULL.of_edge(&a, &b), (0.05, 0.02));

@@ -395,7 +395,11 @@ pub fn deepest_surface(frame: &FrameInput<'_>, lo: Vec2, hi: Vec2) -> Option<f32
         w * (2.0 * hi.x - 1.0) - x,
         y - w * (2.0 * lo.y - 1.0),
         w * (2.0 * hi.y - 1.0) - y,
-        w - Vec4::new(0.0, 0.0, 0.0, frame.light.near),
+        // Depth >= near: a spotlight's clip w; a sun's (w = 1) the view's depth row.
+        match frame.light.sun {
+            None => w,
+            Some(_) => -frame.light.view.row(2),
+        } - Vec4::new(0.0, 0.0, 0.0, frame.light.near),
     ];
     let deepest = frame
         .gpu

@@ -131,7 +131,7 @@ impl CpuSmoothies {
             GeometryKey::new(light, width),
             force,
             |adj, model| {
-                let sil = silhouette::extract(adj, model, light.position);
+                let sil = silhouette::extract(adj, model, silhouette::light_point(light));
                 let records = build_records(adj, &sil, model, light, width);
                 CasterSmoothies {
                     full_box: records.uv_bounds(Extent::FULL),
@@ -187,10 +187,12 @@ impl CpuSmoothies {
         if !areas {
             return [Extent::FULL; 2];
         }
+        // A sun's remap divides by the map's depth range (`Extent::for_sun`).
+        let span = frame.light.sun.map(|_| frame.light.far - frame.light.near);
         let outer = self
             .deepest_under(frame, 0.0, pad)
             .map_or(Extent::FULL, |deepest| {
-                Extent::at_most(deepest * 1.001, pad)
+                Extent::at_most(deepest * 1.001, pad).for_sun(span)
             });
         if !centred {
             return [outer, Extent::FULL];
@@ -200,7 +202,8 @@ impl CpuSmoothies {
         let inner = Extent::at_most(
             inner_extent_depth(frame.light, self.deepest_under(frame, grow, pad)),
             pad,
-        );
+        )
+        .for_sun(span);
         [outer, inner]
     }
 

@@ -172,7 +172,14 @@ fn every_technique_on_every_scene_matches_its_golden() {
 
 /// The techniques made to serve a sun after `hard`, `pcf` and the reference, each with a
 /// golden on the built-in sun scene (the same size, settings and gates as above).
-const SUN_GOLDENS: &[&str] = &["pcss", "plateaus", "plateaus-centred", "ssm", "ssm2"];
+const SUN_GOLDENS: &[&str] = &[
+    "pcss",
+    "plateaus",
+    "plateaus-centred",
+    "ssm",
+    "ssm2",
+    "ssm-bitmask",
+];
 
 #[test]
 fn sun_techniques_on_the_sun_courtyard_match_their_goldens() {

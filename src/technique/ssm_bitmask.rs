@@ -1,6 +1,8 @@
 //! # ssm-bitmask — soft shadow maps with exact occlusion
 //! Port sheet: docs/port/ssm-bitmask.md
 //! Speed layer: speed::ssm (the micro-patch step, pass 4; kept under --plain, see there).
+//! Over 400 lines because the header (about 130 lines) carries both lights' projections onto
+//! the light samples, which a porter reads here and not in the shaders alone.
 //!
 //! Atty et al. 2006 (`ssm`, src/technique/ssm.rs, whose header this one builds on) back-
 //! project one micro-patch per occluder-map texel onto the light and ADD the hidden areas:
@@ -24,6 +26,23 @@
 //! parallel to the map). Each micro-quad corner is projected from the receiver onto the
 //! disc's plane; lines stay lines, so each of the quad's two triangles is a triangle on the
 //! disc and its samples are the AND of three half-planes.
+//!
+//! ## Under a sun
+//! A sun (every direction within theta of its axis, orthographic map of world texel E / N;
+//! ssm.rs, "Under a sun") is a disc of directions: from the receiver p (light frame = the
+//! map's world xy and linear depth z), a quad corner q lies in the direction of tangent
+//! (q - p).xy / (z_R - z_q) off the axis, and the disc is tan(theta) wide in tangent units.
+//! In disc units a corner is (q - p).xy / ((z_R - z_q) tan theta): a projection from p onto
+//! the plane one unit towards the light, which keeps lines lines, so the two triangles, the
+//! edge table and the 128 samples (now directions, uniform over the disc of tangents, the
+//! solid angle's to O(theta^2)) are unchanged. The extent grows by h = EXTENT_MARGIN
+//! tan(theta) (z_max - z_near) / (E / N) texels (no stretch: the disc of directions is as
+//! wide from every receiver), the penumbra linear in the blocker-to-receiver distance
+//! (w = 2 (d_r - d_b) tan theta); pass 4 takes the same h. Under the orthographic map a
+//! plane's depth is affine across texels, so a corner takes the arithmetic (not harmonic)
+//! mean; the connect test, the guard and the final lookup's offset take the world texel,
+//! the final depth the orthographic clip z (`clip_linear_depth`). theta = 0 renders `hard`
+//! as R = 0 does. `frame.technique2` holds (tan theta, EXTENT_MARGIN tan theta, ...).
 //!
 //! ## R = 0
 //! A point light has no penumbra to sample (the masks would hold a hard shadow at the

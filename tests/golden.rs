@@ -180,6 +180,7 @@ const SUN_GOLDENS: &[&str] = &[
     "plateaus-centred",
     "ssm",
     "ssm2",
+    "ssm-bitmask",
 ];
 
 #[test]

@@ -30,7 +30,7 @@ layout(set = 0, binding = 2, std430) buffer Bound {
 } bound;
 
 layout(push_constant) uniform Push {
-    float reach;   // texels of extent per unit of (1/z_O - 1/z_max), the technique's
+    float reach;   // texels of extent per unit of (1/z_O - 1/z_max) (a sun's: of z_max - z_O), the technique's
     uint choose;
 } pc;
 
@@ -68,7 +68,7 @@ void main() {
         float zmax = uintBitsToFloat(bound.zmax_bits);
         if (zo < EMPTY && zo < zmax) {
             float h = light_is_sun()
-                ? penumbra_half_uv(zmax, zo) * SSM_HALF_SIDE_PER_RADIUS * float(n)
+                ? max(pc.reach * (zmax - zo), 0.0)
                 : max(pc.reach * (1.0 / zo - 1.0 / zmax), 0.0);
             for (int l = 0; (1 << l) <= n; ++l) {
                 float s = float(1 << l);

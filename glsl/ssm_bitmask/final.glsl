@@ -21,7 +21,8 @@ float hidden_fraction(uvec4 m) {
 
 float visibility(vec3 p, vec3 n) {
     float res = SSM_RES;
-    float texel = 2.0 * frame.light_frustum.x / res;   // world texel size per unit depth
+    // World texel size per unit depth; a sun's world texel (ssm/footprint.glsl).
+    float texel = light_is_sun() ? ssm_sun_texel() : 2.0 * frame.light_frustum.x / res;
     // The masks hold the visibility of the receiver at each texel's centre: the point is
     // looked up where it is (ssm looks up a normal-offset point, which reads the receivers
     // beside it and shifts every penumbra by a fraction of a texel). Only the depth that
@@ -29,10 +30,11 @@ float visibility(vec3 p, vec3 n) {
     // caster's own steep surface is not taken for something behind its texel's receiver.
     vec3 po = ssm_offset_point(p, n, texel);
     vec4 c = frame.light_view_proj * vec4(p, 1.0);
-    if (c.w <= frame.light_params.x) return 1.0;
+    // A sun's clip w is 1: in front of its near plane is clip z >= 0.
+    if (light_is_sun() ? c.z < 0.0 : c.w <= frame.light_params.x) return 1.0;
     vec2 uv = (c.xy / c.w) * 0.5 + 0.5;
     if (any(lessThan(uv, vec2(0.0))) || any(greaterThan(uv, vec2(1.0)))) return 1.0;
-    float depth = (frame.light_view_proj * vec4(po, 1.0)).w;
+    float depth = clip_linear_depth(frame.light_view_proj * vec4(po, 1.0));
 
     vec4 z1 = textureGather(receiver_front, uv, 0);
     bvec4 behind;

@@ -64,41 +64,11 @@ float cross2(vec2 a, vec2 b) {
     return a.x * b.y - a.y * b.x;
 }
 
-uvec4 hidden(float zr, vec2 r) {
-    float zo = v_patch.z;
-    float texel = 2.0 * frame.light_frustum.x * SSM_INV_RES;
-    // Self-occlusion guard as ssm's: a quad whose texel is less than the guard in front of
-    // the receiver is the receiver's own surface.
-    float guard = zr * (frame.light_frustum.w + SSM_SELF_GUARD_TEXELS * texel);
-    if (zr - zo <= guard) return NO_SAMPLES;
-    // R > 0 here: at R = 0 the technique is built as `hard` (src/technique/ssm_bitmask.rs,
-    // `create_either`, and `record_light` refuses R = 0), so the projection below never
-    // divides by a zero radius.
-    // The quad was drawn for the farthest receiver; a nearer one is reached by less. The
-    // receiver's texel centre lies half a texel inside its square: one texel of slack.
-    vec4 zc = v_corner_depth;
-    float znear = min(zo, min(min(zc.x, zc.y), min(zc.z, zc.w)));
-    float h = v_reach * (1.0 / znear - 1.0 / zr) + 1.0;
-    vec2 outside = max(v_patch.xy - r, r - (v_patch.xy + v_size));
-    if (any(greaterThan(outside, vec2(h)))) return NO_SAMPLES;
-    vec3 p = light_frame(r, zr);
-    float dist = length(p);
-    vec3 w = -p / dist;
-    vec3 u = normalize(cross(vec3(0.0, 1.0, 0.0), w));
-    vec3 v = cross(w, u);
-    // Corners deeper than the guard are pulled in front of it: the quad reaches down to the
-    // receiver (a caster standing on it), and the projection stays finite.
-    float zcap = zr - guard;
-    vec2 c[4];
-    vec2 lo = vec2(1e30), hi = vec2(-1e30);
-    for (int k = 0; k < 4; ++k) {
-        vec2 px = v_patch.xy + vec2(float(k & 1), float(k >> 1)) * v_size;
-        vec3 dq = light_frame(px, min(v_corner_depth[k], zcap)) - p;
-        float den = max(dot(dq, w), 1e-6 * dist);
-        c[k] = vec2(dot(dq, u), dot(dq, v)) * (dist / (den * SSMB_RADIUS));
-        lo = min(lo, c[k]);
-        hi = max(hi, c[k]);
-    }
+// The samples inside the quad whose corners, projected from the receiver, are c (in units of
+// the light's radius: the disc is the unit disc).
+uvec4 quad_mask(vec2 c[4]) {
+    vec2 lo = min(min(c[0], c[1]), min(c[2], c[3]));
+    vec2 hi = max(max(c[0], c[1]), max(c[2], c[3]));
     // Entirely beside the disc.
     if (any(greaterThanEqual(lo, vec2(1.0))) || any(lessThanEqual(hi, vec2(-1.0)))) return NO_SAMPLES;
     bool f01, f13, f03, f32, f20;
@@ -121,6 +91,60 @@ uvec4 hidden(float zr, vec2 r) {
         mask |= inside(m03, f03, ccw) & inside(m32, f32, ccw) & inside(m20, f20, ccw);
     }
     return mask;
+}
+
+// Under a sun the light is the disc of directions within theta of its axis (-z in the light
+// frame, towards the light): a corner q seen from the receiver p lies in the direction of
+// tangent (q - p).xy / (z_R - z_q) off the axis, and the disc is tan(theta) (SSMB_RADIUS)
+// in tangent units. The projection from p onto the plane one unit towards the light keeps
+// lines lines, as the spotlight's. `zcap`: corners deeper than the guard are pulled in front
+// of it, as the spotlight's.
+uvec4 hidden_directions(vec3 p, float zcap) {
+    vec2 c[4];
+    for (int k = 0; k < 4; ++k) {
+        vec2 px = v_patch.xy + vec2(float(k & 1), float(k >> 1)) * v_size;
+        vec3 dq = light_frame(px, min(v_corner_depth[k], zcap)) - p;
+        c[k] = dq.xy / (max(-dq.z, 1e-6 * p.z) * SSMB_RADIUS);
+    }
+    return quad_mask(c);
+}
+
+uvec4 hidden(float zr, vec2 r) {
+    float zo = v_patch.z;
+    float texel = 2.0 * frame.light_frustum.x * SSM_INV_RES;
+    // Self-occlusion guard as ssm's: a quad whose texel is less than the guard in front of
+    // the receiver is the receiver's own surface (a sun's texel has one world size).
+    float guard = light_is_sun()
+        ? zr * frame.light_frustum.w + SSM_SELF_GUARD_TEXELS * ssm_sun_texel()
+        : zr * (frame.light_frustum.w + SSM_SELF_GUARD_TEXELS * texel);
+    if (zr - zo <= guard) return NO_SAMPLES;
+    // R > 0 (a sun: tan(theta) > 0) here: at R = 0 the technique is built as `hard`
+    // (src/technique/ssm_bitmask.rs, `create_either`, and `record_light` refuses R = 0), so
+    // the projection below never divides by a zero radius.
+    // The quad was drawn for the farthest receiver; a nearer one is reached by less. The
+    // receiver's texel centre lies half a texel inside its square: one texel of slack.
+    vec4 zc = v_corner_depth;
+    float znear = min(zo, min(min(zc.x, zc.y), min(zc.z, zc.w)));
+    float h = reach_texels(v_reach, znear, zr) + 1.0;
+    vec2 outside = max(v_patch.xy - r, r - (v_patch.xy + v_size));
+    if (any(greaterThan(outside, vec2(h)))) return NO_SAMPLES;
+    vec3 p = light_frame(r, zr);
+    if (light_is_sun()) return hidden_directions(p, zr - guard);
+    float dist = length(p);
+    vec3 w = -p / dist;
+    vec3 u = normalize(cross(vec3(0.0, 1.0, 0.0), w));
+    vec3 v = cross(w, u);
+    // Corners deeper than the guard are pulled in front of it: the quad reaches down to the
+    // receiver (a caster standing on it), and the projection stays finite.
+    float zcap = zr - guard;
+    vec2 c[4];
+    for (int k = 0; k < 4; ++k) {
+        vec2 px = v_patch.xy + vec2(float(k & 1), float(k >> 1)) * v_size;
+        vec3 dq = light_frame(px, min(v_corner_depth[k], zcap)) - p;
+        float den = max(dot(dq, w), 1e-6 * dist);
+        c[k] = vec2(dot(dq, u), dot(dq, v)) * (dist / (den * SSMB_RADIUS));
+    }
+    return quad_mask(c);
 }
 
 void main() {

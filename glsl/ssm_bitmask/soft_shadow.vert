@@ -13,6 +13,10 @@
 // disc's reach on the light's image plane, z_near the quad's nearest corner. Empty texels
 // and quads behind every receiver become a degenerate quad outside clip space.
 //
+// Under a sun (orthographic map) depth is affine across a plane's texels, so a corner takes
+// the arithmetic mean of its connected depths, the connect test is CONNECT_TEXELS world
+// texels, and the quad grows by h = EXTENT_MARGIN tan(theta) (z_max - z_near) / texel.
+//
 // When ssm-bitmask/micro_patch_step found the quads' penumbrae too large for its budget
 // (bound.step > 1, glsl/ssm/patch_step.comp), instance k draws block k of step x step
 // texels instead: the quad spans the bounding rectangle of the block's occupied texels,
@@ -35,9 +39,26 @@ layout(location = 1) flat out vec4 v_corner_depth;   // corners (i,j), (i+1,j), 
 layout(location = 2) flat out float v_reach;
 layout(location = 3) flat out vec2 v_size;           // the quad's side in texels (1: one texel)
 
+// This vertex of the texels [lo, lo + size) grown by h texels, in clip coordinates.
+vec4 quad_corner(vec2 lo, vec2 size, float h, int n) {
+    // A hair of margin: fragments on the exact border see the quad edge-on.
+    vec2 a = lo - h - 1e-3;
+    vec2 b = lo + size + h + 1e-3;
+    vec2 corner = vec2(float(gl_VertexIndex & 1), float(gl_VertexIndex >> 1));
+    vec2 px = mix(a, b, corner);
+    return vec4(px * (2.0 / float(n)) - 1.0, 0.0, 1.0);
+}
+
 // The quad of the texels [lo, lo + size) at depth znear (its nearest corner), grown by the
 // disc's reach towards the farthest receiver; sets v_reach.
 vec4 extent(vec2 lo, vec2 size, float znear, float zmax, int n) {
+    if (light_is_sun()) {
+        // A sun's disc of directions is tan(theta) wide in every direction from every
+        // receiver (no stretch): the quad grows by EXTENT_MARGIN tan(theta) (z_max - z_near)
+        // world units, the penumbra's half-width linear in the distance.
+        v_reach = SSMB_EXTENT_RADIUS / ssm_sun_texel();
+        return quad_corner(lo, size, v_reach * (zmax - znear), n);
+    }
     // The disc faces the receiver, so the cone from a receiver to it is R wide across the
     // line to the light's centre and R / cos(alpha) wide in the map's plane, alpha the
     // line's angle to the light's axis: SSMB_EXTENT_RADIUS is R / cos(alpha) at the
@@ -52,12 +73,7 @@ vec4 extent(vec2 lo, vec2 size, float znear, float zmax, int n) {
     float stretch = min(SSMB_EXTENT_RADIUS * sqrt((1.0 + t * t * dot(ndc, ndc)) / (1.0 + 2.0 * t * t)), SSMB_EXTENT_RADIUS);
     v_reach = stretch * float(n) / (2.0 * t);
     float h = v_reach * (1.0 / znear - 1.0 / zmax);
-    // A hair of margin: fragments on the exact border see the quad edge-on.
-    vec2 a = lo - h - 1e-3;
-    vec2 b = lo + size + h + 1e-3;
-    vec2 corner = vec2(float(gl_VertexIndex & 1), float(gl_VertexIndex >> 1));
-    vec2 px = mix(a, b, corner);
-    return vec4(px * (2.0 / float(n)) - 1.0, 0.0, 1.0);
+    return quad_corner(lo, size, h, n);
 }
 
 // One instance per block of `step` x `step` texels (see the header).
@@ -123,9 +139,14 @@ void main() {
         gl_Position = vec4(2.0, 2.0, 2.0, 1.0);
         return;
     }
-    // 1/z of the 3x3 neighbourhood where it is one surface with the texel, else 0. The
+    // 1/z (a sun: z) of the 3x3 neighbourhood where it is one surface with the texel, else 0. The
     // test is symmetric in the two depths, so two neighbours agree on whether they connect.
+    // A sun's map is orthographic: its texels have one world size (the slope is absolute,
+    // not relative), and depth is affine across a plane's texels, so its corners take the
+    // arithmetic mean.
+    bool sun = light_is_sun();
     float slope = SSMB_CONNECT_TEXELS * 2.0 * frame.light_frustum.x * SSM_INV_RES;
+    float sun_slope = SSMB_CONNECT_TEXELS * ssm_sun_texel();
     float inv[9];
     for (int k = 0; k < 9; ++k) {
         ivec2 q = texel + ivec2(k % 3 - 1, k / 3 - 1);
@@ -133,8 +154,8 @@ void main() {
         if (all(greaterThanEqual(q, ivec2(0))) && all(lessThan(q, ivec2(n)))) {
             z = texelFetch(occluder_map, q, 0).r;
         }
-        bool one = z < EMPTY && abs(z - zo) <= slope * min(z, zo);
-        inv[k] = one ? 1.0 / z : 0.0;
+        bool one = z < EMPTY && abs(z - zo) <= (sun ? sun_slope : slope * min(z, zo));
+        inv[k] = one ? (sun ? z : 1.0 / z) : 0.0;
     }
     float znear = zo;
     for (int c = 0; c < 4; ++c) {
@@ -149,7 +170,7 @@ void main() {
             m += v > 0.0 ? 1.0 : 0.0;
         }
         // s > 0: the texel itself is always one of the four.
-        float zc = m / s;
+        float zc = sun ? s / m : m / s;
         v_corner_depth[c] = zc;
         znear = min(znear, zc);
     }

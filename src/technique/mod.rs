@@ -239,10 +239,6 @@ const NO_SUN: &[(&str, &str)] = &[
         "penumbra-map-centred",
         "its cones and sheets are drawn from a light sphere's centre",
     ),
-    (
-        "ssm-bitmask",
-        "its micro-patches are back-projected onto a light disc, not a disc of directions",
-    ),
 ];
 
 /// The techniques that render a sun, in registry order.

@@ -345,10 +345,18 @@ impl Technique for Ssm {
         rec: &mut Recorder<'_>,
         frame: &FrameInput<'_>,
     ) -> Result<()> {
-        let t = (frame.light.fov_deg.to_radians() * 0.5).tan();
-        let side = light_square_side(frame.light_radius);
-        // soft_shadow.vert's h = L N / (4 tan(fov/2)) (1/z_O - 1/z_max).
-        let reach = side * self.res as f32 / (4.0 * t);
+        let reach = match frame.light.sun {
+            // (Hs): h = (L_s / 2) (z_max - z_O) / (E / N), per unit of z_max - z_O.
+            Some(sun) => {
+                0.5 * light_square_side(sun.tan_angle) / frame.light.texel_world(0.0, self.res)
+            }
+            None => {
+                let t = (frame.light.fov_deg.to_radians() * 0.5).tan();
+                let side = light_square_side(frame.light_radius);
+                // soft_shadow.vert's h = L N / (4 tan(fov/2)) (1/z_O - 1/z_max).
+                side * self.res as f32 / (4.0 * t)
+            }
+        };
         self.inputs.record(rec, frame, reach)?;
         rec.pass(self.front.name, |rec| {
             self.record_soft(rec, &self.front);

@@ -1,6 +1,8 @@
 //! # ssm-bitmask — soft shadow maps with exact occlusion
 //! Port sheet: docs/port/ssm-bitmask.md
 //! Speed layer: speed::ssm (the micro-patch step, pass 4; kept under --plain, see there).
+//! Over 400 lines because the header (about 130 lines) carries both lights' projections onto
+//! the light samples, which a porter reads here and not in the shaders alone.
 //!
 //! Atty et al. 2006 (`ssm`, src/technique/ssm.rs, whose header this one builds on) back-
 //! project one micro-patch per occluder-map texel onto the light and ADD the hidden areas:
@@ -24,6 +26,23 @@
 //! parallel to the map). Each micro-quad corner is projected from the receiver onto the
 //! disc's plane; lines stay lines, so each of the quad's two triangles is a triangle on the
 //! disc and its samples are the AND of three half-planes.
+//!
+//! ## Under a sun
+//! A sun (every direction within theta of its axis, orthographic map of world texel E / N;
+//! ssm.rs, "Under a sun") is a disc of directions: from the receiver p (light frame = the
+//! map's world xy and linear depth z), a quad corner q lies in the direction of tangent
+//! (q - p).xy / (z_R - z_q) off the axis, and the disc is tan(theta) wide in tangent units.
+//! In disc units a corner is (q - p).xy / ((z_R - z_q) tan theta): a projection from p onto
+//! the plane one unit towards the light, which keeps lines lines, so the two triangles, the
+//! edge table and the 128 samples (now directions, uniform over the disc of tangents, the
+//! solid angle's to O(theta^2)) are unchanged. The extent grows by h = EXTENT_MARGIN
+//! tan(theta) (z_max - z_near) / (E / N) texels (no stretch: the disc of directions is as
+//! wide from every receiver), the penumbra linear in the blocker-to-receiver distance
+//! (w = 2 (d_r - d_b) tan theta); pass 4 takes the same h. Under the orthographic map a
+//! plane's depth is affine across texels, so a corner takes the arithmetic (not harmonic)
+//! mean; the connect test, the guard and the final lookup's offset take the world texel,
+//! the final depth the orthographic clip z (`clip_linear_depth`). theta = 0 renders `hard`
+//! as R = 0 does. `frame.technique2` holds (tan theta, EXTENT_MARGIN tan theta, ...).
 //!
 //! ## R = 0
 //! A point light has no penumbra to sample (the masks would hold a hard shadow at the
@@ -132,9 +151,22 @@ const EXTENT_MARGIN: f32 = 1.05;
 
 /// The disc's reach on the map's image plane at the frustum's corner (`SSMB_EXTENT_RADIUS`):
 /// R / cos(alpha) there, with a margin.
+/// A sun's disc of directions is tan(theta) wide from every receiver: its reach is
+/// tan(theta) with the margin, no stretch.
 fn extent_radius(frame: &FrameInput<'_>) -> f32 {
+    if let Some(sun) = frame.light.sun {
+        return EXTENT_MARGIN * sun.tan_angle;
+    }
     let t = (frame.light.fov_deg.to_radians() * 0.5).tan();
     EXTENT_MARGIN * frame.light_radius * (1.0 + 2.0 * t * t).sqrt()
+}
+
+/// The light's spread: R, or a sun's tan(theta) (`SSMB_RADIUS`); 0 renders `hard`.
+fn spread(frame: &FrameInput<'_>) -> f32 {
+    match frame.light.sun {
+        Some(sun) => sun.tan_angle,
+        None => frame.light_radius,
+    }
 }
 
 /// The mask format: 128 bits.
@@ -143,7 +175,11 @@ const MASK_FORMAT: Format = Format::R32G32B32A32_UINT;
 /// At R = 0 `hard` under this technique's name (module header, "R = 0"), else the soft
 /// shadow map.
 fn create_either(init: &TechniqueInit<'_>) -> Result<Box<dyn Technique>> {
-    if init.settings.radius_for(init.scene) == 0.0 {
+    let spread = match init.scene.light.sun_angle_deg() {
+        Some(angle) => angle,
+        None => init.settings.radius_for(init.scene),
+    };
+    if spread == 0.0 {
         let names = super::pass_names!(
             HardNames {
                 shadow_map: "shadow_map",
@@ -305,7 +341,7 @@ impl Technique for SsmBitmask {
         debug_assert_eq!(first[k::SSM_SELF_GUARD_TEXELS], SELF_GUARD_TEXELS);
         first[k::SSMB_INV_SAMPLES] = 1.0 / SAMPLES as f32;
         let mut second = [0.0; 4];
-        second[k::SSMB_RADIUS - 4] = frame.light_radius;
+        second[k::SSMB_RADIUS - 4] = spread(frame);
         second[k::SSMB_EXTENT_RADIUS - 4] = extent_radius(frame);
         second[k::SSMB_CONNECT_TEXELS - 4] = CONNECT_TEXELS;
         second[k::SSMB_LUT_ANGLES - 4] = TABLE_ANGLES as f32;
@@ -319,17 +355,24 @@ impl Technique for SsmBitmask {
         frame: &FrameInput<'_>,
     ) -> Result<()> {
         // soft_shadow.vert grows each quad by at most SSMB_EXTENT_RADIUS N / (2 tan(fov/2))
-        // (1/z_near - 1/z_max) texels.
-        let t = (frame.light.fov_deg.to_radians() * 0.5).tan();
-        let reach = extent_radius(frame) * self.res as f32 / (2.0 * t);
-        if frame.light_radius.is_nan() || frame.light_radius <= 0.0 {
+        // (1/z_near - 1/z_max) texels; under a sun by SSMB_EXTENT_RADIUS / texel
+        // (z_max - z_near).
+        let reach = match frame.light.sun {
+            Some(_) => extent_radius(frame) / frame.light.texel_world(0.0, self.res),
+            None => {
+                let t = (frame.light.fov_deg.to_radians() * 0.5).tan();
+                extent_radius(frame) * self.res as f32 / (2.0 * t)
+            }
+        };
+        let spread = spread(frame);
+        if spread.is_nan() || spread <= 0.0 {
             // The micro-quads project onto a disc of radius R; at R = 0 the technique is
             // built as `hard` (`create_either`), so a frame at R = 0 is a radius that
             // changed after creation.
             bail!(
-                "{}: light radius {} after the technique was created for R > 0 (R = 0 renders hard: create it again)",
+                "{}: light radius (or sun tan) {} after the technique was created for R > 0 (R = 0 renders hard: create it again)",
                 self.name,
-                frame.light_radius
+                spread
             );
         }
         self.inputs.record(rec, frame, reach)?;

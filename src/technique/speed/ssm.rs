@@ -85,8 +85,9 @@ impl PatchStep {
         })
     }
 
-    /// `reach`: texels of penumbra extent per unit of (1/z_O - 1/z_max), as the technique's
-    /// micro-patch vertex shader grows its quads (at most).
+    /// `reach`: texels of penumbra extent per unit of (1/z_O - 1/z_max) (under a sun per
+    /// unit of z_max - z_O), as the technique's micro-patch vertex shader grows its quads
+    /// (at most).
     pub(crate) fn record(&self, rec: &mut Recorder<'_>, bound: &ReceiverBound, reach: f32) {
         let push = |choose: u32| {
             let mut bytes = reach.to_ne_bytes().to_vec();

@@ -554,23 +554,17 @@ pub fn prepare(config: BenchConfig) -> Result<Plan> {
     let resolutions = dedup(&c.resolutions);
     let motions = dedup(&c.motions);
     let mut cases = Vec::new();
-    for scene in 0..scenes.len() {
+    for (scene, sc) in scenes.iter().enumerate() {
         // A sun has an angular radius, not a radius: its scene runs once, at its own angle,
         // whatever --radii sweeps for the spotlights.
-        let radii = if scenes[scene].light.is_sun() {
-            1
-        } else {
-            c.radii.len()
-        };
+        let radii = if sc.light.is_sun() { 1 } else { c.radii.len() };
         for radius in 0..radii {
             for &motion in &motions {
                 for &shadow_res in &resolutions {
-                    for variant in 0..variants.len() {
+                    for (variant, v) in variants.iter().enumerate() {
                         // A technique that refuses a sun is left out of a sun scene's
                         // tables (one note in the report), not an error.
-                        if technique::check_light(variants[variant].technique, &scenes[scene])
-                            .is_err()
-                        {
+                        if technique::check_light(v.technique, sc).is_err() {
                             continue;
                         }
                         cases.push(Case {

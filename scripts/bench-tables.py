@@ -14,7 +14,10 @@ records: `bench --full --width 512 --height 512 --resolutions 1024 --radii scene
    mean flip, median x hard;
 3. the fast-and-accurate goals of the accurate forms (frame time, warp lookups and false
    edges against hard's, mae_lit against pcss's), worst scene first, so that a missed goal
-   shows by how much.
+   shows by how much;
+4. the sun scenes (`light_kind` sun) apart, after the spotlights' sections: their per-scene
+   tables (at the scene's angular radius) and the per-technique summary over them (only the
+   techniques that serve a sun have rows there).
 
 Standard library only. Figures are printed as the bench wrote them, rounded for reading.
 """
@@ -43,6 +46,11 @@ def load(path):
             continue
         scenes.setdefault(r["scene"], []).append(r)
     return scenes
+
+
+def is_sun(rows):
+    """Whether a scene's rows are lit by a sun (older results.csv files have no light_kind)."""
+    return rows[0].get("light_kind") == "sun"
 
 
 def label(r):
@@ -116,8 +124,13 @@ def scene_tables(scenes):
         lowest = " then ".join(
             f"{label(r)} ({float(r['mae_lit']):.3f})" for r in by_err[:2]
         )
+        light = (
+            f"Sun, angular radius {float(rows[0]['angular_radius_deg']):g}°"
+            if is_sun(rows)
+            else f"R = {float(rows[0]['light_radius']):.4f}"
+        )
         print(
-            f"\nR = {float(rows[0]['light_radius']):.4f}. Pareto front: {' → '.join(pareto(rows))}. "
+            f"\n{light}. Pareto front: {' → '.join(pareto(rows))}. "
             f"Lowest mae_lit: {lowest}; "
             f"lowest flip: {label(by_flip)} ({float(by_flip['flip']):.4f}).\n"
         )
@@ -216,13 +229,21 @@ def targets(scenes):
 def main():
     if len(sys.argv) != 2:
         sys.exit("usage: scripts/bench-tables.py DIR/results.csv")
-    scenes = load(sys.argv[1])
-    print("## Per scene\n")
-    scene_tables(scenes)
-    print("## Across scenes\n")
-    summary(scenes)
-    print("## Targets\n")
-    targets(scenes)
+    everything = load(sys.argv[1])
+    scenes = OrderedDict((k, v) for k, v in everything.items() if not is_sun(v))
+    suns = OrderedDict((k, v) for k, v in everything.items() if is_sun(v))
+    if scenes:
+        print("## Per scene\n")
+        scene_tables(scenes)
+        print("## Across scenes\n")
+        summary(scenes)
+        print("## Targets\n")
+        targets(scenes)
+    if suns:
+        print("## Sun\n")
+        scene_tables(suns)
+        print("### Across the sun scenes\n")
+        summary(suns)
 
 
 if __name__ == "__main__":

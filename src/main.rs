@@ -93,12 +93,15 @@ struct CompareArgs {
     /// Folder of position.exr and normal.exr (default: the reference's folder, else the test's).
     #[arg(long)]
     aov: Option<PathBuf>,
-    /// The scene rendered (built-in name or file): its light's centre gives the lit-surface mask.
-    #[arg(long, required_unless_present = "light", conflicts_with = "light")]
+    /// The scene rendered (built-in name or file): its light gives the lit-surface mask.
+    #[arg(long, required_unless_present_any = ["light", "sun"], conflicts_with_all = ["light", "sun"])]
     scene: Option<String>,
-    /// The light's centre X,Y,Z instead of --scene.
-    #[arg(long, value_name = "X,Y,Z", value_parser = parse_point, allow_hyphen_values = true)]
+    /// A point light's centre X,Y,Z instead of --scene.
+    #[arg(long, value_name = "X,Y,Z", value_parser = parse_point, allow_hyphen_values = true, conflicts_with = "sun")]
     light: Option<[f32; 3]>,
+    /// A sun's direction X,Y,Z (towards the sun, any length) instead of --scene.
+    #[arg(long, value_name = "X,Y,Z", value_parser = parse_point, allow_hyphen_values = true)]
+    sun: Option<[f32; 3]>,
     /// Our shaded PNG, for ꟻLIP (with --test-image).
     #[arg(long, requires = "test_image")]
     reference_image: Option<PathBuf>,
@@ -904,10 +907,21 @@ fn compare(cli: &Cli, a: &CompareArgs) -> Result<()> {
             bail!("--max-mae-lit {m} must be a number >= 0");
         }
     }
-    let light = match (&a.light, &a.scene) {
-        (Some(l), _) => glam::Vec3::from_array(*l),
-        (None, Some(s)) => Scene::load_with(s, &load_options(cli))?.light.position,
-        (None, None) => bail!("give --scene or --light: the lit-surface mask needs the light"),
+    use compare::LightAt;
+    let light = match (&a.light, &a.sun, &a.scene) {
+        (Some(l), _, _) => LightAt::Point(glam::Vec3::from_array(*l)),
+        (None, Some(d), _) => LightAt::Sun(glam::Vec3::from_array(*d)),
+        (None, None, Some(s)) => {
+            let l = Scene::load_with(s, &load_options(cli))?.light;
+            if l.is_sun() {
+                LightAt::Sun(l.direction())
+            } else {
+                LightAt::Point(l.position)
+            }
+        }
+        (None, None, None) => {
+            bail!("give --scene, --light or --sun: the lit-surface mask needs the light")
+        }
     };
     // A FIFO or device would block or never end the read: refused before it is opened.
     for png in [&a.reference_image, &a.test_image].into_iter().flatten() {
@@ -931,7 +945,7 @@ fn compare(cli: &Cli, a: &CompareArgs) -> Result<()> {
         // Any bound would pass on nothing: a comparison that judged no pixel is no pass.
         eprintln!(
             "warning: no pixel to judge: none is on a surface inside the light's cone and \
-             facing the light (n.l >= {}); check --light / --scene and normal.exr",
+             facing the light (n.l >= {}); check --light / --sun / --scene and normal.exr",
             softshadow::eval::metrics::LIT_COS
         );
         return Err(Warned.into());

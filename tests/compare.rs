@@ -351,3 +351,65 @@ fn nothing_to_judge_fails_and_a_far_light_still_has_a_direction() {
     assert!(err.starts_with("warning: no pixel to judge"), "{err}");
     let _ = std::fs::remove_dir_all(&d);
 }
+
+/// `--sun X,Y,Z` is a direction towards a sun, not a point: a sun barely above the plane's
+/// horizon along +Y (0,0.1,0) lights every covered up-facing pixel, where a point light at
+/// (0,0.1,0) faces only those within 0.49 of the origin (n.l = 0.1 / |to| >= 0.2); a sun
+/// below the plane faces only the down-facing row 9. A `--scene` with a sun uses its
+/// direction the same way. Bad directions are one error line and write nothing.
+#[test]
+fn sun_gives_a_direction_for_the_lit_surface_mask() {
+    let d = scratch("sun");
+    let ours = d.join("ours");
+    write_aovs(&ours);
+    let png = d.join("diff.png");
+    let run = |flag: &str, v: &str| {
+        compare(&[
+            "--reference",
+            ours.to_str().unwrap(),
+            "--test",
+            ours.to_str().unwrap(),
+            flag,
+            v,
+            "--out",
+            png.to_str().unwrap(),
+        ])
+    };
+    let facing = |o: &Output| {
+        let (out, err) = text(o);
+        assert!(o.status.success(), "{out}{err}");
+        let s = out
+            .split(" of them facing")
+            .next()
+            .and_then(|l| l.rsplit(' ').next())
+            .unwrap_or_else(|| panic!("no facing count in\n{out}"))
+            .to_string();
+        s.parse::<usize>().unwrap()
+    };
+    assert_eq!(facing(&run("--sun", "0,1,0")), 40);
+    assert_eq!(facing(&run("--sun", "0,0.1,0")), 40);
+    // Shadow pixels (x < 0.5, z in 0.1..=0.8, up-facing) with x^2 + z^2 <= 0.24: by hand,
+    // 4 + 4 + 4 + 3 + 2 = 17 of the 40 (columns x = 0 ... 0.4); the loop recounts them.
+    let near: usize = (0..5)
+        .flat_map(|x| (1..9).map(move |z| (x, z)))
+        .filter(|&(x, z)| {
+            let (x, z) = (x as f64 * 0.1, z as f64 * 0.1);
+            0.1 / (x * x + 0.01 + z * z).sqrt() >= softshadow::eval::metrics::LIT_COS as f64
+        })
+        .count();
+    assert_eq!(near, 17);
+    assert_eq!(facing(&run("--light", "0,0.1,0")), near);
+    assert_eq!(facing(&run("--sun", "0,-3,0")), 5);
+    std::fs::remove_file(&png).unwrap();
+    for bad in ["0,0,0", "1,2", "1,nan,0", "a,b,c"] {
+        let o = run("--sun", bad);
+        let (out, err) = text(&o);
+        assert!(!o.status.success(), "--sun {bad}: {out}{err}");
+        // One error line (the argument parser adds its `--help` hint, as for --light).
+        let errors = err.lines().filter(|l| l.starts_with("error:")).count();
+        assert_eq!(errors, 1, "--sun {bad}: {err}");
+        assert!(err.starts_with("error:"), "--sun {bad}: {err}");
+        assert!(!png.exists(), "--sun {bad} wrote {}", png.display());
+    }
+    let _ = std::fs::remove_dir_all(&d);
+}

@@ -63,7 +63,10 @@ fn every_builtin_loads_and_validates() {
             s.light.position.y > casters.max.y,
             "{name}: light below casters"
         );
-        assert!(s.light.radius > 0.0);
+        match s.light.sun_angle_deg() {
+            Some(a) => assert!(a > 0.0, "{name}: a sun of no angular radius"),
+            None => assert!(s.light.radius > 0.0),
+        }
         let sil = if tris < 200_000 {
             silhouette_edges(&s)
         } else {

@@ -36,12 +36,35 @@ fn quick_suite_passes() {
         start.elapsed().as_secs_f64()
     );
     assert!(failed.is_empty(), "failed rows:\n{}", failed.join("\n"));
-    // Every case ran on every technique (ssm-r16f only on the soft shadow maps).
+    // Every case ran on every technique (ssm-r16f only on the soft shadow maps, a sun case
+    // only on the techniques that serve a sun).
     let techniques = stress::technique_names().len();
+    let sun_cases = stress::CASES
+        .iter()
+        .filter(|c| stress::is_sun_case(c.0))
+        .count();
+    let sun_techniques = stress::technique_names()
+        .into_iter()
+        .filter(|t| softshadow::technique::sun_techniques().contains(t))
+        .count();
+    assert_eq!(sun_cases, 7);
     assert_eq!(
         report.rows.len(),
-        (stress::CASES.len() - 1) * techniques + 2
+        (stress::CASES.len() - 1 - sun_cases) * techniques + 2 + sun_cases * sun_techniques
     );
+    // A sun too small to soften anything draws `hard`'s shadow in every technique.
+    let like_hard: Vec<_> = report
+        .rows
+        .iter()
+        .filter(|r| r.case == "sun-angle-0.01")
+        .collect();
+    assert_eq!(like_hard.len(), sun_techniques);
+    for r in like_hard {
+        assert!(
+            r.metric.unwrap() <= stress::sun_hard_tolerance(&r.technique),
+            "{r:?}"
+        );
+    }
     let md = std::fs::read_to_string(dir.join("stress.md")).unwrap();
     assert!(md.contains("| near-contact | smoothies | pass |"), "{md}");
     let json: serde_json::Value =
@@ -83,7 +106,11 @@ fn quick_suite_passes() {
         );
     }
     // The scale cases measured something and it is within tolerance.
-    for r in report.rows.iter().filter(|r| r.case.starts_with("scale")) {
+    for r in report
+        .rows
+        .iter()
+        .filter(|r| r.case.starts_with("scale") || r.case.starts_with("sun-scale"))
+    {
         assert!(r.metric.unwrap() <= stress::SCALE_TOLERANCE);
     }
     let _ = std::fs::remove_dir_all(dir);

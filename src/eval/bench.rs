@@ -466,7 +466,8 @@ impl Plan {
             width: self.config.width,
             height: self.config.height,
             shadow_res: c.shadow_res,
-            light_radius: Some(self.config.radii[c.radius].resolve(scene)),
+            light_radius: (!scene.light.is_sun())
+                .then(|| self.config.radii[c.radius].resolve(scene)),
             smoothie_t: self.variants[c.variant].smoothie_t,
             spirv: self.variants[c.variant].spirv,
             silhouettes: self.variants[c.variant].silhouettes,
@@ -553,11 +554,19 @@ pub fn prepare(config: BenchConfig) -> Result<Plan> {
     let resolutions = dedup(&c.resolutions);
     let motions = dedup(&c.motions);
     let mut cases = Vec::new();
-    for scene in 0..scenes.len() {
-        for radius in 0..c.radii.len() {
+    for (scene, sc) in scenes.iter().enumerate() {
+        // A sun has an angular radius, not a radius: its scene runs once, at its own angle,
+        // whatever --radii sweeps for the spotlights.
+        let radii = if sc.light.is_sun() { 1 } else { c.radii.len() };
+        for radius in 0..radii {
             for &motion in &motions {
                 for &shadow_res in &resolutions {
-                    for variant in 0..variants.len() {
+                    for (variant, v) in variants.iter().enumerate() {
+                        // A technique that refuses a sun is left out of a sun scene's
+                        // tables (one note in the report), not an error.
+                        if technique::check_light(v.technique, sc).is_err() {
+                            continue;
+                        }
                         cases.push(Case {
                             scene,
                             variant,
@@ -852,7 +861,11 @@ pub struct Record {
     pub width: u32,
     pub height: u32,
     pub shadow_res: u32,
-    /// As asked (`scene`, `0.5x`, `0.3`) and in world units.
+    /// The scene's light: `spot` or `sun`.
+    pub light_kind: &'static str,
+    /// A sun's angular radius in degrees (`None` for a spotlight).
+    pub angular_radius_deg: Option<f32>,
+    /// As asked (`scene`, `0.5x`, `0.3`) and in world units (a sun: `scene` and 0).
     pub radius_spec: String,
     pub light_radius: f32,
     pub motion: Motion,
@@ -1323,7 +1336,13 @@ impl Sweep<'_> {
             width: cfg.width,
             height: cfg.height,
             shadow_res: case.shadow_res,
-            radius_spec: cfg.radii[case.radius].to_string(),
+            light_kind: base.light.kind_name(),
+            angular_radius_deg: base.light.sun_angle_deg(),
+            radius_spec: if base.light.is_sun() {
+                Radius::Scene.to_string()
+            } else {
+                cfg.radii[case.radius].to_string()
+            },
             light_radius: radius,
             motion: case.motion,
             smoothie_t,
@@ -1367,6 +1386,28 @@ fn notes(plan: &Plan) -> Vec<String> {
     });
     if cfg.plain {
         notes.push("--plain: every point ran without the speed layer (no culling, no reuse, whole light maps, one full-screen final pass): the technique's own cost.".into());
+    }
+    let suns: Vec<&Scene> = plan.scenes.iter().filter(|s| s.light.is_sun()).collect();
+    if !suns.is_empty() {
+        let refused: Vec<&str> = plan
+            .variants
+            .iter()
+            .map(|v| v.technique)
+            .filter(|t| technique::check_light(t, suns[0]).is_err())
+            .collect::<std::collections::BTreeSet<_>>()
+            .into_iter()
+            .collect();
+        let mut note = format!(
+            "Sun scenes ({}) run once each, at the scene's own angular radius (--radii sweeps a spotlight's radius).",
+            suns.iter().map(|s| s.name.as_str()).collect::<Vec<_>>().join(", ")
+        );
+        if !refused.is_empty() {
+            note.push_str(&format!(
+                " Not on them: {}, which do not serve a sun yet.",
+                refused.join(", ")
+            ));
+        }
+        notes.push(note);
     }
     if cfg.motions.iter().any(|m| *m != Motion::Static) {
         notes.push("Moving sweeps time the frames while moving; their errors are measured on the scene at rest.".into());

@@ -27,11 +27,27 @@ pub struct CompareInputs {
     pub test: PathBuf,
     /// Folder of `position.exr` and `normal.exr` (default: the reference's, else the test's).
     pub aov: Option<PathBuf>,
-    /// The light's centre (the lit-surface mask).
-    pub light: Vec3,
+    /// The light, for the lit-surface mask.
+    pub light: LightAt,
     /// Shaded images (PNG) for ꟻLIP: reference and test.
     pub reference_image: Option<PathBuf>,
     pub test_image: Option<PathBuf>,
+}
+
+/// Where the light is, for the lit-surface mask: a point light's centre (`--light`, a
+/// spotlight scene's position) or the direction towards a sun (`--sun`, a sun scene's axis;
+/// every surface point sees a sun along the same direction, so its far "position" would tilt
+/// the mask across a wide scene).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum LightAt {
+    Point(Vec3),
+    Sun(Vec3),
+}
+
+impl Default for LightAt {
+    fn default() -> Self {
+        LightAt::Point(Vec3::ZERO)
+    }
 }
 
 /// What `compare` measured.
@@ -247,8 +263,12 @@ fn read_png(path: &Path, w: usize, h: usize) -> Result<Vec<[u8; 4]>> {
 
 /// Reads, checks and compares (see the module docs).
 pub fn compare(inputs: &CompareInputs) -> Result<Comparison> {
-    if !inputs.light.is_finite() {
-        bail!("--light {} must be finite", inputs.light);
+    match inputs.light {
+        LightAt::Point(p) if !p.is_finite() => bail!("--light {p} must be finite"),
+        LightAt::Sun(d) if !d.is_finite() || d.length_squared() <= 1e-12 => {
+            bail!("--sun {d} must be a finite direction of non-zero length (towards the sun)")
+        }
+        _ => {}
     }
 
     let ref_path = in_folder(&inputs.reference, "visibility.exr");
@@ -294,7 +314,10 @@ pub fn compare(inputs: &CompareInputs) -> Result<Comparison> {
     let normals: Vec<[f32; 3]> = (0..w * h).map(|i| [n[0][i], n[1][i], n[2][i]]).collect();
 
     let covered = metrics::judged(&positions, &spot);
-    let facing = metrics::faces_light(&positions, &normals, inputs.light);
+    let facing = match inputs.light {
+        LightAt::Point(p) => metrics::faces_light(&positions, &normals, p),
+        LightAt::Sun(d) => metrics::faces_sun(&positions, &normals, d),
+    };
     let facing_pixels = covered
         .iter()
         .zip(&facing)

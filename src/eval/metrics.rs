@@ -64,6 +64,24 @@ pub fn percentile(values: &mut [f64], q: f64) -> f64 {
     values[rank.clamp(1, values.len()) - 1]
 }
 
+/// Like [`faces_light`] for a sun: the pixels on a surface whose normal makes n.l >=
+/// `LIT_COS` with the unit direction towards the sun, `towards` (any length, not zero).
+///
+/// # Panics
+/// When the slices differ in length.
+pub fn faces_sun(position: &[[f32; 4]], normal: &[[f32; 3]], towards: glam::Vec3) -> Vec<bool> {
+    assert_eq!(position.len(), normal.len(), "faces_sun: slices differ");
+    let l = towards.as_dvec3().normalize_or_zero();
+    position
+        .iter()
+        .zip(normal)
+        .map(|(p, n)| {
+            let n = glam::Vec3::from(*n).as_dvec3().normalize_or_zero();
+            p[3] > 0.5 && n.dot(l) >= LIT_COS as f64
+        })
+        .collect()
+}
+
 /// Per pixel, whether its surface faces the light: covered (position alpha > 0.5) and
 /// n·l >= `LIT_COS`, with n the normalised AOV normal (the side the camera sees, as the final
 /// pass writes it) and l the unit vector from the AOV position to `light` (the light's

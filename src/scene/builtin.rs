@@ -20,7 +20,13 @@ pub const BUILTIN_SCENES: &[&str] = &[
     "primitives",
     "dense",
     "dense-1m",
+    "sun-courtyard",
+    "sun-bunny",
 ];
+
+/// The built-in scenes lit by a sun (a subset of `BUILTIN_SCENES`; a unit test keeps the two
+/// in step): the goldens, the stress suite and the bench's sun tables loop over these.
+pub const SUN_SCENES: &[&str] = &["sun-courtyard", "sun-bunny"];
 
 /// The Stanford bunny, compiled in so the binary works from any directory.
 const BUNNY_OBJ: &str = include_str!(concat!(
@@ -41,6 +47,8 @@ pub fn builtin(name: &str) -> Result<Option<Scene>> {
         "primitives" => primitives(),
         "dense" => dense(),
         "dense-1m" => dense_1m(),
+        "sun-courtyard" => sun_courtyard()?,
+        "sun-bunny" => sun_bunny()?,
         _ => return Ok(None),
     };
     Ok(Some(s))
@@ -257,6 +265,11 @@ fn fence() -> Scene {
 
 /// The Stanford bunny (3674 triangles), 2 units tall, sitting on a plane.
 fn bunny() -> Result<Scene> {
+    Ok(framed("bunny", vec![bunny_object()?]))
+}
+
+/// The bunny as one object, 2 units tall, standing on y = 0 centred on the Y axis.
+fn bunny_object() -> Result<Object> {
     let mesh = obj::parse_obj(BUNNY_OBJ, "bunny.obj")?;
     let b = mesh.bounds();
     let s = 2.0 / b.extent().y.max(1e-6);
@@ -273,7 +286,50 @@ fn bunny() -> Result<Scene> {
         Role::Both,
         Vec3::new(0.85, 0.8, 0.7),
     );
-    Ok(framed("bunny", vec![bunny]))
+    Ok(bunny)
+}
+
+/// The example scene file `assets/scenes/sun-courtyard.toml`, compiled in: the built-in is
+/// that file, so the example a user copies and the scene the goldens and the bench measure
+/// cannot drift apart.
+const SUN_COURTYARD_TOML: &str = include_str!(concat!(
+    env!("CARGO_MANIFEST_DIR"),
+    "/assets/scenes/sun-courtyard.toml"
+));
+
+/// A courtyard of walls, a column, a ball and a ring under a sun 17 degrees above the
+/// horizon: long shadows whose penumbrae widen far from contact (the wall's shadow reaches
+/// several metres across the ground).
+fn sun_courtyard() -> Result<Scene> {
+    super::file::parse_toml(
+        SUN_COURTYARD_TOML,
+        "sun-courtyard",
+        "sun-courtyard",
+        Path::new(""),
+    )
+}
+
+/// Elevation of `sun-bunny`'s sun: a high (late-morning) sun, so shadows are short and the
+/// penumbra is set by the bunny's own height, the opposite of the courtyard's low sun.
+const SUN_BUNNY_ELEVATION_DEG: f32 = 65.0;
+/// `sun-bunny`'s angular radius: 2 degrees, twice the scene-file default, so the shadow of
+/// the ears (2 units up) has a penumbra 2 x 2 tan 2deg = 0.14 units wide, several texels of
+/// a 1024^2 map over the framed ground; at 1 degree the short shadows of a high sun are
+/// nearly hard and every technique looks alike.
+const SUN_BUNNY_ANGLE_DEG: f32 = 2.0;
+
+/// The bunny on a ground plane under a high sun: a tall caster whose shadow starts at its
+/// feet (contact hardening) and softens towards the ears.
+fn sun_bunny() -> Result<Scene> {
+    let mut s = framed("sun-bunny", vec![bunny_object()?]);
+    let casters = s.caster_bounds().unwrap_or(Aabb::EMPTY);
+    let size = casters.extent().max_element().max(1e-3);
+    let e = SUN_BUNNY_ELEVATION_DEG.to_radians();
+    // From the camera's side and to the left, so the shadow falls back and to the right.
+    let azimuth = (-40.0f32).to_radians();
+    let dir = Vec3::new(azimuth.sin() * e.cos(), e.sin(), azimuth.cos() * e.cos());
+    s.light = Light::sun(dir, casters.center(), SUN_BUNNY_ANGLE_DEG, 4.0 * size);
+    Ok(s)
 }
 
 /// Several primitives, about 10k triangles: the size of the smoothie paper's timings.
@@ -480,11 +536,25 @@ pub(crate) fn framed_obj(path: &Path) -> Result<Scene> {
 mod tests {
     use super::*;
 
-    /// The ground is big enough for each built-in's shadow, and the light's cone holds
-    /// the casters and that shadow.
+    /// `SUN_SCENES` holds exactly the built-ins whose light is a sun.
+    #[test]
+    fn sun_scenes_are_the_builtins_lit_by_a_sun() {
+        let suns: Vec<&str> = BUILTIN_SCENES
+            .iter()
+            .copied()
+            .filter(|&n| n != "dense-1m" && builtin(n).unwrap().unwrap().light.is_sun())
+            .collect();
+        assert_eq!(suns, SUN_SCENES);
+    }
+
+    /// The ground is big enough for each spotlight built-in's shadow, and the light's cone
+    /// holds the casters and that shadow.
     #[test]
     fn shadows_land_on_the_ground_inside_the_light_cone() {
-        for &name in BUILTIN_SCENES {
+        // Not the sun scenes: a low sun's shadows run past any finite ground (sun-courtyard's
+        // wall shadow leaves its 16-unit ground), and its map is fitted to what the camera
+        // sees, not to a cone.
+        for &name in BUILTIN_SCENES.iter().filter(|n| !SUN_SCENES.contains(n)) {
             let s = builtin(name).unwrap().unwrap();
             let ground = s
                 .objects

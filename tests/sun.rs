@@ -591,16 +591,43 @@ fn pcss_at_a_tiny_sun_equals_hard() {
 /// form's, outward only. Measured x0.433, x0.433, x0.432 of the closed form (within 0.2 %
 /// of that ramp). smoothies-centred spans the whole penumbra with the disc-chord profile:
 /// measured x1.003, x0.999, x1.001, its hard edge within 3e-5 of the closed form's centre.
+///
+/// penumbra-map (the paper's form) grows its penumbra outward only, over Eq. 1's
+/// I = (Z_F - Z_v) / (Z_P - Z_v) reaching 1 at (d_r - d_b) tan(theta) = h tan(theta) outside
+/// the hard edge, through Parker's falloff 3 I^2 - 2 I^3: its 10-90 width is
+/// (I(0.9) - I(0.1)) h tan(theta), I(s) = 0.5 - sin(asin(1 - 2 s) / 3), 0.608 h tan(theta),
+/// 0.304 of the closed form's 2 h tan(theta) span. Measured x?, x?, x? of that ramp.
+/// penumbra-map-centred spans the whole penumbra with the disc-chord profile: measured
+/// x?, x?, x? of the closed form.
 #[test]
-fn plateaus_and_smoothies_penumbrae_under_a_sun_grow_linearly_as_the_closed_form() {
+fn outward_and_centred_penumbrae_under_a_sun_grow_linearly_as_the_closed_form() {
     let gpu = Gpu::new();
     let theta = (EDGE_ANGLE_DEG as f64).to_radians();
-    let ramp = ((-0.8f64).acos() - 0.8f64.acos()) / std::f64::consts::PI;
-    // (paper form, its margins against its outward ramp; centred form, its margins against
-    // the closed form).
-    for (outward, within, spread, centred, c_within, c_spread) in [
-        ("plateaus", 0.05, 0.02, "plateaus-centred", 0.03, 0.02),
-        ("smoothies", 0.01, 0.01, "smoothies-centred", 0.01, 0.01),
+    let sine = ((-0.8f64).acos() - 0.8f64.acos()) / std::f64::consts::PI;
+    let smoothstep_at = |s: f64| 0.5 - ((1.0 - 2.0 * s).asin() / 3.0).sin();
+    let smoothstep = smoothstep_at(0.9) - smoothstep_at(0.1);
+    // (paper form, its outward ramp's 10-90 width over h tan(theta), its margins against
+    // that ramp; centred form, its margins against the closed form).
+    for (outward, ramp, within, spread, centred, c_within, c_spread) in [
+        ("plateaus", sine, 0.05, 0.02, "plateaus-centred", 0.03, 0.02),
+        (
+            "smoothies",
+            sine,
+            0.01,
+            0.01,
+            "smoothies-centred",
+            0.01,
+            0.01,
+        ),
+        (
+            "penumbra-map",
+            smoothstep,
+            0.05,
+            0.05,
+            "penumbra-map-centred",
+            0.05,
+            0.05,
+        ),
     ] {
         let widths = edge_widths(&gpu, outward);
         let expected: Vec<(f64, f64, f64)> = widths
@@ -638,7 +665,7 @@ fn ssm_penumbrae_under_a_sun_grow_linearly_as_the_closed_form() {
 /// tiny radius; the smoothies themselves are under a texel wide), smoothies-centred 1 (by
 /// 0.020), ssm-bitmask 78. Asserted under 0.5 %.
 #[test]
-fn plateaus_ssm_and_smoothies_at_a_tiny_sun_equal_hard() {
+fn plateaus_ssm_smoothies_and_penumbra_maps_at_a_tiny_sun_equal_hard() {
     let gpu = Gpu::new();
     for technique in [
         "plateaus",
@@ -648,6 +675,8 @@ fn plateaus_ssm_and_smoothies_at_a_tiny_sun_equal_hard() {
         "smoothies",
         "smoothies-centred",
         "ssm-bitmask",
+        "penumbra-map",
+        "penumbra-map-centred",
     ] {
         let (_, off, n) = tiny_sun_against_hard(&gpu, technique);
         assert!(off * 200 < n, "{technique}: {off} of {n} pixels over 0.01");

@@ -23,8 +23,18 @@ const float MAX_PLANE_WINDOW = 0.05;
 // of a caster at the near plane span the whole map) the misclassified texels read 1 and the
 // others the map, in a moire of rings over the whole region. Comparing each texel's stored
 // depth with this plane's depth AT THAT TEXEL removes the slope from the test.
+// Under a sun the ray through t is parallel to the axis, from (ndc h, 0) in light view
+// space (h the map's half width): the plane's depth there is linear in uv.
 float plane_depth(vec3 p, vec3 n, vec2 t, float fallback) {
     vec2 ndc = t * 2.0 - 1.0;
+    if (light_is_sun()) {
+        float h = 0.5 * frame.sun.z * frame.light_params.z;
+        vec3 pv = (frame.light_view * vec4(p, 1.0)).xyz;
+        vec3 nv = mat3(frame.light_view) * n;
+        // nv . ((ndc h, -z) - pv) = 0 along the ray.
+        float zs = -pv.z + dot(nv.xy, ndc * h - pv.xy) / nv.z;
+        return (zs > 0.0 && !isinf(zs) && !isnan(zs)) ? zs : fallback;
+    }
     // World direction of the light ray through t, scaled so its light-view z is -1: the ray
     // parameter is then the linear depth. light_view is rigid, so its inverse rotation is
     // the transpose.

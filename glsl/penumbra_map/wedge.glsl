@@ -55,11 +55,38 @@ bool eq1_depths(float zp, float zf, vec2 zv_h, out Eq1 e) {
 // of its area. P keeps at least the rest. For casters as large as the light (every standard
 // scene) the bound is <= 0 and changes nothing; it assumes the caster's depth extent is
 // small against Z_P - Zv. Returns that least visibility (denom = zp - zv > 0).
+// Under a sun (disc of directions of angular radius theta) the caster, `reach` world units
+// across the map around its centre, spans at most r = reach / (Z_P - Zv) (tangent units)
+// seen from P: a strip of the disc of radius tan theta, a fraction <= 4 r / (pi tan theta).
 float blocker_floor(float reach, float zv, float zp, float denom) {
-    float lr = frame.light_pos_radius.w;
-    float r = reach * zv * (zp / denom);
+    bool sun = light_is_sun();
+    float lr = sun ? frame.sun.y : frame.light_pos_radius.w;
+    float r = sun ? reach / denom : reach * zv * (zp / denom);
     float hidden = lr > 0.0 ? min(4.0 * r / (3.14159265 * lr), 1.0) : 1.0;
     return 1.0 - hidden;
+}
+
+// How far a cone or sheet point at depth z lies from the hard-edge line of its silhouette
+// point at depth zv (z >= zv), in the map's lateral unit `wedge_unit_per_texel` measures:
+// a spotlight's Lr (1/zv - 1/z) tangent units (lateral offset over depth); a sun's
+// (z - zv) tan theta world units (parallel rays). The penumbra's half-width at a receiver
+// at depth z too.
+float wedge_offset(float zv, float z) {
+    return light_is_sun() ? frame.sun.y * (z - zv)
+                          : frame.light_pos_radius.w * (1.0 / zv - 1.0 / z);
+}
+
+// `wedge_offset`'s unit per shadow-map texel: tangent units, or a sun's world units.
+float wedge_unit_per_texel() {
+    return light_is_sun() ? frame.sun.z : frame.light_frustum.y;
+}
+
+// The share of the outer penumbra half-width at P (depth zp) where the fragment F (depth
+// zf) lies, from Eq. 1's I = (Z_F - Z_v) / (Z_P - Z_v): a spotlight's
+// (1/Zv - 1/Z_F) / (1/Zv - 1/Z_P) = I Z_P / Z_F; a sun's I itself (offsets grow linearly in
+// depth under parallel rays, so Eq. 1 is exact).
+float outer_share(float i, float zp, float zf) {
+    return light_is_sun() ? i : i * (zp / zf);
 }
 
 #endif

@@ -5,14 +5,14 @@
 // `Side::Inner`): the inner half of the centred penumbra, inside the hard shadow, where the
 // shadow map's foremost surface is the caster and the receiver is hidden behind it.
 //
-// The fragment F lies u = Lr (1/Zv - 1/Z_F) (tangent units) inside the hard-edge line of its
-// edge (or cone tip); the gradient of u across the map points inward along the edge's
+// The fragment F lies u = Lr (1/Zv - 1/Z_F) (tangent units; a sun's (Z_F - Zv) tan theta
+// world units, `wedge_offset`) inside the hard-edge line of its edge (or cone tip); the gradient of u across the map points inward along the edge's
 // normal. The receiver is estimated from the foremost surface just outside the edge (the
 // foot of the normal through this texel, 1.5 and 5.5 texels out: the plane through the two
 // samples, extrapolated to this texel): Z_R. Then, at P = the receiver behind this texel,
 //   - the edge is hidden (another caster in front of it covers its outside): nothing;
 //   - this texel is not in the hard shadow at Z_R (a caster nearer than Z_R): nothing;
-//   - the penumbra's half-width is w = Lr (1/Zv - 1/Z_R), s = u / w (nothing when s >= 1:
+//   - the penumbra's half-width is w = Lr (1/Zv - 1/Z_R) (a sun's (Z_R - Zv) tan theta), s = u / w (nothing when s >= 1:
 //     umbra), and the edge alone lets v_a = disc_chord(s) of the light through;
 //   - thin blocker: the shadow map is marched from this texel inward along the normal for w;
 //     the first texel not in the hard shadow at Z_R is the blocker's far edge, d beyond this
@@ -40,21 +40,20 @@ layout(location = 0) out vec4 o_penumbra;   // outer visibility, inner occlusion
 
 void main() {
     float zv = fragment_zv(v_zv_h);
-    float lr = frame.light_pos_radius.w;
-    float u = max(lr * (1.0 / zv - 1.0 / v_depth), 0.0);
+    float u = max(wedge_offset(zv, v_depth), 0.0);
     // Derivatives first (uniform control flow): u grows inward along the edge's normal.
     vec2 grad = vec2(dFdx(u), dFdy(u));
     float g = length(grad);
     if (!(g > 0.0) || isinf(g)) discard;
     vec2 dir = grad / g;
-    float per_texel = frame.light_frustum.y;   // tangent units per texel
+    float per_texel = wedge_unit_per_texel();   // tangent units (a sun's world units) per texel
     vec2 here = gl_FragCoord.xy;
     float zr;
     if (!receiver_beyond(here, dir, u / per_texel, zv, zr)) discard;
     float denom = zr - zv;
     if (!clear_of_contact(zr, denom)) discard;
     if (!blocked_at(here, zr)) discard;
-    float w = lr * (1.0 / zv - 1.0 / zr);
+    float w = wedge_offset(zv, zr);
     float s = u / w;
     if (!(s < 1.0)) discard;
     float v = disc_chord(s);

@@ -7,6 +7,8 @@
 // Lr (1/Zv - 1/Z_F) (tangent units) outside the hard-edge line, the half-width at P is
 // Lr (1/Zv - 1/Z_P), so
 //     s = (1/Zv - 1/Z_F) / (1/Zv - 1/Z_P) = I Z_P / Z_F,   I = Eq. 1,
+// (a sun: F lies (Z_F - Zv) tan theta outside, the half-width is (Z_P - Zv) tan theta, so
+// s = I; `outer_share`)
 // and the visibility is the disc-chord profile v = disc_chord(-s): 0.5 on the hard edge, 1
 // at the outer rim. Written to the RGBA16F penumbra map with MIN blending: r (outer
 // visibility: darkest wins, as in the paper) gets v, the inner channels the neutral 1.
@@ -27,6 +29,6 @@ void main() {
         discard;
     }
     // Rasterised F can fall a rounding error in front of the tip.
-    float s = clamp((e.zf - e.zv) / e.denom * (e.zp / e.zf), 0.0, 1.0);
+    float s = clamp(outer_share((e.zf - e.zv) / e.denom, e.zp, e.zf), 0.0, 1.0);
     o_penumbra = vec4(max(disc_chord(-s), blocker_floor(v_reach, e.zv, e.zp, e.denom)), 1.0, 1.0, 1.0);
 }

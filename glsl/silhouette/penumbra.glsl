@@ -9,7 +9,7 @@
 
 // Per frame, written by the CPU (`PenumbraFrame` in src/silhouette/gpu.rs): the light's view
 // matrix and its inverse (the CPU's, so both paths use the same matrices) and
-// (near, z_far, light radius Lr, 0).
+// (near, z_far, the cones' spread: Lr, or a sun's tan theta, 1 for a sun else 0).
 layout(set = 0, binding = 16, std430) readonly buffer PenumbraFrame {
     mat4 pm_view;
     mat4 pm_view_inv;
@@ -41,21 +41,36 @@ bool finite1(float x) {
     return !isnan(x) && !isinf(x);
 }
 
+// Whether the light is a sun (orthographic map: each cone about its vertex's own axis).
+bool pm_sun() {
+    return pm_params.w > 0.5;
+}
+
 // `cone_data`: false when the vertex is at or behind near, at or beyond z_far, or not finite.
 bool cone_data(uint v, out Cone c) {
     float near = pm_params.x;
     float z_far = pm_params.y;
-    float lr = pm_params.z;
+    float spread = pm_params.z;
     c.world = world(v);
     vec3 pv = (pm_view * vec4(c.world, 1.0)).xyz;
     c.zv = -pv.z;
     if (!(c.zv > near && c.zv < z_far && finite2(pv.xy) && finite1(pv.z))) {
         return false;
     }
-    float k = z_far / c.zv;
-    c.centre = pv.xy * k;
-    c.radius = (z_far - c.zv) * lr / c.zv;
+    if (pm_sun()) {
+        c.centre = pv.xy;
+        c.radius = (z_far - c.zv) * spread;
+    } else {
+        float k = z_far / c.zv;
+        c.centre = pv.xy * k;
+        c.radius = (z_far - c.zv) * spread / c.zv;
+    }
     return finite2(c.centre) && finite1(c.radius);
+}
+
+// A base corner's (Zv k, k): k = z_far / Zv, a sun's k = 1 (`sheet`).
+vec2 base_zv_h(Cone c) {
+    return pm_sun() ? vec2(c.zv, 1.0) : vec2(pm_params.y, pm_params.y / c.zv);
 }
 
 // Order-preserving uint key of a float (larger float, larger key).
@@ -70,7 +85,7 @@ float from_order_key(uint k) {
 
 // The point of a cone that the bounding circle encloses (`blocker_reach`).
 vec2 reach_point(Cone c) {
-    return c.centre / pm_params.y;
+    return pm_sun() ? c.centre : c.centre / pm_params.y;
 }
 
 // The centre of this caster's bounding box (after penumbra_edges.comp).

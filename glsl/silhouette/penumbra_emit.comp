@@ -22,12 +22,10 @@ void emit_sheet(uint ei) {
         return;
     }
     float reach = caster_reach();
-    float z_far = pm_params.y;
     vec3 ta = base_world(ca.centre + ca.radius * n);
     vec3 tb = base_world(cb.centre + cb.radius * n);
-    // Base corners: k = z_far / Zv, so (Zv k, k) = (z_far, k).
-    vec2 ha = vec2(z_far, z_far / ca.zv);
-    vec2 hb = vec2(z_far, z_far / cb.zv);
+    vec2 ha = base_zv_h(ca);
+    vec2 hb = base_zv_h(cb);
     uint at;
     if (reserve(6u, at)) {
         put_penumbra(at + 0u, ca.world, vec2(ca.zv, 1.0), reach);

@@ -121,7 +121,8 @@ struct CasterData {
 struct PenumbraFrame {
     view: [f32; 16],
     view_inv: [f32; 16],
-    /// near, z_far, light radius, 0.
+    /// near, z_far, the cones' spread (`penumbra::cone_spread`: Lr, a sun's tan theta), 1
+    /// for a sun (orthographic: cones about each vertex's own axis) else 0.
     params: [f32; 4],
 }
 
@@ -294,7 +295,7 @@ impl GpuSilhouettes {
         z_far: f32,
     ) -> Result<Option<Self>> {
         Self::with_emitter(ctx, ubo, objects, adjacency, Emitter::Penumbra, |adj, o| {
-            let sil = extract(adj, o.transform, light.position);
+            let sil = extract(adj, o.transform, super::light_point(light));
             build_penumbra(adj, &sil, o.transform, light, radius, z_far)
                 .vertices
                 .len()
@@ -464,7 +465,12 @@ impl GpuSilhouettes {
             view: light.view.to_cols_array(),
             // The CPU path's own inverse, so both paths place the cone bases alike.
             view_inv: light.view.inverse().to_cols_array(),
-            params: [key.near, key.z_far, key.radius, 0.0],
+            params: [
+                key.near,
+                key.z_far,
+                key.radius,
+                if light.sun.is_some() { 1.0 } else { 0.0 },
+            ],
         };
         self.penumbra_frame
             .write(0, bytemuck::bytes_of(&constants))?;

@@ -57,6 +57,27 @@
 //! uses it to bound how much light the object can hide from a receiver point (see
 //! glsl/penumbra_map/penumbra.frag); the paper has no such bound.
 //!
+//! # Under a sun (orthographic map, `light.sun`)
+//! A sun is every direction within theta of its axis; the map is orthographic (linear depth
+//! Z = -z from the map's eye plane, xy in world units). The lines through silhouette vertex
+//! v along those directions form a cone of half-angle theta with its tip at v and its axis
+//! along the view axis, so at depth Z its cross-section is a disc of radius (Z - Zv) tan theta
+//! (world units) centred on v's own xy, not (Z - Zv) Lr / Zv around the ray through v: at
+//! the base C_r = (z_far - Zv) tan theta, centre = v's view xy (no z_far / Zv scaling). The
+//! penumbra a straight edge throws onto a receiver at Z_P grows linearly, (Z_P - Zv) tan theta
+//! on each side of its hard edge (the full w = 2 (d_r - d_b) tan theta). Every sun cone is
+//! the same cone translated, so the plane through an edge tangent to the cone at a is tangent
+//! to the one at b too: the sheet is the same common-external-tangent quad of the base discs
+//! (alpha = (ra - rb) / |cb - ca|, planar), with the tangent point T at infinity: its ruling
+//! lines are parallel (one direction of the disc's rim), so the edge point a sheet point P
+//! belongs to is affine in P and k = 1 at every corner, (Zv, 1) at the base corners too.
+//! Eq. 1, I = (Z_F - Z_v) / (Z_P - Z_v), is exact under a sun: F on the same map ray as P lies
+//! (Z_F - Zv) tan theta from v's ray, P's penumbra reaches (Z_P - Zv) tan theta. `reach` is in
+//! world units across the map (the bounding circle of the silhouette vertices' view xy).
+//! Silhouettes are taken from the stand-in point far towards the sun
+//! (`silhouette::light_point`). The spread the cones are built with is `cone_spread`: Lr
+//! for a spotlight, tan theta for a sun (`--light-radius` is refused for a sun).
+//!
 //! # Robustness
 //! A vertex at linear depth <= near (behind or too close to the light) or >= z_far gets no
 //! cone and its edges no sheet (counted in `skipped_vertices` / `skipped_edges`); so does an
@@ -113,14 +134,23 @@ pub struct PenumbraKey {
 }
 
 impl PenumbraKey {
+    /// The key of `light` with light radius `radius` (a sun's `radius` field is its
+    /// `cone_spread`, tan theta, instead).
     pub fn new(light: &LightView, radius: f32, z_far: f32) -> Self {
         Self {
             view_proj: light.view_proj,
             near: light.near,
-            radius,
+            radius: cone_spread(light, radius),
             z_far,
         }
     }
+}
+
+/// What a cone's radius grows by per unit of depth beyond its tip, in the cone's own units:
+/// a spotlight's light radius Lr (the radius at depth Z is (Z - Zv) Lr / Zv), a sun's tan
+/// theta (world units, (Z - Zv) tan theta; `radius` unused). 0: no cone, the result is `hard`.
+pub fn cone_spread(light: &LightView, radius: f32) -> f32 {
+    light.sun.map_or(radius, |s| s.tan_angle)
 }
 
 /// `reach` of an object whose extent is unknown (a silhouette vertex was skipped): so large
@@ -143,15 +173,18 @@ struct ConeData {
     radius: f32,
 }
 
-fn cone_data(p_world: Vec3, light: &LightView, lr: f32, z_far: f32) -> Option<ConeData> {
+/// `spread`: `cone_spread` (Lr, or a sun's tan theta).
+fn cone_data(p_world: Vec3, light: &LightView, spread: f32, z_far: f32) -> Option<ConeData> {
     let pv = light.view.transform_point3(p_world);
     let zv = -pv.z;
     if !(zv > light.near && zv < z_far && pv.is_finite()) {
         return None;
     }
-    let k = z_far / zv;
-    let centre = pv.truncate() * k;
-    let radius = (z_far - zv) * lr / zv;
+    let (centre, radius) = match light.sun {
+        // Parallel rays: the axis through v, radius (z_far - Zv) tan theta.
+        Some(_) => (pv.truncate(), (z_far - zv) * spread),
+        None => (pv.truncate() * (z_far / zv), (z_far - zv) * spread / zv),
+    };
     (centre.is_finite() && radius.is_finite()).then_some(ConeData {
         world: p_world,
         zv,
@@ -241,6 +274,7 @@ fn sheet(
     z_far: f32,
     reach: f32,
     side: Side,
+    sun: bool,
 ) -> Option<SheetOut> {
     let along = b.centre - a.centre;
     let d = along.length();
@@ -263,8 +297,12 @@ fn sheet(
         position: view_inv
             .transform_point3((c.centre + c.radius * n).extend(-z_far))
             .to_array(),
-        // k = z_far / Zv: (Zv * k, k) = (z_far, k).
-        zv_h: [z_far, z_far / c.zv],
+        // k = z_far / Zv: (Zv * k, k) = (z_far, k); a sun's k = 1 (T at infinity).
+        zv_h: if sun {
+            [c.zv, 1.0]
+        } else {
+            [z_far, z_far / c.zv]
+        },
         reach,
     };
     let tip = |c: &ConeData| PenumbraVertex {
@@ -280,14 +318,16 @@ fn sheet(
 }
 
 /// Radius (tangent units) of the bounding circle, about the bounding box's centre, of the
-/// silhouette vertices as seen from the light centre; `BLOCKER_REACH_UNKNOWN` when any was
-/// skipped (its position is not trustworthy) or there is none.
-fn blocker_reach(cones: &[Option<ConeData>], z_far: f32) -> f32 {
+/// silhouette vertices as seen from the light centre (a sun's: world units across the map);
+/// `BLOCKER_REACH_UNKNOWN` when any was skipped (its position is not trustworthy) or there
+/// is none.
+fn blocker_reach(cones: &[Option<ConeData>], z_far: f32, sun: bool) -> f32 {
+    let scale = if sun { 1.0 } else { 1.0 / z_far };
     let mut pts = Vec::with_capacity(cones.len());
     for c in cones {
         match c {
-            // The base centre is the vertex's light ray at depth z_far.
-            Some(c) => pts.push(c.centre / z_far),
+            // The base centre is the vertex's light ray at depth z_far (a sun's: its xy).
+            Some(c) => pts.push(c.centre * scale),
             None => return BLOCKER_REACH_UNKNOWN,
         }
     }
@@ -327,7 +367,7 @@ fn cone_arc(sheets: u8, [n1, n2]: [Vec2; 2]) -> ConeArc {
 const HAIRPIN: f32 = std::f32::consts::PI / 180.0;
 
 /// Cones and sheets of one object (`model`: object -> world) for `light` with disc radius
-/// `light_radius`, from its silhouette `sil` (as returned by `extract`); cone bases lie at
+/// `light_radius` (a sun: its own angle, `cone_spread`), from its silhouette `sil` (as returned by `extract`); cone bases lie at
 /// linear depth `z_far`, which must be beyond every receiver. Cones come in welded-vertex
 /// order, then sheets in silhouette order. Objects with at least `PAR_EDGES` silhouette edges
 /// compute their cones and sheets on rayon; the output is the same either way.
@@ -355,6 +395,8 @@ pub fn build_penumbra_sides<const N: usize>(
     sides: [Side; N],
 ) -> [PenumbraGeometry; N] {
     let view_inv = light.view.inverse();
+    let spread = cone_spread(light, light_radius);
+    let sun = light.sun.is_some();
     let par = sil.len() >= PAR_EDGES;
     // Distinct silhouette vertices in welded-vertex order (a bit per welded vertex, then
     // the set bits in order: no sort), `slot[v]` their number, and per vertex how many
@@ -385,13 +427,21 @@ pub fn build_penumbra_sides<const N: usize>(
     let special_vertices = edges_at.iter().filter(|&&n| n != 2).count();
     let cones: Vec<Option<ConeData>> = map_maybe_par(&verts, par, |&v| {
         let p = model.transform_point3(adj.positions[v as usize]);
-        cone_data(p, light, light_radius, z_far)
+        cone_data(p, light, spread, z_far)
     });
-    let reach = blocker_reach(&cones, z_far);
+    let reach = blocker_reach(&cones, z_far, sun);
     let cone_of = |v: u32| cones[slot[v as usize] as usize].as_ref();
     sides.map(|side| {
         let sheets: Vec<Option<SheetOut>> = map_maybe_par(sil, par, |e| {
-            sheet(cone_of(e.a)?, cone_of(e.b)?, view_inv, z_far, reach, side)
+            sheet(
+                cone_of(e.a)?,
+                cone_of(e.b)?,
+                view_inv,
+                z_far,
+                reach,
+                side,
+                sun,
+            )
         });
         let mut geo = emit(&cones, &slot, sil, sheets, reach, view_inv, z_far);
         geo.special_vertices = special_vertices;
@@ -657,6 +707,63 @@ mod tests {
                 -e.z
             );
         }
+    }
+
+    /// Under a sun the cone at v grows (Z - Zv) tan theta about v's own axis, every corner
+    /// carries k = 1 (Zv affine on a sheet: parallel ruling lines), the sheets are planar and
+    /// tangent to the cone of directions at both ends, and `reach` is in world units.
+    #[test]
+    fn sun_cones_grow_linearly_about_each_vertex_with_planar_tangent_sheets() {
+        let adj = Adjacency::build(&cube()).unwrap();
+        let model = Mat4::from_rotation_y(0.3) * Mat4::from_translation(Vec3::new(0.0, 1.0, 0.0));
+        let sun = Light::sun(Vec3::new(1.0, 3.0, 0.5), Vec3::ZERO, 2.0, 10.0);
+        let eye = Vec3::ZERO + sun.direction() * 8.0;
+        let lv = LightView::sun(&sun, eye, 4.0, 0.5, 20.0);
+        let tan = lv.sun.unwrap().tan_angle;
+        let sil = extract(&adj, model, crate::silhouette::light_point(&lv));
+        let z_far = 19.0;
+        // The radius argument is a spotlight's: a sun's cones take its own angle.
+        let g = build_penumbra(&adj, &sil, model, &lv, 123.0, z_far);
+        assert!(all_finite(&g));
+        check_counts(&g);
+        assert!(g.cones > 0 && g.sheets > 0 && g.skipped_vertices == 0);
+        let to_view = |p: [f32; 3]| lv.view.transform_point3(Vec3::from(p));
+        for tri in g.vertices[..3 * g.cone_triangles].chunks_exact(3) {
+            let tip = to_view(tri[0].position);
+            let zv = -tip.z;
+            let cr = (z_far - zv) * tan;
+            let most = cr / (std::f32::consts::PI / CONE_SEGMENTS as f32).cos();
+            for v in &tri[1..] {
+                let p = to_view(v.position);
+                assert!((p.z + z_far).abs() < 1e-3);
+                let r = (p.truncate() - tip.truncate()).length();
+                assert!(r > cr - 1e-3 && r < most + 1e-3, "{r} vs {cr}..{most}");
+            }
+        }
+        // A cube under 3 units across: its reach (world units) is about its half-diagonal.
+        let reach = g.vertices[0].reach;
+        assert!(reach > 0.5 && reach < 1.0, "{reach}");
+        for q in g.vertices[3 * g.cone_triangles..].chunks_exact(6) {
+            let [a, b, tb, _, _, ta] = [0, 1, 2, 3, 4, 5].map(|i| to_view(q[i].position));
+            assert!(q.iter().all(|v| v.zv_h[1] == 1.0), "k = 1 at every corner");
+            assert!((q[5].zv_h[0] + a.z).abs() < 1e-4 && (q[2].zv_h[0] + b.z).abs() < 1e-4);
+            let n = (b - a).cross(tb - a).normalize();
+            assert!(n.dot(ta - a).abs() < 1e-4 * (ta - a).length(), "planar");
+            // Tangent to the cone of directions: the plane's normal is theta off
+            // perpendicular to the axis, ta - a and tb - b are one ruling direction.
+            assert!(
+                (n.z.abs() - theta_sin(tan)).abs() < 1e-4,
+                "{} vs {}",
+                n.z,
+                theta_sin(tan)
+            );
+            let (da, db) = ((ta - a).normalize(), (tb - b).normalize());
+            assert!((da - db).length() < 1e-4, "parallel ruling lines");
+        }
+    }
+
+    fn theta_sin(tan: f32) -> f32 {
+        tan.atan().sin()
     }
 
     #[test]

@@ -225,21 +225,14 @@ pub const TECHNIQUES: &[TechniqueInfo] = &[
     reference::INFO,
 ];
 
-/// Why a technique cannot yet render a sun (`LightKind::Sun`), by name; a technique not
-/// listed serves one. Each listed technique's equations assume the spotlight's perspective
-/// map and a light sphere of radius R (penumbra R (d_r - d_b) / d_b); under a sun the map is
-/// orthographic and the penumbra 2 (d_r - d_b) tan theta, which their shaders do not
-/// compute yet. Rendering them would draw a wrong shadow quietly, so they refuse.
-const NO_SUN: &[(&str, &str)] = &[
-    (
-        "penumbra-map",
-        "its cones and sheets are drawn from a light sphere's centre",
-    ),
-    (
-        "penumbra-map-centred",
-        "its cones and sheets are drawn from a light sphere's centre",
-    ),
-];
+/// Why a technique cannot render a sun (`LightKind::Sun`), by name; a technique not listed
+/// serves one. Every technique serves a sun today (each header's "under a sun" equations),
+/// so the list is empty; it stays, with `check_light`'s one-line refusal, for a technique
+/// whose equations assume the spotlight's perspective map and a light sphere of radius R
+/// (penumbra R (d_r - d_b) / d_b) where a sun's orthographic map and penumbra
+/// 2 (d_r - d_b) tan theta are not worked out yet: rendering it would draw a wrong shadow
+/// quietly, so it refuses.
+const NO_SUN: &[(&str, &str)] = &[];
 
 /// The techniques that render a sun, in registry order.
 pub fn sun_techniques() -> Vec<&'static str> {

@@ -70,6 +70,35 @@
 //! The speed layer leaves each texel read and each shaded pixel's inputs as the whole
 //! passes give them (src/technique/speed/penumbra_map.rs).
 //!
+//! ## Under a sun
+//! A sun is every direction within its angular radius theta of its axis, shadow-mapped with
+//! an orthographic map of side 2 h world units (`frustum::fit_sun`); linear depth is the
+//! distance from the map's eye plane (clip z carries it: common/frame.glsl
+//! `clip_linear_depth`; penumbra.vert's Z_F too). Parallel rays: a blocker edge at depth
+//! d_b throws a penumbra that grows linearly, w = 2 (d_r - d_b) tan(theta) on a receiver at
+//! d_r, half of it on each side of the hard edge. The paper's construction follows:
+//! - Sec. 3 (cones): the lines through silhouette vertex v along the sun's directions form
+//!   a cone of half-angle theta about v's own axis; its radius at depth Z is
+//!   (Z - Z_v) tan(theta) world units, not R (Z - Z_v) / Z_v, so
+//!   (Sec. 3s) C_r = (Z_far - Z_v) tan(theta), centred on v's map xy (no Z_far / Z_v).
+//! - Sec. 3 (sheets): every sun cone is one cone translated, so the plane through an edge
+//!   tangent to one end's cone is tangent to the other's: the same planar tangent quad
+//!   between the base discs (src/silhouette/penumbra.rs, "Under a sun"), its ruling lines
+//!   parallel, so Z_v is affine on it: k = 1 at every corner.
+//! - Eq. 1, I = (Z_F - Z_v) / (Z_P - Z_v), is unchanged and exact: F on P's map ray lies
+//!   (Z_F - Z_v) tan(theta) outside v's hard edge, where P's outer penumbra reaches
+//!   (Z_P - Z_v) tan(theta). The paper form's penumbra is the outer half only:
+//!   (d_r - d_b) tan(theta) wide, through 3 I^2 - 2 I^3.
+//! - The blocker-size bound: `reach` is world units across the map, the strip the caster
+//!   covers seen from P is reach / (Z_P - Z_v) against the disc's tan(theta)
+//!   (`blocker_floor`).
+//! - The final pass's own-surface window follows the point's plane along the map's parallel
+//!   rays (`plane_depth`, glsl/penumbra_map/surface.glsl).
+//! The cones' spread is tan(theta) (`penumbra::cone_spread`; theta = 0 draws no geometry and
+//! gives `hard`), silhouettes are taken from a stand-in point far towards the sun
+//! (`silhouette::light_point`) on both geometry paths, and the split final pass is not
+//! planned for a sun (`regions::shadowed`: the shader runs everywhere).
+//!
 //! ## Known artefacts
 //! No inner penumbra: the umbra is the hard shadow at every light radius, so shadows are too
 //! dark and too large for big lights or far casters (Sec. 4.1). Overlapping penumbrae take
@@ -323,13 +352,14 @@ impl Technique for PenumbraMap {
         frame: &FrameInput<'_>,
     ) -> Result<()> {
         let names = self.form.names();
-        // R = 0 (a point light): every cone has radius 0, the result is `hard`.
-        self.draw_geometry = frame.light_radius > 0.0;
         // Without pass caching every frame rebuilds everything (the bench's baseline).
         let force = !frame.settings.cache_light_passes;
         let casters = self.adjacency.iter().flatten().count();
         let z_far = cone_base_depth(frame.light);
         let key = PenumbraKey::new(frame.light, frame.light_radius, z_far);
+        // R = 0 (a point light; a sun of angle 0): every cone has radius 0, the result is
+        // `hard`.
+        self.draw_geometry = key.radius > 0.0;
         let centred = self.form == Form::Centred;
         // Pass 0: the cones and sheets, on the GPU or on the CPU.
         if !self.draw_geometry {

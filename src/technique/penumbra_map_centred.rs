@@ -28,6 +28,16 @@
 //! outside, at a reflex vertex inside). Both sides are built on the CPU
 //! (`--silhouettes gpu` is not implemented for the inner side and builds on the CPU too).
 //!
+//! Under a sun (penumbra_map.rs, "Under a sun"): parallel rays, so the half-width is
+//! w(Z) = (Z - Zv) tan(theta) in world units across the map (`wedge_offset`,
+//! glsl/penumbra_map/wedge.glsl), the closed form's (d_r - d_b) tan(theta) either side of
+//! the hard edge. The outer fraction is Eq. 1's I itself, s = (Z_F - Zv) / (Z_P - Zv)
+//! (`outer_share`), the inner one u / w(Z_R) with u = (Z_F - Zv) tan(theta) and the
+//! march's texels in world units (`wedge_unit_per_texel`: the map's world texel). The
+//! inner side's hidden-receiver estimate is the spotlight's (1/depth extrapolated over a
+//! plane, shared with smoothies-centred); under a parallel projection depth itself is
+//! affine there, so on a tilted receiver Z_R bends by up to its 5 % limit.
+//!
 //! ## Passes, in order
 //! 0. CPU `penumbra-map-centred/silhouettes` (R > 0) — per moved caster: silhouette from the
 //!    light centre, then the outer and the inner cones and sheets (24-byte

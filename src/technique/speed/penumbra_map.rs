@@ -80,7 +80,7 @@ impl CpuPenumbra {
         let (light, radius, z_far) = (frame.light, key.radius, key.z_far);
         self.cache
             .update(&frame.scene.objects, adjacency, key, force, |adj, model| {
-                let sil = silhouette::extract(adj, model, light.position);
+                let sil = silhouette::extract(adj, model, silhouette::light_point(light));
                 let (l, r, z) = (light, radius, z_far);
                 let (outer, inner) = if centred {
                     let sides = [Side::Outer, Side::Inner];
@@ -128,10 +128,21 @@ impl CpuPenumbra {
 /// inside the hard edge samples u / per_texel + 1.5 and + 5.5 texels away along its
 /// gradient (`regions::INNER_RECEIVER_TEXELS`), and u = Lr (1/Zv - 1/Z_F) is at most
 /// Lr (1/zv_min - 1/z_far): its depth Z_F on a cone or sheet lies between its silhouette
-/// point's Zv and the cone base `z_far`. `None` for a non-finite reach.
+/// point's Zv and the cone base `z_far`. A sun's u = (Z_F - Zv) tan theta world units is at
+/// most (z_far - zv_min) tan theta, over world units per texel. `None` for a non-finite
+/// reach.
 fn inner_read_texels(frame: &FrameInput<'_>, zv_min: f32, z_far: f32, res: u32) -> Option<u32> {
-    let per_texel = 2.0 * (frame.light.fov_deg.to_radians() * 0.5).tan() / res as f32;
-    let u_max = frame.light_radius * (1.0 / zv_min - 1.0 / z_far);
+    let light = frame.light;
+    let (per_texel, u_max) = match light.sun {
+        Some(sun) => (
+            light.texel_world(0.0, res),
+            sun.tan_angle * (z_far - zv_min),
+        ),
+        None => (
+            2.0 * (light.fov_deg.to_radians() * 0.5).tan() / res as f32,
+            frame.light_radius * (1.0 / zv_min - 1.0 / z_far),
+        ),
+    };
     let texels = (u_max.max(0.0) / per_texel).ceil();
     // Beyond the map's side it reaches everywhere: the whole map, as `grown` clips.
     let texels = texels

@@ -88,7 +88,12 @@ fn gpu_finds_exactly_the_cpu_silhouette_edges() {
         for (object, gpu_edges) in found {
             let o = &scene.objects[object];
             let adj = Adjacency::build(&o.mesh).unwrap();
-            let cpu_sil = extract(&adj, o.transform, light.position);
+            // A sun's silhouettes come from its stand-in point, as the renderer's.
+            let cpu_sil = extract(
+                &adj,
+                o.transform,
+                softshadow::silhouette::light_point(&light),
+            );
             kinds.extend(cpu_sil.iter().map(|e| format!("{:?}", e.kind)));
             let cpu: BTreeSet<(u32, u32, u32)> =
                 cpu_sil.iter().map(|e| (e.edge, e.a, e.b)).collect();
@@ -152,7 +157,8 @@ fn gpu_and_cpu_paths_render_the_same_image() {
             "{name}: colours differ by {max_colour} levels"
         );
         // Both drew smoothies: an outer penumbra, darker than hard shadows just outside
-        // the hard edge (225 to 542 of the 16384 pixels on these scenes, measured).
+        // the hard edge (225 to 542 of the 16384 pixels on the spotlight scenes, 184 on
+        // sun-courtyard and 98 on sun-bunny, whose high sun casts a short shadow; measured).
         let outer = |v: &[f32]| {
             v.iter()
                 .zip(&hard.visibility)
@@ -160,7 +166,7 @@ fn gpu_and_cpu_paths_render_the_same_image() {
                 .count()
         };
         assert!(
-            outer(&on_gpu.visibility) > 100 && outer(&cpu.visibility) > 100,
+            outer(&on_gpu.visibility) > 60 && outer(&cpu.visibility) > 60,
             "{name}: smoothies drew no outer penumbra (GPU {}, CPU {} pixels darker than hard)",
             outer(&on_gpu.visibility),
             outer(&cpu.visibility)

@@ -547,6 +547,17 @@ pub const ALLOWANCES: &[(&str, &[&str], f64, &str)] = &[
         0.4,
         "method limit: occluder map coarser than the shadow map across a wide sun map",
     ),
+    // A sun 10 degrees wide over the courtyard: the paper form of penumbra maps keeps the
+    // hard shadow as its umbra and grows the penumbra outward only (Sec. 4.1), so half of
+    // every 2 (d_r - d_b) tan(10 deg) penumbra, wide on the column's and walls' long
+    // shadows, stays umbra where the reference sees up to half the sun. Measured 0.404
+    // quick / 0.396 full (the centred form 0.099 passes).
+    (
+        "sun-angle-10",
+        &["penumbra-map"],
+        0.45,
+        "method limit: outer-penumbra-only under a wide sun",
+    ),
     // (`far-light`, ssm and ssm2, had 0.4 for 0.34 measured; that was mae_shadow: judged on
     // mae_lit they measure 0.265 and pass the default limit, so the allowance is gone.
     // `grazing-light`, smoothies, had 0.7 for 0.59 quick / 0.42 full mae_shadow: the

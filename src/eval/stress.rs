@@ -516,7 +516,9 @@ pub const ALLOWANCES: &[(&str, &[&str], f64, &str)] = &[
     // edge is coarser than hard's, and the shadow region at quick sizes is mostly edge
     // pixels. Measured (quick) 0.392 / 0.399 on sun-courtyard and its two scaled copies,
     // 0.474 at 0.01 degree, 0.305 / 0.332 at 2 degrees above the ground (hard: 0.22 to
-    // 0.25). Not measured on the full suite.
+    // 0.25); the full suite's sizes halve them and pass the default limit. ssm-bitmask
+    // reads the same occluder map and passes (0.143 quick): why the additive forms step
+    // more is not explained yet.
     (
         "sun-courtyard",
         &["ssm", "ssm2"],
@@ -546,6 +548,17 @@ pub const ALLOWANCES: &[(&str, &[&str], f64, &str)] = &[
         &["ssm", "ssm2"],
         0.4,
         "method limit: occluder map coarser than the shadow map across a wide sun map",
+    ),
+    // A 10-degree sun over the courtyard: the ring and the column are far narrower than
+    // their penumbrae, so the reference leaves them almost no umbra. The paper's smoothies
+    // keep the hard umbra and grow a full 0-to-1 penumbra outward from it, as under
+    // `blocker-near-light` (0.414 quick / 0.400 full measured; hard 0.257 / 0.256, the
+    // centred form 0.099 quick).
+    (
+        "sun-angle-10",
+        &["smoothies"],
+        0.5,
+        "method limit: a blocker narrower than its penumbra gets a full-strength outer penumbra",
     ),
     // A sun 10 degrees wide over the courtyard: the paper form of penumbra maps keeps the
     // hard shadow as its umbra and grows the penumbra outward only (Sec. 4.1), so half of

@@ -16,7 +16,7 @@ layout(set = 0, binding = 16, std430) readonly buffer PenumbraFrame {
     vec4 pm_params;
 };
 // Per caster, REACH_WORDS words, cleared every frame: the bounding box of its silhouette
-// vertices in tangent units as order-preserving keys (~key(min x), ~key(min y), key(max x),
+// vertices in tangent units (a sun's: world units across the map) as order-preserving keys (~key(min x), ~key(min y), key(max x),
 // key(max y): all atomicMax, so that a cleared 0 is the identity), the float bits of the
 // bounding circle's radius (atomicMax: non-negative floats order as their bits), and 1 when
 // a silhouette vertex was skipped (its reach is then BLOCKER_REACH_UNKNOWN).

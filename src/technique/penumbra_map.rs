@@ -94,6 +94,7 @@
 //!   (`blocker_floor`).
 //! - The final pass's own-surface window follows the point's plane along the map's parallel
 //!   rays (`plane_depth`, glsl/penumbra_map/surface.glsl).
+//!
 //! The cones' spread is tan(theta) (`penumbra::cone_spread`; theta = 0 draws no geometry and
 //! gives `hard`), silhouettes are taken from a stand-in point far towards the sun
 //! (`silhouette::light_point`) on both geometry paths, and the split final pass is not

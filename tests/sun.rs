@@ -223,7 +223,7 @@ fn hard_and_pcf_put_a_sun_shadow_where_parallel_rays_do() {
 }
 
 #[test]
-fn every_technique_that_cannot_serve_a_sun_refuses_it_with_one_line() {
+fn every_technique_serves_a_sun_or_refuses_it_with_one_line() {
     let gpu = Gpu::new();
     let scene = load_toml(&sun_box_toml([1.0, 2.0, 0.5], 1.0), "refuse").unwrap();
     let serving = softshadow::technique::sun_techniques();

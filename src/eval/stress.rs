@@ -748,6 +748,18 @@ fn build(name: &str, sizes: &Sizes) -> Result<Case> {
         mae_limit: MAE_LIMIT,
         res: None,
     };
+    // A copy of `base` scaled by k, judged against its own reference and against `base`'s.
+    let scale = |base: Scene, k: f32| {
+        let mut scene = scaled(&base, k);
+        scene.name = name.into();
+        Case {
+            kind: Kind::Scale {
+                base: Box::new(base),
+                k,
+            },
+            ..stat(scene)
+        }
+    };
     let slab = |w: f32, t: f32| prim::cuboid(Vec3::new(w, t, w));
     Ok(match name {
         "near-contact" => {
@@ -862,15 +874,7 @@ fn build(name: &str, sizes: &Sizes) -> Result<Case> {
                 "scene-1e5" => 1e5 / r,
                 _ => 1.999e7 / r,
             };
-            let mut scene = scaled(&base, k);
-            scene.name = name.into();
-            Case {
-                kind: Kind::Scale {
-                    base: Box::new(base),
-                    k,
-                },
-                ..stat(scene)
-            }
+            scale(base, k)
         }
         "ground-1e5" | "huge-terrain" => {
             let mut o = Vec::new();
@@ -964,15 +968,7 @@ fn build(name: &str, sizes: &Sizes) -> Result<Case> {
         "sun-scale-1e-3" | "sun-scale-1e4" => {
             let base = builtin_scene("sun-courtyard")?;
             let k = if name == "sun-scale-1e-3" { 1e-3 } else { 1e4 };
-            let mut scene = scaled(&base, k);
-            scene.name = name.into();
-            Case {
-                kind: Kind::Scale {
-                    base: Box::new(base),
-                    k,
-                },
-                ..stat(scene)
-            }
+            scale(base, k)
         }
         "fov-limit" => {
             let mut s = builtin_scene("cylinder")?;

@@ -53,14 +53,7 @@ fn scenes() -> Vec<Scene> {
         if *name == "dense-1m" {
             continue;
         }
-        let s = Scene::load(name).unwrap();
-        // The silhouette techniques render these scenes: a sun scene joins once both serve one.
-        if ["smoothies", "penumbra-map"]
-            .iter()
-            .all(|t| softshadow::technique::check_light(t, &s).is_ok())
-        {
-            scenes.push(s);
-        }
+        scenes.push(Scene::load(name).unwrap());
     }
     scenes
 }
@@ -127,9 +120,9 @@ fn gpu_finds_exactly_the_cpu_silhouette_edges() {
 #[test]
 fn gpu_and_cpu_paths_render_the_same_image() {
     let gpu = Gpu::new();
-    // And under a sun: orthographic depth, one width, the facing test's stand-in point.
-    let sun = Scene::load("assets/scenes/sun-courtyard.toml").unwrap();
-    for scene in scenes().into_iter().chain([sun]) {
+    // The sun built-ins among them: orthographic depth, one width, the facing test's
+    // stand-in point.
+    for scene in scenes() {
         let name = scene.name.clone();
         let cpu = gpu
             .render_frames(scene.clone(), "smoothies", settings(SilhouettePath::Cpu), 1)

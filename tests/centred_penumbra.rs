@@ -6,6 +6,8 @@
 //! - thin blockers: no pixel at 0 where the reference lets more than 0.2 through;
 //! - two overlapping blockers: never lighter than the darker single-blocker image;
 //!   (these three also for the other accurate form, `ssm-bitmask`)
+//! - a wide light on `bunny` (3x its radius, the ears narrower than their penumbrae):
+//!   mae_lit at or below `pcss`'s and fewer false edges than half of `hard`'s;
 //! - R = 0: exactly `hard`;
 //! - smoothies-centred's outer smoothies, overlapping on `dense`: no speck darker than the
 //!   reference.
@@ -14,7 +16,7 @@ mod common;
 
 use common::{covered, small, Gpu};
 use glam::{Mat4, Vec3, Vec4};
-use softshadow::eval::metrics::{errors_at, faces_light, Errors};
+use softshadow::eval::metrics::{errors_at, faces_light, false_edges, judged, Errors};
 use softshadow::output::FrameImages;
 use softshadow::reference::{visibility_cached, ReferenceParams};
 use softshadow::scene::Scene;
@@ -270,6 +272,78 @@ fn thin_blocker_is_never_a_full_umbra_where_light_gets_through() {
         println!("{t}: {bright} pixels with reference > 0.2 at 0");
         assert_eq!(bright, 0, "{t}: a thin blocker's full umbra");
     }
+}
+
+/// The forms whose outer side adds a thin blocker's far segment (`outer_far_share`,
+/// glsl/common/inner_march.glsl), held to `pcss` under a wide light.
+const FAR_SHARE: &[&str] = &["smoothies-centred", "penumbra-map-centred"];
+
+/// At most this share of `hard`'s false edges on `bunny` at 3x its radius. Measured at
+/// 384x384: 234 pairs for each form against `hard`'s 505 (0.46x); 309 and 274 (0.61x and
+/// 0.54x) while the outer side kept the half-plane's 0.5 at the hard edge. The goal,
+/// 0.15x, is not met (BENCHMARKS.md, "Fast and accurate").
+const WIDE_FALSE_EDGE_SHARE: f64 = 0.5;
+
+/// `bunny` at 3x its light radius, 384x384 (the rest default): its ears are narrower than
+/// their penumbrae, and where the two sides of the centred penumbra disagreed at the hard
+/// edge each ear kept its hard outline inside a lighter penumbra. Each form's mae_lit is at
+/// most `pcss`'s (measured 0.041 and 0.042 against 0.048; 0.053 for both before the
+/// outer side's far segment) and its false edges at most `WIDE_FALSE_EDGE_SHARE` of `hard`'s.
+#[test]
+fn wide_light_thin_ears_lose_their_outline_and_match_pcss() {
+    let gpu = Gpu::new();
+    let scene = Scene::load("bunny").unwrap();
+    let r = scene.light.radius * 3.0;
+    let s = with_radius(small(384, 1024), r);
+    let measure = |technique: &str| {
+        let img = gpu.render_frames(scene.clone(), technique, s.clone(), 1).0;
+        let v_ref = reference(&scene, r, &img);
+        let judged = judged(&img.position, &img.spot);
+        let facing = faces_light(&img.position, &img.normal, scene.light.position);
+        let e = errors_at(
+            &img.visibility,
+            &v_ref,
+            &img.position,
+            &img.normal,
+            &img.spot,
+            scene.light.position,
+        );
+        let fe = false_edges(
+            &img.visibility,
+            &v_ref,
+            384,
+            &img.position,
+            &img.normal,
+            &judged,
+            &facing,
+        );
+        println!(
+            "{technique}: mae_lit {:.4}, p99_lit {:.3}, {} false-edge pairs over {} penumbra pixels",
+            e.mae_lit, e.p99_lit, fe.pairs, fe.penumbra_pixels
+        );
+        (e, fe)
+    };
+    let (_, hard) = measure("hard");
+    let (pcss, _) = measure("pcss");
+    assert!(hard.penumbra_pixels > 5000, "{hard:?}");
+    let mut bad = Vec::new();
+    for &t in FAR_SHARE {
+        let (e, fe) = measure(t);
+        if e.mae_lit > pcss.mae_lit {
+            bad.push(format!(
+                "{t}: mae_lit {:.4} above pcss's {:.4}",
+                e.mae_lit, pcss.mae_lit
+            ));
+        }
+        let share = fe.pairs as f64 / hard.pairs as f64;
+        if share > WIDE_FALSE_EDGE_SHARE {
+            bad.push(format!(
+                "{t}: {} false-edge pairs, {share:.2}x hard's {}",
+                fe.pairs, hard.pairs
+            ));
+        }
+    }
+    assert!(bad.is_empty(), "{}", bad.join("\n"));
 }
 
 fn pos(img: &FrameImages, i: usize) -> Vec3 {

@@ -1,13 +1,18 @@
-// The inner penumbra's thin-blocker march, shared by the inner passes of the centred forms
-// (penumbra_map_centred, smoothies_centred, plateaus_centred inner.frag). The includer
+// The thin-blocker march, shared by the inner passes of the centred forms
+// (penumbra_map_centred, smoothies_centred, plateaus_centred inner.frag) and by the outer
+// fragments of penumbra_map_centred and smoothies_centred (`outer_far_share`). The includer
 // #defines INNER_MAP, the sampler2D the march reads (texels of the light-space map the
 // fragment is drawn into), and defines `blocked_at` after the include.
 #ifndef INNER_MARCH_GLSL
 #define INNER_MARCH_GLSL
 #include "common/count.glsl"
+#include "common/penumbra.glsl"
 
 // How far outside the edge (texels) the outside is read: past the texel the edge crosses.
 const float OUT_TEXELS = 1.5;
+// How far inside the edge (texels) an outer fragment's march starts: a texel whose centre
+// lies this far in along the normal is the blocker's, whichever way the edge crosses it.
+const float IN_TEXELS = 1.0;
 // Coarse steps of the thin-blocker march, then bisection steps between the last two.
 const int MARCH_STEPS = 8;
 const int BISECT_STEPS = 3;
@@ -57,6 +62,23 @@ float far_edge_texels(vec2 here, vec2 dir, float w_tex, float z_r) {
     }
     // The far edge lies between the last blocked and the first open sample.
     return 0.5 * (lo + hi);
+}
+
+// Thin blocker seen from outside its hard shadow: what the blocker's far side adds to the
+// visibility of a lit point x_tex texels outside its edge along `out_dir`, where the
+// penumbra's half-width is w_tex. Through a strip W texels wide the point sees the disc's
+// segment beyond the far edge as well, disc_chord((x + W) / w), which the inner side adds
+// at its own texels too: without it the two sides disagree at the hard edge by that
+// segment, and a blocker narrower than its penumbra keeps its hard outline. W is found by
+// marching inward from IN_TEXELS inside the edge for what is left of the half-width;
+// 0 when the blocker is wider, or the march does not start inside it.
+float outer_far_share(vec2 here, vec2 out_dir, float x_tex, float w_tex, float z_r) {
+    float left = w_tex - x_tex - IN_TEXELS;
+    if (!(left > 0.0)) return 0.0;
+    vec2 start = here - out_dir * (x_tex + IN_TEXELS);
+    if (!inside_map(start) || !blocked_at(start, z_r)) return 0.0;
+    float d = far_edge_texels(start, -out_dir, left, z_r);
+    return d > 0.0 ? disc_chord((x_tex + IN_TEXELS + d) / w_tex) : 0.0;
 }
 
 #endif

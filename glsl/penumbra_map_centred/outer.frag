@@ -10,25 +10,39 @@
 // (a sun: F lies (Z_F - Zv) tan theta outside, the half-width is (Z_P - Zv) tan theta, so
 // s = I; `outer_share`)
 // and the visibility is the disc-chord profile v = disc_chord(-s): 0.5 on the hard edge, 1
-// at the outer rim. Written to the RGBA16F penumbra map with MIN blending: r (outer
+// at the outer rim, plus the disc's segment beyond the far edge of a blocker narrower than
+// its penumbra (`outer_far_share`, common/inner_march.glsl, marched along the gradient of
+// Z_F, which points away from the edge: the inner side adds the same segment, so the two
+// meet at the hard edge without a step). Written to the RGBA16F penumbra map with MIN blending: r (outer
 // visibility: darkest wins, as in the paper) gets v, the inner channels the neutral 1.
 #include "common/frame.glsl"
 #include "common/penumbra.glsl"
 #include "penumbra_map/wedge.glsl"
 
-layout(set = 0, binding = 1) uniform sampler2D shadow_map;   // RG32F: g = foremost surface of any role
+layout(set = 0, binding = 1) uniform sampler2D shadow_map;   // RG32F: r nearest caster, g foremost surface of any role
 
 layout(location = 0) in float v_depth;
 layout(location = 1) in vec2 v_zv_h;
 layout(location = 2) flat in float v_reach;
 layout(location = 0) out vec4 o_penumbra;   // outer visibility, inner occlusion, 1 - receiver depth / far, unused
 
+#include "common/inner_receiver.glsl"
+
 void main() {
+    // Derivatives first (uniform control flow): F's offset from the hard-edge line grows
+    // outward along the edge's normal.
+    vec2 grad = vec2(dFdx(v_depth), dFdy(v_depth));
     Eq1 e;
     if (!eq1_depths(texelFetch(shadow_map, ivec2(gl_FragCoord.xy), 0).g, v_depth, v_zv_h, e)) {
         discard;
     }
     // Rasterised F can fall a rounding error in front of the tip.
     float s = clamp(outer_share((e.zf - e.zv) / e.denom, e.zp, e.zf), 0.0, 1.0);
-    o_penumbra = vec4(max(disc_chord(-s), blocker_floor(v_reach, e.zv, e.zp, e.denom)), 1.0, 1.0, 1.0);
+    float v = disc_chord(-s);
+    float g = length(grad);
+    if (g > 0.0 && !isinf(g)) {
+        float w_tex = wedge_offset(e.zv, e.zp) / wedge_unit_per_texel();
+        v += outer_far_share(gl_FragCoord.xy, grad / g, s * w_tex, w_tex, e.zp);
+    }
+    o_penumbra = vec4(max(min(v, 1.0), blocker_floor(v_reach, e.zv, e.zp, e.denom)), 1.0, 1.0, 1.0);
 }

@@ -8,7 +8,10 @@
 // src/silhouette/smoothie.rs `Width`) the half-width of a disc light's penumbra at receiver
 // depth r is t (1 - b/r) uv, so the paper's remapped alpha' = alpha / (1 - b/r) (Eq. 1) is
 // exactly s, the fragment's distance outside the hard edge over that half-width, and the
-// visibility is disc_chord(-s): 0.5 on the hard edge, 1 at the outer rim. Writes b (MIN:
+// visibility is disc_chord(-s): 0.5 on the hard edge, 1 at the outer rim, plus the disc's
+// segment beyond the far edge of a blocker narrower than its penumbra (`outer_far_share`,
+// common/inner_march.glsl: the inner side adds it too, so the two meet at the hard edge
+// without a step). Writes b (MIN:
 // the nearest smoothie) and (v, 1, 1, 1) (MIN on v: the darkest outer value wins, the
 // paper's rule).
 //
@@ -20,6 +23,8 @@
 // caster's smoothie; tests/centred_penumbra.rs, `outer_smoothies_write_only_what_darkens`).
 #include "smoothies_centred/smoothie.glsl"
 
+#include "common/inner_receiver.glsl"
+
 void main() {
     float t = v_width;
     vec2 uv = gl_FragCoord.xy * frame.light_params.w;
@@ -29,6 +34,9 @@ void main() {
     float x = smoothie_distance(uv, dir);
     float s;
     if (!smoothie_alpha(b, r, x, t, remap_span(), s)) discard;
+    float texel = frame.light_params.w;   // uv per texel
+    float w_tex = t * remap_denom(b, r, remap_span()) / texel;
+    float v = disc_chord(-s) + outer_far_share(gl_FragCoord.xy, dir, s * w_tex, w_tex, r);
     o_depth = b;
-    o_penumbra = vec4(disc_chord(-s), 1.0, 1.0, 1.0);
+    o_penumbra = vec4(min(v, 1.0), 1.0, 1.0, 1.0);
 }

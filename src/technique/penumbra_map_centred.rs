@@ -45,8 +45,9 @@
 //! 1. `penumbra-map-centred/shadow_map` — the shared `ShadowMap`: R32G32_SFLOAT, clear 1e30,
 //!    blend MIN, no depth attachment; r = nearest caster's linear depth, g = nearest
 //!    surface's of any role. Pass 2 reads g at each outer fragment's own texel and, for an
-//!    inner one, 1.5 and 5.5 texels outside its edge; r (is a caster there?) 1.5 texels
-//!    outside, at its own texel and along its inward march (thin blockers, below).
+//!    inner one, 1.5 and 5.5 texels outside its edge; r (is a caster there?) for an inner
+//!    one 1.5 texels outside and at its own texel, and along the inward marches of both
+//!    sides (thin blockers, below).
 //! 2. `penumbra-map-centred/penumbra` — one rendering scope, no depth attachment, culling
 //!    off, one colour attachment, the penumbra map: R16G16B16A16_SFLOAT, clear (1, 1, 1, 1),
 //!    blend MIN; r = the outer visibility (darkest wins, the paper's rule), g = the inner
@@ -60,8 +61,11 @@
 //!      fragment program (shared in glsl/penumbra_map/wedge.glsl: Z_P = the shadow map's g at
 //!      the fragment's texel, the same discards, the same blocker-size bound) with the exact
 //!      outer fraction s = (1/Zv - 1/Z_F) / (1/Zv - 1/Z_P) = I Z_P / Z_F (I = Eq. 1) and
-//!      v = disc_chord(-s) in [0.5, 1], raised to the paper's blocker-size bound as the
-//!      paper form's intensity is; writes (max(v, bound), 1, 1, 1).
+//!      v = disc_chord(-s) in [0.5, 1], plus, for a blocker narrower than its penumbra,
+//!      the disc's segment beyond its far edge (`outer_far_share`: the shadow map's r
+//!      marched inward from 1 texel inside the edge, along the gradient of Z_F, for what
+//!      is left of the half-width; "Combining edges"), raised to the paper's blocker-size
+//!      bound as the paper form's intensity is; writes (max(v, bound), 1, 1, 1).
 //!    - inner cones and sheets, `glsl/penumbra_map_centred/inner.frag`: u = w(Z_F), the
 //!      inward direction = the gradient of u over the map (dFdx/dFdy). The receiver behind
 //!      the texel is hidden from the light, so its depth Z_R is estimated from the shadow
@@ -90,7 +94,8 @@
 //! - The geometry, both sides: `build_penumbra_sides` (src/silhouette/penumbra.rs).
 //! - The disc-chord profile v(s): `disc_chord` (glsl/common/penumbra.glsl).
 //! - The outer fraction s = I Z_P / Z_F: `main` of glsl/penumbra_map_centred/outer.frag,
-//!   over the paper form's `eq1_depths` and `blocker_floor` (glsl/penumbra_map/wedge.glsl).
+//!   over the paper form's `eq1_depths` and `blocker_floor` (glsl/penumbra_map/wedge.glsl),
+//!   with the thin blocker's far side `outer_far_share` (glsl/common/inner_march.glsl).
 //! - The inner side: `main` of glsl/penumbra_map_centred/inner.frag, with
 //!   `receiver_beyond`, `blocked_at` (glsl/common/inner_receiver.glsl) and
 //!   `far_edge_texels` (glsl/common/inner_march.glsl).
@@ -118,6 +123,14 @@
 //!   disc_chord(s_a) + disc_chord(d / w), so inner extents meeting from both sides give
 //!   partial light, exactly for a parallel strip. At a sharp corner of a thin blocker the
 //!   march can leave through the other edge and count its segment fully: too light there.
+//!   Each outer fragment, x outside its edge, marches the same way from IN_TEXELS (1)
+//!   inside the edge for what is left of w (`outer_far_share`) and adds
+//!   disc_chord((x + W) / w) for a blocker W wide, so both sides give
+//!   0.5 + disc_chord(W / w) at the hard edge. Without it the outer side kept the
+//!   half-plane's 0.5 there while the inner side let the far segment through: a blocker
+//!   narrower than its penumbra (the bunny's ears at 3x its radius) kept its hard outline
+//!   inside a penumbra lighter than the ring around it. Beyond a thin blocker's tip the
+//!   march runs along it and finds no far edge: too dark there.
 //! - Hidden receivers under another caster's outer penumbra take min(inner, outer), where
 //!   the outer value was evaluated at the foremost (nearer) surface: not darker than the
 //!   outer penumbra at the receiver's own depth would be.
@@ -139,7 +152,9 @@
 //! silhouettes (a sphere's) get a slightly too dark inner penumbra (a convex outline hides
 //! less of the disc than the half-plane of its tangent). The inner fragments cost up to 14
 //! shadow-map fetches each (two receiver samples, own texel, 8 + 3 march steps), only in
-//! the inner band.
+//! the inner band; the outer ones up to 12 beyond the paper's one (the march's start and
+//! its 8 + 3 steps) where the rest of the half-width beyond the edge's first inside texel
+//! is positive.
 
 use super::penumbra_map::{penumbra_pipeline_desc, PenumbraMap, PenumbraTarget};
 use super::{Form, TechniqueInfo, TechniqueInit};

@@ -55,8 +55,9 @@
 //!    host-visible vertex buffer, every caster's inner ones to another.
 //! 1. `smoothies-centred/shadow_map` — the shared `ShadowMap`: R32G32_SFLOAT, clear 1e30,
 //!    blend MIN, no depth attachment; r = nearest caster's linear depth, g = nearest
-//!    surface's of any role. g is read only by pass 2, at the smoothie fragment's own
-//!    texel and, for an inner one, 1.5 and 5.5 texels outside its edge.
+//!    surface's of any role. Read only by pass 2: g at the smoothie fragment's own texel
+//!    and, for an inner one, 1.5 and 5.5 texels outside its edge; r along the thin-blocker
+//!    marches (both sides) and, for an inner one, at its own texel.
 //! 2. `smoothies-centred/smoothie` — ONE pass (the paper's single MRT smoothie pass), no
 //!    depth attachment, culling off, two colour attachments:
 //!    location 0 = smoothie linear depth b, R32_SFLOAT, clear 1e30, blend MIN (outer
@@ -76,9 +77,10 @@
 //!    - outer smoothies, `glsl/smoothies_centred/outer.frag`: the paper form's fragment
 //!      program and decision (`smoothie_alpha`, glsl/smoothies/alpha.glsl: receiver r =
 //!      the shadow map's g at its texel), s = alpha' in [0, 1), v = disc_chord(-s) in
-//!      [0.5, 1); writes b and (v, 1, 1, 1) only where the smoothie darkens a surface, as
-//!      the paper form: discarded where g holds no surface, b/r > 1, 1 - b/r < 1e-4 and
-//!      s >= 1 (fully lit). A lit fragment's b, MIN-blended into a texel that another
+//!      [0.5, 1), plus, for a blocker narrower than its penumbra, the disc's segment
+//!      beyond its far edge (`outer_far_share`, below); writes b and (v, 1, 1, 1) only
+//!      where the smoothie darkens a surface, as the paper form: discarded where g holds
+//!      no surface, b/r > 1, 1 - b/r < 1e-4 and s >= 1 (fully lit). A lit fragment's b, MIN-blended into a texel that another
 //!      caster's smoothie darkens, would put the points between the two depths behind
 //!      the nearest smoothie, and they would take the farther one's v: dark specks on the
 //!      rims of casters under a neighbour's smoothie (`dense`: 53 light-facing pixels more
@@ -115,7 +117,8 @@
 //!   width t: `Width::at`.
 //! - The disc-chord profile v(s): `disc_chord` (glsl/common/penumbra.glsl).
 //! - The outer side (s = Eq. 1's alpha', and which fragments are written): `smoothie_alpha`
-//!   (glsl/smoothies/alpha.glsl), called by glsl/smoothies_centred/outer.frag.
+//!   (glsl/smoothies/alpha.glsl), called by glsl/smoothies_centred/outer.frag, with the
+//!   thin blocker's far side `outer_far_share` (glsl/common/inner_march.glsl).
 //! - The inner side: `main` of glsl/smoothies_centred/inner.frag, with the hidden receiver
 //!   `receiver_beyond` and `blocked_at` (glsl/common/inner_receiver.glsl) and the thin
 //!   blocker's far edge `far_edge_texels` (glsl/common/inner_march.glsl).
@@ -138,8 +141,15 @@
 //!   texel, and adds disc_chord(d / w): through a strip between parallel edges a point
 //!   sees the disc's segment beyond each edge, so per-edge shares add. Inner extents
 //!   meeting from both sides of a blocker narrower than its penumbra give partial light,
-//!   never 0. At a sharp corner of a thin blocker the march can leave through the other
-//!   edge and count its segment fully: too light there.
+//!   never 0. Each outer fragment, x outside its edge, does the same from IN_TEXELS (1)
+//!   inside the edge for what is left of w (`outer_far_share`): a blocker W wide adds
+//!   disc_chord((x + W) / w), so both sides give 0.5 + disc_chord(W / w) at the hard
+//!   edge. Without it the outer side kept the half-plane's 0.5 there while the inner side
+//!   let the far segment through, and a blocker narrower than its penumbra (the bunny's
+//!   ears at 3x its radius) kept its hard outline inside a penumbra lighter than the ring
+//!   around it. At a sharp corner of a thin blocker the march can leave through the other
+//!   edge and count its segment fully: too light there; beyond a thin blocker's tip the
+//!   march runs along it and finds no far edge: too dark there.
 //! - Overlapping casters: an edge whose outside is covered by a nearer caster draws no
 //!   inner smoothie, so one caster's inner penumbra never lightens another's umbra; a
 //!   caster behind the blocker but in front of the receiver ends the march, and a receiver
@@ -157,7 +167,9 @@
 //! min rather than the product for overlapping outer penumbrae, and the cap t <= 0.2 (a
 //! blocker near the light gets too narrow a penumbra). The inner fragments cost up to 14
 //! shadow-map fetches each (two receiver samples, own texel, 8 + 3 march steps), only in
-//! the inner band; the outer ones one, as the paper's.
+//! the inner band; the outer ones one, as the paper's, and up to 12 more (the march's
+//! start and its 8 + 3 steps) where the rest of the half-width beyond the edge's first
+//! inside texel is positive.
 
 use super::smoothies::{smoothie_pipeline_desc, SmoothieTarget, Smoothies};
 use super::{Form, TechniqueInfo, TechniqueInit};

@@ -8,6 +8,21 @@ use common::{small, Gpu};
 use softshadow::render::Renderer;
 use softshadow::scene::Scene;
 
+/// The counted light pass `pass` of `technique` on `scene` (128^2, 512^2 maps): its texel
+/// reads, warp-summed, and its march iterations.
+fn light_pass_reads(gpu: &Gpu, scene: &str, technique: &str, pass: &str) -> (u64, u64) {
+    let scene = Scene::load(scene).unwrap();
+    let mut r = Renderer::new(&gpu.ctx, scene, technique, small(128, 512)).unwrap();
+    r.render().unwrap();
+    let counts = r.count_lookups().unwrap();
+    let light = counts
+        .light
+        .iter()
+        .find(|l| l.name == pass)
+        .unwrap_or_else(|| panic!("{pass} is counted"));
+    (light.warp_texels, light.loops[2])
+}
+
 /// The smoothie pass's fragment invocations and its warp-summed texel reads for `scene`.
 fn smoothie_pass_work(gpu: &Gpu, scene: &str, plain: bool) -> (u64, u64) {
     let scene = Scene::load(scene).unwrap();
@@ -49,4 +64,37 @@ fn shortened_centred_smoothies_shade_fewer_fragments() {
         plain_frags > 260_000,
         "plain smoothie fragments {plain_frags}"
     );
+}
+
+/// The outer side's thin-blocker march (`outer_far_share`, glsl/common/inner_march.glsl)
+/// first reads the texel at the end of the rest of the half-width and marches only where
+/// the blocker has ended by then: a blocker at least that wide gives no far segment, and
+/// most outer fragments lie beside one. On `cylinder` at 128^2, 512^2 maps, light-pass warp
+/// texels / march iterations, measured: smoothies-centred 138,400 / 40,743 with every outer
+/// fragment marching, 120,608 / 26,340 with the end read (111,392 / 26,340 before the outer
+/// side marched at all: the cylinder is wider than its penumbra, so no outer fragment
+/// marches now); penumbra-map-centred 120,640 / 39,099, then 108,992 / 25,229 (102,272 /
+/// 25,229). Fails with the end read removed.
+#[test]
+fn outer_far_share_marches_only_where_the_blocker_ends_within_reach() {
+    let gpu = Gpu::new();
+    for (technique, pass, warp_bound, march_bound) in [
+        (
+            "smoothies-centred",
+            "smoothies-centred/smoothie",
+            130_000,
+            30_000,
+        ),
+        (
+            "penumbra-map-centred",
+            "penumbra-map-centred/penumbra",
+            115_000,
+            30_000,
+        ),
+    ] {
+        let (warp, march) = light_pass_reads(&gpu, "cylinder", technique, pass);
+        println!("{technique}: {warp} warp texels, {march} march iterations");
+        assert!(warp < warp_bound, "{technique}: {warp} warp texels");
+        assert!(march < march_bound, "{technique}: {march} march iterations");
+    }
 }

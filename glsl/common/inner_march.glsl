@@ -70,13 +70,20 @@ float far_edge_texels(vec2 here, vec2 dir, float w_tex, float z_r) {
 // segment beyond the far edge as well, disc_chord((x + W) / w), which the inner side adds
 // at its own texels too: without it the two sides disagree at the hard edge by that
 // segment, and a blocker narrower than its penumbra keeps its hard outline. W is found by
-// marching inward from IN_TEXELS inside the edge for what is left of the half-width;
-// 0 when the blocker is wider, or the march does not start inside it.
+// marching inward from IN_TEXELS inside the edge for what is left of the half-width,
+// only where the blocker no longer covers the end of that reach; 0 when the blocker is
+// wider, or the march does not start inside it.
 float outer_far_share(vec2 here, vec2 out_dir, float x_tex, float w_tex, float z_r) {
     float left = w_tex - x_tex - IN_TEXELS;
     if (!(left > 0.0)) return 0.0;
     vec2 start = here - out_dir * (x_tex + IN_TEXELS);
     if (!inside_map(start) || !blocked_at(start, z_r)) return 0.0;
+    // Still blocked at the end of what is left: the blocker is at least that wide (a gap
+    // between two blockers in between is not looked for), and nothing is marched. Beside
+    // a blocker wider than its penumbra, where most outer fragments lie, this one read
+    // replaces the march.
+    vec2 end = start - out_dir * left;
+    if (inside_map(end) && blocked_at(end, z_r)) return 0.0;
     float d = far_edge_texels(start, -out_dir, left, z_r);
     return d > 0.0 ? disc_chord((x_tex + IN_TEXELS + d) / w_tex) : 0.0;
 }

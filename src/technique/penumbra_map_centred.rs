@@ -124,7 +124,9 @@
 //!   partial light, exactly for a parallel strip. At a sharp corner of a thin blocker the
 //!   march can leave through the other edge and count its segment fully: too light there.
 //!   Each outer fragment, x outside its edge, marches the same way from IN_TEXELS (1)
-//!   inside the edge for what is left of w (`outer_far_share`) and adds
+//!   inside the edge for what is left of w (`outer_far_share`; not at all where the
+//!   blocker still covers the end of that reach, so a gap between two blockers inside it is
+//!   not looked for) and adds
 //!   disc_chord((x + W) / w) for a blocker W wide, so both sides give
 //!   0.5 + disc_chord(W / w) at the hard edge. Without it the outer side kept the
 //!   half-plane's 0.5 there while the inner side let the far segment through: a blocker
@@ -152,9 +154,9 @@
 //! silhouettes (a sphere's) get a slightly too dark inner penumbra (a convex outline hides
 //! less of the disc than the half-plane of its tangent). The inner fragments cost up to 14
 //! shadow-map fetches each (two receiver samples, own texel, 8 + 3 march steps), only in
-//! the inner band; the outer ones up to 12 beyond the paper's one (the march's start and
-//! its 8 + 3 steps) where the rest of the half-width beyond the edge's first inside texel
-//! is positive.
+//! the inner band; the outer ones two beyond the paper's one beside a blocker (the
+//! march's start inside the edge and the end of the rest of the half-width) and the 8 + 3
+//! march steps only where the blocker has ended by then.
 
 use super::penumbra_map::{penumbra_pipeline_desc, PenumbraMap, PenumbraTarget};
 use super::{Form, TechniqueInfo, TechniqueInit};

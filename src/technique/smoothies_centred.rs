@@ -142,7 +142,9 @@
 //!   sees the disc's segment beyond each edge, so per-edge shares add. Inner extents
 //!   meeting from both sides of a blocker narrower than its penumbra give partial light,
 //!   never 0. Each outer fragment, x outside its edge, does the same from IN_TEXELS (1)
-//!   inside the edge for what is left of w (`outer_far_share`): a blocker W wide adds
+//!   inside the edge for what is left of w (`outer_far_share`; not at all where the
+//!   blocker still covers the end of that reach, so a gap between two blockers inside it is
+//!   not looked for): a blocker W wide adds
 //!   disc_chord((x + W) / w), so both sides give 0.5 + disc_chord(W / w) at the hard
 //!   edge. Without it the outer side kept the half-plane's 0.5 there while the inner side
 //!   let the far segment through, and a blocker narrower than its penumbra (the bunny's
@@ -167,9 +169,9 @@
 //! min rather than the product for overlapping outer penumbrae, and the cap t <= 0.2 (a
 //! blocker near the light gets too narrow a penumbra). The inner fragments cost up to 14
 //! shadow-map fetches each (two receiver samples, own texel, 8 + 3 march steps), only in
-//! the inner band; the outer ones one, as the paper's, and up to 12 more (the march's
-//! start and its 8 + 3 steps) where the rest of the half-width beyond the edge's first
-//! inside texel is positive.
+//! the inner band; the outer ones one, as the paper's, two more beside a blocker (the
+//! march's start inside the edge and the end of the rest of the half-width) and the 8 + 3
+//! march steps only where the blocker has ended by then.
 
 use super::smoothies::{smoothie_pipeline_desc, SmoothieTarget, Smoothies};
 use super::{Form, TechniqueInfo, TechniqueInit};

@@ -66,31 +66,34 @@ fn shortened_centred_smoothies_shade_fewer_fragments() {
     );
 }
 
-/// The outer side's thin-blocker march (`outer_far_share`, glsl/common/inner_march.glsl)
-/// first reads the texel at the end of the rest of the half-width and marches only where
-/// the blocker has ended by then: a blocker at least that wide gives no far segment, and
-/// most outer fragments lie beside one. On `cylinder` at 128^2, 512^2 maps, light-pass warp
-/// texels / march iterations, measured: smoothies-centred 138,400 / 40,743 with every outer
-/// fragment marching, 120,608 / 26,340 with the end read (111,392 / 26,340 before the outer
-/// side marched at all: the cylinder is wider than its penumbra, so no outer fragment
-/// marches now); penumbra-map-centred 120,640 / 39,099, then 108,992 / 25,229 (102,272 /
-/// 25,229). Fails with the end read removed.
+/// The thin-blocker march (`far_edge_texels`, glsl/common/inner_march.glsl), of the inner
+/// fragments of all three centred forms and of the outer ones of smoothies-centred and
+/// penumbra-map-centred (`outer_far_share`), first reads the texel at the end of its reach
+/// and marches only where the blocker has ended by then: a blocker at least that wide has no
+/// far edge to find, and most fragments lie beside or inside one. On `cylinder` (wider than
+/// its penumbra) at 128^2, 512^2 maps, light-pass warp texels / march iterations, measured
+/// without the end read and with it: smoothies-centred 120,608 / 26,340 and 73,824 / 0
+/// (138,400 / 40,743 when every outer fragment marched too; 111,392 / 26,340 before the
+/// outer side marched at all), penumbra-map-centred 108,992 / 25,229 and 66,208 / 0
+/// (120,640 / 39,099; 102,272 / 25,229), plateaus-centred's inner pass 118,528 / 45,251 and
+/// 68,448 / 1,032. Fails with the end read removed.
 #[test]
-fn outer_far_share_marches_only_where_the_blocker_ends_within_reach() {
+fn thin_blocker_marches_run_only_where_the_blocker_ends_within_reach() {
     let gpu = Gpu::new();
     for (technique, pass, warp_bound, march_bound) in [
         (
             "smoothies-centred",
             "smoothies-centred/smoothie",
-            130_000,
-            30_000,
+            95_000,
+            5_000,
         ),
         (
             "penumbra-map-centred",
             "penumbra-map-centred/penumbra",
-            115_000,
-            30_000,
+            85_000,
+            5_000,
         ),
+        ("plateaus-centred", "plateaus-centred/inner", 90_000, 10_000),
     ] {
         let (warp, march) = light_pass_reads(&gpu, "cylinder", technique, pass);
         println!("{technique}: {warp} warp texels, {march} march iterations");

@@ -33,9 +33,15 @@ bool blocked_at(vec2 pos, float z_r);
 // Thin blocker: the distance (texels) from `here` along the inward direction `dir` to the
 // blocker's far edge, when it lies within the penumbra's half-width w_tex (MARCH_STEPS
 // steps, then BISECT_STEPS bisections between the last blocked and the first open sample);
-// -1 when the blocker is wider. Through a strip between two parallel edges a point sees the
+// -1 when the blocker is wider, or still covers the texel w_tex away. Through a strip between two parallel edges a point sees the
 // disc's segment beyond each edge, so the caller adds disc_chord(distance / w).
 float far_edge_texels(vec2 here, vec2 dir, float w_tex, float z_r) {
+    // Still blocked at the end of the reach: taken as a blocker at least that wide, and
+    // nothing is marched (one read where most fragments, beside or inside a blocker wider
+    // than its penumbra, would march every step to find no edge). A gap between two
+    // blockers inside the reach is missed: too dark there.
+    vec2 end = here + dir * w_tex;
+    if (inside_map(end) && blocked_at(end, z_r)) return -1.0;
     int steps = int(min(float(MARCH_STEPS), ceil(w_tex)));
     float step_len = w_tex / float(max(steps, 1));
     float lo = 0.0;
@@ -78,12 +84,6 @@ float outer_far_share(vec2 here, vec2 out_dir, float x_tex, float w_tex, float z
     if (!(left > 0.0)) return 0.0;
     vec2 start = here - out_dir * (x_tex + IN_TEXELS);
     if (!inside_map(start) || !blocked_at(start, z_r)) return 0.0;
-    // Still blocked at the end of what is left: the blocker is at least that wide (a gap
-    // between two blockers in between is not looked for), and nothing is marched. Beside
-    // a blocker wider than its penumbra, where most outer fragments lie, this one read
-    // replaces the march.
-    vec2 end = start - out_dir * left;
-    if (inside_map(end) && blocked_at(end, z_r)) return 0.0;
     float d = far_edge_texels(start, -out_dir, left, z_r);
     return d > 0.0 ? disc_chord((x_tex + IN_TEXELS + d) / w_tex) : 0.0;
 }

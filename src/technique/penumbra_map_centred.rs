@@ -116,7 +116,9 @@
 //!   counted twice.
 //! - Thin blockers: a MAX over edges alone would leave a strip narrower than its penumbra
 //!   half as bright as it is. Each inner fragment marches the shadow map inward along its
-//!   normal (8 steps over w, then 3 bisections) for the blocker's far edge, d beyond the
+//!   normal (8 steps over w, then 3 bisections; not at all where the blocker still covers
+//!   the texel w in, so a gap between two blockers inside w is missed) for the blocker's
+//!   far edge, d beyond the
 //!   texel. Through a strip between parallel edges a and b a point sees the disc's segment
 //!   beyond each edge: the blocked share is 1 - disc_chord(s_a) - disc_chord(s_b), per-edge
 //!   occlusions combine (they do not take the minimum); the inner fragment writes
@@ -152,11 +154,12 @@
 //! Silhouettes from the light centre only (they pop under light motion) and the paper's
 //! creases at concavities remain; both halves are evaluated for a straight edge, so curved
 //! silhouettes (a sphere's) get a slightly too dark inner penumbra (a convex outline hides
-//! less of the disc than the half-plane of its tangent). The inner fragments cost up to 14
-//! shadow-map fetches each (two receiver samples, own texel, 8 + 3 march steps), only in
-//! the inner band; the outer ones two beyond the paper's one beside a blocker (the
-//! march's start inside the edge and the end of the rest of the half-width) and the 8 + 3
-//! march steps only where the blocker has ended by then.
+//! less of the disc than the half-plane of its tangent). The inner fragments cost up to 15
+//! shadow-map fetches each (two receiver samples, own texel, the texel one half-width in,
+//! and the 8 + 3 march steps only where the blocker has ended by then), only in the inner
+//! band; the outer ones two beyond the paper's one beside a blocker (the march's start
+//! inside the edge and the end of the rest of the half-width) and the 8 + 3 march steps
+//! only where the blocker has ended by then.
 
 use super::penumbra_map::{penumbra_pipeline_desc, PenumbraMap, PenumbraTarget};
 use super::{Form, TechniqueInfo, TechniqueInit};

@@ -78,8 +78,9 @@
 //!   what the nearest edge alone lets through; the cones inside a convex corner are darker
 //!   than the sheets beside them and lose.
 //! - Thin blockers: each inner fragment marches `coverage` inward (8 steps over the
-//!   half-width, then 3 bisections) for the drop shadow's far edge, d beyond the texel, and
-//!   adds disc_chord(d / w): through a strip between parallel edges a point sees the disc's
+//!   half-width, then 3 bisections; not at all where the drop shadow still covers the
+//!   texel one half-width in, so a gap inside that reach is missed) for the drop shadow's
+//!   far edge, d beyond the texel, and adds disc_chord(d / w): through a strip between parallel edges a point sees the disc's
 //!   segment beyond each edge. A blocker narrower than its penumbra is never a full umbra.
 //!   The outer side has no such term: a point just outside a thin blocker gets the single
 //!   edge's value (too dark), which is what limits the `radius-huge` stress case (a light
@@ -99,8 +100,9 @@
 //! (tests/centred_penumbra.rs judges this form's thin-blocker rule on the plane only). Both halves use the
 //! straight-edge profile, so curved outlines get a slightly too dark inner penumbra. The
 //! march and the hidden-edge test are quantised to the texture's texels. The inner
-//! fragments cost up to 13 texel fetches each (own texel, hidden-edge test, 8 + 3 march
-//! steps), only inside the drop shadow.
+//! fragments cost up to 14 texel fetches each (own texel, hidden-edge test, the texel one
+//! half-width in, and the 8 + 3 march steps only where the drop shadow has ended by then),
+//! only inside the drop shadow.
 
 use super::plateaus::{drop_shadow_pipeline, plateau_pipeline};
 use super::plateaus_common::{PlateauCommon, PLATEAU_ATTRIBUTES, PLATEAU_VERTEX_BYTES};

@@ -137,7 +137,9 @@
 //!   blocker the light reaching a point is at least what the nearest edge alone lets
 //!   through; inner quads overlap at convex corners, and the lighter (nearer edge's) wins.
 //! - Thin blockers: each inner fragment marches the shadow map inward along `dir` (8 steps
-//!   over the half-width w, then 3 bisections) for the blocker's far edge, d beyond the
+//!   over the half-width w, then 3 bisections; not at all where the blocker still covers
+//!   the texel w in, so a gap between two blockers inside w is missed) for the blocker's
+//!   far edge, d beyond the
 //!   texel, and adds disc_chord(d / w): through a strip between parallel edges a point
 //!   sees the disc's segment beyond each edge, so per-edge shares add. Inner extents
 //!   meeting from both sides of a blocker narrower than its penumbra give partial light,
@@ -167,9 +169,10 @@
 //! slightly too dark inner penumbra. The paper's known artefacts remain: silhouettes from
 //! the light centre (they pop under light motion; thick smoothies snap on coarse meshes),
 //! min rather than the product for overlapping outer penumbrae, and the cap t <= 0.2 (a
-//! blocker near the light gets too narrow a penumbra). The inner fragments cost up to 14
-//! shadow-map fetches each (two receiver samples, own texel, 8 + 3 march steps), only in
-//! the inner band; the outer ones one, as the paper's, two more beside a blocker (the
+//! blocker near the light gets too narrow a penumbra). The inner fragments cost up to 15
+//! shadow-map fetches each (two receiver samples, own texel, the texel one half-width in,
+//! and the 8 + 3 march steps only where the blocker has ended by then), only in the inner
+//! band; the outer ones one, as the paper's, two more beside a blocker (the
 //! march's start inside the edge and the end of the rest of the half-width) and the 8 + 3
 //! march steps only where the blocker has ended by then.
 

@@ -84,7 +84,7 @@
 //!   segment beyond each edge. A blocker narrower than its penumbra is never a full umbra.
 //!   The outer side has no such term: a point just outside a thin blocker gets the single
 //!   edge's value (too dark), which is what limits the `radius-huge` stress case (a light
-//!   larger than the scene: 0.33 mae_lit, allowance in src/eval/stress.rs).
+//!   larger than the scene: 0.40 mae_lit, allowance in src/eval/stress.rs).
 //! - Overlapping casters: the march runs over the union of the drop shadows, and an edge
 //!   whose outside lies in any drop shadow draws no inner penumbra (silhouette edges inside
 //!   a caster's own outline, e.g. folds of `bunny`, included): the union's outline draws

@@ -24,9 +24,13 @@ float visibility(vec3 p, vec3 n) {
     LightSample s = light_sample(p, n);
     if (!s.inside) return 1.0;
     vec4 lit = lit_test(textureGather(shadow_map, s.uv, 0), s.depth);
-    vec4 own = own_surface(textureGather(shadow_map, s.uv, 1), s, p, n);
     vec4 outer = textureGather(penumbra_map, s.uv, 0);
+    // In front of every caster and outside every outer penumbra: lit, no further lookup.
+    if (all(equal(lit * outer, vec4(1.0)))) return 1.0;
+    vec4 own = own_surface(textureGather(shadow_map, s.uv, 1), s, p, n);
     vec4 in_front = mix(vec4(1.0), outer, own);
+    // In front of every caster: the outer values alone (the inner ones are never read).
+    if (all(equal(lit, vec4(1.0)))) return clamp(bilinear_lit(in_front, s.uv), 0.0, 1.0);
     vec4 receiver = (1.0 - textureGather(penumbra_map, s.uv, 2)) * frame.light_params.y;
     vec4 inner = (1.0 - textureGather(penumbra_map, s.uv, 1)) * step(s.depth, receiver * (1.0 + RECEIVER_EPS));
     vec4 behind = min(inner, outer);

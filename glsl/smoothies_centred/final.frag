@@ -30,6 +30,8 @@ float visibility(vec3 p, vec3 n) {
     // Lit and in front of every smoothie (the bulk of the image): no penumbra fetch.
     if (all(equal(lit * in_front, vec4(1.0)))) return 1.0;
     vec4 outer = mix(textureGather(smoothie_penumbra, s.uv, 0), vec4(1.0), in_front);
+    // In front of every caster: the outer values alone (the inner ones are never read).
+    if (all(equal(lit, vec4(1.0)))) return clamp(bilinear_lit(outer, s.uv), 0.0, 1.0);
     vec4 receiver = (1.0 - textureGather(smoothie_penumbra, s.uv, 2)) * frame.light_params.y;
     vec4 inner = (1.0 - textureGather(smoothie_penumbra, s.uv, 1)) * step(s.depth, receiver * (1.0 + RECEIVER_EPS));
     vec4 behind = min(inner, outer);

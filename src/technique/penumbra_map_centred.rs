@@ -88,7 +88,10 @@
 //!    than the outer visibility.
 //!    Bilinear weights as `hard`. R = 0 draws no cones or sheets: the map stays (1, 1, 1, 1),
 //!    and the result is `hard`'s exactly. Where the penumbra map holds its clear value and no
-//!    caster is in front, v is exactly 1 (`bilinear_lit`).
+//!    caster is in front, v is exactly 1 (`bilinear_lit`). The shader gathers in that order
+//!    of need: the shadow map's r and the outer values first (all four lit and at 1: v = 1),
+//!    then g (all four in front of every caster: the outer values alone), the inner values
+//!    only where a footprint texel lies behind a caster; the same v, fewer lookups.
 //!
 //! ## Equations: what a porter ports
 //! - The geometry, both sides: `build_penumbra_sides` (src/silhouette/penumbra.rs).

@@ -110,7 +110,8 @@
 //!    umbra). Bilinear weights as `hard`; no falloff texture (the profile is in the
 //!    values). R = 0 draws no smoothie and returns `hard`'s bilinear value: `hard`'s image
 //!    exactly. Outside the casters' projections and their smoothies every lookup reads "far"
-//!    and the shader returns 1.
+//!    and the shader returns 1; where every footprint texel is in front of every caster it
+//!    returns the outer values' bilinear result without gathering the inner ones.
 //!
 //! ## Equations: what a porter ports
 //! - The geometry, both sides: `build_smoothies_side` (src/silhouette/smoothie.rs); the

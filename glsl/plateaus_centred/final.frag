@@ -33,6 +33,8 @@ float visibility(vec3 p, vec3 n) {
     vec4 f = textureGather(plateau_tex, q.xy, 0);
     vec4 outer = vec4(disc_chord(-f.x), disc_chord(-f.y), disc_chord(-f.z), disc_chord(-f.w));
     vec4 lit = step(0.5, textureGather(coverage, q.xy, 0));
+    // Outside every drop shadow: the outer values alone (the inner ones are never read).
+    if (all(equal(lit, vec4(1.0)))) return clamp(bilinear(outer, q.xy), 0.0, 1.0);
     vec4 inner = textureGather(inner_tex, q.xy, 0);
     return clamp(bilinear(mix(min(inner, outer), outer, lit), q.xy), 0.0, 1.0);
 }

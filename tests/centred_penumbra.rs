@@ -74,14 +74,28 @@ fn mae_lit(gpu: &Gpu, scene: &Scene, technique: &str) -> Errors {
     };
     let img = gpu.render_frames(scene.clone(), technique, settings, 1).0;
     let v_ref = reference(scene, scene.light.radius, &img);
+    lit_errors(scene, &img, &v_ref)
+}
+
+/// mae_lit and the rest of `img`'s errors against `v_ref`.
+fn lit_errors(scene: &Scene, img: &FrameImages, v_ref: &[f32]) -> Errors {
     errors_at(
         &img.visibility,
-        &v_ref,
+        v_ref,
         &img.position,
         &img.normal,
         &img.spot,
         scene.light.position,
     )
+}
+
+/// `name` under a light 3x its own radius, rendered `width` square on 1024^2 maps: the
+/// scene, that radius and the settings.
+fn at_three_times_its_radius(name: &str, width: u32) -> (Scene, f32, Settings) {
+    let scene = Scene::load(name).unwrap();
+    let r = scene.light.radius * 3.0;
+    let s = with_radius(small(width, 1024), r);
+    (scene, r, s)
 }
 
 #[test]
@@ -207,11 +221,9 @@ const PLANE_ONLY: &[&str] = &["plateaus-centred"];
 #[test]
 fn thin_blocker_is_never_a_full_umbra_where_light_gets_through() {
     let gpu = Gpu::new();
-    let scene = Scene::load("fence").unwrap();
     // A larger light than the scene's: every post and rail is narrower than its penumbra on
     // the ground.
-    let r = scene.light.radius * 3.0;
-    let s = with_radius(small(192, 1024), r);
+    let (scene, r, s) = at_three_times_its_radius("fence", 192);
     for &(centred, paper) in FORMS {
         let c = gpu.render_frames(scene.clone(), centred, s.clone(), 1).0;
         let p = gpu.render_frames(scene.clone(), paper, s.clone(), 1).0;
@@ -292,22 +304,13 @@ const WIDE_FALSE_EDGE_SHARE: f64 = 0.5;
 #[test]
 fn wide_light_thin_ears_lose_their_outline_and_match_pcss() {
     let gpu = Gpu::new();
-    let scene = Scene::load("bunny").unwrap();
-    let r = scene.light.radius * 3.0;
-    let s = with_radius(small(384, 1024), r);
+    let (scene, r, s) = at_three_times_its_radius("bunny", 384);
     let measure = |technique: &str| {
         let img = gpu.render_frames(scene.clone(), technique, s.clone(), 1).0;
         let v_ref = reference(&scene, r, &img);
         let judged = judged(&img.position, &img.spot);
         let facing = faces_light(&img.position, &img.normal, scene.light.position);
-        let e = errors_at(
-            &img.visibility,
-            &v_ref,
-            &img.position,
-            &img.normal,
-            &img.spot,
-            scene.light.position,
-        );
+        let e = lit_errors(&scene, &img, &v_ref);
         let fe = false_edges(
             &img.visibility,
             &v_ref,

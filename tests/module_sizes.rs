@@ -3,7 +3,7 @@
 //! has at most 400 lines before its `#[cfg(test)]` module (header, comments and blank
 //! lines included: what a porter reads), or its header says why in a line starting "Over
 //! 400 lines because". The speed layer (`src/technique/speed/`) and shared building blocks
-//! are not registry modules. No device needed.
+//! are not registry modules. Reads source files only: no Vulkan.
 
 use std::path::Path;
 

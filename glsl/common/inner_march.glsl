@@ -33,8 +33,9 @@ bool blocked_at(vec2 pos, float z_r);
 // Thin blocker: the distance (texels) from `here` along the inward direction `dir` to the
 // blocker's far edge, when it lies within the penumbra's half-width w_tex (MARCH_STEPS
 // steps, then BISECT_STEPS bisections between the last blocked and the first open sample);
-// -1 when the blocker is wider, or still covers the texel w_tex away. Through a strip between two parallel edges a point sees the
-// disc's segment beyond each edge, so the caller adds disc_chord(distance / w).
+// -1 when the blocker is wider, or still covers the texel w_tex away. Through a strip
+// between two parallel edges a point sees the disc's segment beyond each edge, so the
+// caller adds disc_chord(distance / w).
 float far_edge_texels(vec2 here, vec2 dir, float w_tex, float z_r) {
     // Still blocked at the end of the reach: taken as a blocker at least that wide, and
     // nothing is marched (one read where most fragments, beside or inside a blocker wider

@@ -13,13 +13,14 @@
 // at the outer rim, plus the disc's segment beyond the far edge of a blocker narrower than
 // its penumbra (`outer_far_share`, common/inner_march.glsl, marched along the gradient of
 // Z_F, which points away from the edge: the inner side adds the same segment, so the two
-// meet at the hard edge without a step). Written to the RGBA16F penumbra map with MIN blending: r (outer
-// visibility: darkest wins, as in the paper) gets v, the inner channels the neutral 1.
+// meet at the hard edge without a step). Written to the RGBA16F penumbra map with MIN
+// blending: r (outer visibility: darkest wins, as in the paper) gets v, the inner channels
+// the neutral 1.
 #include "common/frame.glsl"
 #include "common/penumbra.glsl"
 #include "penumbra_map/wedge.glsl"
 
-layout(set = 0, binding = 1) uniform sampler2D shadow_map;   // RG32F: r nearest caster, g foremost surface of any role
+layout(set = 0, binding = 1) uniform sampler2D shadow_map;   // RG32F: r nearest caster, g foremost surface
 
 layout(location = 0) in float v_depth;
 layout(location = 1) in vec2 v_zv_h;

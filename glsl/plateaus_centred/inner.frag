@@ -13,10 +13,10 @@
 //     over casters, so that edge draws nothing either (the union's outline draws it);
 //   - thin blocker: the coverage image is marched from this texel along the inward
 //     direction (the gradient of t) for the half-width w (8 steps, then 3 bisections, where
-//     the drop shadow no longer covers the texel w in); the
-//     first texel out of the drop shadow is the blocker's far edge, d beyond this texel,
-//     and adds disc_chord(d / w) (through a strip between parallel edges a point sees the
-//     disc's segment beyond each edge).
+//     the drop shadow no longer covers the texel w in); the first texel out of the drop
+//     shadow is the blocker's far edge, d beyond this texel, and adds disc_chord(d / w)
+//     (through a strip between parallel edges a point sees the disc's segment beyond each
+//     edge).
 // Written with MAX blending into the R16F inner image (clear 0): the lightest estimate wins.
 #include "common/penumbra.glsl"
 

@@ -16,9 +16,9 @@
 //   - v = disc_chord(s) in [0, 0.5], plus, for a blocker thinner than its penumbra, the
 //     share beyond its far edge: the shadow map marched from this texel along `dir` for
 //     the half-width (8 steps, then 3 bisections, where the blocker no longer covers the
-//     texel one half-width in), the far edge d beyond this texel adds
-//     disc_chord(d / w) (exact for a parallel strip: through it a point sees the disc's
-//     segment beyond each edge).
+//     texel one half-width in), the far edge d beyond this texel adds disc_chord(d / w)
+//     (exact for a parallel strip: through it a point sees the disc's segment beyond each
+//     edge).
 // Writes depth FAR_DEPTH (neutral: inner smoothies do not take part in the outer depth
 // test) and (1, 1 - v, 1 - Z_R / far, 1): MIN keeps the lightest inner estimate and the
 // farthest receiver an inner value was made for.

@@ -11,9 +11,8 @@
 // visibility is disc_chord(-s): 0.5 on the hard edge, 1 at the outer rim, plus the disc's
 // segment beyond the far edge of a blocker narrower than its penumbra (`outer_far_share`,
 // common/inner_march.glsl: the inner side adds it too, so the two meet at the hard edge
-// without a step). Writes b (MIN:
-// the nearest smoothie) and (v, 1, 1, 1) (MIN on v: the darkest outer value wins, the
-// paper's rule).
+// without a step). Writes b (MIN: the nearest smoothie) and (v, 1, 1, 1) (MIN on v: the
+// darkest outer value wins, the paper's rule).
 //
 // Discarded, as in the paper form: no surface at the texel, b/r > 1, 1 - b/r < REMAP_EPS,
 // and s >= 1 (fully lit, v = 1). A lit fragment darkens nothing, but its b would still
@@ -27,14 +26,14 @@
 
 void main() {
     float t = v_width;
-    vec2 uv = gl_FragCoord.xy * frame.light_params.w;
+    float texel = frame.light_params.w;   // uv per texel
+    vec2 uv = gl_FragCoord.xy * texel;
     float b = smoothie_b(v_inv_depth);
     float r = texelFetch(shadow_map, ivec2(gl_FragCoord.xy), 0).g;
     vec2 dir;
     float x = smoothie_distance(uv, dir);
     float s;
     if (!smoothie_alpha(b, r, x, t, remap_span(), s)) discard;
-    float texel = frame.light_params.w;   // uv per texel
     float w_tex = t * remap_denom(b, r, remap_span()) / texel;
     float v = disc_chord(-s) + outer_far_share(gl_FragCoord.xy, dir, s * w_tex, w_tex, r);
     o_depth = b;

@@ -79,13 +79,14 @@
 //!   what the nearest edge alone lets through; the cones inside a convex corner are darker
 //!   than the sheets beside them and lose.
 //! - Thin blockers: each inner fragment marches `coverage` inward (8 steps over the
-//!   half-width, then 3 bisections; not at all where the drop shadow still covers the
-//!   texel one half-width in, so a gap inside that reach is missed) for the drop shadow's
-//!   far edge, d beyond the texel, and adds disc_chord(d / w): through a strip between parallel edges a point sees the disc's
-//!   segment beyond each edge. A blocker narrower than its penumbra is never a full umbra.
-//!   The outer side has no such term: a point just outside a thin blocker gets the single
-//!   edge's value (too dark), which is what limits the `radius-huge` stress case (a light
-//!   larger than the scene: 0.40 mae_lit, allowance in src/eval/stress.rs).
+//!   half-width, then 3 bisections; not at all where the drop shadow still covers the texel
+//!   one half-width in, so a gap inside that reach is missed) for the drop shadow's far
+//!   edge, d beyond the texel, and adds disc_chord(d / w): through a strip between parallel
+//!   edges a point sees the disc's segment beyond each edge. A blocker narrower than its
+//!   penumbra is never a full umbra. The outer side has no such term: a point just outside
+//!   a thin blocker gets the single edge's value (too dark), which is what limits the
+//!   `radius-huge` stress case (a light larger than the scene: 0.40 mae_lit, allowance in
+//!   src/eval/stress.rs).
 //! - Overlapping casters: the march runs over the union of the drop shadows, and an edge
 //!   whose outside lies in any drop shadow draws no inner penumbra (silhouette edges inside
 //!   a caster's own outline, e.g. folds of `bunny`, included): the union's outline draws

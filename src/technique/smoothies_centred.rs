@@ -80,12 +80,13 @@
 //!      [0.5, 1), plus, for a blocker narrower than its penumbra, the disc's segment
 //!      beyond its far edge (`outer_far_share`, below); writes b and (v, 1, 1, 1) only
 //!      where the smoothie darkens a surface, as the paper form: discarded where g holds
-//!      no surface, b/r > 1, 1 - b/r < 1e-4 and s >= 1 (fully lit). A lit fragment's b, MIN-blended into a texel that another
-//!      caster's smoothie darkens, would put the points between the two depths behind
-//!      the nearest smoothie, and they would take the farther one's v: dark specks on the
-//!      rims of casters under a neighbour's smoothie (`dense`: 53 light-facing pixels more
-//!      than 0.2 darker than the reference at 320x240, none without; mae_lit no worse on
-//!      any built-in scene, tests/centred_penumbra.rs).
+//!      no surface, b/r > 1, 1 - b/r < 1e-4 and s >= 1 (fully lit). A lit fragment's b,
+//!      MIN-blended into a texel that another caster's smoothie darkens, would put the
+//!      points between the two depths behind the nearest smoothie, and they would take the
+//!      farther one's v: dark specks on the rims of casters under a neighbour's smoothie
+//!      (`dense`: 53 light-facing pixels more than 0.2 darker than the reference at
+//!      320x240, none without; mae_lit no worse on any built-in scene,
+//!      tests/centred_penumbra.rs).
 //!    - inner smoothies, `glsl/smoothies_centred/inner.frag`: x = the fragment's distance
 //!      inside the hard-edge line (corner: from the vertex), `dir` inward. The receiver
 //!      behind this texel is hidden from the light, so its depth Z_R is estimated from the
@@ -137,24 +138,23 @@
 //! - Several inner smoothies at a texel: the lightest (MIN of the occlusion). For a convex
 //!   blocker the light reaching a point is at least what the nearest edge alone lets
 //!   through; inner quads overlap at convex corners, and the lighter (nearer edge's) wins.
-//! - Thin blockers: each inner fragment marches the shadow map inward along `dir` (8 steps
-//!   over the half-width w, then 3 bisections; not at all where the blocker still covers
-//!   the texel w in, so a gap between two blockers inside w is missed) for the blocker's
-//!   far edge, d beyond the
-//!   texel, and adds disc_chord(d / w): through a strip between parallel edges a point
-//!   sees the disc's segment beyond each edge, so per-edge shares add. Inner extents
-//!   meeting from both sides of a blocker narrower than its penumbra give partial light,
-//!   never 0. Each outer fragment, x outside its edge, does the same from IN_TEXELS (1)
-//!   inside the edge for what is left of w (`outer_far_share`; not at all where the
-//!   blocker still covers the end of that reach, so a gap between two blockers inside it is
-//!   not looked for): a blocker W wide adds
-//!   disc_chord((x + W) / w), so both sides give 0.5 + disc_chord(W / w) at the hard
-//!   edge. Without it the outer side kept the half-plane's 0.5 there while the inner side
-//!   let the far segment through, and a blocker narrower than its penumbra (the bunny's
-//!   ears at 3x its radius) kept its hard outline inside a penumbra lighter than the ring
-//!   around it. At a sharp corner of a thin blocker the march can leave through the other
-//!   edge and count its segment fully: too light there; beyond a thin blocker's tip the
-//!   march runs along it and finds no far edge: too dark there.
+//! - Thin blockers: each inner fragment marches the shadow map inward along `dir` (8
+//!   steps over the half-width w, then 3 bisections; not at all where the blocker still
+//!   covers the texel w in, so a gap between two blockers inside w is missed) for the
+//!   blocker's far edge, d beyond the texel, and adds disc_chord(d / w): through a strip
+//!   between parallel edges a point sees the disc's segment beyond each edge, so per-edge
+//!   shares add. Inner extents meeting from both sides of a blocker narrower than its
+//!   penumbra give partial light, never 0. Each outer fragment, x outside its edge, does
+//!   the same from IN_TEXELS (1) inside the edge for what is left of w (`outer_far_share`;
+//!   not at all where the blocker still covers the end of that reach, so a gap between two
+//!   blockers inside it is not looked for): a blocker W wide adds disc_chord((x + W) / w),
+//!   so both sides give 0.5 + disc_chord(W / w) at the hard edge. Without it the outer side
+//!   kept the half-plane's 0.5 there while the inner side let the far segment through, and
+//!   a blocker narrower than its penumbra (the bunny's ears at 3x its radius) kept its hard
+//!   outline inside a penumbra lighter than the ring around it. At a sharp corner of a thin
+//!   blocker the march can leave through the other edge and count its segment fully: too
+//!   light there; beyond a thin blocker's tip the march runs along it and finds no far
+//!   edge: too dark there.
 //! - Overlapping casters: an edge whose outside is covered by a nearer caster draws no
 //!   inner smoothie, so one caster's inner penumbra never lightens another's umbra; a
 //!   caster behind the blocker but in front of the receiver ends the march, and a receiver

@@ -168,7 +168,8 @@ struct RenderArgs {
     /// GPU, cpu on lavapipe).
     #[arg(long, value_enum, ignore_case = true, default_value_t = Settings::default().silhouettes)]
     silhouettes: SilhouettePath,
-    /// Normal offset of shadow lookups, in shadow-map texels.
+    /// Receiver offset of shadow lookups, in shadow-map texels: the lookup point's height
+    /// above its tangent plane, reached along its ray towards the light.
     #[arg(long, default_value_t = Settings::default().normal_offset_texels)]
     normal_offset: f32,
     /// Relative depth bias of shadow comparisons (fraction of the depth, at most 4x this

@@ -17,10 +17,12 @@ pub struct Settings {
     pub light_radius: Option<f32>,
     /// Smoothie width t in light-uv units; `None` derives it from R (see `smoothie_width`).
     pub smoothie_t: Option<f32>,
-    /// Normal offset of shadow lookups, in shadow-map texels. 2 texels (with the 5e-4
-    /// relative bias) is the smallest pair that leaves the box tops of `primitives`, lit
-    /// almost head-on near the frustum's edge, free of acne; larger offsets detach contact
-    /// shadows (Volokh Fig. 8: the smoothie then detaches too).
+    /// Receiver offset of shadow lookups, in shadow-map texels: the height above the
+    /// surface's tangent plane that the lookup point is moved to, along its own ray towards
+    /// the light (glsl/common/shadow.glsl), so that no shadow shifts. 2 texels (with the
+    /// 5e-4 relative bias) leaves the box tops of `primitives`, lit almost head-on near the
+    /// frustum's edge, free of acne; larger offsets detach contact shadows (Volokh Fig. 8:
+    /// the smoothie then detaches too).
     pub normal_offset_texels: f32,
     /// Relative depth bias of the comparisons (fraction of the depth).
     pub depth_bias: f32,

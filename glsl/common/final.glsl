@@ -4,7 +4,7 @@
 // (visibility, world position, world normal and spot factor) for the untimed AOV pass. The timed pass
 // writes colour only, as an engine's frame would.
 #include "common/frame.glsl"
-#include "common/shadow.glsl"   // surface_light_clip / _normal, set below
+#include "common/shadow.glsl"   // surface_light_clip, _normal, _facet_normal, set below
 
 layout(location = 0) in vec3 v_world;
 layout(location = 1) in vec3 v_normal;
@@ -31,6 +31,10 @@ void main() {
     n *= side;
     surface_light_clip = v_light_clip;
     surface_light_normal = v_light_normal * (side * inversesqrt(dot(v_normal, v_normal)));
+    // In uniform control flow: the derivatives are undefined inside visibility()'s branches.
+    vec3 ng = cross(dFdx(v_world), dFdy(v_world));
+    ng = dot(ng, ng) > 0.0 ? normalize(ng) : n;
+    surface_facet_normal = dot(ng, n) < 0.0 ? -ng : ng;
     float vis = draw.albedo_receives.w > 0.5 ? visibility(v_world, n) : 1.0;
     vec3 l = light_direction(v_world);
     float ndl = max(dot(n, l), 0.0);

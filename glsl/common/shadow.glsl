@@ -19,21 +19,36 @@ struct LightSample {
 // clip w = -view z). On a CPU driver every pixel pays each product.
 vec4 surface_light_clip;
 vec4 surface_light_normal;
+// The unit normal of the triangle itself (from the position's screen derivatives), on the
+// side of n: the plane the shadow map stored, where the shading normal is interpolated.
+vec3 surface_facet_normal;
 
-// Normal offset: moves the lookup point along the normal by a fixed number of shadow-map
-// texels at its depth, so a lit surface never compares against its own texel (acne)
-// without the large constant bias that detaches contact shadows.
+// Receiver offset: the lookup point moves towards the light along its own ray until it
+// stands k above the surface's tangent plane, k a fixed number of shadow-map texels at its
+// depth (times the sine of the light's incidence, as grazing light spreads a texel's
+// depths further). Its uv stays the point's own, so no shadow moves: a normal offset (the
+// point moved by k along n) shifts every shadow on a tilted receiver by k sin(theta) across
+// the light's rays, most of the error of every technique on `fence`. Only its depth
+// changes, by k / cos(theta), so a lit surface still never compares against its own texel
+// (acne) without the large constant bias that detaches contact shadows. Of the shading and
+// the facet normal the one nearer to grazing sets theta; cos(theta) is clamped at 0.2, at
+// most five times k, where mae_lit stops judging (terminators). A surface turned away from
+// the light keeps the normal offset: moved across the rays away from its silhouette, its
+// footprint reads its own caster's texels, not the lit ones beyond the outline.
 LightSample light_sample(vec3 p, vec3 n) {
     float d0 = surface_light_clip.w;
     vec3 l = light_direction(p);
-    // Grazing light needs more offset; clamp so the offset never leaves the texel scale.
     float slope = clamp(sqrt(max(1.0 - dot(n, l) * dot(n, l), 0.0)), 0.2, 1.0);
-    // light_view_proj * (p + n k, 1), k the offset length; a sun's texels have one size.
+    // k, the height above the tangent plane; a sun's texels have one size.
     float k = light_is_sun() ? frame.sun.z * frame.light_frustum.z * slope
                              : d0 * frame.light_frustum.y * frame.light_frustum.z * slope;
-    vec4 c = surface_light_clip + surface_light_normal * k;
+    bool away = dot(n, l) < 0.0;
+    float along = away ? 0.0 : k / max(min(dot(n, l), dot(surface_facet_normal, l)), 0.2);
+    vec4 c = surface_light_clip + surface_light_normal * (away ? k : 0.0);
     LightSample s;
-    s.depth = clip_linear_depth(c);
+    // A sun's rays run along the map's axis; a spotlight's depth scales along the ray.
+    s.depth = light_is_sun() ? clip_linear_depth(c) - along
+                             : c.w * (1.0 - along / length(frame.light_pos_radius.xyz - p));
     s.uv = (c.xy / max(c.w, 1e-30)) * 0.5 + 0.5;
     s.inside = s.depth > frame.light_params.x && all(greaterThanEqual(s.uv, vec2(0.0))) && all(lessThanEqual(s.uv, vec2(1.0)));
     return s;

@@ -19,21 +19,24 @@
 //!    SHADER_READ_ONLY_OPTIMAL.
 //! 2. `hard/final` — every object from the camera (`gpu::passes::FinalPass`). Fragment
 //!    `glsl/hard/final.frag` samples the map through a `sampler2DShadow` (compare
-//!    LESS_OR_EQUAL, linear filter, clamp to edge) at the normal-offset point's light uv
-//!    (`common/shadow.glsl`: 2 texels along the normal, scaled by the light's slope; the light
-//!    clip coordinates of the point and its normal come interpolated from `common/scene.vert`),
-//!    with the reference depth d / (1 + b) mapped to z as above (b the relative bias
+//!    LESS_OR_EQUAL, linear filter, clamp to edge) at the point's own light uv (its light
+//!    clip coordinates come interpolated from `common/scene.vert`) and the offset depth d
+//!    (`common/shadow.glsl`: the point moved towards the light along its ray until it is 2
+//!    texels, scaled by the light's slope, above its tangent plane), with the reference depth
+//!    d / (1 + b) mapped to z as above (b the relative bias
 //!    `frame.light_frustum.w`, 5e-4): 1 where the point is at or in front of the stored caster,
 //!    each of the 2x2 texels compared and the results weighted bilinearly by the sampler.
 //!    Writes colour RGBA8 (the untimed AOV pass `hard/aov` also visibility R32F, position
 //!    RGBA32F, normal RGBA16F: `FinalPass`).
 //!
-//! Bias: the normal offset keeps lit surfaces off their own texel (no acne) without a large
-//! constant offset that would detach contact shadows; the small relative bias absorbs the
-//! float rounding of depth. A slope-scaled rasterizer bias is not needed on top.
+//! Bias: the receiver offset keeps lit surfaces off their own texel (no acne) without a large
+//! constant offset that would detach contact shadows, and unlike a normal offset (the point
+//! moved along its normal) it leaves the lookup uv alone, so no shadow shifts across a
+//! tilted receiver; the small relative bias absorbs the float rounding of depth. A
+//! slope-scaled rasterizer bias is not needed on top.
 //!
 //! ## Equations: what a porter ports
-//! - The normal offset and the point's light uv and depth: `light_sample`
+//! - The receiver offset and the point's light uv and depth: `light_sample`
 //!   (glsl/common/shadow.glsl), shared by every shadow-map technique.
 //! - The hard test with its 2x2 filter: `visibility` (glsl/hard/final.frag): the
 //!   comparison sampler compares and filters; the relative bias is folded into the

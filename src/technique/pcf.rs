@@ -36,7 +36,7 @@
 //!    `glsl/common/caster_depth.frag`. Whole map under `--plain`; sampled by pass 2.
 //! 2. `pcf/final` — every object from the camera (`gpu::passes::FinalPass`), fragment
 //!    `glsl/pcf/final.frag`: reads the shadow map (nearest sampler, gathers) at the
-//!    normal-offset point's light uv, compares each texel with the point's linear depth
+//!    point's light uv, compares each texel with the point's offset linear depth
 //!    (relative bias `frame.light_frustum.w`) and filters with the kernel above.
 //!    Inputs: `frame.technique` = (kind: 0 box / 1 Poisson, N, Poisson radius in texels, 0).
 //!    Writes colour RGBA8, no blending (the untimed AOV pass `pcf/aov` also visibility R32F,
@@ -67,7 +67,7 @@
 //! Penumbra of constant width in texels (too wide at contacts, too narrow far from them);
 //! curved casters (concave toward the light) still shadow themselves under wide kernels,
 //! the receiver plane being flat; few Poisson samples band the penumbra into N visible
-//! steps; the acne of `hard` on faces lit at grazing angles (shared normal offset and bias)
+//! steps; the acne of `hard` on faces lit at grazing angles (shared receiver offset and bias)
 //! remains, slightly smoothed.
 
 use super::{

@@ -48,7 +48,7 @@
 //!    to the blocker-size bound (`blocker_floor`, not in the paper: a caster smaller than
 //!    the light cannot hide more than a strip of its disc).
 //! 3. `penumbra-map/final` — from the camera (`FinalPass`), `glsl/penumbra_map/final.frag`:
-//!    textureGather of the shadow map's r and g and of the penumbra map at the normal-offset
+//!    textureGather of the shadow map's r and g and of the penumbra map at the lookup
 //!    point; per texel visibility = lit test x intensity, bilinear weights (the 2x2 filter
 //!    of `hard`). A texel whose foremost surface lies more than 1 % beyond the point's own
 //!    surface at that texel counts as intensity 1: it holds a background surface's penumbra

@@ -79,7 +79,7 @@
 //!      writes (1, 1 - v, 1 - Z_R / far, 1).
 //! 3. `penumbra-map-centred/final` — `FinalPass` with
 //!    `glsl/penumbra_map_centred/final.frag`: per texel of the 2x2 footprint (textureGather
-//!    of the shadow map's r and g and of the penumbra map's r, g and b at the normal-offset
+//!    of the shadow map's r and g and of the penumbra map's r, g and b at the lookup
 //!    point), in front of the nearest caster: the outer visibility if the texel's foremost
 //!    surface is the point's own (the paper form's window, glsl/penumbra_map/surface.glsl),
 //!    else 1; behind it: 1 - the inner occlusion if the point is at most 5 % beyond the

@@ -130,7 +130,8 @@
 //! falloff's sine ramp);
 //! overlapping penumbrae use min, not the product; thick smoothies snap when the silhouette
 //! of a coarse mesh changes under a moving light (Volokh Sec. 7); a depth bias that detaches
-//! the shadow also detaches the smoothie (Volokh Fig. 8), hence normal offset.
+//! the shadow also detaches the smoothie (Volokh Fig. 8), hence the receiver offset
+//! (`light_sample`, glsl/common/shadow.glsl) rather than a constant bias.
 
 use super::speed::regions::INNER_RECEIVER_TEXELS;
 use super::speed::smoothies::{Areas, CpuSmoothies, Drawn, PAPER_SPLIT_BANDS};

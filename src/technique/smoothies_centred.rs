@@ -84,9 +84,9 @@
 //!      MIN-blended into a texel that another caster's smoothie darkens, would put the
 //!      points between the two depths behind the nearest smoothie, and they would take the
 //!      farther one's v: dark specks on the rims of casters under a neighbour's smoothie
-//!      (`dense`: 53 light-facing pixels more than 0.2 darker than the reference at
-//!      320x240, none without; mae_lit no worse on any built-in scene,
-//!      tests/centred_penumbra.rs).
+//!      (`dense` at 320x240: 18 light-facing pixels more than 0.2 darker than the
+//!      reference, 17 without, as many as `pcss`'s lookup draws there; mae_lit no worse
+//!      on any built-in scene, tests/centred_penumbra.rs).
 //!    - inner smoothies, `glsl/smoothies_centred/inner.frag`: x = the fragment's distance
 //!      inside the hard-edge line (corner: from the vertex), `dir` inward. The receiver
 //!      behind this texel is hidden from the light, so its depth Z_R is estimated from the
@@ -103,7 +103,7 @@
 //!      shortened inner smoothies rely on).
 //! 3. `smoothies-centred/final` — `FinalPass` with `glsl/smoothies_centred/final.frag`:
 //!    per texel of the 2x2 footprint (textureGather of the shadow map's r, the smoothie
-//!    depth and the penumbra values' r, g, b at the normal-offset point): outer = the outer
+//!    depth and the penumbra values' r, g, b at the lookup point): outer = the outer
 //!    visibility if the point is behind the nearest smoothie, else 1; in front of the
 //!    nearest caster: outer; behind it: min(outer, 1 - the inner occlusion) if the point is
 //!    at most 5 % beyond the farthest receiver depth of the inner values there, else 0 (a

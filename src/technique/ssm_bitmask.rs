@@ -101,7 +101,7 @@
 //! As ssm's: N^2 quads times their extents in `soft_shadow`, each fragment up to ten table
 //! reads (five edges per receiver layer, one when both layers are the same surface).
 //! Accuracy is limited by the occluder
-//! map's resolution (`--occluder-res`, shared with ssm): at 512 mae_lit is at most pcss's
+//! map's resolution (`--occluder-res`, shared with ssm): at 512 mae_lit falls by 30-60 %
 //! on cylinder, bunny, primitives and fence (tests/ssm_bitmask.rs), but the micro-quad pass
 //! grows as N^4, which pass 4 bounds. Measured figures: BENCHMARKS.md.
 //!

@@ -334,9 +334,10 @@ pub fn lookup_margin(frame: &FrameInput<'_>, res: u32, reach_texels: f32) -> Opt
 
 /// Where the final pass's lookups can read texels inside the polygons `supports` (in a
 /// side-`res` light buffer): each polygon as the light frustum over it, widened by the
-/// lookups' reach (`reach_texels`, from the lookup point), the normal offset (the lookup
-/// point moves by up to `normal_offset_texels` texels across the light's rays and as much
-/// again by its depth change) and a gather's footprint (its texels lie within 1.5 texels of
+/// lookups' reach (`reach_texels`, from the lookup point), the receiver offset (a surface
+/// turned away from the light moves its lookup point by up to `normal_offset_texels` texels
+/// across the light's rays and as much again by its depth change; one facing it moves along
+/// its ray only) and a gather's footprint (its texels lie within 1.5 texels of
 /// the point along each axis), in front of half the light's near plane. Outside every
 /// region each lookup reads clear texels only; objects that receive no shadow get 1 anyway.
 pub fn shadowed(

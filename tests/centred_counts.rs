@@ -134,3 +134,27 @@ fn centred_final_passes_read_the_inner_values_only_behind_a_caster() {
         assert!(warp < bound, "{technique}: final pass {warp} warp texels");
     }
 }
+
+/// Each edge quad and corner fan of smoothies-centred shortened by the deepest surface
+/// over its own full-width box (the tiles of `regions::DeepestGrid`), not over every
+/// caster's: a bunny's feet stand on the ground just below them while its ears' smoothies
+/// reach far, and each of `primitives`' casters has its own ground. At 128^2, 512^2 maps,
+/// smoothie-pass fragments / warp texels with one bound per frame, then with the per-edge
+/// bounds: bunny 206,656 / 269,056 and 146,768 / 194,464; primitives 140,736 / 119,136 and
+/// 97,520 / 81,184; cylinder 47,680 / 73,824 and 37,216 / 63,968. Fails with the per-frame
+/// bound alone.
+#[test]
+fn each_smoothie_stops_at_the_deepest_surface_under_its_own_reach() {
+    let gpu = Gpu::new();
+    let bounds = [
+        ("bunny", 175_000, 230_000),
+        ("primitives", 118_000, 100_000),
+        ("cylinder", 42_000, 69_000),
+    ];
+    for (scene, max_frags, max_warp) in bounds {
+        let (frags, warp) = smoothie_pass_work(&gpu, scene, false);
+        println!("{scene}: {frags} fragments, {warp} warp texels");
+        assert!(frags < max_frags, "{scene}: smoothie fragments {frags}");
+        assert!(warp < max_warp, "{scene}: smoothie warp texels {warp}");
+    }
+}

@@ -334,6 +334,28 @@ impl SmoothieRecords {
     /// each vertex record's quads and fans reach (the centred form's inner side), the
     /// varyings staying the full-width geometry's.
     pub fn expand_side(&self, side: Side, extent: Extent, out: &mut Vec<SmoothieVertex>) {
+        self.expand_side_within(side, extent, |_, _| None, out);
+    }
+
+    /// `expand_side`, each edge quad and fan shortened further by `deepest(lo, hi)`: a
+    /// bound on the receiver depth anywhere in the light-uv box of its full-width geometry
+    /// (`None`: `extent`'s alone).
+    pub fn expand_side_within(
+        &self,
+        side: Side,
+        extent: Extent,
+        deepest: impl Fn(Vec2, Vec2) -> Option<f32>,
+        out: &mut Vec<SmoothieVertex>,
+    ) {
+        // The bound over the box of the geometry `extent` draws: a fragment beyond the
+        // reach it gives lies inside that box, where no receiver is deeper.
+        let local = |bounds: &dyn Fn(Extent) -> (Vec2, Vec2)| {
+            if extent.depth <= 0.0 {
+                return extent;
+            }
+            let (lo, hi) = bounds(extent);
+            deepest(lo, hi).map_or(extent, |d| extent.within(d))
+        };
         let sign = match side {
             Side::Outer => 1.0,
             Side::Inner => -1.0,
@@ -350,6 +372,11 @@ impl SmoothieRecords {
         for e in &self.edges {
             let (a, b) = (&self.vertices[e.a as usize], &self.vertices[e.b as usize]);
             let (s0, s1, d) = (Vec2::from(a.uv), Vec2::from(b.uv), sign * Vec2::from(e.dir));
+            let extent = local(&|x: Extent| {
+                let (e0, e1) = x.of_edge(a, b);
+                let (f0, f1) = (s0 + e0 * d, s1 + e1 * d);
+                (s0.min(s1).min(f0.min(f1)), s0.max(s1).max(f0.max(f1)))
+            });
             let (e0, e1) = extent.of_edge(a, b);
             let (o0, o1) = (s0 + e0 * d, s1 + e1 * d);
             out.extend_from_slice(&[
@@ -369,6 +396,10 @@ impl SmoothieRecords {
             let from = sign * Vec2::from(f.from);
             let pad = pad_of(f.sweep);
             let phi = (f.sweep + 2.0 * pad) / n as f32;
+            let extent = local(&|x: Extent| {
+                let r = Vec2::splat(x.of(c) / (phi * 0.5).cos());
+                (s - r, s + r)
+            });
             let r = extent.of(c) / (phi * 0.5).cos();
             let spoke = |i: u32| {
                 let a = -pad + phi * i as f32;
@@ -447,6 +478,17 @@ impl Extent {
             }
         } else {
             Extent::FULL
+        }
+    }
+
+    /// This extent, shortened for receivers at most `depth` deep where that is less (not
+    /// rounded to `at_most`'s grid: a caster's triangles are expanded again whenever the
+    /// bounds move).
+    fn within(self, depth: f32) -> Extent {
+        if depth > 0.0 && depth < self.depth {
+            Extent { depth, ..self }
+        } else {
+            self
         }
     }
 

@@ -388,10 +388,23 @@ pub fn deepest_surface(frame: &FrameInput<'_>, lo: Vec2, hi: Vec2) -> Option<f32
     if !(lo.is_finite() && hi.is_finite()) {
         return None;
     }
+    let planes = box_planes(frame, lo, hi);
+    let deepest = frame
+        .gpu
+        .objects
+        .iter()
+        .filter(|o| o.in_light)
+        .filter_map(|o| deepest_of(frame, &o.world_corners(), &planes))
+        .fold(0.0, f32::max);
+    Some(deepest.min(frame.light.far))
+}
+
+/// The light's frustum over the light-uv box `lo..hi`, in front of its near plane.
+fn box_planes(frame: &FrameInput<'_>, lo: Vec2, hi: Vec2) -> [Vec4; 5] {
     let m = frame.light.view_proj;
     let (x, y, w) = (m.row(0), m.row(1), m.row(3));
     // u >= lo.x with u = (x / w + 1) / 2, times 2 w > 0: x - (2 lo.x - 1) w >= 0; and so on.
-    let planes = [
+    [
         x - w * (2.0 * lo.x - 1.0),
         w * (2.0 * hi.x - 1.0) - x,
         y - w * (2.0 * lo.y - 1.0),
@@ -401,23 +414,137 @@ pub fn deepest_surface(frame: &FrameInput<'_>, lo: Vec2, hi: Vec2) -> Option<f32
             None => w,
             Some(_) => -frame.light.view.row(2),
         } - Vec4::new(0.0, 0.0, 0.0, frame.light.near),
-    ];
-    let deepest = frame
-        .gpu
-        .objects
-        .iter()
-        .filter(|o| o.in_light)
-        .filter_map(|o| {
-            let mut cut = crate::frustum::Polytope::hexahedron(&o.world_corners());
-            for p in planes {
-                cut.clip(p);
+    ]
+}
+
+/// The deepest point of the world box `corners` inside `planes`; `None` if none is.
+fn deepest_of(frame: &FrameInput<'_>, corners: &[Vec3; 8], planes: &[Vec4; 5]) -> Option<f32> {
+    let mut cut = crate::frustum::Polytope::hexahedron(corners);
+    for &p in planes {
+        cut.clip(p);
+    }
+    cut.vertices()
+        .map(|&p| frame.light.linear_depth(p))
+        .reduce(f32::max)
+}
+
+/// `deepest_surface` for many small light-uv boxes at once: an N x N grid of tiles over a
+/// box, each holding `deepest_surface` over the tile (an object is cut only against the
+/// tiles its projected world box can reach; one with a corner behind the light's eye plane
+/// against every tile), and coarser levels of it. `over` bounds a box by the tiles it
+/// touches, at least what `deepest_surface` gives for it: the same cut, over more.
+#[derive(Clone, Debug, PartialEq)]
+pub struct DeepestGrid {
+    lo: Vec2,
+    tile: Vec2,
+    n: usize,
+    /// Per level the tiles' depths, row-major: level 0 the n x n tiles, each next level
+    /// the largest of 2 x 2 of the one before (n a power of two), so that `over` reads at
+    /// most 3 x 3 tiles of some level for any box.
+    levels: Vec<Vec<f32>>,
+}
+
+impl DeepestGrid {
+    /// The grid of `n` x `n` tiles over `lo..hi`; `None` for an empty or non-finite box
+    /// or an `n` that is not a power of two.
+    pub fn new(frame: &FrameInput<'_>, lo: Vec2, hi: Vec2, n: usize) -> Option<Self> {
+        if !(lo.is_finite() && hi.is_finite() && lo.cmplt(hi).all() && n.is_power_of_two()) {
+            return None;
+        }
+        let tile = (hi - lo) / n as f32;
+        let mut depth = vec![0.0f32; n * n];
+        let m = frame.light.view_proj;
+        for o in frame.gpu.objects.iter().filter(|o| o.in_light) {
+            let corners = o.world_corners();
+            // The tiles the projected box can reach; all of them when it is unbounded.
+            let (mut a, mut b) = (Vec2::splat(f32::INFINITY), Vec2::splat(f32::NEG_INFINITY));
+            let mut bounded = true;
+            for p in corners {
+                let c = m * p.extend(1.0);
+                let uv = c.truncate().truncate() / c.w * 0.5 + 0.5;
+                bounded &= c.w > 0.0 && uv.is_finite();
+                (a, b) = (a.min(uv), b.max(uv));
             }
-            cut.vertices()
-                .map(|&p| frame.light.linear_depth(p))
-                .reduce(f32::max)
+            let range = |a: f32, b: f32, lo: f32, t: f32| {
+                if !bounded {
+                    return (0, n - 1);
+                }
+                let i0 = ((a - lo) / t).floor().clamp(0.0, n as f32 - 1.0) as usize;
+                let i1 = ((b - lo) / t).floor().clamp(0.0, n as f32 - 1.0) as usize;
+                (i0, i1)
+            };
+            let (i0, i1) = range(a.x, b.x, lo.x, tile.x);
+            let (j0, j1) = range(a.y, b.y, lo.y, tile.y);
+            if bounded && (b.x < lo.x || a.x > hi.x || b.y < lo.y || a.y > hi.y) {
+                continue;
+            }
+            for j in j0..=j1 {
+                for i in i0..=i1 {
+                    let t_lo = lo + tile * Vec2::new(i as f32, j as f32);
+                    let planes = box_planes(frame, t_lo, t_lo + tile);
+                    if let Some(d) = deepest_of(frame, &corners, &planes) {
+                        let slot = &mut depth[j * n + i];
+                        *slot = slot.max(d.min(frame.light.far));
+                    }
+                }
+            }
+        }
+        let mut levels = vec![depth];
+        let mut side = n;
+        while side > 1 {
+            let fine = levels.last().expect("level 0");
+            let half = side / 2;
+            let coarse = (0..half * half)
+                .map(|k| {
+                    let (i, j) = (2 * (k % half), 2 * (k / half));
+                    let at = |i: usize, j: usize| fine[j * side + i];
+                    at(i, j)
+                        .max(at(i + 1, j))
+                        .max(at(i, j + 1))
+                        .max(at(i + 1, j + 1))
+                })
+                .collect();
+            levels.push(coarse);
+            side = half;
+        }
+        Some(Self {
+            lo,
+            tile,
+            n,
+            levels,
         })
-        .fold(0.0, f32::max);
-    Some(deepest.min(frame.light.far))
+    }
+
+    /// The deepest surface over the light-uv box `lo..hi` as the tiles it touches bound
+    /// it; `None` where the box leaves the grid or is not finite.
+    pub fn over(&self, lo: Vec2, hi: Vec2) -> Option<f32> {
+        let a = (lo - self.lo) / self.tile;
+        let b = (hi - self.lo) / self.tile;
+        let n = self.n as f32;
+        if !(a.is_finite() && b.is_finite()) || a.min_element() < 0.0 || b.max_element() > n {
+            return None;
+        }
+        // The level whose tiles are at least as wide as the box: it touches at most two a
+        // side there.
+        let span = (b - a).max_element().ceil().max(1.0) as usize;
+        let level = (span.next_power_of_two().trailing_zeros() as usize).min(self.levels.len() - 1);
+        let side = self.n >> level;
+        let scale = (1usize << level) as f32;
+        let last = side - 1;
+        let (i0, j0) = ((a.x / scale) as usize, (a.y / scale) as usize);
+        let (i1, j1) = (
+            ((b.x / scale) as usize).min(last),
+            ((b.y / scale) as usize).min(last),
+        );
+        let depth = &self.levels[level];
+        let mut d = 0.0f32;
+        for j in j0.min(last)..=j1 {
+            for i in i0.min(last)..=i1 {
+                d = d.max(depth[j * side + i]);
+            }
+        }
+        Some(d)
+    }
 }
 
 #[cfg(test)]

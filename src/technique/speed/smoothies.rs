@@ -16,8 +16,13 @@
 //!   to the silhouette. The centred form's outer side the same (its outer fragments take
 //!   the paper form's decision), its inner side at the farthest receiver an inner
 //!   fragment can find (`inner_extent_depth`: the deepest surface where it reads g, 5 %
-//!   deeper for the extrapolation). The same image up to the rounding of t and
-//!   1/b interpolated over other triangles. Off without `light_areas`: full width t.
+//!   deeper for the extrapolation). Each edge quad and corner fan is then shortened again by
+//!   the deepest surface over its own full-width box (`SmoothieRecords::expand_side_within`,
+//!   bounded by the tiles of a `regions::DeepestGrid` over every caster's smoothies, kept
+//!   while the light and every object stay put): a caster's smoothies stop short where its
+//!   own receiver is near it, whatever the deepest receiver under the others. The same
+//!   image up to the rounding of t and 1/b interpolated over other triangles. Off without
+//!   `light_areas`: full width t.
 //! - Light areas (`Areas::light_areas`, `regions::silhouette_areas`): the smoothie buffer
 //!   is cleared and drawn only where this frame's smoothies can reach (each vertex record's
 //!   uv plus and minus its reach, `SmoothieRecords::uv_bounds`) joined with last frame's;
@@ -97,7 +102,36 @@ struct CasterSmoothies {
 pub struct CpuSmoothies {
     cache: CasterCacheOf<GeometryKey, CasterSmoothies>,
     vertices: [DynamicVertices; 2],
+    /// The tiles the triangles in the cache were shortened with, and what they were
+    /// computed for.
+    grid: Option<regions::DeepestGrid>,
+    grid_key: GridKey,
 }
+
+/// What `regions::DeepestGrid` depends on: the light, the map's side and every object's
+/// placement, box and cut (a frame that changes none of them keeps the grid and the
+/// triangles).
+#[derive(Default, PartialEq)]
+struct GridKey(Vec<f32>);
+
+impl GridKey {
+    fn of(frame: &FrameInput<'_>, res: u32) -> Self {
+        let light = frame.light;
+        let mut key = light.view_proj.to_cols_array().to_vec();
+        key.extend([light.near, light.far, res as f32]);
+        for o in &frame.gpu.objects {
+            key.extend(o.model.to_cols_array());
+            key.extend(o.local_bounds.min.to_array());
+            key.extend(o.local_bounds.max.to_array());
+            key.push(if o.in_light { 1.0 } else { 0.0 });
+        }
+        GridKey(key)
+    }
+}
+
+/// Tiles a side of the grid that bounds each edge's and fan's receivers: finer bounds cut
+/// more fragments and cost more CPU when something moves (an object cut per tile).
+const LOCAL_TILES: usize = 16;
 
 impl CpuSmoothies {
     /// One cache slot per scene object.
@@ -108,6 +142,8 @@ impl CpuSmoothies {
                 DynamicVertices::new("smoothie vertices"),
                 DynamicVertices::new("inner smoothie vertices"),
             ],
+            grid: None,
+            grid_key: GridKey::default(),
         }
     }
 
@@ -144,16 +180,36 @@ impl CpuSmoothies {
             },
         );
         let extents = self.extents(frame, centred, res);
+        // Each edge's and fan's own bound (`SmoothieRecords::expand_side_within`): the
+        // deepest surface over the tiles its full-width geometry touches. A grid that moved
+        // (any object, the light) re-expands every caster.
+        let grow = Vec2::splat((regions::INNER_RECEIVER_TEXELS as f32 + 1.0) / res as f32);
+        let key = GridKey::of(frame, res);
+        let regrid = rebuilt > 0 || key != self.grid_key;
+        if regrid {
+            self.grid = self.grid(frame, grow);
+            self.grid_key = key;
+        }
+        let grid = &self.grid;
         self.cache.par_values_mut().for_each(|c| {
-            if c.expanded == Some(extents) {
+            if c.expanded == Some(extents) && !regrid {
                 return;
             }
             let [outer, inner_side] = &mut c.sides;
             outer.clear();
             inner_side.clear();
-            c.records.expand_side(Side::Outer, extents[0], outer);
+            let pad = Vec2::splat(1.0 / res as f32);
+            let outer_deepest =
+                |lo: Vec2, hi: Vec2| grid.as_ref()?.over(lo - pad, hi + pad).map(|d| d * 1.001);
+            c.records
+                .expand_side_within(Side::Outer, extents[0], outer_deepest, outer);
             if centred {
-                c.records.expand_side(Side::Inner, extents[1], inner_side);
+                let inner_deepest = |lo: Vec2, hi: Vec2| {
+                    let d = grid.as_ref()?.over(lo - grow, hi + grow)?;
+                    Some(inner_extent_depth(frame.light, Some(d)))
+                };
+                c.records
+                    .expand_side_within(Side::Inner, extents[1], inner_deepest, inner_side);
             }
             c.expanded = Some(extents);
             // The widest side drawn bounds the texels written: the centred form's inner
@@ -205,6 +261,21 @@ impl CpuSmoothies {
         )
         .for_sun(span);
         [outer, inner]
+    }
+
+    /// The tiles (`regions::DeepestGrid`, `LOCAL_TILES` a side) over every caster's
+    /// full-width smoothies' box grown by `grow` and a texel; `None` without `light_areas`.
+    fn grid(&self, frame: &FrameInput<'_>, grow: Vec2) -> Option<regions::DeepestGrid> {
+        if !frame.settings.light_areas {
+            return None;
+        }
+        let (lo, hi) = self
+            .cache
+            .iter()
+            .filter_map(|c| c.full_box)
+            .reduce(|(a, b), (c, d)| (a.min(c), b.max(d)))?;
+        let m = grow * 2.0;
+        regions::DeepestGrid::new(frame, lo - m, hi + m, LOCAL_TILES)
     }
 
     /// The deepest surface under every caster's full-width smoothies' box grown by `grow`

@@ -260,12 +260,15 @@ fn light_areas_change_no_pixel() {
             // of the paper form's values, measured; the centred form's b by up to 5.6e-5
             // on 248 of 65536 values (cylinder), a few 16-bit ulps of its penumbra on
             // fewer); no texel is written in one and not the other, and everything else
-            // is bit for bit.
-            let rounding = name.starts_with("smoothies");
+            // is bit for bit. Cut cones (both penumbra-map forms) interpolate Z_F over
+            // shorter triangles: Eq. 1's intensity moves by up to 0.021 on 5 of 65536
+            // values (cylinder, R 1.5, measured) where Z_P - Zv is small.
+            let rounding = name.starts_with("smoothies") || name.starts_with("penumbra-map");
             for ((b, a), (_, w)) in on_buffers.iter().zip(&off_buffers) {
                 let tolerance = match *b {
                     "smoothie_penumbra" if rounding => 4e-3,
                     "smoothie_buffer" | "smoothie_depth" if rounding => 1e-4,
+                    "penumbra_map" if rounding => 0.05,
                     _ => 0.0,
                 };
                 // NaN on one side only counts as an infinite difference.
@@ -294,8 +297,15 @@ fn light_areas_change_no_pixel() {
                     .fold(0.0, f32::max)
             };
             let vis = off_by(&on.visibility, &off.visibility);
+            // Eq. 1's rounding reaches the image where its denominator is small: 0.009 on
+            // penumbra-map's cylinder at R 1.5, measured.
+            let vis_bound = match name {
+                _ if name.starts_with("penumbra-map") => 0.01,
+                _ if rounding => 1e-3,
+                _ => 0.0,
+            };
             assert!(
-                vis <= if rounding { 1e-3 } else { 0.0 },
+                vis <= vis_bound,
                 "{case}: the visibility differs by up to {vis}"
             );
             let levels = max_colour_diff(&on, &off);

@@ -25,24 +25,31 @@ fn light_pass_reads(gpu: &Gpu, scene: &str, technique: &str, pass: &str) -> (u64
 
 /// The smoothie pass's fragment invocations and its warp-summed texel reads for `scene`.
 fn smoothie_pass_work(gpu: &Gpu, scene: &str, plain: bool) -> (u64, u64) {
+    let pass = "smoothies-centred/smoothie";
+    light_pass_work(gpu, scene, "smoothies-centred", pass, plain)
+}
+
+/// Light pass `pass` of `technique` on `scene` (128^2, 512^2 maps): its fragment
+/// invocations and its warp-summed texel reads.
+fn light_pass_work(gpu: &Gpu, scene: &str, technique: &str, pass: &str, plain: bool) -> (u64, u64) {
     let scene = Scene::load(scene).unwrap();
     let mut settings = small(128, 512);
     settings.plain = plain;
-    let mut r = Renderer::new(&gpu.ctx, scene, "smoothies-centred", settings).unwrap();
+    let mut r = Renderer::new(&gpu.ctx, scene, technique, settings).unwrap();
     let t = r.render().unwrap();
     let frags = t
         .passes
         .iter()
-        .find(|p| p.name == "smoothies-centred/smoothie")
+        .find(|p| p.name == pass)
         .and_then(|p| p.stats)
-        .expect("the smoothie pass has statistics on lavapipe")
+        .unwrap_or_else(|| panic!("{pass} has statistics on lavapipe"))
         .fragment_invocations;
     let counts = r.count_lookups().unwrap();
     let light = counts
         .light
         .iter()
-        .find(|l| l.name == "smoothies-centred/smoothie")
-        .expect("the smoothie pass is counted");
+        .find(|l| l.name == pass)
+        .unwrap_or_else(|| panic!("{pass} is counted"));
     (frags, light.warp_texels)
 }
 
@@ -156,5 +163,31 @@ fn each_smoothie_stops_at_the_deepest_surface_under_its_own_reach() {
         println!("{scene}: {frags} fragments, {warp} warp texels");
         assert!(frags < max_frags, "{scene}: smoothie fragments {frags}");
         assert!(warp < max_warp, "{scene}: smoothie warp texels {warp}");
+    }
+}
+
+/// Each cone of both penumbra-map forms cut at the deepest receiver its fragments can find
+/// (the tiles of `regions::DeepestGrid`), not at Z_far: the part beyond lies behind every
+/// receiver there and Eq. 1 discards it. At 128^2, 512^2 maps, penumbra-pass fragments with
+/// the cones at Z_far, then cut: penumbra-map bunny 165,184 and 106,688, primitives 78,800
+/// and 58,224, cylinder 23,744 and 21,600; penumbra-map-centred bunny 329,840 and 226,080,
+/// primitives 154,864 and 118,784, cylinder 47,392 and 43,552. Fails with the cones at
+/// Z_far.
+#[test]
+fn penumbra_cones_stop_at_the_deepest_receiver_under_them() {
+    let gpu = Gpu::new();
+    let bounds = [
+        ("penumbra-map", "bunny", 135_000),
+        ("penumbra-map", "primitives", 68_000),
+        ("penumbra-map", "cylinder", 22_700),
+        ("penumbra-map-centred", "bunny", 275_000),
+        ("penumbra-map-centred", "primitives", 137_000),
+        ("penumbra-map-centred", "cylinder", 45_500),
+    ];
+    for (t, scene, max_frags) in bounds {
+        let pass = format!("{t}/penumbra");
+        let (frags, _) = light_pass_work(&gpu, scene, t, &pass, false);
+        println!("{t} {scene}: {frags} penumbra fragments");
+        assert!(frags < max_frags, "{t} {scene}: penumbra fragments {frags}");
     }
 }

@@ -119,7 +119,7 @@ fn plain_against_optimised(
     // for bit.
     let vis_bound = match name {
         "smoothies" => 1e-4,
-        "smoothies-centred" => 2e-4,
+        "smoothies-centred" | "penumbra-map" | "penumbra-map-centred" => 2e-4,
         _ => 0.0,
     };
     let level_bound = 0;

@@ -394,6 +394,34 @@ pub fn build_penumbra_sides<const N: usize>(
     z_far: f32,
     sides: [Side; N],
 ) -> [PenumbraGeometry; N] {
+    let none = |_: Side, _: Vec2, _: Vec2| None;
+    build_penumbra_sides_within(adj, sil, model, light, light_radius, z_far, sides, &none)
+}
+
+/// A bound on the depth of the receivers a side's fragment can find over a light-uv box:
+/// `None` where nothing is known.
+pub type DepthBound<'a> = &'a (dyn Fn(Side, Vec2, Vec2) -> Option<f32> + Sync);
+
+/// `build_penumbra_sides` with each cone cut at its own base depth: the smaller of `z_far`
+/// and `deepest` over the light-uv box of its full geometry. A cone's triangles are planar
+/// and each base point moves along its ruling line towards the tip, so the cut keeps the same
+/// planes, and a fragment beyond it lies deeper than every receiver in that box: Eq. 1
+/// discards it (an inner fragment's s is at least 1 there). The same image up to the
+/// rounding of the interpolation over the shorter triangles. Sheets keep `z_far`: a sheet's
+/// edge and its neighbouring cone arc's end spoke lie on one line from the tip with
+/// different ends, and cutting the sheet moved which of the two covers a texel centre on
+/// that line (a texel left uncovered on `primitives`, `bunny`, `dense`).
+#[allow(clippy::too_many_arguments)]
+pub fn build_penumbra_sides_within<const N: usize>(
+    adj: &Adjacency,
+    sil: &[SilhouetteEdge],
+    model: Mat4,
+    light: &LightView,
+    light_radius: f32,
+    z_far: f32,
+    sides: [Side; N],
+    deepest: DepthBound<'_>,
+) -> [PenumbraGeometry; N] {
     let view_inv = light.view.inverse();
     let spread = cone_spread(light, light_radius);
     let sun = light.sun.is_some();
@@ -431,6 +459,26 @@ pub fn build_penumbra_sides<const N: usize>(
     });
     let reach = blocker_reach(&cones, z_far, sun);
     let cone_of = |v: u32| cones[slot[v as usize] as usize].as_ref();
+    // The base depth a side's cone cuts at, from the world points of its full geometry.
+    let cut = |side: Side, points: &[Vec3]| -> f32 {
+        let (mut lo, mut hi) = (Vec2::splat(f32::INFINITY), Vec2::splat(f32::NEG_INFINITY));
+        for &p in points {
+            let c = light.view_proj * p.extend(1.0);
+            let uv = c.truncate().truncate() / c.w * 0.5 + 0.5;
+            if !(c.w > 0.0 && uv.is_finite()) {
+                return z_far;
+            }
+            (lo, hi) = (lo.min(uv), hi.max(uv));
+        }
+        deepest(side, lo, hi).map_or(z_far, |d| d.min(z_far))
+    };
+    // `c` cut at `z` where that still leaves it a cone (its tip in front of the cut).
+    let at = |c: &ConeData, z: f32| {
+        (z < z_far)
+            .then(|| cone_data(c.world, light, spread, z))
+            .flatten()
+            .map(|c| (c, z))
+    };
     sides.map(|side| {
         let sheets: Vec<Option<SheetOut>> = map_maybe_par(sil, par, |e| {
             sheet(
@@ -443,7 +491,23 @@ pub fn build_penumbra_sides<const N: usize>(
                 sun,
             )
         });
-        let mut geo = emit(&cones, &slot, sil, sheets, reach, view_inv, z_far);
+        let cone_cut = |c: &ConeData| {
+            // The circumscribed polygon's corners (`emit_cone`) reach past the round base.
+            let r = c.radius / (std::f32::consts::PI / CONE_SEGMENTS as f32).cos();
+            let corner = |x: f32, y: f32| {
+                let q = c.centre + r * Vec2::new(x, y);
+                view_inv.transform_point3(q.extend(-z_far))
+            };
+            let points = [
+                c.world,
+                corner(-1.0, -1.0),
+                corner(1.0, 1.0),
+                corner(1.0, -1.0),
+                corner(-1.0, 1.0),
+            ];
+            at(c, cut(side, &points)).unwrap_or((*c, z_far))
+        };
+        let mut geo = emit(&cones, &slot, sil, sheets, reach, view_inv, &cone_cut);
         geo.special_vertices = special_vertices;
         geo
     })
@@ -457,7 +521,7 @@ fn emit(
     sheets: Vec<Option<SheetOut>>,
     reach: f32,
     view_inv: Mat4,
-    z_far: f32,
+    cone_cut: &dyn Fn(&ConeData) -> (ConeData, f32),
 ) -> PenumbraGeometry {
     let mut geo = PenumbraGeometry::default();
     // Per vertex, how many sheets it has (saturating at 3) and the tangent normals of the
@@ -487,7 +551,8 @@ fn emit(
         match (c, arc) {
             (Some(c), Some(arc)) => {
                 geo.cones += 1;
-                geo.cone_triangles += emit_cone(&mut geo.vertices, c, reach, view_inv, z_far, *arc);
+                let (c, z) = cone_cut(c);
+                geo.cone_triangles += emit_cone(&mut geo.vertices, &c, reach, view_inv, z, *arc);
             }
             _ => geo.skipped_vertices += 1,
         }

@@ -374,8 +374,9 @@ impl Technique for PenumbraMap {
             gpu.frame_pass(ctx, rec, names.silhouettes, casters, force, objects, emit)?;
         } else {
             let adjacency = &self.adjacency;
+            let res = self.shadow.resolution;
             let rebuilt = rec.cpu(names.silhouettes, || {
-                self.cpu.build(frame, adjacency, key, force, centred)
+                self.cpu.build(frame, adjacency, key, force, centred, res)
             });
             rec.rebuilt(names.silhouettes, rebuilt, casters);
             self.cpu.upload(ctx, centred)?;

@@ -6,6 +6,11 @@
 //!   (`silhouette::penumbra::build_penumbra_sides`), kept until the caster or the light
 //!   moves (`CasterCacheOf`; rebuilt every frame without `cache_light_passes`), uploaded
 //!   side by side (outer, then the centred form's inner) to host-visible vertex buffers.
+//! - Cut cones (`CpuPenumbra::build`, `silhouette::penumbra::build_penumbra_sides_within`):
+//!   each cone's base at the deepest receiver its fragments can find rather than at Z_far,
+//!   from the tiles of a `regions::DeepestGrid` over the map (kept while the light and every
+//!   object stay put): the fragments cut away are those Eq. 1 discards. The same image up to
+//!   the rounding of the interpolation over shorter triangles. Off without `light_areas`.
 //! - Light areas (`Areas::light_areas`, `regions::silhouette_areas`): the penumbra map is
 //!   cleared and drawn only over the cones' and sheets' texels joined with last frame's;
 //!   the shadow map over those and the projected box of each caster they do not hold (a
@@ -27,7 +32,7 @@ use super::regions::{self, LastDrawn, Support};
 use crate::frustum::PixelBox;
 use crate::gpu::passes::{CasterCacheOf, DynamicVertices, MapArea, Shadowed};
 use crate::gpu::FrameInput;
-use crate::silhouette::penumbra::{build_penumbra_sides, PenumbraKey, PenumbraVertex, Side};
+use crate::silhouette::penumbra::{build_penumbra_sides_within, PenumbraKey, PenumbraVertex, Side};
 use crate::silhouette::{self, Adjacency};
 use crate::vk::{Context, Rect2D};
 use anyhow::Result;
@@ -52,7 +57,13 @@ struct CasterGeometry {
 pub struct CpuPenumbra {
     cache: CasterCacheOf<PenumbraKey, CasterGeometry>,
     vertices: [DynamicVertices; 2],
+    /// The tiles the cones in the cache were cut with, and what they were computed for.
+    grid: Option<regions::DeepestGrid>,
+    grid_key: regions::GridKey,
 }
+
+/// Tiles a side of the grid over the map that bounds each cone's receivers.
+const LOCAL_TILES: usize = 16;
 
 impl CpuPenumbra {
     /// One cache slot per scene object.
@@ -63,12 +74,17 @@ impl CpuPenumbra {
                 DynamicVertices::new("penumbra-map cones and sheets"),
                 DynamicVertices::new("penumbra-map inner cones and sheets"),
             ],
+            grid: None,
+            grid_key: regions::GridKey::default(),
         }
     }
 
     /// Silhouettes, cones and sheets of every caster that moved since they were built (of
-    /// all when the light changed, or `force`), the inner side only when `centred`; returns
-    /// how many were rebuilt.
+    /// all when the light changed, or `force`), the inner side only when `centred`, in a
+    /// side-`res` map; returns how many were rebuilt. With `light_areas` each cone is cut
+    /// at the deepest receiver its fragments can find
+    /// (`build_penumbra_sides_within`), from a `regions::DeepestGrid` over the map: a grid
+    /// that moved (any object, the light) rebuilds every caster.
     pub fn build(
         &mut self,
         frame: &FrameInput<'_>,
@@ -76,18 +92,52 @@ impl CpuPenumbra {
         key: PenumbraKey,
         force: bool,
         centred: bool,
+        res: u32,
     ) -> usize {
         let (light, radius, z_far) = (frame.light, key.radius, key.z_far);
+        let grid_key = regions::GridKey::of(frame, res);
+        let force = force || grid_key != self.grid_key;
+        if grid_key != self.grid_key {
+            self.grid = frame
+                .settings
+                .light_areas
+                .then(|| regions::DeepestGrid::new(frame, Vec2::ZERO, Vec2::ONE, LOCAL_TILES))
+                .flatten();
+            self.grid_key = grid_key;
+        }
+        let grid = &self.grid;
+        // Fragments lie inside the map: a box is bounded by its part there. An outer
+        // fragment finds the receiver at its own texel (the rasterisation margin: a texel);
+        // an inner one reads g up to INNER_RECEIVER_TEXELS outside its edge and extrapolates
+        // (`regions::inner_extent_depth`).
+        let texel = 1.0 / res as f32;
+        let bound = |side: Side, lo: Vec2, hi: Vec2| {
+            let grid = grid.as_ref()?;
+            let grow = match side {
+                Side::Outer => texel,
+                Side::Inner => (regions::INNER_RECEIVER_TEXELS as f32 + 1.0) * texel,
+            };
+            let clamp = |p: Vec2| p.clamp(Vec2::ZERO, Vec2::ONE);
+            let (lo, hi) = (clamp(lo - grow), clamp(hi + grow));
+            let d = grid.over(lo, hi)?;
+            Some(match side {
+                Side::Outer => d * 1.001,
+                Side::Inner => regions::inner_extent_depth(light, Some(d)),
+            })
+        };
         self.cache
             .update(&frame.scene.objects, adjacency, key, force, |adj, model| {
                 let sil = silhouette::extract(adj, model, silhouette::light_point(light));
                 let (l, r, z) = (light, radius, z_far);
                 let (outer, inner) = if centred {
                     let sides = [Side::Outer, Side::Inner];
-                    let [outer, inner] = build_penumbra_sides(adj, &sil, model, l, r, z, sides);
+                    let [outer, inner] =
+                        build_penumbra_sides_within(adj, &sil, model, l, r, z, sides, &bound);
                     (outer, inner.vertices)
                 } else {
-                    let [outer] = build_penumbra_sides(adj, &sil, model, l, r, z, [Side::Outer]);
+                    let sides = [Side::Outer];
+                    let [outer] =
+                        build_penumbra_sides_within(adj, &sil, model, l, r, z, sides, &bound);
                     (outer, Vec::new())
                 };
                 CasterGeometry {

@@ -19,6 +19,7 @@
 use crate::frustum::PixelBox;
 use crate::gpu::passes::{rect_of, MapArea, Receivers, Shadowed};
 use crate::gpu::FrameInput;
+use crate::scene::LightView;
 use crate::vk::Rect2D;
 use glam::{Mat4, Vec2, Vec3, Vec4};
 use rayon::prelude::*;
@@ -426,6 +427,39 @@ fn deepest_of(frame: &FrameInput<'_>, corners: &[Vec3; 8], planes: &[Vec4; 5]) -
     cut.vertices()
         .map(|&p| frame.light.linear_depth(p))
         .reduce(f32::max)
+}
+
+/// The farthest receiver depth z_r an inner fragment of a centred form can find
+/// (glsl/common/inner_receiver.glsl): a depth the shadow map holds where the fragment
+/// reads it, so at most `deepest` (the deepest surface there, `deepest_under`) and the
+/// light's far plane, extrapolated by at most PLANE_LIMIT (5 %); 0.1 % more for the
+/// rounding of the stored depths. Its penumbra's half-width t (1 - b / z_r) is then at most
+/// t (1 - b / Z), and every fragment beyond is discarded, so the inner smoothies are drawn
+/// only that far (`Extent`; the same image up to the rounding of the interpolated t and
+/// 1/b).
+pub fn inner_extent_depth(light: &LightView, deepest: Option<f32>) -> f32 {
+    deepest.unwrap_or(light.far).min(light.far) * (1.0 + INNER_PLANE_LIMIT) * 1.001
+}
+
+/// What `regions::DeepestGrid` depends on: the light, the map's side and every object's
+/// placement, box and cut (a frame that changes none of them keeps the grid and the
+/// triangles).
+#[derive(Default, PartialEq)]
+pub struct GridKey(Vec<f32>);
+
+impl GridKey {
+    pub fn of(frame: &FrameInput<'_>, res: u32) -> Self {
+        let light = frame.light;
+        let mut key = light.view_proj.to_cols_array().to_vec();
+        key.extend([light.near, light.far, res as f32]);
+        for o in &frame.gpu.objects {
+            key.extend(o.model.to_cols_array());
+            key.extend(o.local_bounds.min.to_array());
+            key.extend(o.local_bounds.max.to_array());
+            key.push(if o.in_light { 1.0 } else { 0.0 });
+        }
+        GridKey(key)
+    }
 }
 
 /// `deepest_surface` for many small light-uv boxes at once: an N x N grid of tiles over a

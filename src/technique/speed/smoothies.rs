@@ -45,7 +45,6 @@ use super::regions::{self, LastDrawn, Support};
 use crate::frustum::PixelBox;
 use crate::gpu::passes::{CasterCacheOf, DynamicVertices, MapArea, Shadowed};
 use crate::gpu::FrameInput;
-use crate::scene::LightView;
 use crate::silhouette::smoothie::records::{build_records, Extent, SmoothieRecords};
 use crate::silhouette::smoothie::{GeometryKey, SmoothieVertex, Width};
 use crate::silhouette::{self, Adjacency, Side};
@@ -60,18 +59,6 @@ use std::sync::Arc;
 /// (docs/notes/engine-like-frames.md). `pcss`, whose lookup is several times dearer, gained
 /// nothing from fewer rows.
 pub const PAPER_SPLIT_BANDS: u32 = 2;
-
-/// The farthest receiver depth z_r an inner fragment of the centred form can find
-/// (glsl/common/inner_receiver.glsl): a depth the shadow map holds where the fragment
-/// reads it, so at most `deepest` (the deepest surface there, `deepest_under`) and the
-/// light's far plane, extrapolated by at most PLANE_LIMIT (5 %); 0.1 % more for the
-/// rounding of the stored depths. Its penumbra's half-width t (1 - b / z_r) is then at most
-/// t (1 - b / Z), and every fragment beyond is discarded, so the inner smoothies are drawn
-/// only that far (`Extent`; the same image up to the rounding of the interpolated t and
-/// 1/b).
-fn inner_extent_depth(light: &LightView, deepest: Option<f32>) -> f32 {
-    deepest.unwrap_or(light.far).min(light.far) * (1.0 + regions::INNER_PLANE_LIMIT) * 1.001
-}
 
 /// One caster's smoothies on the CPU path: records rebuilt when it or the light moves,
 /// triangles also when the extent they were expanded with changes.
@@ -105,28 +92,7 @@ pub struct CpuSmoothies {
     /// The tiles the triangles in the cache were shortened with, and what they were
     /// computed for.
     grid: Option<regions::DeepestGrid>,
-    grid_key: GridKey,
-}
-
-/// What `regions::DeepestGrid` depends on: the light, the map's side and every object's
-/// placement, box and cut (a frame that changes none of them keeps the grid and the
-/// triangles).
-#[derive(Default, PartialEq)]
-struct GridKey(Vec<f32>);
-
-impl GridKey {
-    fn of(frame: &FrameInput<'_>, res: u32) -> Self {
-        let light = frame.light;
-        let mut key = light.view_proj.to_cols_array().to_vec();
-        key.extend([light.near, light.far, res as f32]);
-        for o in &frame.gpu.objects {
-            key.extend(o.model.to_cols_array());
-            key.extend(o.local_bounds.min.to_array());
-            key.extend(o.local_bounds.max.to_array());
-            key.push(if o.in_light { 1.0 } else { 0.0 });
-        }
-        GridKey(key)
-    }
+    grid_key: regions::GridKey,
 }
 
 /// Tiles a side of the grid that bounds each edge's and fan's receivers: finer bounds cut
@@ -143,7 +109,7 @@ impl CpuSmoothies {
                 DynamicVertices::new("inner smoothie vertices"),
             ],
             grid: None,
-            grid_key: GridKey::default(),
+            grid_key: regions::GridKey::default(),
         }
     }
 
@@ -184,7 +150,7 @@ impl CpuSmoothies {
         // deepest surface over the tiles its full-width geometry touches. A grid that moved
         // (any object, the light) re-expands every caster.
         let grow = Vec2::splat((regions::INNER_RECEIVER_TEXELS as f32 + 1.0) / res as f32);
-        let key = GridKey::of(frame, res);
+        let key = regions::GridKey::of(frame, res);
         let regrid = rebuilt > 0 || key != self.grid_key;
         if regrid {
             self.grid = self.grid(frame, grow);
@@ -206,7 +172,7 @@ impl CpuSmoothies {
             if centred {
                 let inner_deepest = |lo: Vec2, hi: Vec2| {
                     let d = grid.as_ref()?.over(lo - grow, hi + grow)?;
-                    Some(inner_extent_depth(frame.light, Some(d)))
+                    Some(regions::inner_extent_depth(frame.light, Some(d)))
                 };
                 c.records
                     .expand_side_within(Side::Inner, extents[1], inner_deepest, inner_side);
@@ -256,7 +222,7 @@ impl CpuSmoothies {
         // The inner fragments read g up to INNER_RECEIVER_TEXELS beyond the smoothies.
         let grow = regions::INNER_RECEIVER_TEXELS as f32 * pad;
         let inner = Extent::at_most(
-            inner_extent_depth(frame.light, self.deepest_under(frame, grow, pad)),
+            regions::inner_extent_depth(frame.light, self.deepest_under(frame, grow, pad)),
             pad,
         )
         .for_sun(span);

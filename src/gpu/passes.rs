@@ -849,6 +849,14 @@ impl<K: Send, T: Send> CasterCacheOf<K, T> {
     pub fn par_values_mut(&mut self) -> impl ParallelIterator<Item = &mut T> {
         self.entries.par_iter_mut().flatten().map(|e| &mut e.2)
     }
+
+    /// Every cached object's geometry with its object index, to change in parallel.
+    pub fn par_indexed_mut(&mut self) -> impl ParallelIterator<Item = (usize, &mut T)> {
+        self.entries
+            .par_iter_mut()
+            .enumerate()
+            .filter_map(|(i, e)| e.as_mut().map(|e| (i, &mut e.2)))
+    }
 }
 
 impl<K: PartialEq + Copy + Send + Sync, T: Send> CasterCacheOf<K, T> {

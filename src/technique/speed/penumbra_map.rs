@@ -33,10 +33,11 @@ use crate::frustum::PixelBox;
 use crate::gpu::passes::{CasterCacheOf, DynamicVertices, MapArea, Shadowed};
 use crate::gpu::FrameInput;
 use crate::silhouette::penumbra::{build_penumbra_sides_within, PenumbraKey, PenumbraVertex, Side};
-use crate::silhouette::{self, Adjacency};
+use crate::silhouette::{self, Adjacency, SilhouetteEdge};
 use crate::vk::{Context, Rect2D};
 use anyhow::Result;
-use glam::{Vec2, Vec3};
+use glam::{Mat4, Vec2, Vec3};
+use rayon::prelude::*;
 use std::sync::Arc;
 
 /// One caster's outer cones and sheets, then its inner ones (empty in the paper form).
@@ -44,6 +45,10 @@ type Sides = [Vec<PenumbraVertex>; 2];
 
 /// One caster's per-light geometry on the CPU path, rebuilt when it or the light moves.
 struct CasterGeometry {
+    /// The caster's silhouette and placement: what a new grid cuts its cones from again
+    /// without extracting the silhouette anew.
+    sil: Vec<SilhouetteEdge>,
+    model: Mat4,
     sides: Sides,
     /// Every silhouette vertex got its cones, whose tips lie on it: the geometry's points
     /// then bound the caster's own projection ("The silhouette bounds the projection" in
@@ -96,8 +101,8 @@ impl CpuPenumbra {
     ) -> usize {
         let (light, radius, z_far) = (frame.light, key.radius, key.z_far);
         let grid_key = regions::GridKey::of(frame, res);
-        let force = force || grid_key != self.grid_key;
-        if grid_key != self.grid_key {
+        let regrid = grid_key != self.grid_key;
+        if regrid {
             self.grid = frame
                 .settings
                 .light_areas
@@ -125,27 +130,42 @@ impl CpuPenumbra {
                 Side::Inner => regions::inner_extent_depth(light, Some(d)),
             })
         };
-        self.cache
-            .update(&frame.scene.objects, adjacency, key, force, |adj, model| {
-                let sil = silhouette::extract(adj, model, silhouette::light_point(light));
-                let (l, r, z) = (light, radius, z_far);
-                let (outer, inner) = if centred {
-                    let sides = [Side::Outer, Side::Inner];
-                    let [outer, inner] =
-                        build_penumbra_sides_within(adj, &sil, model, l, r, z, sides, &bound);
-                    (outer, inner.vertices)
-                } else {
-                    let sides = [Side::Outer];
-                    let [outer] =
-                        build_penumbra_sides_within(adj, &sil, model, l, r, z, sides, &bound);
-                    (outer, Vec::new())
-                };
-                CasterGeometry {
-                    // The inner cones have the same tips as the outer ones.
-                    holds_caster: outer.skipped_vertices == 0 && outer.cones > 0,
-                    sides: [outer.vertices, inner],
+        let cut = |adj: &Adjacency, sil: Vec<SilhouetteEdge>, model: Mat4| {
+            let (l, r, z) = (light, radius, z_far);
+            let (outer, inner) = if centred {
+                let sides = [Side::Outer, Side::Inner];
+                let [outer, inner] =
+                    build_penumbra_sides_within(adj, &sil, model, l, r, z, sides, &bound);
+                (outer, inner.vertices)
+            } else {
+                let sides = [Side::Outer];
+                let [outer] = build_penumbra_sides_within(adj, &sil, model, l, r, z, sides, &bound);
+                (outer, Vec::new())
+            };
+            CasterGeometry {
+                // The inner cones have the same tips as the outer ones.
+                holds_caster: outer.skipped_vertices == 0 && outer.cones > 0,
+                sides: [outer.vertices, inner],
+                sil,
+                model,
+            }
+        };
+        let rebuilt =
+            self.cache
+                .update(&frame.scene.objects, adjacency, key, force, |adj, model| {
+                    let sil = silhouette::extract(adj, model, silhouette::light_point(light));
+                    cut(adj, sil, model)
+                });
+        // A new grid cuts the cones of the casters that kept their silhouette again (those
+        // just rebuilt are cut already; cutting them twice gives the same triangles).
+        if regrid && rebuilt < self.cache.iter().count() {
+            self.cache.par_indexed_mut().for_each(|(i, c)| {
+                if let Some(adj) = adjacency.get(i).and_then(Option::as_deref) {
+                    *c = cut(adj, std::mem::take(&mut c.sil), c.model);
                 }
-            })
+            });
+        }
+        rebuilt
     }
 
     /// Uploads every cached caster's outer side (and, when `centred`, inner side) to its

@@ -8,9 +8,7 @@
 
 mod common;
 
-use common::{small, Gpu};
-use softshadow::eval::metrics::errors_at;
-use softshadow::reference::{visibility_cached, ReferenceParams};
+use common::{errors_with, small, Gpu};
 use softshadow::scene::Scene;
 
 /// mae_lit on `fence` (256x256, 1024^2 maps, the scene's radius) that each technique must
@@ -31,23 +29,7 @@ fn shadows_on_a_slanted_receiver_stay_where_the_reference_puts_them() {
     let mut bad = Vec::new();
     let mut table = String::new();
     for &(technique, bound) in BOUNDS {
-        let img = gpu.render(&scene.name, technique, small(256, 1024));
-        let v_ref = visibility_cached(
-            &scene,
-            scene.light.radius,
-            &img.position,
-            &img.normal,
-            &ReferenceParams::default(),
-        )
-        .unwrap_or_else(|e| panic!("reference of fence: {e:#}"));
-        let e = errors_at(
-            &img.visibility,
-            &v_ref,
-            &img.position,
-            &img.normal,
-            &img.spot,
-            scene.light.position,
-        );
+        let e = errors_with(&gpu, &scene, technique, small(256, 1024));
         assert!(e.lit_pixels > 1000, "{technique}: {e:?}");
         table.push_str(&format!("{technique}: mae_lit {:.4}\n", e.mae_lit));
         if e.mae_lit > bound {

@@ -379,32 +379,33 @@ pub fn build_penumbra(
     light_radius: f32,
     z_far: f32,
 ) -> PenumbraGeometry {
-    let [outer] = build_penumbra_sides(adj, sil, model, light, light_radius, z_far, [Side::Outer]);
+    let [outer] = build_penumbra_sides(
+        adj,
+        sil,
+        model,
+        light,
+        light_radius,
+        z_far,
+        [Side::Outer],
+        &no_bound,
+    );
     outer
-}
-
-/// `build_penumbra` for each of `sides` from one pass over the silhouette vertices (the
-/// cones' tips, bases and the blocker reach are the same on both sides).
-pub fn build_penumbra_sides<const N: usize>(
-    adj: &Adjacency,
-    sil: &[SilhouetteEdge],
-    model: Mat4,
-    light: &LightView,
-    light_radius: f32,
-    z_far: f32,
-    sides: [Side; N],
-) -> [PenumbraGeometry; N] {
-    let none = |_: Side, _: Vec2, _: Vec2| None;
-    build_penumbra_sides_within(adj, sil, model, light, light_radius, z_far, sides, &none)
 }
 
 /// A bound on the depth of the receivers a side's fragment can find over a light-uv box:
 /// `None` where nothing is known.
 pub type DepthBound<'a> = &'a (dyn Fn(Side, Vec2, Vec2) -> Option<f32> + Sync);
 
-/// `build_penumbra_sides` with each cone cut at its own base depth: the smaller of `z_far`
-/// and `deepest` over the light-uv box of its full geometry. A cone's triangles are planar
-/// and each base point moves along its ruling line towards the tip, so the cut keeps the same
+/// No bound: every cone to `z_far`, the paper's construction.
+pub fn no_bound(_: Side, _: Vec2, _: Vec2) -> Option<f32> {
+    None
+}
+
+/// `build_penumbra` for each of `sides` from one pass over the silhouette vertices (the
+/// cones' tips, bases and the blocker reach are the same on both sides), each cone cut at
+/// its own base depth: the smaller of `z_far` and `deepest` over the light-uv box of its
+/// full geometry (`no_bound`: every cone to `z_far`). A cone's triangles are planar and
+/// each base point moves along its ruling line towards the tip, so the cut keeps the same
 /// planes, and a fragment beyond it lies deeper than every receiver in that box: Eq. 1
 /// discards it (an inner fragment's s is at least 1 there). The same image up to the
 /// rounding of the interpolation over the shorter triangles. Sheets keep `z_far`: a sheet's
@@ -412,7 +413,7 @@ pub type DepthBound<'a> = &'a (dyn Fn(Side, Vec2, Vec2) -> Option<f32> + Sync);
 /// different ends, and cutting the sheet moved which of the two covers a texel centre on
 /// that line (a texel left uncovered on `primitives`, `bunny`, `dense`).
 #[allow(clippy::too_many_arguments)]
-pub fn build_penumbra_sides_within<const N: usize>(
+pub fn build_penumbra_sides<const N: usize>(
     adj: &Adjacency,
     sil: &[SilhouetteEdge],
     model: Mat4,
@@ -692,6 +693,7 @@ mod tests {
             lr,
             z_far,
             [Side::Outer, Side::Inner],
+            &no_bound,
         );
         assert_eq!(outer, build_penumbra(&adj, &sil, model, &lv, lr, z_far));
         assert!(all_finite(&inner));

@@ -189,6 +189,17 @@ pub fn errors_160(gpu: &Gpu, scene: &Scene, technique: &str) -> softshadow::eval
         height: 160,
         ..Settings::default()
     };
+    errors_with(gpu, scene, technique, settings)
+}
+
+/// mae_lit and the other errors of `technique` at `settings` against the ray-cast
+/// reference, at the scene's light radius.
+pub fn errors_with(
+    gpu: &Gpu,
+    scene: &Scene,
+    technique: &str,
+    settings: Settings,
+) -> softshadow::eval::metrics::Errors {
     let img = gpu.render_frames(scene.clone(), technique, settings, 1).0;
     let v_ref = softshadow::reference::visibility_cached(
         scene,

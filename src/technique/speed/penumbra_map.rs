@@ -6,7 +6,7 @@
 //!   (`silhouette::penumbra::build_penumbra_sides`), kept until the caster or the light
 //!   moves (`CasterCacheOf`; rebuilt every frame without `cache_light_passes`), uploaded
 //!   side by side (outer, then the centred form's inner) to host-visible vertex buffers.
-//! - Cut cones (`CpuPenumbra::build`, `silhouette::penumbra::build_penumbra_sides_within`):
+//! - Cut cones (`CpuPenumbra::build`, `silhouette::penumbra::build_penumbra_sides`):
 //!   each cone's base at the deepest receiver its fragments can find rather than at Z_far,
 //!   from the tiles of a `regions::DeepestGrid` over the map (kept while the light and every
 //!   object stay put): the fragments cut away are those Eq. 1 discards. The same image up to
@@ -32,7 +32,7 @@ use super::regions::{self, LastDrawn, Support};
 use crate::frustum::PixelBox;
 use crate::gpu::passes::{CasterCacheOf, DynamicVertices, MapArea, Shadowed};
 use crate::gpu::FrameInput;
-use crate::silhouette::penumbra::{build_penumbra_sides_within, PenumbraKey, PenumbraVertex, Side};
+use crate::silhouette::penumbra::{build_penumbra_sides, PenumbraKey, PenumbraVertex, Side};
 use crate::silhouette::{self, Adjacency, SilhouetteEdge};
 use crate::vk::{Context, Rect2D};
 use anyhow::Result;
@@ -88,7 +88,7 @@ impl CpuPenumbra {
     /// all when the light changed, or `force`), the inner side only when `centred`, in a
     /// side-`res` map; returns how many were rebuilt. With `light_areas` each cone is cut
     /// at the deepest receiver its fragments can find
-    /// (`build_penumbra_sides_within`), from a `regions::DeepestGrid` over the map: a grid
+    /// (`build_penumbra_sides`), from a `regions::DeepestGrid` over the map: a grid
     /// that moved (any object, the light) rebuilds every caster.
     pub fn build(
         &mut self,
@@ -134,12 +134,11 @@ impl CpuPenumbra {
             let (l, r, z) = (light, radius, z_far);
             let (outer, inner) = if centred {
                 let sides = [Side::Outer, Side::Inner];
-                let [outer, inner] =
-                    build_penumbra_sides_within(adj, &sil, model, l, r, z, sides, &bound);
+                let [outer, inner] = build_penumbra_sides(adj, &sil, model, l, r, z, sides, &bound);
                 (outer, inner.vertices)
             } else {
                 let sides = [Side::Outer];
-                let [outer] = build_penumbra_sides_within(adj, &sil, model, l, r, z, sides, &bound);
+                let [outer] = build_penumbra_sides(adj, &sil, model, l, r, z, sides, &bound);
                 (outer, Vec::new())
             };
             CasterGeometry {

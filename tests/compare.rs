@@ -1,6 +1,6 @@
 //! `softshadow compare` on EXRs written here: identical inputs give 0, a known perturbation
 //! gives the numbers worked out by hand, `--max-mae-lit` sets the exit status, bad inputs
-//! are one error line. No Vulkan device is involved.
+//! are one error line. The command reads files only.
 
 use softshadow::output::write_exr;
 use std::path::{Path, PathBuf};

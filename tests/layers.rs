@@ -1,6 +1,6 @@
 //! The layer order written in src/lib.rs's header holds: every `crate::<module>` path in a
 //! file under src/ names its own module or one listed before it, so no two src/ modules
-//! import each other. Reads source files only: no Vulkan.
+//! import each other. It reads source files only.
 
 use std::path::{Path, PathBuf};
 

@@ -3,7 +3,7 @@
 //! `#anchor` must name a heading of the target Markdown file by GitHub's rule (lower case,
 //! punctuation dropped, spaces to hyphens, `-1`, `-2` for repeats) or an HTML `id`/`name`.
 //! Links to other sites are not fetched. Links inside code (fenced blocks, `inline`) are not
-//! links and are skipped. No Vulkan device needed.
+//! links and are left out. It reads Markdown files only.
 //!
 //! `the_checker_finds_broken_links` feeds the checker a small tree with known mistakes, so
 //! that a checker which passes everything fails here.

@@ -54,6 +54,8 @@ struct CasterGeometry {
     /// then bound the caster's own projection ("The silhouette bounds the projection" in
     /// `crate::silhouette`), and its box adds nothing.
     holds_caster: bool,
+    /// The silhouette is new and `sides` not built from it yet.
+    uncut: bool,
 }
 
 /// The CPU path's cones and sheets: per caster, what they were built for, so that a moved
@@ -87,9 +89,9 @@ impl CpuPenumbra {
     /// Silhouettes, cones and sheets of every caster that moved since they were built (of
     /// all when the light changed, or `force`), the inner side only when `centred`, in a
     /// side-`res` map; returns how many were rebuilt. With `light_areas` each cone is cut
-    /// at the deepest receiver its fragments can find
-    /// (`build_penumbra_sides`), from a `regions::DeepestGrid` over the map: a grid
-    /// that moved (any object, the light) rebuilds every caster.
+    /// at the deepest receiver its fragments can find (`build_penumbra_sides`), from a
+    /// `regions::DeepestGrid` over the map: a grid that moved (any object, the light) cuts
+    /// every kept caster's cones again.
     pub fn build(
         &mut self,
         frame: &FrameInput<'_>,
@@ -130,40 +132,42 @@ impl CpuPenumbra {
                 Side::Inner => regions::inner_extent_depth(light, Some(d)),
             })
         };
-        let cut = |adj: &Adjacency, sil: Vec<SilhouetteEdge>, model: Mat4| {
-            let (l, r, z) = (light, radius, z_far);
-            let (outer, inner) = if centred {
-                let sides = [Side::Outer, Side::Inner];
-                let [outer, inner] = build_penumbra_sides(adj, &sil, model, l, r, z, sides, &bound);
-                (outer, inner.vertices)
-            } else {
-                let sides = [Side::Outer];
-                let [outer] = build_penumbra_sides(adj, &sil, model, l, r, z, sides, &bound);
-                (outer, Vec::new())
-            };
-            CasterGeometry {
-                // The inner cones have the same tips as the outer ones.
-                holds_caster: outer.skipped_vertices == 0 && outer.cones > 0,
-                sides: [outer.vertices, inner],
-                sil,
-                model,
-            }
-        };
         let rebuilt =
             self.cache
                 .update(&frame.scene.objects, adjacency, key, force, |adj, model| {
-                    let sil = silhouette::extract(adj, model, silhouette::light_point(light));
-                    cut(adj, sil, model)
+                    CasterGeometry {
+                        sil: silhouette::extract(adj, model, silhouette::light_point(light)),
+                        model,
+                        sides: Default::default(),
+                        holds_caster: false,
+                        uncut: true,
+                    }
                 });
-        // A new grid cuts the cones of the casters that kept their silhouette again (those
-        // just rebuilt are cut already; cutting them twice gives the same triangles).
-        if regrid && rebuilt < self.cache.iter().count() {
-            self.cache.par_indexed_mut().for_each(|(i, c)| {
-                if let Some(adj) = adjacency.get(i).and_then(Option::as_deref) {
-                    *c = cut(adj, std::mem::take(&mut c.sil), c.model);
-                }
-            });
-        }
+        // The cones and sheets of each new silhouette, and of every kept one when the grid
+        // moved: cut again from the kept silhouette, without extracting it anew.
+        self.cache.par_indexed_mut().for_each(|(i, c)| {
+            let Some(adj) = adjacency.get(i).and_then(Option::as_deref) else {
+                return;
+            };
+            if !(c.uncut || regrid) {
+                return;
+            }
+            let (l, r, z, sil) = (light, radius, z_far, &c.sil);
+            let (outer, inner) = if centred {
+                let sides = [Side::Outer, Side::Inner];
+                let [outer, inner] =
+                    build_penumbra_sides(adj, sil, c.model, l, r, z, sides, &bound);
+                (outer, inner.vertices)
+            } else {
+                let sides = [Side::Outer];
+                let [outer] = build_penumbra_sides(adj, sil, c.model, l, r, z, sides, &bound);
+                (outer, Vec::new())
+            };
+            // The inner cones have the same tips as the outer ones.
+            c.holds_caster = outer.skipped_vertices == 0 && outer.cones > 0;
+            c.sides = [outer.vertices, inner];
+            c.uncut = false;
+        });
         rebuilt
     }
 

@@ -474,7 +474,7 @@ pub struct DeepestGrid {
     n: usize,
     /// Per level the tiles' depths, row-major: level 0 the n x n tiles, each next level
     /// the largest of 2 x 2 of the one before (n a power of two), so that `over` reads at
-    /// most 3 x 3 tiles of some level for any box.
+    /// most 2 x 2 tiles of some level for any box.
     levels: Vec<Vec<f32>>,
 }
 
@@ -487,18 +487,15 @@ impl DeepestGrid {
         }
         let tile = (hi - lo) / n as f32;
         let mut depth = vec![0.0f32; n * n];
-        let m = frame.light.view_proj;
         for o in frame.gpu.objects.iter().filter(|o| o.in_light) {
             let corners = o.world_corners();
             // The tiles the projected box can reach; all of them when it is unbounded.
-            let (mut a, mut b) = (Vec2::splat(f32::INFINITY), Vec2::splat(f32::NEG_INFINITY));
-            let mut bounded = true;
-            for p in corners {
-                let c = m * p.extend(1.0);
-                let uv = c.truncate().truncate() / c.w * 0.5 + 0.5;
-                bounded &= c.w > 0.0 && uv.is_finite();
-                (a, b) = (a.min(uv), b.max(uv));
-            }
+            let uvs: Option<Vec<Vec2>> = corners.iter().map(|&p| light_uv(frame, p)).collect();
+            let bounded = uvs.is_some();
+            let (a, b) = uvs.unwrap_or_default().iter().fold(
+                (Vec2::splat(f32::INFINITY), Vec2::splat(f32::NEG_INFINITY)),
+                |(a, b), &uv| (a.min(uv), b.max(uv)),
+            );
             let range = |a: f32, b: f32, lo: f32, t: f32| {
                 if !bounded {
                     return (0, n - 1);

@@ -36,6 +36,19 @@
 //!
 //! the sheet runs from the edge (depth 0) to the tangent line (depth 1).
 //!
+//! (P2) is the radius across the light's azimuth. The disc the reference integrates faces
+//! the point (docs/DESIGN.md), so the rays from its rim through x form a cone around the ray
+//! from L, which meets the plane at cos(angle) = (H - h) / |L - x| to its normal: an ellipse
+//! with (P2)'s r across the azimuth and
+//!
+//! (P2e) k r along it, k = |L - x| / (H - h) (a sun: k = 1 / (n . s)),
+//!
+//! the paper's "cones with elliptical bases, with the major axis of the ellipse pointing
+//! towards the light" for a light near the horizon (Sec. 3). This form keeps the basic
+//! algorithm's circles (k = 1); `plateaus-centred` draws the ellipses (`Disc`,
+//! src/technique/plateaus_common.rs): its cones are stretched by k along the azimuth and
+//! each sheet solves (P3) where its two discs' mean stretch is undone.
+//!
 //! ## Under a sun
 //! A sun is every direction within its angular radius theta of its unit direction s
 //! (towards it). Its rays are parallel, so the drop shadow is a parallel projection along s
@@ -50,8 +63,8 @@
 //! throws the full penumbra 2 h tan(theta) under an overhead sun. (P3) is unchanged.
 //! Silhouettes are taken from a point `SUN_DISTANCE` plane diagonals along s (the facing
 //! test only needs the direction). A low sun stretches the true penumbra along its azimuth
-//! by 1 / (n . s); (P2s) keeps the circle across it, as the spotlight's circles are (Known
-//! artefacts). The speed layer's regions follow the central projection and are not planned
+//! by 1 / (n . s) ((P2e)); this form keeps the circle across it, as it keeps the
+//! spotlight's (Known artefacts). The speed layer's regions follow the central projection and are not planned
 //! for a sun: its final pass runs everywhere and its textures are drawn whole.
 //!
 //! ## Passes, in order
@@ -90,7 +103,8 @@
 //!
 //! ## Equations: what a porter ports
 //! - (P1) the drop shadow's projection: `PlaneFrame::drop_shadow`.
-//! - (P2) the cone radius: `PlaneFrame::vertex_disc`.
+//! - (P2) the cone radius (and (P2e)'s stretch, which this form sets to 1):
+//!   `PlaneFrame::vertex_disc`.
 //! - (P3) the sheets and the cones' fans: `PlateauBuilder::sheet` and `cone`, per
 //!   silhouette `PlateauBuilder::silhouette`.
 //! - (P4) and the on-plane test: `visibility` (glsl/plateaus/final.frag).
@@ -104,8 +118,9 @@
 //!
 //! ## Known artefacts
 //! Umbrae are the full hard shadow at any light size: no inner penumbra, shadows too dark and
-//! too large for big lights (Sec. 4). Cones are circles, exact only for a disc light parallel
-//! to the plane: a low light should stretch them into ellipses (Sec. 3) and does not. Sharp
+//! too large for big lights (Sec. 4). Cones are the basic algorithm's circles: a low light
+//! stretches the true penumbra into (P2e)'s ellipses (Sec. 3), which `plateaus-centred`
+//! draws and this form does not (the tip of `cylinder`'s long shadow is too sharp). Sharp
 //! creases where silhouette edges meet in a concavity (Sec. 4). Overlapping penumbrae take the
 //! darkest, not the product. Edges with a vertex above 0.99 H are dropped (their shadow runs to
 //! infinity). Only the chosen plane is soft: other receivers get hard shadows, and a second

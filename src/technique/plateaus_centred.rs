@@ -21,14 +21,17 @@
 //!
 //! Under a sun (plateaus.rs, "Under a sun"): the drop shadow is (P1s)'s parallel
 //! projection and the half-width (P2s) r = h tan(theta) / (n . s), the same on both sides of
-//! the hard edge; the inner sheets need no change (t is still s), so the centred profile
-//! spans 2 h tan(theta) overhead, the sun's straight-edge penumbra.
+//! the hard edge across the sun's azimuth and (P2e)'s 1 / (n . s) times that along it; the
+//! inner sheets need no change (t is still s), so the centred profile spans 2 h tan(theta)
+//! overhead, the sun's straight-edge penumbra.
 //!
 //! ## Passes, in order
 //! 0. CPU `plateaus-centred/silhouettes` (R > 0, light above the plane) — per caster:
 //!    silhouette from the light centre, then its cones and outer sheets and its cones and
 //!    inner sheets in the texture's clip space (12-byte `PlateauVertex`, depth = t),
-//!    uploaded to two host-visible vertex buffers.
+//!    uploaded to two host-visible vertex buffers. The cones' bases are (P2e)'s ellipses,
+//!    not the paper form's circles (`PlateauBuilder::with_ellipses`): a low light stretches
+//!    each point's penumbra along its azimuth (2.5x at the tip of `cylinder`'s shadow).
 //! 1. `plateaus-centred/drop_shadow` — the casters through (P1) as the paper's pass
 //!    (glsl/plateaus/drop_shadow.vert/.frag, unchanged) but into their own attachment,
 //!    `coverage` R16_SFLOAT, clear 1.0, no blend, NO depth attachment: 0 under any
@@ -61,8 +64,9 @@
 //!    holds the inner cones and sheets too: they lie in the same discs' hull.
 //!
 //! ## Equations: what a porter ports
-//! - (P1)-(P3), both sides: the paper form's functions (src/technique/plateaus.rs), the
-//!   inner sheets by the same builder with `Side::Inner`.
+//! - (P1)-(P3) and (P2e), both sides: the paper form's functions
+//!   (src/technique/plateaus.rs), the inner sheets by the same builder with `Side::Inner`,
+//!   the ellipses by `Disc` (src/technique/plateaus_common.rs).
 //! - The disc-chord profile v(s): `disc_chord` (glsl/common/penumbra.glsl).
 //! - The inner side: `main` of glsl/plateaus_centred/inner.frag, with `far_edge_texels`
 //!   (glsl/common/inner_march.glsl).
@@ -94,13 +98,13 @@
 //!   soften a fence's rail-post crossings) lightened bunny's umbra: mae_lit 0.030 -> 0.048.
 //!
 //! ## Known artefacts
-//! The paper's: cones are circles, exact for a disc light parallel to the plane (a low
-//! light stretches the true penumbra along its direction: the tip of `cylinder`'s long
-//! shadow is too sharp on both sides), creases at concavities, only the chosen plane is
+//! The paper's: creases at concavities, only the chosen plane is
 //! soft: other receivers get the shadow map's hard result, so a thin blocker's shadow on
 //! anything but the plane (a fence's post over its rail) is still a full umbra
 //! (tests/centred_penumbra.rs judges this form's thin-blocker rule on the plane only). Both halves use the
-//! straight-edge profile, so curved outlines get a slightly too dark inner penumbra. The
+//! straight-edge profile, so curved outlines get a slightly too dark inner penumbra. A
+//! sheet takes one stretch for both its cones, so where the stretch changes along an edge
+//! it meets them off their tangents (a crease, at most the two ellipses' difference). The
 //! march and the hidden-edge test are quantised to the texture's texels. The inner
 //! fragments cost up to 14 texel fetches each (own texel, hidden-edge test, the texel one
 //! half-width in, and the 8 + 3 march steps only where the drop shadow has ended by then),

@@ -327,10 +327,11 @@ impl PlaneFrame {
         (p - self.min) / self.side
     }
 
-    /// Where `x` lands on the plane seen from the light centre (P1), with its cone radius for
-    /// a light of radius `radius` (P2); `None` above `MAX_HEIGHT_FRACTION` of the light.
-    /// A sun: (P1s), (P2s) with `radius` = tan(theta).
-    pub fn vertex_disc(&self, x: Vec3, radius: f32) -> Option<(Vec2, f32)> {
+    /// Where `x` lands on the plane seen from the light centre (P1), with its cone's base:
+    /// the radius across the light's azimuth for a light of radius `radius` (P2) and the
+    /// stretch along it (P2e); `None` above `MAX_HEIGHT_FRACTION` of the light. A sun:
+    /// (P1s), (P2s) with `radius` = tan(theta), and its stretch.
+    pub fn vertex_disc(&self, x: Vec3, radius: f32) -> Option<Disc> {
         let big_h = self.light_height;
         let h = self.height(x);
         if let Some(d) = self.sun {
@@ -338,13 +339,26 @@ impl PlaneFrame {
             if h.is_nan() || dn <= 0.0 {
                 return None;
             }
-            return Some((self.coords(x - d * (h / dn)), radius * h.max(0.0) / dn));
+            let c = self.coords(x - d * (h / dn));
+            // The shadow moves away from the sun's azimuth as h grows.
+            let away = -Vec2::new(d.dot(self.u), d.dot(self.v));
+            return Some(Disc::new(c, radius * h.max(0.0) / dn, away, 1.0 / dn));
         }
         if h.is_nan() || h >= big_h * MAX_HEIGHT_FRACTION {
             return None;
         }
         let p = self.light + (x - self.light) * (big_h / (big_h - h));
-        Some((self.coords(p), radius * h.max(0.0) / (big_h - h)))
+        let c = self.coords(p);
+        // The ray from the light through x meets the plane at cos(angle) = (H - h) / |L - x|
+        // to its normal: 1 / that is the stretch, along the ray's azimuth on the plane.
+        let away = c - self.coords(self.light);
+        let stretch = (x - self.light).length() / (big_h - h);
+        Some(Disc::new(
+            c,
+            radius * h.max(0.0) / (big_h - h),
+            away,
+            stretch,
+        ))
     }
 
     /// World -> (u, v, height, 1), u and v the texture coordinates.
@@ -397,6 +411,50 @@ impl PlaneFrame {
     }
 }
 
+/// The largest stretch drawn: (P2e) is the ray cone's section for a light disc small
+/// against the ray's angle to the plane. Lower (k > 4: a ray within 14.5 degrees of the
+/// plane), its section is no longer near an ellipse around P(x): the side away from the
+/// light runs out towards where the disc meets the horizon, the side towards it stays short.
+const MAX_STRETCH: f32 = 4.0;
+
+/// A cone's base on the plane (plane coordinates): an ellipse around `c` whose semi-axis
+/// across the light's azimuth is `r` ((P2) or (P2s)) and along it `k r` ((P2e): the disc
+/// light's cone of rays through a point meets the plane at the angle of the ray from the
+/// light, which stretches the paper's circle, Sec. 3's "cones with elliptical bases, with
+/// the major axis of the ellipse pointing towards the light").
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Disc {
+    pub c: Vec2,
+    pub r: f32,
+    /// Unit azimuth (plane coordinates) the ellipse is stretched along; zero: a circle.
+    pub a: Vec2,
+    /// The stretch, >= 1.
+    pub k: f32,
+}
+
+impl Disc {
+    fn new(c: Vec2, r: f32, away: Vec2, stretch: f32) -> Self {
+        let a = away.normalize_or_zero();
+        let k = if stretch.is_finite() {
+            stretch.clamp(1.0, MAX_STRETCH)
+        } else {
+            1.0
+        };
+        Disc { c, r, a, k }
+    }
+
+    /// The ellipse's frame applied to `p` (relative to its centre): `p` stretched by k
+    /// along a.
+    fn stretch(&self, p: Vec2, k: f32) -> Vec2 {
+        p + self.a * ((k - 1.0) * p.dot(self.a))
+    }
+
+    /// Its reach along the unit direction `dir`: the support of the ellipse.
+    pub fn support(&self, dir: Vec2) -> f32 {
+        dir.dot(self.c) + self.r * self.stretch(dir, self.k).length()
+    }
+}
+
 /// Cones and sheets of one frame, in texture clip space.
 pub struct PlateauBuilder<'a> {
     plane: &'a PlaneFrame,
@@ -404,6 +462,8 @@ pub struct PlateauBuilder<'a> {
     /// Which side of the edges the sheets open to: outward (the paper's), or inward into
     /// the drop shadow (plateaus-centred's inner sheets).
     side: Side,
+    /// Cone bases: the paper's basic circles, or Sec. 3's ellipses (`Disc`).
+    ellipses: bool,
     pub vertices: Vec<PlateauVertex>,
     pub cones: usize,
     pub sheets: usize,
@@ -430,6 +490,7 @@ impl<'a> PlateauBuilder<'a> {
             plane,
             radius,
             side: Side::Outer,
+            ellipses: false,
             vertices: Vec::new(),
             cones: 0,
             sheets: 0,
@@ -445,15 +506,23 @@ impl<'a> PlateauBuilder<'a> {
         self
     }
 
+    /// The same builder with elliptical cone bases (`Disc`): plateaus-centred's. The paper
+    /// form keeps its basic algorithm's circles.
+    pub fn with_ellipses(mut self) -> Self {
+        self.ellipses = true;
+        self
+    }
+
     /// A point in texture clip space with its depth.
     fn clip(&self, p: Vec2, depth: f32) -> [f32; 3] {
         let c = self.plane.uv(p) * 2.0 - Vec2::ONE;
         [c.x, c.y, depth]
     }
 
-    /// A cone with its apex at `c` (depth 0) and base circle of radius `r` (depth 1).
-    pub fn cone(&mut self, c: Vec2, r: f32) {
-        let texels = r / self.plane.texel();
+    /// A cone with its apex at the disc's centre (depth 0) and its base ellipse (depth 1).
+    pub fn cone(&mut self, disc: &Disc) {
+        let (c, r) = (disc.c, disc.r);
+        let texels = r * disc.k / self.plane.texel();
         // Below a thousandth of a texel the cone covers no sample.
         if texels.is_nan() || texels <= 1e-3 {
             return;
@@ -475,7 +544,7 @@ impl<'a> PlateauBuilder<'a> {
         points.extend(
             self.spokes[segments as usize]
                 .iter()
-                .map(|&d| self.clip(c + d * r, 1.0)),
+                .map(|&d| self.clip(c + disc.stretch(d * r, disc.k), 1.0)),
         );
         let apex = PlateauVertex {
             clip: self.clip(c, 0.0),
@@ -492,15 +561,28 @@ impl<'a> PlateauBuilder<'a> {
         self.cones += 1;
     }
 
-    /// The sheet on the outer (right-hand) side of the edge c1 -> c2 (the inner side for
-    /// `Side::Inner`) between the cones
-    /// (c1, r1) and (c2, r2), (P3).
-    pub fn sheet(&mut self, c1: Vec2, r1: f32, c2: Vec2, r2: f32) {
+    /// The sheet on the outer (right-hand) side of the edge between the discs' centres (the
+    /// inner side for `Side::Inner`), (P3). Two ellipses have no common tangent in closed
+    /// form: the sheet takes one stretch for both, the radius-weighted mean of theirs (the
+    /// larger disc's where the other is a point), and solves (P3) where that stretch is
+    /// undone, so it is tangent to both cones where their stretches agree.
+    pub fn sheet(&mut self, d1: &Disc, d2: &Disc) {
         let texel = self.plane.texel();
+        let (r1, r2) = (d1.r, d2.r);
+        if r1.max(r2).is_nan() || r1.max(r2) <= texel * 1e-3 {
+            return;
+        }
+        let axis = d1.a * (r1 * d1.k) + d2.a * (r2 * d2.k);
+        let k = (r1 * d1.k + r2 * d2.k) / (r1 + r2);
+        let frame = Disc::new(Vec2::ZERO, 0.0, axis, k);
+        // (P3) in the frame where the sheet's ellipses are circles.
+        let (c1, c2) = (
+            frame.stretch(d1.c, 1.0 / frame.k),
+            frame.stretch(d2.c, 1.0 / frame.k),
+        );
         let d = c2 - c1;
         let len = d.length();
-        if len.is_nan() || len <= texel * 1e-3 || r1.max(r2).is_nan() || r1.max(r2) <= texel * 1e-3
-        {
+        if len.is_nan() || len <= texel * 1e-3 {
             return;
         }
         let e = d / len;
@@ -520,7 +602,8 @@ impl<'a> PlateauBuilder<'a> {
             let s = i as f32 / n as f32;
             for j in 0..=n {
                 let t = j as f32 / n as f32;
-                points.push(self.clip(c1 + d * s + m * (t * (r1 + (r2 - r1) * s)), t));
+                let p = c1 + d * s + m * (t * (r1 + (r2 - r1) * s));
+                points.push(self.clip(frame.stretch(p, frame.k), t));
             }
         }
         let at = |i: u32, j: u32| PlateauVertex {
@@ -552,29 +635,32 @@ impl<'a> PlateauBuilder<'a> {
         let dirs = regions::directions();
         for e in sil {
             let disc = |i: u32| {
-                adj.positions.get(i as usize).and_then(|&x| {
-                    self.plane
-                        .vertex_disc(model.transform_point3(x), self.radius)
+                let x = model.transform_point3(*adj.positions.get(i as usize)?);
+                let d = self.plane.vertex_disc(x, self.radius)?;
+                Some(if self.ellipses {
+                    d
+                } else {
+                    Disc { k: 1.0, ..d }
                 })
             };
             let (da, db) = (disc(e.a), disc(e.b));
             self.reach = match (self.reach, da, db) {
-                (Some(s), Some((ca, ra)), Some((cb, rb))) => Some(std::array::from_fn(|k| {
-                    s[k].max(dirs[k].dot(ca) + ra).max(dirs[k].dot(cb) + rb)
+                (Some(s), Some(a), Some(b)) => Some(std::array::from_fn(|k| {
+                    s[k].max(a.support(dirs[k])).max(b.support(dirs[k]))
                 })),
                 _ => None,
             };
             for (i, d) in [(e.a, da), (e.b, db)] {
-                let (Some((c, r)), Some(slot)) = (d, mailbox.get_mut(i as usize)) else {
+                let (Some(disc), Some(slot)) = (d, mailbox.get_mut(i as usize)) else {
                     continue;
                 };
                 if *slot != stamp {
                     *slot = stamp;
-                    self.cone(c, r);
+                    self.cone(&disc);
                 }
             }
-            if let (Some((c1, r1)), Some((c2, r2))) = (da, db) {
-                self.sheet(c1, r1, c2, r2);
+            if let (Some(a), Some(b)) = (da, db) {
+                self.sheet(&a, &b);
             }
         }
     }
@@ -779,6 +865,9 @@ impl PlateauCommon {
                 let sil = silhouette::extract(adj, model, plane.light);
                 let build = |side: Side| {
                     let mut b = PlateauBuilder::new(plane, radius).with_side(side);
+                    if inner {
+                        b = b.with_ellipses();
+                    }
                     // Each caster's own mailbox: the casters build in parallel.
                     let mut mailbox = vec![0u64; adj.positions.len()];
                     b.silhouette(adj, &sil, model, &mut mailbox, 1);
@@ -872,7 +961,7 @@ mod tests {
             let c = m * x.extend(1.0);
             let got = Vec2::new(c.x, c.y) / c.w;
             assert!(c.z.abs() < 1e-6);
-            let (p, _) = pf.vertex_disc(x, 0.0).expect("below the light");
+            let p = pf.vertex_disc(x, 0.0).expect("below the light").c;
             let want = pf.uv(p) * 2.0 - Vec2::ONE;
             assert!((got - want).length() < 1e-4, "{got} vs {want}");
             // The projection lies on the line from the light through x, on the plane.
@@ -893,16 +982,80 @@ mod tests {
     fn cone_radius_is_the_outer_penumbra_of_a_parallel_disc() {
         let l = light(Vec3::new(0.0, 5.0, 0.0), Vec3::ZERO);
         let pf = PlaneFrame::new(&ground_receiver(), Mat4::IDENTITY, &l, 256);
-        let (_, r) = pf
+        let r = pf
             .vertex_disc(Vec3::new(1.0, 2.0, 0.0), 0.5)
-            .expect("below the light");
+            .expect("below the light")
+            .r;
         // Rays from the disc's rim through the point: R h / (H - h).
         assert!((r - 0.5 * 2.0 / 3.0).abs() < 1e-5, "{r}");
-        let (_, r0) = pf
+        let r0 = pf
             .vertex_disc(Vec3::new(1.0, 0.0, 0.0), 0.5)
-            .expect("on the plane");
+            .expect("on the plane")
+            .r;
         assert_eq!(r0, 0.0);
         assert!(pf.vertex_disc(Vec3::new(0.0, 5.5, 0.0), 0.5).is_none());
+    }
+
+    /// (P2e): a small disc light facing the point x, radius R, at L; the rays from its rim
+    /// through x, traced to the plane, land on an ellipse whose half-axes are measured here
+    /// against the disc's.
+    fn traced_half_axes(pf: &PlaneFrame, l: Vec3, x: Vec3, radius: f32) -> (Vec2, f32, f32) {
+        let axis = (x - l).normalize();
+        let (e1, e2) = axis.any_orthonormal_pair();
+        let hit = |q: Vec3| {
+            let d = x - q;
+            let t = -pf.height(q) / d.dot(pf.n);
+            pf.coords(q + d * t)
+        };
+        let centre = hit(l);
+        let rim: Vec<Vec2> = (0..720)
+            .map(|i| {
+                let a = std::f32::consts::TAU * i as f32 / 720.0;
+                hit(l + (e1 * a.cos() + e2 * a.sin()) * radius) - centre
+            })
+            .collect();
+        let away = (centre - pf.coords(l)).normalize();
+        let along = rim.iter().map(|p| p.dot(away).abs()).fold(0.0f32, f32::max);
+        let across = rim
+            .iter()
+            .map(|p| p.perp_dot(away).abs())
+            .fold(0.0f32, f32::max);
+        (centre, along, across)
+    }
+
+    #[test]
+    fn a_low_light_stretches_the_cone_base_towards_the_light() {
+        // Light low over the ground, far to the side: the rays meet the plane at a slant.
+        let l = light(Vec3::new(-6.0, 3.0, 1.0), Vec3::ZERO);
+        let pf = PlaneFrame::new(&ground_receiver(), Mat4::IDENTITY, &l, 256);
+        let x = Vec3::new(0.5, 1.2, -0.3);
+        let radius = 1e-3;
+        let disc = pf.vertex_disc(x, radius).expect("below the light");
+        let (centre, along, across) = traced_half_axes(&pf, l.position, x, radius);
+        assert!((disc.c - centre).length() < 1e-4, "{} vs {centre}", disc.c);
+        // Across the azimuth the half-axis is (P2)'s radius, along it k times that.
+        assert!(
+            (disc.r - across).abs() < 0.01 * across,
+            "{} vs {across}",
+            disc.r
+        );
+        assert!(
+            (disc.r * disc.k - along).abs() < 0.01 * along,
+            "{} vs {along}",
+            disc.r * disc.k
+        );
+        assert!(disc.k > 1.5, "the slant stretches: k {}", disc.k);
+        let away = (centre - pf.coords(l.position)).normalize();
+        assert!(disc.a.dot(away) > 0.9999, "major axis along the azimuth");
+        // Straight below the light the base is a circle.
+        let below = pf
+            .vertex_disc(Vec3::new(-6.0, 1.0, 1.0), radius)
+            .expect("below");
+        assert!((below.k - 1.0).abs() < 1e-5, "{}", below.k);
+        // The support along the azimuth reaches k r, across it r.
+        assert!((disc.support(disc.a) - disc.a.dot(disc.c) - disc.r * disc.k).abs() < 1e-6);
+        let perp = disc.a.perp();
+        assert!((disc.support(perp) - perp.dot(disc.c) - disc.r).abs() < 1e-6);
     }
 
     #[test]
@@ -946,15 +1099,16 @@ mod tests {
             let centre = sil
                 .iter()
                 .filter_map(|e| disc(e.a))
-                .map(|d| d.0)
+                .map(|d| d.c)
                 .sum::<Vec2>()
                 / sil.len() as f32;
             for e in &sil {
-                let (Some((c1, r1)), Some((c2, r2))) = (disc(e.a), disc(e.b)) else {
+                let (Some(d1), Some(d2)) = (disc(e.a), disc(e.b)) else {
                     panic!("cube below the light");
                 };
+                let (c1, c2) = (d1.c, d2.c);
                 let mut b = PlateauBuilder::new(&pf, 0.5);
-                b.sheet(c1, r1, c2, r2);
+                b.sheet(&d1, &d2);
                 assert_eq!(b.sheets, 1);
                 // Depth-1 vertices (the outer rim) lie farther from the shadow's centre.
                 let to_plane = |v: &PlateauVertex| {
@@ -970,7 +1124,7 @@ mod tests {
                 }
                 // plateaus-centred's inner sheet: the same edge (depth 0), its rim inside.
                 let mut inner = PlateauBuilder::new(&pf, 0.5).with_side(Side::Inner);
-                inner.sheet(c1, r1, c2, r2);
+                inner.sheet(&d1, &d2);
                 assert_eq!(inner.vertices.len(), b.vertices.len());
                 for (vi, vo) in inner.vertices.iter().zip(&b.vertices) {
                     assert_eq!(vi.clip[2], vo.clip[2]);

@@ -31,7 +31,13 @@
 //!    inner sheets in the texture's clip space (12-byte `PlateauVertex`, depth = t),
 //!    uploaded to two host-visible vertex buffers. The cones' bases are (P2e)'s ellipses,
 //!    not the paper form's circles (`PlateauBuilder::with_ellipses`): a low light stretches
-//!    each point's penumbra along its azimuth (2.5x at the tip of `cylinder`'s shadow).
+//!    each point's penumbra along its azimuth (2.5x at the tip of `cylinder`'s shadow). A
+//!    side's cone is drawn only at a vertex where that side's two sheets leave a gap
+//!    (`PlateauBuilder::with_trimmed_cones`, `sheets_cover`): the outer side's at convex
+//!    corners, the inner side's at reflex ones, either where the sheets' ends lean apart
+//!    by more than the corner turns. Elsewhere a sheet covers every texel of the cone at a
+//!    smaller t, so the cone would lose (LESS outside, MAX of disc_chord(t) inside) but
+//!    for its thin-blocker share, marched radially out of a thin blocker's tip.
 //! 1. `plateaus-centred/drop_shadow` — the casters through (P1) as the paper's pass
 //!    (glsl/plateaus/drop_shadow.vert/.frag, unchanged) but into their own attachment,
 //!    `coverage` R16_SFLOAT, clear 1.0, no blend, NO depth attachment: 0 under any
@@ -80,8 +86,8 @@
 //! - Outer: the darkest (LESS on depth t), as the paper. Exact for one edge; two casters'
 //!   overlapping outer penumbrae are never lighter than either alone.
 //! - Inner: the lightest (MAX). For a convex blocker the light reaching a point is at least
-//!   what the nearest edge alone lets through; the cones inside a convex corner are darker
-//!   than the sheets beside them and lose.
+//!   what the nearest edge alone lets through; a cone inside a convex corner would be darker
+//!   than the sheets beside it, and is not drawn.
 //! - Thin blockers: each inner fragment marches `coverage` inward (8 steps over the
 //!   half-width, then 3 bisections; not at all where the drop shadow still covers the texel
 //!   one half-width in, so a gap inside that reach is missed) for the drop shadow's far

@@ -53,6 +53,7 @@ use crate::vk::{
 use anyhow::{anyhow, Result};
 use bytemuck::{Pod, Zeroable};
 use glam::{Mat4, Vec2, Vec3, Vec4};
+use std::collections::HashMap;
 use std::sync::Arc;
 
 /// A receiver is planar when every vertex lies within this fraction of its bounds diagonal
@@ -455,6 +456,24 @@ impl Disc {
     }
 }
 
+/// The silhouette's edges at one vertex (`PlateauBuilder::sheets_cover`): how many arrive
+/// and leave, and the plane direction of the last of each.
+#[derive(Clone, Copy, Debug, Default)]
+struct Turn {
+    arriving: u32,
+    leaving: u32,
+    into: Vec2,
+    out: Vec2,
+    /// The cone radii at the vertex and at the other ends of its two edges.
+    r: f32,
+    r_prev: f32,
+    r_next: f32,
+}
+
+/// Radians by which two sheets must overlap at a vertex before its cone is left out: their
+/// ends are solved in each edge's own stretch (`sheet`), which the lean test above ignores.
+const TRIM_MARGIN: f32 = 0.05;
+
 /// Cones and sheets of one frame, in texture clip space.
 pub struct PlateauBuilder<'a> {
     plane: &'a PlaneFrame,
@@ -464,6 +483,8 @@ pub struct PlateauBuilder<'a> {
     side: Side,
     /// Cone bases: the paper's basic circles, or Sec. 3's ellipses (`Disc`).
     ellipses: bool,
+    /// Draw a vertex's cone only where the sheets on `side` leave a gap at it (`silhouette`).
+    trim_cones: bool,
     pub vertices: Vec<PlateauVertex>,
     pub cones: usize,
     pub sheets: usize,
@@ -491,6 +512,7 @@ impl<'a> PlateauBuilder<'a> {
             radius,
             side: Side::Outer,
             ellipses: false,
+            trim_cones: false,
             vertices: Vec::new(),
             cones: 0,
             sheets: 0,
@@ -510,6 +532,13 @@ impl<'a> PlateauBuilder<'a> {
     /// form keeps its basic algorithm's circles.
     pub fn with_ellipses(mut self) -> Self {
         self.ellipses = true;
+        self
+    }
+
+    /// The same builder drawing a vertex's cone only where its side's sheets leave a gap
+    /// (`silhouette`): plateaus-centred's. The paper form draws one at every vertex.
+    pub fn with_trimmed_cones(mut self) -> Self {
+        self.trim_cones = true;
         self
     }
 
@@ -622,6 +651,38 @@ impl<'a> PlateauBuilder<'a> {
         self.sheets += 1;
     }
 
+    /// Whether the sheets on this builder's side cover all a cone at `vertex` would. Where
+    /// the silhouette turns away from that side by psi (convex corners for the inner side,
+    /// reflex ones for the outer), the two edges' strips overlap there; each sheet's end
+    /// leans off the edge's normal by asin(a), a = (P3)'s (r1 - r2) / |c2 - c1|, and they
+    /// still meet while the outgoing sheet's lean less the incoming one's stays below psi
+    /// (by `TRIM_MARGIN`). Every point of the side near the vertex then lies in a sheet at a
+    /// t no larger than the cone's, so the cone loses everywhere (the outer side's LESS,
+    /// the inner side's MAX of disc_chord(t)). A vertex with other than one edge in and one
+    /// out keeps its cone.
+    fn sheets_cover(&self, turns: &HashMap<u32, Turn>, vertex: u32) -> bool {
+        let Some(t) = turns
+            .get(&vertex)
+            .filter(|t| t.arriving == 1 && t.leaving == 1)
+        else {
+            return false;
+        };
+        let (len_in, len_out) = (t.into.length(), t.out.length());
+        if !(len_in > 0.0 && len_out > 0.0) {
+            return false;
+        }
+        // The inside lies left of each edge: a left turn is a convex corner.
+        let left = t.into.perp_dot(t.out).atan2(t.into.dot(t.out));
+        let psi = match self.side {
+            Side::Inner => left,
+            Side::Outer => -left,
+        };
+        let lean = |a: f32| a.clamp(-1.0, 1.0).asin();
+        let a_in = (t.r_prev - t.r) / len_in;
+        let a_out = (t.r - t.r_next) / len_out;
+        psi > 0.0 && lean(a_out) - lean(a_in) <= psi - TRIM_MARGIN
+    }
+
     /// Cones at the vertices and sheets along the edges of one object's silhouette. `mailbox`
     /// (one entry per welded vertex) holds the stamp of the frame that last drew its cone.
     pub fn silhouette(
@@ -633,16 +694,32 @@ impl<'a> PlateauBuilder<'a> {
         stamp: u64,
     ) {
         let dirs = regions::directions();
+        let (plane, radius, ellipses) = (self.plane, self.radius, self.ellipses);
+        let disc = |i: u32| {
+            let x = model.transform_point3(*adj.positions.get(i as usize)?);
+            let d = plane.vertex_disc(x, radius)?;
+            Some(if ellipses { d } else { Disc { k: 1.0, ..d } })
+        };
+        let mut turns: HashMap<u32, Turn> = HashMap::new();
+        if self.trim_cones {
+            for e in sil {
+                let (Some(da), Some(db)) = (disc(e.a), disc(e.b)) else {
+                    continue;
+                };
+                let along = db.c - da.c;
+                let out = turns.entry(e.a).or_default();
+                out.leaving += 1;
+                out.out = along;
+                out.r = da.r;
+                out.r_next = db.r;
+                let into = turns.entry(e.b).or_default();
+                into.arriving += 1;
+                into.into = along;
+                into.r = db.r;
+                into.r_prev = da.r;
+            }
+        }
         for e in sil {
-            let disc = |i: u32| {
-                let x = model.transform_point3(*adj.positions.get(i as usize)?);
-                let d = self.plane.vertex_disc(x, self.radius)?;
-                Some(if self.ellipses {
-                    d
-                } else {
-                    Disc { k: 1.0, ..d }
-                })
-            };
             let (da, db) = (disc(e.a), disc(e.b));
             self.reach = match (self.reach, da, db) {
                 (Some(s), Some(a), Some(b)) => Some(std::array::from_fn(|k| {
@@ -656,7 +733,9 @@ impl<'a> PlateauBuilder<'a> {
                 };
                 if *slot != stamp {
                     *slot = stamp;
-                    self.cone(&disc);
+                    if !(self.trim_cones && self.sheets_cover(&turns, i)) {
+                        self.cone(&disc);
+                    }
                 }
             }
             if let (Some(a), Some(b)) = (da, db) {
@@ -866,7 +945,7 @@ impl PlateauCommon {
                 let build = |side: Side| {
                     let mut b = PlateauBuilder::new(plane, radius).with_side(side);
                     if inner {
-                        b = b.with_ellipses();
+                        b = b.with_ellipses().with_trimmed_cones();
                     }
                     // Each caster's own mailbox: the casters build in parallel.
                     let mut mailbox = vec![0u64; adj.positions.len()];
@@ -909,6 +988,7 @@ mod tests {
     use super::*;
     use crate::scene::{primitives, Light, Object, Role};
     use crate::silhouette::test_meshes::cube;
+    use std::collections::HashMap;
     use std::sync::Arc;
 
     fn light(position: Vec3, target: Vec3) -> LightView {

@@ -988,7 +988,6 @@ mod tests {
     use super::*;
     use crate::scene::{primitives, Light, Object, Role};
     use crate::silhouette::test_meshes::cube;
-    use std::collections::HashMap;
     use std::sync::Arc;
 
     fn light(position: Vec3, target: Vec3) -> LightView {

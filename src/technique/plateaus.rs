@@ -46,8 +46,10 @@
 //! the paper's "cones with elliptical bases, with the major axis of the ellipse pointing
 //! towards the light" for a light near the horizon (Sec. 3). This form keeps the basic
 //! algorithm's circles (k = 1); `plateaus-centred` draws the ellipses (`Disc`,
-//! src/technique/plateaus_common.rs): its cones are stretched by k along the azimuth and
-//! each sheet solves (P3) where its two discs' mean stretch is undone.
+//! src/technique/plateaus_common.rs): its cones are stretched by k along the azimuth (k at
+//! most `MAX_STRETCH`, 4: below a ray 14.5 degrees over the plane the ray cone's section is
+//! no ellipse around P(x)) and each sheet solves (P3) where its two discs' mean stretch is
+//! undone.
 //!
 //! ## Under a sun
 //! A sun is every direction within its angular radius theta of its unit direction s

@@ -471,7 +471,8 @@ struct Turn {
 }
 
 /// Radians by which two sheets must overlap at a vertex before its cone is left out: their
-/// ends are solved in each edge's own stretch (`sheet`), which the lean test above ignores.
+/// ends are solved in each edge's own stretch (`sheet`), which `sheets_cover`'s lean test
+/// ignores.
 const TRIM_MARGIN: f32 = 0.05;
 
 /// Cones and sheets of one frame, in texture clip space.

@@ -7,6 +7,7 @@ mod common;
 use common::{small, Gpu};
 use softshadow::render::Renderer;
 use softshadow::scene::Scene;
+use softshadow::vk::FrameTimings;
 
 /// The counted light pass `pass` of `technique` on `scene` (128^2, 512^2 maps): its texel
 /// reads, warp-summed, and its march iterations.
@@ -36,14 +37,7 @@ fn light_pass_work(gpu: &Gpu, scene: &str, technique: &str, pass: &str, plain: b
     let mut settings = small(128, 512);
     settings.plain = plain;
     let mut r = Renderer::new(&gpu.ctx, scene, technique, settings).unwrap();
-    let t = r.render().unwrap();
-    let frags = t
-        .passes
-        .iter()
-        .find(|p| p.name == pass)
-        .and_then(|p| p.stats)
-        .unwrap_or_else(|| panic!("{pass} has statistics on lavapipe"))
-        .fragment_invocations;
+    let frags = pass_fragments(&r.render().unwrap(), pass);
     let counts = r.count_lookups().unwrap();
     let light = counts
         .light
@@ -51,6 +45,16 @@ fn light_pass_work(gpu: &Gpu, scene: &str, technique: &str, pass: &str, plain: b
         .find(|l| l.name == pass)
         .unwrap_or_else(|| panic!("{pass} is counted"));
     (frags, light.warp_texels)
+}
+
+/// Pass `pass`'s fragment invocations in one frame's timings (a pipeline-statistics query).
+fn pass_fragments(t: &FrameTimings, pass: &str) -> u64 {
+    t.passes
+        .iter()
+        .find(|p| p.name == pass)
+        .and_then(|p| p.stats)
+        .unwrap_or_else(|| panic!("{pass} has statistics on lavapipe"))
+        .fragment_invocations
 }
 
 /// smoothies-centred's outer smoothies shortened as the paper form's (to where Eq. 1
@@ -194,7 +198,7 @@ fn penumbra_cones_stop_at_the_deepest_receiver_under_them() {
 
 /// plateaus-centred draws a vertex's cone only where the sheets on its side leave a gap
 /// (src/technique/plateaus_common.rs, `PlateauBuilder::sheets_cover`): its inner pass
-/// skips the convex corners' cones, its plateau pass the reflex corners'. At 128^2, 512^2
+/// leaves out the convex corners' cones, its plateau pass the reflex ones. At 128^2, 512^2
 /// maps, inner-pass fragments on `cylinder` and plateau-pass fragments on `bunny`: 118,768
 /// and 212,432 with a cone at every vertex, 19,696 and 179,088 with the gaps' alone.
 #[test]
@@ -203,13 +207,7 @@ fn plateau_cones_are_drawn_only_where_the_sheets_leave_a_gap() {
     let fragments = |scene: &str, pass: &str| {
         let scene = Scene::load(scene).unwrap();
         let mut r = Renderer::new(&gpu.ctx, scene, "plateaus-centred", small(128, 512)).unwrap();
-        let t = r.render().unwrap();
-        t.passes
-            .iter()
-            .find(|p| p.name == pass)
-            .and_then(|p| p.stats)
-            .unwrap_or_else(|| panic!("{pass} has statistics on lavapipe"))
-            .fragment_invocations
+        pass_fragments(&r.render().unwrap(), pass)
     };
     let cylinder_inner = fragments("cylinder", "plateaus-centred/inner");
     let bunny_outer = fragments("bunny", "plateaus-centred/plateaus");

@@ -701,10 +701,12 @@ impl<'a> PlateauBuilder<'a> {
             let d = plane.vertex_disc(x, radius)?;
             Some(if ellipses { d } else { Disc { k: 1.0, ..d } })
         };
+        // Each edge's two discs, once: the turns and the geometry below both read them.
+        let discs: Vec<_> = sil.iter().map(|e| (disc(e.a), disc(e.b))).collect();
         let mut turns: HashMap<u32, Turn> = HashMap::new();
         if self.trim_cones {
-            for e in sil {
-                let (Some(da), Some(db)) = (disc(e.a), disc(e.b)) else {
+            for (e, ends) in sil.iter().zip(&discs) {
+                let &(Some(da), Some(db)) = ends else {
                     continue;
                 };
                 let along = db.c - da.c;
@@ -720,8 +722,7 @@ impl<'a> PlateauBuilder<'a> {
                 into.r_prev = da.r;
             }
         }
-        for e in sil {
-            let (da, db) = (disc(e.a), disc(e.b));
+        for (e, &(da, db)) in sil.iter().zip(&discs) {
             self.reach = match (self.reach, da, db) {
                 (Some(s), Some(a), Some(b)) => Some(std::array::from_fn(|k| {
                     s[k].max(a.support(dirs[k])).max(b.support(dirs[k]))

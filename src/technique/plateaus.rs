@@ -66,8 +66,9 @@
 //! Silhouettes are taken from a point `SUN_DISTANCE` plane diagonals along s (the facing
 //! test only needs the direction). A low sun stretches the true penumbra along its azimuth
 //! by 1 / (n . s) ((P2e)); this form keeps the circle across it, as it keeps the
-//! spotlight's (Known artefacts). The speed layer's regions follow the central projection and are not planned
-//! for a sun: its final pass runs everywhere and its textures are drawn whole.
+//! spotlight's (Known artefacts). The speed layer's regions follow the central projection
+//! and are not planned for a sun: its final pass runs everywhere and its textures are drawn
+//! whole.
 //!
 //! ## Passes, in order
 //! 0. CPU `plateaus/silhouettes` (only when R > 0) — per caster (not the plane) silhouette

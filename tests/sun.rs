@@ -686,3 +686,103 @@ fn plateaus_ssm_smoothies_and_penumbra_maps_at_a_tiny_sun_equal_hard() {
         assert!(off * 200 < n, "{technique}: {off} of {n} pixels over 0.01");
     }
 }
+
+/// The value after `key` on the line of `report` that starts with it, as f64.
+fn reported(report: &str, key: &str) -> f64 {
+    report
+        .lines()
+        .find_map(|l| l.strip_prefix(key))
+        .and_then(|rest| rest.split_whitespace().next())
+        .and_then(|v| v.parse().ok())
+        .unwrap_or_else(|| panic!("no `{key}` in:\n{report}"))
+}
+
+/// `bench` and `compare` judge a sun scene's pixels alike: facing the sun is n . d >= 0.2
+/// along its direction d, not towards the point a sun's map is anchored at (40 units up its
+/// axis here). A sun 11.9 degrees over the ground (n . d = 0.206) casts a long shadow; seen
+/// from that point, the ground more than about 2 units beyond the box is below 0.2.
+#[test]
+fn bench_and_compare_judge_a_sun_scene_alike() {
+    let dir = std::env::temp_dir().join(format!("softshadow-sun-judged-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let scene = dir.join("scene.toml");
+    std::fs::write(&scene, sun_box_toml([1.0, 0.21, 0.0], 2.0)).unwrap();
+    let scene = scene.to_str().unwrap();
+    let size = ["--width", "64", "--height", "48"];
+    let run = |args: &[&str]| {
+        let o = common::softshadow(args);
+        let (out, err) = (
+            String::from_utf8_lossy(&o.stdout),
+            String::from_utf8_lossy(&o.stderr),
+        );
+        // bench reports its progress on stderr; a validation message or warning fails.
+        let clean = !err.contains("VUID") && !err.contains("error") && !err.contains("warning");
+        assert!(o.status.success() && clean, "{args:?}:\n{out}\n{err}");
+        out.into_owned()
+    };
+    let path = |name: &str| dir.join(name).to_str().unwrap().to_owned();
+    for t in ["hard", "reference"] {
+        let (aov, png) = (path(t), path(&format!("{t}.png")));
+        let args = [
+            "render",
+            "--scene",
+            scene,
+            "--technique",
+            t,
+            "--shadow-res",
+            "128",
+        ];
+        run(&[&args[..], &size, &["--aov", &aov, "--out", &png]].concat());
+    }
+    let (r, h, c) = (path("reference"), path("hard"), path("compare.png"));
+    let report = run(&[
+        "compare",
+        "--reference",
+        &r,
+        "--test",
+        &h,
+        "--scene",
+        scene,
+        "--out",
+        &c,
+    ]);
+    let out = path("bench");
+    let args = [
+        "bench",
+        "--scenes",
+        scene,
+        "--techniques",
+        "hard",
+        "--resolutions",
+        "128",
+    ];
+    run(&[
+        &args[..],
+        &size,
+        &["--frames", "1", "--warmup", "0", "--out", &out],
+    ]
+    .concat());
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("bench/results.json")).unwrap())
+            .unwrap();
+    let row = &json["results"][0];
+    let e = &row["errors"];
+    let facing = report
+        .split(" of them facing the light")
+        .next()
+        .and_then(|head| head.rsplit(' ').next())
+        .and_then(|n| n.parse::<u64>().ok())
+        .unwrap_or_else(|| panic!("no facing count in:\n{report}"));
+    assert!(
+        facing > 100,
+        "only {facing} judged shadow pixels:\n{report}"
+    );
+    assert_eq!(e["lit_pixels"].as_u64(), Some(facing), "{row}\n{report}");
+    let mae_lit = e["mae_lit"].as_f64().unwrap();
+    assert!(
+        (mae_lit - reported(&report, "mae_lit")).abs() < 1e-5,
+        "bench mae_lit {mae_lit}:\n{report}"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}

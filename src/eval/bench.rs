@@ -8,7 +8,7 @@
 //! `reference` technique's frame (rendered once per scene, image size and radius, its ray
 //! cast read from the on-disk cache of `reference::visibility_cached` when computed before):
 //! `metrics::errors` over the covered pixels (position alpha > 0.5), with `mae_lit` and
-//! `p99_lit` over those facing the light (`metrics::faces_light`, the scene's light centre),
+//! `p99_lit` over those facing the light (`metrics::faces`: a spotlight's centre, a sun's direction),
 //! and `metrics::flip` of the shaded image against the reference's shaded image.
 //! Frame time is the sum of the passes that ran (`FrameTimings::gpu_total_ms`); the ratio to
 //! `hard` divides by hard's median on the same scene, image size, buffer resolution, radius
@@ -1286,7 +1286,7 @@ impl Sweep<'_> {
         }
 
         let covered = metrics::judged(&images.position, &images.spot);
-        let facing = metrics::faces_light(&images.position, &images.normal, base.light.position);
+        let facing = metrics::faces(&images.position, &images.normal, &base.light);
         let errors = metrics::errors(&images.visibility, v_ref, &covered, &facing);
         let false_edges = metrics::false_edges(
             &images.visibility,

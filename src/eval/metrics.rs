@@ -64,6 +64,17 @@ pub fn percentile(values: &mut [f64], q: f64) -> f64 {
     values[rank.clamp(1, values.len()) - 1]
 }
 
+/// The pixels facing `light` (`mae_lit`'s and `p99_lit`'s): [`faces_sun`] along a sun's
+/// direction, [`faces_light`] towards a spotlight's centre. A sun's `position` is only where
+/// its map is anchored, so testing against it as a point would judge other pixels.
+pub fn faces(position: &[[f32; 4]], normal: &[[f32; 3]], light: &crate::scene::Light) -> Vec<bool> {
+    if light.is_sun() {
+        faces_sun(position, normal, light.direction())
+    } else {
+        faces_light(position, normal, light.position)
+    }
+}
+
 /// Like [`faces_light`] for a sun: the pixels on a surface whose normal makes n.l >=
 /// `LIT_COS` with the unit direction towards the sun, `towards` (any length, not zero).
 ///

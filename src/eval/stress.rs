@@ -18,7 +18,7 @@
 //! `--quick` shrinks images, buffers, frame counts and the largest mesh so the whole suite
 //! runs in CI on lavapipe in under two minutes; the full suite uses larger sizes.
 
-use crate::eval::metrics::{errors, faces_light, faces_sun, Errors};
+use crate::eval::metrics::{errors, faces, Errors};
 use crate::output::FrameImages;
 use crate::reference::{visibility_cached, ReferenceParams};
 use crate::render::Renderer;
@@ -1292,13 +1292,9 @@ pub fn snap_light(base: &Light, l: Light, shadow_res: u32) -> Light {
 }
 
 /// The reference visibility at the pixels of `img` (the `hard` render of the same view).
-/// The pixels facing `light`: towards a spotlight's centre, or along a sun's direction.
+/// The pixels facing `light` (`metrics::faces`).
 fn facing(img: &FrameImages, light: &Light) -> Vec<bool> {
-    if light.is_sun() {
-        faces_sun(&img.position, &img.normal, light.direction())
-    } else {
-        faces_light(&img.position, &img.normal, light.position)
-    }
+    faces(&img.position, &img.normal, light)
 }
 
 fn reference_for(scene: &Scene, radius: f32, img: &FrameImages, samples: u32) -> Result<Vec<f32>> {

@@ -12,6 +12,39 @@ use softshadow::vk::{Context, ContextOptions};
 use std::path::PathBuf;
 use std::process::ExitCode;
 
+/// `println!` for the command's own output (see [`say`]).
+macro_rules! outln {
+    () => {
+        say(format_args!("\n"))
+    };
+    ($($t:tt)*) => {
+        say(format_args!("{}\n", format_args!($($t)*)))
+    };
+}
+
+/// `print!` for the command's own output (see [`say`]).
+macro_rules! out {
+    ($($t:tt)*) => {
+        say(format_args!($($t)*))
+    };
+}
+
+/// Writes to standard output. A reader that has gone (`softshadow describe | head`) ends
+/// the output, not the command: Rust's `println!` panics there. Any other write error is
+/// one `error:` line and exit 1.
+fn say(args: std::fmt::Arguments) {
+    use std::io::Write;
+    match std::io::stdout().lock().write_fmt(args) {
+        Ok(()) => {}
+        Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => {}
+        Err(e) => {
+            softshadow::output::remove_pending_outputs();
+            eprintln!("error: cannot write to standard output: {e}");
+            std::process::exit(1);
+        }
+    }
+}
+
 /// Scene of `render` and `export` when none is named.
 const DEFAULT_SCENE: &str = "cylinder";
 /// Technique of `render` when none is named.
@@ -513,7 +546,7 @@ fn open_device_on(cli: &Cli, stderr: bool) -> Result<Context> {
     let ctx = Context::new(&opts)?;
     match stderr {
         true => eprintln!("{}", ctx.describe()),
-        false => println!("{}", ctx.describe()),
+        false => outln!("{}", ctx.describe()),
     }
     Ok(ctx)
 }
@@ -544,7 +577,7 @@ fn run(cli: Cli) -> Result<()> {
             let scene = Scene::load_with(&a.scene, &load_options(&cli))?;
             if let Some(obj) = &a.obj {
                 softshadow::scene::export::export_obj(&scene, obj, a.width, a.height)?;
-                println!(
+                outln!(
                     "wrote {} ({} triangles) and its .json",
                     obj.display(),
                     scene.triangle_count()
@@ -552,7 +585,7 @@ fn run(cli: Cli) -> Result<()> {
             }
             if let Some(gltf) = &a.gltf {
                 softshadow::scene::export_gltf(&scene, gltf, a.width, a.height)?;
-                println!(
+                outln!(
                     "wrote {} ({} triangles, light and camera)",
                     gltf.display(),
                     scene.triangle_count()
@@ -596,7 +629,7 @@ fn describe(cli: &Cli, a: &DescribeArgs) -> Result<()> {
     ctx.check_validation()?;
     let Some(dir) = &a.out else {
         for (_, sheet) in &sheets {
-            print!("{sheet}");
+            out!("{sheet}");
         }
         return Ok(());
     };
@@ -609,7 +642,7 @@ fn describe(cli: &Cli, a: &DescribeArgs) -> Result<()> {
     }
     publish.commit()?;
     for (name, _) in &sheets {
-        println!("wrote {}", path_of(dir, name).display());
+        outln!("wrote {}", path_of(dir, name).display());
     }
     Ok(())
 }
@@ -705,13 +738,13 @@ fn render(cli: &Cli, a: &RenderArgs) -> Result<()> {
         }
     }
     publish.commit()?;
-    println!("wrote {}", a.out.display());
+    outln!("wrote {}", a.out.display());
     if let Some(dir) = &a.aov {
-        println!("wrote {}/{{visibility,position,normal}}.exr", dir.display());
+        outln!("wrote {}/{{visibility,position,normal}}.exr", dir.display());
     }
     if let Some(dir) = &a.buffers {
         if buffer_paths.is_empty() {
-            println!(
+            outln!(
                 "{} renders no light-space buffers: nothing written to {}",
                 a.technique,
                 dir.display()
@@ -719,7 +752,7 @@ fn render(cli: &Cli, a: &RenderArgs) -> Result<()> {
         }
     }
     for (path, channels) in buffer_paths {
-        println!("wrote {} ({})", path.display(), channels.join(", "));
+        outln!("wrote {} ({})", path.display(), channels.join(", "));
     }
     if a.timings {
         // Median per pass over the frames after two warm-up frames.
@@ -731,15 +764,15 @@ fn render(cli: &Cli, a: &RenderArgs) -> Result<()> {
             p.gpu_ms = v.get(v.len() / 2).copied().or(p.gpu_ms);
         }
         if !ctx.pipeline_statistics {
-            println!("{}", softshadow::vk::NO_PIPELINE_STATISTICS);
+            outln!("{}", softshadow::vk::NO_PIPELINE_STATISTICS);
         }
-        print!("{}", report.report());
+        out!("{}", report.report());
         // Counted lookups of the light passes (per map texel, as their fragments) and of the
         // final pass (per pixel), from an untimed counting frame.
         let c = r.count_lookups()?;
         let tx = (report.map_texels.max(1)) as f64;
         for l in &c.light {
-            println!(
+            outln!(
                 "work {} texels {:.2}/tx (warp {:.2}/tx), search {:.2}/tx, filter {:.2}/tx, march {:.2}/tx",
                 l.name,
                 l.texels as f64 / tx,
@@ -750,7 +783,7 @@ fn render(cli: &Cli, a: &RenderArgs) -> Result<()> {
             );
         }
         let px = (c.width as u64 * c.height as u64).max(1) as f64;
-        println!(
+        outln!(
             "work {} texels {:.2}/px (warp {:.2}/px), search {:.2}/px, filter {:.2}/px, march {:.2}/px",
             c.pass,
             c.sum(0) as f64 / px,
@@ -805,7 +838,7 @@ fn run_bench(cli: &Cli, a: &BenchArgs) -> Result<()> {
     let plan = bench::prepare(config)?;
     let ctx = open_device(cli)?;
     if plan.hard_added {
-        println!("note: hard added to the sweep (every ratio is to hard)");
+        outln!("note: hard added to the sweep (every ratio is to hard)");
     }
     // Once per technique that has no tuned module, not once per row or frame.
     if a.spirv.contains(&SpirvChoice::Tuned) {
@@ -819,17 +852,17 @@ fn run_bench(cli: &Cli, a: &BenchArgs) -> Result<()> {
             }
         }
     }
-    println!(
+    outln!(
         "bench: {} sweep points ({} scenes x {} rows x buffers x radii x motions)",
         plan.len(),
         plan.scenes.len(),
         plan.variants.len()
     );
     if !ctx.pipeline_statistics {
-        println!("{}", softshadow::vk::NO_PIPELINE_STATISTICS);
+        outln!("{}", softshadow::vk::NO_PIPELINE_STATISTICS);
     }
     let outcome = bench::run(&ctx, plan)?;
-    println!(
+    outln!(
         "wrote {} files into {}: report.md, results.csv, results.json, time_vs_error.png, lookups_vs_error.png, images/",
         outcome.files.len(),
         outcome.out.display()
@@ -936,12 +969,12 @@ fn compare(cli: &Cli, a: &CompareArgs) -> Result<()> {
         reference_image: a.reference_image.clone(),
         test_image: a.test_image.clone(),
     })?;
-    print!("{}", c.report());
+    out!("{}", c.report());
     for w in &c.warnings {
         eprintln!("warning: {w}");
     }
     compare::write_diff(&a.out, &c)?;
-    println!("wrote {}", a.out.display());
+    outln!("wrote {}", a.out.display());
     if c.facing_pixels == 0 {
         // Any bound would pass on nothing: a comparison that judged no pixel is no pass.
         eprintln!(
@@ -973,7 +1006,7 @@ fn stress(cli: &Cli, a: &StressArgs) -> Result<()> {
     softshadow::output::check_dir(&a.out, "--out")?;
     let ctx = open_device(cli)?;
     let report = stress::run(&ctx, &opts, &mut |r| {
-        println!(
+        outln!(
             "{:<24} {:<13} {} ({:.1} s){}",
             r.case,
             r.technique,
@@ -994,7 +1027,7 @@ fn stress(cli: &Cli, a: &StressArgs) -> Result<()> {
         )
     })?;
     report.write(&a.out)?;
-    println!("wrote {0}/stress.md and {0}/stress.json", a.out.display());
+    outln!("wrote {0}/stress.md and {0}/stress.json", a.out.display());
     let failed = report.failed();
     if !failed.is_empty() {
         bail!(
@@ -1004,7 +1037,7 @@ fn stress(cli: &Cli, a: &StressArgs) -> Result<()> {
             a.out.display()
         );
     }
-    println!(
+    outln!(
         "all {} rows passed in {:.0} s",
         report.rows.len(),
         report.seconds

@@ -351,3 +351,34 @@ fn export_writes_obj_and_json() {
         );
     }
 }
+
+/// A reader that stops early (`softshadow describe | head -3`) ends the output, not with an
+/// internal error: Rust's `println!` panics when standard output's pipe has closed. The
+/// pipe's read end is closed before the command writes (it opens a device first).
+#[test]
+fn a_closed_output_pipe_is_not_an_internal_error() {
+    use std::process::Stdio;
+    let png = tmp("closed-pipe.png");
+    let png = png.to_str().unwrap();
+    for args in [
+        &["describe", "--technique", "hard"][..],
+        &["render", "--width", "32", "--height", "32", "--out", png][..],
+    ] {
+        let mut child = Command::new(env!("CARGO_BIN_EXE_softshadow"))
+            .args(args)
+            .arg("--validation")
+            .env_remove("SOFTSHADOW_DEVICE")
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .expect("running softshadow");
+        drop(child.stdout.take());
+        let o = child.wait_with_output().unwrap();
+        let stderr = String::from_utf8_lossy(&o.stderr);
+        assert!(o.status.success(), "{args:?}: {:?}\n{stderr}", o.status);
+        assert!(
+            !stderr.contains("internal error") && !stderr.contains("panicked"),
+            "{args:?}:\n{stderr}"
+        );
+    }
+}

@@ -111,7 +111,13 @@
 //! straight-edge profile, so curved outlines get a slightly too dark inner penumbra. A
 //! sheet takes one stretch for both its cones, so where the stretch changes along an edge
 //! it meets them off their tangents (a crease, at most the two ellipses' difference). The
-//! march and the hidden-edge test are quantised to the texture's texels. The inner
+//! march and the hidden-edge test are quantised to the texture's texels. Where a sheet's
+//! rim is not parallel to its edge (discs of two sizes), t's gradient in a grid triangle
+//! crosses the edge at a slant, so the hidden-edge test's point can fall on the coverage
+//! image's staircase beside the edge: single umbra texels (dark specks) in wide inner
+//! penumbrae, most of `cylinder`'s false edges at 2x and 3x its radius. Reading that point
+//! a texel farther out removes them but lets a thin covering caster's edge through (`fence`,
+//! `bunny`: mae_lit up 0.0004); the fix is the ruling (m r(s) of (P3)) per vertex. The inner
 //! fragments cost up to 14 texel fetches each (own texel, hidden-edge test, the texel one
 //! half-width in, and the 8 + 3 march steps only where the drop shadow has ended by then),
 //! only inside the drop shadow.

@@ -21,6 +21,8 @@
 #include "common/penumbra.glsl"
 
 layout(set = 0, binding = 0) uniform sampler2D coverage;   // R16F: 0 under a drop shadow, 1 elsewhere
+// Clip-space step from this fragment's edge point along its cone's spoke or sheet's ruling.
+layout(location = 0) noperspective in vec2 v_from_edge;
 layout(location = 0) out float o_inner;
 
 #define INNER_MAP coverage
@@ -41,7 +43,14 @@ void main() {
     float w_tex = 1.0 / g;
     vec2 here = gl_FragCoord.xy;
     if (!(t < 1.0) || !blocked_at(here, 0.0)) discard;
-    vec2 outside = here - dir * (t * w_tex + OUT_TEXELS);
+    // The hidden-edge test reads OUT_TEXELS beyond the fragment's own edge point, back along
+    // its ruling: t's gradient crosses the edge at a slant where a sheet's rim is not
+    // parallel to it, and a point found along the gradient can land on the coverage image's
+    // staircase beside the edge (single umbra texels in the penumbra).
+    vec2 from_edge = v_from_edge * (0.5 * vec2(textureSize(coverage, 0)));
+    float reach = length(from_edge);
+    vec2 out_dir = reach > 1e-3 ? from_edge / reach : dir;
+    vec2 outside = here - from_edge - out_dir * OUT_TEXELS;
     if (inside_map(outside) && blocked_at(outside, 0.0)) discard;
     float v = disc_chord(t);
     float far_edge = far_edge_texels(here, dir, w_tex, 0.0);

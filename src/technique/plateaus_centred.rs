@@ -28,8 +28,9 @@
 //! ## Passes, in order
 //! 0. CPU `plateaus-centred/silhouettes` (R > 0, light above the plane) — per caster:
 //!    silhouette from the light centre, then its cones and outer sheets and its cones and
-//!    inner sheets in the texture's clip space (12-byte `PlateauVertex`, depth = t),
-//!    uploaded to two host-visible vertex buffers. The cones' bases are (P2e)'s ellipses,
+//!    inner sheets in the texture's clip space (20-byte `PlateauVertex`: x, y, depth = t,
+//!    and `from_edge`, the step from the vertex's edge point along its cone's spoke or
+//!    sheet's ruling), uploaded to two host-visible vertex buffers. The cones' bases are (P2e)'s ellipses,
 //!    not the paper form's circles (`PlateauBuilder::with_ellipses`): a low light stretches
 //!    each point's penumbra along its azimuth (2.5x at the tip of `cylinder`'s shadow). A
 //!    side's cone is drawn only at a vertex where that side's two sheets leave a gap
@@ -49,10 +50,13 @@
 //!    darkest-wins by depth; f = the smallest outer fraction at each texel.
 //! 3. `plateaus-centred/inner` — always runs: the cones and inner sheets into `inner`
 //!    R16_SFLOAT, clear 0.0, blend MAX (the lightest inner estimate wins), no depth
-//!    attachment; plateau.vert, then `glsl/plateaus_centred/inner.frag` (reads `coverage`
-//!    at set 0 binding 0): t = the fragment's depth; discarded outside the drop shadow, and
-//!    where the plane 1.5 texels outside the edge (along minus the gradient of t) is under
-//!    a drop shadow too (a caster nearer the light there covers the edge's outside; a
+//!    attachment; `glsl/plateaus_centred/inner.vert` (plateau.vert with `from_edge`
+//!    interpolated), then `glsl/plateaus_centred/inner.frag` (reads `coverage` at set 0
+//!    binding 0): t = the fragment's depth; discarded outside the drop shadow, and where
+//!    the plane 1.5 texels outside the fragment's own edge point (back along its ruling:
+//!    where a sheet's rim is not parallel to its edge, t's gradient crosses the edge at a
+//!    slant and a point found along it can land on the coverage image's staircase, a
+//!    single umbra texel in the penumbra) is under a drop shadow too (a caster nearer the light there covers the edge's outside; a
 //!    farther one blocks what the edge lets through, and one MAX image cannot take the
 //!    minimum over casters: the union's outline draws the inner penumbra instead). Else
 //!    v = disc_chord(t) plus the thin-blocker term below.
@@ -111,19 +115,13 @@
 //! straight-edge profile, so curved outlines get a slightly too dark inner penumbra. A
 //! sheet takes one stretch for both its cones, so where the stretch changes along an edge
 //! it meets them off their tangents (a crease, at most the two ellipses' difference). The
-//! march and the hidden-edge test are quantised to the texture's texels. Where a sheet's
-//! rim is not parallel to its edge (discs of two sizes), t's gradient in a grid triangle
-//! crosses the edge at a slant, so the hidden-edge test's point can fall on the coverage
-//! image's staircase beside the edge: single umbra texels (dark specks) in wide inner
-//! penumbrae, most of `cylinder`'s false edges at 2x and 3x its radius. Reading that point
-//! a texel farther out removes them but lets a thin covering caster's edge through (`fence`,
-//! `bunny`: mae_lit up 0.0004); the fix is the ruling (m r(s) of (P3)) per vertex. The inner
+//! march and the hidden-edge test are quantised to the texture's texels. The inner
 //! fragments cost up to 14 texel fetches each (own texel, hidden-edge test, the texel one
 //! half-width in, and the 8 + 3 march steps only where the drop shadow has ended by then),
 //! only inside the drop shadow.
 
 use super::plateaus::{drop_shadow_pipeline, plateau_pipeline};
-use super::plateaus_common::{PlateauCommon, PLATEAU_ATTRIBUTES, PLATEAU_VERTEX_BYTES};
+use super::plateaus_common::{PlateauCommon, PLATEAU_EDGE_ATTRIBUTES, PLATEAU_VERTEX_BYTES};
 use super::{shadow_map_buffer, FrameInput, LightBuffer, Technique, TechniqueInfo, TechniqueInit};
 use crate::gpu::passes::{DynamicVertices, FinalPass, FinalShader, Shadowed};
 use crate::shaders;
@@ -210,10 +208,10 @@ impl PlateausCentred {
             ctx,
             &GraphicsPipelineDesc {
                 name: NAMES.inner,
-                vertex: shaders::PLATEAUS_PLATEAU_VERT,
+                vertex: shaders::PLATEAUS_CENTRED_INNER_VERT,
                 fragment: Some(shaders::PLATEAUS_CENTRED_INNER_FRAG),
                 vertex_stride: PLATEAU_VERTEX_BYTES,
-                attributes: PLATEAU_ATTRIBUTES,
+                attributes: PLATEAU_EDGE_ATTRIBUTES,
                 topology: PrimitiveTopology::TRIANGLE_LIST,
                 cull: CullModeFlags::NONE,
                 // Lightest inner estimate wins.

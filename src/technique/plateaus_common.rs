@@ -85,15 +85,26 @@ pub(crate) const MAX_HEIGHT_FRACTION: f32 = 0.99;
 /// millionth of a radian over the plane, and f32 still holds it with the plane's points.
 const SUN_DISTANCE: f32 = 1e6;
 
-/// One plateau vertex: texture clip-space x, y and the depth (= penumbra fraction).
+/// One plateau vertex: texture clip-space x, y and the depth (= penumbra fraction), and
+/// `from_edge`, the clip-space step from the point of the hard edge (a cone's apex, a
+/// sheet's edge point) whose ruling reaches this vertex: 0 at depth 0. Interpolated, it
+/// leads every fragment back to its own edge point, which t's gradient does not where a
+/// sheet's rim is not parallel to its edge (plateaus-centred's inner hidden-edge test).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
 pub struct PlateauVertex {
     pub clip: [f32; 3],
+    pub from_edge: [f32; 2],
 }
 
 pub(crate) const PLATEAU_VERTEX_BYTES: u32 = std::mem::size_of::<PlateauVertex>() as u32;
+/// The position alone (the paper form's passes and the outer plateaus).
 pub(crate) const PLATEAU_ATTRIBUTES: &[crate::vk::Attribute] = &[(0, Format::R32G32B32_SFLOAT, 0)];
+/// The position and `from_edge` (plateaus-centred's inner pass).
+pub(crate) const PLATEAU_EDGE_ATTRIBUTES: &[crate::vk::Attribute] = &[
+    (0, Format::R32G32B32_SFLOAT, 0),
+    (1, Format::R32G32_SFLOAT, 12),
+];
 
 /// Mirrors `Plane` in glsl/plateaus/plane.glsl (std140: mat4 and vec4 only).
 #[repr(C)]
@@ -578,14 +589,16 @@ impl<'a> PlateauBuilder<'a> {
         );
         let apex = PlateauVertex {
             clip: self.clip(c, 0.0),
+            from_edge: [0.0; 2],
+        };
+        let rim = |w: [f32; 3]| PlateauVertex {
+            clip: w,
+            from_edge: [w[0] - apex.clip[0], w[1] - apex.clip[1]],
         };
         self.vertices.reserve(3 * segments as usize);
         for w in points.windows(2) {
-            self.vertices.extend_from_slice(&[
-                apex,
-                PlateauVertex { clip: w[0] },
-                PlateauVertex { clip: w[1] },
-            ]);
+            self.vertices
+                .extend_from_slice(&[apex, rim(w[0]), rim(w[1])]);
         }
         self.points = points;
         self.cones += 1;
@@ -636,8 +649,15 @@ impl<'a> PlateauBuilder<'a> {
                 points.push(self.clip(frame.stretch(p, frame.k), t));
             }
         }
-        let at = |i: u32, j: u32| PlateauVertex {
-            clip: points[(i * (n + 1) + j) as usize],
+        let at = |i: u32, j: u32| {
+            let (clip, edge) = (
+                points[(i * (n + 1) + j) as usize],
+                points[(i * (n + 1)) as usize],
+            );
+            PlateauVertex {
+                clip,
+                from_edge: [clip[0] - edge[0], clip[1] - edge[1]],
+            }
         };
         self.vertices.reserve(6 * (n * n) as usize);
         for i in 0..n {

@@ -14,9 +14,9 @@
 
 mod common;
 
-use common::{covered, small, Gpu};
+use common::{covered, false_edges_of, small, Gpu};
 use glam::{Mat4, Vec3, Vec4};
-use softshadow::eval::metrics::{errors_at, faces_light, false_edges, judged, Errors};
+use softshadow::eval::metrics::{errors_at, faces_light, Errors};
 use softshadow::output::FrameImages;
 use softshadow::reference::{visibility_cached, ReferenceParams};
 use softshadow::scene::Scene;
@@ -308,18 +308,8 @@ fn wide_light_thin_ears_lose_their_outline_and_match_pcss() {
     let measure = |technique: &str| {
         let img = gpu.render_frames(scene.clone(), technique, s.clone(), 1).0;
         let v_ref = reference(&scene, r, &img);
-        let judged = judged(&img.position, &img.spot);
-        let facing = faces_light(&img.position, &img.normal, scene.light.position);
         let e = lit_errors(&scene, &img, &v_ref);
-        let fe = false_edges(
-            &img.visibility,
-            &v_ref,
-            384,
-            &img.position,
-            &img.normal,
-            &judged,
-            &facing,
-        );
+        let fe = false_edges_of(&img, &v_ref, &scene, 384);
         println!(
             "{technique}: mae_lit {:.4}, p99_lit {:.3}, {} false-edge pairs over {} penumbra pixels",
             e.mae_lit, e.p99_lit, fe.pairs, fe.penumbra_pixels

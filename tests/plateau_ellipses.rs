@@ -8,8 +8,7 @@
 
 mod common;
 
-use common::{errors_160, small, Gpu};
-use softshadow::eval::metrics::{faces_light, false_edges, judged};
+use common::{errors_160, false_edges_of, small, Gpu};
 use softshadow::reference::{visibility_cached, ReferenceParams};
 use softshadow::scene::Scene;
 
@@ -58,17 +57,7 @@ fn the_inner_hidden_edge_test_follows_the_ruling_and_leaves_no_specks() {
         let params = ReferenceParams::default();
         let v_ref = visibility_cached(&scene, r, &img.position, &img.normal, &params)
             .unwrap_or_else(|e| panic!("reference: {e:#}"));
-        let facing = faces_light(&img.position, &img.normal, scene.light.position);
-        let covered = judged(&img.position, &img.spot);
-        let fe = false_edges(
-            &img.visibility,
-            &v_ref,
-            384,
-            &img.position,
-            &img.normal,
-            &covered,
-            &facing,
-        );
+        let fe = false_edges_of(&img, &v_ref, &scene, 384);
         println!("{technique}: {fe:?}");
         fe
     };

@@ -218,3 +218,25 @@ pub fn errors_with(
         scene.light.position,
     )
 }
+
+/// `metrics::false_edges` of `img` (one image row `width` wide) against `v_ref` over the
+/// pixels `mae_lit` judges: covered, inside the cone, facing `scene`'s light.
+pub fn false_edges_of(
+    img: &FrameImages,
+    v_ref: &[f32],
+    scene: &Scene,
+    width: usize,
+) -> softshadow::eval::metrics::FalseEdges {
+    use softshadow::eval::metrics::{faces, false_edges, judged};
+    let facing = faces(&img.position, &img.normal, &scene.light);
+    let covered = judged(&img.position, &img.spot);
+    false_edges(
+        &img.visibility,
+        v_ref,
+        width,
+        &img.position,
+        &img.normal,
+        &covered,
+        &facing,
+    )
+}

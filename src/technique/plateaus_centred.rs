@@ -30,15 +30,16 @@
 //!    silhouette from the light centre, then its cones and outer sheets and its cones and
 //!    inner sheets in the texture's clip space (20-byte `PlateauVertex`: x, y, depth = t,
 //!    and `from_edge`, the step from the vertex's edge point along its cone's spoke or
-//!    sheet's ruling), uploaded to two host-visible vertex buffers. The cones' bases are (P2e)'s ellipses,
-//!    not the paper form's circles (`PlateauBuilder::with_ellipses`): a low light stretches
-//!    each point's penumbra along its azimuth (2.5x at the tip of `cylinder`'s shadow). A
-//!    side's cone is drawn only at a vertex where that side's two sheets leave a gap
-//!    (`PlateauBuilder::with_trimmed_cones`, `sheets_cover`): the outer side's at convex
-//!    corners, the inner side's at reflex ones, either where the sheets' ends lean apart
-//!    by more than the corner turns. Elsewhere a sheet covers every texel of the cone at a
-//!    smaller t, so the cone would lose (LESS outside, MAX of disc_chord(t) inside) but
-//!    for its thin-blocker share, marched radially out of a thin blocker's tip.
+//!    sheet's ruling), uploaded to two host-visible vertex buffers. The cones' bases are
+//!    (P2e)'s ellipses, not the paper form's circles (`PlateauBuilder::with_ellipses`): a
+//!    low light stretches each point's penumbra along its azimuth (2.5x at the tip of
+//!    `cylinder`'s shadow). A side's cone is drawn only at a vertex where that side's two
+//!    sheets leave a gap (`PlateauBuilder::with_trimmed_cones`, `sheets_cover`): the outer
+//!    side's at convex corners, the inner side's at reflex ones, either where the sheets'
+//!    ends lean apart by more than the corner turns. Elsewhere a sheet covers every texel
+//!    of the cone at a smaller t, so the cone would lose (LESS outside, MAX of
+//!    disc_chord(t) inside) but for its thin-blocker share, marched radially out of a thin
+//!    blocker's tip.
 //! 1. `plateaus-centred/drop_shadow` — the casters through (P1) as the paper's pass
 //!    (glsl/plateaus/drop_shadow.vert/.frag, unchanged) but into their own attachment,
 //!    `coverage` R16_SFLOAT, clear 1.0, no blend, NO depth attachment: 0 under any
@@ -56,9 +57,10 @@
 //!    the plane 1.5 texels outside the fragment's own edge point (back along its ruling:
 //!    where a sheet's rim is not parallel to its edge, t's gradient crosses the edge at a
 //!    slant and a point found along it can land on the coverage image's staircase, a
-//!    single umbra texel in the penumbra) is under a drop shadow too (a caster nearer the light there covers the edge's outside; a
-//!    farther one blocks what the edge lets through, and one MAX image cannot take the
-//!    minimum over casters: the union's outline draws the inner penumbra instead). Else
+//!    single umbra texel in the penumbra) is under a drop shadow too (a caster nearer the
+//!    light there covers the edge's outside; a farther one blocks what the edge lets
+//!    through, and one MAX image cannot take the minimum over casters: the union's outline
+//!    draws the inner penumbra instead). Else
 //!    v = disc_chord(t) plus the thin-blocker term below.
 //! 4. `plateaus-centred/shadow_map` — the casters-only `ShadowMap` (for receivers other
 //!    than the plane), as the paper form's: its final pass reads r alone.

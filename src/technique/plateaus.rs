@@ -73,9 +73,8 @@
 //! ## Passes, in order
 //! 0. CPU `plateaus/silhouettes` (only when R > 0) — per caster (not the plane) silhouette
 //!    edges from the light centre (`silhouette::extract` over an `Adjacency` built once),
-//!    then cones and sheets in the texture's clip space (x, y, depth), uploaded to a
-//!    host-visible vertex buffer. 20 bytes a vertex: this form's pipelines read the first
-//!    12; the rest (`from_edge`) serves plateaus-centred's inner pass.
+//!    then cones and sheets in the texture's clip space (x, y, depth), 12 bytes a vertex,
+//!    uploaded to a host-visible vertex buffer.
 //! 1. `plateaus/drop_shadow` — casters (every caster but the plane) through the matrix of (P1)
 //!    then the top-down orthographic map, clip z = 0. Attachments: the plateau texture,
 //!    R32_SFLOAT penumbra fraction, clear 1.0 (lit), no blend; its z-buffer D32_SFLOAT,

@@ -28,9 +28,10 @@
 //! ## Passes, in order
 //! 0. CPU `plateaus-centred/silhouettes` (R > 0, light above the plane) — per caster:
 //!    silhouette from the light centre, then its cones and outer sheets and its cones and
-//!    inner sheets in the texture's clip space (20-byte `PlateauVertex`: x, y, depth = t,
-//!    and `from_edge`, the step from the vertex's edge point along its cone's spoke or
-//!    sheet's ruling), uploaded to two host-visible vertex buffers. The cones' bases are
+//!    inner sheets in the texture's clip space (the outer side's 12-byte `PlateauVertex`:
+//!    x, y, depth = t; the inner side's 20-byte `PlateauEdgeVertex` adds `from_edge`, the
+//!    step from the vertex's edge point along its cone's spoke or sheet's ruling),
+//!    uploaded to two host-visible vertex buffers. The cones' bases are
 //!    (P2e)'s ellipses, not the paper form's circles (`PlateauBuilder::with_ellipses`): a
 //!    low light stretches each point's penumbra along its azimuth (2.5x at the tip of
 //!    `cylinder`'s shadow). A side's cone is drawn only at a vertex where that side's two
@@ -123,7 +124,7 @@
 //! only inside the drop shadow.
 
 use super::plateaus::{drop_shadow_pipeline, plateau_pipeline};
-use super::plateaus_common::{PlateauCommon, PLATEAU_EDGE_ATTRIBUTES, PLATEAU_VERTEX_BYTES};
+use super::plateaus_common::{PlateauCommon, PLATEAU_EDGE_ATTRIBUTES, PLATEAU_EDGE_VERTEX_BYTES};
 use super::{shadow_map_buffer, FrameInput, LightBuffer, Technique, TechniqueInfo, TechniqueInit};
 use crate::gpu::passes::{DynamicVertices, FinalPass, FinalShader, Shadowed};
 use crate::shaders;
@@ -212,7 +213,7 @@ impl PlateausCentred {
                 name: NAMES.inner,
                 vertex: shaders::PLATEAUS_CENTRED_INNER_VERT,
                 fragment: Some(shaders::PLATEAUS_CENTRED_INNER_FRAG),
-                vertex_stride: PLATEAU_VERTEX_BYTES,
+                vertex_stride: PLATEAU_EDGE_VERTEX_BYTES,
                 attributes: PLATEAU_EDGE_ATTRIBUTES,
                 topology: PrimitiveTopology::TRIANGLE_LIST,
                 cull: CullModeFlags::NONE,

@@ -85,22 +85,29 @@ pub(crate) const MAX_HEIGHT_FRACTION: f32 = 0.99;
 /// millionth of a radian over the plane, and f32 still holds it with the plane's points.
 const SUN_DISTANCE: f32 = 1e6;
 
-/// One plateau vertex: texture clip-space x, y and the depth (= penumbra fraction), and
-/// `from_edge`, the clip-space step from the point of the hard edge (a cone's apex, a
-/// sheet's edge point) whose ruling reaches this vertex: 0 at depth 0. Interpolated, it
-/// leads every fragment back to its own edge point, which t's gradient does not where a
-/// sheet's rim is not parallel to its edge (plateaus-centred's inner hidden-edge test).
+/// One plateau vertex: texture clip-space x, y and the depth (= penumbra fraction).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
 pub struct PlateauVertex {
     pub clip: [f32; 3],
-    pub from_edge: [f32; 2],
 }
 
 pub(crate) const PLATEAU_VERTEX_BYTES: u32 = std::mem::size_of::<PlateauVertex>() as u32;
-/// The position alone (the paper form's passes and the outer plateaus).
 pub(crate) const PLATEAU_ATTRIBUTES: &[crate::vk::Attribute] = &[(0, Format::R32G32B32_SFLOAT, 0)];
-/// The position and `from_edge` (plateaus-centred's inner pass).
+
+/// A vertex of plateaus-centred's inner cones and sheets: the plateau vertex and
+/// `from_edge`, the clip-space step from the point of the hard edge (a cone's apex, a
+/// sheet's edge point) whose spoke or ruling reaches it, 0 at depth 0. Interpolated, it
+/// leads every fragment back to its own edge point, which t's gradient does not where a
+/// sheet's rim is not parallel to its edge (the inner pass's hidden-edge test).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
+pub struct PlateauEdgeVertex {
+    pub clip: [f32; 3],
+    pub from_edge: [f32; 2],
+}
+
+pub(crate) const PLATEAU_EDGE_VERTEX_BYTES: u32 = std::mem::size_of::<PlateauEdgeVertex>() as u32;
 pub(crate) const PLATEAU_EDGE_ATTRIBUTES: &[crate::vk::Attribute] = &[
     (0, Format::R32G32B32_SFLOAT, 0),
     (1, Format::R32G32_SFLOAT, 12),
@@ -498,6 +505,9 @@ pub struct PlateauBuilder<'a> {
     /// Draw a vertex's cone only where the sheets on `side` leave a gap at it (`silhouette`).
     trim_cones: bool,
     pub vertices: Vec<PlateauVertex>,
+    /// Per vertex of `vertices`, its `PlateauEdgeVertex::from_edge`; kept on the inner side
+    /// only (`edge_vertices`).
+    from_edge: Vec<[f32; 2]>,
     pub cones: usize,
     pub sheets: usize,
     /// The support, in plane coordinates, of every silhouette vertex's disc (P1, P2) seen
@@ -526,6 +536,7 @@ impl<'a> PlateauBuilder<'a> {
             ellipses: false,
             trim_cones: false,
             vertices: Vec::new(),
+            from_edge: Vec::new(),
             cones: 0,
             sheets: 0,
             reach: Some([f32::NEG_INFINITY; regions::DIRECTIONS]),
@@ -552,6 +563,18 @@ impl<'a> PlateauBuilder<'a> {
     pub fn with_trimmed_cones(mut self) -> Self {
         self.trim_cones = true;
         self
+    }
+
+    /// The inner side's vertices with their `from_edge` (plateaus-centred's inner pass).
+    pub fn edge_vertices(&self) -> Vec<PlateauEdgeVertex> {
+        self.vertices
+            .iter()
+            .zip(&self.from_edge)
+            .map(|(v, &from_edge)| PlateauEdgeVertex {
+                clip: v.clip,
+                from_edge,
+            })
+            .collect()
     }
 
     /// A point in texture clip space with its depth.
@@ -589,16 +612,22 @@ impl<'a> PlateauBuilder<'a> {
         );
         let apex = PlateauVertex {
             clip: self.clip(c, 0.0),
-            from_edge: [0.0; 2],
-        };
-        let rim = |w: [f32; 3]| PlateauVertex {
-            clip: w,
-            from_edge: [w[0] - apex.clip[0], w[1] - apex.clip[1]],
         };
         self.vertices.reserve(3 * segments as usize);
         for w in points.windows(2) {
-            self.vertices
-                .extend_from_slice(&[apex, rim(w[0]), rim(w[1])]);
+            self.vertices.extend_from_slice(&[
+                apex,
+                PlateauVertex { clip: w[0] },
+                PlateauVertex { clip: w[1] },
+            ]);
+        }
+        if self.side == Side::Inner {
+            // Along each spoke from the apex.
+            let step = |w: [f32; 3]| [w[0] - apex.clip[0], w[1] - apex.clip[1]];
+            for w in points.windows(2) {
+                self.from_edge
+                    .extend_from_slice(&[[0.0; 2], step(w[0]), step(w[1])]);
+            }
         }
         self.points = points;
         self.cones += 1;
@@ -649,22 +678,21 @@ impl<'a> PlateauBuilder<'a> {
                 points.push(self.clip(frame.stretch(p, frame.k), t));
             }
         }
-        let at = |i: u32, j: u32| {
-            let (clip, edge) = (
-                points[(i * (n + 1) + j) as usize],
-                points[(i * (n + 1)) as usize],
-            );
-            PlateauVertex {
-                clip,
-                from_edge: [clip[0] - edge[0], clip[1] - edge[1]],
-            }
-        };
+        let point = |i: u32, j: u32| points[(i * (n + 1) + j) as usize];
+        let inner = self.side == Side::Inner;
         self.vertices.reserve(6 * (n * n) as usize);
         for i in 0..n {
             for j in 0..n {
-                let q = [at(i, j), at(i + 1, j), at(i + 1, j + 1), at(i, j + 1)];
+                let q = [(i, j), (i + 1, j), (i + 1, j + 1), (i, j + 1)];
                 for k in [0, 1, 2, 0, 2, 3] {
-                    self.vertices.push(q[k]);
+                    let (qi, qj) = q[k];
+                    let p = point(qi, qj);
+                    self.vertices.push(PlateauVertex { clip: p });
+                    if inner {
+                        // Along the ruling from row qi's edge point (j = 0).
+                        let e = point(qi, 0);
+                        self.from_edge.push([p[0] - e[0], p[1] - e[1]]);
+                    }
                 }
             }
         }
@@ -778,9 +806,10 @@ fn spread(frame: &FrameInput<'_>) -> f32 {
 
 /// One caster's plateaus.
 struct CasterPlateaus {
-    /// Its cones and outer sheets, then (centred form; empty in the paper form) its cones
-    /// and inner sheets.
-    sides: [Vec<PlateauVertex>; 2],
+    /// Its cones and outer sheets.
+    outer: Vec<PlateauVertex>,
+    /// Its cones and inner sheets (the centred form; empty in the paper form).
+    inner: Vec<PlateauEdgeVertex>,
     /// `PlateauBuilder::reach`: where on the plane its plateaus, and its drop shadow, lie.
     reach: Option<Support>,
 }
@@ -829,7 +858,7 @@ pub(crate) struct PlateauFrame {
     /// ... and R > 0: the frame draws plateaus.
     pub soft: bool,
     /// The cones and inner sheets (the centred form; empty otherwise).
-    pub inner: Vec<PlateauVertex>,
+    pub inner: Vec<PlateauEdgeVertex>,
     /// Where the light passes clear and draw (speed layer; whole under `--plain`).
     pub areas: Areas,
 }
@@ -922,8 +951,10 @@ impl PlateauCommon {
                 self.build_geometry(frame, &plane, inner, force)
             });
             rec.rebuilt(silhouettes, rebuilt, self.casters);
-            let side = |s: usize| self.cache.concat_by(|c| &c.sides[s]);
-            (side(0), side(1))
+            (
+                self.cache.concat_by(|c| &c.outer),
+                self.cache.concat_by(|c| &c.inner),
+            )
         } else {
             (Vec::new(), Vec::new())
         };
@@ -972,17 +1003,18 @@ impl PlateauCommon {
                     // Each caster's own mailbox: the casters build in parallel.
                     let mut mailbox = vec![0u64; adj.positions.len()];
                     b.silhouette(adj, &sil, model, &mut mailbox, 1);
-                    (b.vertices, b.reach)
+                    b
                 };
                 // Both sides' discs are the same silhouette vertices'.
-                let (outer, reach) = build(Side::Outer);
+                let outer = build(Side::Outer);
                 let inner = match inner {
                     false => Vec::new(),
-                    true => build(Side::Inner).0,
+                    true => build(Side::Inner).edge_vertices(),
                 };
                 CasterPlateaus {
-                    sides: [outer, inner],
-                    reach,
+                    outer: outer.vertices,
+                    inner,
+                    reach: outer.reach,
                 }
             },
         )
@@ -1241,6 +1273,54 @@ mod tests {
                     );
                 }
             }
+        }
+    }
+
+    #[test]
+    fn inner_vertices_lead_back_to_their_edge_points() {
+        let l = light(Vec3::new(0.3, 6.0, -0.2), Vec3::ZERO);
+        let pf = PlaneFrame::new(&ground_receiver(), Mat4::IDENTITY, &l, 256);
+        // Two silhouette points at different heights: discs of two sizes and stretches, so
+        // the sheet's rim is not parallel to its edge.
+        let d1 = pf.vertex_disc(Vec3::new(0.0, 1.0, 0.0), 0.5).unwrap();
+        let d2 = pf.vertex_disc(Vec3::new(0.6, 2.5, 0.2), 0.5).unwrap();
+        assert!((d1.r - d2.r).abs() > 0.05, "{} {}", d1.r, d2.r);
+        let clip = |p: Vec2| (p - pf.min) / pf.side * 2.0 - Vec2::ONE;
+        let (e1, e2) = (clip(d1.c), clip(d2.c));
+        let mut b = PlateauBuilder::new(&pf, 0.5)
+            .with_side(Side::Inner)
+            .with_ellipses();
+        b.sheet(&d1, &d2);
+        let sheet = b.edge_vertices();
+        b.cone(&d2);
+        let all = b.edge_vertices();
+        assert_eq!(all.len(), b.vertices.len());
+        assert!(sheet.len() >= 6 && all.len() > sheet.len());
+        let start =
+            |v: &PlateauEdgeVertex| Vec2::new(v.clip[0], v.clip[1]) - Vec2::from(v.from_edge);
+        let side = (e2 - e1).length();
+        let mut slanted = 0;
+        for v in &sheet {
+            // Its ruling starts on the edge between the two centres.
+            let e = start(v);
+            let along = (e - e1).dot(e2 - e1) / (side * side);
+            let off = (e - e1).perp_dot(e2 - e1).abs() / side;
+            assert!(
+                off < 1e-5 && (-1e-5..=1.0 + 1e-5).contains(&along),
+                "{v:?}: {along} {off}"
+            );
+            if v.clip[2] == 0.0 {
+                assert_eq!(v.from_edge, [0.0; 2]);
+            } else {
+                // Leaning off the edge's normal (the rim is not parallel to the edge).
+                let step = Vec2::from(v.from_edge).normalize();
+                slanted += usize::from(step.dot((e2 - e1) / side).abs() > 1e-3);
+            }
+        }
+        assert!(slanted > 0, "every ruling is square to the edge");
+        // The cone's spokes start at its apex.
+        for v in &all[sheet.len()..] {
+            assert!((start(v) - e2).length() < 1e-5, "{v:?}");
         }
     }
 

@@ -8,8 +8,9 @@
 //! `reference` technique's frame (rendered once per scene, image size and radius, its ray
 //! cast read from the on-disk cache of `reference::visibility_cached` when computed before):
 //! `metrics::errors` over the covered pixels (position alpha > 0.5), with `mae_lit` and
-//! `p99_lit` over those facing the light (`metrics::faces`: a spotlight's centre, a sun's direction),
-//! and `metrics::flip` of the shaded image against the reference's shaded image.
+//! `p99_lit` over those facing the light (`metrics::faces`: towards a spotlight's centre,
+//! along a sun's direction), and `metrics::flip` of the shaded image against the
+//! reference's shaded image.
 //! Frame time is the sum of the passes that ran (`FrameTimings::gpu_total_ms`); the ratio to
 //! `hard` divides by hard's median on the same scene, image size, buffer resolution, radius
 //! and motion in the same run, which is why `hard` is always swept even when not listed.

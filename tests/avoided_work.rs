@@ -1,4 +1,4 @@
-//! Skipping what a frame does not need: light-space passes reused while the light and the
+//! Leaving out what a frame does not need: light-space passes reused while the light and the
 //! objects stay put, frustum culling that changes no pixel, lights that see no caster,
 //! light passes drawn only where they are read, and final-pass lookups only where a shadow
 //! can fall.

@@ -734,7 +734,7 @@ fn moving_sweeps_are_timed_moving_and_measured_at_rest() {
     let _ = std::fs::remove_dir_all(&out);
 }
 
-/// By default every timed frame runs every pass; with reuse a static frame skips the
+/// By default every timed frame runs every pass; with reuse a static frame reuses the
 /// light-space passes and says why.
 #[test]
 fn light_passes_are_rebuilt_unless_reuse_is_asked() {

@@ -326,7 +326,7 @@ fn every_pass_of_every_technique_is_timed_in_order_within_the_frame() {
         // The light moves: this frame rebuilds every light pass.
         r.scene.light.position += Vec3::new(0.05, 0.0, 0.0);
         let moved = r.render().unwrap();
-        // Nothing moves: this frame skips the light passes, which names them.
+        // Nothing moves: this frame reuses the light passes, which names them.
         let still = r.render().unwrap();
         let light: Vec<&str> = still
             .passes

@@ -138,7 +138,7 @@ fn point_light_matches_hard_on_the_plane() {
         t.passes
             .iter()
             .any(|p| p.name == "plateaus/plateaus" && p.skipped.is_some()),
-        "R = 0 must skip the plateau pass"
+        "R = 0 must leave the plateau pass out"
     );
     let (w, h) = (hard.width as usize, hard.height as usize);
     let on_ground = |i: usize| hard.position[i][3] > 0.5 && hard.position[i][1].abs() < 1e-3;

@@ -257,7 +257,7 @@ fn reference_holds_at_every_legal_scene_scale() {
 }
 
 /// `--technique reference` shows exactly the reference computed at its own pixels, with lit,
-/// umbra and penumbra pixels; a second frame of the same view skips the ray casting.
+/// umbra and penumbra pixels; a second frame of the same view reuses the ray casting.
 #[test]
 fn reference_technique_shows_the_reference() {
     let gpu = Gpu::new();

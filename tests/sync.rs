@@ -35,7 +35,9 @@ fn context() -> Context {
         device: Some(device),
         validation: true,
     })
-    .unwrap_or_else(|e| panic!("no Vulkan device for the tests: {e:#}"))
+    .unwrap_or_else(|e| {
+        panic!("the tests need a Vulkan device (lavapipe at least); they fail without one: {e:#}")
+    })
 }
 
 /// The messages of `ctx` after `seen`, less the known best-practices findings when those

@@ -368,8 +368,9 @@ fn a_full_screen_triangle_shades_whole_blocks_over_the_target() {
     }
 }
 
-/// A device without `pipelineStatisticsQuery`: the frame still runs, its passes carry no
-/// statistics and `--timings` prints no counts (the CLI prints one note instead).
+/// With `pipelineStatisticsQuery` turned off on the test's own device: the frame still runs,
+/// its passes carry no statistics and `--timings` prints no counts (the CLI prints one note
+/// instead).
 #[test]
 fn without_the_feature_the_counts_are_empty_not_an_error() {
     let mut gpu = Gpu::new();

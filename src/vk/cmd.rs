@@ -1648,7 +1648,7 @@ mod tests {
             device: Some(device),
             validation: true,
         })
-        .expect("no Vulkan device for the tests");
+        .expect("the tests need a Vulkan device (lavapipe at least)");
         let mut runner = FrameRunner::new(&ctx, 1).unwrap();
         let buf = Buffer::new(
             &ctx,

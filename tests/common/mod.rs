@@ -23,7 +23,11 @@ impl Gpu {
             device,
             validation: true,
         })
-        .unwrap_or_else(|e| panic!("no Vulkan device for the tests: {e:#}"));
+        .unwrap_or_else(|e| {
+            panic!(
+                "the tests need a Vulkan device (lavapipe at least); they fail without one: {e:#}"
+            )
+        });
         Self { ctx }
     }
 

@@ -36,35 +36,52 @@ bool blocked_at(vec2 pos, float z_r);
 // -1 when the blocker is wider, or still covers the texel w_tex away. Through a strip
 // between two parallel edges a point sees the disc's segment beyond each edge, so the
 // caller adds disc_chord(distance / w).
+//
+// The end of the reach is read first: still blocked there, the blocker is taken as at
+// least that wide and nothing is marched (one read where most fragments, beside or inside a
+// blocker wider than its penumbra, would march every step to find no edge). A gap between
+// two blockers inside the reach is missed: too dark there.
+//
+// One loop with one read per trip serves the three phases (the end, the coarse steps, the
+// bisections): the same reads as a loop per phase, in one place in the code. A rasteriser
+// that runs every statement for every fragment under a lane mask (lavapipe) pays each read
+// in the code once per fragment even where no fragment takes it.
 float far_edge_texels(vec2 here, vec2 dir, float w_tex, float z_r) {
-    // Still blocked at the end of the reach: taken as a blocker at least that wide, and
-    // nothing is marched (one read where most fragments, beside or inside a blocker wider
-    // than its penumbra, would march every step to find no edge). A gap between two
-    // blockers inside the reach is missed: too dark there.
-    vec2 end = here + dir * w_tex;
-    if (inside_map(end) && blocked_at(end, z_r)) return -1.0;
     int steps = int(min(float(MARCH_STEPS), ceil(w_tex)));
     float step_len = w_tex / float(max(steps, 1));
     float lo = 0.0;
     float hi = -1.0;
-    for (int k = 1; k <= steps; ++k) {
-        COUNT_LOOP(COUNT_MARCH);
-        vec2 pos = here + dir * (step_len * float(k));
-        if (!inside_map(pos)) break;
-        if (!blocked_at(pos, z_r)) {
-            hi = step_len * float(k);
-            break;
-        }
-        lo = step_len * float(k);
-    }
-    if (!(hi > 0.0)) return -1.0;
-    for (int k = 0; k < BISECT_STEPS; ++k) {
-        COUNT_LOOP(COUNT_MARCH);
-        float mid = 0.5 * (lo + hi);
-        if (blocked_at(here + dir * mid, z_r)) {
-            lo = mid;
+    int k = 0;   // the coarse step read next; 0 = the end of the reach
+    int bisections = 0;
+    for (int trip = 0; trip < 1 + MARCH_STEPS + BISECT_STEPS; ++trip) {
+        bool coarse = hi < 0.0;
+        float d = k == 0 ? w_tex : (coarse ? step_len * float(k) : 0.5 * (lo + hi));
+        vec2 pos = here + dir * d;
+        bool inside = inside_map(pos);
+        if (k > 0) COUNT_LOOP(COUNT_MARCH);
+        // The end and the coarse steps read nothing outside the map (the march stops at
+        // its border); a bisection lies between two samples already read.
+        bool blocked = (inside || !coarse) && blocked_at(pos, z_r);
+        if (k == 0) {
+            if (blocked || steps < 1) return -1.0;
+            k = 1;
+        } else if (coarse) {
+            if (!inside) return -1.0;
+            if (blocked) {
+                lo = d;
+                k += 1;
+                if (k > steps) return -1.0;
+            } else {
+                hi = d;
+            }
         } else {
-            hi = mid;
+            if (blocked) {
+                lo = d;
+            } else {
+                hi = d;
+            }
+            bisections += 1;
+            if (bisections == BISECT_STEPS) break;
         }
     }
     // The far edge lies between the last blocked and the first open sample.

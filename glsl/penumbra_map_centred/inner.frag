@@ -54,7 +54,8 @@ void main() {
     if (!clear_of_contact(zr, denom)) discard;
     if (!blocked_at(here, zr)) discard;
     float w = wedge_offset(zv, zr);
-    float s = u / w;
+    // Drawn narrower by the final pass's bilinear spread (common/penumbra.glsl).
+    float s = drawn_share(u / per_texel, w / per_texel);
     if (!(s < 1.0)) discard;
     float v = disc_chord(s);
     float far_edge = far_edge_texels(here, dir, w / per_texel, zr);

@@ -39,10 +39,14 @@ void main() {
     }
     // Rasterised F can fall a rounding error in front of the tip.
     float s = clamp(outer_share((e.zf - e.zv) / e.denom, e.zp, e.zf), 0.0, 1.0);
-    float v = disc_chord(-s);
+    float w_tex = wedge_offset(e.zv, e.zp) / wedge_unit_per_texel();
+    // Drawn narrower by the final pass's bilinear spread (common/penumbra.glsl); lit from
+    // there on.
+    float s_drawn = drawn_share(s * w_tex, w_tex);
+    if (!(s_drawn < 1.0)) discard;
+    float v = disc_chord(-s_drawn);
     float g = length(grad);
     if (g > 0.0 && !isinf(g)) {
-        float w_tex = wedge_offset(e.zv, e.zp) / wedge_unit_per_texel();
         v += outer_far_share(gl_FragCoord.xy, grad / g, s * w_tex, w_tex, e.zp);
     }
     o_penumbra = vec4(max(min(v, 1.0), blocker_floor(v_reach, e.zv, e.zp, e.denom)), 1.0, 1.0, 1.0);

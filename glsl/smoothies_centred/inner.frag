@@ -41,11 +41,12 @@ void main() {
     if (!(denom > REMAP_EPS)) discard;
     if (!blocked_at(here, zr)) discard;
     float w = t * denom;   // penumbra half-width at Z_R, uv
-    float s = x / w;
+    float w_tex = w / texel;
+    // Drawn narrower by the final pass's bilinear spread (common/penumbra.glsl).
+    float s = drawn_share(x_tex, w_tex);
     if (!(s < 1.0)) discard;
     float v = disc_chord(s);
     // Thin blocker: the far edge within w of this texel.
-    float w_tex = w / texel;
     float far_edge = far_edge_texels(here, dir, w_tex, zr);
     if (far_edge > 0.0) v += disc_chord(far_edge / w_tex);
     o_depth = FAR_DEPTH;

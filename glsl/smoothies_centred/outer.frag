@@ -35,7 +35,12 @@ void main() {
     float s;
     if (!smoothie_alpha(b, r, x, t, remap_span(), s)) discard;
     float w_tex = t * remap_denom(b, r, remap_span()) / texel;
-    float v = disc_chord(-s) + outer_far_share(gl_FragCoord.xy, dir, s * w_tex, w_tex, r);
+    float x_tex = s * w_tex;
+    // Drawn narrower by the final pass's bilinear spread; lit from there on (discarded as
+    // above: its b must not blend).
+    float s_drawn = drawn_share(x_tex, w_tex);
+    if (!(s_drawn < 1.0)) discard;
+    float v = disc_chord(-s_drawn) + outer_far_share(gl_FragCoord.xy, dir, x_tex, w_tex, r);
     o_depth = b;
     o_penumbra = vec4(min(v, 1.0), 1.0, 1.0, 1.0);
 }

@@ -61,7 +61,8 @@
 //!      fragment program (shared in glsl/penumbra_map/wedge.glsl: Z_P = the shadow map's g at
 //!      the fragment's texel, the same discards, the same blocker-size bound) with the exact
 //!      outer fraction s = (1/Zv - 1/Z_F) / (1/Zv - 1/Z_P) = I Z_P / Z_F (I = Eq. 1) and
-//!      v = disc_chord(-s) in [0.5, 1], plus, for a blocker narrower than its penumbra,
+//!      v = disc_chord(-s') in [0.5, 1] (s' the drawn share, below; discarded at
+//!      s' >= 1, fully lit), plus, for a blocker narrower than its penumbra,
 //!      the disc's segment beyond its far edge (`outer_far_share`: the shadow map's r
 //!      marched inward from 1 texel inside the edge, along the gradient of Z_F, for what
 //!      is left of the half-width; "Combining edges"), raised to the paper's blocker-size
@@ -74,8 +75,9 @@
 //!      texel, within 5 % of the nearer sample. Discarded when the near sample shows a
 //!      caster more than 1 % in front of the edge (the edge is hidden by another caster: no
 //!      inner penumbra through it), when the fragment's own texel is not behind a caster
-//!      1 % nearer than Z_R, or when s = u / w(Z_R) >= 1 (umbra). Else v = disc_chord(s)
-//!      in [0, 0.5], plus the thin-blocker term below, raised to the blocker-size bound;
+//!      1 % nearer than Z_R, or when the drawn share s' of s = u / w(Z_R) is >= 1
+//!      (umbra). Else v = disc_chord(s') in [0, 0.5], plus the thin-blocker term below,
+//!      raised to the blocker-size bound;
 //!      writes (1, 1 - v, 1 - Z_R / far, 1).
 //! 3. `penumbra-map-centred/final` — `FinalPass` with
 //!    `glsl/penumbra_map_centred/final.frag`: per texel of the 2x2 footprint (textureGather
@@ -96,6 +98,11 @@
 //! ## Equations: what a porter ports
 //! - The geometry, both sides: `build_penumbra_sides` (src/silhouette/penumbra.rs).
 //! - The disc-chord profile v(s): `disc_chord` (glsl/common/penumbra.glsl).
+//! - The drawn share s' = x / sqrt(w^2 - 1/6) (x and the half-width w in texels): both
+//!   sides draw the profile narrowed by the final pass's bilinear spread, a tent one texel
+//!   wide (variance 1/6 texel^2), so that a penumbra about a texel wide does not come out
+//!   a texel wider (`drawn_share`, glsl/common/penumbra.glsl). Wide penumbrae keep their
+//!   width (0.5 % narrower at w = 4 texels); one under 0.41 texel is drawn as the step.
 //! - The outer fraction s = I Z_P / Z_F: `main` of glsl/penumbra_map_centred/outer.frag,
 //!   over the paper form's `eq1_depths` and `blocker_floor` (glsl/penumbra_map/wedge.glsl),
 //!   with the thin blocker's far side `outer_far_share` (glsl/common/inner_march.glsl).

@@ -76,11 +76,12 @@
 //!    smoothies, then every caster's inner ones (the same records mirrored):
 //!    - outer smoothies, `glsl/smoothies_centred/outer.frag`: the paper form's fragment
 //!      program and decision (`smoothie_alpha`, glsl/smoothies/alpha.glsl: receiver r =
-//!      the shadow map's g at its texel), s = alpha' in [0, 1), v = disc_chord(-s) in
-//!      [0.5, 1), plus, for a blocker narrower than its penumbra, the disc's segment
-//!      beyond its far edge (`outer_far_share`, below); writes b and (v, 1, 1, 1) only
+//!      the shadow map's g at its texel), s = alpha' in [0, 1), v = disc_chord(-s') in
+//!      [0.5, 1) (s' the drawn share, below), plus, for a blocker narrower than its
+//!      penumbra, the disc's segment beyond its far edge (`outer_far_share`, below);
+//!      writes b and (v, 1, 1, 1) only
 //!      where the smoothie darkens a surface, as the paper form: discarded where g holds
-//!      no surface, b/r > 1, 1 - b/r < 1e-4 and s >= 1 (fully lit). A lit fragment's b,
+//!      no surface, b/r > 1, 1 - b/r < 1e-4 and s' >= 1 (fully lit). A lit fragment's b,
 //!      MIN-blended into a texel that another caster's smoothie darkens, would put the
 //!      points between the two depths behind the nearest smoothie, and they would take the
 //!      farther one's v: dark specks on the rims of casters under a neighbour's smoothie
@@ -95,8 +96,9 @@
 //!      this texel, within 5 % of the nearer sample. Discarded when that near sample shows
 //!      a caster more than 1 % in front of b (the edge is hidden by another caster: no
 //!      inner penumbra through it), when this texel is not behind a caster 1 % nearer than
-//!      Z_R, or when s = x / (t (1 - b/Z_R)) >= 1 (umbra; a sun's t (Z_R - b) / D). Else v = disc_chord(s) in
-//!      [0, 0.5], plus the thin-blocker term below; writes b = 1e30 (neutral) and
+//!      Z_R, or when the drawn share s' of s = x / (t (1 - b/Z_R)) (a sun's
+//!      t (Z_R - b) / D) is >= 1 (umbra). Else v = disc_chord(s') in [0, 0.5], plus
+//!      the thin-blocker term below; writes b = 1e30 (neutral) and
 //!      (1, 1 - v, 1 - Z_R / far, 1). Z_R is at most Z = 1.05 x the deepest surface
 //!      where it reads g (a depth the map holds, extrapolated by at most 5 %), so
 //!      nothing is written beyond t (1 - b/Z) from the edge (what the speed layer's
@@ -118,6 +120,11 @@
 //! - The geometry, both sides: `build_smoothies_side` (src/silhouette/smoothie.rs); the
 //!   width t: `Width::at`.
 //! - The disc-chord profile v(s): `disc_chord` (glsl/common/penumbra.glsl).
+//! - The drawn share s' = x / sqrt(w^2 - 1/6) (x and the half-width w in texels): both
+//!   sides draw the profile narrowed by the final pass's bilinear spread, a tent one texel
+//!   wide (variance 1/6 texel^2), so that a penumbra about a texel wide does not come out
+//!   a texel wider (`drawn_share`, glsl/common/penumbra.glsl). Wide penumbrae keep their
+//!   width (0.5 % narrower at w = 4 texels); one under 0.41 texel is drawn as the step.
 //! - The outer side (s = Eq. 1's alpha', and which fragments are written): `smoothie_alpha`
 //!   (glsl/smoothies/alpha.glsl), called by glsl/smoothies_centred/outer.frag, with the
 //!   thin blocker's far side `outer_far_share` (glsl/common/inner_march.glsl).

@@ -407,6 +407,16 @@ fn overlapping_blockers_are_never_lighter_than_either_alone() {
     }
 }
 
+/// `dense` at 320x240, every other setting at its default: the blobs' rims and shadows.
+fn dense_320x240() -> (Scene, Settings) {
+    let settings = Settings {
+        width: 320,
+        height: 240,
+        ..Settings::default()
+    };
+    (Scene::load("dense").unwrap(), settings)
+}
+
 /// smoothies-centred's outer smoothies write only what darkens (glsl/smoothies_centred/
 /// outer.frag). On `dense` the blobs stand closer together than their smoothies are wide, so
 /// each blob's outer smoothies reach over its neighbours' edges, under other blobs'
@@ -426,12 +436,7 @@ fn overlapping_blockers_are_never_lighter_than_either_alone() {
 #[test]
 fn outer_smoothies_write_only_what_darkens() {
     let gpu = Gpu::new();
-    let scene = Scene::load("dense").unwrap();
-    let settings = Settings {
-        width: 320,
-        height: 240,
-        ..Settings::default()
-    };
+    let (scene, settings) = dense_320x240();
     let render = |t: &str| gpu.render_frames(scene.clone(), t, settings.clone(), 1).0;
     let img = render("smoothies-centred");
     let pcss = render("pcss");
@@ -485,12 +490,7 @@ const NARROW_GROUND_ERROR: &[(&str, f64)] = &[
 #[test]
 fn narrow_penumbrae_are_drawn_narrower() {
     let gpu = Gpu::new();
-    let scene = Scene::load("dense").unwrap();
-    let settings = Settings {
-        width: 320,
-        height: 240,
-        ..Settings::default()
-    };
+    let (scene, settings) = dense_320x240();
     let mut bad = Vec::new();
     let mut v_ref: Option<Vec<f32>> = None;
     for &(t, bound) in NARROW_GROUND_ERROR {

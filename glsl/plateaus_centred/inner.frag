@@ -5,7 +5,9 @@
 // `PlateauBuilder` with `Side::Inner`: (P3) with p -> -p, opening into the drop shadow), in
 // the texture's clip space with depth t = 0 at the hard edge and 1 at the inner rim. The
 // receiver is the plane itself, so t is s, the fragment's share of the penumbra half-width
-// inside the hard edge, and the edge alone lets v = disc_chord(t) of the light through.
+// inside the hard edge, and the edge alone lets v = disc_chord(t) of the light through,
+// drawn as disc_chord(s') with s' the share narrowed by the final pass's bilinear spread
+// (`drawn_share`, common/penumbra.glsl).
 //   - nothing outside the drop shadow, or when the edge is hidden: the plane 1.5 texels
 //     outside the edge is under a drop shadow too. A caster nearer the light there covers
 //     the edge's outside (no light through it); a farther one blocks the light this edge
@@ -52,7 +54,7 @@ void main() {
     vec2 out_dir = reach > 1e-3 ? from_edge / reach : dir;
     vec2 outside = here - from_edge - out_dir * OUT_TEXELS;
     if (inside_map(outside) && blocked_at(outside, 0.0)) discard;
-    float v = disc_chord(t);
+    float v = disc_chord(drawn_share(t * w_tex, w_tex));
     float far_edge = far_edge_texels(here, dir, w_tex, 0.0);
     if (far_edge > 0.0) v += disc_chord(far_edge / w_tex);
     o_inner = clamp(v, 0.0, 1.0);

@@ -62,7 +62,9 @@
 //!    light there covers the edge's outside; a farther one blocks what the edge lets
 //!    through, and one MAX image cannot take the minimum over casters: the union's outline
 //!    draws the inner penumbra instead). Else
-//!    v = disc_chord(t) plus the thin-blocker term below.
+//!    v = disc_chord(s') plus the thin-blocker term below, s' the drawn share of t (the
+//!    half-width narrowed by the final pass's bilinear spread, as smoothies-centred's;
+//!    the outer plateaus keep the paper's depth, which the depth test compares).
 //! 4. `plateaus-centred/shadow_map` — the casters-only `ShadowMap` (for receivers other
 //!    than the plane), as the paper form's: its final pass reads r alone.
 //! 5. `plateaus-centred/final` — `FinalPass` with `glsl/plateaus_centred/final.frag`: a
@@ -80,7 +82,8 @@
 //! - (P1)-(P3) and (P2e), both sides: the paper form's functions
 //!   (src/technique/plateaus.rs), the inner sheets by the same builder with `Side::Inner`,
 //!   the ellipses by `Disc` (src/technique/plateaus_common.rs).
-//! - The disc-chord profile v(s): `disc_chord` (glsl/common/penumbra.glsl).
+//! - The disc-chord profile v(s): `disc_chord` (glsl/common/penumbra.glsl); the inner
+//!   side's drawn share s' = x / sqrt(w^2 - 1/6) (texels): `drawn_share`, there.
 //! - The inner side: `main` of glsl/plateaus_centred/inner.frag, with `far_edge_texels`
 //!   (glsl/common/inner_march.glsl).
 //! - The final combination: `visibility` (glsl/plateaus_centred/final.frag).

@@ -293,15 +293,15 @@ fn thin_blocker_is_never_a_full_umbra_where_light_gets_through() {
 const FAR_SHARE: &[&str] = &["smoothies-centred", "penumbra-map-centred"];
 
 /// At most this share of `hard`'s false edges on `bunny` at 3x its radius. Measured at
-/// 384x384: 234 pairs for each form against `hard`'s 505 (0.46x); 309 and 274 (0.61x and
-/// 0.54x) while the outer side kept the half-plane's 0.5 at the hard edge. The goal,
-/// 0.15x, is not met (BENCHMARKS.md, "Fast and accurate").
-const WIDE_FALSE_EDGE_SHARE: f64 = 0.5;
+/// 384x384: smoothies-centred 162 and penumbra-map-centred 206 pairs against `hard`'s 561
+/// (0.29x and 0.37x); 0.46x for both when the outer side's far segment came in, 0.61x and
+/// 0.54x before it, while the outer side kept the half-plane's 0.5 at the hard edge. The goal, 0.15x, is not met (BENCHMARKS.md, "Fast and accurate").
+const WIDE_FALSE_EDGE_SHARE: f64 = 0.4;
 
 /// `bunny` at 3x its light radius, 384x384 (the rest default): its ears are narrower than
 /// their penumbrae, and where the two sides of the centred penumbra disagreed at the hard
 /// edge each ear kept its hard outline inside a lighter penumbra. Each form's mae_lit is at
-/// most `pcss`'s (measured 0.041 and 0.042 against 0.048; 0.053 for both before the
+/// most `pcss`'s (measured 0.036 and 0.038 against 0.047; 0.053 for both before the
 /// outer side's far segment) and its false edges at most `WIDE_FALSE_EDGE_SHARE` of `hard`'s.
 #[test]
 fn wide_light_thin_ears_lose_their_outline_and_match_pcss() {

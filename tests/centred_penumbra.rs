@@ -7,7 +7,7 @@
 //! - two overlapping blockers: never lighter than the darker single-blocker image;
 //!   (these three also for the other accurate form, `ssm-bitmask`)
 //! - a wide light on `bunny` (3x its radius, the ears narrower than their penumbrae):
-//!   mae_lit at or below `pcss`'s and fewer false edges than half of `hard`'s;
+//!   mae_lit at or below `pcss`'s and at most 0.4x `hard`'s false edges;
 //! - R = 0: exactly `hard`;
 //! - smoothies-centred's outer smoothies, overlapping on `dense`: no more specks darker
 //!   than the reference than `pcss` draws through the same lookup;

@@ -295,7 +295,8 @@ const FAR_SHARE: &[&str] = &["smoothies-centred", "penumbra-map-centred"];
 /// At most this share of `hard`'s false edges on `bunny` at 3x its radius. Measured at
 /// 384x384: smoothies-centred 162 and penumbra-map-centred 206 pairs against `hard`'s 561
 /// (0.29x and 0.37x); 0.46x for both when the outer side's far segment came in, 0.61x and
-/// 0.54x before it, while the outer side kept the half-plane's 0.5 at the hard edge. The goal, 0.15x, is not met (BENCHMARKS.md, "Fast and accurate").
+/// 0.54x before it, while the outer side kept the half-plane's 0.5 at the hard edge. The
+/// goal, 0.15x, is not met (BENCHMARKS.md, "Fast and accurate").
 const WIDE_FALSE_EDGE_SHARE: f64 = 0.4;
 
 /// `bunny` at 3x its light radius, 384x384 (the rest default): its ears are narrower than

@@ -21,10 +21,10 @@ fn ran(t: &FrameTimings) -> Vec<&str> {
         .collect()
 }
 
-fn skipped(t: &FrameTimings) -> Vec<&str> {
+fn not_run(t: &FrameTimings) -> Vec<&str> {
     t.passes
         .iter()
-        .filter(|p| p.skipped.is_some())
+        .filter(|p| p.not_run.is_some())
         .map(|p| p.name.as_str())
         .collect()
 }
@@ -58,12 +58,12 @@ fn static_second_frame_runs_only_the_final_pass_and_matches_the_first() {
             "{name}: second frame"
         );
         assert_eq!(
-            skipped(&second).len(),
+            not_run(&second).len(),
             ran(&first).len() - 1,
-            "{name}: every light pass skipped"
+            "{name}: every light pass left out"
         );
         for p in &second.passes {
-            if let Some(reason) = &p.skipped {
+            if let Some(reason) = &p.not_run {
                 assert_eq!(reason, "light and casters unchanged");
             }
         }
@@ -95,9 +95,9 @@ fn camera_moves_reuse_light_passes_light_moves_rebuild_them() {
         r.scene.light.position += Vec3::new(0.0, 0.2, 0.1);
         let moved_light = r.render().unwrap();
         assert!(
-            skipped(&moved_light).is_empty(),
-            "{name}: light move skipped {:?}",
-            skipped(&moved_light)
+            not_run(&moved_light).is_empty(),
+            "{name}: light move left out {:?}",
+            not_run(&moved_light)
         );
         assert!(
             ran(&moved_light).len() >= 2,
@@ -110,9 +110,9 @@ fn camera_moves_reuse_light_passes_light_moves_rebuild_them() {
             Mat4::from_translation(Vec3::X * 0.1) * r.scene.objects[1].transform;
         let moved_caster = r.render().unwrap();
         assert!(
-            skipped(&moved_caster).is_empty(),
-            "{name}: caster move skipped {:?}",
-            skipped(&moved_caster)
+            not_run(&moved_caster).is_empty(),
+            "{name}: caster move left out {:?}",
+            not_run(&moved_caster)
         );
     }
 }
@@ -336,7 +336,7 @@ fn light_without_casters_records_no_shadow_pass() {
         );
         assert!(
             second.passes.iter().all(|p| p
-                .skipped
+                .not_run
                 .as_deref()
                 .is_none_or(|s| s == "no caster in the light frustum")),
             "{name}: {:?}",

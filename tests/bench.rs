@@ -767,7 +767,7 @@ fn light_passes_are_rebuilt_unless_reuse_is_asked() {
     assert!(
         full.passes
             .iter()
-            .all(|p| p.gpu_ms.is_some() && p.skipped_frames == 0),
+            .all(|p| p.gpu_ms.is_some() && p.frames_not_run == 0),
         "{:?}",
         full.passes
     );
@@ -780,9 +780,9 @@ fn light_passes_are_rebuilt_unless_reuse_is_asked() {
         .collect();
     assert!(!light.is_empty());
     for p in light {
-        assert_eq!(p.skipped_frames, 2, "{p:?}");
+        assert_eq!(p.frames_not_run, 2, "{p:?}");
         assert!(
-            p.skip_reason
+            p.not_run_reason
                 .as_deref()
                 .is_some_and(|r| r.contains("unchanged")),
             "{p:?}"

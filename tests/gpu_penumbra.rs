@@ -258,7 +258,7 @@ fn gpu_path_with_a_point_light_is_hard() {
         .iter()
         .find(|p| p.name == "penumbra-map/silhouettes")
         .expect("the GPU path's pass is listed");
-    assert_eq!(sil.skipped.as_deref(), Some("light radius 0: hard shadows"));
+    assert_eq!(sil.not_run.as_deref(), Some("light radius 0: hard shadows"));
     let on_gpu = r.read_back().unwrap();
     let cpu = gpu
         .render_frames(scene.clone(), TECHNIQUE, point(SilhouettePath::Cpu), 1)
@@ -309,7 +309,7 @@ fn a_moved_caster_rebuilds_only_its_own_cones_and_sheets() {
     assert!(moved
         .passes
         .iter()
-        .any(|p| p.name == "penumbra-map/silhouettes" && p.skipped.is_none()));
+        .any(|p| p.name == "penumbra-map/silhouettes" && p.not_run.is_none()));
     assert_eq!(
         r.gpu_silhouettes_rebuilt(),
         Some(1),
@@ -330,14 +330,14 @@ fn a_moved_caster_rebuilds_only_its_own_cones_and_sheets() {
         .0;
     assert_eq!(partial.visibility, fresh.visibility);
 
-    // Nothing moved: the GPU pass is skipped, the geometry kept.
+    // Nothing moved: the GPU pass is left out, the geometry kept.
     let t = r.render().unwrap();
     let sil = t
         .passes
         .iter()
         .find(|p| p.name == "penumbra-map/silhouettes")
         .unwrap();
-    assert_eq!(sil.skipped.as_deref(), Some("light and casters unchanged"));
+    assert_eq!(sil.not_run.as_deref(), Some("light and casters unchanged"));
     assert_eq!(r.read_back().unwrap().visibility, partial.visibility);
 
     // A moving receiver changes no silhouette, but it moves the light's far plane and with
@@ -352,7 +352,7 @@ fn a_moved_caster_rebuilds_only_its_own_cones_and_sheets() {
     assert!(t
         .passes
         .iter()
-        .any(|p| p.name == "penumbra-map/silhouettes" && p.skipped.is_none()));
+        .any(|p| p.name == "penumbra-map/silhouettes" && p.not_run.is_none()));
     assert_eq!(r.gpu_silhouettes_rebuilt(), Some(casters.len()));
     let partial = r.read_back().unwrap();
     let fresh = gpu.render_frames(r.scene.clone(), TECHNIQUE, s, 1).0;

@@ -190,7 +190,7 @@ fn a_moved_caster_rebuilds_only_its_own_smoothies() {
         let ran: Vec<&str> = moved
             .passes
             .iter()
-            .filter(|p| p.skipped.is_none())
+            .filter(|p| p.not_run.is_none())
             .map(|p| p.name.as_str())
             .collect();
         assert!(
@@ -213,7 +213,7 @@ fn a_moved_caster_rebuilds_only_its_own_smoothies() {
             .0;
         assert_eq!(partial.visibility, fresh.visibility, "{path:?}");
 
-        // A moving receiver changes no silhouette: the GPU passes are skipped.
+        // A moving receiver changes no silhouette: the GPU passes are left out.
         let ground = r
             .scene
             .objects
@@ -230,7 +230,7 @@ fn a_moved_caster_rebuilds_only_its_own_smoothies() {
                 .find(|p| p.name == "smoothies/silhouettes")
                 .unwrap();
             assert_eq!(
-                sil.skipped.as_deref(),
+                sil.not_run.as_deref(),
                 Some("light and casters unchanged"),
                 "{path:?}"
             );
@@ -359,7 +359,7 @@ fn plateaus_rebuild_only_the_moved_caster_and_match_a_fresh_render() {
         .passes
         .iter()
         .filter(|p| p.name.starts_with("plateaus/") && p.name != "plateaus/final")
-        .all(|p| p.skipped.as_deref() == Some("light and casters unchanged")));
+        .all(|p| p.not_run.as_deref() == Some("light and casters unchanged")));
     assert_eq!(r.read_back().unwrap().visibility, partial.visibility);
 
     // The plane moves: its frame is every caster's key, so all are rebuilt.

@@ -137,7 +137,7 @@ fn point_light_matches_hard_on_the_plane() {
     assert!(
         t.passes
             .iter()
-            .any(|p| p.name == "plateaus/plateaus" && p.skipped.is_some()),
+            .any(|p| p.name == "plateaus/plateaus" && p.not_run.is_some()),
         "R = 0 must leave the plateau pass out"
     );
     let (w, h) = (hard.width as usize, hard.height as usize);

@@ -270,7 +270,7 @@ fn reference_technique_shows_the_reference() {
     assert!(timings[1]
         .passes
         .iter()
-        .any(|p| p.name == "reference/ray_cast" && p.skipped.is_some()));
+        .any(|p| p.name == "reference/ray_cast" && p.not_run.is_some()));
     let v_ref = visibility_at(
         &scene,
         scene.light.radius,

@@ -793,9 +793,12 @@ pub struct PassStat {
     pub name: String,
     /// GPU ms over the frames that ran the pass.
     pub gpu_ms: Option<Stat>,
-    /// Timed frames that skipped it, and the reason the last one gave.
-    pub skipped_frames: usize,
-    pub skip_reason: Option<String>,
+    /// Timed frames that did not run it, and the reason the last one gave (JSON keys
+    /// `skipped_frames`, `skip_reason`, docs/RESULTS.md).
+    #[serde(rename = "skipped_frames")]
+    pub frames_not_run: usize,
+    #[serde(rename = "skip_reason")]
+    pub not_run_reason: Option<String>,
     /// Its pipeline statistics in the last timed frame that ran it (the same in every
     /// frame: they count work, not time); `None` when no frame ran it or the device does not
     /// count them.
@@ -1544,12 +1547,12 @@ pub fn summarise(timed: &[FrameTimings]) -> Timing {
                 .filter_map(|t| t.passes.iter().find(|p| p.name == name))
                 .collect();
             let ms: Vec<f64> = runs.iter().filter_map(|p| p.gpu_ms).collect();
-            let skipped: Vec<_> = runs.iter().filter_map(|p| p.skipped.clone()).collect();
+            let not_run: Vec<_> = runs.iter().filter_map(|p| p.not_run.clone()).collect();
             PassStat {
                 name: name.into(),
                 gpu_ms: Stat::of(&ms),
-                skipped_frames: skipped.len(),
-                skip_reason: skipped.last().cloned(),
+                frames_not_run: not_run.len(),
+                not_run_reason: not_run.last().cloned(),
                 stats: runs.iter().rev().find_map(|p| p.stats),
                 lookups: None,
             }

@@ -341,7 +341,7 @@ pub fn markdown(res: &Results<'_>) -> String {
             let mut cells: Vec<String> = r
                 .passes
                 .iter()
-                .map(|p| match (&p.gpu_ms, &p.skip_reason) {
+                .map(|p| match (&p.gpu_ms, &p.not_run_reason) {
                     (Some(st), _) => format!("{} {}", short(&p.name), ms(st.median)),
                     (None, Some(why)) => format!("{} skipped ({why})", short(&p.name)),
                     (None, None) => format!("{} n/a", short(&p.name)),

@@ -21,12 +21,15 @@ use std::time::Instant;
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]
 pub struct PassTiming {
     pub name: String,
-    /// `None` when the pass was skipped, or when its stamps were missing or out of order.
+    /// `None` when the pass did not run, or when its stamps were missing or out of order.
     pub gpu_ms: Option<f64>,
     /// When the pass began, in milliseconds after the frame's first stamp.
     pub gpu_start_ms: Option<f64>,
-    pub skipped: Option<String>,
-    /// The pass's pipeline statistics; `None` when it was skipped or the device does not
+    /// Why the pass did not run this frame (its buffers kept from an earlier one, or
+    /// nothing to draw); `None` when it ran.
+    #[serde(rename = "skipped")]
+    pub not_run: Option<String>,
+    /// The pass's pipeline statistics; `None` when it did not run or the device does not
     /// count them (`Context::pipeline_statistics`).
     pub stats: Option<PassStats>,
 }
@@ -139,7 +142,7 @@ impl FrameTimings {
             .unwrap_or(0)
             .max(10);
         for p in &self.passes {
-            match (&p.gpu_ms, &p.skipped) {
+            match (&p.gpu_ms, &p.not_run) {
                 (_, Some(reason)) => s += &format!("pass {:<width$} skipped ({reason})\n", p.name),
                 (Some(ms), None) => {
                     s += &format!("pass {:<width$} {ms:8.3} ms", p.name);
@@ -441,7 +444,7 @@ impl FrameRunner {
                 gpu_start_ms: p.queries.and_then(|(a, _)| between(0, a)),
                 stats: p.queries.and_then(|(a, _)| stats(a)),
                 name: p.name,
-                skipped: p.skipped,
+                not_run: p.not_run,
             })
             .collect();
         let gpu_frame_ms = used.checked_sub(1).and_then(|last| between(0, last));
@@ -506,7 +509,7 @@ impl Drop for FrameRunner {
 struct RecordedPass {
     name: String,
     queries: Option<(u32, u32)>,
-    skipped: Option<String>,
+    not_run: Option<String>,
 }
 
 /// Records commands into the frame's command buffer, with the barriers they need (module
@@ -896,7 +899,7 @@ impl Recorder<'_> {
         self.passes.push(RecordedPass {
             name: name.to_string(),
             queries: Some((a, b)),
-            skipped: None,
+            not_run: None,
         });
         result
     }
@@ -907,7 +910,7 @@ impl Recorder<'_> {
         self.passes.push(RecordedPass {
             name: name.to_string(),
             queries: None,
-            skipped: Some(reason.to_string()),
+            not_run: Some(reason.to_string()),
         });
     }
 

@@ -228,7 +228,7 @@ fn point_light_check(gpu: &Gpu, scene: Scene, name: &str) {
 /// the point-light reference equals the hard shadow map's footprint away from edges; at the
 /// two edges and on the huge ground, the area-light reference agrees with Heckbert & Herf
 /// within the bounds of `cross_check`. The rays' self-hit guard once scaled with what the
-/// light sees (every shadow on the 1e5 ground lost) and obvhs skips BVH nodes closer than an
+/// light sees (every shadow on the 1e5 ground lost) and obvhs passes over BVH nodes closer than an
 /// absolute 1e-4 along a ray (every shadow lost below a radius of about 1e-4).
 #[test]
 fn reference_holds_at_every_legal_scene_scale() {

@@ -13,14 +13,25 @@
 // s = 1 is the paper's one micro-patch per texel, the image unchanged. A larger s is the
 // paper's remedy for large penumbrae (Sec. 6.1: "a low resolution shadow map would give the
 // same visual results"), applied only when the penumbrae are that large.
+//
+// The first dispatch also writes the receiver tiles: per workgroup (SSM_TILE x SSM_TILE
+// texels) the deepest receiver a micro-patch pass fragment there can stand at, both layers,
+// with the frame's z_max where a texel has no pure receiver (the pass puts it there). A
+// micro-patch is drawn only as far as the deepest receiver under its extent
+// (`deepest_receiver`, glsl/ssm/tiles.glsl): the extent for z_max covers every receiver a
+// patch can reach, and within it none is deeper than those tiles. Without `local` (--plain,
+// and the forms that do not read them) every tile holds z_max.
 #define FRAME_NO_DRAW_PUSH
 #include "common/frame.glsl"
 #include "ssm/ssm.glsl"
 #include "ssm/constants.glsl"
 
-layout(local_size_x = 16, local_size_y = 16) in;
+layout(local_size_x = SSM_TILE, local_size_y = SSM_TILE) in;
 
 layout(set = 0, binding = 1) uniform sampler2D occluder_map;
+layout(set = 0, binding = 3) uniform sampler2D receiver_front;   // R32F nearest receiver
+layout(set = 0, binding = 4) uniform sampler2D receiver_pure;    // R32F nearest pure receiver
+layout(set = 0, binding = 5, std430) writeonly buffer Tiles { float zmax[]; } tiles;
 layout(set = 0, binding = 2, std430) buffer Bound {
     uint zmax_bits;   // ssm/receiver_bound
     uint step;        // the block side chosen (read by the micro-patch pass)
@@ -32,11 +43,13 @@ layout(set = 0, binding = 2, std430) buffer Bound {
 layout(push_constant) uniform Push {
     float reach;   // texels of extent per unit of (1/z_O - 1/z_max) (a sun's: of z_max - z_O), the technique's
     uint choose;
+    uint local;    // 0: every tile holds the frame's z_max (--plain, and forms without tiles)
 } pc;
 
 // The block sides 2^l with 2^l <= N: fewer than 32 for any map an int can index.
 const int SIDES = 32;
 shared uint group_work[SIDES];
+shared uint group_deepest;
 
 void choose_step() {
     float n = SSM_RES;
@@ -60,12 +73,21 @@ void main() {
     }
     uint li = gl_LocalInvocationIndex;
     if (li < SIDES) group_work[li] = 0u;
+    if (li == 0u) group_deepest = 0u;
     barrier();
     int n = int(SSM_RES);
     ivec2 t = ivec2(gl_GlobalInvocationID.xy);
+    float zmax = uintBitsToFloat(bound.zmax_bits);
     if (all(lessThan(t, ivec2(n)))) {
+        float deepest = zmax;
+        if (pc.local != 0u) {
+            float z1 = texelFetch(receiver_front, t, 0).r;
+            float z2 = texelFetch(receiver_pure, t, 0).r;
+            deepest = z1 < EMPTY ? max(z1, min(z2, zmax)) : 0.0;
+        }
+        // Non-negative floats order like their bit patterns, so integer max is float max.
+        atomicMax(group_deepest, floatBitsToUint(deepest));
         float zo = texelFetch(occluder_map, t, 0).r;
-        float zmax = uintBitsToFloat(bound.zmax_bits);
         if (zo < EMPTY && zo < zmax) {
             float h = light_is_sun()
                 ? max(pc.reach * (zmax - zo), 0.0)
@@ -79,6 +101,7 @@ void main() {
         }
     }
     barrier();
+    if (li == 0u) tiles.zmax[gl_WorkGroupID.y * gl_NumWorkGroups.x + gl_WorkGroupID.x] = uintBitsToFloat(group_deepest);
     if (li < SIDES && group_work[li] > 0u) {
         uint add = group_work[li];
         uint old = atomicAdd(bound.work[2 * li], add);

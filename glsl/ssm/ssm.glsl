@@ -7,4 +7,8 @@
 // Anything above EMPTY is "no surface at this texel".
 const float EMPTY = 0.5e30;
 
+// Side of the receiver tiles in texels: one workgroup of ssm/receiver_bound.comp and
+// ssm/patch_step.comp (BOUND_GROUP in src/technique/ssm_common.rs).
+#define SSM_TILE 16
+
 #endif

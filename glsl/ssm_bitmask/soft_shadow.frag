@@ -22,7 +22,7 @@ layout(set = 0, binding = 4, std430) readonly buffer Bound { uint zmax_bits; } b
 // The edge table: row a (line direction (a + 1/2) pi / SSMB_LUT_ANGLES), column d (signed
 // distance of the line from the disc centre, (d + 1/2) 2 / columns - 1): the mask of the
 // samples left of the directed line (src/technique/ssm_bitmask_table.rs, `edge_table`).
-layout(set = 0, binding = 5, std430) readonly buffer Table { uvec4 masks[]; } table;
+layout(set = 0, binding = 6, std430) readonly buffer Table { uvec4 masks[]; } table;
 
 layout(location = 0) flat in vec3 v_patch;    // the quad's first texel, its guard depth
 layout(location = 1) flat in vec4 v_corner_depth;
@@ -109,34 +109,43 @@ uvec4 hidden_directions(vec3 p, float zcap) {
     return quad_mask(c);
 }
 
-uvec4 hidden(float zr, vec2 r) {
-    float zo = v_patch.z;
+// The self-occlusion guard as ssm's: a quad whose texel is less than the guard in front of
+// the receiver at depth zr is the receiver's own surface (a sun's texel has one world size).
+float guard_depth(float zr) {
     float texel = 2.0 * frame.light_frustum.x * SSM_INV_RES;
-    // Self-occlusion guard as ssm's: a quad whose texel is less than the guard in front of
-    // the receiver is the receiver's own surface (a sun's texel has one world size).
-    float guard = light_is_sun()
+    return light_is_sun()
         ? zr * frame.light_frustum.w + SSM_SELF_GUARD_TEXELS * ssm_sun_texel()
         : zr * (frame.light_frustum.w + SSM_SELF_GUARD_TEXELS * texel);
-    if (zr - zo <= guard) return NO_SAMPLES;
-    // R > 0 (a sun: tan(theta) > 0) here: at R = 0 the technique is built as `hard`
-    // (src/technique/ssm_bitmask.rs, `create_either`, and `record_light` refuses R = 0), so
-    // the projection below never divides by a zero radius.
-    // The quad was drawn for the farthest receiver; a nearer one is reached by less. The
-    // receiver's texel centre lies half a texel inside its square: one texel of slack.
+}
+
+// Whether the quad can hide a sample from the receiver at depth zr at texel r: beyond the
+// guard, and within the reach at the receiver's own depth (the quad was drawn for the
+// farthest receiver; a nearer one is reached by less). The receiver's texel centre lies
+// half a texel inside its square: one texel of slack.
+bool reaches(float zr, vec2 r) {
+    float zo = v_patch.z;
+    if (zr - zo <= guard_depth(zr)) return false;
     vec4 zc = v_corner_depth;
     float znear = min(zo, min(min(zc.x, zc.y), min(zc.z, zc.w)));
     float h = reach_texels(v_reach, znear, zr) + 1.0;
     vec2 outside = max(v_patch.xy - r, r - (v_patch.xy + v_size));
-    if (any(greaterThan(outside, vec2(h)))) return NO_SAMPLES;
+    return all(lessThanEqual(outside, vec2(h)));
+}
+
+// The samples the quad hides from the receiver at depth zr at texel r, which it reaches.
+uvec4 hidden(float zr, vec2 r) {
+    // R > 0 (a sun: tan(theta) > 0) here: at R = 0 the technique is built as `hard`
+    // (src/technique/ssm_bitmask.rs, `create_either`, and `record_light` refuses R = 0), so
+    // the projection below never divides by a zero radius.
+    // Corners deeper than the guard are pulled in front of it: the quad reaches down to the
+    // receiver (a caster standing on it), and the projection stays finite.
+    float zcap = zr - guard_depth(zr);
     vec3 p = light_frame(r, zr);
-    if (light_is_sun()) return hidden_directions(p, zr - guard);
+    if (light_is_sun()) return hidden_directions(p, zcap);
     float dist = length(p);
     vec3 w = -p / dist;
     vec3 u = normalize(cross(vec3(0.0, 1.0, 0.0), w));
     vec3 v = cross(w, u);
-    // Corners deeper than the guard are pulled in front of it: the quad reaches down to the
-    // receiver (a caster standing on it), and the projection stays finite.
-    float zcap = zr - guard;
     vec2 c[4];
     for (int k = 0; k < 4; ++k) {
         vec2 px = v_patch.xy + vec2(float(k & 1), float(k >> 1)) * v_size;
@@ -155,7 +164,17 @@ void main() {
     float zmax = uintBitsToFloat(bound.zmax_bits);
     // No pure receiver behind: stand in the farthest receiver plane, which the extents cover.
     z2 = min(z2, zmax);
-    o_front = hidden(z1, gl_FragCoord.xy);
-    o_pure = z2 == z1 ? o_front : hidden(z2, gl_FragCoord.xy);
+    // The layers the quad reaches, shaded in turn (the pure receiver only where it is another
+    // surface): a loop rather than two calls, so that the fragments of a SIMD group stop as
+    // soon as none of them has a layer left, where two calls would each run for all of them.
+    vec2 r = gl_FragCoord.xy;
+    bool front = reaches(z1, r);
+    bool pure = z2 != z1 && reaches(z2, r);
+    uvec4 mask[2] = uvec4[2](NO_SAMPLES, NO_SAMPLES);
+    for (int l = front ? 0 : (pure ? 1 : 2); l < 2; l = l == 0 && pure ? 1 : 2) {
+        mask[l] = hidden(l == 0 ? z1 : z2, r);
+    }
+    o_front = mask[0];
+    o_pure = z2 == z1 ? mask[0] : mask[1];
     if (all(equal(o_front | o_pure, NO_SAMPLES))) discard;
 }

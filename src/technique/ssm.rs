@@ -178,7 +178,7 @@ impl SoftShadow {
             Image::new_2d(ctx, res, res, accum, MAP_USAGE, &format!("{name} (front)"))?,
             Image::new_2d(ctx, res, res, accum, MAP_USAGE, &format!("{name} (pure)"))?,
         ];
-        let set = inputs.patch_set(init, occluder_map, nearest, None, name)?;
+        let set = inputs.patch_set(init, occluder_map, nearest, Vec::new(), name)?;
         Ok(Self { layers, set, name })
     }
 }
@@ -212,7 +212,7 @@ impl Ssm {
         let nearest = Sampler::new(ctx, Filter::Nearest).context("ssm sampler")?;
 
         // Passes 1-5: occluder maps, receiver map, receiver bound, micro-patch step.
-        let inputs = LightInputs::new(init, name, two_sided, &nearest)?;
+        let inputs = LightInputs::new(init, name, two_sided, false, &nearest)?;
         let LightInputs {
             occluder,
             back,

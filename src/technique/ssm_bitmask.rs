@@ -1,6 +1,7 @@
 //! # ssm-bitmask — soft shadow maps with exact occlusion
 //! Port sheet: docs/port/ssm-bitmask.md
-//! Speed layer: speed::ssm (the micro-patch step, pass 4; kept under --plain, see there).
+//! Speed layer: speed::ssm (the micro-patch step, pass 4, kept under --plain; the receiver
+//! tiles and the quad list, pass 5, off under --plain).
 //! Over 400 lines because the header (about 130 lines) carries both lights' projections onto
 //! the light samples, which a porter reads here and not in the shaders alone.
 //!
@@ -68,11 +69,20 @@
 //!    nearest pure receiver) and `ssm-bitmask/receiver_bound` (z_max).
 //! 4. `ssm-bitmask/micro_patch_step` — as ssm's (speed::ssm) with this form's extents: the
 //!    side s of the texel blocks drawn as one micro-quad, 1 unless the quads would shade
-//!    more than N^4 / 64 fragments (then a `warning:` line names the bound).
-//! 5. `ssm-bitmask/soft_shadow` — one instanced draw of N^2 instances x 4 vertices (triangle
-//!    strip), no vertex buffer. Two colour attachments R32G32B32A32_UINT (layer 0, layer 1),
+//!    more than N^4 / 64 fragments (then a `warning:` line names the bound); and the
+//!    receiver tiles, per 16x16 texels the deepest receiver a pass-6 fragment there stands at.
+//! 5. `ssm-bitmask/micro_quads` (speed layer, `speed::ssm::QuadList`; not run under
+//!    `--plain`) — compute `glsl/ssm_bitmask/micro_quads.comp`, one invocation per instance
+//!    of pass 6: the instance's quad (`micro_quad`, `glsl/ssm_bitmask/micro_quad.glsl`, the
+//!    function the plain vertex shader runs) once, appended to a list with an atomic counter
+//!    that is the instance count of pass 6's indirect draw, when it reaches a receiver. The
+//!    quads stop at the deepest receiver under their extents: the receiver tiles of pass 4
+//!    (`glsl/ssm/tiles.glsl`), which hold the frame's z_max under `--plain`.
+//! 6. `ssm-bitmask/soft_shadow` — one instanced draw of N^2 instances x 4 vertices (triangle
+//!    strip), no vertex buffer (the speed layer: one indirect draw of the listed quads,
+//!    `glsl/ssm_bitmask/soft_shadow_list.vert`; the same quads, the same image). Two colour attachments R32G32B32A32_UINT (layer 0, layer 1),
 //!    clear 0, **logic op OR** (the `logicOp` device feature; blending off).
-//!    `glsl/ssm_bitmask/soft_shadow.vert` reads the occluder map's 3x3 neighbourhood and
+//!    `glsl/ssm_bitmask/soft_shadow.vert` (`micro_quad`) reads the occluder map's 3x3 neighbourhood and
 //!    writes the texel, its four corner depths and its reach (flat), drawing the penumbra
 //!    extent grown by h = R' N / (2 tan(fov/2)) (1/z_near - 1/z_max) texels. R' = `EXTENT_MARGIN`
 //!    R / cos(alpha): a disc facing the receiver is R wide across the line to the light's
@@ -85,7 +95,7 @@
 //!    mask of the samples inside the two triangles. With s > 1 instance k draws block k of
 //!    s x s texels: the bounding rectangle of its occupied texels, each corner at the depth of
 //!    the occupied texel nearest it, its guard depth the block's farthest.
-//! 6. `ssm-bitmask/final` — `FinalPass` with `glsl/ssm_bitmask/final.frag`: as
+//! 7. `ssm-bitmask/final` — `FinalPass` with `glsl/ssm_bitmask/final.frag`: as
 //!    ssm's (2x2 footprint of the receiver map and the masks, layer 0 for the texel's own
 //!    receiver, layer 1 behind it, bilinear weights) but read at the point itself, **not at
 //!    a normal-offset point**: a mask holds the visibility at its texel's centre (ssm's
@@ -122,7 +132,7 @@
 //!   where `hard`'s offset point is lit (docs/DESIGN.md's mae_lit leaves these pixels out).
 
 use super::hard::{self, Names as HardNames};
-use super::speed::ssm::PatchStepReport;
+use super::speed::ssm::{PatchStepReport, QuadList};
 use super::ssm_bitmask_table::TABLE_ANGLES;
 pub use super::ssm_bitmask_table::{edge_table, light_samples, SAMPLES};
 use super::ssm_common::{ssm_uniforms, LightInputs, MAP_USAGE, SELF_GUARD_TEXELS};
@@ -206,7 +216,11 @@ pub struct SsmBitmask {
     masks: [Image; 2],
     _table: Buffer,
     front: QuadPass,
-    quad_pipeline: Pipeline,
+    /// The paper's draw: N^2 instances, each vertex deriving its quad.
+    plain_pipeline: Pipeline,
+    /// The speed layer's: the quads `list` computed, one indirect draw.
+    list: QuadList,
+    list_pipeline: Pipeline,
     final_pass: FinalPass,
     final_set: DescriptorSet,
     _nearest: Sampler,
@@ -226,8 +240,8 @@ impl SsmBitmask {
         let nearest = Sampler::new(ctx, Filter::Nearest).context("ssm-bitmask sampler")?;
 
         // Passes 1-4, as ssm's; one-sided: the back occluder map of the two-sided ssm2 is
-        // not drawn.
-        let inputs = LightInputs::new(init, name, false, &nearest)?;
+        // not drawn. The micro-quads read the receiver tiles.
+        let inputs = LightInputs::new(init, name, false, true, &nearest)?;
         let LightInputs {
             occluder,
             receivers,
@@ -254,31 +268,42 @@ impl SsmBitmask {
             &format!("{name} edge table"),
         )
         .context("ssm-bitmask edge table")?;
+        let list_name = format!("{name}/micro_quads");
+        let mut list = QuadList::new(ctx, res, &list_name).context("ssm-bitmask quad list")?;
         let quads = |map: &Image, pass: &str| -> Result<QuadPass> {
             let name = format!("{name}/{pass}");
-            let table = Some(("table", Resource::Storage(&table)));
-            let set = inputs.patch_set(init, map, &nearest, table, &name)?;
+            let mut extra = vec![("table", Resource::Storage(&table))];
+            extra.extend(list.bindings());
+            let set = inputs.patch_set(init, map, &nearest, extra, &name)?;
             Ok(QuadPass { set, name })
         };
         let front = quads(&occluder.depth, "soft_shadow").context("ssm-bitmask micro-quads")?;
-        let quad_pipeline = Pipeline::graphics(
-            ctx,
-            &GraphicsPipelineDesc {
-                name: &front.name,
-                vertex: shaders::SSM_BITMASK_SOFT_SHADOW_VERT,
-                fragment: Some(shaders::SSM_BITMASK_SOFT_SHADOW_FRAG),
-                vertex_stride: 0,
-                attributes: &[],
-                topology: PrimitiveTopology::TRIANGLE_STRIP,
-                cull: CullModeFlags::NONE,
-                // OR: the union of the samples the micro-quads hide.
-                colors: &[(MASK_FORMAT, Blend::Or), (MASK_FORMAT, Blend::Or)],
-                depth: None,
-                push_constant_bytes: 0,
-                sets: &[&front.set],
-            },
-        )
-        .context("ssm-bitmask micro-quad pipeline")?;
+        // The plain draw's vertex shader derives each quad; the speed layer's list draw reads
+        // the quads `list` computed. The same quads, the same fragment shader.
+        let quad_pipeline = |vertex: &[u8]| {
+            Pipeline::graphics(
+                ctx,
+                &GraphicsPipelineDesc {
+                    name: &front.name,
+                    vertex,
+                    fragment: Some(shaders::SSM_BITMASK_SOFT_SHADOW_FRAG),
+                    vertex_stride: 0,
+                    attributes: &[],
+                    topology: PrimitiveTopology::TRIANGLE_STRIP,
+                    cull: CullModeFlags::NONE,
+                    // OR: the union of the samples the micro-quads hide.
+                    colors: &[(MASK_FORMAT, Blend::Or), (MASK_FORMAT, Blend::Or)],
+                    depth: None,
+                    push_constant_bytes: 0,
+                    sets: &[&front.set],
+                },
+            )
+            .context("ssm-bitmask micro-quad pipeline")
+        };
+        let plain_pipeline = quad_pipeline(shaders::SSM_BITMASK_SOFT_SHADOW_VERT)?;
+        let list_pipeline = quad_pipeline(shaders::SSM_BITMASK_SOFT_SHADOW_LIST_VERT)?;
+        list.create_pipeline(ctx, &front.set, &list_name)
+            .context("ssm-bitmask quad list pipeline")?;
 
         // Pass 7.
         let final_name = format!("{name}/final");
@@ -313,20 +338,31 @@ impl SsmBitmask {
             masks,
             _table: table,
             front,
-            quad_pipeline,
+            plain_pipeline,
+            list,
+            list_pipeline,
             final_pass,
             final_set,
             _nearest: nearest,
         })
     }
 
-    /// Draws the occluder map's micro-quads into the cleared masks.
-    fn record_quads(&self, rec: &mut Recorder<'_>, quads: &QuadPass) {
+    /// Draws the occluder map's micro-quads into the cleared masks: those `list` listed
+    /// (`listed`), else one instance per texel.
+    fn record_quads(&self, rec: &mut Recorder<'_>, quads: &QuadPass, listed: bool) {
         let clear = Clear::Uint([0; 4]);
         rec.begin_rendering(&[(&self.masks[0], clear), (&self.masks[1], clear)], None);
-        rec.bind_pipeline(&self.quad_pipeline);
-        rec.bind_sets(&self.quad_pipeline, &[&quads.set]);
-        rec.draw(4, self.res * self.res);
+        let pipeline = if listed {
+            &self.list_pipeline
+        } else {
+            &self.plain_pipeline
+        };
+        rec.bind_pipeline(pipeline);
+        rec.bind_sets(pipeline, &[&quads.set]);
+        match listed {
+            true => rec.draw_indirect(&self.list.command, 0),
+            false => rec.draw(4, self.res * self.res),
+        }
         rec.end_rendering();
     }
 }
@@ -376,8 +412,16 @@ impl Technique for SsmBitmask {
             );
         }
         self.inputs.record(rec, frame, reach)?;
+        let listed = frame.settings.light_areas;
+        let list_name = format!("{}/micro_quads", self.name);
+        if listed {
+            rec.pass(&list_name, |rec| {
+                self.list.record(rec, &self.front.set);
+                Ok(())
+            })?;
+        }
         rec.pass(&self.front.name, |rec| {
-            self.record_quads(rec, &self.front);
+            self.record_quads(rec, &self.front, listed);
             Ok(())
         })
     }
@@ -392,6 +436,7 @@ impl Technique for SsmBitmask {
 
     fn light_passes(&self) -> Vec<String> {
         let mut names = self.inputs.pass_names();
+        names.push(format!("{}/micro_quads", self.name));
         names.push(self.front.name.clone());
         names
     }

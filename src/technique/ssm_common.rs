@@ -216,6 +216,9 @@ pub(crate) struct LightInputs {
     pub receivers: ReceiverMap,
     pub bound: ReceiverBound,
     pub step: PatchStep,
+    /// The micro-patch pass reads the receiver tiles (`PatchStep::tiles`): fill them with
+    /// each tile's deepest receiver when the speed layer is on.
+    tiles: bool,
 }
 
 impl LightInputs {
@@ -223,6 +226,7 @@ impl LightInputs {
         init: &TechniqueInit<'_>,
         name: &'static str,
         two_sided: bool,
+        tiles: bool,
         nearest: &Sampler,
     ) -> Result<Self> {
         let (ctx, res) = (init.ctx, init.settings.occluder_res);
@@ -239,8 +243,16 @@ impl LightInputs {
             .with_context(|| format!("{name} receiver map"))?;
         let bound = ReceiverBound::new(ctx, init.ubo, &receivers, nearest, name)
             .with_context(|| format!("{name} receiver bound"))?;
-        let step = PatchStep::new(ctx, init.ubo, &occluder.depth, &bound, nearest, name)
-            .with_context(|| format!("{name} micro-patch step"))?;
+        let step = PatchStep::new(
+            ctx,
+            init.ubo,
+            &occluder.depth,
+            &receivers.layers,
+            &bound,
+            nearest,
+            name,
+        )
+        .with_context(|| format!("{name} micro-patch step"))?;
         Ok(Self {
             name,
             occluder,
@@ -248,6 +260,7 @@ impl LightInputs {
             receivers,
             bound,
             step,
+            tiles,
         })
     }
 
@@ -276,7 +289,8 @@ impl LightInputs {
             Ok(())
         })?;
         rec.pass(&self.pass_name("micro_patch_step"), |rec| {
-            self.step.record(rec, &self.bound, reach);
+            let local = self.tiles && frame.settings.light_areas;
+            self.step.record(rec, &self.bound, reach, local);
             Ok(())
         })
     }
@@ -292,13 +306,13 @@ impl LightInputs {
     }
 
     /// The set of a micro-patch pass over the occluder map `map`: `frame`,
-    /// `occluder_map`, `receiver_front`, `receiver_pure`, `bound`, then `extra`.
+    /// `occluder_map`, `receiver_front`, `receiver_pure`, `bound`, `tiles`, then `extra`.
     pub fn patch_set(
         &self,
         init: &TechniqueInit<'_>,
         map: &Image,
         nearest: &Sampler,
-        extra: Option<(&'static str, Resource<'_>)>,
+        extra: Vec<(&'static str, Resource<'_>)>,
         name: &str,
     ) -> Result<DescriptorSet> {
         let mut bindings = vec![
@@ -313,6 +327,7 @@ impl LightInputs {
                 Resource::Sampled(&self.receivers.layers[1], nearest),
             ),
             ("bound", Resource::Storage(&self.bound.buffer)),
+            ("tiles", Resource::Storage(&self.step.tiles)),
         ];
         bindings.extend(extra);
         DescriptorSet::new(init.ctx, &bindings, name)

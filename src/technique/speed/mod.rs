@@ -18,6 +18,7 @@
 //! | per-caster geometry caches (`smoothies::CpuSmoothies`, `penumbra_map::CpuPenumbra` over `gpu::passes::CasterCacheOf`) and reused light passes (the renderer skips `record_light` while nothing moved) | rebuilding unchanged geometry and light buffers | the silhouette techniques; every technique | rebuilt every frame (`Settings::cache_light_passes`) |
 //! | culling (objects outside the light's or the camera's frustum not drawn) | draws of objects that write no texel read and no pixel | every technique | every object drawn (`Settings::culling`) |
 //! | plateau areas and split (`plateaus`): the plateau textures and the casters-only shadow map cleared and drawn only over the texels the final pass can read; the final shader only over the casters' regions on the plane and in the light | the clears and draws of unread texels, the final shader's lookups over lit ground | plateaus, plateaus-centred | whole textures, one full-screen final pass |
+//! | receiver tiles and quad list (`ssm::PatchStep`'s tiles, `ssm::QuadList`): each micro-quad derived once by a compute pass, listed only when it reaches a receiver and drawn by one indirect draw, and drawn only as far as the deepest receiver under its extent (16x16-texel tiles of the receiver map) instead of the frame's deepest | a vertex shader run four times per texel of the occluder map, empty ones included, and the fragments of extents sized for the frame's deepest receiver | ssm-bitmask (the tiles: its quads only) | N^2 instances drawn, each vertex deriving its quad, tiles holding z_max (`Settings::light_areas`) |
 //! | micro-patch step (`ssm::PatchStep`): the micro-patches drawn in blocks of texels when one patch per texel would shade more than N^4 / 64 fragments (never on the built-in scenes) | the fragments of very wide penumbrae | ssm, ssm2, ssm-bitmask | **stays on**: it changes the image where it acts (a warning line says so), and without it one frame can take minutes |
 //!
 //! Modules:
@@ -30,7 +31,8 @@
 //!   and sheets, cut cones, light areas, split polygons.
 //! - `plateaus`: `plateaus` and `plateaus-centred`: the light-pass areas and the split final
 //!   pass's regions.
-//! - `ssm`: the four soft-shadow-map forms' micro-patch step.
+//! - `ssm`: the soft-shadow-map forms' micro-patch step, and ssm-bitmask's receiver tiles
+//!   and quad list.
 
 pub mod penumbra_map;
 pub mod plateaus;

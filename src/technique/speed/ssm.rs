@@ -8,6 +8,22 @@
 //! says so), and `--plain` keeps it: without it a narrow cone under a wide light shades
 //! for minutes a frame on a CPU driver. A GPU port may drop the pass and draw s = 1
 //! (the vertex shaders read s from the bound buffer's second word: write 1 there).
+//!
+//! Two tricks of `ssm-bitmask` that leave its image as it is, off under `--plain`:
+//! - **Receiver tiles** (`PatchStep::tiles`, written by the step's first dispatch): per
+//!   16x16 texels the deepest receiver a micro-quad fragment there stands at. A quad's
+//!   extent for the frame's z_max covers every receiver it can reach; within it no
+//!   receiver is deeper than the tiles it overlaps, and the fragment shader's reach test
+//!   takes none beyond its reach at its own depth, so the quad is drawn only that far
+//!   (`glsl/ssm/tiles.glsl`; up to 4 x 4 tiles, else z_max). Under `--plain` every tile
+//!   holds z_max.
+//! - **Quad list** (`QuadList`, pass `ssm-bitmask/micro_quads`): the plain draw has N^2
+//!   instances whose vertex shader derives the quad (3x3 occluder reads, corner depths,
+//!   extent) four times, once per vertex, and draws a degenerate quad for every empty
+//!   texel. The list computes each quad once in a compute pass, appends the quads that
+//!   reach a receiver, and the draw is one indirect draw of those. On lavapipe (vertices
+//!   shaded on one thread) the plain draw's vertex stage takes most of the pass where the
+//!   penumbrae are small.
 
 use super::super::ssm_common::{ReceiverBound, BOUND_GROUP};
 use crate::shaders;
@@ -24,6 +40,10 @@ use anyhow::Result;
 /// resolution). Written after z_max into the bound buffer, where the micro-patch vertex
 /// shaders read it, and copied to the host for the warning line.
 pub(crate) struct PatchStep {
+    /// Per `BOUND_GROUP`² texels the deepest receiver a micro-patch fragment there stands at
+    /// (f32; the frame's z_max under `--plain`), which the micro-patch vertex shaders
+    /// read (`glsl/ssm/tiles.glsl`).
+    pub tiles: Buffer,
     set: DescriptorSet,
     pipeline: Pipeline,
     readback: Buffer,
@@ -54,21 +74,33 @@ impl PatchStep {
         ctx: &Context,
         ubo: &Buffer,
         occluder: &Image,
+        receivers: &[Image; 2],
         bound: &ReceiverBound,
         nearest: &Sampler,
         technique: &str,
     ) -> Result<Self> {
         let name = format!("{technique}/micro_patch_step");
+        let groups = bound.res.div_ceil(BOUND_GROUP) as u64;
+        let tiles = Buffer::new(
+            ctx,
+            4 * groups * groups,
+            BufferUsageFlags::STORAGE_BUFFER,
+            MemoryLocation::GpuOnly,
+            &format!("{name} receiver tiles"),
+        )?;
         let set = DescriptorSet::new(
             ctx,
             &[
                 ("frame", Resource::Uniform(ubo)),
                 ("occluder_map", Resource::Sampled(occluder, nearest)),
                 ("bound", Resource::Storage(&bound.buffer)),
+                ("receiver_front", Resource::Sampled(&receivers[0], nearest)),
+                ("receiver_pure", Resource::Sampled(&receivers[1], nearest)),
+                ("tiles", Resource::Storage(&tiles)),
             ],
             &name,
         )?;
-        let pipeline = Pipeline::compute(ctx, &name, shaders::SSM_PATCH_STEP_COMP, &[&set], 8)?;
+        let pipeline = Pipeline::compute(ctx, &name, shaders::SSM_PATCH_STEP_COMP, &[&set], 12)?;
         let readback = Buffer::new(
             ctx,
             bound.buffer.size,
@@ -77,6 +109,7 @@ impl PatchStep {
             &format!("{name} readback"),
         )?;
         Ok(Self {
+            tiles,
             set,
             pipeline,
             readback,
@@ -87,11 +120,18 @@ impl PatchStep {
 
     /// `reach`: texels of penumbra extent per unit of (1/z_O - 1/z_max) (under a sun per
     /// unit of z_max - z_O), as the technique's micro-patch vertex shader grows its quads
-    /// (at most).
-    pub(crate) fn record(&self, rec: &mut Recorder<'_>, bound: &ReceiverBound, reach: f32) {
+    /// (at most). `local`: the tiles hold their own deepest receivers (else z_max).
+    pub(crate) fn record(
+        &self,
+        rec: &mut Recorder<'_>,
+        bound: &ReceiverBound,
+        reach: f32,
+        local: bool,
+    ) {
         let push = |choose: u32| {
             let mut bytes = reach.to_ne_bytes().to_vec();
             bytes.extend_from_slice(&choose.to_ne_bytes());
+            bytes.extend_from_slice(&u32::from(local).to_ne_bytes());
             bytes
         };
         rec.bind_pipeline(&self.pipeline);
@@ -127,5 +167,84 @@ impl PatchStep {
             "{technique}: the micro-patches' penumbrae would cost about {:.3e} fragments, above the bound of {:.3e} (occluder-res^4 / 64): drawn as blocks of {s} x {s} occluder texels, coarser penumbrae",
             r.work, r.budget, s = r.step
         )))
+    }
+}
+
+/// `ssm-bitmask/micro_quads`: the micro-quads computed once each and listed
+/// (`glsl/ssm_bitmask/micro_quads.comp`), drawn by one indirect draw
+/// (`glsl/ssm_bitmask/soft_shadow_list.vert`) instead of N^2 instances whose vertex shader
+/// derives every quad four times (once per vertex) and draws a degenerate quad for every
+/// empty texel. Same quads, same image; off under `--plain`.
+pub(crate) struct QuadList {
+    /// The indirect draw's `VkDrawIndirectCommand` (cleared, then counted by the dispatch).
+    pub command: Buffer,
+    /// Three vec4 per listed quad, room for one per texel.
+    pub quads: Buffer,
+    pipeline: Option<Pipeline>,
+    res: u32,
+}
+
+impl QuadList {
+    /// Bytes of one listed quad.
+    const QUAD_BYTES: u64 = 48;
+    /// Invocations in one workgroup of the dispatch.
+    const GROUP: u32 = 64;
+
+    pub(crate) fn new(ctx: &Context, res: u32, name: &str) -> Result<Self> {
+        let command = Buffer::new(
+            ctx,
+            16,
+            BufferUsageFlags::STORAGE_BUFFER
+                | BufferUsageFlags::INDIRECT_BUFFER
+                | BufferUsageFlags::TRANSFER_DST,
+            MemoryLocation::GpuOnly,
+            &format!("{name} draw command"),
+        )?;
+        let quads = Buffer::new(
+            ctx,
+            Self::QUAD_BYTES * u64::from(res) * u64::from(res),
+            BufferUsageFlags::STORAGE_BUFFER,
+            MemoryLocation::GpuOnly,
+            &format!("{name} quads"),
+        )?;
+        Ok(Self {
+            command,
+            quads,
+            pipeline: None,
+            res,
+        })
+    }
+
+    /// The bindings the micro-quad set takes after its own: `command`, `list`.
+    pub(crate) fn bindings(&self) -> [(&'static str, Resource<'_>); 2] {
+        [
+            ("command", Resource::Storage(&self.command)),
+            ("list", Resource::Storage(&self.quads)),
+        ]
+    }
+
+    /// The dispatch's pipeline over `set` (the micro-quad set, with `bindings`).
+    pub(crate) fn create_pipeline(
+        &mut self,
+        ctx: &Context,
+        set: &DescriptorSet,
+        name: &str,
+    ) -> Result<()> {
+        let spirv = shaders::SSM_BITMASK_MICRO_QUADS_COMP;
+        self.pipeline = Some(Pipeline::compute(ctx, name, spirv, &[set], 0)?);
+        Ok(())
+    }
+
+    /// Clears the command and lists the quads: one invocation per instance of the plain
+    /// draw, a row of the occluder map per row of groups (blocks of the micro-patch step
+    /// take the first invocations).
+    pub(crate) fn record(&self, rec: &mut Recorder<'_>, set: &DescriptorSet) {
+        let Some(pipeline) = &self.pipeline else {
+            return;
+        };
+        rec.fill_buffer(&self.command, 0);
+        rec.bind_pipeline(pipeline);
+        rec.bind_sets(pipeline, &[set]);
+        rec.dispatch(self.res.div_ceil(Self::GROUP), self.res, 1);
     }
 }

@@ -1,0 +1,38 @@
+#version 450
+#extension GL_GOOGLE_include_directive : require
+#include "common/count.glsl"  // by name: build.rs also builds it counted (-DCOUNT_LIGHT)
+// ssm-bitmask/micro_quads (speed layer, src/technique/speed/ssm.rs): the micro-quad of each
+// instance (`micro_quad`, micro_quad.glsl) computed once instead of once per vertex, and
+// listed only when it reaches a receiver; the quads' draw (soft_shadow_list.vert) is an
+// indirect draw of the listed quads. One invocation per instance of the plain draw.
+#define FRAME_NO_DRAW_PUSH
+#include "ssm_bitmask/micro_quad.glsl"
+
+layout(local_size_x = 64) in;
+
+// The indirect draw's VkDrawIndirectCommand, cleared to 0 before the dispatch.
+layout(set = 0, binding = 7, std430) buffer Command {
+    uint vertex_count;
+    uint instance_count;
+    uint first_vertex;
+    uint first_instance;
+} command;
+// Per listed quad 3 vec4: (first, reach), corner depths, (size, grow, 0).
+layout(set = 0, binding = 8, std430) writeonly buffer Quads { vec4 quads[]; } list;
+
+void main() {
+    int n = int(SSM_RES);
+    // Instance k of the plain draw: row y of the groups holds k = y n .. y n + n - 1.
+    if (gl_GlobalInvocationID.x >= uint(n)) return;
+    int k = int(gl_GlobalInvocationID.y) * n + int(gl_GlobalInvocationID.x);
+    if (k == 0) command.vertex_count = 4u;
+    int step = int(bound.step);
+    int blocks = (n + step - 1) / step;
+    if (k >= blocks * blocks) return;
+    MicroQuad q = micro_quad(k);
+    if (q.grow < 0.0) return;
+    uint at = 3u * atomicAdd(command.instance_count, 1u);
+    list.quads[at] = vec4(q.first, q.reach);
+    list.quads[at + 1u] = q.corner_depth;
+    list.quads[at + 2u] = vec4(q.size, q.grow, 0.0);
+}

@@ -174,7 +174,9 @@ impl PatchStep {
 /// (`glsl/ssm_bitmask/micro_quads.comp`), drawn by one indirect draw
 /// (`glsl/ssm_bitmask/soft_shadow_list.vert`) instead of N^2 instances whose vertex shader
 /// derives every quad four times (once per vertex) and draws a degenerate quad for every
-/// empty texel. Same quads, same image; off under `--plain`.
+/// empty texel. Same quads, same image; off under `--plain`. The atomic counter lists the
+/// quads in an order that varies between frames; the masks do not, OR being free of order
+/// (the ADD-blended `ssm` and `ssm2` would need an ordered list to keep their sums exact).
 pub(crate) struct QuadList {
     /// The indirect draw's `VkDrawIndirectCommand` (cleared, then counted by the dispatch).
     pub command: Buffer,

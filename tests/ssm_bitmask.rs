@@ -585,3 +585,45 @@ fn listed_micro_quads_stop_at_the_deepest_receiver_under_them() {
         );
     }
 }
+
+/// The quad list lists blocks as the plain draw draws them when the micro-patch step is
+/// above 1 (a 1 and a 2 degree cone: blocks of several texels), and under a sun: the
+/// visibilities of the listed and the plain draws are equal.
+#[test]
+fn listed_blocks_and_sun_quads_equal_the_plain_draw() {
+    let gpu = Gpu::new();
+    let settings = common::small(48, Settings::default().shadow_res);
+    let cases = [
+        (narrow_cone(1.0), true),
+        (narrow_cone(2.0), true),
+        (Scene::load("sun-bunny").unwrap(), false),
+    ];
+    for (scene, blocks) in cases {
+        let render = |plain: bool| {
+            let mut r = softshadow::render::Renderer::new(
+                &gpu.ctx,
+                scene.clone(),
+                "ssm-bitmask",
+                Settings {
+                    plain,
+                    ..settings.clone()
+                },
+            )
+            .unwrap();
+            r.render().unwrap();
+            let step = r.micro_patch_step().unwrap().step;
+            (r.read_back().unwrap(), step)
+        };
+        let (listed, step) = render(false);
+        let (plain, plain_step) = render(true);
+        assert_eq!(step, plain_step, "{}", scene.name);
+        assert_eq!(step > 1, blocks, "{}: step {step}", scene.name);
+        let shadowed = plain.visibility.iter().filter(|v| **v < 0.99).count();
+        assert!(shadowed > 50, "{}: {shadowed} shadowed pixels", scene.name);
+        let differ = (listed.visibility.iter().zip(&plain.visibility))
+            .filter(|(a, b)| a != b)
+            .count();
+        assert_eq!(differ, 0, "{}: {differ} visibilities differ", scene.name);
+    }
+    gpu.assert_clean();
+}

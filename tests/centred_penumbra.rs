@@ -12,7 +12,9 @@
 //! - smoothies-centred's outer smoothies, overlapping on `dense`: no more specks darker
 //!   than the reference than `pcss` draws through the same lookup;
 //! - penumbrae about a texel wide (`dense`'s ground): drawn narrower by the final pass's
-//!   bilinear spread, a measured error bound on the ground.
+//!   bilinear spread, a measured error bound on the ground;
+//! - a point right behind a caster, nearer than the receiver its inner value was made for
+//!   (`fence`'s rails behind its posts): its own narrower penumbra, a measured error bound.
 
 mod common;
 
@@ -543,5 +545,62 @@ fn zero_radius_equals_hard() {
                 .fold(0.0f32, f32::max);
             assert!(max <= 1e-6, "{scene}/{centred}: max |v - hard| = {max}");
         }
+    }
+}
+
+/// The inner values are made for the receiver just outside the silhouette edge; a point
+/// nearer than it sees a narrower penumbra (glsl/common/nearer_receiver.glsl). On `fence`
+/// at twice its radius the posts' inner penumbrae, made for the ground, fall on the rails
+/// right behind them, where the reference is mostly umbra. Mean error over the fence's own
+/// light-facing pixels in shadow or penumbra at 480x360 (166 pixels): with the ground's
+/// penumbra 0.1146 and 0.1110 for smoothies-centred and penumbra-map-centred, narrowed to
+/// their own depth 0.0360 and 0.0339, now below pcss's 0.0459. The bounds lie halfway, and
+/// both must stay below pcss's.
+#[test]
+fn a_point_right_behind_a_caster_takes_its_own_narrower_penumbra() {
+    let gpu = Gpu::new();
+    let scene = Scene::load("fence").unwrap();
+    let radius = 2.0 * scene.light.radius;
+    let settings = Settings {
+        width: 480,
+        height: 360,
+        light_radius: Some(radius),
+        ..Settings::default()
+    };
+    let mut v_ref: Option<Vec<f32>> = None;
+    let mut errors = Vec::new();
+    for t in ["pcss", "smoothies-centred", "penumbra-map-centred"] {
+        let img = gpu.render_frames(scene.clone(), t, settings.clone(), 1).0;
+        let v_ref = v_ref.get_or_insert_with(|| reference(&scene, radius, &img));
+        let facing = faces_light(&img.position, &img.normal, scene.light.position);
+        // Off the ground (y = 0): the posts and rails.
+        let fence: Vec<usize> = (0..img.visibility.len())
+            .filter(|&i| {
+                facing[i]
+                    && img.spot[i] > 0.0
+                    && img.position[i][3] > 0.5
+                    && img.position[i][1] > 0.01
+                    && v_ref[i] < softshadow::eval::metrics::SHADOW_THRESHOLD
+            })
+            .collect();
+        assert!(fence.len() > 100, "{t}: {} fence pixels", fence.len());
+        let error = fence
+            .iter()
+            .map(|&i| f64::from((img.visibility[i] - v_ref[i]).abs()))
+            .sum::<f64>()
+            / fence.len() as f64;
+        println!(
+            "{t}: mean error {error:.4} over {} fence pixels",
+            fence.len()
+        );
+        errors.push(error);
+    }
+    let pcss = errors[0];
+    for (t, error, bound) in [
+        ("smoothies-centred", errors[1], 0.075),
+        ("penumbra-map-centred", errors[2], 0.072),
+    ] {
+        assert!(error < bound, "{t}: {error:.4} above {bound}");
+        assert!(error < pcss, "{t}: {error:.4} above pcss's {pcss:.4}");
     }
 }

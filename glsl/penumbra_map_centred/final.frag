@@ -9,6 +9,7 @@
 // boxes, stays in the umbra), never lighter than the outer visibility there (a second caster's outer penumbra
 // over this one's shadow). Bilinear weights, as `hard`.
 #include "common/shadow.glsl"
+#include "common/nearer_receiver.glsl"
 #include "penumbra_map/surface.glsl"
 
 layout(set = 0, binding = 1) uniform sampler2D shadow_map;   // RG32F: r caster depth, g foremost surface
@@ -23,7 +24,8 @@ layout(set = 0, binding = 2) uniform sampler2D penumbra_map;
 float visibility(vec3 p, vec3 n) {
     LightSample s = light_sample(p, n);
     if (!s.inside) return 1.0;
-    vec4 lit = lit_test(textureGather(shadow_map, s.uv, 0), s.depth);
+    vec4 casters = textureGather(shadow_map, s.uv, 0);
+    vec4 lit = lit_test(casters, s.depth);
     vec4 outer = textureGather(penumbra_map, s.uv, 0);
     // In front of every caster and outside every outer penumbra: lit, no further lookup.
     if (all(equal(lit * outer, vec4(1.0)))) return 1.0;
@@ -33,6 +35,7 @@ float visibility(vec3 p, vec3 n) {
     if (all(equal(lit, vec4(1.0)))) return clamp(bilinear_lit(in_front, s.uv), 0.0, 1.0);
     vec4 receiver = (1.0 - textureGather(penumbra_map, s.uv, 2)) * frame.light_params.y;
     vec4 inner = (1.0 - textureGather(penumbra_map, s.uv, 1)) * step(s.depth, receiver * (1.0 + RECEIVER_EPS));
+    inner = inner_at_depth(inner, receiver, casters, s.depth);
     vec4 behind = min(inner, outer);
     return clamp(bilinear_lit(mix(behind, in_front, lit), s.uv), 0.0, 1.0);
 }

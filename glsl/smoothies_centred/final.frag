@@ -9,6 +9,7 @@
 // caster's outer smoothie over this one's shadow). Bilinear weights as `hard`; no falloff
 // lookup (the disc-chord profile is in the values).
 #include "common/shadow.glsl"
+#include "common/nearer_receiver.glsl"
 #include "smoothies/constants.glsl"
 
 layout(set = 0, binding = 1) uniform sampler2D shadow_map;          // RG32F: r = nearest caster depth
@@ -23,7 +24,8 @@ layout(set = 0, binding = 3) uniform sampler2D smoothie_penumbra;
 float visibility(vec3 p, vec3 n) {
     LightSample s = light_sample(p, n);
     if (!s.inside) return 1.0;
-    vec4 lit = lit_test(textureGather(shadow_map, s.uv, 0), s.depth);
+    vec4 casters = textureGather(shadow_map, s.uv, 0);
+    vec4 lit = lit_test(casters, s.depth);
     // R = 0: no smoothie was drawn, exactly `hard`.
     if (SMOOTHIE_T <= 0.0) return bilinear_lit(lit, s.uv);
     vec4 in_front = lit_test(textureGather(smoothie_depth, s.uv, 0), s.depth);
@@ -34,6 +36,7 @@ float visibility(vec3 p, vec3 n) {
     if (all(equal(lit, vec4(1.0)))) return clamp(bilinear_lit(outer, s.uv), 0.0, 1.0);
     vec4 receiver = (1.0 - textureGather(smoothie_penumbra, s.uv, 2)) * frame.light_params.y;
     vec4 inner = (1.0 - textureGather(smoothie_penumbra, s.uv, 1)) * step(s.depth, receiver * (1.0 + RECEIVER_EPS));
+    inner = inner_at_depth(inner, receiver, casters, s.depth);
     vec4 behind = min(inner, outer);
     return clamp(bilinear_lit(mix(behind, outer, lit), s.uv), 0.0, 1.0);
 }

@@ -86,8 +86,10 @@
 //!    surface is the point's own (the paper form's window, glsl/penumbra_map/surface.glsl),
 //!    else 1; behind it: 1 - the inner occlusion if the point is at most 5 % beyond the
 //!    farthest receiver depth of the inner values there, else 0 (a point behind a second
-//!    caster, e.g. the ground under two stacked boxes, stays in the umbra), and never more
-//!    than the outer visibility.
+//!    caster, e.g. the ground under two stacked boxes, stays in the umbra), narrowed where
+//!    the point is more than 5 % nearer than that receiver (its own, narrower penumbra:
+//!    `inner_at_depth`, glsl/common/nearer_receiver.glsl), and never more than the outer
+//!    visibility.
 //!    Bilinear weights as `hard`. R = 0 draws no cones or sheets: the map stays (1, 1, 1, 1),
 //!    and the result is `hard`'s exactly. Where the penumbra map holds its clear value and no
 //!    caster is in front, v is exactly 1 (`bilinear_lit`). The shader gathers in that order
@@ -155,19 +157,20 @@
 //! ## Known artefacts
 //! One receiver per texel for the inner side: Z_R is the plane of the surface just outside
 //! the edge; a hidden point more than 5 % beyond it gets the umbra (right behind a second
-//! caster, too dark behind a receiver that curves away), one nearer gets that plane's wider
-//! penumbra (too light). Surfaces facing away from the light inside the inner band get the
-//! inner penumbra too (the shading's n.l hides it). The march and the edge test are
-//! quantised to the shadow map's texels (the far edge to 1/2 texel after bisection).
-//! Silhouettes from the light centre only (they pop under light motion) and the paper's
-//! creases at concavities remain; both halves are evaluated for a straight edge, so curved
-//! silhouettes (a sphere's) get a slightly too dark inner penumbra (a convex outline hides
-//! less of the disc than the half-plane of its tangent). The inner fragments cost up to 15
-//! shadow-map fetches each (two receiver samples, own texel, the texel one half-width in,
-//! and the 8 + 3 march steps only where the blocker has ended by then), only in the inner
-//! band; the outer ones two beyond the paper's one beside a blocker (the march's start
-//! inside the edge and the end of the rest of the half-width) and the 8 + 3 march steps
-//! only where the blocker has ended by then.
+//! caster, too dark behind a receiver that curves away); one nearer (a rail right behind a
+//! post) gets that penumbra narrowed to its own depth, from a linear stand-in for the
+//! profile (exact at the hard edge and the umbra's end). Surfaces facing away from the
+//! light inside the inner band get the inner penumbra too (the shading's n.l hides it). The
+//! march and the edge test are quantised to the shadow map's texels (the far edge to 1/2
+//! texel after bisection). Silhouettes from the light centre only (they pop under light
+//! motion) and the paper's creases at concavities remain; both halves are evaluated for a
+//! straight edge, so curved silhouettes (a sphere's) get a slightly too dark inner penumbra
+//! (a convex outline hides less of the disc than the half-plane of its tangent). The inner
+//! fragments cost up to 15 shadow-map fetches each (two receiver samples, own texel, the
+//! texel one half-width in, and the 8 + 3 march steps only where the blocker has ended by
+//! then), only in the inner band; the outer ones two beyond the paper's one beside a
+//! blocker (the march's start inside the edge and the end of the rest of the half-width)
+//! and the 8 + 3 march steps only where the blocker has ended by then.
 
 use super::penumbra_map::{penumbra_pipeline_desc, PenumbraMap, PenumbraTarget};
 use super::{Form, TechniqueInfo, TechniqueInit};

@@ -110,7 +110,9 @@
 //!    nearest caster: outer; behind it: min(outer, 1 - the inner occlusion) if the point is
 //!    at most 5 % beyond the farthest receiver depth of the inner values there, else 0 (a
 //!    point behind a second caster, e.g. the ground under two stacked boxes, stays in the
-//!    umbra). Bilinear weights as `hard`; no falloff texture (the profile is in the
+//!    umbra), narrowed where the point is more than 5 % nearer than that receiver (its own,
+//!    narrower penumbra: `inner_at_depth`, glsl/common/nearer_receiver.glsl). Bilinear
+//!    weights as `hard`; no falloff texture (the profile is in the
 //!    values). R = 0 draws no smoothie and returns `hard`'s bilinear value: `hard`'s image
 //!    exactly. Outside the casters' projections and their smoothies every lookup reads "far"
 //!    and the shader returns 1; where every footprint texel is in front of every caster it
@@ -171,16 +173,17 @@
 //! ## Known artefacts
 //! One receiver per texel on the inner side: Z_R is the plane of the surface just outside
 //! the edge; a hidden point more than 5 % beyond it gets the umbra (right behind a second
-//! caster, too dark behind a receiver that curves away), one nearer gets that plane's
-//! wider penumbra (too light). The march and the edge test are quantised to shadow-map
-//! texels. Both halves are evaluated for a straight edge, so curved silhouettes get a
-//! slightly too dark inner penumbra. The paper's known artefacts remain: silhouettes from
-//! the light centre (they pop under light motion; thick smoothies snap on coarse meshes),
-//! min rather than the product for overlapping outer penumbrae, and the cap t <= 0.2 (a
-//! blocker near the light gets too narrow a penumbra). The inner fragments cost up to 15
-//! shadow-map fetches each (two receiver samples, own texel, the texel one half-width in,
-//! and the 8 + 3 march steps only where the blocker has ended by then), only in the inner
-//! band; the outer ones one, as the paper's, two more beside a blocker (the
+//! caster, too dark behind a receiver that curves away); one nearer (a rail right behind a
+//! post) gets that penumbra narrowed to its own depth, from a linear stand-in for the
+//! profile (exact at the hard edge and the umbra's end). The march and the edge test are
+//! quantised to shadow-map texels. Both halves are evaluated for a straight edge, so curved
+//! silhouettes get a slightly too dark inner penumbra. The paper's known artefacts remain:
+//! silhouettes from the light centre (they pop under light motion; thick smoothies snap on
+//! coarse meshes), min rather than the product for overlapping outer penumbrae, and the cap
+//! t <= 0.2 (a blocker near the light gets too narrow a penumbra). The inner fragments cost
+//! up to 15 shadow-map fetches each (two receiver samples, own texel, the texel one
+//! half-width in, and the 8 + 3 march steps only where the blocker has ended by then), only in
+//! the inner band; the outer ones one, as the paper's, two more beside a blocker (the
 //! march's start inside the edge and the end of the rest of the half-width) and the 8 + 3
 //! march steps only where the blocker has ended by then.
 

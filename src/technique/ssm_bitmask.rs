@@ -78,23 +78,24 @@
 //!    that is the instance count of pass 6's indirect draw, when it reaches a receiver. The
 //!    quads stop at the deepest receiver under their extents: the receiver tiles of pass 4
 //!    (`glsl/ssm/tiles.glsl`), which hold the frame's z_max under `--plain`.
-//! 6. `ssm-bitmask/soft_shadow` — one instanced draw of N^2 instances x 4 vertices (triangle
-//!    strip), no vertex buffer (the speed layer: one indirect draw of the listed quads,
-//!    `glsl/ssm_bitmask/soft_shadow_list.vert`; the same quads, the same image). Two colour attachments R32G32B32A32_UINT (layer 0, layer 1),
-//!    clear 0, **logic op OR** (the `logicOp` device feature; blending off).
-//!    `glsl/ssm_bitmask/soft_shadow.vert` (`micro_quad`) reads the occluder map's 3x3 neighbourhood and
-//!    writes the texel, its four corner depths and its reach (flat), drawing the penumbra
-//!    extent grown by h = R' N / (2 tan(fov/2)) (1/z_near - 1/z_max) texels. R' = `EXTENT_MARGIN`
-//!    R / cos(alpha): a disc facing the receiver is R wide across the line to the light's
-//!    centre and R / cos(alpha) in the map's plane, alpha that line's angle to the light's axis,
-//!    bounded over the receivers the quad can reach (at most sqrt(1 + 2 tan^2(fov/2)) at the
+//! 6. `ssm-bitmask/soft_shadow` — one instanced draw of N^2 instances x 4 vertices
+//!    (triangle strip), no vertex buffer (the speed layer: one indirect draw of the listed
+//!    quads, `glsl/ssm_bitmask/soft_shadow_list.vert`; the same quads, the same image). Two
+//!    colour attachments R32G32B32A32_UINT (layer 0, layer 1), clear 0, **logic op OR**
+//!    (the `logicOp` device feature; blending off). `glsl/ssm_bitmask/soft_shadow.vert`
+//!    (`micro_quad`) reads the occluder map's 3x3 neighbourhood and writes the texel, its
+//!    four corner depths and its reach (flat), drawing the penumbra extent grown by h = R'
+//!    N / (2 tan(fov/2)) (1/z_near - 1/z_max) texels. R' = `EXTENT_MARGIN` R / cos(alpha):
+//!    a disc facing the receiver is R wide across the line to the light's centre and R /
+//!    cos(alpha) in the map's plane, alpha that line's angle to the light's axis, bounded
+//!    over the receivers the quad can reach (at most sqrt(1 + 2 tan^2(fov/2)) at the
 //!    frustum's corner). `glsl/ssm_bitmask/soft_shadow.frag` reads both receiver layers at
 //!    its texel, the bound and the edge table; per layer it skips quads within the self-
 //!    occlusion guard (as ssm: 1.5 texels of slope) and receivers beyond the reach at their
 //!    own depth, projects the four corners onto the disc facing the receiver and writes the
 //!    mask of the samples inside the two triangles. With s > 1 instance k draws block k of
-//!    s x s texels: the bounding rectangle of its occupied texels, each corner at the depth of
-//!    the occupied texel nearest it, its guard depth the block's farthest.
+//!    s x s texels: the bounding rectangle of its occupied texels, each corner at the depth
+//!    of the occupied texel nearest it, its guard depth the block's farthest.
 //! 7. `ssm-bitmask/final` — `FinalPass` with `glsl/ssm_bitmask/final.frag`: as
 //!    ssm's (2x2 footprint of the receiver map and the masks, layer 0 for the texel's own
 //!    receiver, layer 1 behind it, bilinear weights) but read at the point itself, **not at

@@ -411,6 +411,30 @@ fn overlapping_blockers_are_never_lighter_than_either_alone() {
 }
 
 /// `dense` at 320x240, every other setting at its default: the blobs' rims and shadows.
+/// The mean |v - v_ref| over the light-facing pixels inside the cone where the reference is
+/// in shadow or penumbra and `keep` holds, and how many there are.
+fn shadow_error_where(
+    scene: &Scene,
+    img: &FrameImages,
+    v_ref: &[f32],
+    keep: impl Fn(usize) -> bool,
+) -> (f64, usize) {
+    let facing = faces_light(&img.position, &img.normal, scene.light.position);
+    let pixels: Vec<usize> = (0..img.visibility.len())
+        .filter(|&i| {
+            facing[i]
+                && img.spot[i] > 0.0
+                && v_ref[i] < softshadow::eval::metrics::SHADOW_THRESHOLD
+                && keep(i)
+        })
+        .collect();
+    let sum: f64 = pixels
+        .iter()
+        .map(|&i| f64::from((img.visibility[i] - v_ref[i]).abs()))
+        .sum();
+    (sum / pixels.len().max(1) as f64, pixels.len())
+}
+
 fn dense_320x240() -> (Scene, Settings) {
     let settings = Settings {
         width: 320,
@@ -501,27 +525,12 @@ fn narrow_penumbrae_are_drawn_narrower() {
     for &(t, bound) in NARROW_GROUND_ERROR {
         let img = gpu.render_frames(scene.clone(), t, settings.clone(), 1).0;
         let v_ref = v_ref.get_or_insert_with(|| reference(&scene, scene.light.radius, &img));
-        let facing = faces_light(&img.position, &img.normal, scene.light.position);
         // The plane at y = 0 facing up: the ground, where the blobs' shadows fall.
-        let ground: Vec<usize> = (0..img.visibility.len())
-            .filter(|&i| {
-                facing[i]
-                    && img.spot[i] > 0.0
-                    && img.normal[i][1] > 0.999
-                    && img.position[i][1].abs() < 1e-3
-                    && v_ref[i] < softshadow::eval::metrics::SHADOW_THRESHOLD
-            })
-            .collect();
-        assert!(ground.len() > 3000, "{t}: {} ground pixels", ground.len());
-        let error = ground
-            .iter()
-            .map(|&i| f64::from((img.visibility[i] - v_ref[i]).abs()))
-            .sum::<f64>()
-            / ground.len() as f64;
-        println!(
-            "{t}: mean error {error:.4} over {} ground pixels",
-            ground.len()
-        );
+        let (error, ground) = shadow_error_where(&scene, &img, v_ref, |i| {
+            img.normal[i][1] > 0.999 && img.position[i][1].abs() < 1e-3
+        });
+        assert!(ground > 3000, "{t}: {ground} ground pixels");
+        println!("{t}: mean error {error:.4} over {ground} ground pixels");
         if error > bound {
             bad.push(format!("{t}: {error:.4} above {bound}"));
         }
@@ -572,27 +581,12 @@ fn a_point_right_behind_a_caster_takes_its_own_narrower_penumbra() {
     for t in ["pcss", "smoothies-centred", "penumbra-map-centred"] {
         let img = gpu.render_frames(scene.clone(), t, settings.clone(), 1).0;
         let v_ref = v_ref.get_or_insert_with(|| reference(&scene, radius, &img));
-        let facing = faces_light(&img.position, &img.normal, scene.light.position);
         // Off the ground (y = 0): the posts and rails.
-        let fence: Vec<usize> = (0..img.visibility.len())
-            .filter(|&i| {
-                facing[i]
-                    && img.spot[i] > 0.0
-                    && img.position[i][3] > 0.5
-                    && img.position[i][1] > 0.01
-                    && v_ref[i] < softshadow::eval::metrics::SHADOW_THRESHOLD
-            })
-            .collect();
-        assert!(fence.len() > 100, "{t}: {} fence pixels", fence.len());
-        let error = fence
-            .iter()
-            .map(|&i| f64::from((img.visibility[i] - v_ref[i]).abs()))
-            .sum::<f64>()
-            / fence.len() as f64;
-        println!(
-            "{t}: mean error {error:.4} over {} fence pixels",
-            fence.len()
-        );
+        let (error, fence) = shadow_error_where(&scene, &img, v_ref, |i| {
+            img.position[i][3] > 0.5 && img.position[i][1] > 0.01
+        });
+        assert!(fence > 100, "{t}: {fence} fence pixels");
+        println!("{t}: mean error {error:.4} over {fence} fence pixels");
         errors.push(error);
     }
     let pcss = errors[0];

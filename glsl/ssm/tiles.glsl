@@ -1,5 +1,5 @@
-// The receiver tiles of ssm/patch_step.comp, read by the micro-patch vertex shaders: a
-// micro-patch is drawn only as far as the deepest receiver under its extent.
+// The receiver tiles of ssm/patch_step.comp, read where ssm-bitmask derives its micro-quads
+// (micro_quad.glsl): a quad is drawn only as far as the deepest receiver under its extent.
 #ifndef SSM_TILES_GLSL
 #define SSM_TILES_GLSL
 #include "ssm/ssm.glsl"
@@ -9,8 +9,8 @@
 layout(set = 0, binding = 5, std430) readonly buffer Tiles { float zmax[]; } tiles;
 
 // The deepest receiver over the texels that the square [a, b] (texel units) touches, from the
-// tiles it overlaps; `zmax`, the frame's, when it overlaps more than 4 x 4 tiles, where the
-// reads would cost more than the fragments they save.
+// tiles it overlaps; `zmax`, the frame's, when it overlaps more than 4 x 4 tiles (a bound on
+// the reads per quad).
 float deepest_receiver(vec2 a, vec2 b, float zmax, int n) {
     int row = (n + SSM_TILE - 1) / SSM_TILE;
     ivec2 t0 = clamp(ivec2(floor(a)), ivec2(0), ivec2(n - 1)) / SSM_TILE;

@@ -4,11 +4,12 @@
 // ssm-bitmask/micro_quads (speed layer, src/technique/speed/ssm.rs): the micro-quad of each
 // instance (`micro_quad`, micro_quad.glsl) computed once instead of once per vertex, and
 // listed only when it reaches a receiver; the quads' draw (soft_shadow_list.vert) is an
-// indirect draw of the listed quads. One invocation per instance of the plain draw.
+// indirect draw of the listed quads. One invocation per instance of the plain draw, a
+// workgroup per tile of the occluder map.
 #define FRAME_NO_DRAW_PUSH
 #include "ssm_bitmask/micro_quad.glsl"
 
-layout(local_size_x = 64) in;
+layout(local_size_x = SSM_TILE, local_size_y = SSM_TILE) in;
 
 // The indirect draw's VkDrawIndirectCommand, cleared to 0 before the dispatch.
 layout(set = 0, binding = 7, std430) buffer Command {
@@ -22,8 +23,9 @@ layout(set = 0, binding = 8, std430) writeonly buffer Quads { vec4 quads[]; } li
 
 void main() {
     int n = int(SSM_RES);
-    // Instance k of the plain draw: row y of the groups holds k = y n .. y n + n - 1.
-    if (gl_GlobalInvocationID.x >= uint(n)) return;
+    // Instance k = y n + x of the plain draw: texel (x, y), or block k of the micro-patch
+    // step (the first blocks^2 instances).
+    if (any(greaterThanEqual(gl_GlobalInvocationID.xy, uvec2(n)))) return;
     int k = int(gl_GlobalInvocationID.y) * n + int(gl_GlobalInvocationID.x);
     if (k == 0) command.vertex_count = 4u;
     int step = int(bound.step);

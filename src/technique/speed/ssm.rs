@@ -189,8 +189,6 @@ pub(crate) struct QuadList {
 impl QuadList {
     /// Bytes of one listed quad.
     const QUAD_BYTES: u64 = 48;
-    /// Invocations in one workgroup of the dispatch.
-    const GROUP: u32 = 64;
 
     pub(crate) fn new(ctx: &Context, res: u32, name: &str) -> Result<Self> {
         let command = Buffer::new(
@@ -238,8 +236,8 @@ impl QuadList {
     }
 
     /// Clears the command and lists the quads: one invocation per instance of the plain
-    /// draw, a row of the occluder map per row of groups (blocks of the micro-patch step
-    /// take the first invocations).
+    /// draw, `BOUND_GROUP`² texels of the occluder map per group (blocks of the micro-patch
+    /// step take the first invocations).
     pub(crate) fn record(&self, rec: &mut Recorder<'_>, set: &DescriptorSet) {
         let Some(pipeline) = &self.pipeline else {
             return;
@@ -247,6 +245,7 @@ impl QuadList {
         rec.fill_buffer(&self.command, 0);
         rec.bind_pipeline(pipeline);
         rec.bind_sets(pipeline, &[set]);
-        rec.dispatch(self.res.div_ceil(Self::GROUP), self.res, 1);
+        let groups = self.res.div_ceil(BOUND_GROUP);
+        rec.dispatch(groups, groups, 1);
     }
 }

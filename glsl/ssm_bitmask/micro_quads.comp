@@ -24,13 +24,10 @@ layout(set = 0, binding = 8, std430) writeonly buffer Quads { vec4 quads[]; } li
 void main() {
     int n = int(SSM_RES);
     // Instance k = y n + x of the plain draw: texel (x, y), or block k of the micro-patch
-    // step (the first blocks^2 instances).
+    // step (`micro_quad` draws none past the last block).
     if (any(greaterThanEqual(gl_GlobalInvocationID.xy, uvec2(n)))) return;
     int k = int(gl_GlobalInvocationID.y) * n + int(gl_GlobalInvocationID.x);
     if (k == 0) command.vertex_count = 4u;
-    int step = int(bound.step);
-    int blocks = (n + step - 1) / step;
-    if (k >= blocks * blocks) return;
     MicroQuad q = micro_quad(k);
     if (q.grow < 0.0) return;
     uint at = 3u * atomicAdd(command.instance_count, 1u);

@@ -120,8 +120,8 @@ float guard_depth(float zr) {
 
 // Whether the quad can hide a sample from the receiver at depth zr at texel r: beyond the
 // guard, and within the reach at the receiver's own depth (the quad was drawn for the
-// farthest receiver; a nearer one is reached by less). The receiver's texel centre lies
-// half a texel inside its square: one texel of slack.
+// deepest receiver under it; a nearer one is reached by less). The receiver's texel centre
+// lies half a texel inside its square: one texel of slack.
 bool reaches(float zr, vec2 r) {
     float zo = v_patch.z;
     if (zr - zo <= guard_depth(zr)) return false;
@@ -165,8 +165,8 @@ void main() {
     // No pure receiver behind: stand in the farthest receiver plane, which the extents cover.
     z2 = min(z2, zmax);
     // The layers the quad reaches, shaded in turn (the pure receiver only where it is another
-    // surface): a loop rather than two calls, so that the fragments of a SIMD group stop as
-    // soon as none of them has a layer left, where two calls would each run for all of them.
+    // surface): a loop rather than two calls, so that a SIMD group none of whose fragments
+    // has a second layer stops after one trip, where two calls would each run for all.
     vec2 r = gl_FragCoord.xy;
     bool front = reaches(z1, r);
     bool pure = z2 != z1 && reaches(z2, r);

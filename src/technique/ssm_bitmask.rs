@@ -133,7 +133,7 @@
 //!   where `hard`'s offset point is lit (docs/DESIGN.md's mae_lit leaves these pixels out).
 
 use super::hard::{self, Names as HardNames};
-use super::speed::ssm::{PatchStepReport, QuadList};
+use super::speed::ssm::{PatchStepReport, QuadBuffers, QuadList};
 use super::ssm_bitmask_table::TABLE_ANGLES;
 pub use super::ssm_bitmask_table::{edge_table, light_samples, SAMPLES};
 use super::ssm_common::{ssm_uniforms, LightInputs, MAP_USAGE, SELF_GUARD_TEXELS};
@@ -270,11 +270,12 @@ impl SsmBitmask {
         )
         .context("ssm-bitmask edge table")?;
         let list_name = format!("{name}/micro_quads");
-        let mut list = QuadList::new(ctx, res, &list_name).context("ssm-bitmask quad list")?;
+        let list_buffers =
+            QuadBuffers::new(ctx, res, &list_name).context("ssm-bitmask quad list")?;
         let quads = |map: &Image, pass: &str| -> Result<QuadPass> {
             let name = format!("{name}/{pass}");
             let mut extra = vec![("table", Resource::Storage(&table))];
-            extra.extend(list.bindings());
+            extra.extend(list_buffers.bindings());
             let set = inputs.patch_set(init, map, &nearest, extra, &name)?;
             Ok(QuadPass { set, name })
         };
@@ -303,7 +304,7 @@ impl SsmBitmask {
         };
         let plain_pipeline = quad_pipeline(shaders::SSM_BITMASK_SOFT_SHADOW_VERT)?;
         let list_pipeline = quad_pipeline(shaders::SSM_BITMASK_SOFT_SHADOW_LIST_VERT)?;
-        list.create_pipeline(ctx, &front.set, &list_name)
+        let list = QuadList::new(ctx, list_buffers, &front.set, res, &list_name)
             .context("ssm-bitmask quad list pipeline")?;
 
         // Pass 7.
@@ -361,7 +362,7 @@ impl SsmBitmask {
         rec.bind_pipeline(pipeline);
         rec.bind_sets(pipeline, &[&quads.set]);
         match listed {
-            true => rec.draw_indirect(&self.list.command, 0),
+            true => rec.draw_indirect(&self.list.buffers.command, 0),
             false => rec.draw(4, self.res * self.res),
         }
         rec.end_rendering();

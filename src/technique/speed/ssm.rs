@@ -41,8 +41,8 @@ use anyhow::Result;
 /// shaders read it, and copied to the host for the warning line.
 pub(crate) struct PatchStep {
     /// Per `BOUND_GROUP`² texels the deepest receiver a micro-patch fragment there stands at
-    /// (f32; the frame's z_max under `--plain`), which the micro-patch vertex shaders
-    /// read (`glsl/ssm/tiles.glsl`).
+    /// (f32; the frame's z_max under `--plain`), read where ssm-bitmask derives its
+    /// micro-quads (`glsl/ssm/tiles.glsl`).
     pub tiles: Buffer,
     set: DescriptorSet,
     pipeline: Pipeline,
@@ -170,23 +170,15 @@ impl PatchStep {
     }
 }
 
-/// `ssm-bitmask/micro_quads`: the micro-quads computed once each and listed
-/// (`glsl/ssm_bitmask/micro_quads.comp`), drawn by one indirect draw
-/// (`glsl/ssm_bitmask/soft_shadow_list.vert`) instead of N^2 instances whose vertex shader
-/// derives every quad four times (once per vertex) and draws a degenerate quad for every
-/// empty texel. Same quads, same image; off under `--plain`. The atomic counter lists the
-/// quads in an order that varies between frames; the masks do not, OR being free of order
-/// (the ADD-blended `ssm` and `ssm2` would need an ordered list to keep their sums exact).
-pub(crate) struct QuadList {
+/// The buffers of `QuadList`, made before the micro-quad set that binds them.
+pub(crate) struct QuadBuffers {
     /// The indirect draw's `VkDrawIndirectCommand` (cleared, then counted by the dispatch).
     pub command: Buffer,
     /// Three vec4 per listed quad, room for one per texel.
-    pub quads: Buffer,
-    pipeline: Option<Pipeline>,
-    res: u32,
+    quads: Buffer,
 }
 
-impl QuadList {
+impl QuadBuffers {
     /// Bytes of one listed quad.
     const QUAD_BYTES: u64 = 48;
 
@@ -207,12 +199,7 @@ impl QuadList {
             MemoryLocation::GpuOnly,
             &format!("{name} quads"),
         )?;
-        Ok(Self {
-            command,
-            quads,
-            pipeline: None,
-            res,
-        })
+        Ok(Self { command, quads })
     }
 
     /// The bindings the micro-quad set takes after its own: `command`, `list`.
@@ -222,29 +209,46 @@ impl QuadList {
             ("list", Resource::Storage(&self.quads)),
         ]
     }
+}
 
-    /// The dispatch's pipeline over `set` (the micro-quad set, with `bindings`).
-    pub(crate) fn create_pipeline(
-        &mut self,
+/// `ssm-bitmask/micro_quads`: the micro-quads computed once each and listed
+/// (`glsl/ssm_bitmask/micro_quads.comp`), drawn by one indirect draw
+/// (`glsl/ssm_bitmask/soft_shadow_list.vert`) instead of N^2 instances whose vertex shader
+/// derives every quad four times (once per vertex) and draws a degenerate quad for every
+/// empty texel. Same quads, same image; off under `--plain`. The atomic counter lists the
+/// quads in an order that varies between frames; the masks do not, OR being free of order
+/// (the ADD-blended `ssm` and `ssm2` would need an ordered list to keep their sums exact).
+pub(crate) struct QuadList {
+    pub buffers: QuadBuffers,
+    pipeline: Pipeline,
+    res: u32,
+}
+
+impl QuadList {
+    /// The dispatch over `set`, the micro-quad set that binds `buffers`.
+    pub(crate) fn new(
         ctx: &Context,
+        buffers: QuadBuffers,
         set: &DescriptorSet,
+        res: u32,
         name: &str,
-    ) -> Result<()> {
+    ) -> Result<Self> {
         let spirv = shaders::SSM_BITMASK_MICRO_QUADS_COMP;
-        self.pipeline = Some(Pipeline::compute(ctx, name, spirv, &[set], 0)?);
-        Ok(())
+        let pipeline = Pipeline::compute(ctx, name, spirv, &[set], 0)?;
+        Ok(Self {
+            buffers,
+            pipeline,
+            res,
+        })
     }
 
     /// Clears the command and lists the quads: one invocation per instance of the plain
     /// draw, `BOUND_GROUP`² texels of the occluder map per group (blocks of the micro-patch
     /// step take the first invocations).
     pub(crate) fn record(&self, rec: &mut Recorder<'_>, set: &DescriptorSet) {
-        let Some(pipeline) = &self.pipeline else {
-            return;
-        };
-        rec.fill_buffer(&self.command, 0);
-        rec.bind_pipeline(pipeline);
-        rec.bind_sets(pipeline, &[set]);
+        rec.fill_buffer(&self.buffers.command, 0);
+        rec.bind_pipeline(&self.pipeline);
+        rec.bind_sets(&self.pipeline, &[set]);
         let groups = self.res.div_ceil(BOUND_GROUP);
         rec.dispatch(groups, groups, 1);
     }

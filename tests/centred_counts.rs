@@ -146,6 +146,29 @@ fn centred_final_passes_read_the_inner_values_only_behind_a_caster() {
     }
 }
 
+/// Inside the umbra (every footprint texel behind a caster, plateaus-centred: under a drop
+/// shadow, and none holding an inner value) the centred final passes read the inner values
+/// right after the casters and return 0 there, as the full combination does (the min takes
+/// the inner 0; tests/golden.rs and tests/plain.rs hold the images). Measured on `boxes`,
+/// whose shadows are mostly umbra, at 128^2, 512^2 maps, warp-summed texels of the final
+/// pass before and after: smoothies-centred 160,768 and 128,640, penumbra-map-centred
+/// 159,616 and 127,232, plateaus-centred 72,064 and 66,816 (on `primitives`, the test above:
+/// 148,096 -> 127,872, 149,248 -> 129,664, 80,256 -> 77,056). Fails with the umbra's early
+/// return removed.
+#[test]
+fn centred_final_passes_stop_inside_the_umbra() {
+    let gpu = Gpu::new();
+    for (technique, bound) in [
+        ("smoothies-centred", 145_000),
+        ("penumbra-map-centred", 143_000),
+        ("plateaus-centred", 69_500),
+    ] {
+        let warp = final_pass_warp_texels(&gpu, "boxes", technique);
+        println!("{technique}: final pass {warp} warp texels");
+        assert!(warp < bound, "{technique}: final pass {warp} warp texels");
+    }
+}
+
 /// Each edge quad and corner fan of smoothies-centred shortened by the deepest surface
 /// over its own full-width box (the tiles of `regions::DeepestGrid`), not over every
 /// caster's: a bunny's feet stand on the ground just below them while its ears' smoothies

@@ -30,12 +30,19 @@ float visibility(vec3 p, vec3 n) {
     if (!on_plane || !in_texture || spread <= 0.0) {
         return bilinear(lit_test(textureGather(shadow_map, s.uv, 0), s.depth), s.uv);
     }
+    vec4 lit = step(0.5, textureGather(coverage, q.xy, 0));
+    // The inner values, read first where a texel is under a drop shadow: under every one,
+    // none with an inner value (the umbra's inside), v is 0 from two lookups, whatever the
+    // outer values (the min below takes the inner 0).
+    vec4 inner = vec4(0.0);
+    if (any(equal(lit, vec4(0.0)))) {
+        inner = textureGather(inner_tex, q.xy, 0);
+        if (all(equal(lit, vec4(0.0))) && all(equal(inner, vec4(0.0)))) return 0.0;
+    }
     vec4 f = textureGather(plateau_tex, q.xy, 0);
     vec4 outer = vec4(disc_chord(-f.x), disc_chord(-f.y), disc_chord(-f.z), disc_chord(-f.w));
-    vec4 lit = step(0.5, textureGather(coverage, q.xy, 0));
     // Outside every drop shadow: the outer values alone (the inner ones are never read).
     if (all(equal(lit, vec4(1.0)))) return clamp(bilinear(outer, q.xy), 0.0, 1.0);
-    vec4 inner = textureGather(inner_tex, q.xy, 0);
     return clamp(bilinear(mix(min(inner, outer), outer, lit), q.xy), 0.0, 1.0);
 }
 

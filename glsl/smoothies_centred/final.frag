@@ -28,6 +28,15 @@ float visibility(vec3 p, vec3 n) {
     vec4 lit = lit_test(casters, s.depth);
     // R = 0: no smoothie was drawn, exactly `hard`.
     if (SMOOTHIE_T <= 0.0) return bilinear_lit(lit, s.uv);
+    // The inner occlusions, read first where a texel is behind a caster: behind every one,
+    // none with an inner value (the umbra's inside), v is 0 from two lookups, whatever the
+    // outer values (the min below takes the inner 0). Read in one place: a CPU driver pays
+    // each lookup written in the shader at every pixel.
+    vec4 occlusion = vec4(1.0);
+    if (any(equal(lit, vec4(0.0)))) {
+        occlusion = textureGather(smoothie_penumbra, s.uv, 1);
+        if (all(equal(lit, vec4(0.0))) && all(equal(occlusion, vec4(1.0)))) return 0.0;
+    }
     vec4 in_front = lit_test(textureGather(smoothie_depth, s.uv, 0), s.depth);
     // Lit and in front of every smoothie (the bulk of the image): no penumbra fetch.
     if (all(equal(lit * in_front, vec4(1.0)))) return 1.0;
@@ -35,7 +44,7 @@ float visibility(vec3 p, vec3 n) {
     // In front of every caster: the outer values alone (the inner ones are never read).
     if (all(equal(lit, vec4(1.0)))) return clamp(bilinear_lit(outer, s.uv), 0.0, 1.0);
     vec4 receiver = (1.0 - textureGather(smoothie_penumbra, s.uv, 2)) * frame.light_params.y;
-    vec4 inner = (1.0 - textureGather(smoothie_penumbra, s.uv, 1)) * step(s.depth, receiver * (1.0 + RECEIVER_EPS));
+    vec4 inner = (1.0 - occlusion) * step(s.depth, receiver * (1.0 + RECEIVER_EPS));
     inner = inner_at_depth(inner, receiver, casters, s.depth);
     vec4 behind = min(inner, outer);
     return clamp(bilinear_lit(mix(behind, outer, lit), s.uv), 0.0, 1.0);

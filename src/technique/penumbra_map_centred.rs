@@ -95,7 +95,9 @@
 //!    caster is in front, v is exactly 1 (`bilinear_lit`). The shader gathers in that order
 //!    of need: the shadow map's r and the outer values first (all four lit and at 1: v = 1),
 //!    then g (all four in front of every caster: the outer values alone), the inner values
-//!    only where a footprint texel lies behind a caster; the same v, fewer lookups.
+//!    only where a footprint texel lies behind a caster, gathered right after the casters
+//!    there (behind at all four, none holding an inner value, the umbra's inside: v = 0
+//!    from two gathers, as the min with the inner 0 gives); the same v, fewer lookups.
 //!
 //! ## Equations: what a porter ports
 //! - The geometry, both sides: `build_penumbra_sides` (src/silhouette/penumbra.rs).

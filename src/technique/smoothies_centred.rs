@@ -116,7 +116,10 @@
 //!    values). R = 0 draws no smoothie and returns `hard`'s bilinear value: `hard`'s image
 //!    exactly. Outside the casters' projections and their smoothies every lookup reads "far"
 //!    and the shader returns 1; where every footprint texel is in front of every caster it
-//!    returns the outer values' bilinear result without gathering the inner ones.
+//!    returns the outer values' bilinear result without gathering the inner ones. Where a
+//!    texel is behind a caster the inner occlusions are gathered right after the casters:
+//!    behind at all four, none holding an inner value (the umbra's inside), it returns 0
+//!    from those two gathers, as the whole combination would (its min takes the inner 0).
 //!
 //! ## Equations: what a porter ports
 //! - The geometry, both sides: `build_smoothies_side` (src/silhouette/smoothie.rs); the

@@ -45,8 +45,8 @@
 //! 1. `penumbra-map-centred/shadow_map` — the shared `ShadowMap`: R32G32_SFLOAT, clear 1e30,
 //!    blend MIN, no depth attachment; r = nearest caster's linear depth, g = nearest
 //!    surface's of any role. Pass 2 reads g at each outer fragment's own texel and, for an
-//!    inner one, 1.5 and 5.5 texels outside its edge; r (is a caster there?) for an inner
-//!    one 1.5 texels outside and at its own texel, and along the inward marches of both
+//!    inner one, 1.0 and 5.0 texels outside its edge (1.5 and 5.5 past a caster in front
+//!    at 1.0); r (is a caster there?) for an inner one at those points and at its own texel, and along the inward marches of both
 //!    sides (thin blockers, below).
 //! 2. `penumbra-map-centred/penumbra` — one rendering scope, no depth attachment, culling
 //!    off, one colour attachment, the penumbra map: R16G16B16A16_SFLOAT, clear (1, 1, 1, 1),
@@ -70,11 +70,13 @@
 //!    - inner cones and sheets, `glsl/penumbra_map_centred/inner.frag`: u = w(Z_F), the
 //!      inward direction = the gradient of u over the map (dFdx/dFdy). The receiver behind
 //!      the texel is hidden from the light, so its depth Z_R is estimated from the shadow
-//!      map's g 1.5 and 5.5 texels outside the edge along that direction: the plane through
+//!      map's g 1.0 and 5.0 texels outside the edge along that direction: the plane through
 //!      the two samples (1/depth is affine across the map over a plane) extrapolated to the
-//!      texel, within 5 % of the nearer sample. Discarded when the near sample shows a
-//!      caster more than 1 % in front of the edge (the edge is hidden by another caster: no
-//!      inner penumbra through it), when the fragment's own texel is not behind a caster
+//!      texel, within 5 % of the nearer sample (1.5 and 5.5 texels where a caster more than
+//!      1 % in front of the edge covers the first: smoothies_centred.rs, "inner smoothies",
+//!      says why). Discarded when a caster more than 1 % in front of the edge covers the
+//!      outside at 1.5 texels too (the edge is hidden by another caster: no inner penumbra
+//!      through it), when the fragment's own texel is not behind a caster
 //!      1 % nearer than Z_R, or when the drawn share s' of s = u / w(Z_R) is >= 1
 //!      (umbra). Else v = disc_chord(s') in [0, 0.5], plus the thin-blocker term below,
 //!      raised to the blocker-size bound;

@@ -198,7 +198,7 @@ impl CpuPenumbra {
 
 /// How far (texels) from the cones and sheets the centred form's inner fragments read
 /// the shadow map's g (glsl/penumbra_map_centred/inner.frag): a fragment u tangent units
-/// inside the hard edge samples u / per_texel + 1.5 and + 5.5 texels away along its
+/// inside the hard edge samples u / per_texel + 1.0 and + 5.0 texels away (at most + 1.5 and + 5.5) along its
 /// gradient (`regions::INNER_RECEIVER_TEXELS`), and u = Lr (1/Zv - 1/Z_F) is at most
 /// Lr (1/zv_min - 1/z_far): its depth Z_F on a cone or sheet lies between its silhouette
 /// point's Zv and the cone base `z_far`. A sun's u = (Z_F - Zv) tan theta world units is at

@@ -122,6 +122,16 @@ fn final_pass_warp_texels(gpu: &Gpu, scene: &str, technique: &str) -> u64 {
     r.count_lookups().unwrap().warp_sum(0)
 }
 
+/// Asserts each technique's final-pass warp texels on `scene` below its bound.
+fn final_pass_warp_texels_below(scene: &str, bounds: &[(&str, u64)]) {
+    let gpu = Gpu::new();
+    for &(technique, bound) in bounds {
+        let warp = final_pass_warp_texels(&gpu, scene, technique);
+        println!("{technique}: final pass {warp} warp texels");
+        assert!(warp < bound, "{technique}: final pass {warp} warp texels");
+    }
+}
+
 /// The centred final passes read the inner values (and penumbra-map-centred the foremost
 /// surface) only where a footprint texel lies behind a caster (plateaus-centred: under a
 /// drop shadow) or in an outer penumbra: in front of every caster the outer values alone
@@ -134,16 +144,14 @@ fn final_pass_warp_texels(gpu: &Gpu, scene: &str, technique: &str) -> u64 {
 /// removed.
 #[test]
 fn centred_final_passes_read_the_inner_values_only_behind_a_caster() {
-    let gpu = Gpu::new();
-    for (technique, bound) in [
-        ("penumbra-map-centred", 185_000),
-        ("smoothies-centred", 152_000),
-        ("plateaus-centred", 90_000),
-    ] {
-        let warp = final_pass_warp_texels(&gpu, "primitives", technique);
-        println!("{technique}: final pass {warp} warp texels");
-        assert!(warp < bound, "{technique}: final pass {warp} warp texels");
-    }
+    final_pass_warp_texels_below(
+        "primitives",
+        &[
+            ("penumbra-map-centred", 185_000),
+            ("smoothies-centred", 152_000),
+            ("plateaus-centred", 90_000),
+        ],
+    );
 }
 
 /// Inside the umbra (every footprint texel behind a caster, plateaus-centred: under a drop
@@ -157,16 +165,14 @@ fn centred_final_passes_read_the_inner_values_only_behind_a_caster() {
 /// return removed.
 #[test]
 fn centred_final_passes_stop_inside_the_umbra() {
-    let gpu = Gpu::new();
-    for (technique, bound) in [
-        ("smoothies-centred", 145_000),
-        ("penumbra-map-centred", 143_000),
-        ("plateaus-centred", 69_500),
-    ] {
-        let warp = final_pass_warp_texels(&gpu, "boxes", technique);
-        println!("{technique}: final pass {warp} warp texels");
-        assert!(warp < bound, "{technique}: final pass {warp} warp texels");
-    }
+    final_pass_warp_texels_below(
+        "boxes",
+        &[
+            ("smoothies-centred", 145_000),
+            ("penumbra-map-centred", 143_000),
+            ("plateaus-centred", 69_500),
+        ],
+    );
 }
 
 /// Each edge quad and corner fan of smoothies-centred shortened by the deepest surface

@@ -160,9 +160,9 @@ fn centred_final_passes_read_the_inner_values_only_behind_a_caster() {
 /// the inner 0; tests/golden.rs and tests/plain.rs hold the images). Measured on `boxes`,
 /// whose shadows are mostly umbra, at 128^2, 512^2 maps, warp-summed texels of the final
 /// pass before and after: smoothies-centred 160,768 and 128,640, penumbra-map-centred
-/// 159,616 and 127,232, plateaus-centred 72,064 and 66,816 (on `primitives`, the test above:
-/// 148,096 -> 127,872, 149,248 -> 129,664, 80,256 -> 77,056). Fails with the umbra's early
-/// return removed.
+/// 159,616 and 127,232, plateaus-centred 72,064 and 66,816 (on `primitives`, the test
+/// above: 148,096 -> 127,872, 149,248 -> 129,664, 80,256 -> 77,056). Fails with the umbra's
+/// early return removed.
 #[test]
 fn centred_final_passes_stop_inside_the_umbra() {
     final_pass_warp_texels_below(

@@ -521,9 +521,9 @@ fn narrow_penumbrae_are_drawn_narrower() {
     dense_ground_errors_below(NARROW_GROUND_ERROR, false);
 }
 
-/// Asserts each form's mean error over `dense`'s ground (the plane at y = 0 facing up, where
-/// the blobs' shadows fall; with `umbra_only`, only where the reference is umbra) below its
-/// bound, at 320x240.
+/// Asserts each form's mean error over `dense`'s ground (the plane at y = 0 facing up,
+/// where the blobs' shadows fall; with `umbra_only`, only where the reference is umbra)
+/// below its bound, at 320x240.
 fn dense_ground_errors_below(bounds: &[(&str, f64)], umbra_only: bool) {
     let gpu = Gpu::new();
     let (scene, settings) = dense_320x240();
@@ -551,8 +551,8 @@ fn dense_ground_errors_below(bounds: &[(&str, f64)], umbra_only: bool) {
 /// the light passing a fold meets the lip, not the ground. The centred inner sides read the
 /// hidden receiver 1.5 texels out, past the lip, and drew the fold's penumbra for the
 /// ground, lighting its umbra a texel or two in; read at the first texel that is not the
-/// edge's own (glsl/common/inner_receiver.glsl), the lip is the fold's receiver and the fold
-/// draws nothing. Mean |v - reference| over the ground's light-facing pixels in the
+/// edge's own (glsl/common/inner_receiver.glsl), the lip is the fold's receiver and the
+/// fold draws nothing. Mean |v - reference| over the ground's light-facing pixels in the
 /// reference's umbra at 320x240, before and after: smoothies-centred 0.00550 and 0.00349,
 /// penumbra-map-centred 0.00379 and 0.00246 (pcss 0.00124). The bound lies halfway.
 #[test]

@@ -8,9 +8,9 @@
 // The fragment F lies u = Lr (1/Zv - 1/Z_F) (tangent units; a sun's (Z_F - Zv) tan theta
 // world units, `wedge_offset`) inside the hard-edge line of its edge (or cone tip); the gradient of u across the map points inward along the edge's
 // normal. The receiver is estimated from the foremost surface just outside the edge (the
-// foot of the normal through this texel, 1.0 and 5.0 texels out, or 1.5 and 5.5 past a caster
-// in front at 1.0 (common/inner_receiver.glsl): the plane through the two
-// samples, extrapolated to this texel): Z_R. Then, at P = the receiver behind this texel,
+// foot of the normal through this texel, 1.0 and 5.0 texels out, or 1.5 and 5.5 past a
+// caster in front at 1.0 (common/inner_receiver.glsl): the plane through the two samples,
+// extrapolated to this texel): Z_R. Then, at P = the receiver behind this texel,
 //   - the edge is hidden (another caster in front of it covers its outside): nothing;
 //   - this texel is not in the hard shadow at Z_R (a caster nearer than Z_R): nothing;
 //   - the penumbra's half-width is w = Lr (1/Zv - 1/Z_R) (a sun's (Z_R - Zv) tan theta), s = u / w (nothing when s >= 1:

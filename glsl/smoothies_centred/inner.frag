@@ -8,8 +8,9 @@
 //   - x = the fragment's distance inside its hard-edge line (or from its silhouette vertex),
 //     `dir` the inward direction;
 //   - the receiver depth Z_R: the shadow map's g 1.0 texel outside the edge along -dir (1.5
-//     past a caster in front there: common/inner_receiver.glsl), and 4 texels farther, the plane through both (1/depth is affine across the map over a
-//     plane) extrapolated to this texel, within 5 % of the nearer sample;
+//     past a caster in front there: common/inner_receiver.glsl), and 4 texels farther, the
+//     plane through both (1/depth is affine across the map over a plane) extrapolated to
+//     this texel, within 5 % of the nearer sample;
 //   - nothing when the edge is hidden (a caster more than 1 % in front of b just outside
 //     it: no inner penumbra through another caster), when this texel is not behind a caster
 //     1 % nearer than Z_R, or when s = x / (t (1 - b/Z_R)) >= 1 (umbra);

@@ -45,9 +45,9 @@
 //! 1. `penumbra-map-centred/shadow_map` — the shared `ShadowMap`: R32G32_SFLOAT, clear 1e30,
 //!    blend MIN, no depth attachment; r = nearest caster's linear depth, g = nearest
 //!    surface's of any role. Pass 2 reads g at each outer fragment's own texel and, for an
-//!    inner one, 1.0 and 5.0 texels outside its edge (1.5 and 5.5 past a caster in front
-//!    at 1.0); r (is a caster there?) for an inner one at those points and at its own texel, and along the inward marches of both
-//!    sides (thin blockers, below).
+//!    inner one, 1.0 and 5.0 texels outside its edge (1.5 and 5.5 past a caster in front at
+//!    1.0); r (is a caster there?) for an inner one at those points and at its own texel,
+//!    and along the inward marches of both sides (thin blockers, below).
 //! 2. `penumbra-map-centred/penumbra` — one rendering scope, no depth attachment, culling
 //!    off, one colour attachment, the penumbra map: R16G16B16A16_SFLOAT, clear (1, 1, 1, 1),
 //!    blend MIN; r = the outer visibility (darkest wins, the paper's rule), g = the inner

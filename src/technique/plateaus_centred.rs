@@ -70,14 +70,15 @@
 //! 5. `plateaus-centred/final` — `FinalPass` with `glsl/plateaus_centred/final.frag`: a
 //!    point on the plane (the paper form's test) takes, at each of the 4 nearest texels,
 //!    outer = disc_chord(-f) (1 where no plateau: lit); outside every drop shadow: outer;
-//!    under one: min(inner, outer) (a second caster's outer plateau over this umbra is never
-//!    lightened); the inner values are gathered only where a footprint texel lies under a
-//!    drop shadow, first there (under one at all four, none holding an inner value, the
-//!    umbra's inside: 0 from two gathers, as the min with the inner 0 gives). Bilinear weights, no falloff texture (the profile is in the values). Every
-//!    other point, and every point at R = 0, gets the shadow map's 2x2 bilinear comparison:
-//!    R = 0 is `hard`'s image exactly (unlike the paper form, whose drop shadow only
-//!    matches hard up to the texel grids' aliasing). The speed layer's split final pass
-//!    holds the inner cones and sheets too: they lie in the same discs' hull.
+//!    under one: min(inner, outer) (a second caster's outer plateau over this umbra is
+//!    never lightened); the inner values are gathered only where a footprint texel lies
+//!    under a drop shadow, first there (under one at all four, none holding an inner value,
+//!    the umbra's inside: 0 from two gathers, as the min with the inner 0 gives). Bilinear
+//!    weights, no falloff texture (the profile is in the values). Every other point, and
+//!    every point at R = 0, gets the shadow map's 2x2 bilinear comparison: R = 0 is
+//!    `hard`'s image exactly (unlike the paper form, whose drop shadow only matches hard up
+//!    to the texel grids' aliasing). The speed layer's split final pass holds the inner
+//!    cones and sheets too: they lie in the same discs' hull.
 //!
 //! ## Equations: what a porter ports
 //! - (P1)-(P3) and (P2e), both sides: the paper form's functions

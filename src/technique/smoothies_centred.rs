@@ -98,19 +98,18 @@
 //!      texel is not the edge's own caster's: read farther out, a fold just inside a bumpy
 //!      blocker's outline skipped the lip between them and drew a penumbra, made for the
 //!      ground beyond, that the lip hides (on `dense` the ground's umbra lit up beside
-//!      penumbrae about a pixel wide); now the lip is the fold's receiver, at its own depth,
-//!      and the fold draws nothing. Where a caster more than 1 % in front of b covers that
-//!      texel, the samples move to 1.5 and 5.5 texels, so that a neighbour that only
-//!      borders the edge does not hide it. Discarded when a caster more than 1 % in front
-//!      of b covers 1.5 texels too (the edge is hidden by another caster: no inner penumbra
-//!      through it), when this texel is not behind a caster 1 % nearer than
-//!      Z_R, or when the drawn share s' of s = x / (t (1 - b/Z_R)) (a sun's
-//!      t (Z_R - b) / D) is >= 1 (umbra). Else v = disc_chord(s') in [0, 0.5], plus
-//!      the thin-blocker term below; writes b = 1e30 (neutral) and
-//!      (1, 1 - v, 1 - Z_R / far, 1). Z_R is at most Z = 1.05 x the deepest surface
-//!      where it reads g (a depth the map holds, extrapolated by at most 5 %), so
-//!      nothing is written beyond t (1 - b/Z) from the edge (what the speed layer's
-//!      shortened inner smoothies rely on).
+//!      penumbrae about a pixel wide); now the lip is the fold's receiver, at its own
+//!      depth, and the fold draws nothing. Where a caster more than 1 % in front of b
+//!      covers that texel, the samples move to 1.5 and 5.5 texels, so that a neighbour that
+//!      only borders the edge does not hide it. Discarded when a caster more than 1 % in
+//!      front of b covers 1.5 texels too (the edge is hidden by another caster: no inner
+//!      penumbra through it), when this texel is not behind a caster 1 % nearer than Z_R,
+//!      or when the drawn share s' of s = x / (t (1 - b/Z_R)) (a sun's t (Z_R - b) / D) is
+//!      at least 1 (umbra). Else v = disc_chord(s') in [0, 0.5], plus the thin-blocker term
+//!      below; writes b = 1e30 (neutral) and (1, 1 - v, 1 - Z_R / far, 1). Z_R is at most
+//!      Z, 1.05 times the deepest surface where it reads g (a depth the map holds,
+//!      extrapolated by at most 5 %), so nothing is written beyond t (1 - b/Z) from the
+//!      edge (what the speed layer's shortened inner smoothies rely on).
 //! 3. `smoothies-centred/final` — `FinalPass` with `glsl/smoothies_centred/final.frag`:
 //!    per texel of the 2x2 footprint (textureGather of the shadow map's r, the smoothie
 //!    depth and the penumbra values' r, g, b at the lookup point): outer = the outer

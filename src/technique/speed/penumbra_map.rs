@@ -196,14 +196,14 @@ impl CpuPenumbra {
     }
 }
 
-/// How far (texels) from the cones and sheets the centred form's inner fragments read
-/// the shadow map's g (glsl/penumbra_map_centred/inner.frag): a fragment u tangent units
-/// inside the hard edge samples u / per_texel + 1.0 and + 5.0 texels away (at most + 1.5 and + 5.5) along its
-/// gradient (`regions::INNER_RECEIVER_TEXELS`), and u = Lr (1/Zv - 1/Z_F) is at most
-/// Lr (1/zv_min - 1/z_far): its depth Z_F on a cone or sheet lies between its silhouette
-/// point's Zv and the cone base `z_far`. A sun's u = (Z_F - Zv) tan theta world units is at
-/// most (z_far - zv_min) tan theta, over world units per texel. `None` for a non-finite
-/// reach.
+/// How far (texels) from the cones and sheets the centred form's inner fragments read the
+/// shadow map's g (glsl/penumbra_map_centred/inner.frag): a fragment u tangent units inside
+/// the hard edge samples u / per_texel + 1.0 and + 5.0 texels away (at most + 1.5 and +
+/// 5.5) along its gradient (`regions::INNER_RECEIVER_TEXELS`), and u = Lr (1/Zv - 1/Z_F) is
+/// at most Lr (1/zv_min - 1/z_far): its depth Z_F on a cone or sheet lies between its
+/// silhouette point's Zv and the cone base `z_far`. A sun's u = (Z_F - Zv) tan theta world
+/// units is at most (z_far - zv_min) tan theta, over world units per texel. `None` for a
+/// non-finite reach.
 fn inner_read_texels(frame: &FrameInput<'_>, zv_min: f32, z_far: f32, res: u32) -> Option<u32> {
     let light = frame.light;
     let (per_texel, u_max) = match light.sun {

@@ -129,13 +129,13 @@ impl LastDrawn {
     }
 }
 
-/// How far (texels) from a centred form's inner fragment, beyond its distance from the
-/// hard edge, the fragment reads the shadow map's g: glsl/common/inner_receiver.glsl
-/// samples the hidden receiver at most OUT_TEXELS and OUT_TEXELS + PLANE_TEXELS (1.5 and
-/// 5.5) texels outside the edge (first FIRST_OUT_TEXELS and 4 farther); plus the texel a sample floors into. The receivers need
-/// drawing into the map that far around the inner geometry (smoothies-centred,
-/// penumbra-map-centred: their `light_areas`). A unit test reads both constants from the
-/// shaders.
+/// How far (texels) from a centred form's inner fragment, beyond its distance from the hard
+/// edge, the fragment reads the shadow map's g: glsl/common/inner_receiver.glsl samples the
+/// hidden receiver at most OUT_TEXELS and OUT_TEXELS + PLANE_TEXELS (1.5 and 5.5) texels
+/// outside the edge (first FIRST_OUT_TEXELS and 4 farther); plus the texel a sample floors
+/// into. The receivers need drawing into the map that far around the inner geometry
+/// (smoothies-centred, penumbra-map-centred: their `light_areas`). A unit test reads both
+/// constants from the shaders.
 pub const INNER_RECEIVER_TEXELS: u32 = 7;
 
 /// PLANE_LIMIT of glsl/common/constants.glsl (read by glsl/common/inner_receiver.glsl): an

@@ -34,11 +34,11 @@ bool blocked_at(vec2 pos, float z_r) {
 // within PLANE_LIMIT. False when nothing lies beyond the edge, or when a caster more than
 // HIDE_EPS in front of `edge_depth` covers its outside (the edge is hidden): at the first
 // texel out and still at OUT_TEXELS, so that a neighbour which only borders the edge does
-// not hide it (where it does not reach OUT_TEXELS, the receiver is read there, as before
-// the first texel was). A caster at or behind the edge's depth at the first texel out is
-// taken as the receiver: the lip between a bumpy blocker's outline and a fold just inside
-// it, which hides the fold from the surface beyond, gives the fold no penumbra there (its
-// receiver lies at its own depth).
+// not hide it (where it does not reach that far, the receiver is read at OUT_TEXELS). A
+// caster at or behind the edge's depth at the first texel out is taken as the receiver: the
+// lip between a bumpy blocker's outline and a fold just inside it, which hides the fold
+// from the surface beyond, gives the fold no penumbra there (its receiver lies at its own
+// depth).
 bool receiver_beyond(vec2 here, vec2 dir, float inside, float edge_depth, out float z_r) {
     z_r = 0.0;
     float d1 = inside + FIRST_OUT_TEXELS;

@@ -76,11 +76,10 @@
 //!      1 % in front of the edge covers the first: smoothies_centred.rs, "inner smoothies",
 //!      says why). Discarded when a caster more than 1 % in front of the edge covers the
 //!      outside at 1.5 texels too (the edge is hidden by another caster: no inner penumbra
-//!      through it), when the fragment's own texel is not behind a caster
-//!      1 % nearer than Z_R, or when the drawn share s' of s = u / w(Z_R) is >= 1
-//!      (umbra). Else v = disc_chord(s') in [0, 0.5], plus the thin-blocker term below,
-//!      raised to the blocker-size bound;
-//!      writes (1, 1 - v, 1 - Z_R / far, 1).
+//!      through it), when the fragment's own texel is not behind a caster 1 % nearer than
+//!      Z_R, or when the drawn share s' of s = u / w(Z_R) is at least 1 (umbra). Else v =
+//!      disc_chord(s') in [0, 0.5], plus the thin-blocker term below, raised to the
+//!      blocker-size bound; writes (1, 1 - v, 1 - Z_R / far, 1).
 //! 3. `penumbra-map-centred/final` — `FinalPass` with
 //!    `glsl/penumbra_map_centred/final.frag`: per texel of the 2x2 footprint (textureGather
 //!    of the shadow map's r and g and of the penumbra map's r, g and b at the lookup

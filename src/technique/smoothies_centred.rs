@@ -56,9 +56,9 @@
 //! 1. `smoothies-centred/shadow_map` — the shared `ShadowMap`: R32G32_SFLOAT, clear 1e30,
 //!    blend MIN, no depth attachment; r = nearest caster's linear depth, g = nearest
 //!    surface's of any role. Read only by pass 2: g at the smoothie fragment's own texel
-//!    and, for an inner one, 1.0 and 5.0 texels outside its edge (1.5 and 5.5 past a
-//!    caster in front at 1.0); r along the thin-blocker
-//!    marches (both sides) and, for an inner one, at its own texel.
+//!    and, for an inner one, 1.0 and 5.0 texels outside its edge (1.5 and 5.5 past a caster
+//!    in front at 1.0); r along the thin-blocker marches (both sides) and, for an inner
+//!    one, at its own texel.
 //! 2. `smoothies-centred/smoothie` — ONE pass (the paper's single MRT smoothie pass), no
 //!    depth attachment, culling off, two colour attachments:
 //!    location 0 = smoothie linear depth b, R32_SFLOAT, clear 1e30, blend MIN (outer
@@ -96,10 +96,10 @@
 //!      the two samples (1/depth is affine across the map over a plane) extrapolated to
 //!      this texel, within 5 % of the nearer sample. 1.0 texel is the nearest point whose
 //!      texel is not the edge's own caster's: read farther out, a fold just inside a bumpy
-//!      blocker's outline skipped the lip between them and drew a penumbra, made for the
-//!      ground beyond, that the lip hides (on `dense` the ground's umbra lit up beside
-//!      penumbrae about a pixel wide); now the lip is the fold's receiver, at its own
-//!      depth, and the fold draws nothing. Where a caster more than 1 % in front of b
+//!      blocker's outline would skip the lip between them and draw a penumbra, made for the
+//!      ground beyond, that the lip hides (on `dense`, the ground's umbra lit beside
+//!      penumbrae about a pixel wide); read there, the lip is the fold's receiver, at its
+//!      own depth, and the fold draws nothing. Where a caster more than 1 % in front of b
 //!      covers that texel, the samples move to 1.5 and 5.5 texels, so that a neighbour that
 //!      only borders the edge does not hide it. Discarded when a caster more than 1 % in
 //!      front of b covers 1.5 texels too (the edge is hidden by another caster: no inner

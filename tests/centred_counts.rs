@@ -199,23 +199,24 @@ fn each_smoothie_stops_at_the_deepest_surface_under_its_own_reach() {
     }
 }
 
-/// Each cone of both penumbra-map forms cut at the deepest receiver its fragments can find
-/// (the tiles of `regions::DeepestGrid`), not at Z_far: the part beyond lies behind every
-/// receiver there and Eq. 1 discards it. At 128^2, 512^2 maps, penumbra-pass fragments with
-/// the cones at Z_far, then cut: penumbra-map bunny 165,184 and 106,688, primitives 78,800
-/// and 58,224, cylinder 23,744 and 21,600; penumbra-map-centred bunny 329,840 and 226,080,
-/// primitives 154,864 and 118,784, cylinder 47,392 and 43,552. Fails with the cones at
-/// Z_far.
+/// Each cone and each sheet of both penumbra-map forms cut at the deepest receiver its
+/// fragments can find (the tiles of `regions::DeepestGrid`), not at Z_far: the part beyond
+/// lies behind every receiver there and Eq. 1 discards it. At 128^2, 512^2 maps,
+/// penumbra-pass fragments with everything at Z_far, with the cones cut, and with the cones
+/// and the sheets cut: penumbra-map bunny 165,184, 106,688 and 77,296, primitives 78,800,
+/// 58,224 and 34,944, cylinder 23,744, 21,600 and 14,544; penumbra-map-centred bunny
+/// 329,840, 226,080 and 173,280, primitives 154,864, 118,784 and 78,976, cylinder 47,392,
+/// 43,552 and 31,808. Fails with the cones or the sheets at Z_far.
 #[test]
-fn penumbra_cones_stop_at_the_deepest_receiver_under_them() {
+fn penumbra_cones_and_sheets_stop_at_the_deepest_receiver_under_them() {
     let gpu = Gpu::new();
     let bounds = [
-        ("penumbra-map", "bunny", 135_000),
-        ("penumbra-map", "primitives", 68_000),
-        ("penumbra-map", "cylinder", 22_700),
-        ("penumbra-map-centred", "bunny", 275_000),
-        ("penumbra-map-centred", "primitives", 137_000),
-        ("penumbra-map-centred", "cylinder", 45_500),
+        ("penumbra-map", "bunny", 92_500),
+        ("penumbra-map", "primitives", 46_500),
+        ("penumbra-map", "cylinder", 18_000),
+        ("penumbra-map-centred", "bunny", 201_000),
+        ("penumbra-map-centred", "primitives", 99_000),
+        ("penumbra-map-centred", "cylinder", 37_500),
     ];
     for (t, scene, max_frags) in bounds {
         let pass = format!("{t}/penumbra");

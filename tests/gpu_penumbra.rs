@@ -42,13 +42,19 @@ fn tris_of_vertices(vertices: &[PenumbraVertex]) -> Vec<Tri> {
     tris_of_floats(floats)
 }
 
-/// Largest difference between two triangles, relative to the size of the values.
+/// Largest difference between two triangles, relative to the size of the values, in
+/// either winding: the penumbra pass draws with culling off, and a cone arc between two
+/// parallel sheets (a sweep about 0, reaching `ARC_OVERLAP` past each) may turn either way
+/// on the two devices.
 fn tri_distance(a: &Tri, b: &Tri) -> f32 {
-    a.iter()
-        .flatten()
-        .zip(b.iter().flatten())
-        .map(|(x, y)| (x - y).abs() / (1.0 + x.abs().max(y.abs())))
-        .fold(0.0, f32::max)
+    let d = |b: &Tri| {
+        a.iter()
+            .flatten()
+            .zip(b.iter().flatten())
+            .map(|(x, y)| (x - y).abs() / (1.0 + x.abs().max(y.abs())))
+            .fold(0.0, f32::max)
+    };
+    d(b).min(d(&[b[0], b[2], b[1]]))
 }
 
 /// Matches every CPU triangle with a distinct GPU triangle (the GPU's order comes from

@@ -23,10 +23,11 @@ layout(set = 0, binding = 16, std430) readonly buffer PenumbraFrame {
 layout(set = 0, binding = 17, std430) buffer ReachState { uint reach_state[]; };
 const uint REACH_WORDS = 8u;
 
-// src/silhouette/penumbra.rs: BLOCKER_REACH_UNKNOWN, CONE_SEGMENTS, HAIRPIN.
+// src/silhouette/penumbra.rs: BLOCKER_REACH_UNKNOWN, CONE_SEGMENTS, HAIRPIN, ARC_OVERLAP.
 const float BLOCKER_REACH_UNKNOWN = 1e6;
 const uint CONE_SEGMENTS = 16u;
 const float HAIRPIN = PI / 180.0;
+const float ARC_OVERLAP = 0.01;
 const uint PENUMBRA_FLOATS = 6u;
 
 // One silhouette vertex in light view space (`ConeData`).

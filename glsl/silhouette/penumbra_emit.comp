@@ -47,7 +47,8 @@ void emit_cone(uint v) {
         return;
     }
     // cone_arc: the arc between exactly two sheet normals, taken in silhouette (= edge
-    // index) order like the CPU; else (or past MAX_INCIDENT edges) the whole cone.
+    // index) order like the CPU, reaching ARC_OVERLAP past each; else (or past
+    // MAX_INCIDENT edges) the whole cone.
     float from = 0.0;
     float sweep = 2.0 * PI;
     if (count <= MAX_INCIDENT) {
@@ -77,8 +78,9 @@ void emit_cone(uint v) {
             float s = angle_to(n_first, n_second);
             // Hairpin: which side is outside is ambiguous; draw the whole cone.
             if (!isnan(s) && !isinf(s) && abs(s) <= PI - HAIRPIN) {
-                from = atan(n_first.y, n_first.x);
-                sweep = s;
+                float e = s < 0.0 ? -ARC_OVERLAP : ARC_OVERLAP;
+                from = atan(n_first.y, n_first.x) - e;
+                sweep = s + 2.0 * e;
             }
         }
     }

@@ -18,7 +18,10 @@
 //! circumscribed (vertices at C_r / cos(pi / segments)) so the faceted cone contains the
 //! round one and leaves no lit notch next to a sheet; the price is up to 2 % too dark.
 //! Exactly one cone per distinct silhouette vertex, whatever its number of silhouette edges
-//! (1 at the end of an open chain, 3 or more at the paper's "pathological" vertices).
+//! (1 at the end of an open chain, 3 or more at the paper's "pathological" vertices). Where
+//! exactly two sheets meet, only the arc between their normals is drawn (the rest lies
+//! under the sheets), reaching `ARC_OVERLAP` past each so that no texel centre falls
+//! between a sheet and its cone.
 //!
 //! # Sheets (paper, Sec. 3 fourth bullet)
 //! The sheet of edge a -> b is the plane through the edge that is tangent to the light disc on
@@ -45,10 +48,11 @@
 //! # Zv per fragment (Eq. 1's Z_vi)
 //! Every vertex carries `zv_h = (Zv * k, k)` and the shader uses Zv = x / y after
 //! perspective-correct interpolation. Cone vertices have k = 1 (Zv constant). On a sheet the
-//! tips have k = 1 and the base corners k = z_far / Zv of their cone: a sheet point P lies on
-//! the line from T through the edge point e, and P = T + k (e - T) with k affine in P, so
-//! the ratio of the two interpolated (world-affine) attributes is exactly depth(e). The
-//! paper interpolates Zv linearly, which is exact only along the edge itself.
+//! tips have k = 1 and the base corners k = Z_base / Zv of their cone (Z_base = z_far, or
+//! the depth the sheet is cut at): a sheet point P lies on the line from T through the edge
+//! point e, and P = T + k (e - T) with k affine in P, so the ratio of the two interpolated
+//! (world-affine) attributes is exactly depth(e). The paper interpolates Zv linearly, which
+//! is exact only along the edge itself.
 //!
 //! # Blocker size (case `blocker-near-light`, `near-far-1e-4`)
 //! Every vertex also carries `reach`: the radius, in light-screen tangent units (lateral offset
@@ -221,8 +225,8 @@ fn emit_cone(
     // Each base vertex once, shared by its two triangles. The inner spokes turn by rotation
     // (one sin/cos per cone, not one per spoke; after at most CONE_SEGMENTS turns a spoke is
     // off by a few ulps, far inside the 2 % circumscription margin); the end spokes are
-    // `first` and `last` themselves, so an arc meets its two sheets' tangent lines exactly
-    // and a whole cone closes.
+    // `first` and `last` themselves, so an arc ends where `cone_arc` put its ends and a
+    // whole cone closes.
     let turn = Vec2::from_angle(step);
     let mut dir = first;
     let mut base = [tip; CONE_SEGMENTS + 1];
@@ -264,6 +268,51 @@ impl ConeArc {
 struct SheetOut {
     verts: [PenumbraVertex; 6],
     n: Vec2,
+}
+
+impl SheetOut {
+    /// World positions of its tips (a, b) and bases (b, a): the quad's corners.
+    fn corners(&self) -> [Vec3; 4] {
+        [0, 1, 2, 5].map(|i| Vec3::from_array(self.verts[i].position))
+    }
+}
+
+/// `s` cut at linear depth `z`: each base moved along its ruling line (tip -> base) to `z`,
+/// the position and the homogeneous (Zv k, k) interpolated as the rasteriser would, so both
+/// triangles keep their planes and every fragment left its value. Uncut where `z` is not
+/// between both tips and the bases.
+fn cut_sheet(mut s: SheetOut, light: &LightView, z: f32) -> SheetOut {
+    let [tip_a, tip_b, base_b, base_a] = s.corners();
+    let (za, zb) = (light.linear_depth(tip_a), light.linear_depth(tip_b));
+    let z_base = light.linear_depth(base_a).min(light.linear_depth(base_b));
+    if !(z > za.max(zb) && z < z_base) {
+        return s;
+    }
+    let along = |tip: &PenumbraVertex, base: &PenumbraVertex, z_tip: f32| {
+        let (p, q) = (
+            Vec3::from_array(tip.position),
+            Vec3::from_array(base.position),
+        );
+        let mu = (z - z_tip) / (light.linear_depth(q) - z_tip);
+        let lerp = |x: f32, y: f32| x + (y - x) * mu;
+        PenumbraVertex {
+            position: p.lerp(q, mu).to_array(),
+            zv_h: [
+                lerp(tip.zv_h[0], base.zv_h[0]),
+                lerp(tip.zv_h[1], base.zv_h[1]),
+            ],
+            reach: tip.reach,
+        }
+    };
+    let (a, b) = (
+        along(&s.verts[0], &s.verts[5], za),
+        along(&s.verts[1], &s.verts[2], zb),
+    );
+    // [tip a, tip b, base b, tip a, base b, base a] (`sheet`).
+    s.verts[2] = b;
+    s.verts[4] = b;
+    s.verts[5] = a;
+    s
 }
 
 /// The sheet quad of edge a -> b on `side` as two triangles, or None (see the module doc).
@@ -349,7 +398,7 @@ fn blocker_reach(cones: &[Option<ConeData>], z_far: f32, sun: bool) -> f32 {
 
 /// The part of a vertex's cone to draw, from how many sheets meet there (saturating) and
 /// the first two's tangent normals. Only a vertex with exactly two sheets draws an arc (from
-/// the first normal to the second), the rest the whole cone.
+/// the first normal to the second, `ARC_OVERLAP` past each), the rest the whole cone.
 fn cone_arc(sheets: u8, [n1, n2]: [Vec2; 2]) -> ConeArc {
     let full = ConeArc::new([Vec2::X; 2], std::f32::consts::TAU);
     if sheets != 2 {
@@ -360,8 +409,30 @@ fn cone_arc(sheets: u8, [n1, n2]: [Vec2; 2]) -> ConeArc {
     if !sweep.is_finite() || sweep.abs() > std::f32::consts::PI - HAIRPIN {
         return full;
     }
-    ConeArc::new([n1, n2], sweep)
+    // As glsl/silhouette/penumbra_emit.comp: a sweep of -0 turns the positive way.
+    let e = if sweep < 0.0 {
+        -ARC_OVERLAP
+    } else {
+        ARC_OVERLAP
+    };
+    ConeArc::new(
+        [
+            Vec2::from_angle(-e).rotate(n1),
+            Vec2::from_angle(e).rotate(n2),
+        ],
+        sweep + 2.0 * e,
+    )
 }
+
+/// How far (radians) an arc reaches past each of its two sheets' normals. A sheet's side
+/// edge and its cone's end spoke lie on one line from the tip in light uv, with ends at
+/// different depths (each is cut at the deepest receiver under its own box); the rasteriser
+/// snaps the two ends apart, and a texel centre on that line could fall outside both. Past
+/// the normal the cone overlaps the sheet, so such a centre lies inside a cone triangle.
+/// There the cone's surface touches the sheet's plane along the shared ruling line, so the
+/// two give the same Eq. 1 value on it and nearly the same within the overlap; MIN keeps
+/// the darker.
+const ARC_OVERLAP: f32 = 0.01;
 
 /// Within this angle (1 degree) of a half turn, two sheet normals form a hairpin.
 const HAIRPIN: f32 = std::f32::consts::PI / 180.0;
@@ -402,16 +473,16 @@ pub fn no_bound(_: Side, _: Vec2, _: Vec2) -> Option<f32> {
 }
 
 /// `build_penumbra` for each of `sides` from one pass over the silhouette vertices (the
-/// cones' tips, bases and the blocker reach are the same on both sides), each cone cut at
-/// its own base depth: the smaller of `z_far` and `deepest` over the light-uv box of its
-/// full geometry (`no_bound`: every cone to `z_far`). A cone's triangles are planar and
-/// each base point moves along its ruling line towards the tip, so the cut keeps the same
-/// planes, and a fragment beyond it lies deeper than every receiver in that box: Eq. 1
-/// discards it (an inner fragment's s is at least 1 there). The same image up to the
-/// rounding of the interpolation over the shorter triangles. Sheets keep `z_far`: a sheet's
-/// edge and its neighbouring cone arc's end spoke lie on one line from the tip with
-/// different ends, and cutting the sheet moved which of the two covers a texel centre on
-/// that line (a texel left uncovered on `primitives`, `bunny`, `dense`).
+/// cones' tips, bases and the blocker reach are the same on both sides), each cone and each
+/// sheet cut at its own base depth: the smaller of `z_far` and `deepest` over the light-uv
+/// box of its full geometry (`no_bound`: everything to `z_far`). A cone's or a sheet's
+/// triangles are planar and each base point moves along its ruling line towards the tip
+/// (`cut_sheet`), so the cut keeps the same planes, and a fragment beyond it lies deeper
+/// than every receiver in that box: Eq. 1 discards it (an inner fragment's s is at least 1
+/// there). The same image up to the rounding of the interpolation over the shorter
+/// triangles. A sheet's side edge and its cone arc's end spoke, cut at different depths,
+/// meet on one line with different ends: the arcs overlap their sheets (`ARC_OVERLAP`), or
+/// a texel centre on that line can be left uncovered (it was on `primitives` and `bunny`).
 #[allow(clippy::too_many_arguments)]
 pub fn build_penumbra_sides<const N: usize>(
     adj: &Adjacency,
@@ -492,6 +563,15 @@ pub fn build_penumbra_sides<const N: usize>(
                 sun,
             )
         });
+        let sheets: Vec<Option<SheetOut>> = sheets
+            .into_iter()
+            .map(|s| {
+                s.map(|s| {
+                    let z = cut(side, &s.corners());
+                    cut_sheet(s, light, z)
+                })
+            })
+            .collect();
         let cone_cut = |c: &ConeData| {
             // The circumscribed polygon's corners (`emit_cone`) reach past the round base.
             let r = c.radius / (std::f32::consts::PI / CONE_SEGMENTS as f32).cos();

@@ -14,7 +14,7 @@
 //! | split final pass (`regions::shadowed`, `FinalPass::split`): the final shader only in the screen boxes where a caster's shadow can fall, `glsl/common/unshadowed.frag` elsewhere | the final shader's lookups over lit ground | smoothies, penumbra maps, pcf, pcss, plateaus (and their centred forms) | one full-screen final pass |
 //! | light-area-limited clears and draws (`regions::silhouette_areas`, `regions::AroundCasters::map_area`, `regions::LastDrawn`): light buffers cleared and drawn only over the texels a frame reads, joined with last frame's | the clears and the ground's fill of whole light maps | smoothies, penumbra maps, pcf, pcss, plateaus | whole maps, every object (`Settings::light_areas`) |
 //! | shortened smoothies (`smoothies::CpuSmoothies`, `records::Extent`, `regions::DeepestGrid`): each quad and fan drawn only as wide as Eq. 1 can still write for the deepest receiver under its own reach | smoothie-pass fragments that are all discarded | smoothies, smoothies-centred | full width t (`Settings::light_areas`) |
-//! | cut cones (`penumbra_map::CpuPenumbra`, `silhouette::penumbra::build_penumbra_sides`, `regions::DeepestGrid`): each cone's base at the deepest receiver under it instead of near the far plane | penumbra-pass fragments that Eq. 1 discards | penumbra-map, penumbra-map-centred | cones to Z_far (`Settings::light_areas`) |
+//! | cut cones and sheets (`penumbra_map::CpuPenumbra`, `silhouette::penumbra::build_penumbra_sides`, `regions::DeepestGrid`): each cone's and each sheet's base at the deepest receiver under it instead of near the far plane | penumbra-pass fragments that Eq. 1 discards | penumbra-map, penumbra-map-centred | cones and sheets to Z_far (`Settings::light_areas`) |
 //! | per-caster geometry caches (`smoothies::CpuSmoothies`, `penumbra_map::CpuPenumbra` over `gpu::passes::CasterCacheOf`) and reused light passes (the renderer skips `record_light` while nothing moved) | rebuilding unchanged geometry and light buffers | the silhouette techniques; every technique | rebuilt every frame (`Settings::cache_light_passes`) |
 //! | culling (objects outside the light's or the camera's frustum not drawn) | draws of objects that write no texel read and no pixel | every technique | every object drawn (`Settings::culling`) |
 //! | plateau areas and split (`plateaus`): the plateau textures and the casters-only shadow map cleared and drawn only over the texels the final pass can read; the final shader only over the casters' regions on the plane and in the light | the clears and draws of unread texels, the final shader's lookups over lit ground | plateaus, plateaus-centred | whole textures, one full-screen final pass |
@@ -28,7 +28,7 @@
 //! - `smoothies`: `smoothies` and `smoothies-centred`: the CPU path's cached smoothie
 //!   records and triangles, shortened smoothies, light areas, split polygons.
 //! - `penumbra_map`: `penumbra-map` and `penumbra-map-centred`: the CPU path's cached cones
-//!   and sheets, cut cones, light areas, split polygons.
+//!   and sheets, cut cones and sheets, light areas, split polygons.
 //! - `plateaus`: `plateaus` and `plateaus-centred`: the light-pass areas and the split final
 //!   pass's regions.
 //! - `ssm`: the soft-shadow-map forms' micro-patch step, and ssm-bitmask's receiver tiles

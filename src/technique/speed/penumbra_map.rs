@@ -6,8 +6,9 @@
 //!   (`silhouette::penumbra::build_penumbra_sides`), kept until the caster or the light
 //!   moves (`CasterCacheOf`; rebuilt every frame without `cache_light_passes`), uploaded
 //!   side by side (outer, then the centred form's inner) to host-visible vertex buffers.
-//! - Cut cones (`CpuPenumbra::build`, `silhouette::penumbra::build_penumbra_sides`):
-//!   each cone's base at the deepest receiver its fragments can find rather than at Z_far,
+//! - Cut cones and sheets (`CpuPenumbra::build`,
+//!   `silhouette::penumbra::build_penumbra_sides`): each cone's and each sheet's base at
+//!   the deepest receiver its fragments can find rather than at Z_far,
 //!   from the tiles of a `regions::DeepestGrid` over the map (kept while the light and every
 //!   object stay put): the fragments cut away are those Eq. 1 discards. The same image up to
 //!   the rounding of the interpolation over shorter triangles. Off without `light_areas`.

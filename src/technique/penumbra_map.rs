@@ -68,7 +68,8 @@
 //!   final.frag) with `own_surface` (glsl/penumbra_map/surface.glsl).
 //!
 //! The speed layer leaves each texel read and each shaded pixel's inputs as the whole
-//! passes give them (src/technique/speed/penumbra_map.rs).
+//! passes give them, up to the rounding of Zv interpolated over the cut cones' and
+//! sheets' shorter triangles (src/technique/speed/penumbra_map.rs; tests/plain.rs).
 //!
 //! ## Under a sun
 //! A sun is every direction within its angular radius theta of its axis, shadow-mapped with

@@ -117,7 +117,8 @@
 //! - The final combination: `visibility` (glsl/penumbra_map_centred/final.frag).
 //!
 //! The speed layer leaves each texel read and each shaded pixel's inputs as the whole
-//! passes give them (src/technique/speed/penumbra_map.rs).
+//! passes give them, up to the rounding of Zv interpolated over the cut cones' and
+//! sheets' shorter triangles (src/technique/speed/penumbra_map.rs; tests/plain.rs).
 //!
 //! ## Combining edges (what the centring approximates)
 //! - Several outer wedges at a texel: the darkest (MIN), as the paper. Exact for one edge;

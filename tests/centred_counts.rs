@@ -203,10 +203,10 @@ fn each_smoothie_stops_at_the_deepest_surface_under_its_own_reach() {
 /// fragments can find (the tiles of `regions::DeepestGrid`), not at Z_far: the part beyond
 /// lies behind every receiver there and Eq. 1 discards it. At 128^2, 512^2 maps,
 /// penumbra-pass fragments with everything at Z_far, with the cones cut, and with the cones
-/// and the sheets cut: penumbra-map bunny 165,184, 106,688 and 77,296, primitives 78,800,
-/// 58,224 and 34,944, cylinder 23,744, 21,600 and 14,544; penumbra-map-centred bunny
-/// 329,840, 226,080 and 173,280, primitives 154,864, 118,784 and 78,976, cylinder 47,392,
-/// 43,552 and 31,808. Fails with the cones or the sheets at Z_far.
+/// and the sheets cut: penumbra-map bunny 165,184, 106,688 and 76,864, primitives 78,800,
+/// 58,224 and 34,560, cylinder 23,744, 21,600 and 14,400; penumbra-map-centred bunny
+/// 329,840, 226,080 and 172,128, primitives 154,864, 118,784 and 78,240, cylinder 47,392,
+/// 43,552 and 31,440. Fails with the cones or the sheets at Z_far.
 #[test]
 fn penumbra_cones_and_sheets_stop_at_the_deepest_receiver_under_them() {
     let gpu = Gpu::new();

@@ -27,7 +27,7 @@ const uint REACH_WORDS = 8u;
 const float BLOCKER_REACH_UNKNOWN = 1e6;
 const uint CONE_SEGMENTS = 16u;
 const float HAIRPIN = PI / 180.0;
-const float ARC_OVERLAP = 0.01;
+const float ARC_OVERLAP = 0.002;
 const uint PENUMBRA_FLOATS = 6u;
 
 // One silhouette vertex in light view space (`ConeData`).

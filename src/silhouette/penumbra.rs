@@ -429,10 +429,10 @@ fn cone_arc(sheets: u8, [n1, n2]: [Vec2; 2]) -> ConeArc {
 /// different depths (each is cut at the deepest receiver under its own box); the rasteriser
 /// snaps the two ends apart, and a texel centre on that line could fall outside both. Past
 /// the normal the cone overlaps the sheet, so such a centre lies inside a cone triangle.
-/// There the cone's surface touches the sheet's plane along the shared ruling line, so the
-/// two give the same Eq. 1 value on it and nearly the same within the overlap; MIN keeps
-/// the darker.
-const ARC_OVERLAP: f32 = 0.01;
+/// On that line the cone's faceted surface and the sheet's plane give nearly the same Eq. 1
+/// value; off it the facet can be darker, and MIN keeps the darker, so the overlap is only
+/// a little wider than the rasteriser's snapping of a spoke a few texels long.
+const ARC_OVERLAP: f32 = 0.002;
 
 /// Within this angle (1 degree) of a half turn, two sheet normals form a hairpin.
 const HAIRPIN: f32 = std::f32::consts::PI / 180.0;

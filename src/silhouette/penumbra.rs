@@ -271,9 +271,12 @@ struct SheetOut {
 }
 
 impl SheetOut {
-    /// World positions of its tips (a, b) and bases (b, a): the quad's corners.
+    /// Where in `verts` its tips (a, b) and bases (b, a), the quad's corners, lie.
+    const CORNERS: [usize; 4] = [0, 1, 2, 5];
+
+    /// World positions of its corners (`CORNERS`).
     fn corners(&self) -> [Vec3; 4] {
-        [0, 1, 2, 5].map(|i| Vec3::from_array(self.verts[i].position))
+        Self::CORNERS.map(|i| Vec3::from_array(self.verts[i].position))
     }
 }
 
@@ -282,21 +285,21 @@ impl SheetOut {
 /// triangles keep their planes and every fragment left its value. Uncut where `z` is not
 /// between both tips and the bases.
 fn cut_sheet(mut s: SheetOut, light: &LightView, z: f32) -> SheetOut {
-    let [tip_a, tip_b, base_b, base_a] = s.corners();
-    let (za, zb) = (light.linear_depth(tip_a), light.linear_depth(tip_b));
-    let z_base = light.linear_depth(base_a).min(light.linear_depth(base_b));
-    if !(z > za.max(zb) && z < z_base) {
+    let corners = s.corners();
+    let [za, zb, z_base_b, z_base_a] = corners.map(|p| light.linear_depth(p));
+    if !(z > za.max(zb) && z < z_base_a.min(z_base_b)) {
         return s;
     }
-    let along = |tip: &PenumbraVertex, base: &PenumbraVertex, z_tip: f32| {
-        let (p, q) = (
-            Vec3::from_array(tip.position),
-            Vec3::from_array(base.position),
+    // The vertex at depth `z` on the ruling line from tip `t` to base `b` (corners' indices).
+    let along = |t: usize, b: usize, z_tip: f32, z_base: f32| {
+        let (tip, base) = (
+            &s.verts[SheetOut::CORNERS[t]],
+            &s.verts[SheetOut::CORNERS[b]],
         );
-        let mu = (z - z_tip) / (light.linear_depth(q) - z_tip);
+        let mu = (z - z_tip) / (z_base - z_tip);
         let lerp = |x: f32, y: f32| x + (y - x) * mu;
         PenumbraVertex {
-            position: p.lerp(q, mu).to_array(),
+            position: corners[t].lerp(corners[b], mu).to_array(),
             zv_h: [
                 lerp(tip.zv_h[0], base.zv_h[0]),
                 lerp(tip.zv_h[1], base.zv_h[1]),
@@ -304,10 +307,7 @@ fn cut_sheet(mut s: SheetOut, light: &LightView, z: f32) -> SheetOut {
             reach: tip.reach,
         }
     };
-    let (a, b) = (
-        along(&s.verts[0], &s.verts[5], za),
-        along(&s.verts[1], &s.verts[2], zb),
-    );
+    let (a, b) = (along(0, 3, za, z_base_a), along(1, 2, zb, z_base_b));
     // [tip a, tip b, base b, tip a, base b, base a] (`sheet`).
     s.verts[2] = b;
     s.verts[4] = b;
@@ -553,7 +553,7 @@ pub fn build_penumbra_sides<const N: usize>(
     };
     sides.map(|side| {
         let sheets: Vec<Option<SheetOut>> = map_maybe_par(sil, par, |e| {
-            sheet(
+            let s = sheet(
                 cone_of(e.a)?,
                 cone_of(e.b)?,
                 view_inv,
@@ -561,17 +561,10 @@ pub fn build_penumbra_sides<const N: usize>(
                 reach,
                 side,
                 sun,
-            )
+            )?;
+            let z = cut(side, &s.corners());
+            Some(cut_sheet(s, light, z))
         });
-        let sheets: Vec<Option<SheetOut>> = sheets
-            .into_iter()
-            .map(|s| {
-                s.map(|s| {
-                    let z = cut(side, &s.corners());
-                    cut_sheet(s, light, z)
-                })
-            })
-            .collect();
         let cone_cut = |c: &ConeData| {
             // The circumscribed polygon's corners (`emit_cone`) reach past the round base.
             let r = c.radius / (std::f32::consts::PI / CONE_SEGMENTS as f32).cos();

@@ -18,7 +18,7 @@
 
 mod common;
 
-use common::{covered, false_edges_of, small, Gpu};
+use common::{covered, false_edges_of, small, with_radius, Gpu};
 use glam::{Mat4, Vec3, Vec4};
 use softshadow::eval::metrics::{errors_at, faces_light, Errors};
 use softshadow::output::FrameImages;
@@ -135,11 +135,6 @@ fn mae_lit_below_paper_form_and_hard() {
     }
     println!("{table}");
     assert!(bad.is_empty(), "{}\n{table}", bad.join("\n"));
-}
-
-fn with_radius(mut s: Settings, r: f32) -> Settings {
-    s.light_radius = Some(r);
-    s
 }
 
 /// Pixels of `img` on surfaces facing the light (mae_lit's region) where `v` is below 0.02.

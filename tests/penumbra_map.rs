@@ -4,7 +4,7 @@
 
 mod common;
 
-use common::{covered, pixel_at, small, Gpu};
+use common::{covered, pixel_at, small, with_radius, Gpu};
 use glam::{Mat4, Vec2, Vec3};
 use softshadow::output::FrameImages;
 use softshadow::scene::{primitives, Camera, Light, Mesh, Object, Role, Scene};
@@ -12,11 +12,6 @@ use softshadow::settings::Settings;
 use std::sync::Arc;
 
 const PM: &str = "penumbra-map";
-
-fn with_radius(mut s: Settings, r: f32) -> Settings {
-    s.light_radius = Some(r);
-    s
-}
 
 fn ground_pixels(img: &FrameImages) -> impl Iterator<Item = (usize, Vec3)> + '_ {
     covered(img).into_iter().filter_map(move |i| {

@@ -13,9 +13,8 @@ const float OUT_TEXELS = 1.5;
 // How far inside the edge (texels) an outer fragment's march starts: a texel whose centre
 // lies this far in along the normal is the blocker's, whichever way the edge crosses it.
 const float IN_TEXELS = 1.0;
-// Coarse steps of the thin-blocker march, then bisection steps between the last two.
-const int MARCH_STEPS = 8;
-const int BISECT_STEPS = 3;
+// Most bisections of the thin-blocker search: the far edge to 1/64 of the reach.
+const int BISECT_STEPS = 6;
 
 ivec2 texel_at(vec2 pos) {
     ivec2 size = textureSize(INNER_MAP, 0);
@@ -31,58 +30,43 @@ bool inside_map(vec2 pos) {
 bool blocked_at(vec2 pos, float z_r);
 
 // Thin blocker: the distance (texels) from `here` along the inward direction `dir` to the
-// blocker's far edge, when it lies within the penumbra's half-width w_tex (MARCH_STEPS
-// steps, then BISECT_STEPS bisections between the last blocked and the first open sample);
-// -1 when the blocker is wider, or still covers the texel w_tex away. Through a strip
-// between two parallel edges a point sees the disc's segment beyond each edge, so the
-// caller adds disc_chord(distance / w).
+// blocker's far edge, when it lies within the penumbra's half-width w_tex; -1 when the
+// blocker is wider, or still covers the texel w_tex away (or the map's border before it).
+// Through a strip between two parallel edges a point sees the disc's segment beyond each
+// edge, so the caller adds disc_chord(distance / w).
 //
 // The end of the reach is read first: still blocked there, the blocker is taken as at
-// least that wide and nothing is marched (one read where most fragments, beside or inside a
-// blocker wider than its penumbra, would march every step to find no edge). A gap between
-// two blockers inside the reach is missed: too dark there.
+// least that wide and nothing more is read (one read where most fragments, beside or inside
+// a blocker wider than its penumbra, find no edge). Else, `here` being blocked and the end
+// open, bisections narrow the step between them, to an eighth of a texel or 1/64 of the
+// reach (BISECT_STEPS). Where two blockers lie within the reach, they converge on the far
+// edge of either.
 //
-// One loop with one read per trip serves the three phases (the end, the coarse steps, the
-// bisections): the same reads as a loop per phase, in one place in the code. A rasteriser
-// that runs every statement for every fragment under a lane mask (lavapipe) pays each read
-// in the code once per fragment even where no fragment takes it.
+// One loop with one read per trip serves both (the end, the bisections): the same reads as
+// a loop per phase, in one place in the code. A rasteriser that runs every statement for
+// every fragment under a lane mask (lavapipe) pays each read in the code once per fragment
+// even where no fragment takes it, and a loop as many trips as its slowest lane.
 float far_edge_texels(vec2 here, vec2 dir, float w_tex, float z_r) {
-    int steps = int(min(float(MARCH_STEPS), ceil(w_tex)));
-    float step_len = w_tex / float(max(steps, 1));
+    if (!(w_tex > 0.0)) return -1.0;
+    int bisections = clamp(int(ceil(log2(max(w_tex, 1.0) * 8.0))), 1, BISECT_STEPS);
     float lo = 0.0;
-    float hi = -1.0;
-    int k = 0;   // the coarse step read next; 0 = the end of the reach
-    int bisections = 0;
-    for (int trip = 0; trip < 1 + MARCH_STEPS + BISECT_STEPS; ++trip) {
-        bool coarse = hi < 0.0;
-        float d = k == 0 ? w_tex : (coarse ? step_len * float(k) : 0.5 * (lo + hi));
+    float hi = w_tex;
+    for (int trip = 0; trip <= BISECT_STEPS; ++trip) {
+        float d = trip == 0 ? w_tex : 0.5 * (lo + hi);
         vec2 pos = here + dir * d;
-        bool inside = inside_map(pos);
-        if (k > 0) COUNT_LOOP(COUNT_MARCH);
-        // The end and the coarse steps read nothing outside the map (the march stops at
-        // its border); a bisection lies between two samples already read.
-        bool blocked = (inside || !coarse) && blocked_at(pos, z_r);
-        if (k == 0) {
-            if (blocked || steps < 1) return -1.0;
-            k = 1;
-        } else if (coarse) {
-            if (!inside) return -1.0;
-            if (blocked) {
-                lo = d;
-                k += 1;
-                if (k > steps) return -1.0;
-            } else {
-                hi = d;
-            }
+        if (trip > 0) COUNT_LOOP(COUNT_MARCH);
+        // The end reads nothing outside the map (the search stops at its border); a
+        // bisection lies between two samples already read.
+        if (trip == 0 && !inside_map(pos)) return -1.0;
+        bool blocked = blocked_at(pos, z_r);
+        if (trip == 0) {
+            if (blocked) return -1.0;
+        } else if (blocked) {
+            lo = d;
         } else {
-            if (blocked) {
-                lo = d;
-            } else {
-                hi = d;
-            }
-            bisections += 1;
-            if (bisections == BISECT_STEPS) break;
+            hi = d;
         }
+        if (trip == bisections) break;
     }
     // The far edge lies between the last blocked and the first open sample.
     return 0.5 * (lo + hi);

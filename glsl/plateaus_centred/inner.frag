@@ -13,10 +13,10 @@
 //     the edge's outside (no light through it); a farther one blocks the light this edge
 //     lets through before it reaches the plane, and one MAX image cannot take the minimum
 //     over casters, so that edge draws nothing either (the union's outline draws it);
-//   - thin blocker: the coverage image is marched from this texel along the inward
-//     direction (the gradient of t) for the half-width w (8 steps, then 3 bisections, where
-//     the drop shadow no longer covers the texel w in); the first texel out of the drop
-//     shadow is the blocker's far edge, d beyond this texel, and adds disc_chord(d / w)
+//   - thin blocker: the coverage image is searched from this texel along the inward
+//     direction (the gradient of t) over the half-width w (bisections, where the drop
+//     shadow no longer covers the texel w in); the first texel out of the drop shadow is
+//     the blocker's far edge, d beyond this texel, and adds disc_chord(d / w)
 //     (through a strip between parallel edges a point sees the disc's segment beyond each
 //     edge).
 // Written with MAX blending into the R16F inner image (clear 0): the lightest estimate wins.

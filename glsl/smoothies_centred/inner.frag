@@ -15,9 +15,9 @@
 //     it: no inner penumbra through another caster), when this texel is not behind a caster
 //     1 % nearer than Z_R, or when s = x / (t (1 - b/Z_R)) >= 1 (umbra);
 //   - v = disc_chord(s) in [0, 0.5], plus, for a blocker thinner than its penumbra, the
-//     share beyond its far edge: the shadow map marched from this texel along `dir` for
-//     the half-width (8 steps, then 3 bisections, where the blocker no longer covers the
-//     texel one half-width in), the far edge d beyond this texel adds disc_chord(d / w)
+//     share beyond its far edge: the shadow map searched from this texel along `dir` over
+//     the half-width (bisections, where the blocker no longer covers the texel one
+//     half-width in), the far edge d beyond this texel adds disc_chord(d / w)
 //     (exact for a parallel strip: through it a point sees the disc's segment beyond each
 //     edge).
 // Writes depth FAR_DEPTH (neutral: inner smoothies do not take part in the outer depth

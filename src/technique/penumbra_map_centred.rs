@@ -131,24 +131,25 @@
 //!   a curved silhouette (nearly parallel, same side) give nearly equal values and are not
 //!   counted twice.
 //! - Thin blockers: a MAX over edges alone would leave a strip narrower than its penumbra
-//!   half as bright as it is. Each inner fragment marches the shadow map inward along its
-//!   normal (8 steps over w, then 3 bisections; not at all where the blocker still covers
-//!   the texel w in, so a gap between two blockers inside w is missed) for the blocker's
-//!   far edge, d beyond the texel. Through a strip between parallel edges a and b a point
-//!   sees the disc's segment beyond each edge: the blocked share is 1 - disc_chord(s_a) -
-//!   disc_chord(s_b), per-edge occlusions combine (they do not take the minimum); the inner
-//!   fragment writes disc_chord(s_a) + disc_chord(d / w), so inner extents meeting from
-//!   both sides give partial light, exactly for a parallel strip. At a sharp corner of a
-//!   thin blocker the march can leave through the other edge and count its segment fully:
-//!   too light there. Each outer fragment, x outside its edge, marches the same way from
-//!   IN_TEXELS (1) inside the edge for what is left of w (`outer_far_share`; not at all
-//!   where the blocker still covers the end of that reach, so a gap between two blockers
-//!   inside it is not looked for) and adds disc_chord((x + W) / w) for a blocker W wide, so
-//!   both sides give 0.5 + disc_chord(W / w) at the hard edge. Without it the outer side
-//!   kept the half-plane's 0.5 there while the inner side let the far segment through: a
-//!   blocker narrower than its penumbra (the bunny's ears at 3x its radius) kept its hard
-//!   outline inside a penumbra lighter than the ring around it. Beyond a thin blocker's tip
-//!   the march runs along it and finds no far edge: too dark there.
+//!   half as bright as it is. Each inner fragment searches the shadow map inward along its
+//!   normal (up to 6 bisections between its own texel and the texel w in; not at all where
+//!   the blocker still covers that texel, and two blockers inside w give either far edge)
+//!   for the blocker's far edge, d beyond the texel. Through a strip between parallel edges
+//!   a and b a point sees the disc's segment beyond each edge: the blocked share is 1 -
+//!   disc_chord(s_a) - disc_chord(s_b), per-edge occlusions combine (they do not take the
+//!   minimum); the inner fragment writes disc_chord(s_a) + disc_chord(d / w), so inner
+//!   extents meeting from both sides give partial light, exactly for a parallel strip. At a
+//!   sharp corner of a thin blocker the march can leave through the other edge and count
+//!   its segment fully: too light there. Each outer fragment, x outside its edge, marches
+//!   the same way from IN_TEXELS (1) inside the edge for what is left of w
+//!   (`outer_far_share`; not at all where the blocker still covers the end of that reach,
+//!   so a gap between two blockers inside it is not looked for) and adds disc_chord((x + W)
+//!   / w) for a blocker W wide, so both sides give 0.5 + disc_chord(W / w) at the hard
+//!   edge. Without it the outer side kept the half-plane's 0.5 there while the inner side
+//!   let the far segment through: a blocker narrower than its penumbra (the bunny's ears at
+//!   3x its radius) kept its hard outline inside a penumbra lighter than the ring around
+//!   it. Beyond a thin blocker's tip the march runs along it and finds no far edge: too
+//!   dark there.
 //! - Hidden receivers under another caster's outer penumbra take min(inner, outer), where
 //!   the outer value was evaluated at the foremost (nearer) surface: not darker than the
 //!   outer penumbra at the receiver's own depth would be.
@@ -165,16 +166,17 @@
 //! post) gets that penumbra narrowed to its own depth, from a linear stand-in for the
 //! profile (exact at the hard edge and the umbra's end). Surfaces facing away from the
 //! light inside the inner band get the inner penumbra too (the shading's n.l hides it). The
-//! march and the edge test are quantised to the shadow map's texels (the far edge to 1/2
-//! texel after bisection). Silhouettes from the light centre only (they pop under light
-//! motion) and the paper's creases at concavities remain; both halves are evaluated for a
+//! search and the edge test are quantised to the shadow map's texels (the far edge to an
+//! eighth of a texel after bisection, 1/64 of w where w is wider than 8 texels).
+//! Silhouettes from the light centre only (they pop under light motion) and the paper's
+//! creases at concavities remain; both halves are evaluated for a
 //! straight edge, so curved silhouettes (a sphere's) get a slightly too dark inner penumbra
 //! (a convex outline hides less of the disc than the half-plane of its tangent). The inner
-//! fragments cost up to 15 shadow-map fetches each (two receiver samples, own texel, the
-//! texel one half-width in, and the 8 + 3 march steps only where the blocker has ended by
+//! fragments cost up to 10 shadow-map fetches each (two receiver samples, own texel, the
+//! texel one half-width in, and up to 6 bisections only where the blocker has ended by
 //! then), only in the inner band; the outer ones two beyond the paper's one beside a
-//! blocker (the march's start inside the edge and the end of the rest of the half-width)
-//! and the 8 + 3 march steps only where the blocker has ended by then.
+//! blocker (the search's start inside the edge and the end of the rest of the half-width)
+//! and up to 6 bisections only where the blocker has ended by then.
 
 use super::penumbra_map::{penumbra_pipeline_desc, PenumbraMap, PenumbraTarget};
 use super::{Form, TechniqueInfo, TechniqueInit};

@@ -100,15 +100,15 @@
 //! - Inner: the lightest (MAX). For a convex blocker the light reaching a point is at least
 //!   what the nearest edge alone lets through; a cone inside a convex corner would be darker
 //!   than the sheets beside it, and is not drawn.
-//! - Thin blockers: each inner fragment marches `coverage` inward (8 steps over the
-//!   half-width, then 3 bisections; not at all where the drop shadow still covers the texel
-//!   one half-width in, so a gap inside that reach is missed) for the drop shadow's far
-//!   edge, d beyond the texel, and adds disc_chord(d / w): through a strip between parallel
-//!   edges a point sees the disc's segment beyond each edge. A blocker narrower than its
-//!   penumbra is never a full umbra. The outer side has no such term: a point just outside
-//!   a thin blocker gets the single edge's value (too dark), which is what limits the
-//!   `radius-huge` stress case (a light larger than the scene: 0.40 mae_lit, allowance in
-//!   src/eval/stress.rs).
+//! - Thin blockers: each inner fragment searches `coverage` inward (up to 6 bisections
+//!   between its own texel and the texel one half-width in; not at all where the drop
+//!   shadow still covers that texel, and two gaps inside that reach give either) for the
+//!   drop shadow's far edge, d beyond the texel, and adds disc_chord(d / w): through a
+//!   strip between parallel edges a point sees the disc's segment beyond each edge. A
+//!   blocker narrower than its penumbra is never a full umbra. The outer side has no such
+//!   term: a point just outside a thin blocker gets the single edge's value (too dark),
+//!   which is what limits the `radius-huge` stress case (a light larger than the scene:
+//!   0.40 mae_lit, allowance in src/eval/stress.rs).
 //! - Overlapping casters: the march runs over the union of the drop shadows, and an edge
 //!   whose outside lies in any drop shadow draws no inner penumbra (silhouette edges inside
 //!   a caster's own outline, e.g. folds of `bunny`, included): the union's outline draws
@@ -124,8 +124,8 @@
 //! sheet takes one stretch for both its cones, so where the stretch changes along an edge
 //! it meets them off their tangents (a crease, at most the two ellipses' difference). The
 //! march and the hidden-edge test are quantised to the texture's texels. The inner
-//! fragments cost up to 14 texel fetches each (own texel, hidden-edge test, the texel one
-//! half-width in, and the 8 + 3 march steps only where the drop shadow has ended by then),
+//! fragments cost up to 9 texel fetches each (own texel, hidden-edge test, the texel one
+//! half-width in, and up to 6 bisections only where the drop shadow has ended by then),
 //! only inside the drop shadow.
 
 use super::plateaus::{drop_shadow_pipeline, plateau_pipeline};

@@ -157,9 +157,9 @@
 //! - Several inner smoothies at a texel: the lightest (MIN of the occlusion). For a convex
 //!   blocker the light reaching a point is at least what the nearest edge alone lets
 //!   through; inner quads overlap at convex corners, and the lighter (nearer edge's) wins.
-//! - Thin blockers: each inner fragment marches the shadow map inward along `dir` (8
-//!   steps over the half-width w, then 3 bisections; not at all where the blocker still
-//!   covers the texel w in, so a gap between two blockers inside w is missed) for the
+//! - Thin blockers: each inner fragment searches the shadow map inward along `dir` (up to
+//!   6 bisections between its own texel and the texel w in; not at all where the blocker
+//!   still covers that texel, and two blockers inside w give either far edge) for the
 //!   blocker's far edge, d beyond the texel, and adds disc_chord(d / w): through a strip
 //!   between parallel edges a point sees the disc's segment beyond each edge, so per-edge
 //!   shares add. Inner extents meeting from both sides of a blocker narrower than its
@@ -191,11 +191,11 @@
 //! silhouettes from the light centre (they pop under light motion; thick smoothies snap on
 //! coarse meshes), min rather than the product for overlapping outer penumbrae, and the cap
 //! t <= 0.2 (a blocker near the light gets too narrow a penumbra). The inner fragments cost
-//! up to 15 shadow-map fetches each (two receiver samples, own texel, the texel one
-//! half-width in, and the 8 + 3 march steps only where the blocker has ended by then), only in
+//! up to 10 shadow-map fetches each (two receiver samples, own texel, the texel one
+//! half-width in, and up to 6 bisections only where the blocker has ended by then), only in
 //! the inner band; the outer ones one, as the paper's, two more beside a blocker (the
-//! march's start inside the edge and the end of the rest of the half-width) and the 8 + 3
-//! march steps only where the blocker has ended by then.
+//! search's start inside the edge and the end of the rest of the half-width) and up to 6
+//! bisections only where the blocker has ended by then.
 
 use super::smoothies::{smoothie_pipeline_desc, SmoothieTarget, Smoothies};
 use super::{Form, TechniqueInfo, TechniqueInit};

@@ -83,6 +83,12 @@ pub fn small(width: u32, shadow_res: u32) -> Settings {
     }
 }
 
+/// `s` under a light of radius `r` (a spotlight's; the scene's own when not set).
+pub fn with_radius(mut s: Settings, r: f32) -> Settings {
+    s.light_radius = Some(r);
+    s
+}
+
 /// The largest difference of two images' colours, in 8-bit levels over every channel.
 pub fn max_colour_diff(a: &FrameImages, b: &FrameImages) -> u8 {
     a.color

@@ -143,9 +143,9 @@
 //!   its segment fully: too light there. Each outer fragment, x outside its edge, marches
 //!   the same way from IN_TEXELS (1) inside the edge for what is left of w
 //!   (`outer_far_share`; not at all where the blocker still covers the end of that reach,
-//!   so a gap between two blockers inside it is not looked for) and adds disc_chord((x + W)
-//!   / w) for a blocker W wide, so both sides give 0.5 + disc_chord(W / w) at the hard
-//!   edge. Without it the outer side kept the half-plane's 0.5 there while the inner side
+//!   so a gap between two blockers inside it is not looked for) and adds
+//!   disc_chord((x + W) / w) for a blocker W wide, so both sides give
+//!   0.5 + disc_chord(W / w) at the hard edge. Without it the outer side kept the half-plane's 0.5 there while the inner side
 //!   let the far segment through: a blocker narrower than its penumbra (the bunny's ears at
 //!   3x its radius) kept its hard outline inside a penumbra lighter than the ring around
 //!   it. Beyond a thin blocker's tip the march runs along it and finds no far edge: too
@@ -169,9 +169,9 @@
 //! search and the edge test are quantised to the shadow map's texels (the far edge to an
 //! eighth of a texel after bisection, 1/64 of w where w is wider than 8 texels).
 //! Silhouettes from the light centre only (they pop under light motion) and the paper's
-//! creases at concavities remain; both halves are evaluated for a
-//! straight edge, so curved silhouettes (a sphere's) get a slightly too dark inner penumbra
-//! (a convex outline hides less of the disc than the half-plane of its tangent). The inner
+//! creases at concavities remain; both halves are evaluated for a straight edge, so curved
+//! silhouettes (a sphere's) get a slightly too dark inner penumbra (a convex outline hides
+//! less of the disc than the half-plane of its tangent). The inner
 //! fragments cost up to 10 shadow-map fetches each (two receiver samples, own texel, the
 //! texel one half-width in, and up to 6 bisections only where the blocker has ended by
 //! then), only in the inner band; the outer ones two beyond the paper's one beside a

@@ -10,29 +10,31 @@ use softshadow::scene::Scene;
 use softshadow::settings::Settings;
 use softshadow::vk::{FrameTimings, LightPassCount};
 
-/// The counted light pass `pass` of `technique` on `scene` with `settings`.
+/// Light pass `pass` of `technique` on `scene` with `settings`: its fragment invocations in
+/// the timed frame and its counts in the counting frame.
 fn counted_light_pass(
     gpu: &Gpu,
     scene: Scene,
     technique: &str,
     pass: &str,
     settings: Settings,
-) -> LightPassCount {
+) -> (u64, LightPassCount) {
     let mut r = Renderer::new(&gpu.ctx, scene, technique, settings).unwrap();
-    r.render().unwrap();
+    let frags = pass_fragments(&r.render().unwrap(), pass);
     let counts = r.count_lookups().unwrap();
-    counts
+    let light = counts
         .light
         .into_iter()
         .find(|l| l.name == pass)
-        .unwrap_or_else(|| panic!("{pass} is counted"))
+        .unwrap_or_else(|| panic!("{pass} is counted"));
+    (frags, light)
 }
 
 /// The counted light pass `pass` of `technique` on `scene` (128^2, 512^2 maps): its texel
 /// reads, warp-summed, and its march iterations.
 fn light_pass_reads(gpu: &Gpu, scene: &str, technique: &str, pass: &str) -> (u64, u64) {
     let scene = Scene::load(scene).unwrap();
-    let light = counted_light_pass(gpu, scene, technique, pass, small(128, 512));
+    let (_, light) = counted_light_pass(gpu, scene, technique, pass, small(128, 512));
     (light.warp_texels, light.loops[2])
 }
 
@@ -48,14 +50,7 @@ fn light_pass_work(gpu: &Gpu, scene: &str, technique: &str, pass: &str, plain: b
     let scene = Scene::load(scene).unwrap();
     let mut settings = small(128, 512);
     settings.plain = plain;
-    let mut r = Renderer::new(&gpu.ctx, scene, technique, settings).unwrap();
-    let frags = pass_fragments(&r.render().unwrap(), pass);
-    let counts = r.count_lookups().unwrap();
-    let light = counts
-        .light
-        .iter()
-        .find(|l| l.name == pass)
-        .unwrap_or_else(|| panic!("{pass} is counted"));
+    let (frags, light) = counted_light_pass(gpu, scene, technique, pass, settings);
     (frags, light.warp_texels)
 }
 
@@ -285,7 +280,9 @@ fn thin_blocker_search_bisects_from_the_end_of_its_reach() {
     ] {
         let scene = Scene::load("bunny").unwrap();
         let settings = with_radius(small(128, 512), 3.0 * scene.light.radius);
-        let warp = counted_light_pass(&gpu, scene, technique, pass, settings).warp_texels;
+        let warp = counted_light_pass(&gpu, scene, technique, pass, settings)
+            .1
+            .warp_texels;
         println!("{technique}: {warp} warp texels");
         assert!(warp < bound, "{technique}: {warp} warp texels");
     }

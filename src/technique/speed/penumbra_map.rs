@@ -8,10 +8,10 @@
 //!   side by side (outer, then the centred form's inner) to host-visible vertex buffers.
 //! - Cut cones and sheets (`CpuPenumbra::build`,
 //!   `silhouette::penumbra::build_penumbra_sides`): each cone's and each sheet's base at
-//!   the deepest receiver its fragments can find rather than at Z_far,
-//!   from the tiles of a `regions::DeepestGrid` over the map (kept while the light and every
-//!   object stay put): the fragments cut away are those Eq. 1 discards. The same image up to
-//!   the rounding of the interpolation over shorter triangles. Off without `light_areas`.
+//!   the deepest receiver its fragments can find rather than at Z_far, from the tiles of a
+//!   `regions::DeepestGrid` over the map (kept while the light and every object stay put):
+//!   the fragments cut away are those Eq. 1 discards. The same image up to the rounding of
+//!   the interpolation over shorter triangles. Off without `light_areas`.
 //! - Light areas (`Areas::light_areas`, `regions::silhouette_areas`): the penumbra map is
 //!   cleared and drawn only over the cones' and sheets' texels joined with last frame's;
 //!   the shadow map over those and the projected box of each caster they do not hold (a

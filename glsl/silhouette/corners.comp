@@ -1,9 +1,11 @@
 #version 450
 #extension GL_GOOGLE_include_directive : require
 // One thread per welded vertex of one caster: where kept silhouette edges meet (listed by
-// edges.comp), the corner fan of build_corner in src/silhouette/smoothie.rs. Two edges: a
+// edges.comp), the corner fans of build_corner in src/silhouette/smoothie.rs. Two edges: a
 // fan over the shorter arc between their outward directions (the far side at a hairpin);
-// one edge or three and more: the paper's special case, a fan over the whole disc with
+// an even number of four and more: the same per pair (`pair_corner_edges`: directions
+// sorted by angle, each paired with a neighbour, the pairing with the smaller summed arcs);
+// one edge or another odd number: the paper's special case, a fan over the whole disc with
 // spokes at every edge direction and at the projected vertex normal.
 #include "silhouette/silhouette.glsl"
 
@@ -20,16 +22,19 @@ vec2 normalize_or_zero(vec2 v) {
     return (rcp > 0.0 && !isinf(rcp)) ? v * rcp : vec2(0.0);
 }
 
-// vertex_normal_screen: the sum of the faces of the vertex's silhouette edges, projected.
-vec2 vertex_normal_screen(vec3 p, vec2 s, float z) {
+// The sum of the normals of silhouette edge `id`'s faces.
+vec3 edge_face_normals(uint id) {
+    uvec4 e = edges[id];
+    uint nf = face_count(e);
     vec3 n = vec3(0.0);
-    for (uint i = 0u; i < n_ids; ++i) {
-        uvec4 e = edges[ids[i]];
-        uint nf = face_count(e);
-        for (uint k = 0u; k < nf; ++k) {
-            n += face_planes[face_entry(e, k) >> 1].xyz;
-        }
+    for (uint k = 0u; k < nf; ++k) {
+        n += face_planes[face_entry(e, k) >> 1].xyz;
     }
+    return n;
+}
+
+// vertex_normal_screen: a sum of face normals, normalised and projected.
+vec2 projected_normal(vec3 p, vec2 s, float z, vec3 n) {
     float rcp = 1.0 / length(n);
     n = (rcp > 0.0 && !isinf(rcp)) ? n * rcp : vec3(0.0);
     return project_normal(p, z, s, n);
@@ -59,6 +64,41 @@ void write_fan(inout uint at, vec2 s, float inv, float t, float from, float swee
         put_vertex(at + 2u, next, inv, 1.0, s, vec2(0.0), t);
         at += 3u;
         prev = next;
+    }
+}
+
+// A two-edge corner of silhouette edges id1 < id2 at vertex v: the shorter arc from d1 to
+// d2, the hairpin's half turn away from the two edges, none when d1 == d2.
+void two_edge(uint v, uint id1, uint id2, vec3 p, vec2 s, float z, float inv, float t) {
+    vec2 d1 = edge_dir[id1];
+    vec2 d2 = edge_dir[id2];
+    float angle = acos(clamp(dot(d1, d2), -1.0, 1.0));
+    if (angle < MIN_CORNER_ANGLE) {
+        return;
+    }
+    float a1 = atan(d1.y, d1.x);
+    float sweep = angle_to(d1, d2);
+    if (angle > PI - MIN_CORNER_ANGLE) {
+        // Hairpin: the outside is away from where the two edges go.
+        vec2 away = vec2(0.0);
+        uint pair[2] = uint[2](id1, id2);
+        for (uint i = 0u; i < 2u; ++i) {
+            uvec4 e = edges[pair[i]];
+            uint other = e.x == v ? e.y : e.x;
+            vec2 so;
+            float zo;
+            if (project(world(other), so, zo)) {
+                away -= normalize_or_zero(so - s);
+            }
+        }
+        if (length(away) < 1e-3) {
+            away = projected_normal(p, s, z, edge_face_normals(id1) + edge_face_normals(id2));
+        }
+        sweep = dot(away, perp(d1)) >= 0.0 ? PI : -PI;
+    }
+    uint base;
+    if (reserve(3u * fan_segments(sweep), base)) {
+        write_fan(base, s, inv, t, a1, sweep);
     }
 }
 
@@ -96,34 +136,37 @@ void main() {
     float t = width_at(z);
 
     if (count == 2u) {
-        vec2 d1 = edge_dir[ids[0]];
-        vec2 d2 = edge_dir[ids[1]];
-        float angle = acos(clamp(dot(d1, d2), -1.0, 1.0));
-        if (angle < MIN_CORNER_ANGLE) {
-            return;
-        }
-        float a1 = atan(d1.y, d1.x);
-        float sweep = angle_to(d1, d2);
-        if (angle > PI - MIN_CORNER_ANGLE) {
-            // Hairpin: the outside is away from where the two edges go.
-            vec2 away = vec2(0.0);
-            for (uint i = 0u; i < 2u; ++i) {
-                uvec4 e = edges[ids[i]];
-                uint other = e.x == v ? e.y : e.x;
-                vec2 so;
-                float zo;
-                if (project(world(other), so, zo)) {
-                    away -= normalize_or_zero(so - s);
-                }
+        two_edge(v, ids[0], ids[1], p, s, z, inv, t);
+        return;
+    }
+    if (count % 2u == 0u && count <= MAX_INCIDENT) {
+        // pair_corner_edges: positions sorted by their direction's angle.
+        uint order[MAX_INCIDENT];
+        for (uint i = 0u; i < n_ids; ++i) {
+            vec2 d = edge_dir[ids[i]];
+            float a = atan(d.y, d.x);
+            uint j = i;
+            while (j > 0u) {
+                vec2 dj = edge_dir[ids[order[j - 1u]]];
+                if (atan(dj.y, dj.x) <= a) break;
+                order[j] = order[j - 1u];
+                --j;
             }
-            if (length(away) < 1e-3) {
-                away = vertex_normal_screen(p, s, z);
-            }
-            sweep = dot(away, perp(d1)) >= 0.0 ? PI : -PI;
+            order[j] = i;
         }
-        uint base;
-        if (reserve(3u * fan_segments(sweep), base)) {
-            write_fan(base, s, inv, t, a1, sweep);
+        float cost[2] = float[2](0.0, 0.0);
+        for (uint shift = 0u; shift < 2u; ++shift) {
+            for (uint j = 0u; j < n_ids / 2u; ++j) {
+                vec2 u = edge_dir[ids[order[(2u * j + shift) % n_ids]]];
+                vec2 w = edge_dir[ids[order[(2u * j + shift + 1u) % n_ids]]];
+                cost[shift] += abs(atan(u.x * w.y - u.y * w.x, dot(u, w)));
+            }
+        }
+        uint shift = cost[1] < cost[0] - 1e-4 ? 1u : 0u;
+        for (uint j = 0u; j < n_ids / 2u; ++j) {
+            uint a = order[(2u * j + shift) % n_ids];
+            uint b = order[(2u * j + shift + 1u) % n_ids];
+            two_edge(v, ids[min(a, b)], ids[max(a, b)], p, s, z, inv, t);
         }
         return;
     }
@@ -135,7 +178,11 @@ void main() {
         vec2 d = edge_dir[ids[i]];
         angles[m++] = atan(d.y, d.x);
     }
-    vec2 nv = vertex_normal_screen(p, s, z);
+    vec3 faces = vec3(0.0);
+    for (uint i = 0u; i < n_ids; ++i) {
+        faces += edge_face_normals(ids[i]);
+    }
+    vec2 nv = projected_normal(p, s, z, faces);
     if (length(nv) > 1e-9) {
         angles[m++] = atan(nv.y, nv.x);
     }

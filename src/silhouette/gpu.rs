@@ -18,7 +18,8 @@
 //! 1. `edges.comp`, one thread per edge: `classify`, and for a silhouette edge its smoothie
 //!    quad (6 vertices, appended with an atomic counter) and its outward direction.
 //! 2. `corners.comp`, one thread per welded vertex: the corner fan where kept edges meet
-//!    (two edges: the arc between them; else the paper's special case).
+//!    (two edges: the arc between them; an even number up to 16: the same per pair of
+//!    nearest directions; else the paper's special case).
 //! 3. `finish.comp`, one thread per caster: its `VkDrawIndirectCommand`, clamped to its
 //!    region of the vertex buffer.
 //!
@@ -67,8 +68,8 @@
 //!
 //! # Limits
 //! A vertex where more than 16 silhouette edges meet keeps 16 of them (an arbitrary 16: the
-//! atomics decide) for its special-case fan; the CPU path keeps all. Silhouettes then still
-//! agree; that corner's fan may differ. The penumbra emitters draw a whole cone at such a
+//! atomics decide) for its special-case fan; the CPU path keeps all. Both draw the full disc
+//! there (`MAX_PAIRED_EDGES`), so silhouettes and coverage agree; the spokes may differ. The penumbra emitters draw a whole cone at such a
 //! vertex (the CPU path draws an arc when exactly two of its edges have sheets).
 
 use super::penumbra::{build_penumbra, PenumbraKey, PenumbraVertex};

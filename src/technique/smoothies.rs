@@ -30,8 +30,10 @@
 //!    centre; a sun's stand-in point, "Under a sun") over the edge adjacency built once per mesh, then smoothie geometry in light screen space: per edge
 //!    a quad from the edge outward by t (alpha 0 -> 1, Sec. 3 step 3, Fig. 2); per
 //!    silhouette vertex a fan covering the gap between its two edges with radial alpha
-//!    |v - p| / t (Fig. 6); vertices with one or more than two silhouette edges get a fan
-//!    over the whole disc (which contains the paper's special case). A triangle list of
+//!    |v - p| / t (Fig. 6); where an even number of four and more silhouette edges meet,
+//!    the same fans for the pairs of nearest outward directions; where one or another odd
+//!    number meet, a fan over the whole disc (which contains the paper's special case,
+//!    Sec. 3). A triangle list of
 //!    36-byte `SmoothieVertex`es: uv, 1/depth, kind, anchor, dir, width. GPU path: three
 //!    compute dispatches (`silhouette::gpu`) into a device-local buffer drawn indirectly, a
 //!    timed pass; CPU path: a `cpu` timing.

@@ -138,7 +138,7 @@ fn same(adj: &Adjacency, model: Mat4, lv: &LightView, width: Width) -> (usize, u
 /// arithmetic on the same inputs); two-edge corners as fans around the same anchors in
 /// the same order, each vertex within `FAN_TOL` (plus the reference sweep's acos error) of
 /// the reference's. Special vertices (full discs: one fan here, one per gap between spokes
-/// there), and any fan whose segmentation differs (an arc within 2e-6 rad of a 30-degree
+/// there; pairs: a fan per pair at one centre), and any fan whose segmentation differs (an arc within 2e-6 rad of a 30-degree
 /// step minus the padding), are compared by coverage: points of the disc of radius t on a
 /// polar grid are inside the reference's triangles exactly when inside the records' (away
 /// from the reference's sector sides by 1e-3 rad). Returns how many two-edge corners
@@ -165,7 +165,7 @@ fn records_match(records: &SmoothieRecords, reference: &SmoothieGeometry) -> usi
     // two-edge corner): about 2.5e-7 / sin(sweep) rad, up to 6e-4 rad for the smallest
     // corners (`fast_atan2` of the cross and dot products has no such loss).
     // Special vertices (full discs: one fan of a full turn here, a fan per gap between
-    // spokes there) are compared by coverage only.
+    // spokes there; pairs: a fan per pair at one centre) are compared by coverage only.
     let mut acos_err: Vec<(f32, bool)> = Vec::new();
     let mut last: Option<[f32; 2]> = None;
     for f in &records.fans {

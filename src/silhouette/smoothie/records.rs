@@ -24,7 +24,9 @@
 //!   of the first spoke and the signed sweep in radians (> 0: counter-clockwise in uv).
 //!   Two-edge corner: one fan from d1 (the first incident edge in silhouette order) over
 //!   the shorter arc to d2, or the hairpin half turn (+-PI), decided as `build_corner`
-//!   decides. Special vertex (one, or three and more, kept edges): one fan over the full
+//!   decides. An even number of four and more kept edges: the two-edge fan of each pair
+//!   `pair_corner_edges` makes, several fans at one centre. One edge or another odd number
+//!   (a full-disc special vertex): one fan over the full
 //!   disc from d1 (sweep 2 PI, 13 segments). `build_corner` splits the same disc at every
 //!   d_i and at the projected vertex normal n_t, one fan per gap (the paper's triangles
 //!   (s, s + t d_i, s + n_t) lie inside it). The two polygons differ only in where they
@@ -50,13 +52,14 @@
 //! projection's derivative instead of three projections (see `edge_dir`), with the
 //! clip-space normal matrix precomputed for rigid and uniformly scaled models. Every
 //! silhouette vertex is numbered in one loop and projected in the next; a corner needs only
-//! its first two incident edges and a count, gathered while the edges are built. The
+//! its first two incident edges and a count, gathered while the edges are built (the rest,
+//! where more meet, in a list of their own, sorted by vertex once). The
 //! two-edge arcs are computed for every vertex in a loop of their own, with no pushes or
 //! branches (consecutive vertices' divisions and polynomials overlap; it does not
-//! vectorise), before the loop that writes the fans. A special vertex is one fan from its
-//! first edge: no spoke angles, no sort, no n_t. On `dense` (one silhouette vertex in
-//! eight is special) the split disc took about a fifth of the time per light, which one
-//! fan saves (BENCHMARKS.md). The working arrays live per thread between calls
+//! vectorise), before the loop that writes the fans. A full-disc special vertex is one fan
+//! from its first edge: no spoke angles, no sort, no n_t. On `dense` (one silhouette
+//! vertex in seven is special) the split disc took about a fifth of the time per light,
+//! which one fan saves (BENCHMARKS.md). The working arrays live per thread between calls
 //! (`Scratch`). The numbering, projection and edge loops reach them through slices,
 //! `extend` or a local `Vec`, not by pushing into and indexing the fields of `Scratch` or
 //! of the records being built: a store into a `Vec`'s buffer may, for all the compiler
@@ -77,8 +80,8 @@
 //! a bounds-checked gather per load; on a GPU they would save the upload's bandwidth.
 
 use super::{
-    hairpin_ccw, undecided_dir, Projected, Projector, SilVertex, SmoothieVertex, Width,
-    FAN_OVERLAP, MAX_SEGMENT,
+    hairpin_ccw, pair_corner_edges, undecided_dir, Projected, Projector, SilVertex, SmoothieVertex,
+    Width, FAN_OVERLAP, MAX_SEGMENT,
 };
 use crate::scene::LightView;
 use crate::silhouette::{Adjacency, EdgeKind, Side, SilhouetteEdge};
@@ -388,9 +391,13 @@ impl SmoothieRecords {
                 vtx(o0, a, 0.0, s0, d),
             ]);
         }
+        let nospecial = std::env::var("SS_NOSPECIAL").is_ok();
         for &w in &self.segments {
             let (fan, n, k) = (w >> 8, (w >> 4) & 15, w & 15);
             let f = &self.fans[fan as usize];
+            if nospecial && f.sweep.abs() > 6.0 {
+                continue;
+            }
             let c = &self.vertices[f.centre as usize];
             let s = Vec2::from(c.uv);
             let from = sign * Vec2::from(f.from);
@@ -549,6 +556,9 @@ struct Scratch {
     ends: Vec<[u32; 2]>,
     clips: Vec<Vec4>,
     incident: Vec<Incident>,
+    /// The kept edges after a vertex's first two (silhouette vertex, silhouette index,
+    /// outward direction), in silhouette order: only vertices where more than two meet.
+    extra: Vec<(u32, u32, Vec2)>,
     arcs: Vec<f32>,
 }
 
@@ -693,8 +703,8 @@ fn project(
 
 /// The edge records, in silhouette order (edges `edge_dir` drops are left out), and per
 /// silhouette vertex in `scratch.incident` the number of kept incident edges (saturating)
-/// and the first two of them in silhouette order: all a corner needs, gathered here so
-/// that the corner step never looks at the edges again.
+/// and the first two of them in silhouette order, the rest in `scratch.extra`: all a
+/// corner needs, gathered here so that the corner step never looks at the edges again.
 fn kept_edges(
     adj: &Adjacency,
     pr: &Projector,
@@ -707,11 +717,13 @@ fn kept_edges(
         ends,
         clips,
         incident,
+        extra,
         welded,
         ..
     } = scratch;
     incident.clear();
     incident.resize(welded.len(), Incident::default());
+    extra.clear();
     // Pushed into a local `Vec` (one that only this loop can reach, unlike the records'
     // fields), reading the other arrays through slices.
     let mut edges = Vec::with_capacity(sil.len());
@@ -726,7 +738,11 @@ fn kept_edges(
                 dir: d.to_array(),
             });
             for c in [a, b] {
-                incident[c as usize].add(i as u32, d);
+                let inc = &mut incident[c as usize];
+                if inc.count >= 2 {
+                    extra.push((c, i as u32, d));
+                }
+                inc.add(i as u32, d);
             }
         }
     }
@@ -748,9 +764,13 @@ fn build_corners(
         welded,
         clips,
         incident,
+        extra,
         arcs,
         ..
     } = scratch;
+    // By vertex, each vertex's in silhouette order (the sort is stable).
+    extra.sort_by_key(|&(c, _, _)| c);
+    let mut extra = &extra[..];
     // Every vertex's arc from its first to its second edge (used by two-edge corners), in a
     // loop of its own: no pushes and no branches, so that the vertices' divisions and
     // polynomials overlap.
@@ -759,8 +779,8 @@ fn build_corners(
         let [(_, d1), (_, d2)] = inc.edges;
         fast_atan2(d1.perp_dot(d2), d1.dot(d2).clamp(-1.0, 1.0))
     }));
-    // One fan per vertex at most, and the 16 words a fan's segments may write past the
-    // end (13 for a special vertex's).
+    // One fan per vertex for most, and the 16 words a fan's segments may write past the
+    // end (13 for a full disc's).
     rec.fans.reserve(welded.len());
     rec.segments.reserve(4 * welded.len() + 16);
     let per_vertex = welded
@@ -771,13 +791,16 @@ fn build_corners(
         if inc.count == 0 {
             continue;
         }
+        let more = extra.partition_point(|&(x, _, _)| x == c as u32);
         let corner = Corner {
             c: c as u32,
             v,
             clip,
             inc,
+            extra: &extra[..more],
             arc,
         };
+        extra = &extra[more..];
         if let Some(special) = corner.build(adj, pr, sil, rec) {
             rec.corners += 1;
             rec.special_vertices += usize::from(special);
@@ -904,6 +927,8 @@ struct Corner<'a> {
     v: u32,
     clip: Vec4,
     inc: &'a Incident,
+    /// Its kept edges after the first two (`Scratch::extra`).
+    extra: &'a [(u32, u32, Vec2)],
     /// `fast_atan2` of the cross and dot products of the first two edges' directions.
     arc: f32,
 }
@@ -925,10 +950,11 @@ impl Corner<'_> {
         }
     }
 
-    /// The corner's fan; whether it is special, or `None` when it needs no corner. Two
+    /// The corner's fans; whether it is special, or `None` when it needs no corner. Two
     /// edges: the shorter arc from d1 to d2, or the hairpin half turn, as `build_corner`
-    /// decides; none when d1 == d2. One edge, or three and more (the paper's special
-    /// case): the full disc, one fan from d1 (see the module header).
+    /// decides; none when d1 == d2. An even number of four and more: the same for each of
+    /// the pairs `pair_corner_edges` makes. One edge, three, or another odd number (the
+    /// paper's special case): the full disc, one fan from d1 (see the module header).
     fn build(
         &self,
         adj: &Adjacency,
@@ -937,16 +963,50 @@ impl Corner<'_> {
         rec: &mut SmoothieRecords,
     ) -> Option<bool> {
         // A kept edge has both ends projected (`edge_dir`), so a vertex with one is too.
-        let [(i1, d1), (i2, d2)] = self.inc.edges;
-        if self.inc.count != 2 {
-            rec.push_fan(self.c, d1, TAU, segment_count(TAU));
-            return Some(true);
+        let [first, second] = self.inc.edges;
+        if self.inc.count == 2 {
+            return self
+                .two_edge(adj, pr, sil, rec, first, second, self.arc)
+                .then_some(false);
         }
+        if self.inc.count > 2 {
+            let all: Vec<(u32, Vec2)> = [first, second]
+                .into_iter()
+                .chain(self.extra.iter().map(|&(_, i, d)| (i, d)))
+                .collect();
+            let outward: Vec<Vec2> = all.iter().map(|&(_, d)| d).collect();
+            if let Some(pairs) = pair_corner_edges(&outward) {
+                for [a, b] in pairs {
+                    let (d1, d2) = (all[a].1, all[b].1);
+                    let arc = fast_atan2(d1.perp_dot(d2), d1.dot(d2).clamp(-1.0, 1.0));
+                    self.two_edge(adj, pr, sil, rec, all[a], all[b], arc);
+                }
+                return Some(true);
+            }
+        }
+        rec.push_fan(self.c, first.1, TAU, segment_count(TAU));
+        Some(true)
+    }
+
+    /// The two-edge corner of edges `(i1, d1)` and `(i2, d2)` (silhouette order), `arc`
+    /// the `fast_atan2` of their directions' cross and dot products; false when it needs
+    /// no fan.
+    #[allow(clippy::too_many_arguments)]
+    fn two_edge(
+        &self,
+        adj: &Adjacency,
+        pr: &Projector,
+        sil: &[SilhouetteEdge],
+        rec: &mut SmoothieRecords,
+        (i1, d1): (u32, Vec2),
+        (i2, d2): (u32, Vec2),
+        arc: f32,
+    ) -> bool {
         let cos = d1.dot(d2).clamp(-1.0, 1.0);
         // The exact thresholds of `build_corner` (no corner below MIN_CORNER_ANGLE, the
         // hairpin above PI - MIN_CORNER_ANGLE): cos == +-1.
         if cos >= 1.0 {
-            return None;
+            return false;
         }
         let sweep = if cos <= -1.0 {
             let edges = [&sil[i1 as usize], &sil[i2 as usize]];
@@ -956,10 +1016,10 @@ impl Corner<'_> {
                 -PI
             }
         } else {
-            self.arc
+            arc
         };
         rec.push_fan(self.c, d1, sweep, segment_count(sweep));
-        Some(false)
+        true
     }
 }
 
@@ -967,15 +1027,35 @@ impl Corner<'_> {
 mod tests {
     use super::*;
 
-    /// A special vertex (one, or three and more, kept edges) gets one fan over the full disc
-    /// from its first kept edge's direction, in 13 segments; every other corner one fan of
-    /// at most a half turn. On a vertex where ten edges meet and on every built-in scene.
+    /// A vertex where an odd number of kept edges meet (one, three, ...) gets one fan over
+    /// the full disc from its first kept edge's direction, in 13 segments; one where an even
+    /// number of four and more meet, at most one fan of at most a half turn per pair of
+    /// edges (`pair_corner_edges`), and no full disc; a two-edge corner at most one such
+    /// fan. On a vertex where ten edges meet and on every built-in scene.
     #[test]
-    fn special_vertices_get_one_full_disc_fan() {
+    fn special_vertices_get_paired_fans_or_one_full_disc() {
         use crate::frustum::fit_light;
         use crate::scene::{Light, LightView, Mesh, Scene, BUILTIN_SCENES};
         let check = |r: &SmoothieRecords, name: &str| {
-            assert_eq!(r.fans.len(), r.corners, "{name}: one fan per corner");
+            let mut kept = vec![0usize; r.vertices.len()];
+            for e in &r.edges {
+                kept[e.a as usize] += 1;
+                kept[e.b as usize] += 1;
+            }
+            let mut fans_at = vec![0usize; r.vertices.len()];
+            for f in &r.fans {
+                fans_at[f.centre as usize] += 1;
+            }
+            for (c, (&k, &n)) in kept.iter().zip(&fans_at).enumerate() {
+                match k {
+                    0 => assert_eq!(n, 0, "{name}: vertex {c}"),
+                    k if k % 2 == 1 => assert_eq!(n, 1, "{name}: vertex {c}, {k} edges"),
+                    k => assert!(n <= k / 2, "{name}: vertex {c}, {k} edges, {n} fans"),
+                }
+            }
+            let odd = kept.iter().filter(|&&k| k % 2 == 1).count();
+            let special = kept.iter().filter(|&&k| k != 0 && k != 2).count();
+            assert_eq!(special, r.special_vertices, "{name}");
             let mut segments = vec![0u32; r.fans.len()];
             for &w in &r.segments {
                 let (fan, n) = ((w >> 8) as usize, (w >> 4) & 15);
@@ -987,6 +1067,7 @@ mod tests {
                 assert_eq!(n, segment_count(f.sweep), "{name}");
                 if f.sweep == TAU {
                     full += 1;
+                    assert_eq!(kept[f.centre as usize] % 2, 1, "{name}: full disc");
                     assert_eq!(n, 13, "{name}");
                     let first = r.edges.iter().find(|e| e.a == f.centre || e.b == f.centre);
                     assert_eq!(first.map(|e| e.dir), Some(f.from), "{name}: from d1");
@@ -994,8 +1075,8 @@ mod tests {
                     assert!(f.sweep.abs() <= PI, "{name}: sweep {}", f.sweep);
                 }
             }
-            assert_eq!(full, r.special_vertices, "{name}");
-            full
+            assert_eq!(full, odd, "{name}");
+            special
         };
         // Five separate triangles around one vertex: ten boundary edges (all silhouette
         // edges) meet there.
@@ -1036,8 +1117,13 @@ mod tests {
                 (Vec2::from(rec.vertices[f.centre as usize].uv) - centre_uv).length() < 1e-6
             })
             .collect();
-        assert_eq!(at_centre.len(), 1, "one fan at the centre");
-        assert_eq!(at_centre[0].sweep, TAU);
+        // Pairs of nearest outward directions: the five notches between neighbouring
+        // triangles, each a fan of a few degrees.
+        assert_eq!(at_centre.len(), 5, "a fan per pair at the centre");
+        assert!(
+            at_centre.iter().all(|f| f.sweep.abs() < 0.25),
+            "{at_centre:?}"
+        );
         let mut specials = 0;
         for &name in BUILTIN_SCENES.iter().filter(|&&n| n != "dense-1m") {
             let scene = Scene::load(name).expect("built-in scene");

@@ -92,7 +92,8 @@ void two_edge(uint v, uint id1, uint id2, vec3 p, vec2 s, float z, float inv, fl
             }
         }
         if (length(away) < 1e-3) {
-            away = projected_normal(p, s, z, edge_face_normals(id1) + edge_face_normals(id2));
+            vec3 faces = edge_face_normals(id1) + edge_face_normals(id2);
+            away = projected_normal(p, s, z, faces);
         }
         sweep = dot(away, perp(d1)) >= 0.0 ? PI : -PI;
     }

@@ -68,9 +68,10 @@
 //!
 //! # Limits
 //! A vertex where more than 16 silhouette edges meet keeps 16 of them (an arbitrary 16: the
-//! atomics decide) for its special-case fan; the CPU path keeps all. Both draw the full disc
-//! there (`MAX_PAIRED_EDGES`), so silhouettes and coverage agree; the spokes may differ. The penumbra emitters draw a whole cone at such a
-//! vertex (the CPU path draws an arc when exactly two of its edges have sheets).
+//! atomics decide) for its special-case fan; the CPU path keeps all. Both draw the full
+//! disc there (`MAX_PAIRED_EDGES`), so silhouettes and coverage agree; the spokes may
+//! differ. The penumbra emitters draw a whole cone at such a vertex (the CPU path draws an
+//! arc when exactly two of its edges have sheets).
 
 use super::penumbra::{build_penumbra, PenumbraKey, PenumbraVertex};
 use super::smoothie::{build_smoothies_width, GeometryKey, Width};

@@ -64,20 +64,21 @@
 //!   blocker. The full disc below drew a quarter of the smoothie pass's fragments on
 //!   `dense` and moved no error measurably (mae_lit by at most 2e-4, smaller with the
 //!   pairs, at 0.5x to 3x the scene's radius on `dense` and `bunny`;
-//!   tests/centred_counts.rs `paired_corners_shade_fewer_smoothie_fragments_than_full_discs`).
-//!   More than MAX_PAIRED_EDGES edges: the full disc.
+//!   tests/centred_counts.rs
+//!   `paired_corners_shade_fewer_smoothie_fragments_than_full_discs`). More than
+//!   MAX_PAIRED_EDGES edges: the full disc.
 //! - one edge (chain end, e.g. the next edge was behind the light) or another odd number
-//!   (the paper's special case): n = sum of the adjacent faces' normals (faces of the incident
-//!   silhouette edges), projected into screen space and scaled to length t. The paper draws
-//!   triangles (s, s + t d_i, s + n_t); we instead emit a fan over the whole disc of radius
-//!   t, with spokes at every d_i and at n_t (gaps split into <= 30 degree segments). That fan
-//!   contains each of the paper's triangles (its chord lies inside the sector between its
-//!   spokes), so it covers the paper's area plus the gaps between edges. Wedges pointing into
-//!   the blocker are not skipped: there the receiver is the blocker itself, b ~ r, and the
-//!   alpha correction alpha / (1 - b/r) saturates to 1 (no extra shadow); min blending makes
-//!   the overdraw harmless. The spokes place only the polygon's overshoot beyond radius t,
-//!   which the smoothie pass discards (alpha >= 1); the records path draws the same disc
-//!   as one fan.
+//!   (the paper's special case): n = sum of the adjacent faces' normals (faces of the
+//!   incident silhouette edges), projected into screen space and scaled to length t. The
+//!   paper draws triangles (s, s + t d_i, s + n_t); we instead emit a fan over the whole
+//!   disc of radius t, with spokes at every d_i and at n_t (gaps split into <= 30 degree
+//!   segments). That fan contains each of the paper's triangles (its chord lies inside the
+//!   sector between its spokes), so it covers the paper's area plus the gaps between edges.
+//!   Wedges pointing into the blocker are not skipped: there the receiver is the blocker
+//!   itself, b ~ r, and the alpha correction alpha / (1 - b/r) saturates to 1 (no extra
+//!   shadow); min blending makes the overdraw harmless. The spokes place only the polygon's
+//!   overshoot beyond radius t, which the smoothie pass discards (alpha >= 1); the records
+//!   path draws the same disc as one fan.
 //!
 //! Corner vertices have `kind = 1`, `anchor = s` (vertex uv), `dir = [0, 0]`:
 //! alpha = |uv - s| / t.
@@ -85,13 +86,13 @@
 //! # Inner smoothies (`Side::Inner`, smoothies-centred; not in the paper)
 //! The same construction reflected into the hard shadow: every edge quad extruded by -d
 //! instead of d (s0, s1, s1 - t d, s0 - t d, `dir` = -d, so alpha = dot(uv - s0, -d) / t is
-//! the distance inside the hard-edge line), and every corner fan reflected through its vertex
-//! (the arc from -d1 over the same sweep; the hairpin's direction, the pairs and a special
-//! vertex's spokes decided as for the outer fan, then reflected). Inner quads overlap at convex
-//! vertices and leave the gap at reflex ones, where the reflected fan lies; the edges, their
-//! order, the corners and the counts are those of the outer construction. The records path
-//! draws the same geometry (`SmoothieRecords::mirrored`), held to this by
-//! `silhouette::smoothie::equivalence`.
+//! the distance inside the hard-edge line), and every corner fan reflected through its
+//! vertex (the arc from -d1 over the same sweep; the hairpin's direction, the pairs and a
+//! special vertex's spokes decided as for the outer fan, then reflected). Inner quads
+//! overlap at convex vertices and leave the gap at reflex ones, where the reflected fan
+//! lies; the edges, their order, the corners and the counts are those of the outer
+//! construction. The records path draws the same geometry (`SmoothieRecords::mirrored`),
+//! held to this by `silhouette::smoothie::equivalence`.
 //!
 //! # Output layout
 //! `vertices` is a plain triangle list: first `6 * edges` vertices for the edge quads (in
@@ -549,8 +550,8 @@ pub(crate) const MAX_PAIRED_EDGES: usize = 16;
 /// arcs, the smaller one kept (the first unless the second is smaller by 1e-4 rad, so that
 /// both paths choose alike). Each curve's own two edges turn by the small arc between their
 /// directions; their convex gap is what its fan must fill, as at any two-edge corner. The
-/// pairs are positions in `outward`, each ascending. `None` for an odd count (a chain's end,
-/// or three curves' ends) or more than MAX_PAIRED_EDGES: those keep the full disc.
+/// pairs are positions in `outward`, each ascending. `None` for an odd count (a chain's
+/// end, or three curves' ends) or more than MAX_PAIRED_EDGES: those keep the full disc.
 pub(crate) fn pair_corner_edges(outward: &[Vec2]) -> Option<Vec<[usize; 2]>> {
     let k = outward.len();
     if k < 4 || !k.is_multiple_of(2) || k > MAX_PAIRED_EDGES {

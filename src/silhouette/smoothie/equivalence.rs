@@ -133,16 +133,16 @@ fn same(adj: &Adjacency, model: Mat4, lv: &LightView, width: Width) -> (usize, u
     (sil.len(), reference.vertices.len())
 }
 
-/// Records (expanded as the shader expands them) against the reference's triangle list:
-/// the same edges bit for bit (same counts, same quads: `expand` does `build_edge`'s
-/// arithmetic on the same inputs); two-edge corners as fans around the same anchors in
-/// the same order, each vertex within `FAN_TOL` (plus the reference sweep's acos error) of
-/// the reference's. Special vertices (full discs: one fan here, one per gap between spokes
-/// there; pairs: a fan per pair at one centre), and any fan whose segmentation differs (an arc within 2e-6 rad of a 30-degree
-/// step minus the padding), are compared by coverage: points of the disc of radius t on a
-/// polar grid are inside the reference's triangles exactly when inside the records' (away
-/// from the reference's sector sides by 1e-3 rad). Returns how many two-edge corners
-/// needed the coverage comparison.
+/// Records (expanded as the shader expands them) against the reference's triangle list: the
+/// same edges bit for bit (same counts, same quads: `expand` does `build_edge`'s arithmetic
+/// on the same inputs); two-edge corners as fans around the same anchors in the same order,
+/// each vertex within `FAN_TOL` (plus the reference sweep's acos error) of the reference's.
+/// Special vertices (full discs: one fan here, one per gap between spokes there; pairs: a
+/// fan per pair at one centre), and any fan whose segmentation differs (an arc within 2e-6
+/// rad of a 30-degree step minus the padding), are compared by coverage: points of the disc
+/// of radius t on a polar grid are inside the reference's triangles exactly when inside the
+/// records' (away from the reference's sector sides by 1e-3 rad). Returns how many two-edge
+/// corners needed the coverage comparison.
 fn records_match(records: &SmoothieRecords, reference: &SmoothieGeometry) -> usize {
     assert_eq!(records.edges.len(), reference.edges);
     assert_eq!(records.skipped_edges, reference.skipped_edges);

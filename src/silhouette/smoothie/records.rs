@@ -1028,9 +1028,9 @@ mod tests {
     use super::*;
 
     /// A vertex where an odd number of kept edges meet (one, three, ...) gets one fan over
-    /// the full disc from its first kept edge's direction, in 13 segments; one where an even
-    /// number of four and more meet, at most one fan of at most a half turn per pair of
-    /// edges (`pair_corner_edges`), and no full disc; a two-edge corner at most one such
+    /// the full disc from its first kept edge's direction, in 13 segments; one where an
+    /// even number of four and more meet, at most one fan of at most a half turn per pair
+    /// of edges (`pair_corner_edges`), and no full disc; a two-edge corner at most one such
     /// fan. On a vertex where ten edges meet and on every built-in scene.
     #[test]
     fn special_vertices_get_paired_fans_or_one_full_disc() {

@@ -290,26 +290,30 @@ fn thin_blocker_search_bisects_from_the_end_of_its_reach() {
 }
 
 /// Where four or more silhouette edges meet (two silhouette curves through one vertex of a
-/// bumpy blob: about one silhouette vertex in seven on `dense`), the smoothie corner is the
-/// two-edge fans of the edges paired by nearest outward directions
-/// (`silhouette::smoothie::pair_corner_edges`), not a fan over the whole disc, on both
-/// sides of smoothies-centred and in the paper form. On `dense` at 128^2, 512^2 maps,
-/// smoothie-pass fragments and warp texels, full discs before and pairs after:
-/// smoothies-centred 1,158,752 / 458,400 and 806,144 / 342,592; smoothies 518,416 / 61,248
-/// and 371,680 / 51,008. The bounds lie halfway; fails with the full discs back.
+/// bumpy blob: about one silhouette vertex in seven on `dense`), the corner is built for
+/// the edges paired by nearest outward directions (`silhouette::pair_corner_edges`): the
+/// smoothie forms' two-edge fans instead of a fan over the whole disc (both sides of
+/// smoothies-centred), the penumbra maps' cone arcs instead of the whole cone. On `dense`
+/// at 128^2, 512^2 maps, light-pass fragments and warp texels, whole before and paired
+/// after: smoothies-centred 1,158,752 / 458,400 and 806,144 / 342,592; smoothies 518,416 /
+/// 61,248 and 371,680 / 51,008; penumbra-map-centred 594,784 / 232,448 and 536,144 /
+/// 214,464; penumbra-map 214,768 / 36,000 and 197,760 / 35,040. The bounds lie halfway;
+/// fails with the whole discs or cones back.
 #[test]
-fn paired_corners_shade_fewer_smoothie_fragments_than_full_discs() {
+fn paired_corners_shade_fewer_light_pass_fragments_than_whole_discs_and_cones() {
     let gpu = Gpu::new();
-    for (technique, frags_bound, warp_bound) in [
-        ("smoothies-centred", 980_000, 400_000),
-        ("smoothies", 445_000, 56_000),
+    for (technique, pass, frags_bound, warp_bound) in [
+        ("smoothies-centred", "smoothie", 980_000, 400_000),
+        ("smoothies", "smoothie", 445_000, 56_000),
+        ("penumbra-map-centred", "penumbra", 565_000, 223_000),
+        ("penumbra-map", "penumbra", 206_000, 35_500),
     ] {
-        let pass = format!("{technique}/smoothie");
+        let pass = format!("{technique}/{pass}");
         let (frags, warp) = light_pass_work(&gpu, "dense", technique, &pass, false);
-        println!("{technique}: {frags} smoothie fragments, {warp} warp texels");
+        println!("{technique}: {frags} light-pass fragments, {warp} warp texels");
         assert!(
             frags < frags_bound,
-            "{technique}: {frags} smoothie fragments"
+            "{technique}: {frags} light-pass fragments"
         );
         assert!(warp < warp_bound, "{technique}: {warp} warp texels");
     }

@@ -103,6 +103,11 @@ void two_edge(uint v, uint id1, uint id2, vec3 p, vec2 s, float z, float inv, fl
     }
 }
 
+// The unsigned angle between two directions (`pair_corner_edges`' arc).
+float pair_arc(vec2 u, vec2 w) {
+    return abs(atan(u.x * w.y - u.y * w.x, dot(u, w)));
+}
+
 void main() {
     uint v = thread_index();
     if (v >= pc.counts.y) {
@@ -155,15 +160,16 @@ void main() {
             }
             order[j] = i;
         }
-        float cost[2] = float[2](0.0, 0.0);
-        for (uint shift = 0u; shift < 2u; ++shift) {
-            for (uint j = 0u; j < n_ids / 2u; ++j) {
-                vec2 u = edge_dir[ids[order[(2u * j + shift) % n_ids]]];
-                vec2 w = edge_dir[ids[order[(2u * j + shift + 1u) % n_ids]]];
-                cost[shift] += abs(atan(u.x * w.y - u.y * w.x, dot(u, w)));
-            }
+        // The summed arcs of the two pairings: (0, 1), (2, 3), ... and (1, 2), ...
+        float cost0 = 0.0;
+        float cost1 = 0.0;
+        for (uint j = 0u; j < n_ids / 2u; ++j) {
+            vec2 d0 = edge_dir[ids[order[2u * j]]];
+            vec2 d1 = edge_dir[ids[order[2u * j + 1u]]];
+            cost0 += pair_arc(d0, d1);
+            cost1 += pair_arc(d1, edge_dir[ids[order[(2u * j + 2u) % n_ids]]]);
         }
-        uint shift = cost[1] < cost[0] - 1e-4 ? 1u : 0u;
+        uint shift = cost1 < cost0 - 1e-4 ? 1u : 0u;
         for (uint j = 0u; j < n_ids / 2u; ++j) {
             uint a = order[(2u * j + shift) % n_ids];
             uint b = order[(2u * j + shift + 1u) % n_ids];

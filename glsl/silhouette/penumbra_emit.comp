@@ -37,53 +37,9 @@ void emit_sheet(uint ei) {
     }
 }
 
-void emit_cone(uint v) {
-    uint count = incident_count[v];
-    if (count == 0u) {
-        return;
-    }
-    Cone c;
-    if (!cone_data(v, c)) {
-        return;
-    }
-    // cone_arc: the arc between exactly two sheet normals, taken in silhouette (= edge
-    // index) order like the CPU, reaching ARC_OVERLAP past each; else (or past
-    // MAX_INCIDENT edges) the whole cone.
-    float from = 0.0;
-    float sweep = 2.0 * PI;
-    if (count <= MAX_INCIDENT) {
-        uint first = 0xffffffffu;
-        uint second = 0xffffffffu;
-        vec2 n_first = vec2(0.0);
-        vec2 n_second = vec2(0.0);
-        uint sheets = 0u;
-        for (uint i = 0u; i < count; ++i) {
-            uint ei = incident[v * MAX_INCIDENT + i];
-            vec2 n;
-            if (!edge_sheet_normal(ei, n)) {
-                continue;
-            }
-            sheets += 1u;
-            if (ei < first) {
-                second = first;
-                n_second = n_first;
-                first = ei;
-                n_first = n;
-            } else if (ei < second) {
-                second = ei;
-                n_second = n;
-            }
-        }
-        if (sheets == 2u) {
-            float s = angle_to(n_first, n_second);
-            // Hairpin: which side is outside is ambiguous; draw the whole cone.
-            if (!isnan(s) && !isinf(s) && abs(s) <= PI - HAIRPIN) {
-                float e = s < 0.0 ? -ARC_OVERLAP : ARC_OVERLAP;
-                from = atan(n_first.y, n_first.x) - e;
-                sweep = s + 2.0 * e;
-            }
-        }
-    }
+// Cone triangles around `c` over the base-plane arc from angle `from` over `sweep`
+// (`emit_cone` of penumbra.rs).
+void emit_arc(Cone c, float from, float sweep) {
     float max_step = 2.0 * PI / float(CONE_SEGMENTS);
     uint k = uint(clamp(ceil(abs(sweep) / max_step), 1.0, float(CONE_SEGMENTS)));
     float step = sweep / float(k);
@@ -104,6 +60,98 @@ void emit_cone(uint v) {
         put_penumbra(at + 2u, next, zv_h, reach);
         at += 3u;
         prev = next;
+    }
+}
+
+// The unsigned angle between two directions (`pair_corner_edges`' arc).
+float pair_arc(vec2 u, vec2 w) {
+    return abs(atan(u.x * w.y - u.y * w.x, dot(u, w)));
+}
+
+void emit_cone(uint v) {
+    uint count = incident_count[v];
+    if (count == 0u) {
+        return;
+    }
+    Cone c;
+    if (!cone_data(v, c)) {
+        return;
+    }
+    // cone_arc: the arc between exactly two sheet normals, taken in silhouette (= edge
+    // index) order like the CPU, reaching ARC_OVERLAP past each; an even number of four and
+    // more: an arc per pair (paired_arcs, pair_corner_edges); else (or past MAX_INCIDENT
+    // edges, or at a hairpin pair) the whole cone.
+    float froms[MAX_INCIDENT / 2u];
+    float sweeps[MAX_INCIDENT / 2u];
+    uint arcs = 0u;
+    if (count <= MAX_INCIDENT) {
+        uint ids[MAX_INCIDENT];
+        vec2 normals[MAX_INCIDENT];
+        uint sheets = 0u;
+        for (uint i = 0u; i < count; ++i) {
+            uint ei = incident[v * MAX_INCIDENT + i];
+            vec2 n;
+            if (!edge_sheet_normal(ei, n)) {
+                continue;
+            }
+            uint j = sheets++;
+            while (j > 0u && ids[j - 1u] > ei) {
+                ids[j] = ids[j - 1u];
+                normals[j] = normals[j - 1u];
+                --j;
+            }
+            ids[j] = ei;
+            normals[j] = n;
+        }
+        // Positions sorted by their normal's angle (two sheets: already one pair).
+        uint order[MAX_INCIDENT];
+        uint shift = 0u;
+        if (sheets == 2u || (sheets >= 4u && sheets % 2u == 0u)) {
+            for (uint i = 0u; i < sheets; ++i) {
+                float a = atan(normals[i].y, normals[i].x);
+                uint j = i;
+                while (j > 0u && sheets > 2u) {
+                    vec2 nj = normals[order[j - 1u]];
+                    if (atan(nj.y, nj.x) <= a) break;
+                    order[j] = order[j - 1u];
+                    --j;
+                }
+                order[j] = i;
+            }
+            // The summed arcs of the two pairings: (0, 1), (2, 3), ... and (1, 2), ...
+            float cost0 = 0.0;
+            float cost1 = 0.0;
+            for (uint j = 0u; j < sheets / 2u && sheets > 2u; ++j) {
+                vec2 n0 = normals[order[2u * j]];
+                vec2 n1 = normals[order[2u * j + 1u]];
+                cost0 += pair_arc(n0, n1);
+                cost1 += pair_arc(n1, normals[order[(2u * j + 2u) % sheets]]);
+            }
+            shift = cost1 < cost0 - 1e-4 ? 1u : 0u;
+            arcs = sheets / 2u;
+        }
+        for (uint j = 0u; j < arcs; ++j) {
+            uint a = order[(2u * j + shift) % sheets];
+            uint b = order[(2u * j + shift + 1u) % sheets];
+            float s = angle_to(normals[min(a, b)], normals[max(a, b)]);
+            // Hairpin: which side is outside is ambiguous; draw the whole cone.
+            if (isnan(s) || isinf(s) || abs(s) > PI - HAIRPIN) {
+                arcs = 0u;
+                break;
+            }
+            float e = s < 0.0 ? -ARC_OVERLAP : ARC_OVERLAP;
+            vec2 n = normals[min(a, b)];
+            froms[j] = atan(n.y, n.x) - e;
+            sweeps[j] = s + 2.0 * e;
+        }
+    }
+    if (arcs == 0u) {
+        froms[0] = 0.0;
+        sweeps[0] = 2.0 * PI;
+        arcs = 1u;
+    }
+    for (uint j = 0u; j < arcs; ++j) {
+        emit_arc(c, froms[j], sweeps[j]);
     }
 }
 

@@ -626,6 +626,56 @@ fn classify_range(
 /// A sun's stand-in light point for the facing test, in map widths plus depths towards it.
 const SUN_DISTANCE: f32 = 1e6;
 
+/// Most kept edges a vertex may have for its corner to be built in pairs
+/// (`pair_corner_edges`): the GPU paths' slots per vertex (MAX_INCIDENT in
+/// glsl/silhouette/silhouette.glsl); a vertex with more keeps the full disc or cone on
+/// both paths.
+pub(crate) const MAX_PAIRED_EDGES: usize = 16;
+
+/// Where an even number k >= 4 of silhouette edges meet (two silhouette curves through one
+/// vertex of a closed mesh, e.g. a saddle of a bumpy blob), their outward directions
+/// `outward` (silhouette order: smoothie edges' d, penumbra sheets' tangent normals)
+/// paired into k/2 two-edge corners: sorted by angle, each direction paired with a
+/// neighbour, the two ways of doing so compared by their summed arcs, the smaller one kept
+/// (the first unless the second is smaller by 1e-4 rad, so that the GPU paths choose
+/// alike). Each curve's own two edges turn by the small arc between their directions;
+/// their convex gap is what its smoothie fan or cone arc must fill, as at any two-edge
+/// corner. The pairs are positions in `outward`, each ascending. `None` for an odd count
+/// (a chain's end, or three curves' ends) or more than MAX_PAIRED_EDGES: those keep the
+/// full disc (smoothies) or the whole cone (penumbra maps).
+pub(crate) fn pair_corner_edges(outward: &[glam::Vec2]) -> Option<Vec<[usize; 2]>> {
+    let k = outward.len();
+    if k < 4 || !k.is_multiple_of(2) || k > MAX_PAIRED_EDGES {
+        return None;
+    }
+    let mut order: Vec<usize> = (0..k).collect();
+    order.sort_by(|&a, &b| {
+        outward[a]
+            .to_angle()
+            .total_cmp(&outward[b].to_angle())
+            .then(a.cmp(&b))
+    });
+    let arc = |a: usize, b: usize| {
+        let (u, v) = (outward[a], outward[b]);
+        u.perp_dot(v).atan2(u.dot(v)).abs()
+    };
+    let pairing = |shift: usize| -> (f32, Vec<[usize; 2]>) {
+        let pairs: Vec<[usize; 2]> = (0..k / 2)
+            .map(|j| {
+                let (a, b) = (order[(2 * j + shift) % k], order[(2 * j + shift + 1) % k]);
+                [a.min(b), a.max(b)]
+            })
+            .collect();
+        (pairs.iter().map(|&[a, b]| arc(a, b)).sum(), pairs)
+    };
+    let (first, second) = (pairing(0), pairing(1));
+    Some(if second.0 < first.0 - 1e-4 {
+        second.1
+    } else {
+        first.1
+    })
+}
+
 /// The point silhouettes are taken from (`extract`'s `light_pos_world`): a spotlight's
 /// centre; a sun's, a point `SUN_DISTANCE` times its map's width and depth towards it from
 /// the map's eye. The facing test only needs the sun's direction: rays to that point stray

@@ -65,8 +65,8 @@
 //!   `dense` and moved no error measurably (mae_lit by at most 2e-4, smaller with the
 //!   pairs, at 0.5x to 3x the scene's radius on `dense` and `bunny`;
 //!   tests/centred_counts.rs
-//!   `paired_corners_shade_fewer_smoothie_fragments_than_full_discs`). More than
-//!   MAX_PAIRED_EDGES edges: the full disc.
+//!   `paired_corners_shade_fewer_light_pass_fragments_than_whole_discs_and_cones`). More
+//!   than MAX_PAIRED_EDGES edges: the full disc.
 //! - one edge (chain end, e.g. the next edge was behind the light) or another odd number
 //!   (the paper's special case): n = sum of the adjacent faces' normals (faces of the
 //!   incident silhouette edges), projected into screen space and scaled to length t. The
@@ -118,7 +118,7 @@
 mod equivalence;
 pub mod records;
 
-use super::{Adjacency, EdgeKind, Side, SilhouetteEdge};
+use super::{pair_corner_edges, Adjacency, EdgeKind, Side, SilhouetteEdge};
 use crate::scene::LightView;
 use glam::{Mat3, Mat4, Vec2, Vec3};
 use rayon::prelude::*;
@@ -536,53 +536,6 @@ pub(super) fn hairpin_ccw<'a>(
         away = vertex_normal_screen(adj, pr, edges, vtx.p, s, z);
     }
     away.dot(d1.perp()) >= 0.0
-}
-
-/// Most kept edges a vertex may have for its corner to be built in pairs
-/// (`pair_corner_edges`): the GPU path's slots per vertex (MAX_INCIDENT in
-/// glsl/silhouette/silhouette.glsl); a vertex with more keeps the full disc on both paths.
-pub(crate) const MAX_PAIRED_EDGES: usize = 16;
-
-/// Where an even number k >= 4 of kept silhouette edges meet (two silhouette curves through
-/// one vertex of a closed mesh, e.g. a saddle of a bumpy blob), their outward directions
-/// `outward` (silhouette order) paired into k/2 two-edge corners: sorted by angle, each
-/// direction paired with a neighbour, the two ways of doing so compared by their summed
-/// arcs, the smaller one kept (the first unless the second is smaller by 1e-4 rad, so that
-/// both paths choose alike). Each curve's own two edges turn by the small arc between their
-/// directions; their convex gap is what its fan must fill, as at any two-edge corner. The
-/// pairs are positions in `outward`, each ascending. `None` for an odd count (a chain's
-/// end, or three curves' ends) or more than MAX_PAIRED_EDGES: those keep the full disc.
-pub(crate) fn pair_corner_edges(outward: &[Vec2]) -> Option<Vec<[usize; 2]>> {
-    let k = outward.len();
-    if k < 4 || !k.is_multiple_of(2) || k > MAX_PAIRED_EDGES {
-        return None;
-    }
-    let mut order: Vec<usize> = (0..k).collect();
-    order.sort_by(|&a, &b| {
-        outward[a]
-            .to_angle()
-            .total_cmp(&outward[b].to_angle())
-            .then(a.cmp(&b))
-    });
-    let arc = |a: usize, b: usize| {
-        let (u, v) = (outward[a], outward[b]);
-        u.perp_dot(v).atan2(u.dot(v)).abs()
-    };
-    let pairing = |shift: usize| -> (f32, Vec<[usize; 2]>) {
-        let pairs: Vec<[usize; 2]> = (0..k / 2)
-            .map(|j| {
-                let (a, b) = (order[(2 * j + shift) % k], order[(2 * j + shift + 1) % k]);
-                [a.min(b), a.max(b)]
-            })
-            .collect();
-        (pairs.iter().map(|&[a, b]| arc(a, b)).sum(), pairs)
-    };
-    let (first, second) = (pairing(0), pairing(1));
-    Some(if second.0 < first.0 - 1e-4 {
-        second.1
-    } else {
-        first.1
-    })
 }
 
 /// Appends the corner fan of silhouette vertex `vtx` on `side`, whose kept incident edges

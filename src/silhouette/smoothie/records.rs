@@ -80,11 +80,11 @@
 //! a bounds-checked gather per load; on a GPU they would save the upload's bandwidth.
 
 use super::{
-    hairpin_ccw, pair_corner_edges, undecided_dir, Projected, Projector, SilVertex, SmoothieVertex,
-    Width, FAN_OVERLAP, MAX_SEGMENT,
+    hairpin_ccw, undecided_dir, Projected, Projector, SilVertex, SmoothieVertex, Width,
+    FAN_OVERLAP, MAX_SEGMENT,
 };
 use crate::scene::LightView;
-use crate::silhouette::{Adjacency, EdgeKind, Side, SilhouetteEdge};
+use crate::silhouette::{pair_corner_edges, Adjacency, EdgeKind, Side, SilhouetteEdge};
 use glam::{Mat4, Vec2, Vec4, Vec4Swizzles};
 use std::f32::consts::{FRAC_PI_2, PI, TAU};
 

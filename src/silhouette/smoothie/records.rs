@@ -136,7 +136,8 @@ pub struct SmoothieRecords {
     pub segments: Vec<u32>,
     /// Silhouette vertices that got a corner (two-edge corners and special vertices).
     pub corners: usize,
-    /// Silhouette vertices with one or three and more kept edges (full-disc fans).
+    /// Silhouette vertices with one or three and more kept edges (paired fans where the
+    /// count is even, else a full-disc fan).
     pub special_vertices: usize,
     /// Silhouette edges dropped: behind or too close to the light, or zero length on screen.
     pub skipped_edges: usize,

@@ -392,13 +392,9 @@ impl SmoothieRecords {
                 vtx(o0, a, 0.0, s0, d),
             ]);
         }
-        let nospecial = std::env::var("SS_NOSPECIAL").is_ok();
         for &w in &self.segments {
             let (fan, n, k) = (w >> 8, (w >> 4) & 15, w & 15);
             let f = &self.fans[fan as usize];
-            if nospecial && f.sweep.abs() > 6.0 {
-                continue;
-            }
             let c = &self.vertices[f.centre as usize];
             let s = Vec2::from(c.uv);
             let from = sign * Vec2::from(f.from);

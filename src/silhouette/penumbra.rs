@@ -638,7 +638,8 @@ fn emit(
     // By vertex, each vertex's in silhouette order (the sort is stable).
     extra.sort_by_key(|&(i, _)| i);
     let mut extra = &extra[..];
-    // Every cone's arc and segment count first, so the output is reserved exactly (the
+    // Every cone's arc and segment count first, so the output is reserved once (exactly
+    // but for paired vertices, whose arcs draw fewer than the whole cone counted here; the
     // cache keeps each caster's vector; most cones are short arcs of one or two segments).
     let arcs: Vec<Option<ConeArc>> = cones
         .iter()

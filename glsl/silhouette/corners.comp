@@ -103,11 +103,6 @@ void two_edge(uint v, uint id1, uint id2, vec3 p, vec2 s, float z, float inv, fl
     }
 }
 
-// The unsigned angle between two directions (`pair_corner_edges`' arc).
-float pair_arc(vec2 u, vec2 w) {
-    return abs(atan(u.x * w.y - u.y * w.x, dot(u, w)));
-}
-
 void main() {
     uint v = thread_index();
     if (v >= pc.counts.y) {
@@ -146,30 +141,12 @@ void main() {
         return;
     }
     if (count % 2u == 0u && count <= MAX_INCIDENT) {
-        // pair_corner_edges: positions sorted by their direction's angle.
-        uint order[MAX_INCIDENT];
+        vec2 dirs[MAX_INCIDENT];
         for (uint i = 0u; i < n_ids; ++i) {
-            vec2 d = edge_dir[ids[i]];
-            float a = atan(d.y, d.x);
-            uint j = i;
-            while (j > 0u) {
-                vec2 dj = edge_dir[ids[order[j - 1u]]];
-                if (atan(dj.y, dj.x) <= a) break;
-                order[j] = order[j - 1u];
-                --j;
-            }
-            order[j] = i;
+            dirs[i] = edge_dir[ids[i]];
         }
-        // The summed arcs of the two pairings: (0, 1), (2, 3), ... and (1, 2), ...
-        float cost0 = 0.0;
-        float cost1 = 0.0;
-        for (uint j = 0u; j < n_ids / 2u; ++j) {
-            vec2 d0 = edge_dir[ids[order[2u * j]]];
-            vec2 d1 = edge_dir[ids[order[2u * j + 1u]]];
-            cost0 += pair_arc(d0, d1);
-            cost1 += pair_arc(d1, edge_dir[ids[order[(2u * j + 2u) % n_ids]]]);
-        }
-        uint shift = cost1 < cost0 - 1e-4 ? 1u : 0u;
+        uint order[MAX_INCIDENT];
+        uint shift = pair_corner_edges(dirs, n_ids, order);
         for (uint j = 0u; j < n_ids / 2u; ++j) {
             uint a = order[(2u * j + shift) % n_ids];
             uint b = order[(2u * j + shift + 1u) % n_ids];

@@ -63,11 +63,6 @@ void emit_arc(Cone c, float from, float sweep) {
     }
 }
 
-// The unsigned angle between two directions (`pair_corner_edges`' arc).
-float pair_arc(vec2 u, vec2 w) {
-    return abs(atan(u.x * w.y - u.y * w.x, dot(u, w)));
-}
-
 void emit_cone(uint v) {
     uint count = incident_count[v];
     if (count == 0u) {
@@ -103,31 +98,15 @@ void emit_cone(uint v) {
             ids[j] = ei;
             normals[j] = n;
         }
-        // Positions sorted by their normal's angle (two sheets: already one pair).
+        // The pairs (pair_corner_edges; two sheets: already one pair).
         uint order[MAX_INCIDENT];
         uint shift = 0u;
-        if (sheets == 2u || (sheets >= 4u && sheets % 2u == 0u)) {
-            for (uint i = 0u; i < sheets; ++i) {
-                float a = atan(normals[i].y, normals[i].x);
-                uint j = i;
-                while (j > 0u && sheets > 2u) {
-                    vec2 nj = normals[order[j - 1u]];
-                    if (atan(nj.y, nj.x) <= a) break;
-                    order[j] = order[j - 1u];
-                    --j;
-                }
-                order[j] = i;
-            }
-            // The summed arcs of the two pairings: (0, 1), (2, 3), ... and (1, 2), ...
-            float cost0 = 0.0;
-            float cost1 = 0.0;
-            for (uint j = 0u; j < sheets / 2u && sheets > 2u; ++j) {
-                vec2 n0 = normals[order[2u * j]];
-                vec2 n1 = normals[order[2u * j + 1u]];
-                cost0 += pair_arc(n0, n1);
-                cost1 += pair_arc(n1, normals[order[(2u * j + 2u) % sheets]]);
-            }
-            shift = cost1 < cost0 - 1e-4 ? 1u : 0u;
+        if (sheets == 2u) {
+            order[0] = 0u;
+            order[1] = 1u;
+            arcs = 1u;
+        } else if (sheets >= 4u && sheets % 2u == 0u) {
+            shift = pair_corner_edges(normals, sheets, order);
             arcs = sheets / 2u;
         }
         for (uint j = 0u; j < arcs; ++j) {

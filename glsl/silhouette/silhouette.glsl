@@ -93,6 +93,36 @@ const float FAN_OVERLAP = 2.0 * PI / 180.0;
 // The caster this invocation works for (set first thing in main).
 uint g_caster;
 
+// pair_corner_edges of src/silhouette/mod.rs for n (even, 4 to MAX_INCIDENT) outward
+// directions `dirs`: `order` gets the positions sorted by angle (ties in position order),
+// and the return value is the pairing `shift` with the smaller summed arc (the second only
+// when smaller by 1e-4 rad, as on the CPU). Pair j is order[(2 j + shift) % n] and
+// order[(2 j + shift + 1) % n].
+uint pair_corner_edges(vec2 dirs[MAX_INCIDENT], uint n, out uint order[MAX_INCIDENT]) {
+    for (uint i = 0u; i < n; ++i) {
+        float a = atan(dirs[i].y, dirs[i].x);
+        uint j = i;
+        while (j > 0u) {
+            vec2 dj = dirs[order[j - 1u]];
+            if (atan(dj.y, dj.x) <= a) break;
+            order[j] = order[j - 1u];
+            --j;
+        }
+        order[j] = i;
+    }
+    // The summed unsigned arcs of the two pairings: (0, 1), (2, 3), ... and (1, 2), ...
+    float cost0 = 0.0;
+    float cost1 = 0.0;
+    for (uint j = 0u; j < n / 2u; ++j) {
+        vec2 u = dirs[order[2u * j]];
+        vec2 w = dirs[order[2u * j + 1u]];
+        vec2 x = dirs[order[(2u * j + 2u) % n]];
+        cost0 += abs(atan(u.x * w.y - u.y * w.x, dot(u, w)));
+        cost1 += abs(atan(w.x * x.y - w.y * x.x, dot(w, x)));
+    }
+    return cost1 < cost0 - 1e-4 ? 1u : 0u;
+}
+
 uint thread_index() {
     // 2-D dispatches carry meshes with more than 65535 workgroups of edges.
     return gl_GlobalInvocationID.x + gl_GlobalInvocationID.y * gl_NumWorkGroups.x * gl_WorkGroupSize.x;

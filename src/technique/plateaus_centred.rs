@@ -40,7 +40,9 @@
 //!    ends lean apart by more than the corner turns. Elsewhere a sheet covers every texel
 //!    of the cone at a smaller t, so the cone would lose (LESS outside, MAX of
 //!    disc_chord(t) inside) but for its thin-blocker share, marched radially out of a thin
-//!    blocker's tip.
+//!    blocker's tip. Where two silhouette curves cross at a vertex (its edges' rays
+//!    alternate between arriving and leaving), each of the side's corners there is judged
+//!    alike, and the cone is left out when all are covered.
 //! 1. `plateaus-centred/drop_shadow` — the casters through (P1) as the paper's pass
 //!    (glsl/plateaus/drop_shadow.vert/.frag, unchanged) but into their own attachment,
 //!    `coverage` R16_SFLOAT, clear 1.0, no blend, NO depth attachment: 0 under any

@@ -474,18 +474,36 @@ impl Disc {
     }
 }
 
-/// The silhouette's edges at one vertex (`PlateauBuilder::sheets_cover`): how many arrive
-/// and leave, and the plane direction of the last of each.
+/// One silhouette edge at a vertex (`Turn`): its plane direction from its first vertex to
+/// its second, whether it arrives at the vertex, and the cone radius at its other end.
+#[derive(Clone, Copy, Debug, Default)]
+struct EdgeEnd {
+    along: Vec2,
+    arriving: bool,
+    r_other: f32,
+}
+
+/// The most edges at one vertex whose corners `PlateauBuilder::sheets_cover` judges; a
+/// vertex with more keeps its cones.
+const MAX_TURN_EDGES: usize = 8;
+
+/// The silhouette's edges at one vertex (`PlateauBuilder::sheets_cover`): the first
+/// `MAX_TURN_EDGES` of them, how many there are, and the cone radius at the vertex.
 #[derive(Clone, Copy, Debug, Default)]
 struct Turn {
-    arriving: u32,
-    leaving: u32,
-    into: Vec2,
-    out: Vec2,
-    /// The cone radii at the vertex and at the other ends of its two edges.
+    count: usize,
     r: f32,
-    r_prev: f32,
-    r_next: f32,
+    edges: [EdgeEnd; MAX_TURN_EDGES],
+}
+
+impl Turn {
+    fn push(&mut self, end: EdgeEnd, r: f32) {
+        if let Some(slot) = self.edges.get_mut(self.count) {
+            *slot = end;
+        }
+        self.count += 1;
+        self.r = r;
+    }
 }
 
 /// Radians by which two sheets must overlap at a vertex before its cone is left out: their
@@ -707,29 +725,64 @@ impl<'a> PlateauBuilder<'a> {
     /// still meet while the outgoing sheet's lean less the incoming one's stays below psi
     /// (by `TRIM_MARGIN`). Every point of the side near the vertex then lies in a sheet at a
     /// t no larger than the cone's, so the cone loses everywhere (the outer side's LESS,
-    /// the inner side's MAX of disc_chord(t)). A vertex with other than one edge in and one
-    /// out keeps its cone.
+    /// the inner side's MAX of disc_chord(t)).
+    ///
+    /// Where two silhouette curves pass through one vertex (four or six edges, at the
+    /// saddles of a bumpy blob), the edges' rays from the vertex, in angular order,
+    /// alternate between arriving and leaving, and so do the sectors between them: inside
+    /// counter-clockwise of a leaving ray (the inside lies left of each edge), outside
+    /// counter-clockwise of an arriving one. Each of this side's sectors is the corner of
+    /// the arriving and the leaving edge that bound it, judged as above; the cone is left
+    /// out when every one is covered (the other side's sectors are the other pass's). A
+    /// vertex whose rays do not alternate (a chain's end), or with more than
+    /// `MAX_TURN_EDGES` edges, keeps its cone.
     fn sheets_cover(&self, turns: &HashMap<u32, Turn>, vertex: u32) -> bool {
-        let Some(t) = turns
-            .get(&vertex)
-            .filter(|t| t.arriving == 1 && t.leaving == 1)
-        else {
+        let Some(t) = turns.get(&vertex) else {
             return false;
         };
-        let (len_in, len_out) = (t.into.length(), t.out.length());
-        if !(len_in > 0.0 && len_out > 0.0) {
+        let n = t.count;
+        if !(2..=MAX_TURN_EDGES).contains(&n) || !n.is_multiple_of(2) {
             return false;
         }
-        // The inside lies left of each edge: a left turn is a convex corner.
-        let left = t.into.perp_dot(t.out).atan2(t.into.dot(t.out));
-        let psi = match self.side {
-            Side::Inner => left,
-            Side::Outer => -left,
-        };
+        let edges = &t.edges[..n];
+        if !edges.iter().all(|e| e.along.length() > 0.0) {
+            return false;
+        }
+        let ray = |e: &EdgeEnd| if e.arriving { -e.along } else { e.along };
+        let mut order: [usize; MAX_TURN_EDGES] = std::array::from_fn(|i| i);
+        order[..n].sort_unstable_by(|&a, &b| {
+            let (a, b) = (ray(&edges[a]), ray(&edges[b]));
+            a.y.atan2(a.x).total_cmp(&b.y.atan2(b.x))
+        });
         let lean = |a: f32| a.clamp(-1.0, 1.0).asin();
-        let a_in = (t.r_prev - t.r) / len_in;
-        let a_out = (t.r - t.r_next) / len_out;
-        psi > 0.0 && lean(a_out) - lean(a_in) <= psi - TRIM_MARGIN
+        (0..n).all(|k| {
+            let (first, next) = (&edges[order[k]], &edges[order[(k + 1) % n]]);
+            if first.arriving == next.arriving {
+                return false;
+            }
+            // Counter-clockwise of an arriving ray lies the outside.
+            if first.arriving != (self.side == Side::Outer) {
+                return true;
+            }
+            let (into, out) = if first.arriving {
+                (first, next)
+            } else {
+                (next, first)
+            };
+            // The left turn from the arriving edge to the leaving one: psi for the inner
+            // side, -psi for the outer (pi less the sector's angle, either way).
+            let left = into
+                .along
+                .perp_dot(out.along)
+                .atan2(into.along.dot(out.along));
+            let psi = match self.side {
+                Side::Inner => left,
+                Side::Outer => -left,
+            };
+            let a_in = (into.r_other - t.r) / into.along.length();
+            let a_out = (t.r - out.r_other) / out.along.length();
+            psi > 0.0 && lean(a_out) - lean(a_in) <= psi - TRIM_MARGIN
+        })
     }
 
     /// Cones at the vertices and sheets along the edges of one object's silhouette. `mailbox`
@@ -758,16 +811,18 @@ impl<'a> PlateauBuilder<'a> {
                     continue;
                 };
                 let along = db.c - da.c;
-                let out = turns.entry(e.a).or_default();
-                out.leaving += 1;
-                out.out = along;
-                out.r = da.r;
-                out.r_next = db.r;
-                let into = turns.entry(e.b).or_default();
-                into.arriving += 1;
-                into.into = along;
-                into.r = db.r;
-                into.r_prev = da.r;
+                let leaving = EdgeEnd {
+                    along,
+                    arriving: false,
+                    r_other: db.r,
+                };
+                turns.entry(e.a).or_default().push(leaving, da.r);
+                let arriving = EdgeEnd {
+                    along,
+                    arriving: true,
+                    r_other: da.r,
+                };
+                turns.entry(e.b).or_default().push(arriving, db.r);
             }
         }
         for (e, &(da, db)) in sil.iter().zip(&discs) {

@@ -293,16 +293,16 @@ fn thin_blocker_search_bisects_from_the_end_of_its_reach() {
 /// bumpy blob: about one silhouette vertex in seven on `dense`), the corner is built for
 /// the edges paired by nearest outward directions (`silhouette::pair_corner_edges`): the
 /// smoothie forms' two-edge fans instead of a fan over the whole disc (both sides of
-/// smoothies-centred), the penumbra maps' cone arcs instead of the whole cone; plateaus-centred
-/// judges each corner there as at a two-edge vertex (`PlateauBuilder::sheets_cover`) and
-/// leaves the cone out when all its side's are covered. On `dense` at 128^2, 512^2 maps,
-/// light-pass fragments and warp texels, whole before and paired after: smoothies-centred
-/// 1,158,752 / 458,400 and 806,144 / 342,592; smoothies 518,416 / 61,248 and 371,680 /
-/// 51,008; penumbra-map-centred 594,784 / 232,448 and 536,144 / 214,464; penumbra-map
-/// 214,768 / 36,000 and 197,760 / 35,040; plateaus-centred's inner pass 143,360 / 73,536
-/// and 139,328 / 73,056 (most such vertices are folds, whose rays do not alternate between
-/// arriving and leaving, and keep their cones). The bounds lie halfway; fails with the
-/// whole discs or cones back.
+/// smoothies-centred), the penumbra maps' cone arcs instead of the whole cone;
+/// plateaus-centred judges each corner there as at a two-edge vertex
+/// (`PlateauBuilder::sheets_cover`) and leaves the cone out when all its side's are
+/// covered. On `dense` at 128^2, 512^2 maps, light-pass fragments and warp texels, whole
+/// before and paired after: smoothies-centred 1,158,752 / 458,400 and 806,144 / 342,592;
+/// smoothies 518,416 / 61,248 and 371,680 / 51,008; penumbra-map-centred 594,784 / 232,448
+/// and 536,144 / 214,464; penumbra-map 214,768 / 36,000 and 197,760 / 35,040;
+/// plateaus-centred's inner pass 143,360 / 73,536 and 139,328 / 73,056 (most such vertices
+/// are folds, whose rays do not alternate between arriving and leaving, and keep their
+/// cones). The bounds lie halfway; fails with the whole discs or cones back.
 #[test]
 fn paired_corners_shade_fewer_light_pass_fragments_than_whole_discs_and_cones() {
     let gpu = Gpu::new();

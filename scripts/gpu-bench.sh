@@ -6,8 +6,8 @@
 # 1. main/: `softshadow bench` over every built-in scene and every technique, the scene's light
 #    radius, 512x512 image, 1024^2 light buffers, 5 warm-up + 20 timed frames, with
 #    `--spirv glslang,tuned` (adds the `smoothies spirv=tuned` rows);
-# 2. silhouettes/: smoothies and penumbra-map with `--silhouettes cpu,gpu` on `dense` and
-#    `dense-1m` (the CPU path against the compute passes, same sizes);
+# 2. silhouettes/: both smoothie forms and penumbra-map with `--silhouettes cpu,gpu` on
+#    `dense` and `dense-1m` (the CPU path against the compute passes, same sizes);
 # 3. DIR/README.md: the device, driver, commit, command lines and seconds per step, with links
 #    to each step's report.md, time_vs_error.png and results.csv.
 #
@@ -99,7 +99,7 @@ step() {
 }
 
 step main "${main_scenes[@]}" "${common[@]}" --spirv glslang,tuned
-step silhouettes --scenes "$sil_scenes" --techniques smoothies,penumbra-map \
+step silhouettes --scenes "$sil_scenes" --techniques smoothies,smoothies-centred,penumbra-map \
   --silhouettes cpu,gpu "${common[@]}"
 
 device_line=$(grep -m1 '^device: ' "$partial/main.log" || echo "device: unknown")

@@ -196,9 +196,9 @@ struct RenderArgs {
     /// Smoothie width t as a fraction of the shadow map (default: calibrated from R).
     #[arg(long, allow_negative_numbers = true)]
     smoothie_t: Option<f32>,
-    /// Where smoothies and penumbra-map find silhouettes and build their geometry: gpu
-    /// (compute passes and indirect draws), cpu (rayon, then an upload), or auto (gpu on a
-    /// GPU, cpu on lavapipe).
+    /// Where both smoothie forms and penumbra-map find silhouettes and build their geometry:
+    /// gpu (compute passes and indirect draws), cpu (rayon, then an upload), or auto (gpu on
+    /// a GPU, cpu on lavapipe).
     #[arg(long, value_enum, ignore_case = true, default_value_t = Settings::default().silhouettes)]
     silhouettes: SilhouettePath,
     /// Receiver offset of shadow lookups, in shadow-map texels: the lookup point's height
@@ -316,8 +316,8 @@ struct BenchArgs {
     #[arg(long, value_enum, ignore_case = true, value_delimiter = ',',
           default_values_t = bench::BenchConfig::default().spirv)]
     spirv: Vec<SpirvChoice>,
-    /// Silhouette paths for smoothies and penumbra-map, comma-separated. More than one gives
-    /// a row each (`smoothies sil=cpu`, `smoothies sil=gpu`).
+    /// Silhouette paths for both smoothie forms and penumbra-map, comma-separated. More than
+    /// one gives a row each (`smoothies sil=cpu`, `smoothies sil=gpu`).
     #[arg(long, value_enum, ignore_case = true, value_delimiter = ',',
           default_values_t = bench::BenchConfig::default().silhouettes)]
     silhouettes: Vec<SilhouettePath>,

@@ -117,6 +117,9 @@ fn gpu_finds_exactly_the_cpu_silhouette_edges() {
     }
 }
 
+/// Both smoothie forms: the centred form's inner smoothies on the GPU path are its outer
+/// ones reflected by the vertex stage (glsl/smoothies_centred/mirrored.vert), where the CPU
+/// path builds mirrored records.
 #[test]
 fn gpu_and_cpu_paths_render_the_same_image() {
     let gpu = Gpu::new();
@@ -124,46 +127,74 @@ fn gpu_and_cpu_paths_render_the_same_image() {
     // stand-in point.
     for scene in scenes() {
         let name = scene.name.clone();
-        let cpu = gpu
-            .render_frames(scene.clone(), "smoothies", settings(SilhouettePath::Cpu), 1)
-            .0;
-        let on_gpu = gpu
-            .render_frames(scene.clone(), "smoothies", settings(SilhouettePath::Gpu), 1)
-            .0;
         let hard = gpu
-            .render_frames(scene, "hard", settings(SilhouettePath::Cpu), 1)
+            .render_frames(scene.clone(), "hard", settings(SilhouettePath::Cpu), 1)
             .0;
-        let max_diff = cpu
-            .visibility
-            .iter()
-            .zip(&on_gpu.visibility)
-            .map(|(a, b)| (a - b).abs())
-            .fold(0.0f32, f32::max);
-        // Within one 8-bit level: the vertices may differ in the last bits (GPU sin/cos).
-        assert!(
-            max_diff <= 1.0 / 255.0,
-            "{name}: GPU and CPU smoothies differ by {max_diff}"
-        );
-        let max_colour = max_colour_diff(&cpu, &on_gpu);
-        assert!(
-            max_colour <= 1,
-            "{name}: colours differ by {max_colour} levels"
-        );
-        // Both drew smoothies: an outer penumbra, darker than hard shadows just outside
-        // the hard edge (225 to 542 of the 16384 pixels on the spotlight scenes, 184 on
-        // sun-courtyard and 98 on sun-bunny, whose high sun casts a short shadow; measured).
-        let outer = |v: &[f32]| {
-            v.iter()
-                .zip(&hard.visibility)
-                .filter(|&(&s, &h)| s < h - 0.05)
-                .count()
-        };
-        assert!(
-            outer(&on_gpu.visibility) > 60 && outer(&cpu.visibility) > 60,
-            "{name}: smoothies drew no outer penumbra (GPU {}, CPU {} pixels darker than hard)",
-            outer(&on_gpu.visibility),
-            outer(&cpu.visibility)
-        );
+        for technique in ["smoothies", "smoothies-centred"] {
+            let render = |path| {
+                gpu.render_frames(scene.clone(), technique, settings(path), 1)
+                    .0
+            };
+            let (cpu, on_gpu) = (render(SilhouettePath::Cpu), render(SilhouettePath::Gpu));
+            let max_diff = cpu
+                .visibility
+                .iter()
+                .zip(&on_gpu.visibility)
+                .map(|(a, b)| (a - b).abs())
+                .fold(0.0f32, f32::max);
+            // Within one 8-bit level: the vertices may differ in the last bits (GPU sin/cos).
+            // But on the book's spine, where three pages meet, the two paths put one edge's
+            // smoothies on opposite sides (an outward side a non-manifold edge does not
+            // define): the outer image hides it, the centred form's inner values show it in
+            // 5 pixels, by up to 0.046 (measured).
+            let (max_allowed, off_allowed) = match (name.as_str(), technique) {
+                ("non-manifold book", "smoothies-centred") => (0.05, 5),
+                _ => (1.0 / 255.0, 0),
+            };
+            let off = cpu
+                .visibility
+                .iter()
+                .zip(&on_gpu.visibility)
+                .filter(|&(a, b)| (a - b).abs() > 1.0 / 255.0)
+                .count();
+            assert!(
+                max_diff <= max_allowed && off <= off_allowed,
+                "{name}, {technique}: GPU and CPU smoothies differ by {max_diff} ({off} pixels)"
+            );
+            let max_colour = max_colour_diff(&cpu, &on_gpu);
+            assert!(
+                max_colour <= 1 || off_allowed > 0,
+                "{name}, {technique}: colours differ by {max_colour} levels"
+            );
+            // Both drew smoothies: an outer penumbra, darker than hard shadows just outside
+            // the hard edge (smoothies: 225 to 542 of the 16384 pixels on the spotlight
+            // scenes, 184 on sun-courtyard and 98 on sun-bunny, whose high sun casts a short
+            // shadow; measured).
+            let count = |v: &[f32], differs: fn(f32, f32) -> bool| {
+                v.iter()
+                    .zip(&hard.visibility)
+                    .filter(|&(&s, &h)| differs(s, h))
+                    .count()
+            };
+            let darker = |v: &[f32]| count(v, |s, h| s < h - 0.05);
+            assert!(
+                darker(&on_gpu.visibility) > 60 && darker(&cpu.visibility) > 60,
+                "{name}, {technique}: no outer penumbra (GPU {}, CPU {} pixels darker than hard)",
+                darker(&on_gpu.visibility),
+                darker(&cpu.visibility)
+            );
+            // The centred form's inner penumbra too: lighter than hard shadows inside the
+            // hard edge, which the reflected smoothies alone draw on the GPU path (133 to 384
+            // pixels on the spotlight scenes, 92 on sun-courtyard, 37 on sun-bunny; measured).
+            if technique == "smoothies-centred" {
+                let lighter = |v: &[f32]| count(v, |s, h| s > h + 0.05);
+                assert!(
+                    lighter(&on_gpu.visibility) > 25,
+                    "{name}: no inner penumbra on the GPU path ({} pixels lighter than hard)",
+                    lighter(&on_gpu.visibility)
+                );
+            }
+        }
     }
 }
 

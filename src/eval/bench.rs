@@ -314,7 +314,7 @@ fn path_name<S: serde::Serializer>(p: &SilhouettePath, s: S) -> Result<S::Ok, S:
 }
 
 /// Techniques with a CPU and a GPU silhouette path (`Settings::silhouettes`).
-pub const SILHOUETTE_TECHNIQUES: &[&str] = &["smoothies", "penumbra-map"];
+pub const SILHOUETTE_TECHNIQUES: &[&str] = &["smoothies", "smoothies-centred", "penumbra-map"];
 
 /// Rows of `SILHOUETTE_TECHNIQUES` once per silhouette path when more than one is asked for
 /// (the others keep one row): `smoothies sil=cpu` beside `smoothies sil=gpu`, timed in the
@@ -879,7 +879,7 @@ pub struct Record {
     /// The SPIR-V the row ran (`tuned` only for techniques with hand-tuned modules).
     pub spirv: SpirvChoice,
     /// Where silhouettes were found (`cpu` or `gpu`, `auto` resolved for the device); only
-    /// smoothies and penumbra-map have silhouette work.
+    /// both smoothie forms and penumbra-map have a choice.
     pub silhouettes: &'static str,
     pub frames: u32,
     pub warmup: u32,

@@ -105,8 +105,8 @@ pub trait Technique {
         Vec::new()
     }
 
-    /// The GPU silhouette passes' state, for the CPU-vs-GPU tests (smoothies and penumbra-map on
-    /// the GPU path).
+    /// The GPU silhouette passes' state, for the CPU-vs-GPU tests (both smoothie forms and
+    /// penumbra-map on the GPU path).
     fn gpu_silhouettes(&self) -> Option<&crate::silhouette::gpu::GpuSilhouettes> {
         None
     }
@@ -191,9 +191,10 @@ pub(crate) enum Form {
 }
 
 impl Form {
-    /// Where a silhouette technique builds its geometry: the paper form where the settings
-    /// say (`--silhouettes`); the centred form on the CPU, the only path that builds the
-    /// inner side.
+    /// Where a penumbra map builds its geometry: the paper form where the settings say
+    /// (`--silhouettes`); the centred form on the CPU, the only path that builds its inner
+    /// cones and sheets. (Both smoothie forms go where the settings say: the GPU path's
+    /// inner smoothies are its outer ones reflected, glsl/smoothies_centred/mirrored.vert.)
     pub(crate) fn silhouette_path(self, init: &TechniqueInit<'_>) -> SilhouettePath {
         match self {
             Form::Paper => init.settings.silhouettes.resolve(init.ctx),

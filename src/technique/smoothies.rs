@@ -375,10 +375,12 @@ impl Smoothies {
             ],
             names.smoothie,
         )?;
+        let path = init.settings.silhouettes.resolve(init.ctx);
         let (smoothie_pipeline, inner_pipeline) = match form {
             Form::Paper => (paper_pipeline(init, &smoothie_set)?, None),
             Form::Centred => {
-                let [outer, inner] = smoothies_centred::pipelines(init, &smoothie_set)?;
+                let mirrored = path == SilhouettePath::Gpu;
+                let [outer, inner] = smoothies_centred::pipelines(init, &smoothie_set, mirrored)?;
                 (outer, Some(inner))
             }
         };
@@ -407,7 +409,6 @@ impl Smoothies {
             final_pass = final_pass.with_bands(PAPER_SPLIT_BANDS);
         }
         let adjacency = silhouette::caster_adjacency(init.scene, |_| true)?;
-        let path = form.silhouette_path(init);
         let gpu_silhouettes = match path {
             SilhouettePath::Cpu | SilhouettePath::Auto => None,
             SilhouettePath::Gpu => Self::gpu_silhouettes(init, &adjacency)?,
@@ -552,10 +553,14 @@ impl Technique for Smoothies {
             if self.draw_smoothies {
                 let pipelines = [Some(&self.smoothie_pipeline), self.inner_pipeline.as_ref()];
                 match (&self.gpu_silhouettes, self.path) {
+                    // The same outer smoothies twice under the centred form: the inner
+                    // pipeline reflects them (glsl/smoothies_centred/mirrored.vert).
                     (Some(gpu), _) => {
-                        rec.bind_pipeline(&self.smoothie_pipeline);
-                        rec.bind_sets(&self.smoothie_pipeline, &[&self.smoothie_set]);
-                        gpu.draw(rec);
+                        for pipeline in pipelines.into_iter().flatten() {
+                            rec.bind_pipeline(pipeline);
+                            rec.bind_sets(pipeline, &[&self.smoothie_set]);
+                            gpu.draw(rec);
+                        }
                     }
                     (None, SilhouettePath::Cpu) => {
                         for (pipeline, vertices) in pipelines.into_iter().zip(self.cpu.sides()) {

@@ -27,9 +27,12 @@
 //! `smoothie::records` for both sides: the inner records are the outer ones with each
 //! edge's direction and each fan's first spoke negated (`SmoothieRecords::mirrored`,
 //! expanded without the copy by `expand_side`), held to the inner reference by
-//! `silhouette::smoothie::equivalence`. CPU silhouettes only: `--silhouettes gpu` (the
-//! compute path, glsl/silhouette/) is not implemented for the inner side, and this form
-//! builds on the CPU whatever the setting.
+//! `silhouette::smoothie::equivalence`. The GPU path (`--silhouettes gpu`, the paper
+//! form's compute passes, glsl/silhouette/) writes the outer smoothies only; the inner
+//! pipeline draws that same buffer again through `glsl/smoothies_centred/mirrored.vert`,
+//! which reflects each quad's vertex across its hard-edge line (direction negated) and
+//! each fan's through its silhouette vertex: the mirrored records' triangles, without a
+//! second buffer (tests/gpu_silhouettes.rs: the same image as the CPU path).
 //!
 //! The width t is the paper form's (`--smoothie-t`, else calibrated per silhouette vertex,
 //! t = R / (2 b tan(fov/2)), capped at 0.2). With the calibrated t, a disc light of radius
@@ -48,11 +51,13 @@
 //! itself is affine there, so on a tilted receiver Z_R bends by up to its 5 % limit.
 //!
 //! ## Passes, in order
-//! 0. CPU `smoothies-centred/silhouettes` (R > 0) — per moved caster: silhouette from the
-//!    light centre, then the smoothie records (`build_records`, as the paper form's CPU
-//!    path), expanded into the outer smoothies' triangles and the inner (mirrored) ones'
-//!    (`SmoothieRecords::expand_side`); every caster's outer triangles are uploaded to one
-//!    host-visible vertex buffer, every caster's inner ones to another.
+//! 0. `smoothies-centred/silhouettes` (R > 0) — CPU path (a `cpu` timing): per moved
+//!    caster, silhouette from the light centre, then the smoothie records (`build_records`,
+//!    as the paper form's CPU path), expanded into the outer smoothies' triangles and the
+//!    inner (mirrored) ones' (`SmoothieRecords::expand_side`); every caster's outer
+//!    triangles are uploaded to one host-visible vertex buffer, every caster's inner ones
+//!    to another. GPU path (a timed pass): the paper form's compute dispatches, outer
+//!    smoothies only, at full width t.
 //! 1. `smoothies-centred/shadow_map` — the shared `ShadowMap`: R32G32_SFLOAT, clear 1e30,
 //!    blend MIN, no depth attachment; r = nearest caster's linear depth, g = nearest
 //!    surface's of any role. Read only by pass 2: g at the smoothie fragment's own texel
@@ -74,7 +79,9 @@
 //!    because the b/r tests need it (REMAP_EPS 1e-4). 12 bytes per texel.
 //!    Two pipelines, both with glsl/smoothies/smoothie.vert over the CPU path's expanded
 //!    triangles (`SmoothieRecords::expand_side`), one draw each: every caster's outer
-//!    smoothies, then every caster's inner ones (the same records mirrored):
+//!    smoothies, then every caster's inner ones (the same records mirrored). On the GPU
+//!    path both draw the compute passes' buffer indirectly, the inner pipeline through
+//!    glsl/smoothies_centred/mirrored.vert (the reflection, "Geometry" above):
 //!    - outer smoothies, `glsl/smoothies_centred/outer.frag`: the paper form's fragment
 //!      program and decision (`smoothie_alpha`, glsl/smoothies/alpha.glsl: receiver r =
 //!      the shadow map's g at its texel), s = alpha' in [0, 1), v = disc_chord(-s') in
@@ -201,7 +208,7 @@ use super::smoothies::{smoothie_pipeline_desc, SmoothieTarget, Smoothies};
 use super::{Form, TechniqueInfo, TechniqueInit};
 use crate::gpu::passes::{FinalShader, FAR_DEPTH};
 use crate::shaders;
-use crate::vk::{Blend, DescriptorSet, Format, Pipeline};
+use crate::vk::{Blend, DescriptorSet, Format, GraphicsPipelineDesc, Pipeline};
 use anyhow::Result;
 
 pub const INFO: TechniqueInfo = TechniqueInfo {
@@ -237,25 +244,33 @@ pub(super) const TARGETS: &[SmoothieTarget] = &[
 ];
 
 /// Pass 2's two pipelines, both into `TARGETS` with MIN blending: the outer smoothies'
-/// (glsl/smoothies_centred/outer.frag), then the inner ones' (inner.frag).
+/// (glsl/smoothies_centred/outer.frag), then the inner ones' (inner.frag; `mirrored`, the
+/// GPU path: over the outer smoothies reflected by glsl/smoothies_centred/mirrored.vert).
 pub(super) fn pipelines(
     init: &TechniqueInit<'_>,
     smoothie_set: &DescriptorSet,
+    mirrored: bool,
 ) -> Result<[Pipeline; 2]> {
     let colors: Vec<_> = TARGETS.iter().map(|t| (t.format, Blend::Min)).collect();
     let name = Form::Centred.smoothie_names().smoothie;
     let sets = [smoothie_set];
     let outer = shaders::SMOOTHIES_CENTRED_OUTER_FRAG;
     let inner = shaders::SMOOTHIES_CENTRED_INNER_FRAG;
+    let inner_desc = GraphicsPipelineDesc {
+        // The GPU path's buffer holds the outer smoothies only: reflected here.
+        vertex: if mirrored {
+            shaders::SMOOTHIES_CENTRED_MIRRORED_VERT
+        } else {
+            shaders::SMOOTHIES_SMOOTHIE_VERT
+        },
+        ..smoothie_pipeline_desc(name, inner, &colors, &sets)
+    };
     Ok([
         Pipeline::graphics(
             init.ctx,
             &smoothie_pipeline_desc(name, outer, &colors, &sets),
         )?,
-        Pipeline::graphics(
-            init.ctx,
-            &smoothie_pipeline_desc(name, inner, &colors, &sets),
-        )?,
+        Pipeline::graphics(init.ctx, &inner_desc)?,
     ])
 }
 

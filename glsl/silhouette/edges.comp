@@ -73,15 +73,18 @@ void main() {
         float zm;
         if (project(m, sm, zm)) {
             vec2 avg = vec2(0.0);
+            vec3 normals = vec3(0.0);
             for (uint i = 0u; i < nf; ++i) {
                 uint f = face_entry(e, i) >> 1;
                 if (!degenerate(f)) {
                     avg += project_normal(m, zm, sm, face_planes[f].xyz);
+                    normals += face_planes[f].xyz;
                 }
             }
             float dt = dot(d, avg);
-            // Only trust the normals when they clearly pick a side (> ~0.5 degree).
-            if (abs(dt) > 1e-2 * length(avg)) {
+            // Only trust the normals when they clearly pick a side (> ~0.5 degree), and not
+            // at all when they cancel (NORMALS_CANCEL).
+            if (abs(dt) > 1e-2 * length(avg) && length(normals) >= NORMALS_CANCEL) {
                 if (dt < 0.0) {
                     d = -d;
                 }

@@ -37,8 +37,9 @@
 //! world normals are projected into screen space at the edge midpoint (uv(m + eps n) - uv(m),
 //! eps = 1e-3 of the midpoint's linear depth, so the probe scales with the scene) and summed;
 //! `d` is flipped when it disagrees with that sum. When the sum is (nearly) perpendicular to
-//! the edge, and always for boundary edges, the side is decided instead by the faces' third
-//! vertices: the outside is the side where the adjacent faces are not (for an open rim the
+//! the edge, when the unit normals themselves nearly cancel (`NORMALS_CANCEL`: faces folded
+//! onto each other, three pages of a spine), and always for boundary edges, the side is
+//! decided instead by the faces' third vertices: the outside is the side where the adjacent faces are not (for an open rim the
 //! shadow grows away from the surface; at a fold both faces lie on the blocker's side).
 //! The quad is s0, s1, s1 + t d, s0 + t d as two triangles (s0, s1, s1 + t d) and
 //! (s0, s1 + t d, s0 + t d); all four vertices have `kind = 0`, `anchor = s0`, `dir = d`, so
@@ -413,7 +414,7 @@ pub(super) fn edge_dir(
     // Left perpendicular of a -> b; flipped below when the blocker is on the right.
     let mut d = along.perp() / len;
     let mut decided = false;
-    if e.kind != EdgeKind::Boundary {
+    if e.kind != EdgeKind::Boundary && normals_pick_a_side(adj, e) {
         let m = (pa + pb) * 0.5;
         if let Some((sm, zm)) = pr.project(m) {
             let mut avg = Vec2::ZERO;
@@ -436,6 +437,18 @@ pub(super) fn edge_dir(
         d = undecided_dir(adj, pr, e, pa, pb, s0, s1, d);
     }
     Some(d)
+}
+
+/// The length below which the sum of an edge's unit face normals (`Adjacency::edge_normals`)
+/// is taken to cancel: faces folded back onto each other (normals more than about 177
+/// degrees apart) or three pages of a non-manifold spine. Their projected sum is then
+/// rounding noise whose sign no test can trust (the CPU and GPU paths disagreed on one such
+/// spine), so the third-vertex test decides (`undecided_dir`).
+pub(super) const NORMALS_CANCEL: f32 = 0.05;
+
+/// Whether the face normals of edge `e` may pick its outward side (`NORMALS_CANCEL`).
+pub(super) fn normals_pick_a_side(adj: &Adjacency, e: &SilhouetteEdge) -> bool {
+    adj.edge_normals[e.edge as usize].length() >= NORMALS_CANCEL
 }
 
 /// The outward direction of edge `e` (world ends `pa`, `pb`, projected `s0`, `s1`, left

@@ -80,8 +80,8 @@
 //! a bounds-checked gather per load; on a GPU they would save the upload's bandwidth.
 
 use super::{
-    hairpin_ccw, undecided_dir, Projected, Projector, SilVertex, SmoothieVertex, Width,
-    FAN_OVERLAP, MAX_SEGMENT,
+    hairpin_ccw, normals_pick_a_side, undecided_dir, Projected, Projector, SilVertex,
+    SmoothieVertex, Width, FAN_OVERLAP, MAX_SEGMENT,
 };
 use crate::scene::LightView;
 use crate::silhouette::{pair_corner_edges, Adjacency, EdgeKind, Side, SilhouetteEdge};
@@ -852,7 +852,7 @@ fn edge_dir(
         return None;
     }
     let d = along.perp() / len;
-    if e.kind != EdgeKind::Boundary {
+    if e.kind != EdgeKind::Boundary && normals_pick_a_side(adj, e) {
         // Both ends lie beyond the near plane, so does the midpoint.
         let cm = (ca + cb) * 0.5;
         let avg = cn.xy() * cm.w - cm.xy() * cn.w;

@@ -82,8 +82,8 @@ const uint SIL_KIND_SHIFT = 3u; // 1 boundary, 2 manifold, 3 non-manifold
 const uint MAX_INCIDENT = 16u;
 const uint FLOATS_PER_VERTEX = 9u;
 
-// src/silhouette/smoothie.rs: MAX_CALIBRATED_T, MAX_SEGMENT, MIN_CORNER_ANGLE, PROBE, FAN_OVERLAP,
-// NORMALS_CANCEL.
+// src/silhouette/smoothie.rs: MAX_CALIBRATED_T, MAX_SEGMENT, MIN_CORNER_ANGLE, PROBE,
+// FAN_OVERLAP, NORMALS_CANCEL.
 const float MAX_CALIBRATED_T = 0.2;
 const float PI = 3.14159265358979;
 const float MAX_SEGMENT = PI / 6.0;

@@ -34,13 +34,14 @@
 //! # Smoothie edges
 //! Silhouette edge a -> b projects to s0, s1. `d` is the unit perpendicular of s1 - s0 that
 //! points away from the blocker. Following Volokh, the adjacent (non-degenerate) faces'
-//! world normals are projected into screen space at the edge midpoint (uv(m + eps n) - uv(m),
-//! eps = 1e-3 of the midpoint's linear depth, so the probe scales with the scene) and summed;
-//! `d` is flipped when it disagrees with that sum. When the sum is (nearly) perpendicular to
-//! the edge, when the unit normals themselves nearly cancel (`NORMALS_CANCEL`: faces folded
-//! onto each other, three pages of a spine), and always for boundary edges, the side is
-//! decided instead by the faces' third vertices: the outside is the side where the adjacent faces are not (for an open rim the
-//! shadow grows away from the surface; at a fold both faces lie on the blocker's side).
+//! world normals are projected into screen space at the edge midpoint
+//! (uv(m + eps n) - uv(m), eps = 1e-3 of the midpoint's linear depth, so the probe scales
+//! with the scene) and summed; `d` is flipped when it disagrees with that sum. When the sum
+//! is (nearly) perpendicular to the edge, when the unit normals themselves nearly cancel
+//! (`NORMALS_CANCEL`: faces folded onto each other, three pages of a spine), and always for
+//! boundary edges, the side is decided instead by the faces' third vertices: the outside is
+//! the side where the adjacent faces are not (for an open rim the shadow grows away from
+//! the surface; at a fold both faces lie on the blocker's side).
 //! The quad is s0, s1, s1 + t d, s0 + t d as two triangles (s0, s1, s1 + t d) and
 //! (s0, s1 + t d, s0 + t d); all four vertices have `kind = 0`, `anchor = s0`, `dir = d`, so
 //! alpha = dot(uv - s0, d) / t is 0 on the silhouette and 1 on the outer side.
@@ -439,11 +440,11 @@ pub(super) fn edge_dir(
     Some(d)
 }
 
-/// The length below which the sum of an edge's unit face normals (`Adjacency::edge_normals`)
-/// is taken to cancel: faces folded back onto each other (normals more than about 177
-/// degrees apart) or three pages of a non-manifold spine. Their projected sum is then
-/// rounding noise whose sign no test can trust (the CPU and GPU paths disagreed on one such
-/// spine), so the third-vertex test decides (`undecided_dir`).
+/// The length below which the sum of an edge's unit face normals
+/// (`Adjacency::edge_normals`) is taken to cancel: faces folded back onto each other
+/// (normals more than about 177 degrees apart) or three pages of a non-manifold spine.
+/// Their projected sum is then rounding noise whose sign no test can trust (the CPU and GPU
+/// paths disagreed on one such spine), so the third-vertex test decides (`undecided_dir`).
 pub(super) const NORMALS_CANCEL: f32 = 0.05;
 
 /// Whether the face normals of edge `e` may pick its outward side (`NORMALS_CANCEL`).

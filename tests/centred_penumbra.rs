@@ -18,7 +18,7 @@
 
 mod common;
 
-use common::{covered, false_edges_of, small, with_radius, Gpu};
+use common::{covered, false_edges_of, max_visibility_diff, small, with_radius, Gpu};
 use glam::{Mat4, Vec3, Vec4};
 use softshadow::eval::metrics::{errors_at, faces_light, Errors};
 use softshadow::output::FrameImages;
@@ -569,12 +569,7 @@ fn zero_radius_equals_hard() {
         let hard = gpu.render(scene, "hard", s.clone());
         for &(centred, _) in FORMS {
             let img = gpu.render(scene, centred, s.clone());
-            let max = img
-                .visibility
-                .iter()
-                .zip(&hard.visibility)
-                .map(|(a, b)| (a - b).abs())
-                .fold(0.0f32, f32::max);
+            let max = max_visibility_diff(&img, &hard);
             assert!(max <= 1e-6, "{scene}/{centred}: max |v - hard| = {max}");
         }
     }

@@ -5,7 +5,10 @@
 
 mod common;
 
-use common::{bowl, covered, cube, max_colour_diff, pixel_at, small, softshadow, with_caster, Gpu};
+use common::{
+    bowl, covered, cube, max_colour_diff, max_visibility_diff, pixel_at, small, softshadow,
+    with_caster, Gpu,
+};
 use glam::{Mat4, Vec3};
 use softshadow::frustum::fit_light;
 use softshadow::output::FrameImages;
@@ -192,12 +195,7 @@ fn gpu_and_cpu_penumbra_maps_render_the_same_image() {
         let cpu: FrameImages = render(SilhouettePath::Cpu, TECHNIQUE);
         let on_gpu = render(SilhouettePath::Gpu, TECHNIQUE);
         let hard = render(SilhouettePath::Cpu, "hard");
-        let max_diff = cpu
-            .visibility
-            .iter()
-            .zip(&on_gpu.visibility)
-            .map(|(a, b)| (a - b).abs())
-            .fold(0.0f32, f32::max);
+        let max_diff = max_visibility_diff(&cpu, &on_gpu);
         let over = cpu
             .visibility
             .iter()

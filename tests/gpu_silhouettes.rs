@@ -4,7 +4,9 @@
 
 mod common;
 
-use common::{bowl, cube, max_colour_diff, small, softshadow, with_caster, Gpu};
+use common::{
+    bowl, cube, max_colour_diff, max_visibility_diff, small, softshadow, with_caster, Gpu,
+};
 use glam::{Mat4, Vec3};
 use softshadow::frustum::fit_light;
 use softshadow::render::Renderer;
@@ -136,12 +138,7 @@ fn gpu_and_cpu_paths_render_the_same_image() {
                     .0
             };
             let (cpu, on_gpu) = (render(SilhouettePath::Cpu), render(SilhouettePath::Gpu));
-            let max_diff = cpu
-                .visibility
-                .iter()
-                .zip(&on_gpu.visibility)
-                .map(|(a, b)| (a - b).abs())
-                .fold(0.0f32, f32::max);
+            let max_diff = max_visibility_diff(&cpu, &on_gpu);
             // Within one 8-bit level: the vertices may differ in the last bits (GPU sin/cos).
             // The centred form's inner smoothies show an edge whose outward side the two
             // paths decide apart, which the outer image can hide (the book's spine, before

@@ -4,7 +4,7 @@
 
 mod common;
 
-use common::{covered, pixel_at, small, with_radius, Gpu};
+use common::{covered, max_visibility_diff, pixel_at, small, with_radius, Gpu};
 use glam::{Mat4, Vec2, Vec3};
 use softshadow::output::FrameImages;
 use softshadow::scene::{primitives, Camera, Light, Mesh, Object, Role, Scene};
@@ -60,12 +60,7 @@ fn zero_radius_equals_hard() {
     let s = with_radius(small(128, 256), 0.0);
     let pm = gpu.render("cylinder", PM, s.clone());
     let hard = gpu.render("cylinder", "hard", s);
-    let max = pm
-        .visibility
-        .iter()
-        .zip(&hard.visibility)
-        .map(|(a, b)| (a - b).abs())
-        .fold(0.0f32, f32::max);
+    let max = max_visibility_diff(&pm, &hard);
     assert!(max <= 1e-6, "max |pm - hard| = {max}");
 }
 

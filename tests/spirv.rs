@@ -4,7 +4,7 @@
 
 mod common;
 
-use common::{covered, small, softshadow, Gpu};
+use common::{covered, max_visibility_diff, small, softshadow, Gpu};
 use softshadow::eval::{bench, spirv};
 use softshadow::render::Renderer;
 use softshadow::scene::Scene;
@@ -43,12 +43,7 @@ fn compare(gpu: &Gpu, scene: &str, settings: Settings) -> (Vec<f32>, usize) {
         worst_color <= 1,
         "{scene} {settings:?}: colour differs by {worst_color} levels"
     );
-    let worst_vis = g
-        .visibility
-        .iter()
-        .zip(&t.visibility)
-        .map(|(a, b)| (a - b).abs())
-        .fold(0.0f32, f32::max);
+    let worst_vis = max_visibility_diff(g, t);
     assert!(
         worst_vis <= ONE_LEVEL,
         "{scene} {settings:?}: visibility differs by {worst_vis}"

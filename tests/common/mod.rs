@@ -89,6 +89,15 @@ pub fn with_radius(mut s: Settings, r: f32) -> Settings {
     s
 }
 
+/// The largest difference of two images' visibilities.
+pub fn max_visibility_diff(a: &FrameImages, b: &FrameImages) -> f32 {
+    a.visibility
+        .iter()
+        .zip(&b.visibility)
+        .map(|(x, y)| (x - y).abs())
+        .fold(0.0f32, f32::max)
+}
+
 /// The largest difference of two images' colours, in 8-bit levels over every channel.
 pub fn max_colour_diff(a: &FrameImages, b: &FrameImages) -> u8 {
     a.color

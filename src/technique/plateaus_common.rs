@@ -734,8 +734,9 @@ impl<'a> PlateauBuilder<'a> {
     /// counter-clockwise of an arriving one. Each of this side's sectors is the corner of
     /// the arriving and the leaving edge that bound it, judged as above; the cone is left
     /// out when every one is covered (the other side's sectors are the other pass's). A
-    /// vertex whose rays do not alternate (a chain's end), or with more than
-    /// `MAX_TURN_EDGES` edges, keeps its cone.
+    /// vertex with an odd number of edges (a chain's end), whose rays do not alternate (a
+    /// fold of the projected silhouette, where the inside is not left of every edge), or
+    /// with more than `MAX_TURN_EDGES` edges keeps its cone.
     fn sheets_cover(&self, turns: &HashMap<u32, Turn>, vertex: u32) -> bool {
         let Some(t) = turns.get(&vertex) else {
             return false;

@@ -531,7 +531,7 @@ impl Technique for Smoothies {
 
         let drawn = match (self.draw_smoothies, &self.gpu_silhouettes) {
             (false, _) => Drawn::Nothing,
-            (true, Some(_)) => Drawn::Gpu,
+            (true, Some(_)) => Drawn::Gpu(width),
             (true, None) => Drawn::Cpu(&self.cpu),
         };
         let grow = match self.form {

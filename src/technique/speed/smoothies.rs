@@ -29,8 +29,10 @@
 //!   the shadow map over the casters' texels beyond their smoothies' and where the smoothie
 //!   pass reads g (the centred form's grown by `regions::INNER_RECEIVER_TEXELS`), the
 //!   objects that receive but cast nothing only there. Every texel read holds what the
-//!   whole passes write. The GPU path's geometry is known only on the device: whole
-//!   buffers. Off without `light_areas`.
+//!   whole passes write. The GPU path's geometry is known only on the device: there each
+//!   caster's projected box, grown by the reach of its smoothies (`gpu_reaches`: the
+//!   widest t over the box), stands in for the smoothies' bounds, in the light passes and
+//!   in the split final pass below. Off without `light_areas`.
 //! - Split final pass (`Areas::shadowed`, `regions::shadowed`, `FinalPass::split`): per
 //!   caster a 16-sided light-uv polygon around its smoothies' reach, which holds the
 //!   caster's own projection when every silhouette edge was kept
@@ -272,8 +274,9 @@ impl CpuSmoothies {
 pub enum Drawn<'a> {
     /// No smoothie (t = 0).
     Nothing,
-    /// The GPU path's smoothies, known only on the device.
-    Gpu,
+    /// The GPU path's smoothies, known only on the device, of this width t at each
+    /// silhouette vertex (`gpu_reaches` bounds them).
+    Gpu(Width),
     /// The CPU path's.
     Cpu(&'a CpuSmoothies),
 }
@@ -334,9 +337,19 @@ impl Areas {
         drawn: Drawn<'_>,
     ) -> (MapArea, Rect2D) {
         let corners = regions::caster_corner_uvs(frame);
+        let reaches = match (&drawn, &corners) {
+            (Drawn::Gpu(width), Some(c)) => Some(gpu_reaches(frame, c, *width, res)),
+            _ => None,
+        };
         let smoothies = match &drawn {
             Drawn::Nothing => Some(PixelBox::EMPTY),
-            Drawn::Gpu => None,
+            Drawn::Gpu(_) => corners.as_ref().zip(reaches.as_ref()).map(|(c, r)| {
+                c.iter().zip(r).fold(PixelBox::EMPTY, |b, ((_, uvs), &r)| {
+                    let lo = uvs.iter().fold(Vec2::INFINITY, |a, &u| a.min(u));
+                    let hi = uvs.iter().fold(Vec2::NEG_INFINITY, |a, &u| a.max(u));
+                    b.union(PixelBox::of_uv(res, lo - r, hi + r))
+                })
+            }),
             Drawn::Cpu(cpu) => Some(
                 cpu.cache
                     .iter()
@@ -348,7 +361,7 @@ impl Areas {
         };
         self.shadowed = match (smoothies, &corners) {
             (Some(_), Some(c)) => {
-                let supports = shadow_regions(&drawn, c);
+                let supports = shadow_regions(&drawn, c, reaches.as_deref());
                 regions::shadowed(frame, &supports, res, 0.0)
             }
             _ => Shadowed::Everywhere,
@@ -383,8 +396,20 @@ fn casters_texels(drawn: &Drawn<'_>, corners: &[(usize, [Vec2; 8])], res: u32) -
 /// (`SmoothieRecords::holds_caster`: the convex hull of a projected mesh is its silhouette
 /// vertices'), and else of its world box's corners projected by the light (the r texels;
 /// casters in the light's frustum) as well. On `bunny` that takes the lookups from 48 % to
-/// 38 % of the area drawn (full-width smoothies): it fills little of its box.
-fn shadow_regions(drawn: &Drawn<'_>, corners: &[(usize, [Vec2; 8])]) -> Vec<Support> {
+/// 38 % of the area drawn (full-width smoothies): it fills little of its box. The GPU
+/// path's (`reaches`): the projected box's support grown by the caster's reach.
+fn shadow_regions(
+    drawn: &Drawn<'_>,
+    corners: &[(usize, [Vec2; 8])],
+    reaches: Option<&[f32]>,
+) -> Vec<Support> {
+    if let Some(reaches) = reaches {
+        return corners
+            .iter()
+            .zip(reaches)
+            .filter_map(|((_, uvs), &r)| regions::support_of(uvs).map(|s| s.map(|v| v + r)))
+            .collect();
+    }
     corners
         .iter()
         .filter_map(|(i, uvs)| {
@@ -397,6 +422,32 @@ fn shadow_regions(drawn: &Drawn<'_>, corners: &[(usize, [Vec2; 8])]) -> Vec<Supp
                 (Some(a), Some(b)) => Some(regions::union(a, b)),
                 (a, b) => a.or(b),
             }
+        })
+        .collect()
+}
+
+/// How far each caster's smoothies on the GPU path can reach beyond its projected box (light
+/// uv), in `corners`' order: the widest t over the box (the calibrated t shrinks with depth:
+/// taken at the box's nearest corner, linear depth being affine over it), over the cosine
+/// of half a fan segment (a fan's polygon is circumscribed about its disc), plus a texel
+/// for rasterisation. Every silhouette vertex lies in the box, and every smoothie, outer or
+/// reflected inner, within its vertex's reach; the quads within t of their edge.
+fn gpu_reaches(
+    frame: &FrameInput<'_>,
+    corners: &[(usize, [Vec2; 8])],
+    width: Width,
+    res: u32,
+) -> Vec<f32> {
+    let circumscribed = 1.0 / (silhouette::smoothie::MAX_SEGMENT * 0.5).cos();
+    corners
+        .iter()
+        .map(|&(i, _)| {
+            let nearest = frame.gpu.objects[i]
+                .world_corners()
+                .iter()
+                .map(|&c| (frame.light.view_proj * c.extend(1.0)).w)
+                .fold(f32::INFINITY, f32::min);
+            width.at(nearest) * circumscribed + 1.0 / res as f32
         })
         .collect()
 }

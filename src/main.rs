@@ -196,9 +196,9 @@ struct RenderArgs {
     /// Smoothie width t as a fraction of the shadow map (default: calibrated from R).
     #[arg(long, allow_negative_numbers = true)]
     smoothie_t: Option<f32>,
-    /// Where both smoothie forms and penumbra-map find silhouettes and build their geometry:
-    /// gpu (compute passes and indirect draws), cpu (rayon, then an upload), or auto (gpu on
-    /// a GPU, cpu on lavapipe).
+    /// Where both smoothie forms and penumbra-map find silhouettes and build their
+    /// geometry: gpu (compute passes and indirect draws), cpu (rayon, then an upload), or
+    /// auto (gpu on a GPU, cpu on lavapipe).
     #[arg(long, value_enum, ignore_case = true, default_value_t = Settings::default().silhouettes)]
     silhouettes: SilhouettePath,
     /// Receiver offset of shadow lookups, in shadow-map texels: the lookup point's height

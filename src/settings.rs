@@ -54,7 +54,8 @@ pub struct Settings {
     pub reference_samples: u32,
     /// Jitter seed of the `reference` technique's samples (`bench --seed`).
     pub reference_seed: u64,
-    /// Where both smoothie forms and penumbra-map find silhouettes and build their geometry.
+    /// Where both smoothie forms and penumbra-map find silhouettes and build their
+    /// geometry.
     pub silhouettes: SilhouettePath,
     /// Which SPIR-V the technique runs where a hand-tuned module exists (`--spirv`).
     pub spirv: SpirvChoice,

@@ -1,7 +1,7 @@
 // The smoothie pass's vertex stage (smoothies/smoothie.vert, and smoothies_centred/
-// mirrored.vert for the centred form's inner smoothies on the GPU path): vertices are already
-// in light screen space (built on the CPU or by the GPU silhouette pass), so the position is
-// passed through without a projection.
+// mirrored.vert for the centred form's inner smoothies on the GPU path): vertices are
+// already in light screen space (built on the CPU or by the GPU silhouette pass), so the
+// position is passed through without a projection.
 #ifndef SMOOTHIES_VERTEX_GLSL
 #define SMOOTHIES_VERTEX_GLSL
 #include "common/frame.glsl"

@@ -1,8 +1,8 @@
 #version 450
 #extension GL_GOOGLE_include_directive : require
-// smoothies-centred/smoothie, inner smoothies on the GPU silhouette path: the compute passes
-// write the outer smoothies only, and this stage reflects them into the hard shadow as
-// `SmoothieRecords::mirrored` does on the CPU path. An edge quad's vertex is reflected
+// smoothies-centred/smoothie, inner smoothies on the GPU silhouette path: the compute
+// passes write the outer smoothies only, and this stage reflects them into the hard shadow
+// as `SmoothieRecords::mirrored` does on the CPU path. An edge quad's vertex is reflected
 // across its hard-edge line (through `anchor`, normal `dir`) and its direction negated; a
 // corner fan's vertex through its silhouette vertex (`anchor`), which turns the fan by pi.
 // Reflections keep the triangles' shape, so every fragment is drawn as on the CPU path.

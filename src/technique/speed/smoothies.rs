@@ -426,12 +426,12 @@ fn shadow_regions(
         .collect()
 }
 
-/// How far each caster's smoothies on the GPU path can reach beyond its projected box (light
-/// uv), in `corners`' order: the widest t over the box (the calibrated t shrinks with depth:
-/// taken at the box's nearest corner, linear depth being affine over it), over the cosine
-/// of half a fan segment (a fan's polygon is circumscribed about its disc), plus a texel
-/// for rasterisation. Every silhouette vertex lies in the box, and every smoothie, outer or
-/// reflected inner, within its vertex's reach; the quads within t of their edge.
+/// How far each caster's smoothies on the GPU path can reach beyond its projected box
+/// (light uv), in `corners`' order: the widest t over the box (the calibrated t shrinks
+/// with depth: taken at the box's nearest corner, linear depth being affine over it), over
+/// the cosine of half a fan segment (a fan's polygon is circumscribed about its disc), plus
+/// a texel for rasterisation. Every silhouette vertex lies in the box, and every smoothie,
+/// outer or reflected inner, within its vertex's reach; the quads within t of their edge.
 fn gpu_reaches(
     frame: &FrameInput<'_>,
     corners: &[(usize, [Vec2; 8])],

@@ -104,10 +104,16 @@ pub fn caster_corner_uvs(frame: &FrameInput<'_>) -> Option<Vec<(usize, [Vec2; 8]
 /// (`caster_corner_uvs`).
 pub fn casters_box(corners: &[(usize, [Vec2; 8])], res: u32) -> PixelBox {
     corners.iter().fold(PixelBox::EMPTY, |b, (_, uvs)| {
-        let lo = uvs.iter().fold(Vec2::INFINITY, |a, &u| a.min(u));
-        let hi = uvs.iter().fold(Vec2::NEG_INFINITY, |a, &u| a.max(u));
+        let (lo, hi) = uv_bounds(uvs);
         b.union(PixelBox::of_uv(res, lo, hi))
     })
+}
+
+/// The smallest and largest light uv of a set of points.
+pub fn uv_bounds(uvs: &[Vec2]) -> (Vec2, Vec2) {
+    let lo = uvs.iter().fold(Vec2::INFINITY, |a, &u| a.min(u));
+    let hi = uvs.iter().fold(Vec2::NEG_INFINITY, |a, &u| a.max(u));
+    (lo, hi)
 }
 
 /// The texels a light pass may have drawn last frame, for a pass that clears and draws

@@ -345,8 +345,7 @@ impl Areas {
             Drawn::Nothing => Some(PixelBox::EMPTY),
             Drawn::Gpu(_) => corners.as_ref().zip(reaches.as_ref()).map(|(c, r)| {
                 c.iter().zip(r).fold(PixelBox::EMPTY, |b, ((_, uvs), &r)| {
-                    let lo = uvs.iter().fold(Vec2::INFINITY, |a, &u| a.min(u));
-                    let hi = uvs.iter().fold(Vec2::NEG_INFINITY, |a, &u| a.max(u));
+                    let (lo, hi) = regions::uv_bounds(uvs);
                     b.union(PixelBox::of_uv(res, lo - r, hi + r))
                 })
             }),

@@ -13,9 +13,11 @@
 #include "penumbra_map/surface.glsl"
 
 layout(set = 0, binding = 1) uniform sampler2D shadow_map;   // RG32F: r caster depth, g foremost surface
-// RGBA16F, MIN: r = outer visibility (1 = lit), g = inner occlusion (1 = umbra), b = 1 - the
-// farthest receiver depth / far an inner value was made for.
+// R16F, MIN: the outer visibility (1 = lit), as the paper form's penumbra map.
 layout(set = 0, binding = 2) uniform sampler2D penumbra_map;
+// RG16F, MIN: r = inner occlusion (1 = umbra), g = 1 - the farthest receiver depth / far an
+// inner value was made for.
+layout(set = 0, binding = 3) uniform sampler2D penumbra_inner;
 
 // RECEIVER_EPS: a point more than this (relative) beyond the inner value's receiver is
 // behind something else.
@@ -32,7 +34,7 @@ float visibility(vec3 p, vec3 n) {
     // each lookup written in the shader at every pixel.
     vec4 occlusion = vec4(1.0);
     if (any(equal(lit, vec4(0.0)))) {
-        occlusion = textureGather(penumbra_map, s.uv, 1);
+        occlusion = textureGather(penumbra_inner, s.uv, 0);
         if (all(equal(lit, vec4(0.0))) && all(equal(occlusion, vec4(1.0)))) return 0.0;
     }
     vec4 outer = textureGather(penumbra_map, s.uv, 0);
@@ -42,7 +44,7 @@ float visibility(vec3 p, vec3 n) {
     vec4 in_front = mix(vec4(1.0), outer, own);
     // In front of every caster: the outer values alone (the inner ones are never read).
     if (all(equal(lit, vec4(1.0)))) return clamp(bilinear_lit(in_front, s.uv), 0.0, 1.0);
-    vec4 receiver = (1.0 - textureGather(penumbra_map, s.uv, 2)) * frame.light_params.y;
+    vec4 receiver = (1.0 - textureGather(penumbra_inner, s.uv, 1)) * frame.light_params.y;
     vec4 inner = (1.0 - occlusion) * step(s.depth, receiver * (1.0 + RECEIVER_EPS));
     inner = inner_at_depth(inner, receiver, casters, s.depth);
     vec4 behind = min(inner, outer);

@@ -22,10 +22,9 @@
 //     narrower blocker than its penumbra is never a full umbra). Exact for a parallel strip
 //     and a single straight edge; at a corner it counts the segment beyond the other edge in
 //     full (too light inside sharp corners of thin blockers).
-// Written to the RGBA16F penumbra map with MIN blending: g (inner occlusion) gets 1 - v, so
-// the lightest estimate wins; b the receiver depth it was made for as 1 - Z_R / far (the
-// farthest wins), which the final pass checks its own depth against; r (outer visibility)
-// and a the neutral 1.
+// Written to the RG16F inner map with MIN blending: r (inner occlusion) gets 1 - v, so the
+// lightest estimate wins; g the receiver depth it was made for as 1 - Z_R / far (the
+// farthest wins), which the final pass checks its own depth against.
 #include "common/frame.glsl"
 #include "common/penumbra.glsl"
 #include "penumbra_map/wedge.glsl"
@@ -35,7 +34,7 @@ layout(set = 0, binding = 1) uniform sampler2D shadow_map;   // RG32F: r nearest
 layout(location = 0) in float v_depth;
 layout(location = 1) in vec2 v_zv_h;
 layout(location = 2) flat in float v_reach;
-layout(location = 0) out vec4 o_penumbra;   // outer visibility, inner occlusion, 1 - receiver depth / far, unused
+layout(location = 0) out vec2 o_inner;   // occlusion, 1 - receiver depth / far (`penumbra_inner`)
 
 #include "common/inner_receiver.glsl"
 
@@ -62,5 +61,5 @@ void main() {
     float far_edge = far_edge_texels(here, dir, w / per_texel, zr);
     if (far_edge > 0.0) v += disc_chord(far_edge * per_texel / w);
     float v_in = clamp(max(v, blocker_floor(v_reach, zv, zr, denom)), 0.0, 1.0);
-    o_penumbra = vec4(1.0, 1.0 - v_in, 1.0 - zr / frame.light_params.y, 1.0);
+    o_inner = vec2(1.0 - v_in, 1.0 - zr / frame.light_params.y);
 }

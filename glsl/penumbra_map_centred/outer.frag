@@ -13,9 +13,8 @@
 // at the outer rim, plus the disc's segment beyond the far edge of a blocker narrower than
 // its penumbra (`outer_far_share`, common/inner_march.glsl, marched along the gradient of
 // Z_F, which points away from the edge: the inner side adds the same segment, so the two
-// meet at the hard edge without a step). Written to the RGBA16F penumbra map with MIN
-// blending: r (outer visibility: darkest wins, as in the paper) gets v, the inner channels
-// the neutral 1.
+// meet at the hard edge without a step). Written to the R16F penumbra map with MIN
+// blending (darkest wins, as in the paper).
 #include "common/frame.glsl"
 #include "common/penumbra.glsl"
 #include "penumbra_map/wedge.glsl"
@@ -25,7 +24,7 @@ layout(set = 0, binding = 1) uniform sampler2D shadow_map;   // RG32F: r nearest
 layout(location = 0) in float v_depth;
 layout(location = 1) in vec2 v_zv_h;
 layout(location = 2) flat in float v_reach;
-layout(location = 0) out vec4 o_penumbra;   // outer visibility, inner occlusion, 1 - receiver depth / far, unused
+layout(location = 0) out float o_outer;   // the outer visibility (`penumbra_map`, R16F)
 
 #include "common/inner_receiver.glsl"
 
@@ -49,5 +48,5 @@ void main() {
     if (g > 0.0 && !isinf(g)) {
         v += outer_far_share(gl_FragCoord.xy, grad / g, s * w_tex, w_tex, e.zp);
     }
-    o_penumbra = vec4(max(min(v, 1.0), blocker_floor(v_reach, e.zv, e.zp, e.denom)), 1.0, 1.0, 1.0);
+    o_outer = max(min(v, 1.0), blocker_floor(v_reach, e.zv, e.zp, e.denom));
 }

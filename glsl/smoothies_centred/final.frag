@@ -13,10 +13,12 @@
 #include "smoothies/constants.glsl"
 
 layout(set = 0, binding = 1) uniform sampler2D shadow_map;          // RG32F: r = nearest caster depth
-layout(set = 0, binding = 2) uniform sampler2D smoothie_depth;      // R32F outer smoothie depth (MIN)
-// RGBA16F, MIN: r = outer visibility (1 = lit), g = inner occlusion (1 = umbra), b = 1 - the
-// farthest receiver depth / far an inner value was made for.
-layout(set = 0, binding = 3) uniform sampler2D smoothie_penumbra;
+// RG32F, MIN: r = the nearest outer smoothie's depth, g = the darkest outer visibility
+// (1 = lit).
+layout(set = 0, binding = 2) uniform sampler2D smoothie_outer;
+// RG16F, MIN: r = inner occlusion (1 = umbra), g = 1 - the farthest receiver depth / far an
+// inner value was made for.
+layout(set = 0, binding = 3) uniform sampler2D smoothie_inner;
 
 // RECEIVER_EPS: the inner value's receiver window.
 #include "common/constants.glsl"
@@ -34,16 +36,16 @@ float visibility(vec3 p, vec3 n) {
     // each lookup written in the shader at every pixel.
     vec4 occlusion = vec4(1.0);
     if (any(equal(lit, vec4(0.0)))) {
-        occlusion = textureGather(smoothie_penumbra, s.uv, 1);
+        occlusion = textureGather(smoothie_inner, s.uv, 0);
         if (all(equal(lit, vec4(0.0))) && all(equal(occlusion, vec4(1.0)))) return 0.0;
     }
-    vec4 in_front = lit_test(textureGather(smoothie_depth, s.uv, 0), s.depth);
+    vec4 in_front = lit_test(textureGather(smoothie_outer, s.uv, 0), s.depth);
     // Lit and in front of every smoothie (the bulk of the image): no penumbra fetch.
     if (all(equal(lit * in_front, vec4(1.0)))) return 1.0;
-    vec4 outer = mix(textureGather(smoothie_penumbra, s.uv, 0), vec4(1.0), in_front);
+    vec4 outer = mix(textureGather(smoothie_outer, s.uv, 1), vec4(1.0), in_front);
     // In front of every caster: the outer values alone (the inner ones are never read).
     if (all(equal(lit, vec4(1.0)))) return clamp(bilinear_lit(outer, s.uv), 0.0, 1.0);
-    vec4 receiver = (1.0 - textureGather(smoothie_penumbra, s.uv, 2)) * frame.light_params.y;
+    vec4 receiver = (1.0 - textureGather(smoothie_inner, s.uv, 1)) * frame.light_params.y;
     vec4 inner = (1.0 - occlusion) * step(s.depth, receiver * (1.0 + RECEIVER_EPS));
     inner = inner_at_depth(inner, receiver, casters, s.depth);
     vec4 behind = min(inner, outer);

@@ -20,10 +20,11 @@
 //     half-width in), the far edge d beyond this texel adds disc_chord(d / w)
 //     (exact for a parallel strip: through it a point sees the disc's segment beyond each
 //     edge).
-// Writes depth FAR_DEPTH (neutral: inner smoothies do not take part in the outer depth
-// test) and (1, 1 - v, 1 - Z_R / far, 1): MIN keeps the lightest inner estimate and the
-// farthest receiver an inner value was made for.
 #include "smoothies_centred/smoothie.glsl"
+
+// `smoothie_inner` (RG16F, MIN): (1 - v, 1 - Z_R / far), so that MIN keeps the lightest
+// inner estimate and the farthest receiver an inner value was made for.
+layout(location = 0) out vec2 o_inner;
 
 #include "common/inner_receiver.glsl"
 
@@ -50,6 +51,5 @@ void main() {
     // Thin blocker: the far edge within w of this texel.
     float far_edge = far_edge_texels(here, dir, w_tex, zr);
     if (far_edge > 0.0) v += disc_chord(far_edge / w_tex);
-    o_depth = FAR_DEPTH;
-    o_penumbra = vec4(1.0, 1.0 - clamp(v, 0.0, 1.0), 1.0 - zr / frame.light_params.y, 1.0);
+    o_inner = vec2(1.0 - clamp(v, 0.0, 1.0), 1.0 - zr / frame.light_params.y);
 }

@@ -11,8 +11,8 @@
 // visibility is disc_chord(-s): 0.5 on the hard edge, 1 at the outer rim, plus the disc's
 // segment beyond the far edge of a blocker narrower than its penumbra (`outer_far_share`,
 // common/inner_march.glsl: the inner side adds it too, so the two meet at the hard edge
-// without a step). Writes b (MIN: the nearest smoothie) and (v, 1, 1, 1) (MIN on v: the
-// darkest outer value wins, the paper's rule).
+// without a step). Writes (b, v) to `smoothie_outer` (RG32F, MIN: the nearest smoothie's
+// depth, the darkest outer value, the paper's rule).
 //
 // Discarded, as in the paper form: no surface at the texel, b/r > 1, 1 - b/r < REMAP_EPS,
 // and s >= 1 (fully lit, v = 1). A lit fragment darkens nothing, but its b would still
@@ -21,6 +21,8 @@
 // gives it the farther smoothie's v (dark speckles along casters' edges under another
 // caster's smoothie; tests/centred_penumbra.rs, `outer_smoothies_write_only_what_darkens`).
 #include "smoothies_centred/smoothie.glsl"
+
+layout(location = 0) out vec2 o_outer;
 
 #include "common/inner_receiver.glsl"
 
@@ -41,6 +43,5 @@ void main() {
     float s_drawn = drawn_share(x_tex, w_tex);
     if (!(s_drawn < 1.0)) discard;
     float v = disc_chord(-s_drawn) + outer_far_share(gl_FragCoord.xy, dir, x_tex, w_tex, r);
-    o_depth = b;
-    o_penumbra = vec4(min(v, 1.0), 1.0, 1.0, 1.0);
+    o_outer = vec2(b, min(v, 1.0));
 }

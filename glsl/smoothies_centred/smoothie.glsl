@@ -1,7 +1,6 @@
 // What smoothies-centred's two smoothie fragment shaders (outer.frag, inner.frag) share: the
-// varyings of glsl/smoothies/smoothie.vert (the paper form's vertex shader, unchanged), the
-// MRT outputs and the smoothie's own distance from its hard-edge line
-// (src/technique/smoothies_centred.rs).
+// varyings of glsl/smoothies/smoothie.vert (the paper form's vertex shader, unchanged) and
+// the smoothie's own distance from its hard-edge line (src/technique/smoothies_centred.rs).
 #ifndef SMOOTHIES_CENTRED_SMOOTHIE_GLSL
 #define SMOOTHIES_CENTRED_SMOOTHIE_GLSL
 #include "common/frame.glsl"
@@ -14,11 +13,6 @@ layout(location = 1) flat in float v_kind;
 layout(location = 2) flat in vec2 v_anchor;
 layout(location = 3) flat in vec2 v_dir;
 layout(location = 4) noperspective in float v_width;
-
-// Location 0: R32F smoothie depth b (MIN; the outer smoothies' only). Location 1: RGBA16F
-// (MIN): outer visibility, inner occlusion, 1 - inner receiver depth / far, unused (1).
-layout(location = 0) out float o_depth;
-layout(location = 1) out vec4 o_penumbra;
 
 #include "common/far_depth.glsl"
 // REMAP_EPS and the outer smoothies' decision: the paper form's own.

@@ -441,15 +441,15 @@ impl<'c> Renderer<'c> {
             }
             crate::vk::Format::R16G16B16A16_SFLOAT => {
                 let texels = read_image::<[f16; 4]>(self.ctx, &mut self.runner, img)?;
-                (0..4)
-                    .map(|c| texels.iter().map(|t| t[c].to_f32()).collect())
-                    .collect()
+                planes(&texels, f16::to_f32)
+            }
+            crate::vk::Format::R16G16_SFLOAT => {
+                let texels = read_image::<[f16; 2]>(self.ctx, &mut self.runner, img)?;
+                planes(&texels, f16::to_f32)
             }
             crate::vk::Format::R32G32_SFLOAT => {
                 let texels = read_image::<[f32; 2]>(self.ctx, &mut self.runner, img)?;
-                (0..2)
-                    .map(|c| texels.iter().map(|t| t[c]).collect())
-                    .collect()
+                planes(&texels, |x| x)
             }
             // A light-sample bitmask (ssm-bitmask): one channel, the fraction of its 128 bits
             // that are set.
@@ -485,6 +485,13 @@ impl<'c> Renderer<'c> {
             channels,
         })
     }
+}
+
+/// Texels of N channels as N planes of f32.
+fn planes<T: Copy, const N: usize>(texels: &[[T; N]], to_f32: impl Fn(T) -> f32) -> Vec<Vec<f32>> {
+    (0..N)
+        .map(|c| texels.iter().map(|t| to_f32(t[c])).collect())
+        .collect()
 }
 
 /// Per-pixel work of a final pass from the counting frame (`Renderer::count_lookups`):

@@ -177,8 +177,10 @@ impl Form {
     }
 }
 
-/// The penumbra pass's one attachment, MIN-blended (darkest wins).
+/// An attachment of the penumbra pass, MIN-blended (darkest wins).
 pub(super) struct PenumbraTarget {
+    /// `--buffers` file and `Renderer::read_technique_buffer` name.
+    pub name: &'static str,
     /// Debug label.
     pub label: &'static str,
     pub format: Format,
@@ -187,18 +189,20 @@ pub(super) struct PenumbraTarget {
 }
 
 /// The paper's penumbra map (pass 2).
-const PAPER_TARGET: PenumbraTarget = PenumbraTarget {
+const PAPER_TARGETS: [PenumbraTarget; 1] = [PenumbraTarget {
+    name: "penumbra_map",
     label: "penumbra map",
     format: Format::R16_SFLOAT,
     // Eq. 1's intensity, darkest (MIN) of the cones and sheets; 1 = lit.
     channels: &["intensity"],
-};
+}];
 
-/// The penumbra map of `form`.
-fn penumbra_target(form: Form) -> &'static PenumbraTarget {
+/// The penumbra pass's attachments of `form`: the paper form's map; the centred form's
+/// outer and inner maps, one per pipeline.
+fn penumbra_targets(form: Form) -> &'static [PenumbraTarget] {
     match form {
-        Form::Paper => &PAPER_TARGET,
-        Form::Centred => &penumbra_map_centred::TARGET,
+        Form::Paper => &PAPER_TARGETS,
+        Form::Centred => &penumbra_map_centred::TARGETS,
     }
 }
 
@@ -236,8 +240,8 @@ const PAPER_FINAL_SHADER: FinalShader = FinalShader {
 pub struct PenumbraMap {
     form: Form,
     shadow: ShadowMap,
-    /// The penumbra map, as `penumbra_target(form)` describes it.
-    penumbra: Image,
+    /// The penumbra pass's attachments, as `penumbra_targets(form)` describes them.
+    penumbra: Vec<Image>,
     penumbra_pipeline: Pipeline,
     /// Centred form: the inner cones' and sheets' pipeline.
     inner_pipeline: Option<Pipeline>,
@@ -268,10 +272,14 @@ impl PenumbraMap {
             | ImageUsageFlags::SAMPLED
             | ImageUsageFlags::TRANSFER_SRC;
         let shadow = ShadowMap::new(ctx, init.ubo, res, names.shadow_map)?;
-        let target = penumbra_target(form);
-        ctx.require_blend(target.format, Blend::Min, names.technique)?;
-        let penumbra = Image::new_2d(ctx, res, res, target.format, usage, target.label)
-            .with_context(|| format!("creating the {}", target.label))?;
+        let penumbra = penumbra_targets(form)
+            .iter()
+            .map(|target| {
+                ctx.require_blend(target.format, Blend::Min, names.technique)?;
+                Image::new_2d(ctx, res, res, target.format, usage, target.label)
+                    .with_context(|| format!("creating the {}", target.label))
+            })
+            .collect::<Result<Vec<_>>>()?;
         let nearest = Sampler::new(ctx, Filter::Nearest).context("creating the nearest sampler")?;
 
         let penumbra_set = DescriptorSet::new(
@@ -285,7 +293,7 @@ impl PenumbraMap {
         let (penumbra_pipeline, inner_pipeline, final_shader) = match form {
             Form::Paper => {
                 // Darkest wins (the paper's LESS test on intensity stored as depth).
-                let colors = [(target.format, Blend::Min)];
+                let colors = [(PAPER_TARGETS[0].format, Blend::Min)];
                 let fragment = shaders::PENUMBRA_MAP_PENUMBRA_FRAG;
                 let sets = [&penumbra_set];
                 let desc = penumbra_pipeline_desc(names.penumbra, fragment, &colors, &sets);
@@ -296,11 +304,18 @@ impl PenumbraMap {
                 (outer, Some(inner), penumbra_map_centred::FINAL_SHADER)
             }
         };
-        let final_resources = [
+        let final_resources: Vec<_> = [
             ("frame", Resource::Uniform(init.ubo)),
             ("shadow_map", Resource::Sampled(&shadow.depth, &nearest)),
-            ("penumbra_map", Resource::Sampled(&penumbra, &nearest)),
-        ];
+        ]
+        .into_iter()
+        .chain(
+            penumbra_targets(form)
+                .iter()
+                .zip(&penumbra)
+                .map(|(target, image)| (target.name, Resource::Sampled(image, &nearest))),
+        )
+        .collect();
         let final_set = DescriptorSet::new(ctx, &final_resources, names.final_pass)?;
         // Split: the shader runs only where a caster or its cones and sheets project.
         let final_pass = FinalPass::split(ctx, names.final_pass, final_shader, &final_set)?;
@@ -394,29 +409,33 @@ impl Technique for PenumbraMap {
         self.shadow.pass_in(rec, frame.gpu, &map_area)?;
         // Pass 2.
         rec.pass(names.penumbra, |rec| {
-            // The paper's "clear to white"; the centred form's inner occlusion starts at 1.
-            rec.begin_rendering_in(
-                &[(&self.penumbra, Clear::Float([1.0; 4]))],
-                None,
-                Some(penumbra_area),
-            );
-            if self.draw_geometry {
-                rec.bind_pipeline(&self.penumbra_pipeline);
-                rec.bind_sets(&self.penumbra_pipeline, &[&self.penumbra_set]);
-                let [outer, inner] = self.cpu.sides();
-                match &self.gpu_silhouettes {
-                    Some(gpu) => gpu.draw(rec),
-                    None => outer.draw(rec),
-                }
-                if let Some(inner_pipeline) = &self.inner_pipeline {
-                    if !inner.is_empty() {
-                        rec.bind_pipeline(inner_pipeline);
-                        rec.bind_sets(inner_pipeline, &[&self.penumbra_set]);
-                        inner.draw(rec);
+            // Each pipeline into its own map: the paper form's one, the centred form's outer
+            // and inner (the GPU path draws the outer side only).
+            let pipelines = [Some(&self.penumbra_pipeline), self.inner_pipeline.as_ref()];
+            let maps = self.penumbra.iter().zip(pipelines);
+            for (side, (image, pipeline)) in maps.enumerate() {
+                // The paper's "clear to white"; the centred form's inner occlusion starts
+                // at 1.
+                let clear = Clear::Float([1.0; 4]);
+                rec.begin_rendering_in(&[(image, clear)], None, Some(penumbra_area));
+                if let Some(pipeline) = pipeline.filter(|_| self.draw_geometry) {
+                    let vertices = &self.cpu.sides()[side];
+                    match &self.gpu_silhouettes {
+                        Some(gpu) if side == 0 => {
+                            rec.bind_pipeline(pipeline);
+                            rec.bind_sets(pipeline, &[&self.penumbra_set]);
+                            gpu.draw(rec);
+                        }
+                        _ if !vertices.is_empty() => {
+                            rec.bind_pipeline(pipeline);
+                            rec.bind_sets(pipeline, &[&self.penumbra_set]);
+                            vertices.draw(rec);
+                        }
+                        _ => {}
                     }
                 }
+                rec.end_rendering();
             }
-            rec.end_rendering();
             Ok(())
         })?;
         Ok(())
@@ -447,14 +466,19 @@ impl Technique for PenumbraMap {
     }
 
     fn light_buffers(&self) -> Vec<LightBuffer<'_>> {
-        vec![
-            shadow_map_buffer("shadow_map", &self.shadow),
-            LightBuffer {
-                name: "penumbra_map",
-                image: &self.penumbra,
-                channels: penumbra_target(self.form).channels,
-            },
-        ]
+        [shadow_map_buffer("shadow_map", &self.shadow)]
+            .into_iter()
+            .chain(
+                self.penumbra
+                    .iter()
+                    .zip(penumbra_targets(self.form))
+                    .map(|(image, target)| LightBuffer {
+                        name: target.name,
+                        image,
+                        channels: target.channels,
+                    }),
+            )
+            .collect()
     }
 
     fn gpu_silhouettes(&self) -> Option<&GpuSilhouettes> {

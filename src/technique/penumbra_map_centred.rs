@@ -48,15 +48,17 @@
 //!    inner one, 1.0 and 5.0 texels outside its edge (1.5 and 5.5 past a caster in front at
 //!    1.0); r (is a caster there?) for an inner one at those points and at its own texel,
 //!    and along the inward marches of both sides (thin blockers, below).
-//! 2. `penumbra-map-centred/penumbra` — one rendering scope, no depth attachment, culling
-//!    off, one colour attachment, the penumbra map: R16G16B16A16_SFLOAT, clear (1, 1, 1, 1),
-//!    blend MIN; r = the outer visibility (darkest wins, the paper's rule), g = the inner
-//!    OCCLUSION 1 - v (so that the same MIN keeps the lightest inner estimate), b = 1 - the
-//!    depth / far of the receiver an inner value was made for (the farthest wins: one
-//!    caster's inner penumbra on a second caster behind it must not put the ground behind
-//!    both in the umbra where another edge's inner penumbra reaches the ground), a unused.
-//!    One attachment because MIN on one map and MAX on another would need the
-//!    independentBlend feature. Both draws use glsl/penumbra_map/penumbra.vert (the paper's).
+//! 2. `penumbra-map-centred/penumbra` — one timed pass, two rendering scopes (outer, then
+//!    inner), each with one colour attachment of its own, no depth attachment, culling off:
+//!    `penumbra_map` = R16_SFLOAT, clear 1, blend MIN: the outer visibility (darkest wins,
+//!    the paper's rule), the paper form's map; `penumbra_inner` = R16G16_SFLOAT, clear
+//!    (1, 1), blend MIN: r = the inner OCCLUSION 1 - v (so that MIN keeps the lightest inner
+//!    estimate), g = 1 - the depth / far of the receiver an inner value was made for (the
+//!    farthest wins: one caster's inner penumbra on a second caster behind it must not put
+//!    the ground behind both in the umbra where another edge's inner penumbra reaches the
+//!    ground). A map per side rather than one both share: a fragment blends only the
+//!    channels its side makes, and every value is MIN, so no independentBlend. Both draws
+//!    use glsl/penumbra_map/penumbra.vert (the paper's).
 //!    - outer cones and sheets, `glsl/penumbra_map_centred/outer.frag`: the paper's
 //!      fragment program (shared in glsl/penumbra_map/wedge.glsl: Z_P = the shadow map's g at
 //!      the fragment's texel, the same discards, the same blocker-size bound) with the exact
@@ -66,7 +68,7 @@
 //!      the disc's segment beyond its far edge (`outer_far_share`: the shadow map's r
 //!      marched inward from 1 texel inside the edge, along the gradient of Z_F, for what
 //!      is left of the half-width; "Combining edges"), raised to the paper's blocker-size
-//!      bound as the paper form's intensity is; writes (max(v, bound), 1, 1, 1).
+//!      bound as the paper form's intensity is; writes max(v, bound) to `penumbra_map`.
 //!    - inner cones and sheets, `glsl/penumbra_map_centred/inner.frag`: u = w(Z_F), the
 //!      inward direction = the gradient of u over the map (dFdx/dFdy). The receiver behind
 //!      the texel is hidden from the light, so its depth Z_R is estimated from the shadow
@@ -79,20 +81,20 @@
 //!      through it), when the fragment's own texel is not behind a caster 1 % nearer than
 //!      Z_R, or when the drawn share s' of s = u / w(Z_R) is at least 1 (umbra). Else v =
 //!      disc_chord(s') in [0, 0.5], plus the thin-blocker term below, raised to the
-//!      blocker-size bound; writes (1, 1 - v, 1 - Z_R / far, 1).
+//!      blocker-size bound; writes (1 - v, 1 - Z_R / far) to `penumbra_inner`.
 //! 3. `penumbra-map-centred/final` — `FinalPass` with
 //!    `glsl/penumbra_map_centred/final.frag`: per texel of the 2x2 footprint (textureGather
-//!    of the shadow map's r and g and of the penumbra map's r, g and b at the lookup
-//!    point), in front of the nearest caster: the outer visibility if the texel's foremost
-//!    surface is the point's own (the paper form's window, glsl/penumbra_map/surface.glsl),
-//!    else 1; behind it: 1 - the inner occlusion if the point is at most 5 % beyond the
-//!    farthest receiver depth of the inner values there, else 0 (a point behind a second
-//!    caster, e.g. the ground under two stacked boxes, stays in the umbra), narrowed where
-//!    the point is more than 5 % nearer than that receiver (its own, narrower penumbra:
-//!    `inner_at_depth`, glsl/common/nearer_receiver.glsl), and never more than the outer
-//!    visibility.
-//!    Bilinear weights as `hard`. R = 0 draws no cones or sheets: the map stays (1, 1, 1, 1),
-//!    and the result is `hard`'s exactly. Where the penumbra map holds its clear value and no
+//!    of the shadow map's r and g, the penumbra map and both channels of the inner map at
+//!    the lookup point), in front of the nearest caster: the outer visibility if the
+//!    texel's foremost surface is the point's own (the paper form's window,
+//!    glsl/penumbra_map/surface.glsl), else 1; behind it: 1 - the inner occlusion if the
+//!    point is at most 5 % beyond the farthest receiver depth of the inner values there,
+//!    else 0 (a point behind a second caster, e.g. the ground under two stacked boxes,
+//!    stays in the umbra), narrowed where the point is more than 5 % nearer than that
+//!    receiver (its own, narrower penumbra: `inner_at_depth`,
+//!    glsl/common/nearer_receiver.glsl), and never more than the outer visibility.
+//!    Bilinear weights as `hard`. R = 0 draws no cones or sheets: both maps stay at 1, and
+//!    the result is `hard`'s exactly. Where the penumbra map holds its clear value and no
 //!    caster is in front, v is exactly 1 (`bilinear_lit`). The shader gathers in that order
 //!    of need: the shadow map's r and the outer values first (all four lit and at 1: v = 1),
 //!    then g (all four in front of every caster: the outer values alone), the inner values
@@ -190,28 +192,34 @@ pub const INFO: TechniqueInfo = TechniqueInfo {
     create: |init| PenumbraMap::create(init, Form::Centred),
 };
 
-/// Pass 2's one attachment: the outer and the inner values packed into one RGBA16F target
-/// so that one MIN blend serves both.
-pub(super) const TARGET: PenumbraTarget = PenumbraTarget {
-    label: "penumbra map (outer, inner, receiver)",
-    format: Format::R16G16B16A16_SFLOAT,
-    // The darkest outer visibility (1 = lit), the least inner occlusion (1 = umbra) and
-    // 1 - the farthest receiver depth / far an inner value was made for, all MIN.
-    channels: &[
-        "outer_visibility",
-        "inner_occlusion",
-        "inner_receiver_nearness",
-        "unused",
-    ],
-};
+/// Pass 2's attachments, one for each side, each drawn by its own pipeline alone: a
+/// fragment blends only the values its side makes.
+pub(super) const TARGETS: [PenumbraTarget; 2] = [
+    PenumbraTarget {
+        name: "penumbra_map",
+        label: "penumbra map (outer)",
+        format: Format::R16_SFLOAT,
+        // The darkest outer visibility (1 = lit), MIN: the paper form's map.
+        channels: &["outer_visibility"],
+    },
+    PenumbraTarget {
+        name: "penumbra_inner",
+        label: "penumbra map (inner, receiver)",
+        format: Format::R16G16_SFLOAT,
+        // The least inner occlusion (1 = umbra) and 1 - the farthest receiver depth / far
+        // an inner value was made for, both MIN.
+        channels: &["inner_occlusion", "inner_receiver_nearness"],
+    },
+];
 
-/// Pass 2's two pipelines, both into `TARGET` with MIN blending: the outer cones' and
-/// sheets' (glsl/penumbra_map_centred/outer.frag), then the inner ones' (inner.frag).
+/// Pass 2's two pipelines, each into its own of `TARGETS` with MIN blending: the outer
+/// cones' and sheets' (glsl/penumbra_map_centred/outer.frag), then the inner ones'
+/// (inner.frag).
 pub(super) fn pipelines(
     init: &TechniqueInit<'_>,
     penumbra_set: &DescriptorSet,
 ) -> Result<[Pipeline; 2]> {
-    let colors = [(TARGET.format, Blend::Min)];
+    let [outer_colors, inner_colors] = TARGETS.map(|t| [(t.format, Blend::Min)]);
     let name = Form::Centred.names().penumbra;
     let sets = [penumbra_set];
     let outer = shaders::PENUMBRA_MAP_CENTRED_OUTER_FRAG;
@@ -219,11 +227,11 @@ pub(super) fn pipelines(
     Ok([
         Pipeline::graphics(
             init.ctx,
-            &penumbra_pipeline_desc(name, outer, &colors, &sets),
+            &penumbra_pipeline_desc(name, outer, &outer_colors, &sets),
         )?,
         Pipeline::graphics(
             init.ctx,
-            &penumbra_pipeline_desc(name, inner, &colors, &sets),
+            &penumbra_pipeline_desc(name, inner, &inner_colors, &sets),
         )?,
     ])
 }

@@ -267,7 +267,7 @@ const PAPER_TARGETS: &[SmoothieTarget] = &[SmoothieTarget {
 fn smoothie_targets(form: Form) -> &'static [SmoothieTarget] {
     match form {
         Form::Paper => PAPER_TARGETS,
-        Form::Centred => smoothies_centred::TARGETS,
+        Form::Centred => &smoothies_centred::TARGETS,
     }
 }
 
@@ -388,17 +388,17 @@ impl Smoothies {
             ("frame", Resource::Uniform(init.ubo)),
             ("shadow_map", Resource::Sampled(&shadow.depth, &nearest)),
         ];
-        // The paper's smoothie buffer and falloff curve; the centred form's depth and
-        // penumbra values (its disc-chord profile is computed in the shader).
+        // The paper's smoothie buffer and falloff curve; the centred form's outer and inner
+        // values (its disc-chord profile is computed in the shader).
         let final_shader = match (form, &smoothie[..]) {
             (Form::Paper, [buffer]) => {
                 bindings.push(("smoothie_buffer", Resource::Sampled(buffer, &nearest)));
                 bindings.push(("falloff", Resource::Sampled(&falloff, &linear)));
                 paper_final_shader(init)
             }
-            (Form::Centred, [depth, penumbra]) => {
-                bindings.push(("smoothie_depth", Resource::Sampled(depth, &nearest)));
-                bindings.push(("smoothie_penumbra", Resource::Sampled(penumbra, &nearest)));
+            (Form::Centred, [outer, inner]) => {
+                bindings.push(("smoothie_outer", Resource::Sampled(outer, &nearest)));
+                bindings.push(("smoothie_inner", Resource::Sampled(inner, &nearest)));
                 smoothies_centred::FINAL_SHADER
             }
             _ => anyhow::bail!("{} smoothie targets for {form:?}", smoothie.len()),
@@ -541,41 +541,36 @@ impl Technique for Smoothies {
         let (map_area, area) = self.areas.light_areas(frame, res, grow, drawn);
         // Pass 1.
         self.shadow.pass_in(rec, frame.gpu, &map_area)?;
-        // Pass 2.
+        // Pass 2: each pipeline into its own target (the paper form's one, the centred
+        // form's outer and inner).
         rec.pass(names.smoothie, |rec| {
-            let targets: Vec<_> = self
-                .smoothie
-                .iter()
-                .zip(smoothie_targets(self.form))
-                .map(|(image, target)| (image, Clear::Float(target.clear)))
-                .collect();
-            rec.begin_rendering_in(&targets, None, Some(area));
-            if self.draw_smoothies {
-                let pipelines = [Some(&self.smoothie_pipeline), self.inner_pipeline.as_ref()];
-                match (&self.gpu_silhouettes, self.path) {
-                    // The same outer smoothies twice under the centred form: the inner
-                    // pipeline reflects them (glsl/smoothies_centred/mirrored.vert).
-                    (Some(gpu), _) => {
-                        for pipeline in pipelines.into_iter().flatten() {
+            let pipelines = [Some(&self.smoothie_pipeline), self.inner_pipeline.as_ref()];
+            let sides = self.smoothie.iter().zip(smoothie_targets(self.form));
+            for (side, ((image, target), pipeline)) in sides.zip(pipelines).enumerate() {
+                rec.begin_rendering_in(&[(image, Clear::Float(target.clear))], None, Some(area));
+                if let Some(pipeline) = pipeline.filter(|_| self.draw_smoothies) {
+                    match (&self.gpu_silhouettes, self.path) {
+                        // The inner pipeline draws the same outer smoothies, reflected
+                        // (glsl/smoothies_centred/mirrored.vert).
+                        (Some(gpu), _) => {
                             rec.bind_pipeline(pipeline);
                             rec.bind_sets(pipeline, &[&self.smoothie_set]);
                             gpu.draw(rec);
                         }
-                    }
-                    (None, SilhouettePath::Cpu) => {
-                        for (pipeline, vertices) in pipelines.into_iter().zip(self.cpu.sides()) {
-                            if let Some(pipeline) = pipeline.filter(|_| !vertices.is_empty()) {
+                        (None, SilhouettePath::Cpu) => {
+                            let vertices = self.cpu.sides().nth(side);
+                            if let Some(vertices) = vertices.filter(|v| !v.is_empty()) {
                                 rec.bind_pipeline(pipeline);
                                 rec.bind_sets(pipeline, &[&self.smoothie_set]);
                                 vertices.draw(rec);
                             }
                         }
+                        // No caster edge: nothing to draw.
+                        _ => {}
                     }
-                    // No caster edge: nothing to draw.
-                    _ => {}
                 }
+                rec.end_rendering();
             }
-            rec.end_rendering();
             Ok(())
         })?;
         Ok(())

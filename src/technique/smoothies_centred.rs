@@ -64,32 +64,34 @@
 //!    and, for an inner one, 1.0 and 5.0 texels outside its edge (1.5 and 5.5 past a caster
 //!    in front at 1.0); r along the thin-blocker marches (both sides) and, for an inner
 //!    one, at its own texel.
-//! 2. `smoothies-centred/smoothie` — ONE pass (the paper's single MRT smoothie pass), no
-//!    depth attachment, culling off, two colour attachments:
-//!    location 0 = smoothie linear depth b, R32_SFLOAT, clear 1e30, blend MIN (outer
-//!    smoothies only, as the paper's);
-//!    location 1 = the penumbra values, R16G16B16A16_SFLOAT, clear (1, 1, 1, 1), blend MIN:
-//!    r = outer visibility (darkest wins, the paper's rule), g = inner OCCLUSION 1 - v (so
-//!    that the same MIN keeps the lightest inner estimate), b = 1 - the depth / far of the
-//!    receiver an inner value was made for (the farthest wins), a unused.
-//!    The paper's alpha attachment widened to four channels rather than a third attachment:
-//!    one MIN blend state for all the values (MIN on some and MAX on others would need
-//!    independentBlend), one clear, and 16 bits are enough for fractions and for the
-//!    receiver depth at the final pass's 5 % tolerance; b keeps its own 32-bit attachment
-//!    because the b/r tests need it (REMAP_EPS 1e-4). 12 bytes per texel.
+//! 2. `smoothies-centred/smoothie` — one timed pass, two rendering scopes (outer, then
+//!    inner), each with one colour attachment of its own, no depth attachment, culling off:
+//!    `smoothie_outer` = R32G32_SFLOAT, clear (1e30, 1), blend MIN: r = the nearest outer
+//!    smoothie's linear depth b, g = the outer visibility (darkest wins, the paper's rule):
+//!    the paper form's buffer, with v in place of alpha;
+//!    `smoothie_inner` = R16G16_SFLOAT, clear (1, 1), blend MIN: r = the inner OCCLUSION
+//!    1 - v (so that MIN keeps the lightest inner estimate), g = 1 - the depth / far of the
+//!    receiver an inner value was made for (the farthest wins).
+//!    An attachment per side rather than one set both sides share: a fragment blends only
+//!    the channels its side makes (8 and 4 bytes a texel, where two shared attachments cost
+//!    12 to every fragment of either), and every value is MIN, so no independentBlend.
+//!    16 bits are enough for the inner fractions and for the receiver depth at the final
+//!    pass's 5 % tolerance; b keeps 32 bits because the b/r tests need them (REMAP_EPS
+//!    1e-4).
 //!    Two pipelines, both with glsl/smoothies/smoothie.vert over the CPU path's expanded
 //!    triangles (`SmoothieRecords::expand_side`), one draw each: every caster's outer
-//!    smoothies, then every caster's inner ones (the same records mirrored). On the GPU
-//!    path both draw the compute passes' buffer indirectly, the inner pipeline through
-//!    glsl/smoothies_centred/mirrored.vert (the reflection, "Geometry" above):
+//!    smoothies into `smoothie_outer`, then every caster's inner ones (the same records
+//!    mirrored) into `smoothie_inner`. On the GPU path both draw the compute passes'
+//!    buffer indirectly, the inner pipeline through glsl/smoothies_centred/mirrored.vert
+//!    (the reflection, "Geometry" above):
 //!    - outer smoothies, `glsl/smoothies_centred/outer.frag`: the paper form's fragment
 //!      program and decision (`smoothie_alpha`, glsl/smoothies/alpha.glsl: receiver r =
 //!      the shadow map's g at its texel), s = alpha' in [0, 1), v = disc_chord(-s') in
 //!      [0.5, 1) (s' the drawn share, below), plus, for a blocker narrower than its
 //!      penumbra, the disc's segment beyond its far edge (`outer_far_share`, below);
-//!      writes b and (v, 1, 1, 1) only
-//!      where the smoothie darkens a surface, as the paper form: discarded where g holds
-//!      no surface, b/r > 1, 1 - b/r < 1e-4 and s' >= 1 (fully lit). A lit fragment's b,
+//!      writes (b, v) only where the smoothie darkens a surface, as the paper form:
+//!      discarded where g holds no surface, b/r > 1, 1 - b/r < 1e-4 and s' >= 1 (fully
+//!      lit). A lit fragment's b,
 //!      MIN-blended into a texel that another caster's smoothie darkens, would put the
 //!      points between the two depths behind the nearest smoothie, and they would take the
 //!      farther one's v: dark specks on the rims of casters under a neighbour's smoothie
@@ -113,13 +115,13 @@
 //!      penumbra through it), when this texel is not behind a caster 1 % nearer than Z_R,
 //!      or when the drawn share s' of s = x / (t (1 - b/Z_R)) (a sun's t (Z_R - b) / D) is
 //!      at least 1 (umbra). Else v = disc_chord(s') in [0, 0.5], plus the thin-blocker term
-//!      below; writes b = 1e30 (neutral) and (1, 1 - v, 1 - Z_R / far, 1). Z_R is at most
+//!      below; writes (1 - v, 1 - Z_R / far). Z_R is at most
 //!      Z, 1.05 times the deepest surface where it reads g (a depth the map holds,
 //!      extrapolated by at most 5 %), so nothing is written beyond t (1 - b/Z) from the
 //!      edge (what the speed layer's shortened inner smoothies rely on).
 //! 3. `smoothies-centred/final` — `FinalPass` with `glsl/smoothies_centred/final.frag`:
-//!    per texel of the 2x2 footprint (textureGather of the shadow map's r, the smoothie
-//!    depth and the penumbra values' r, g, b at the lookup point): outer = the outer
+//!    per texel of the 2x2 footprint (textureGather of the shadow map's r and of each
+//!    channel of `smoothie_outer` and `smoothie_inner` at the lookup point): outer = the outer
 //!    visibility if the point is behind the nearest smoothie, else 1; in front of the
 //!    nearest caster: outer; behind it: min(outer, 1 - the inner occlusion) if the point is
 //!    at most 5 % beyond the farthest receiver depth of the inner values there, else 0 (a
@@ -218,28 +220,24 @@ pub const INFO: TechniqueInfo = TechniqueInfo {
     create: |init| Smoothies::create(init, Form::Centred),
 };
 
-/// Pass 2's attachments: the outer smoothies' depth apart from the penumbra values, which
-/// RGBA16F holds (both MIN-blended).
-pub(super) const TARGETS: &[SmoothieTarget] = &[
+/// Pass 2's attachments, one for each side, each drawn by its own pipeline alone: a
+/// fragment blends only the values its side makes.
+pub(super) const TARGETS: [SmoothieTarget; 2] = [
     SmoothieTarget {
-        name: "smoothie_depth",
-        format: Format::R32_SFLOAT,
-        clear: [FAR_DEPTH; 4],
-        // The nearest outer smoothie's linear depth (1e30: none).
-        channels: &["depth"],
+        name: "smoothie_outer",
+        format: Format::R32G32_SFLOAT,
+        clear: [FAR_DEPTH, 1.0, 0.0, 0.0],
+        // The nearest outer smoothie's linear depth (1e30: none) and the darkest outer
+        // visibility (1 = lit), both MIN: the paper form's buffer, with v for alpha.
+        channels: &["depth", "outer_visibility"],
     },
     SmoothieTarget {
-        name: "smoothie_penumbra",
-        format: Format::R16G16B16A16_SFLOAT,
+        name: "smoothie_inner",
+        format: Format::R16G16_SFLOAT,
         clear: [1.0; 4],
-        // The darkest outer visibility (1 = lit), the least inner occlusion (1 = umbra) and
-        // 1 - the farthest inner receiver depth / far, all MIN.
-        channels: &[
-            "outer_visibility",
-            "inner_occlusion",
-            "inner_receiver_nearness",
-            "unused",
-        ],
+        // The least inner occlusion (1 = umbra) and 1 - the farthest inner receiver
+        // depth / far, both MIN.
+        channels: &["inner_occlusion", "inner_receiver_nearness"],
     },
 ];
 
@@ -251,7 +249,7 @@ pub(super) fn pipelines(
     smoothie_set: &DescriptorSet,
     mirrored: bool,
 ) -> Result<[Pipeline; 2]> {
-    let colors: Vec<_> = TARGETS.iter().map(|t| (t.format, Blend::Min)).collect();
+    let [outer_colors, inner_colors] = TARGETS.map(|t| [(t.format, Blend::Min)]);
     let name = Form::Centred.smoothie_names().smoothie;
     let sets = [smoothie_set];
     let outer = shaders::SMOOTHIES_CENTRED_OUTER_FRAG;
@@ -263,12 +261,12 @@ pub(super) fn pipelines(
         } else {
             shaders::SMOOTHIES_SMOOTHIE_VERT
         },
-        ..smoothie_pipeline_desc(name, inner, &colors, &sets)
+        ..smoothie_pipeline_desc(name, inner, &inner_colors, &sets)
     };
     Ok([
         Pipeline::graphics(
             init.ctx,
-            &smoothie_pipeline_desc(name, outer, &colors, &sets),
+            &smoothie_pipeline_desc(name, outer, &outer_colors, &sets),
         )?,
         Pipeline::graphics(init.ctx, &inner_desc)?,
     ])

@@ -47,7 +47,7 @@ pub use crate::gpu::FrameInput;
 use crate::gpu::GpuScene;
 use crate::scene::Scene;
 use crate::settings::{Settings, SilhouettePath};
-use crate::vk::{Buffer, Context, Image, Recorder};
+use crate::vk::{Blend, Buffer, Context, Format, Image, ImageUsageFlags, Recorder};
 use anyhow::{bail, Result};
 
 /// What a technique is created from. Its GPU objects live as long as the technique.
@@ -172,6 +172,57 @@ pub fn shadow_map_buffer<'a>(name: &'static str, map: &'a ShadowMap) -> LightBuf
         image: &map.depth,
         channels: map.channels,
     }
+}
+
+/// One attachment of a light pass that the final pass samples, MIN-blended: its name, format,
+/// clear value and what each channel holds.
+pub(crate) struct LightTarget {
+    /// `--buffers` file and `Renderer::read_technique_buffer` name, and debug label.
+    pub name: &'static str,
+    pub format: Format,
+    pub clear: [f32; 4],
+    /// What each channel holds, for `--buffers`.
+    pub channels: &'static [&'static str],
+}
+
+/// One `res` x `res` image per target, each format checked for MIN blending.
+pub(crate) fn light_target_images(
+    ctx: &Context,
+    targets: &[LightTarget],
+    res: u32,
+    technique: &str,
+) -> Result<Vec<Image>> {
+    let usage = ImageUsageFlags::COLOR_ATTACHMENT
+        | ImageUsageFlags::SAMPLED
+        | ImageUsageFlags::TRANSFER_SRC;
+    targets
+        .iter()
+        .map(|target| {
+            ctx.require_blend(target.format, Blend::Min, technique)?;
+            Image::new_2d(ctx, res, res, target.format, usage, target.name)
+        })
+        .collect()
+}
+
+/// The shared shadow map, then each target's image, as light buffers.
+pub(crate) fn target_buffers<'a>(
+    shadow: &'a ShadowMap,
+    images: &'a [Image],
+    targets: &'static [LightTarget],
+) -> Vec<LightBuffer<'a>> {
+    [shadow_map_buffer("shadow_map", shadow)]
+        .into_iter()
+        .chain(
+            images
+                .iter()
+                .zip(targets)
+                .map(|(image, target)| LightBuffer {
+                    name: target.name,
+                    image,
+                    channels: target.channels,
+                }),
+        )
+        .collect()
 }
 
 /// `frame.technique` and `frame.technique2` from their eight slots, each filled by its name

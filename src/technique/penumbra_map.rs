@@ -112,8 +112,8 @@
 //! from the light) hides the penumbra of whatever lies behind it.
 use super::speed::penumbra_map::{Areas, CpuPenumbra, Drawn};
 use super::{
-    penumbra_map_centred, shadow_map_buffer, Form, FrameInput, LightBuffer, Technique,
-    TechniqueInfo, TechniqueInit,
+    light_target_images, penumbra_map_centred, target_buffers, Form, FrameInput, LightBuffer,
+    LightTarget, Technique, TechniqueInfo, TechniqueInit,
 };
 use crate::frustum::fit_light;
 use crate::gpu::passes::{FinalPass, FinalShader, ShadowMap, Shadowed};
@@ -125,7 +125,7 @@ use crate::silhouette::penumbra::{PenumbraKey, PenumbraVertex};
 use crate::silhouette::{self, Adjacency};
 use crate::vk::{
     Blend, Clear, Context, CullModeFlags, DescriptorSet, Filter, Format, GraphicsPipelineDesc,
-    Image, ImageUsageFlags, Pipeline, PrimitiveTopology, Recorder, Resource, Sampler,
+    Image, Pipeline, PrimitiveTopology, Recorder, Resource, Sampler,
 };
 use anyhow::{Context as _, Result};
 use std::sync::Arc;
@@ -177,29 +177,19 @@ impl Form {
     }
 }
 
-/// An attachment of the penumbra pass, MIN-blended (darkest wins).
-pub(super) struct PenumbraTarget {
-    /// `--buffers` file and `Renderer::read_technique_buffer` name.
-    pub name: &'static str,
-    /// Debug label.
-    pub label: &'static str,
-    pub format: Format,
-    /// What each channel holds, for `--buffers`.
-    pub channels: &'static [&'static str],
-}
-
 /// The paper's penumbra map (pass 2).
-const PAPER_TARGETS: [PenumbraTarget; 1] = [PenumbraTarget {
+const PAPER_TARGETS: [LightTarget; 1] = [LightTarget {
     name: "penumbra_map",
-    label: "penumbra map",
     format: Format::R16_SFLOAT,
+    // The paper's "clear to white".
+    clear: [1.0; 4],
     // Eq. 1's intensity, darkest (MIN) of the cones and sheets; 1 = lit.
     channels: &["intensity"],
 }];
 
 /// The penumbra pass's attachments of `form`: the paper form's map; the centred form's
 /// outer and inner maps, one per pipeline.
-fn penumbra_targets(form: Form) -> &'static [PenumbraTarget] {
+fn penumbra_targets(form: Form) -> &'static [LightTarget] {
     match form {
         Form::Paper => &PAPER_TARGETS,
         Form::Centred => &penumbra_map_centred::TARGETS,
@@ -268,18 +258,9 @@ impl PenumbraMap {
         let ctx = init.ctx;
         let names = form.names();
         let res = init.settings.shadow_res;
-        let usage = ImageUsageFlags::COLOR_ATTACHMENT
-            | ImageUsageFlags::SAMPLED
-            | ImageUsageFlags::TRANSFER_SRC;
         let shadow = ShadowMap::new(ctx, init.ubo, res, names.shadow_map)?;
-        let penumbra = penumbra_targets(form)
-            .iter()
-            .map(|target| {
-                ctx.require_blend(target.format, Blend::Min, names.technique)?;
-                Image::new_2d(ctx, res, res, target.format, usage, target.label)
-                    .with_context(|| format!("creating the {}", target.label))
-            })
-            .collect::<Result<Vec<_>>>()?;
+        let penumbra = light_target_images(ctx, penumbra_targets(form), res, names.technique)
+            .context("creating the penumbra maps")?;
         let nearest = Sampler::new(ctx, Filter::Nearest).context("creating the nearest sampler")?;
 
         let penumbra_set = DescriptorSet::new(
@@ -412,11 +393,9 @@ impl Technique for PenumbraMap {
             // Each pipeline into its own map: the paper form's one, the centred form's outer
             // and inner (the GPU path draws the outer side only).
             let pipelines = [Some(&self.penumbra_pipeline), self.inner_pipeline.as_ref()];
-            let maps = self.penumbra.iter().zip(pipelines);
-            for (side, (image, pipeline)) in maps.enumerate() {
-                // The paper's "clear to white"; the centred form's inner occlusion starts
-                // at 1.
-                let clear = Clear::Float([1.0; 4]);
+            let maps = self.penumbra.iter().zip(penumbra_targets(self.form));
+            for (side, ((image, target), pipeline)) in maps.zip(pipelines).enumerate() {
+                let clear = Clear::Float(target.clear);
                 rec.begin_rendering_in(&[(image, clear)], None, Some(penumbra_area));
                 if let Some(pipeline) = pipeline.filter(|_| self.draw_geometry) {
                     let vertices = &self.cpu.sides()[side];
@@ -466,19 +445,7 @@ impl Technique for PenumbraMap {
     }
 
     fn light_buffers(&self) -> Vec<LightBuffer<'_>> {
-        [shadow_map_buffer("shadow_map", &self.shadow)]
-            .into_iter()
-            .chain(
-                self.penumbra
-                    .iter()
-                    .zip(penumbra_targets(self.form))
-                    .map(|(image, target)| LightBuffer {
-                        name: target.name,
-                        image,
-                        channels: target.channels,
-                    }),
-            )
-            .collect()
+        target_buffers(&self.shadow, &self.penumbra, penumbra_targets(self.form))
     }
 
     fn gpu_silhouettes(&self) -> Option<&GpuSilhouettes> {

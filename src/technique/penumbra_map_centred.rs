@@ -179,8 +179,8 @@
 //! blocker (the search's start inside the edge and the end of the rest of the half-width)
 //! and up to 6 bisections only where the blocker has ended by then.
 
-use super::penumbra_map::{penumbra_pipeline_desc, PenumbraMap, PenumbraTarget};
-use super::{Form, TechniqueInfo, TechniqueInit};
+use super::penumbra_map::{penumbra_pipeline_desc, PenumbraMap};
+use super::{Form, LightTarget, TechniqueInfo, TechniqueInit};
 use crate::gpu::passes::FinalShader;
 use crate::shaders;
 use crate::vk::{Blend, DescriptorSet, Format, Pipeline};
@@ -194,18 +194,18 @@ pub const INFO: TechniqueInfo = TechniqueInfo {
 
 /// Pass 2's attachments, one for each side, each drawn by its own pipeline alone: a
 /// fragment blends only the values its side makes.
-pub(super) const TARGETS: [PenumbraTarget; 2] = [
-    PenumbraTarget {
+pub(super) const TARGETS: [LightTarget; 2] = [
+    LightTarget {
         name: "penumbra_map",
-        label: "penumbra map (outer)",
         format: Format::R16_SFLOAT,
+        clear: [1.0; 4],
         // The darkest outer visibility (1 = lit), MIN: the paper form's map.
         channels: &["outer_visibility"],
     },
-    PenumbraTarget {
+    LightTarget {
         name: "penumbra_inner",
-        label: "penumbra map (inner, receiver)",
         format: Format::R16G16_SFLOAT,
+        clear: [1.0; 4],
         // The least inner occlusion (1 = umbra) and 1 - the farthest receiver depth / far
         // an inner value was made for, both MIN.
         channels: &["inner_occlusion", "inner_receiver_nearness"],

@@ -138,8 +138,8 @@
 use super::speed::regions::INNER_RECEIVER_TEXELS;
 use super::speed::smoothies::{Areas, CpuSmoothies, Drawn, PAPER_SPLIT_BANDS};
 use super::{
-    shadow_map_buffer, smoothies_centred, technique_constants, Form, FrameInput, LightBuffer,
-    Technique, TechniqueInfo, TechniqueInit,
+    light_target_images, smoothies_centred, target_buffers, technique_constants, Form, FrameInput,
+    LightBuffer, LightTarget, Technique, TechniqueInfo, TechniqueInit,
 };
 use crate::frustum::fit_light;
 use crate::gpu::passes::{falloff_lut, FinalPass, FinalShader, ShadowMap, Shadowed, FAR_DEPTH};
@@ -151,7 +151,7 @@ use crate::silhouette::smoothie::{SmoothieVertex, Width};
 use crate::silhouette::{self, Adjacency};
 use crate::vk::{
     Blend, Clear, Context, CullModeFlags, DescriptorSet, Filter, Format, GraphicsPipelineDesc,
-    Image, ImageUsageFlags, Pipeline, PrimitiveTopology, Recorder, Resource, Sampler,
+    Image, Pipeline, PrimitiveTopology, Recorder, Resource, Sampler,
 };
 use anyhow::Result;
 use std::sync::Arc;
@@ -242,19 +242,8 @@ pub fn smoothie_width(fixed: Option<f32>, scene: &Scene, light: &LightView, radi
     width.at(light.linear_depth((b.min + b.max) * 0.5).max(light.near))
 }
 
-/// One attachment of the smoothie pass, MIN-blended (each texel keeps the darkest
-/// smoothie).
-pub(super) struct SmoothieTarget {
-    /// `--buffers` file and `Renderer::read_technique_buffer` name, and debug label.
-    pub name: &'static str,
-    pub format: Format,
-    pub clear: [f32; 4],
-    /// What each channel holds, for `--buffers`.
-    pub channels: &'static [&'static str],
-}
-
 /// The paper's smoothie buffer: one RG32F target (pass 2).
-const PAPER_TARGETS: &[SmoothieTarget] = &[SmoothieTarget {
+const PAPER_TARGETS: &[LightTarget] = &[LightTarget {
     name: "smoothie_buffer",
     format: Format::R32G32_SFLOAT,
     clear: [FAR_DEPTH, 1.0, 0.0, 0.0],
@@ -264,7 +253,7 @@ const PAPER_TARGETS: &[SmoothieTarget] = &[SmoothieTarget {
 }];
 
 /// The smoothie pass's attachments of `form`.
-fn smoothie_targets(form: Form) -> &'static [SmoothieTarget] {
+fn smoothie_targets(form: Form) -> &'static [LightTarget] {
     match form {
         Form::Paper => PAPER_TARGETS,
         Form::Centred => &smoothies_centred::TARGETS,
@@ -363,7 +352,7 @@ impl Smoothies {
         let res = init.settings.shadow_res;
         let names = form.smoothie_names();
         let shadow = ShadowMap::new(ctx, init.ubo, res, names.shadow_map)?;
-        let smoothie = Self::smoothie_images(ctx, form, res)?;
+        let smoothie = light_target_images(ctx, smoothie_targets(form), res, names.technique)?;
         let nearest = Sampler::new(ctx, Filter::Nearest)?;
         let linear = Sampler::new(ctx, Filter::Linear)?;
         let falloff = falloff_lut(ctx)?;
@@ -432,21 +421,6 @@ impl Smoothies {
             draw_smoothies: false,
             areas: Areas::default(),
         }))
-    }
-
-    /// The smoothie pass's attachments (`smoothie_targets`), each checked for MIN blending.
-    fn smoothie_images(ctx: &Context, form: Form, res: u32) -> Result<Vec<Image>> {
-        let usage = ImageUsageFlags::COLOR_ATTACHMENT
-            | ImageUsageFlags::SAMPLED
-            | ImageUsageFlags::TRANSFER_SRC;
-        smoothie_targets(form)
-            .iter()
-            .map(|target| {
-                let technique = form.smoothie_names().technique;
-                ctx.require_blend(target.format, Blend::Min, technique)?;
-                Image::new_2d(ctx, res, res, target.format, usage, target.name)
-            })
-            .collect()
     }
 
     /// The GPU path's compute passes and buffers, sized for the scene's own light (`prepare`
@@ -601,19 +575,7 @@ impl Technique for Smoothies {
     }
 
     fn light_buffers(&self) -> Vec<LightBuffer<'_>> {
-        [shadow_map_buffer("shadow_map", &self.shadow)]
-            .into_iter()
-            .chain(
-                self.smoothie
-                    .iter()
-                    .zip(smoothie_targets(self.form))
-                    .map(|(image, target)| LightBuffer {
-                        name: target.name,
-                        image,
-                        channels: target.channels,
-                    }),
-            )
-            .collect()
+        target_buffers(&self.shadow, &self.smoothie, smoothie_targets(self.form))
     }
 
     fn gpu_silhouettes(&self) -> Option<&GpuSilhouettes> {

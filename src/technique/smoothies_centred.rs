@@ -206,8 +206,8 @@
 //! search's start inside the edge and the end of the rest of the half-width) and up to 6
 //! bisections only where the blocker has ended by then.
 
-use super::smoothies::{smoothie_pipeline_desc, SmoothieTarget, Smoothies};
-use super::{Form, TechniqueInfo, TechniqueInit};
+use super::smoothies::{smoothie_pipeline_desc, Smoothies};
+use super::{Form, LightTarget, TechniqueInfo, TechniqueInit};
 use crate::gpu::passes::{FinalShader, FAR_DEPTH};
 use crate::shaders;
 use crate::vk::{Blend, DescriptorSet, Format, GraphicsPipelineDesc, Pipeline};
@@ -222,8 +222,8 @@ pub const INFO: TechniqueInfo = TechniqueInfo {
 
 /// Pass 2's attachments, one for each side, each drawn by its own pipeline alone: a
 /// fragment blends only the values its side makes.
-pub(super) const TARGETS: [SmoothieTarget; 2] = [
-    SmoothieTarget {
+pub(super) const TARGETS: [LightTarget; 2] = [
+    LightTarget {
         name: "smoothie_outer",
         format: Format::R32G32_SFLOAT,
         clear: [FAR_DEPTH, 1.0, 0.0, 0.0],
@@ -231,7 +231,7 @@ pub(super) const TARGETS: [SmoothieTarget; 2] = [
         // visibility (1 = lit), both MIN: the paper form's buffer, with v for alpha.
         channels: &["depth", "outer_visibility"],
     },
-    SmoothieTarget {
+    LightTarget {
         name: "smoothie_inner",
         format: Format::R16G16_SFLOAT,
         clear: [1.0; 4],

@@ -47,14 +47,15 @@ uint fan_segments(float sweep) {
 }
 
 // `fan` of smoothie.rs: triangles (s, at(i), at(i + 1)) whose outer vertices sit at
-// t / cos(segment / 2), so the fan covers the disc sector of radius t.
+// reach / cos(segment / 2), so the fan covers the disc sector of radius reach (t, or less
+// where the extent cuts it).
 void write_fan(inout uint at, vec2 s, float inv, float t, float from, float sweep) {
     float pad = sweep < 0.0 ? -FAN_OVERLAP : FAN_OVERLAP;
     from -= pad;
     sweep += 2.0 * pad;
     uint k = fan_segments(sweep - 2.0 * pad);
     float phi = sweep / float(k);
-    float r = t / cos(phi * 0.5);
+    float r = reach_at(t, inv) / cos(phi * 0.5);
     vec2 prev = s + r * vec2(cos(from), sin(from));
     for (uint i = 0u; i < k; ++i) {
         float a = from + phi * float(i + 1u);

@@ -116,8 +116,10 @@ void main() {
     float i1 = 1.0 / z1;
     float t0 = width_at(z0);
     float t1 = width_at(z1);
-    vec2 o0 = s0 + t0 * d;
-    vec2 o1 = s1 + t1 * d;
+    // The nearer end's factor at both ends: linear along the edge, at least the bound.
+    float nearer = max(i0, i1);
+    vec2 o0 = s0 + reach_at(t0, nearer) * d;
+    vec2 o1 = s1 + reach_at(t1, nearer) * d;
     uint base;
     if (reserve(6u, base)) {
         put_vertex(base + 0u, s0, i0, 0.0, s0, d, t0);

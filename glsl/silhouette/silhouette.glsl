@@ -172,6 +172,19 @@ vec2 project_normal(vec3 p, float depth, vec2 uv, vec3 n_obj) {
     return (c.w > 0.0 && finite2(v)) ? v : vec2(0.0);
 }
 
+// Extent::of and ::of_edge (src/silhouette/smoothie/records.rs): how far from its edge or
+// vertex a smoothie of width t, whose nearest end lies at 1 / inv_depth, can still write.
+float reach_at(float t, float inv_depth) {
+    float depth = SMOOTHIE_REACH_DEPTH;
+    if (depth <= 0.0) {
+        return t;
+    }
+    float span = SMOOTHIE_REACH_SPAN;
+    float b = 1.0 / inv_depth;
+    float factor = span > 0.0 ? (depth - b) / span : 1.0 - b / depth;
+    return min(t, t * max(factor, 0.0) + SMOOTHIE_REACH_PAD);
+}
+
 // Width::at: the fixed t (SMOOTHIE_FIXED_T >= 0; a sun's one width too) or R / (2 b
 // tan(fov/2)), clamped.
 float width_at(float depth) {

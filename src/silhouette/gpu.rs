@@ -74,6 +74,7 @@
 //! arc when exactly two of its edges have sheets).
 
 use super::penumbra::{build_penumbra, PenumbraKey, PenumbraVertex};
+use super::smoothie::records::Extent;
 use super::smoothie::{build_smoothies_width, GeometryKey, Width};
 use super::{extract, light_in_object, Adjacency};
 use crate::scene::{LightView, Object};
@@ -156,7 +157,8 @@ impl Emitter {
 /// What a caster's region was built for besides its model.
 #[derive(Clone, Copy, Debug, PartialEq)]
 enum BuildKey {
-    Smoothies(GeometryKey),
+    /// The light and width, and the extent the quads and fans are cut to.
+    Smoothies(GeometryKey, Extent),
     Penumbra(PenumbraKey),
 }
 
@@ -251,10 +253,11 @@ pub struct GpuSilhouettes {
 }
 
 /// What a frame's GPU silhouette pass builds for a light (`GpuSilhouettes::frame_pass`):
-/// smoothies of a width, or penumbra-map cones and sheets for a key.
+/// smoothies of a width, cut to an extent (the frame's `SMOOTHIE_REACH_*` constants, which
+/// the technique sets from the same `Extent`), or penumbra-map cones and sheets for a key.
 #[derive(Clone, Copy, Debug)]
 pub enum Emit<'a> {
-    Smoothies(&'a LightView, Width),
+    Smoothies(&'a LightView, Width, Extent),
     Penumbra(&'a LightView, PenumbraKey),
 }
 
@@ -412,8 +415,15 @@ impl GpuSilhouettes {
     }
 
     /// How many casters must be rebuilt for this light and these transforms.
-    pub fn dirty(&self, objects: &[Object], light: &LightView, width: Width) -> usize {
-        self.dirty_for(objects, BuildKey::Smoothies(GeometryKey::new(light, width)))
+    pub fn dirty(
+        &self,
+        objects: &[Object],
+        light: &LightView,
+        width: Width,
+        extent: Extent,
+    ) -> usize {
+        let key = BuildKey::Smoothies(GeometryKey::new(light, width), extent);
+        self.dirty_for(objects, key)
     }
 
     /// `dirty` for the penumbra-map emitters.
@@ -437,6 +447,7 @@ impl GpuSilhouettes {
         objects: &[Object],
         light: &LightView,
         width: Width,
+        extent: Extent,
         force: bool,
     ) -> Result<()> {
         anyhow::ensure!(
@@ -444,7 +455,7 @@ impl GpuSilhouettes {
             "GpuSilhouettes::record on {} emitters",
             self.emitter.what()
         );
-        let key = BuildKey::Smoothies(GeometryKey::new(light, width));
+        let key = BuildKey::Smoothies(GeometryKey::new(light, width), extent);
         self.record_for(rec, objects, light, key, force)
     }
 
@@ -556,7 +567,7 @@ impl GpuSilhouettes {
     ) -> Result<()> {
         self.prepare(ctx)?;
         let stale = match emit {
-            Emit::Smoothies(light, width) => self.dirty(objects, light, width),
+            Emit::Smoothies(light, width, extent) => self.dirty(objects, light, width, extent),
             Emit::Penumbra(_, key) => self.dirty_penumbra(objects, key),
         };
         if !force && stale == 0 {
@@ -564,7 +575,9 @@ impl GpuSilhouettes {
             return Ok(());
         }
         rec.pass(name, |rec| match emit {
-            Emit::Smoothies(light, width) => self.record(rec, objects, light, width, force),
+            Emit::Smoothies(light, width, extent) => {
+                self.record(rec, objects, light, width, extent, force)
+            }
             Emit::Penumbra(light, key) => self.record_penumbra(rec, objects, light, key, force),
         })?;
         rec.rebuilt(name, self.rebuilt, casters);

@@ -136,7 +136,7 @@
 //! (`light_sample`, glsl/common/shadow.glsl) rather than a constant bias.
 
 use super::speed::regions::INNER_RECEIVER_TEXELS;
-use super::speed::smoothies::{Areas, CpuSmoothies, Drawn, PAPER_SPLIT_BANDS};
+use super::speed::smoothies::{gpu_extent, Areas, CpuSmoothies, Drawn, PAPER_SPLIT_BANDS};
 use super::{
     light_target_images, smoothies_centred, target_buffers, technique_constants, Form, FrameInput,
     LightBuffer, LightTarget, Technique, TechniqueInfo, TechniqueInit,
@@ -464,6 +464,15 @@ impl Technique for Smoothies {
             Width::Fixed(t) => t,
             Width::Calibrated { .. } => -1.0,
         };
+        // The extent the GPU silhouette passes cut the smoothies to (record_light gives
+        // the same to their rebuild key).
+        if self.gpu_silhouettes.is_some() {
+            let centred = self.form == Form::Centred;
+            let extent = gpu_extent(frame, width, centred, self.shadow.resolution);
+            c[k::SMOOTHIE_REACH_DEPTH] = extent.depth;
+            c[k::SMOOTHIE_REACH_PAD] = extent.pad;
+            c[k::SMOOTHIE_REACH_SPAN] = extent.span;
+        }
         technique_constants(c)
     }
 
@@ -491,7 +500,9 @@ impl Technique for Smoothies {
         if !self.draw_smoothies {
             rec.skip(names.silhouettes, "light radius 0: hard shadows");
         } else if let Some(gpu) = self.gpu_silhouettes.as_mut() {
-            let emit = Emit::Smoothies(frame.light, width);
+            let centred = self.form == Form::Centred;
+            let extent = gpu_extent(frame, width, centred, self.shadow.resolution);
+            let emit = Emit::Smoothies(frame.light, width, extent);
             let objects = &frame.scene.objects;
             gpu.frame_pass(ctx, rec, names.silhouettes, casters, force, objects, emit)?;
         } else if self.path == SilhouettePath::Cpu {

@@ -57,7 +57,8 @@
 //!    inner (mirrored) ones' (`SmoothieRecords::expand_side`); every caster's outer
 //!    triangles are uploaded to one host-visible vertex buffer, every caster's inner ones
 //!    to another. GPU path (a timed pass): the paper form's compute dispatches, outer
-//!    smoothies only, at full width t.
+//!    smoothies only, cut by the speed layer to one extent for the frame, the inner side's
+//!    (`speed::smoothies::gpu_extent`; full width t under `--plain`).
 //! 1. `smoothies-centred/shadow_map` — the shared `ShadowMap`: R32G32_SFLOAT, clear 1e30,
 //!    blend MIN, no depth attachment; r = nearest caster's linear depth, g = nearest
 //!    surface's of any role. Read only by pass 2: g at the smoothie fragment's own texel

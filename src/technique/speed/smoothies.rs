@@ -33,6 +33,12 @@
 //!   caster's projected box, grown by the reach of its smoothies (`gpu_reaches`: the
 //!   widest t over the box), stands in for the smoothies' bounds, in the light passes and
 //!   in the split final pass below. Off without `light_areas`.
+//! - The GPU path's smoothies shortened too (`gpu_extent`): the compute passes cut every
+//!   quad and fan to one `records::Extent` for the frame, the deepest surface under every
+//!   caster's grown box as above (the centred form's inner depth, which bounds the
+//!   reflected inner smoothies as well as the outer ones), through the frame's
+//!   `SMOOTHIE_REACH_*` constants; a change of extent rebuilds every caster. Off without
+//!   `light_areas`: full width t.
 //! - Split final pass (`Areas::shadowed`, `regions::shadowed`, `FinalPass::split`): per
 //!   caster a 16-sided light-uv polygon around its smoothies' reach, which holds the
 //!   caster's own projection when every silhouette edge was kept
@@ -268,6 +274,44 @@ impl CpuSmoothies {
         // The texel a fragment's centre lies in, beyond the box by rounding.
         full.and_then(|(lo, hi)| regions::deepest_surface(frame, lo - pad, hi + pad))
     }
+}
+
+/// The extent the GPU path's compute passes cut every smoothie to this frame (the module
+/// doc): the deepest surface under the casters' boxes grown by their reach (`gpu_reaches`),
+/// for the paper form the outer side's bound as `CpuSmoothies::extents` takes it, for the
+/// centred form the inner side's (deeper: it bounds the outer smoothies and their
+/// reflections alike). The full width without `light_areas` or an outer depth.
+pub fn gpu_extent(frame: &FrameInput<'_>, width: Width, centred: bool, res: u32) -> Extent {
+    let Some(corners) = regions::caster_corner_uvs(frame).filter(|_| frame.settings.light_areas)
+    else {
+        return Extent::FULL;
+    };
+    let pad = 1.0 / res as f32;
+    // The inner fragments read g up to INNER_RECEIVER_TEXELS beyond the smoothies.
+    let grow = if centred {
+        regions::INNER_RECEIVER_TEXELS as f32 * pad
+    } else {
+        0.0
+    };
+    let reaches = gpu_reaches(frame, &corners, width, res);
+    let boxes = corners.iter().zip(&reaches).map(|((_, uvs), &r)| {
+        let (lo, hi) = regions::uv_bounds(uvs);
+        (
+            (lo - r - grow).max(Vec2::ZERO),
+            (hi + r + grow).min(Vec2::ONE),
+        )
+    });
+    let deepest = boxes
+        .filter(|(lo, hi)| lo.cmple(*hi).all())
+        .reduce(|(a, b), (c, d)| (a.min(c), b.max(d)))
+        .and_then(|(lo, hi)| regions::deepest_surface(frame, lo - pad, hi + pad));
+    let depth = match (centred, deepest) {
+        (true, deepest) => regions::inner_extent_depth(frame.light, deepest),
+        (false, Some(deepest)) => deepest * 1.001,
+        (false, None) => return Extent::FULL,
+    };
+    let span = frame.light.sun.map(|_| frame.light.far - frame.light.near);
+    Extent::at_most(depth, pad).for_sun(span)
 }
 
 /// What the smoothie pass draws this frame, for `Areas::light_areas`.

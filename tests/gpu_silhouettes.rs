@@ -472,8 +472,8 @@ fn cli_selects_the_path_and_rejects_an_unknown_one() {
 /// rounding of t and 1/b interpolated over the cut triangles (tests/plain.rs's bounds);
 /// fewer shadow-map and smoothie-pass fragments on every one. At 128^2, 512^2 maps,
 /// `--plain` against the areas, smoothies-centred, measured: shadow map `cylinder` 299,360
-/// and 171,472, `overlap` 363,872 and 111,776, `bunny` 327,808 and 265,280, `dense`
-/// 1,110,912 and 984,816; smoothie pass `cylinder` 86,800 and 50,496, `bunny` 360,128 and
+/// and 156,480 (171,472 with the boxes grown by the full-width reach), `overlap` 363,872
+/// and 99,024, `bunny` 327,808 and 256,640, `dense` 1,110,912 and 972,080; smoothie pass `cylinder` 86,800 and 50,496, `bunny` 360,128 and
 /// 213,680, `dense` 2,725,248 and 977,376, `sun-courtyard` 76,272 and 66,640 (every other
 /// scene 0.43-0.65x, either form).
 #[test]
@@ -512,8 +512,9 @@ fn gpu_path_light_areas_keep_the_image() {
                     a < w,
                     "{name}, {technique}: {a} {pass} fragments, {w} without areas"
                 );
+                // The boxes grown by the cut reach: 0.52x (0.57x by the full-width one).
                 if name == "cylinder" && pass == "shadow_map" {
-                    assert!(10 * a < 6 * w, "{name}, {technique}: {a} of {w} fragments");
+                    assert!(20 * a < 11 * w, "{name}, {technique}: {a} of {w} fragments");
                 }
             }
             // The cut smoothies: at most 0.7x the full-width ones' fragments (0.45x on

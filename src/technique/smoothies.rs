@@ -147,6 +147,7 @@ use crate::scene::{LightView, Scene};
 use crate::settings::SilhouettePath;
 use crate::shaders::{self, constants as k};
 use crate::silhouette::gpu::{Emit, GpuSilhouettes};
+use crate::silhouette::smoothie::records::Extent;
 use crate::silhouette::smoothie::{SmoothieVertex, Width};
 use crate::silhouette::{self, Adjacency};
 use crate::vk::{
@@ -496,12 +497,15 @@ impl Technique for Smoothies {
         let casters = self.adjacency.iter().flatten().count();
         let names = self.form.smoothie_names();
         let res = self.shadow.resolution;
+        // The GPU path's cut (`speed::smoothies::gpu_extent`).
+        let extent = match &self.gpu_silhouettes {
+            Some(_) => gpu_extent(frame, width, self.form == Form::Centred, res),
+            None => Extent::FULL,
+        };
         // Pass 0: the smoothies, on the GPU or on the CPU.
         if !self.draw_smoothies {
             rec.skip(names.silhouettes, "light radius 0: hard shadows");
         } else if let Some(gpu) = self.gpu_silhouettes.as_mut() {
-            let centred = self.form == Form::Centred;
-            let extent = gpu_extent(frame, width, centred, self.shadow.resolution);
             let emit = Emit::Smoothies(frame.light, width, extent);
             let objects = &frame.scene.objects;
             gpu.frame_pass(ctx, rec, names.silhouettes, casters, force, objects, emit)?;
@@ -516,7 +520,7 @@ impl Technique for Smoothies {
 
         let drawn = match (self.draw_smoothies, &self.gpu_silhouettes) {
             (false, _) => Drawn::Nothing,
-            (true, Some(_)) => Drawn::Gpu(width),
+            (true, Some(_)) => Drawn::Gpu(width, extent),
             (true, None) => Drawn::Cpu(&self.cpu),
         };
         let grow = match self.form {

@@ -506,10 +506,15 @@ impl Extent {
 
     /// The reach of a fan centred on vertex record `v`.
     fn of(self, v: &VertexRecord) -> f32 {
+        self.reach(v.width, v.inv_depth)
+    }
+
+    /// The reach of a smoothie of width `width` whose blocker lies at 1 / `inv_depth`.
+    pub fn reach(self, width: f32, inv_depth: f32) -> f32 {
         if self.depth <= 0.0 {
-            return v.width;
+            return width;
         }
-        v.width.min(v.width * self.factor(v.inv_depth) + self.pad)
+        width.min(width * self.factor(inv_depth) + self.pad)
     }
 
     /// The reach of edge a -> b's quad at its two ends.

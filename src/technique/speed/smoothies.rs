@@ -31,8 +31,9 @@
 //!   objects that receive but cast nothing only there. Every texel read holds what the
 //!   whole passes write. The GPU path's geometry is known only on the device: there each
 //!   caster's projected box, grown by the reach of its smoothies (`gpu_reaches`: the
-//!   widest t over the box), stands in for the smoothies' bounds, in the light passes and
-//!   in the split final pass below. Off without `light_areas`.
+//!   widest t over the box, cut to the frame's extent below), stands in for the smoothies'
+//!   bounds, in the light passes and in the split final pass below. Off without
+//!   `light_areas`.
 //! - The GPU path's smoothies shortened too (`gpu_extent`): the compute passes cut every
 //!   quad and fan to one `records::Extent` for the frame, the deepest surface under every
 //!   caster's grown box as above (the centred form's inner depth, which bounds the
@@ -293,7 +294,8 @@ pub fn gpu_extent(frame: &FrameInput<'_>, width: Width, centred: bool, res: u32)
     } else {
         0.0
     };
-    let reaches = gpu_reaches(frame, &corners, width, res);
+    // The full-width reach: where the cut smoothies' fragments can read g.
+    let reaches = gpu_reaches(frame, &corners, width, Extent::FULL, res);
     let boxes = corners.iter().zip(&reaches).map(|((_, uvs), &r)| {
         let (lo, hi) = regions::uv_bounds(uvs);
         (
@@ -319,8 +321,8 @@ pub enum Drawn<'a> {
     /// No smoothie (t = 0).
     Nothing,
     /// The GPU path's smoothies, known only on the device, of this width t at each
-    /// silhouette vertex (`gpu_reaches` bounds them).
-    Gpu(Width),
+    /// silhouette vertex, cut to this extent (`gpu_reaches` bounds them).
+    Gpu(Width, Extent),
     /// The CPU path's.
     Cpu(&'a CpuSmoothies),
 }
@@ -382,12 +384,14 @@ impl Areas {
     ) -> (MapArea, Rect2D) {
         let corners = regions::caster_corner_uvs(frame);
         let reaches = match (&drawn, &corners) {
-            (Drawn::Gpu(width), Some(c)) => Some(gpu_reaches(frame, c, *width, res)),
+            (Drawn::Gpu(width, extent), Some(c)) => {
+                Some(gpu_reaches(frame, c, *width, *extent, res))
+            }
             _ => None,
         };
         let smoothies = match &drawn {
             Drawn::Nothing => Some(PixelBox::EMPTY),
-            Drawn::Gpu(_) => corners.as_ref().zip(reaches.as_ref()).map(|(c, r)| {
+            Drawn::Gpu(..) => corners.as_ref().zip(reaches.as_ref()).map(|(c, r)| {
                 c.iter().zip(r).fold(PixelBox::EMPTY, |b, ((_, uvs), &r)| {
                     let (lo, hi) = regions::uv_bounds(uvs);
                     b.union(PixelBox::of_uv(res, lo - r, hi + r))
@@ -471,26 +475,34 @@ fn shadow_regions(
 
 /// How far each caster's smoothies on the GPU path can reach beyond its projected box
 /// (light uv), in `corners`' order: the widest t over the box (the calibrated t shrinks
-/// with depth: taken at the box's nearest corner, linear depth being affine over it), over
-/// the cosine of half a fan segment (a fan's polygon is circumscribed about its disc), plus
-/// a texel for rasterisation. Every silhouette vertex lies in the box, and every smoothie,
-/// outer or reflected inner, within its vertex's reach; the quads within t of their edge.
+/// with depth: taken at the box's nearest corner, linear depth being affine over it), cut
+/// by `extent` with the largest factor over the box (at its nearest or farthest corner:
+/// the factor is monotonic in the blocker's depth), over the cosine of half a fan segment
+/// (a fan's polygon is circumscribed about its disc), plus a texel for rasterisation.
+/// Every silhouette vertex lies in the box, and every smoothie, outer or reflected inner,
+/// within its vertex's reach; the quads within it of their edge.
 fn gpu_reaches(
     frame: &FrameInput<'_>,
     corners: &[(usize, [Vec2; 8])],
     width: Width,
+    extent: Extent,
     res: u32,
 ) -> Vec<f32> {
     let circumscribed = 1.0 / (silhouette::smoothie::MAX_SEGMENT * 0.5).cos();
     corners
         .iter()
         .map(|&(i, _)| {
-            let nearest = frame.gpu.objects[i]
+            let depths = frame.gpu.objects[i]
                 .world_corners()
-                .iter()
-                .map(|&c| (frame.light.view_proj * c.extend(1.0)).w)
-                .fold(f32::INFINITY, f32::min);
-            width.at(nearest) * circumscribed + 1.0 / res as f32
+                .map(|c| frame.light.linear_depth(c));
+            let nearest = depths.iter().copied().fold(f32::INFINITY, f32::min);
+            let farthest = depths.iter().copied().fold(f32::NEG_INFINITY, f32::max);
+            let t = width.at(nearest);
+            let reach = [nearest, farthest]
+                .map(|b| extent.reach(t, 1.0 / b.max(frame.light.near)))
+                .into_iter()
+                .fold(0.0, f32::max);
+            reach * circumscribed + 1.0 / res as f32
         })
         .collect()
 }

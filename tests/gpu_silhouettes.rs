@@ -473,9 +473,9 @@ fn cli_selects_the_path_and_rejects_an_unknown_one() {
 /// fewer shadow-map and smoothie-pass fragments on every one. At 128^2, 512^2 maps,
 /// `--plain` against the areas, smoothies-centred, measured: shadow map `cylinder` 299,360
 /// and 156,480 (171,472 with the boxes grown by the full-width reach), `overlap` 363,872
-/// and 99,024, `bunny` 327,808 and 256,640, `dense` 1,110,912 and 972,080; smoothie pass `cylinder` 86,800 and 50,496, `bunny` 360,128 and
-/// 213,680, `dense` 2,725,248 and 977,376, `sun-courtyard` 76,272 and 66,640 (every other
-/// scene 0.43-0.65x, either form).
+/// and 99,024, `bunny` 327,808 and 256,640, `dense` 1,110,912 and 972,080; smoothie pass
+/// `cylinder` 86,800 and 50,496, `bunny` 360,128 and 213,680, `dense` 2,725,248 and
+/// 977,376, `sun-courtyard` 76,272 and 66,640 (every other scene 0.43-0.65x, either form).
 #[test]
 fn gpu_path_light_areas_keep_the_image() {
     let gpu = Gpu::new();

@@ -174,8 +174,8 @@ pub fn shadow_map_buffer<'a>(name: &'static str, map: &'a ShadowMap) -> LightBuf
     }
 }
 
-/// One attachment of a light pass that the final pass samples, MIN-blended: its name, format,
-/// clear value and what each channel holds.
+/// One attachment of a light pass that the final pass samples, MIN-blended: its name,
+/// format, clear value and what each channel holds.
 pub(crate) struct LightTarget {
     /// `--buffers` file and `Renderer::read_technique_buffer` name, and debug label.
     pub name: &'static str,

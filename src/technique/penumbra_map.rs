@@ -390,8 +390,8 @@ impl Technique for PenumbraMap {
         self.shadow.pass_in(rec, frame.gpu, &map_area)?;
         // Pass 2.
         rec.pass(names.penumbra, |rec| {
-            // Each pipeline into its own map: the paper form's one, the centred form's outer
-            // and inner (the GPU path draws the outer side only).
+            // Each pipeline into its own map: the paper form's one, the centred form's
+            // outer and inner (the GPU path draws the outer side only).
             let pipelines = [Some(&self.penumbra_pipeline), self.inner_pipeline.as_ref()];
             let maps = self.penumbra.iter().zip(penumbra_targets(self.form));
             for (side, ((image, target), pipeline)) in maps.zip(pipelines).enumerate() {

@@ -52,11 +52,11 @@
 //!    inner), each with one colour attachment of its own, no depth attachment, culling off:
 //!    `penumbra_map` = R16_SFLOAT, clear 1, blend MIN: the outer visibility (darkest wins,
 //!    the paper's rule), the paper form's map; `penumbra_inner` = R16G16_SFLOAT, clear
-//!    (1, 1), blend MIN: r = the inner OCCLUSION 1 - v (so that MIN keeps the lightest inner
-//!    estimate), g = 1 - the depth / far of the receiver an inner value was made for (the
-//!    farthest wins: one caster's inner penumbra on a second caster behind it must not put
-//!    the ground behind both in the umbra where another edge's inner penumbra reaches the
-//!    ground). A map per side rather than one both share: a fragment blends only the
+//!    (1, 1), blend MIN: r = the inner OCCLUSION 1 - v (so that MIN keeps the lightest
+//!    inner estimate), g = 1 - the depth / far of the receiver an inner value was made for
+//!    (the farthest wins: one caster's inner penumbra on a second caster behind it must not
+//!    put the ground behind both in the umbra where another edge's inner penumbra reaches
+//!    the ground). A map per side rather than one both share: a fragment blends only the
 //!    channels its side makes, and every value is MIN, so no independentBlend. Both draws
 //!    use glsl/penumbra_map/penumbra.vert (the paper's).
 //!    - outer cones and sheets, `glsl/penumbra_map_centred/outer.frag`: the paper's

@@ -120,23 +120,23 @@
 //!      Z, 1.05 times the deepest surface where it reads g (a depth the map holds,
 //!      extrapolated by at most 5 %), so nothing is written beyond t (1 - b/Z) from the
 //!      edge (what the speed layer's shortened inner smoothies rely on).
-//! 3. `smoothies-centred/final` — `FinalPass` with `glsl/smoothies_centred/final.frag`:
-//!    per texel of the 2x2 footprint (textureGather of the shadow map's r and of each
-//!    channel of `smoothie_outer` and `smoothie_inner` at the lookup point): outer = the outer
+//! 3. `smoothies-centred/final` — `FinalPass` with `glsl/smoothies_centred/final.frag`: per
+//!    texel of the 2x2 footprint (textureGather of the shadow map's r and of each channel
+//!    of `smoothie_outer` and `smoothie_inner` at the lookup point): outer = the outer
 //!    visibility if the point is behind the nearest smoothie, else 1; in front of the
 //!    nearest caster: outer; behind it: min(outer, 1 - the inner occlusion) if the point is
 //!    at most 5 % beyond the farthest receiver depth of the inner values there, else 0 (a
 //!    point behind a second caster, e.g. the ground under two stacked boxes, stays in the
 //!    umbra), narrowed where the point is more than 5 % nearer than that receiver (its own,
 //!    narrower penumbra: `inner_at_depth`, glsl/common/nearer_receiver.glsl). Bilinear
-//!    weights as `hard`; no falloff texture (the profile is in the
-//!    values). R = 0 draws no smoothie and returns `hard`'s bilinear value: `hard`'s image
-//!    exactly. Outside the casters' projections and their smoothies every lookup reads "far"
-//!    and the shader returns 1; where every footprint texel is in front of every caster it
-//!    returns the outer values' bilinear result without gathering the inner ones. Where a
-//!    texel is behind a caster the inner occlusions are gathered right after the casters:
-//!    behind at all four, none holding an inner value (the umbra's inside), it returns 0
-//!    from those two gathers, as the whole combination would (its min takes the inner 0).
+//!    weights as `hard`; no falloff texture (the profile is in the values). R = 0 draws no
+//!    smoothie and returns `hard`'s bilinear value: `hard`'s image exactly. Outside the
+//!    casters' projections and their smoothies every lookup reads "far" and the shader
+//!    returns 1; where every footprint texel is in front of every caster it returns the
+//!    outer values' bilinear result without gathering the inner ones. Where a texel is
+//!    behind a caster the inner occlusions are gathered right after the casters: behind at
+//!    all four, none holding an inner value (the umbra's inside), it returns 0 from those
+//!    two gathers, as the whole combination would (its min takes the inner 0).
 //!
 //! ## Equations: what a porter ports
 //! - The geometry, both sides: `build_smoothies_side` (src/silhouette/smoothie.rs); the

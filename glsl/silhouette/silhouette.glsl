@@ -15,6 +15,10 @@
 
 layout(push_constant, std430) uniform Counts {
     uvec4 counts;          // edges, welded vertices, casters (all casters together), 0
+    // The smoothies' extent (src/silhouette/smoothie/records.rs `Extent`): quads and fans
+    // reach only as far as a fragment can write for receivers at most x deep (0: the full
+    // width t), plus y; z a sun's depth range (0: a spotlight).
+    vec4 reach;
 } pc;
 
 // Static, built once per mesh from `silhouette::Adjacency`, every caster's data one after
@@ -175,14 +179,14 @@ vec2 project_normal(vec3 p, float depth, vec2 uv, vec3 n_obj) {
 // Extent::of and ::of_edge (src/silhouette/smoothie/records.rs): how far from its edge or
 // vertex a smoothie of width t, whose nearest end lies at 1 / inv_depth, can still write.
 float reach_at(float t, float inv_depth) {
-    float depth = SMOOTHIE_REACH_DEPTH;
+    float depth = pc.reach.x;
     if (depth <= 0.0) {
         return t;
     }
-    float span = SMOOTHIE_REACH_SPAN;
+    float span = pc.reach.z;
     float b = 1.0 / inv_depth;
     float factor = span > 0.0 ? (depth - b) / span : 1.0 - b / depth;
-    return min(t, t * max(factor, 0.0) + SMOOTHIE_REACH_PAD);
+    return min(t, t * max(factor, 0.0) + pc.reach.y);
 }
 
 // Width::at: the fixed t (SMOOTHIE_FIXED_T >= 0; a sun's one width too) or R / (2 b

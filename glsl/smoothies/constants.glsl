@@ -8,11 +8,5 @@
 
 #define SMOOTHIE_T frame.technique.x         // representative width t; 0 when R = 0 (`hard`)
 #define SMOOTHIE_FIXED_T frame.technique.y   // --smoothie-t for the GPU silhouette passes, or -1
-// The GPU silhouette passes' extent (src/silhouette/smoothie/records.rs `Extent`): quads
-// and fans reach only as far as a fragment can write for receivers at most this deep (0:
-// the full width t), plus the pad; the span is a sun's depth range (0: a spotlight).
-#define SMOOTHIE_REACH_DEPTH frame.technique.z
-#define SMOOTHIE_REACH_PAD frame.technique.w
-#define SMOOTHIE_REACH_SPAN frame.technique2.x
 
 #endif

@@ -104,6 +104,9 @@ const REGION_SLACK: u32 = 1024;
 struct CountsPush {
     /// Edges, welded vertices, casters, 0.
     counts: [u32; 4],
+    /// The smoothies' `Extent` (depth, pad, span, 0); zeros (the full width) for the
+    /// penumbra-map emitters.
+    reach: [f32; 4],
 }
 
 /// One caster's per-frame constants; mirrors `Caster` in glsl/silhouette/silhouette.glsl.
@@ -253,8 +256,8 @@ pub struct GpuSilhouettes {
 }
 
 /// What a frame's GPU silhouette pass builds for a light (`GpuSilhouettes::frame_pass`):
-/// smoothies of a width, cut to an extent (the frame's `SMOOTHIE_REACH_*` constants, which
-/// the technique sets from the same `Extent`), or penumbra-map cones and sheets for a key.
+/// smoothies of a width, cut to an extent (the dispatches' push constants), or penumbra-map
+/// cones and sheets for a key.
 #[derive(Clone, Copy, Debug)]
 pub enum Emit<'a> {
     Smoothies(&'a LightView, Width, Extent),
@@ -513,6 +516,10 @@ impl GpuSilhouettes {
         if self.emitter == Emitter::Penumbra {
             rec.fill_buffer(&self.reach_state, 0);
         }
+        let reach = match key {
+            BuildKey::Smoothies(_, e) => [e.depth, e.pad, e.span, 0.0],
+            BuildKey::Penumbra(_) => [0.0; 4],
+        };
         let push = CountsPush {
             counts: [
                 self.edges,
@@ -520,6 +527,7 @@ impl GpuSilhouettes {
                 self.casters.len() as u32,
                 0,
             ],
+            reach,
         };
         for (pipeline, threads) in &self.stages {
             let threads = match threads {

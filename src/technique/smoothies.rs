@@ -465,15 +465,6 @@ impl Technique for Smoothies {
             Width::Fixed(t) => t,
             Width::Calibrated { .. } => -1.0,
         };
-        // The extent the GPU silhouette passes cut the smoothies to (record_light gives
-        // the same to their rebuild key).
-        if self.gpu_silhouettes.is_some() {
-            let centred = self.form == Form::Centred;
-            let extent = gpu_extent(frame, width, centred, self.shadow.resolution);
-            c[k::SMOOTHIE_REACH_DEPTH] = extent.depth;
-            c[k::SMOOTHIE_REACH_PAD] = extent.pad;
-            c[k::SMOOTHIE_REACH_SPAN] = extent.span;
-        }
         technique_constants(c)
     }
 

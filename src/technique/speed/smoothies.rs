@@ -37,9 +37,9 @@
 //! - The GPU path's smoothies shortened too (`gpu_extent`): the compute passes cut every
 //!   quad and fan to one `records::Extent` for the frame, the deepest surface under every
 //!   caster's grown box as above (the centred form's inner depth, which bounds the
-//!   reflected inner smoothies as well as the outer ones), through the frame's
-//!   `SMOOTHIE_REACH_*` constants; a change of extent rebuilds every caster. Off without
-//!   `light_areas`: full width t.
+//!   reflected inner smoothies as well as the outer ones), in the dispatches' push
+//!   constants; a change of extent rebuilds every caster. Off without `light_areas`: full
+//!   width t.
 //! - Split final pass (`Areas::shadowed`, `regions::shadowed`, `FinalPass::split`): per
 //!   caster a 16-sided light-uv polygon around its smoothies' reach, which holds the
 //!   caster's own projection when every silhouette edge was kept

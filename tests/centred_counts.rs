@@ -183,6 +183,37 @@ fn centred_final_passes_stop_inside_the_umbra() {
     );
 }
 
+/// Each side's two values packed in one R32F key (technique::packed), so that the centred
+/// smoothie and penumbra-map final passes read a side with one gather: three gathers a
+/// fragment at most (the casters, the inner keys, the outer keys) where the two channels of
+/// each side took five (smoothies-centred: the casters, the inner occlusion, the smoothie
+/// depth, the outer visibility and the inner receiver; penumbra-map-centred: the casters,
+/// the inner occlusion, the outer visibility, the foremost surface and the inner receiver).
+/// Warp-summed texels of the final pass at 128^2, 512^2 maps, before and after:
+/// smoothies-centred on `cylinder` 67,072 and 51,584, `bunny` 66,048 and 48,256, `fence`
+/// 116,224 and 82,688; penumbra-map-centred 64,768 and 49,024, 63,488 and 45,184, 115,840
+/// and 81,920. Fails with either side read as two gathers.
+#[test]
+fn centred_final_passes_read_each_side_in_one_gather() {
+    let gpu = Gpu::new();
+    let mut bad = Vec::new();
+    for (technique, scene, bound) in [
+        ("smoothies-centred", "cylinder", 54_000),
+        ("smoothies-centred", "bunny", 51_000),
+        ("smoothies-centred", "fence", 87_000),
+        ("penumbra-map-centred", "cylinder", 51_500),
+        ("penumbra-map-centred", "bunny", 47_500),
+        ("penumbra-map-centred", "fence", 86_000),
+    ] {
+        let warp = final_pass_warp_texels(&gpu, scene, technique);
+        println!("{technique} on {scene}: final pass {warp} warp texels");
+        if warp >= bound {
+            bad.push(format!("{technique} on {scene}: {warp} warp texels"));
+        }
+    }
+    assert!(bad.is_empty(), "{}", bad.join("\n"));
+}
+
 /// Each edge quad and corner fan of smoothies-centred shortened by the deepest surface
 /// over its own full-width box (the tiles of `regions::DeepestGrid`), not over every
 /// caster's: a bunny's feet stand on the ground just below them while its ears' smoothies

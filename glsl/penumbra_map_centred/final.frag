@@ -4,19 +4,21 @@
 // inner side. At each texel of the 2x2 footprint: in front of the shadow map's nearest
 // caster -> the outer visibility if the texel's foremost surface is this point's surface,
 // else 1 (as the paper form); behind it -> 1 - the inner occlusion (0 where no inner cone or
-// sheet reached: the umbra) if this point is not beyond the farthest receiver an inner value
-// there was made for (a point behind a second caster, e.g. the ground under two stacked
-// boxes, stays in the umbra), never lighter than the outer visibility there (a second caster's outer penumbra
-// over this one's shadow). Bilinear weights, as `hard`.
+// sheet reached: the umbra) if this point is not beyond the receiver that inner value was
+// made for (a point behind a second caster, e.g. the ground under two stacked boxes, stays
+// in the umbra), never lighter than the outer visibility there (a second caster's outer
+// penumbra over this one's shadow). Bilinear weights, as `hard`.
 #include "common/shadow.glsl"
 #include "common/nearer_receiver.glsl"
 #include "penumbra_map/surface.glsl"
+#include "common/packed.glsl"
 
 layout(set = 0, binding = 1) uniform sampler2D shadow_map;   // RG32F: r caster depth, g foremost surface
-// R16F, MIN: the outer visibility (1 = lit), as the paper form's penumbra map.
+// R32F, MIN: the outer key (common/packed.glsl): the outer visibility (1 = lit), as the paper
+// form's penumbra map, with the depth of the texel's foremost surface it was made for.
 layout(set = 0, binding = 2) uniform sampler2D penumbra_map;
-// RG16F, MIN: r = inner occlusion (1 = umbra), g = 1 - the farthest receiver depth / far an
-// inner value was made for.
+// R32F, MIN: the inner key: the least inner occlusion (1 = umbra) with the depth of the
+// receiver it was made for.
 layout(set = 0, binding = 3) uniform sampler2D penumbra_inner;
 
 // RECEIVER_EPS: a point more than this (relative) beyond the inner value's receiver is
@@ -33,18 +35,22 @@ float visibility(vec3 p, vec3 n) {
     // outer values (the min below takes the inner 0). Read in one place: a CPU driver pays
     // each lookup written in the shader at every pixel.
     vec4 occlusion = vec4(1.0);
+    vec4 receiver_codes = vec4(1.0);
     if (any(equal(lit, vec4(0.0)))) {
-        occlusion = textureGather(penumbra_inner, s.uv, 0);
+        unpack_inner(textureGather(penumbra_inner, s.uv, 0), occlusion, receiver_codes);
         if (all(equal(lit, vec4(0.0))) && all(equal(occlusion, vec4(1.0)))) return 0.0;
     }
-    vec4 outer = textureGather(penumbra_map, s.uv, 0);
+    vec4 outer, surface_codes;
+    unpack_outer(textureGather(penumbra_map, s.uv, 0), outer, surface_codes);
     // In front of every caster and outside every outer penumbra: lit, no further lookup.
     if (all(equal(lit * outer, vec4(1.0)))) return 1.0;
-    vec4 own = own_surface(textureGather(shadow_map, s.uv, 1), s, p, n);
+    // The foremost surfaces the outer values were made for travel in their keys: no read of
+    // the shadow map's g (where a texel holds no outer value, 1, it does not matter).
+    vec4 own = own_surface(code_depth(surface_codes), s, p, n);
     vec4 in_front = mix(vec4(1.0), outer, own);
     // In front of every caster: the outer values alone (the inner ones are never read).
     if (all(equal(lit, vec4(1.0)))) return clamp(bilinear_lit(in_front, s.uv), 0.0, 1.0);
-    vec4 receiver = (1.0 - textureGather(penumbra_inner, s.uv, 1)) * frame.light_params.y;
+    vec4 receiver = receiver_depths(receiver_codes);
     vec4 inner = (1.0 - occlusion) * step(s.depth, receiver * (1.0 + RECEIVER_EPS));
     inner = inner_at_depth(inner, receiver, casters, s.depth);
     vec4 behind = min(inner, outer);

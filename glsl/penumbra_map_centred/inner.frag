@@ -22,9 +22,9 @@
 //     narrower blocker than its penumbra is never a full umbra). Exact for a parallel strip
 //     and a single straight edge; at a corner it counts the segment beyond the other edge in
 //     full (too light inside sharp corners of thin blockers).
-// Written to the RG16F inner map with MIN blending: r (inner occlusion) gets 1 - v, so the
-// lightest estimate wins; g the receiver depth it was made for as 1 - Z_R / far (the
-// farthest wins), which the final pass checks its own depth against.
+// Written to the inner map with MIN blending as a key of the inner occlusion 1 - v, so the
+// lightest estimate wins, and the receiver depth it was made for (of equal occlusions the
+// farthest), which the final pass checks its own depth against.
 #include "common/frame.glsl"
 #include "common/penumbra.glsl"
 #include "penumbra_map/wedge.glsl"
@@ -34,7 +34,10 @@ layout(set = 0, binding = 1) uniform sampler2D shadow_map;   // RG32F: r nearest
 layout(location = 0) in float v_depth;
 layout(location = 1) in vec2 v_zv_h;
 layout(location = 2) flat in float v_reach;
-layout(location = 0) out vec2 o_inner;   // occlusion, 1 - receiver depth / far (`penumbra_inner`)
+// `penumbra_inner` (R32F, MIN): the inner key (common/packed.glsl) of the occlusion and Z_R.
+layout(location = 0) out float o_inner;
+
+#include "common/packed.glsl"
 
 #include "common/inner_receiver.glsl"
 
@@ -61,5 +64,5 @@ void main() {
     float far_edge = far_edge_texels(here, dir, w / per_texel, zr);
     if (far_edge > 0.0) v += disc_chord(far_edge * per_texel / w);
     float v_in = clamp(max(v, blocker_floor(v_reach, zv, zr, denom)), 0.0, 1.0);
-    o_inner = vec2(1.0 - v_in, 1.0 - zr / frame.light_params.y);
+    o_inner = inner_key(1.0 - v_in, zr);
 }

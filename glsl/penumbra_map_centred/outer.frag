@@ -13,7 +13,7 @@
 // at the outer rim, plus the disc's segment beyond the far edge of a blocker narrower than
 // its penumbra (`outer_far_share`, common/inner_march.glsl, marched along the gradient of
 // Z_F, which points away from the edge: the inner side adds the same segment, so the two
-// meet at the hard edge without a step). Written to the R16F penumbra map with MIN
+// meet at the hard edge without a step). Written to the penumbra map with MIN
 // blending (darkest wins, as in the paper).
 #include "common/frame.glsl"
 #include "common/penumbra.glsl"
@@ -24,7 +24,11 @@ layout(set = 0, binding = 1) uniform sampler2D shadow_map;   // RG32F: r nearest
 layout(location = 0) in float v_depth;
 layout(location = 1) in vec2 v_zv_h;
 layout(location = 2) flat in float v_reach;
-layout(location = 0) out float o_outer;   // the outer visibility (`penumbra_map`, R16F)
+// `penumbra_map` (R32F, MIN): the outer key (common/packed.glsl) of the outer visibility and
+// the texel's foremost surface depth, which the final pass's own-surface test reads.
+layout(location = 0) out float o_outer;
+
+#include "common/packed.glsl"
 
 #include "common/inner_receiver.glsl"
 
@@ -33,7 +37,8 @@ void main() {
     // outward along the edge's normal.
     vec2 grad = vec2(dFdx(v_depth), dFdy(v_depth));
     Eq1 e;
-    if (!eq1_depths(texelFetch(shadow_map, ivec2(gl_FragCoord.xy), 0).g, v_depth, v_zv_h, e)) {
+    float surface = texelFetch(shadow_map, ivec2(gl_FragCoord.xy), 0).g;
+    if (!eq1_depths(surface, v_depth, v_zv_h, e)) {
         discard;
     }
     // Rasterised F can fall a rounding error in front of the tip.
@@ -48,5 +53,5 @@ void main() {
     if (g > 0.0 && !isinf(g)) {
         v += outer_far_share(gl_FragCoord.xy, grad / g, s * w_tex, w_tex, e.zp);
     }
-    o_outer = max(min(v, 1.0), blocker_floor(v_reach, e.zv, e.zp, e.denom));
+    o_outer = outer_key(max(min(v, 1.0), blocker_floor(v_reach, e.zv, e.zp, e.denom)), surface);
 }

@@ -22,9 +22,11 @@
 //     edge).
 #include "smoothies_centred/smoothie.glsl"
 
-// `smoothie_inner` (RG16F, MIN): (1 - v, 1 - Z_R / far), so that MIN keeps the lightest
-// inner estimate and the farthest receiver an inner value was made for.
-layout(location = 0) out vec2 o_inner;
+// `smoothie_inner` (R32F, MIN): the inner key (common/packed.glsl) of the occlusion 1 - v
+// and Z_R, so that MIN keeps the lightest inner estimate with its receiver.
+layout(location = 0) out float o_inner;
+
+#include "common/packed.glsl"
 
 #include "common/inner_receiver.glsl"
 
@@ -51,5 +53,5 @@ void main() {
     // Thin blocker: the far edge within w of this texel.
     float far_edge = far_edge_texels(here, dir, w_tex, zr);
     if (far_edge > 0.0) v += disc_chord(far_edge / w_tex);
-    o_inner = vec2(1.0 - clamp(v, 0.0, 1.0), 1.0 - zr / frame.light_params.y);
+    o_inner = inner_key(1.0 - clamp(v, 0.0, 1.0), zr);
 }

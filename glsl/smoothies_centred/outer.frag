@@ -22,7 +22,10 @@
 // caster's smoothie; tests/centred_penumbra.rs, `outer_smoothies_write_only_what_darkens`).
 #include "smoothies_centred/smoothie.glsl"
 
-layout(location = 0) out vec2 o_outer;
+// `smoothie_outer` (R32F, MIN): the outer key (common/packed.glsl) of v and b.
+layout(location = 0) out float o_outer;
+
+#include "common/packed.glsl"
 
 #include "common/inner_receiver.glsl"
 
@@ -43,5 +46,5 @@ void main() {
     float s_drawn = drawn_share(x_tex, w_tex);
     if (!(s_drawn < 1.0)) discard;
     float v = disc_chord(-s_drawn) + outer_far_share(gl_FragCoord.xy, dir, x_tex, w_tex, r);
-    o_outer = vec2(b, min(v, 1.0));
+    o_outer = outer_key(min(v, 1.0), b);
 }

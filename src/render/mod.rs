@@ -9,7 +9,7 @@ use crate::gpu::{CameraTargets, GpuScene};
 use crate::output::FrameImages;
 use crate::scene::{LightView, Scene};
 use crate::settings::Settings;
-use crate::technique::{self, FrameInput, Technique, TechniqueInit};
+use crate::technique::{self, packed, FrameInput, Packing, Technique, TechniqueInit};
 use crate::vk::describe::FrameLog;
 use crate::vk::{read_image, Buffer, BufferUsageFlags, Context, FrameRunner, FrameTimings};
 use anyhow::{bail, Context as _, Result};
@@ -462,6 +462,17 @@ impl<'c> Renderer<'c> {
                             / crate::technique::ssm_bitmask::SAMPLES as f32
                     })
                     .collect()]
+            }
+            // Two values packed in one key (technique::packed), unpacked with this frame's
+            // depth range.
+            crate::vk::Format::R32_SFLOAT if buffer.packing != Packing::Plain => {
+                let keys = read_image::<f32>(self.ctx, &mut self.runner, img)?;
+                let (near, far) = (self.light.near, self.light.far);
+                let texels: Vec<[f32; 2]> = keys
+                    .iter()
+                    .map(|&k| packed::unpack(buffer.packing, k, near, far))
+                    .collect();
+                planes(&texels, |x| x)
             }
             // D32: `hard`'s depth map, the light's z/w in [0, 1] as the rasterizer stored it.
             crate::vk::Format::R32_SFLOAT | crate::vk::Format::D32_SFLOAT => {

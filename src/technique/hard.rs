@@ -55,7 +55,7 @@
 //! Aliasing (staircase edges one shadow-map texel wide, softened over one texel by the 2x2
 //! filter); no penumbra at any light radius.
 
-use super::{FrameInput, LightBuffer, Technique, TechniqueInfo, TechniqueInit};
+use super::{FrameInput, LightBuffer, Packing, Technique, TechniqueInfo, TechniqueInit};
 use crate::gpu::gpu_scene::{DRAW_PUSH_BYTES, SCENE_ATTRIBUTES, SCENE_VERTEX_STRIDE};
 use crate::gpu::passes::{FinalPass, FinalShader};
 use crate::shaders;
@@ -214,6 +214,7 @@ impl Technique for Hard {
             image: &self.map,
             // The depth buffer as stored: z/w of the light's projection, 1 where no caster.
             channels: &["caster_z"],
+            packing: Packing::Plain,
         }]
     }
 }

@@ -23,6 +23,7 @@ macro_rules! pass_names {
 pub(crate) use pass_names;
 
 pub mod hard;
+pub mod packed;
 pub mod pcf;
 pub mod pcss;
 pub mod penumbra_map;
@@ -49,6 +50,7 @@ use crate::scene::Scene;
 use crate::settings::{Settings, SilhouettePath};
 use crate::vk::{Blend, Buffer, Context, Format, Image, ImageUsageFlags, Recorder};
 use anyhow::{bail, Result};
+pub use packed::Packing;
 
 /// What a technique is created from. Its GPU objects live as long as the technique.
 pub struct TechniqueInit<'a> {
@@ -159,8 +161,10 @@ pub struct LightBuffer<'a> {
     /// File name and `Renderer::read_technique_buffer` name: `shadow_map`, `smoothie_buffer`...
     pub name: &'static str,
     pub image: &'a Image,
-    /// What each channel of `image` holds, in channel order: the EXR's channel names.
+    /// What each channel of `image` holds, in channel order: the EXR's channel names (a
+    /// packed image's: the values it unpacks to).
     pub channels: &'static [&'static str],
+    pub packing: Packing,
 }
 
 /// The shared shadow map (`gpu::passes::ShadowMap`) as a light buffer named `name`:
@@ -171,6 +175,7 @@ pub fn shadow_map_buffer<'a>(name: &'static str, map: &'a ShadowMap) -> LightBuf
         name,
         image: &map.depth,
         channels: map.channels,
+        packing: Packing::Plain,
     }
 }
 
@@ -181,8 +186,9 @@ pub(crate) struct LightTarget {
     pub name: &'static str,
     pub format: Format,
     pub clear: [f32; 4],
-    /// What each channel holds, for `--buffers`.
+    /// What each channel holds, for `--buffers` (a packed target's: what it unpacks to).
     pub channels: &'static [&'static str],
+    pub packing: Packing,
 }
 
 /// One `res` x `res` image per target, each format checked for MIN blending.
@@ -220,6 +226,7 @@ pub(crate) fn target_buffers<'a>(
                     name: target.name,
                     image,
                     channels: target.channels,
+                    packing: target.packing,
                 }),
         )
         .collect()

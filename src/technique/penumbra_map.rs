@@ -113,7 +113,7 @@
 use super::speed::penumbra_map::{Areas, CpuPenumbra, Drawn};
 use super::{
     light_target_images, penumbra_map_centred, target_buffers, Form, FrameInput, LightBuffer,
-    LightTarget, Technique, TechniqueInfo, TechniqueInit,
+    LightTarget, Packing, Technique, TechniqueInfo, TechniqueInit,
 };
 use crate::frustum::fit_light;
 use crate::gpu::passes::{FinalPass, FinalShader, ShadowMap, Shadowed};
@@ -185,6 +185,7 @@ const PAPER_TARGETS: [LightTarget; 1] = [LightTarget {
     clear: [1.0; 4],
     // Eq. 1's intensity, darkest (MIN) of the cones and sheets; 1 = lit.
     channels: &["intensity"],
+    packing: Packing::Plain,
 }];
 
 /// The penumbra pass's attachments of `form`: the paper form's map; the centred form's

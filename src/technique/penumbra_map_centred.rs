@@ -50,14 +50,18 @@
 //!    and along the inward marches of both sides (thin blockers, below).
 //! 2. `penumbra-map-centred/penumbra` — one timed pass, two rendering scopes (outer, then
 //!    inner), each with one colour attachment of its own, no depth attachment, culling off:
-//!    `penumbra_map` = R16_SFLOAT, clear 1, blend MIN: the outer visibility (darkest wins,
-//!    the paper's rule), the paper form's map; `penumbra_inner` = R16G16_SFLOAT, clear
-//!    (1, 1), blend MIN: r = the inner OCCLUSION 1 - v (so that MIN keeps the lightest
-//!    inner estimate), g = 1 - the depth / far of the receiver an inner value was made for
-//!    (the farthest wins: one caster's inner penumbra on a second caster behind it must not
-//!    put the ground behind both in the umbra where another edge's inner penumbra reaches
-//!    the ground). A map per side rather than one both share: a fragment blends only the
-//!    channels its side makes, and every value is MIN, so no independentBlend. Both draws
+//!    `penumbra_map` = R32_SFLOAT, clear 2^24 - 1, blend MIN: the outer key
+//!    (glsl/common/packed.glsl, `packed`) of the outer visibility (darkest wins, the
+//!    paper's rule: the paper form's map) and the depth of the texel's foremost surface
+//!    (the shadow map's g there, which the final pass's own-surface test reads);
+//!    `penumbra_inner` = R32_SFLOAT, clear 2^24 - 1, blend MIN: the inner key of the inner
+//!    OCCLUSION 1 - v (so that MIN keeps the lightest inner estimate) and the depth of the
+//!    receiver it was made for (of equal occlusions, the farthest). A key holds the value
+//!    MIN must pick in its high bits and a log-scale depth code in its low bits
+//!    (smoothies_centred.rs, pass 2, gives the levels and steps), so that the final pass
+//!    reads both with one gather; the surface depth in the outer key spares it the shadow
+//!    map's g. A map per side rather than one both share: a fragment blends only the 4
+//!    bytes its side makes, and every value is MIN, so no independentBlend. Both draws
 //!    use glsl/penumbra_map/penumbra.vert (the paper's).
 //!    - outer cones and sheets, `glsl/penumbra_map_centred/outer.frag`: the paper's
 //!      fragment program (shared in glsl/penumbra_map/wedge.glsl: Z_P = the shadow map's g at
@@ -68,7 +72,8 @@
 //!      the disc's segment beyond its far edge (`outer_far_share`: the shadow map's r
 //!      marched inward from 1 texel inside the edge, along the gradient of Z_F, for what
 //!      is left of the half-width; "Combining edges"), raised to the paper's blocker-size
-//!      bound as the paper form's intensity is; writes max(v, bound) to `penumbra_map`.
+//!      bound as the paper form's intensity is; writes the key of (max(v, bound), g) to
+//!      `penumbra_map`.
 //!    - inner cones and sheets, `glsl/penumbra_map_centred/inner.frag`: u = w(Z_F), the
 //!      inward direction = the gradient of u over the map (dFdx/dFdy). The receiver behind
 //!      the texel is hidden from the light, so its depth Z_R is estimated from the shadow
@@ -81,14 +86,14 @@
 //!      through it), when the fragment's own texel is not behind a caster 1 % nearer than
 //!      Z_R, or when the drawn share s' of s = u / w(Z_R) is at least 1 (umbra). Else v =
 //!      disc_chord(s') in [0, 0.5], plus the thin-blocker term below, raised to the
-//!      blocker-size bound; writes (1 - v, 1 - Z_R / far) to `penumbra_inner`.
+//!      blocker-size bound; writes the key of (1 - v, Z_R) to `penumbra_inner`.
 //! 3. `penumbra-map-centred/final` — `FinalPass` with
 //!    `glsl/penumbra_map_centred/final.frag`: per texel of the 2x2 footprint (textureGather
-//!    of the shadow map's r and g, the penumbra map and both channels of the inner map at
-//!    the lookup point), in front of the nearest caster: the outer visibility if the
-//!    texel's foremost surface is the point's own (the paper form's window,
-//!    glsl/penumbra_map/surface.glsl), else 1; behind it: 1 - the inner occlusion if the
-//!    point is at most 5 % beyond the farthest receiver depth of the inner values there,
+//!    of the shadow map's r and of the keys of both maps at the lookup point, three
+//!    gathers), in front of the nearest caster: the outer visibility if the texel's
+//!    foremost surface (the outer key's depth) is the point's own (the paper form's
+//!    window, glsl/penumbra_map/surface.glsl), else 1; behind it: 1 - the inner occlusion
+//!    if the point is at most 5 % beyond the receiver depth that inner value was made for,
 //!    else 0 (a point behind a second caster, e.g. the ground under two stacked boxes,
 //!    stays in the umbra), narrowed where the point is more than 5 % nearer than that
 //!    receiver (its own, narrower penumbra: `inner_at_depth`,
@@ -96,8 +101,8 @@
 //!    Bilinear weights as `hard`. R = 0 draws no cones or sheets: both maps stay at 1, and
 //!    the result is `hard`'s exactly. Where the penumbra map holds its clear value and no
 //!    caster is in front, v is exactly 1 (`bilinear_lit`). The shader gathers in that order
-//!    of need: the shadow map's r and the outer values first (all four lit and at 1: v = 1),
-//!    then g (all four in front of every caster: the outer values alone), the inner values
+//!    of need: the shadow map's r and the outer keys first (all four lit and at 1: v = 1;
+//!    all four in front of every caster: the outer values alone), the inner keys
 //!    only where a footprint texel lies behind a caster, gathered right after the casters
 //!    there (behind at all four, none holding an inner value, the umbra's inside: v = 0
 //!    from two gathers, as the min with the inner 0 gives); the same v, fewer lookups.
@@ -179,8 +184,9 @@
 //! blocker (the search's start inside the edge and the end of the rest of the half-width)
 //! and up to 6 bisections only where the blocker has ended by then.
 
+use super::packed::KEY_CLEAR;
 use super::penumbra_map::{penumbra_pipeline_desc, PenumbraMap};
-use super::{Form, LightTarget, TechniqueInfo, TechniqueInit};
+use super::{Form, LightTarget, Packing, TechniqueInfo, TechniqueInit};
 use crate::gpu::passes::FinalShader;
 use crate::shaders;
 use crate::vk::{Blend, DescriptorSet, Format, Pipeline};
@@ -193,22 +199,26 @@ pub const INFO: TechniqueInfo = TechniqueInfo {
 };
 
 /// Pass 2's attachments, one for each side, each drawn by its own pipeline alone: a
-/// fragment blends only the values its side makes.
+/// fragment blends only the values its side makes. Each holds its two values packed in one
+/// R32F key (`packed`), so that the final pass reads both with one gather.
 pub(super) const TARGETS: [LightTarget; 2] = [
     LightTarget {
         name: "penumbra_map",
-        format: Format::R16_SFLOAT,
-        clear: [1.0; 4],
-        // The darkest outer visibility (1 = lit), MIN: the paper form's map.
-        channels: &["outer_visibility"],
+        format: Format::R32_SFLOAT,
+        clear: [KEY_CLEAR; 4],
+        // The darkest outer visibility (1 = lit: the paper form's map) with the depth of
+        // the texel's foremost surface it was made for, MIN over the keys.
+        channels: &["outer_visibility", "surface_depth"],
+        packing: Packing::Outer,
     },
     LightTarget {
         name: "penumbra_inner",
-        format: Format::R16G16_SFLOAT,
-        clear: [1.0; 4],
-        // The least inner occlusion (1 = umbra) and 1 - the farthest receiver depth / far
-        // an inner value was made for, both MIN.
-        channels: &["inner_occlusion", "inner_receiver_nearness"],
+        format: Format::R32_SFLOAT,
+        clear: [KEY_CLEAR; 4],
+        // The least inner occlusion (1 = umbra) with the depth of the receiver it was made
+        // for (of equal occlusions the farthest), MIN over the keys.
+        channels: &["inner_occlusion", "inner_receiver_depth"],
+        packing: Packing::Inner,
     },
 ];
 

@@ -131,7 +131,9 @@
 //! on the plane up to each method's one-texel edge aliasing (the texel grids differ).
 
 use super::plateaus_common::{PlateauCommon, PLATEAU_ATTRIBUTES, PLATEAU_VERTEX_BYTES};
-use super::{shadow_map_buffer, FrameInput, LightBuffer, Technique, TechniqueInfo, TechniqueInit};
+use super::{
+    shadow_map_buffer, FrameInput, LightBuffer, Packing, Technique, TechniqueInfo, TechniqueInit,
+};
 use crate::gpu::gpu_scene::{DRAW_PUSH_BYTES, SCENE_ATTRIBUTES, SCENE_VERTEX_STRIDE};
 use crate::gpu::passes::{falloff_lut, FinalPass, FinalShader, Shadowed};
 use crate::shaders;
@@ -360,6 +362,7 @@ impl Technique for Plateaus {
                 name: "plateaus",
                 image: &self.common.texture,
                 channels: &["fraction"],
+                packing: Packing::Plain,
             },
             shadow_map_buffer("shadow_map", &self.common.shadow),
         ]

@@ -132,7 +132,9 @@
 
 use super::plateaus::{drop_shadow_pipeline, plateau_pipeline};
 use super::plateaus_common::{PlateauCommon, PLATEAU_EDGE_ATTRIBUTES, PLATEAU_EDGE_VERTEX_BYTES};
-use super::{shadow_map_buffer, FrameInput, LightBuffer, Technique, TechniqueInfo, TechniqueInit};
+use super::{
+    shadow_map_buffer, FrameInput, LightBuffer, Packing, Technique, TechniqueInfo, TechniqueInit,
+};
 use crate::gpu::passes::{DynamicVertices, FinalPass, FinalShader, Shadowed};
 use crate::shaders;
 use crate::vk::{
@@ -357,6 +359,7 @@ impl Technique for PlateausCentred {
                 name: "plateaus",
                 image: &self.common.texture,
                 channels: &["fraction"],
+                packing: Packing::Plain,
             },
             shadow_map_buffer("shadow_map", &self.common.shadow),
             // 0 under a caster's drop shadow, 1 elsewhere.
@@ -364,6 +367,7 @@ impl Technique for PlateausCentred {
                 name: "coverage",
                 image: &self.coverage,
                 channels: &["drop_shadow_visibility"],
+                packing: Packing::Plain,
             },
             // The lightest inner visibility in [0, 1]: disc_chord(s) in [0, 0.5] plus, for a
             // thin blocker, the share beyond its far edge (0: umbra, and where none was drawn).
@@ -371,6 +375,7 @@ impl Technique for PlateausCentred {
                 name: "inner",
                 image: &self.inner,
                 channels: &["inner_visibility"],
+                packing: Packing::Plain,
             },
         ]
     }

@@ -139,7 +139,7 @@ use super::speed::regions::INNER_RECEIVER_TEXELS;
 use super::speed::smoothies::{gpu_extent, Areas, CpuSmoothies, Drawn, PAPER_SPLIT_BANDS};
 use super::{
     light_target_images, smoothies_centred, target_buffers, technique_constants, Form, FrameInput,
-    LightBuffer, LightTarget, Technique, TechniqueInfo, TechniqueInit,
+    LightBuffer, LightTarget, Packing, Technique, TechniqueInfo, TechniqueInit,
 };
 use crate::frustum::fit_light;
 use crate::gpu::passes::{falloff_lut, FinalPass, FinalShader, ShadowMap, Shadowed, FAR_DEPTH};
@@ -251,6 +251,7 @@ const PAPER_TARGETS: &[LightTarget] = &[LightTarget {
     // The nearest smoothie's linear depth b (1e30: no smoothie); the remapped alpha
     // alpha / (1 - b/r), MIN over smoothies (1: none).
     channels: &["depth", "alpha"],
+    packing: Packing::Plain,
 }];
 
 /// The smoothie pass's attachments of `form`.

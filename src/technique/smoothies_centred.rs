@@ -67,18 +67,27 @@
 //!    one, at its own texel.
 //! 2. `smoothies-centred/smoothie` — one timed pass, two rendering scopes (outer, then
 //!    inner), each with one colour attachment of its own, no depth attachment, culling off:
-//!    `smoothie_outer` = R32G32_SFLOAT, clear (1e30, 1), blend MIN: r = the nearest outer
-//!    smoothie's linear depth b, g = the outer visibility (darkest wins, the paper's rule):
-//!    the paper form's buffer, with v in place of alpha;
-//!    `smoothie_inner` = R16G16_SFLOAT, clear (1, 1), blend MIN: r = the inner OCCLUSION
-//!    1 - v (so that MIN keeps the lightest inner estimate), g = 1 - the depth / far of the
-//!    receiver an inner value was made for (the farthest wins).
-//!    An attachment per side rather than one set both sides share: a fragment blends only
-//!    the channels its side makes (8 and 4 bytes a texel, where two shared attachments cost
-//!    12 to every fragment of either), and every value is MIN, so no independentBlend.
-//!    16 bits are enough for the inner fractions and for the receiver depth at the final
-//!    pass's 5 % tolerance; b keeps 32 bits because the b/r tests need them (REMAP_EPS
-//!    1e-4).
+//!    `smoothie_outer` = R32_SFLOAT, clear 2^24 - 1, blend MIN: the outer key
+//!    (glsl/common/packed.glsl, `packed`) of the outer visibility v (darkest wins, the
+//!    paper's rule) and the linear depth b of the smoothie that made it: the paper form's
+//!    buffer, with v in place of alpha, in one channel;
+//!    `smoothie_inner` = R32_SFLOAT, clear 2^24 - 1, blend MIN: the inner key of the inner
+//!    OCCLUSION 1 - v (so that MIN keeps the lightest inner estimate) and the depth of the
+//!    receiver it was made for (of equal occlusions, the farthest).
+//!    A key holds the value MIN must pick in its high bits (v, at least 0.5 outside the
+//!    hard edge, over 512 levels of [0.5, 1]; the occlusion over 1024) and a depth code in
+//!    its low bits (b over 32768, the receiver over 16384, on a log scale of the light's
+//!    range: rounded within 1.8e-4 and 3.5e-4 of the depth, below the depth bias and the
+//!    5 % receiver window they are tested with), so that the final pass reads both values
+//!    with one gather where two channels cost two.
+//!    The depth that travels with a value is the one it was made with: of several outer
+//!    smoothies over a texel, b is the darkest one's (the paper's buffer keeps the nearest
+//!    b beside the darkest v); of several inner values, the receiver is the lightest
+//!    one's (where the farthest of all had let a point deep behind one caster take a
+//!    value made for a nearer receiver: fewer false edges on `bunny` and `fence` at their
+//!    radii, mae_lit within 1e-4 on every built-in scene). An attachment per side: a
+//!    fragment blends only the 4 bytes its side makes, and every value is MIN, so no
+//!    independentBlend.
 //!    Two pipelines, both with glsl/smoothies/smoothie.vert over the CPU path's expanded
 //!    triangles (`SmoothieRecords::expand_side`), one draw each: every caster's outer
 //!    smoothies into `smoothie_outer`, then every caster's inner ones (the same records
@@ -90,15 +99,12 @@
 //!      the shadow map's g at its texel), s = alpha' in [0, 1), v = disc_chord(-s') in
 //!      [0.5, 1) (s' the drawn share, below), plus, for a blocker narrower than its
 //!      penumbra, the disc's segment beyond its far edge (`outer_far_share`, below);
-//!      writes (b, v) only where the smoothie darkens a surface, as the paper form:
-//!      discarded where g holds no surface, b/r > 1, 1 - b/r < 1e-4 and s' >= 1 (fully
-//!      lit). A lit fragment's b,
-//!      MIN-blended into a texel that another caster's smoothie darkens, would put the
-//!      points between the two depths behind the nearest smoothie, and they would take the
-//!      farther one's v: dark specks on the rims of casters under a neighbour's smoothie
-//!      (`dense` at 320x240: 18 light-facing pixels more than 0.2 darker than the
-//!      reference, 17 without, as many as `pcss`'s lookup draws there; mae_lit no worse
-//!      on any built-in scene, tests/centred_penumbra.rs).
+//!      writes the key of (v, b) only where the smoothie darkens a surface, as the paper
+//!      form: discarded where g holds no surface, b/r > 1, 1 - b/r < 1e-4 and s' >= 1
+//!      (fully lit). A lit fragment's key would lose every MIN to a darker one; where it
+//!      won, its b would put the points between its depth and the surface's behind a
+//!      smoothie that does not darken them (tests/centred_penumbra.rs,
+//!      `outer_smoothies_write_only_what_darkens`).
 //!    - inner smoothies, `glsl/smoothies_centred/inner.frag`: x = the fragment's distance
 //!      inside the hard-edge line (corner: from the vertex), `dir` inward. The receiver
 //!      behind this texel is hidden from the light, so its depth Z_R is estimated from the
@@ -116,16 +122,17 @@
 //!      penumbra through it), when this texel is not behind a caster 1 % nearer than Z_R,
 //!      or when the drawn share s' of s = x / (t (1 - b/Z_R)) (a sun's t (Z_R - b) / D) is
 //!      at least 1 (umbra). Else v = disc_chord(s') in [0, 0.5], plus the thin-blocker term
-//!      below; writes (1 - v, 1 - Z_R / far). Z_R is at most
+//!      below; writes the key of (1 - v, Z_R). Z_R is at most
 //!      Z, 1.05 times the deepest surface where it reads g (a depth the map holds,
 //!      extrapolated by at most 5 %), so nothing is written beyond t (1 - b/Z) from the
 //!      edge (what the speed layer's shortened inner smoothies rely on).
 //! 3. `smoothies-centred/final` — `FinalPass` with `glsl/smoothies_centred/final.frag`: per
-//!    texel of the 2x2 footprint (textureGather of the shadow map's r and of each channel
-//!    of `smoothie_outer` and `smoothie_inner` at the lookup point): outer = the outer
-//!    visibility if the point is behind the nearest smoothie, else 1; in front of the
-//!    nearest caster: outer; behind it: min(outer, 1 - the inner occlusion) if the point is
-//!    at most 5 % beyond the farthest receiver depth of the inner values there, else 0 (a
+//!    texel of the 2x2 footprint (textureGather of the shadow map's r and of the keys of
+//!    `smoothie_outer` and `smoothie_inner` at the lookup point, three gathers): outer =
+//!    the outer visibility if the point is behind its smoothie (its key's depth code
+//!    against the point's, `in_front_of_codes`), else 1; in front of the nearest caster:
+//!    outer; behind it: min(outer, 1 - the inner occlusion) if the point is at most 5 %
+//!    beyond the receiver depth that inner value was made for, else 0 (a
 //!    point behind a second caster, e.g. the ground under two stacked boxes, stays in the
 //!    umbra), narrowed where the point is more than 5 % nearer than that receiver (its own,
 //!    narrower penumbra: `inner_at_depth`, glsl/common/nearer_receiver.glsl). Bilinear
@@ -207,9 +214,10 @@
 //! search's start inside the edge and the end of the rest of the half-width) and up to 6
 //! bisections only where the blocker has ended by then.
 
+use super::packed::KEY_CLEAR;
 use super::smoothies::{smoothie_pipeline_desc, Smoothies};
-use super::{Form, LightTarget, TechniqueInfo, TechniqueInit};
-use crate::gpu::passes::{FinalShader, FAR_DEPTH};
+use super::{Form, LightTarget, Packing, TechniqueInfo, TechniqueInit};
+use crate::gpu::passes::FinalShader;
 use crate::shaders;
 use crate::vk::{Blend, DescriptorSet, Format, GraphicsPipelineDesc, Pipeline};
 use anyhow::Result;
@@ -222,23 +230,26 @@ pub const INFO: TechniqueInfo = TechniqueInfo {
 };
 
 /// Pass 2's attachments, one for each side, each drawn by its own pipeline alone: a
-/// fragment blends only the values its side makes.
+/// fragment blends only the values its side makes. Each holds its two values packed in one
+/// R32F key (`packed`), so that the final pass reads both with one gather.
 pub(super) const TARGETS: [LightTarget; 2] = [
     LightTarget {
         name: "smoothie_outer",
-        format: Format::R32G32_SFLOAT,
-        clear: [FAR_DEPTH, 1.0, 0.0, 0.0],
-        // The nearest outer smoothie's linear depth (1e30: none) and the darkest outer
-        // visibility (1 = lit), both MIN: the paper form's buffer, with v for alpha.
-        channels: &["depth", "outer_visibility"],
+        format: Format::R32_SFLOAT,
+        clear: [KEY_CLEAR; 4],
+        // The darkest outer visibility (1 = lit) with the depth b of the smoothie that
+        // made it (1e30: none), MIN over the keys: the paper form's buffer, with v for alpha.
+        channels: &["outer_visibility", "depth"],
+        packing: Packing::Outer,
     },
     LightTarget {
         name: "smoothie_inner",
-        format: Format::R16G16_SFLOAT,
-        clear: [1.0; 4],
-        // The least inner occlusion (1 = umbra) and 1 - the farthest inner receiver
-        // depth / far, both MIN.
-        channels: &["inner_occlusion", "inner_receiver_nearness"],
+        format: Format::R32_SFLOAT,
+        clear: [KEY_CLEAR; 4],
+        // The least inner occlusion (1 = umbra) with the depth of the receiver it was made
+        // for (of equal occlusions the farthest), MIN over the keys.
+        channels: &["inner_occlusion", "inner_receiver_depth"],
+        packing: Packing::Inner,
     },
 ];
 

@@ -129,7 +129,9 @@
 //!   up to N^4 / 64 fragments; beyond, blocks of texels make coarser penumbrae (pass 5).
 
 use super::ssm_common::{ssm_uniforms, LightInputs, ReceiverMap, MAP_USAGE};
-use super::{shadow_map_buffer, FrameInput, LightBuffer, Technique, TechniqueInfo, TechniqueInit};
+use super::{
+    shadow_map_buffer, FrameInput, LightBuffer, Packing, Technique, TechniqueInfo, TechniqueInit,
+};
 use crate::gpu::passes::{FinalPass, FinalShader};
 use crate::settings::AccumFormat;
 use crate::shaders;
@@ -402,6 +404,7 @@ impl Technique for Ssm {
             name,
             image,
             channels,
+            packing: Packing::Plain,
         };
         let mut out = vec![shadow_map_buffer("occluder_map", &self.inputs.occluder)];
         out.extend(self.inputs.receivers.buffers());

@@ -137,7 +137,9 @@ use super::speed::ssm::{PatchStepReport, QuadBuffers, QuadList};
 use super::ssm_bitmask_table::TABLE_ANGLES;
 pub use super::ssm_bitmask_table::{edge_table, light_samples, SAMPLES};
 use super::ssm_common::{ssm_uniforms, LightInputs, MAP_USAGE, SELF_GUARD_TEXELS};
-use super::{shadow_map_buffer, FrameInput, LightBuffer, Technique, TechniqueInfo, TechniqueInit};
+use super::{
+    shadow_map_buffer, FrameInput, LightBuffer, Packing, Technique, TechniqueInfo, TechniqueInit,
+};
 use crate::gpu::passes::{FinalPass, FinalShader};
 use crate::shaders::{self, constants as k};
 use crate::vk::{
@@ -461,6 +463,7 @@ impl Technique for SsmBitmask {
             name,
             image,
             channels: &["occluded_fraction"],
+            packing: Packing::Plain,
         };
         out.push(mask("soft_shadow", &self.masks[0]));
         out.push(mask("soft_shadow_pure", &self.masks[1]));

@@ -19,7 +19,7 @@
 //!    the conservative z_R of the penumbra extents (Sec. 3.3: the extent grows with z_R).
 
 use super::speed::ssm::{PatchStep, PatchStepReport};
-use super::{technique_constants, FrameInput, LightBuffer, TechniqueInit};
+use super::{technique_constants, FrameInput, LightBuffer, Packing, TechniqueInit};
 use crate::gpu::passes::{depth_only_pipeline, DepthOnly, ShadowMap, FAR_DEPTH};
 use crate::gpu::GpuScene;
 use crate::scene::Role;
@@ -125,11 +125,13 @@ impl ReceiverMap {
                 name: "receiver_map",
                 image: &self.layers[0],
                 channels: &["receiver_depth"],
+                packing: Packing::Plain,
             },
             LightBuffer {
                 name: "receiver_map_pure",
                 image: &self.layers[1],
                 channels: &["pure_receiver_depth"],
+                packing: Packing::Plain,
             },
         ]
     }
@@ -408,6 +410,7 @@ impl BackOccluderMap {
             name: "back_occluder_map",
             image: &self.depth,
             channels: &["farthest_caster_depth"],
+            packing: Packing::Plain,
         }
     }
 }

@@ -122,6 +122,11 @@
 //!   `receiver_beyond`, `blocked_at` (glsl/common/inner_receiver.glsl) and
 //!   `far_edge_texels` (glsl/common/inner_march.glsl).
 //! - The final combination: `visibility` (glsl/penumbra_map_centred/final.frag).
+//! - Each side's two values in one R32F key (the value MIN picks in the high bits, a
+//!   log-scale depth code in the low ones): `outer_key`, `inner_key` and their unpacking
+//!   (glsl/common/packed.glsl). A port may keep two MIN-blended channels instead, for
+//!   one more gather a side: each channel then keeps its own extreme (the nearest depth,
+//!   the farthest receiver), not the depth that travels with the value kept.
 //!
 //! The speed layer leaves each texel read and each shaded pixel's inputs as the whole
 //! passes give them, up to the rounding of Zv interpolated over the cut cones' and

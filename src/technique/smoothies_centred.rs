@@ -141,7 +141,7 @@
 //!    casters' projections and their smoothies every lookup reads "far" and the shader
 //!    returns 1; where every footprint texel is in front of every caster it returns the
 //!    outer values' bilinear result without gathering the inner ones. Where a texel is
-//!    behind a caster the inner occlusions are gathered right after the casters: behind at
+//!    behind a caster the inner keys are gathered right after the casters: behind at
 //!    all four, none holding an inner value (the umbra's inside), it returns 0 from those
 //!    two gathers, as the whole combination would (its min takes the inner 0).
 //!
@@ -161,10 +161,15 @@
 //!   `receiver_beyond` and `blocked_at` (glsl/common/inner_receiver.glsl) and the thin
 //!   blocker's far edge `far_edge_texels` (glsl/common/inner_march.glsl).
 //! - The final combination: `visibility` (glsl/smoothies_centred/final.frag).
+//! - Each side's two values in one R32F key (the value MIN picks in the high bits, a
+//!   log-scale depth code in the low ones): `outer_key`, `inner_key` and their unpacking
+//!   (glsl/common/packed.glsl). A port may keep two MIN-blended channels instead, for
+//!   one more gather a side: each channel then keeps its own extreme (the nearest depth,
+//!   the farthest receiver), not the depth that travels with the value kept.
 //!
 //! The speed layer may change these functions' inputs: shortened smoothies round t
-//! and 1/b, interpolated over other triangles, differently (visibility within 2e-4,
-//! tests/plain.rs); every other trick leaves each texel read and each shaded pixel's
+//! and 1/b, interpolated over other triangles, differently (visibility within one key
+//! step, 1e-3, tests/plain.rs); every other trick leaves each texel read and each shaded pixel's
 //! inputs as the whole passes give them (src/technique/speed/smoothies.rs).
 //!
 //! ## Combining edges (what the centring approximates)

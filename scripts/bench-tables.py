@@ -11,7 +11,9 @@ records: `bench --full --width 512 --height 512 --resolutions 1024 --radii scene
    false edges per 1,000 penumbra pixels, mae_shadow; then the Pareto front on
    (x hard, mae_lit);
 2. per technique over the scenes: mean mae_lit, on how many scenes it beats hard's mae_lit,
-   mean flip, median x hard;
+   mean flip, median x hard; then the two rankings (medians over the scenes of x hard, of
+   the frame's warp lookups and its final pass's over hard's, of the plain lookups, and of
+   the false edges per 1,000 penumbra pixels);
 3. the fast-and-accurate goals of the accurate forms (frame time, warp lookups and false
    edges against hard's, mae_lit against pcss's), worst scene first, so that a missed goal
    shows by how much;
@@ -159,6 +161,49 @@ def summary(scenes):
     print()
 
 
+def final_pass_warp(r):
+    """The final pass's warp-summed texels per image pixel, or None without the column."""
+    pixels = float(r["width"]) * float(r["height"])
+    found = [float(v) for k, v in r.items()
+             if k.startswith("texels_warp:") and k.endswith("/final") and v not in ("", None)]
+    return sum(found) / pixels if found else None
+
+
+def rankings(scenes):
+    """Per technique, medians over the scenes of its ratios to hard's: frame time, the
+    frame's warp lookups, the final pass's share of them (both over hard's whole frame),
+    the frame's plain lookups; and the median false edges per 1,000 penumbra pixels."""
+    print("| technique | time | warp lookups, frame | of which final pass | plain lookups, frame | false edges ‰ |")
+    print("|:---|---:|---:|---:|---:|---:|")
+    for name, items in by_technique(scenes).items():
+        def median_of(f):
+            xs = [f(r, h) for _, r, h in items]
+            xs = [x for x in xs if x is not None]
+            return statistics.median(xs) if xs else None
+
+        def ratio(count):
+            def f(r, h):
+                x, y = count(r), count(h)
+                return x / y if x is not None and y else None
+            return f
+
+        def final_over_frame(r, h):
+            x, y = final_pass_warp(r), warp(h)
+            return x / y if x is not None and y else None
+
+        cells = [
+            median_of(lambda r, h: float(r["ratio_to_hard"])),
+            median_of(ratio(warp)),
+            median_of(final_over_frame),
+            median_of(ratio(lambda r: final_count(r, "texels"))),
+        ]
+        edges = median_of(lambda r, h: fe(r))
+        text = ["–" if c is None else f"{c:.2f}" for c in cells]
+        text.append("–" if edges is None else f"{edges:.0f}")
+        print(f"| {name} | " + " | ".join(text) + " |")
+    print()
+
+
 CENTRED = ["smoothies-centred", "penumbra-map-centred", "plateaus-centred"]
 BITMASK = ["ssm-bitmask"]
 # Scenes whose frame goal for the centred forms is looser (many casters, many silhouettes).
@@ -237,6 +282,8 @@ def main():
         scene_tables(scenes)
         print("## Across scenes\n")
         summary(scenes)
+        print("## Two rankings\n")
+        rankings(scenes)
         print("## Targets\n")
         targets(scenes)
     if suns:

@@ -69,8 +69,8 @@ void unpack_outer(vec4 keys, out vec4 v, out vec4 depth_codes) {
     v = 0.5 + 0.5 * high;
 }
 
-// 1 where a point at linear depth `depth` is in front of (or on) the depths of `codes`, else
-// 0: `lit_test` (common/shadow.glsl) on depth codes, so that the keys' depths need no
+// 1 where a point at linear depth `depth` is in front of (or on) the depths of `codes`,
+// else 0: `lit_test` (common/shadow.glsl) on depth codes, so that the keys' depths need no
 // decoding (the code is monotonic in the depth).
 vec4 in_front_of_codes(vec4 codes, float depth) {
     return step(depth_code(depth / (1.0 + frame.light_frustum.w)), codes);

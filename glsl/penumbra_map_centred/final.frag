@@ -14,8 +14,8 @@
 #include "common/packed.glsl"
 
 layout(set = 0, binding = 1) uniform sampler2D shadow_map;   // RG32F: r caster depth, g foremost surface
-// R32F, MIN: the outer key (common/packed.glsl): the outer visibility (1 = lit), as the paper
-// form's penumbra map, with the depth of the texel's foremost surface it was made for.
+// R32F, MIN: the outer key (common/packed.glsl): the outer visibility (1 = lit), as the
+// paper form's penumbra map, with the depth of the texel's foremost surface.
 layout(set = 0, binding = 2) uniform sampler2D penumbra_map;
 // R32F, MIN: the inner key: the least inner occlusion (1 = umbra) with the depth of the
 // receiver it was made for.

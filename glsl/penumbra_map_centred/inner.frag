@@ -34,7 +34,7 @@ layout(set = 0, binding = 1) uniform sampler2D shadow_map;   // RG32F: r nearest
 layout(location = 0) in float v_depth;
 layout(location = 1) in vec2 v_zv_h;
 layout(location = 2) flat in float v_reach;
-// `penumbra_inner` (R32F, MIN): the inner key (common/packed.glsl) of the occlusion and Z_R.
+// `penumbra_inner` (R32F, MIN): the inner key (common/packed.glsl) of (1 - v, Z_R).
 layout(location = 0) out float o_inner;
 
 #include "common/packed.glsl"

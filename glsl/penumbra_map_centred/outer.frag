@@ -24,8 +24,8 @@ layout(set = 0, binding = 1) uniform sampler2D shadow_map;   // RG32F: r nearest
 layout(location = 0) in float v_depth;
 layout(location = 1) in vec2 v_zv_h;
 layout(location = 2) flat in float v_reach;
-// `penumbra_map` (R32F, MIN): the outer key (common/packed.glsl) of the outer visibility and
-// the texel's foremost surface depth, which the final pass's own-surface test reads.
+// `penumbra_map` (R32F, MIN): the outer key (common/packed.glsl) of the outer visibility
+// and the texel's foremost surface depth, which the final pass's own-surface test reads.
 layout(location = 0) out float o_outer;
 
 #include "common/packed.glsl"

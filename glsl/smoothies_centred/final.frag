@@ -14,8 +14,8 @@
 #include "common/packed.glsl"
 
 layout(set = 0, binding = 1) uniform sampler2D shadow_map;          // RG32F: r = nearest caster depth
-// R32F, MIN: the outer key (common/packed.glsl): the darkest outer visibility (1 = lit) with
-// the depth of the smoothie that made it.
+// R32F, MIN: the outer key (common/packed.glsl): the darkest outer visibility (1 = lit)
+// with the depth of the smoothie that made it.
 layout(set = 0, binding = 2) uniform sampler2D smoothie_outer;
 // R32F, MIN: the inner key: the least inner occlusion (1 = umbra) with the depth of the
 // receiver it was made for.

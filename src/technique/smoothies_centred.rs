@@ -167,10 +167,10 @@
 //!   one more gather a side: each channel then keeps its own extreme (the nearest depth,
 //!   the farthest receiver), not the depth that travels with the value kept.
 //!
-//! The speed layer may change these functions' inputs: shortened smoothies round t
-//! and 1/b, interpolated over other triangles, differently (visibility within one key
-//! step, 1e-3, tests/plain.rs); every other trick leaves each texel read and each shaded pixel's
-//! inputs as the whole passes give them (src/technique/speed/smoothies.rs).
+//! The speed layer may change these functions' inputs: shortened smoothies round t and 1/b,
+//! interpolated over other triangles, differently (visibility within one key step, 1e-3,
+//! tests/plain.rs); every other trick leaves each texel read and each shaded pixel's inputs
+//! as the whole passes give them (src/technique/speed/smoothies.rs).
 //!
 //! ## Combining edges (what the centring approximates)
 //! - Several outer smoothies at a texel: the darkest (MIN), as the paper. Exact for one
@@ -242,8 +242,8 @@ pub(super) const TARGETS: [LightTarget; 2] = [
         name: "smoothie_outer",
         format: Format::R32_SFLOAT,
         clear: [KEY_CLEAR; 4],
-        // The darkest outer visibility (1 = lit) with the depth b of the smoothie that
-        // made it (1e30: none), MIN over the keys: the paper form's buffer, with v for alpha.
+        // The darkest outer visibility (1 = lit) with the depth b of the smoothie that made
+        // it (1e30: none), MIN over the keys: the paper form's buffer, with v for alpha.
         channels: &["outer_visibility", "depth"],
         packing: Packing::Outer,
     },

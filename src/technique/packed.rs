@@ -3,9 +3,11 @@
 //! key with one gather where two channels took two; this module unpacks a read-back key
 //! for `Renderer::read_technique_buffer` (`--buffers`, the tests) the way the shaders do.
 
+use super::LightTarget;
 use crate::shaders::constants::{
     INNER_KEY_LEVELS, INNER_KEY_STEPS, OUTER_KEY_LEVELS, OUTER_KEY_STEPS,
 };
+use crate::vk::Format;
 
 /// The largest key, 2^24 - 1: both parts at their top level. A keyed target's clear value:
 /// an outer key's "lit, nothing in front of the far plane", an inner key's "umbra".
@@ -22,6 +24,35 @@ pub enum Packing {
     /// An inner key: the inner occlusion, lightest first, with its receiver's depth; read
     /// back as (occlusion, receiver depth).
     Inner,
+}
+
+/// A light pass's R32F target of outer keys, cleared to "lit": the darkest outer visibility
+/// (1 = lit) with the depth that travels with it, MIN over the keys; `channels` names the
+/// two for `--buffers` (the visibility first).
+pub(crate) const fn outer_target(
+    name: &'static str,
+    channels: &'static [&'static str; 2],
+) -> LightTarget {
+    LightTarget {
+        name,
+        format: Format::R32_SFLOAT,
+        clear: [KEY_CLEAR; 4],
+        channels,
+        packing: Packing::Outer,
+    }
+}
+
+/// A light pass's R32F target of inner keys, cleared to "umbra": the least inner occlusion
+/// (1 = umbra) with the depth of the receiver it was made for (of equal occlusions the
+/// farthest), MIN over the keys.
+pub(crate) const fn inner_target(name: &'static str) -> LightTarget {
+    LightTarget {
+        name,
+        format: Format::R32_SFLOAT,
+        clear: [KEY_CLEAR; 4],
+        channels: &["inner_occlusion", "inner_receiver_depth"],
+        packing: Packing::Inner,
+    }
 }
 
 /// The linear light depth of a depth code (`code_depth` in glsl/common/packed.glsl).

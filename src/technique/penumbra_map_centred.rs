@@ -189,12 +189,12 @@
 //! blocker (the search's start inside the edge and the end of the rest of the half-width)
 //! and up to 6 bisections only where the blocker has ended by then.
 
-use super::packed::KEY_CLEAR;
+use super::packed::{inner_target, outer_target};
 use super::penumbra_map::{penumbra_pipeline_desc, PenumbraMap};
-use super::{Form, LightTarget, Packing, TechniqueInfo, TechniqueInit};
+use super::{Form, LightTarget, TechniqueInfo, TechniqueInit};
 use crate::gpu::passes::FinalShader;
 use crate::shaders;
-use crate::vk::{Blend, DescriptorSet, Format, Pipeline};
+use crate::vk::{Blend, DescriptorSet, Pipeline};
 use anyhow::Result;
 
 pub const INFO: TechniqueInfo = TechniqueInfo {
@@ -207,24 +207,10 @@ pub const INFO: TechniqueInfo = TechniqueInfo {
 /// fragment blends only the values its side makes. Each holds its two values packed in one
 /// R32F key (`packed`), so that the final pass reads both with one gather.
 pub(super) const TARGETS: [LightTarget; 2] = [
-    LightTarget {
-        name: "penumbra_map",
-        format: Format::R32_SFLOAT,
-        clear: [KEY_CLEAR; 4],
-        // The darkest outer visibility (1 = lit: the paper form's map) with the depth of
-        // the texel's foremost surface it was made for, MIN over the keys.
-        channels: &["outer_visibility", "surface_depth"],
-        packing: Packing::Outer,
-    },
-    LightTarget {
-        name: "penumbra_inner",
-        format: Format::R32_SFLOAT,
-        clear: [KEY_CLEAR; 4],
-        // The least inner occlusion (1 = umbra) with the depth of the receiver it was made
-        // for (of equal occlusions the farthest), MIN over the keys.
-        channels: &["inner_occlusion", "inner_receiver_depth"],
-        packing: Packing::Inner,
-    },
+    // The outer visibility (the paper form's map) with the depth of the texel's foremost
+    // surface it was made for.
+    outer_target("penumbra_map", &["outer_visibility", "surface_depth"]),
+    inner_target("penumbra_inner"),
 ];
 
 /// Pass 2's two pipelines, each into its own of `TARGETS` with MIN blending: the outer

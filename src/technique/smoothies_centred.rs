@@ -219,12 +219,12 @@
 //! search's start inside the edge and the end of the rest of the half-width) and up to 6
 //! bisections only where the blocker has ended by then.
 
-use super::packed::KEY_CLEAR;
+use super::packed::{inner_target, outer_target};
 use super::smoothies::{smoothie_pipeline_desc, Smoothies};
-use super::{Form, LightTarget, Packing, TechniqueInfo, TechniqueInit};
+use super::{Form, LightTarget, TechniqueInfo, TechniqueInit};
 use crate::gpu::passes::FinalShader;
 use crate::shaders;
-use crate::vk::{Blend, DescriptorSet, Format, GraphicsPipelineDesc, Pipeline};
+use crate::vk::{Blend, DescriptorSet, GraphicsPipelineDesc, Pipeline};
 use anyhow::Result;
 
 pub const INFO: TechniqueInfo = TechniqueInfo {
@@ -238,24 +238,10 @@ pub const INFO: TechniqueInfo = TechniqueInfo {
 /// fragment blends only the values its side makes. Each holds its two values packed in one
 /// R32F key (`packed`), so that the final pass reads both with one gather.
 pub(super) const TARGETS: [LightTarget; 2] = [
-    LightTarget {
-        name: "smoothie_outer",
-        format: Format::R32_SFLOAT,
-        clear: [KEY_CLEAR; 4],
-        // The darkest outer visibility (1 = lit) with the depth b of the smoothie that made
-        // it (1e30: none), MIN over the keys: the paper form's buffer, with v for alpha.
-        channels: &["outer_visibility", "depth"],
-        packing: Packing::Outer,
-    },
-    LightTarget {
-        name: "smoothie_inner",
-        format: Format::R32_SFLOAT,
-        clear: [KEY_CLEAR; 4],
-        // The least inner occlusion (1 = umbra) with the depth of the receiver it was made
-        // for (of equal occlusions the farthest), MIN over the keys.
-        channels: &["inner_occlusion", "inner_receiver_depth"],
-        packing: Packing::Inner,
-    },
+    // The outer visibility with the depth b of the smoothie that made it (1e30: none): the
+    // paper form's buffer, with v for alpha.
+    outer_target("smoothie_outer", &["outer_visibility", "depth"]),
+    inner_target("smoothie_inner"),
 ];
 
 /// Pass 2's two pipelines, both into `TARGETS` with MIN blending: the outer smoothies'

@@ -558,21 +558,20 @@ fn micro_quad_work(gpu: &Gpu, scene: &str, plain: bool) -> (u64, u64) {
 
 /// The speed layer's micro-quad list (speed::ssm::QuadList: each quad derived once and
 /// listed only when it reaches a receiver) and receiver tiles (each quad drawn only as far
-/// as the deepest receiver under its extent, not the frame's). Before them (and under
-/// `--plain`) the pass ran 4 vertices for each of the 256^2 texels and shaded 2,796,320
-/// fragments on `cylinder` and 1,179,136 on `bunny`; the listed quads run 18,180 and 12,932
-/// vertices and shade 1,590,080 and 745,616 fragments. The images are equal
-/// (tests/plain.rs).
+/// as the deepest receiver under its extent, not the frame's). Under `--plain` the pass runs
+/// 4 vertices for each of the 256^2 texels and shades 683,488 fragments on `cylinder` and
+/// 533,488 on `bunny`; the listed quads run 4,296 and 5,720 vertices and shade 404,128 and
+/// 334,832 (1.69x and 1.59x fewer). The images are equal (tests/plain.rs).
 #[test]
 fn listed_micro_quads_stop_at_the_deepest_receiver_under_them() {
     let gpu = Gpu::new();
-    for (scene, max_frags) in [("cylinder", 1_800_000), ("bunny", 850_000)] {
+    for (scene, max_frags) in [("cylinder", 450_000), ("bunny", 380_000)] {
         let (plain_vertices, plain_frags) = micro_quad_work(&gpu, scene, true);
         let (vertices, frags) = micro_quad_work(&gpu, scene, false);
         println!("{scene}: plain {plain_vertices} vertices, {plain_frags} fragments; listed {vertices}, {frags}");
         assert_eq!(plain_vertices, 4 * 256 * 256, "{scene}: one quad per texel");
         assert!(
-            vertices < 25_000,
+            vertices < 10_000,
             "{scene}: listed quads' vertices {vertices}"
         );
         assert!(
@@ -580,8 +579,31 @@ fn listed_micro_quads_stop_at_the_deepest_receiver_under_them() {
             "{scene}: listed quads' fragments {frags}"
         );
         assert!(
-            plain_frags > max_frags,
-            "{scene}: plain fragments {plain_frags}"
+            plain_frags > frags * 3 / 2,
+            "{scene}: plain fragments {plain_frags}, listed {frags}"
+        );
+    }
+}
+
+/// The occluder blocks (module header of src/technique/ssm_bitmask.rs): interior texels of a
+/// flat patch draw one quad per block, whose penumbra extent is shaded once where each
+/// micro-quad's was shaded again. One micro-quad per drawn texel shaded 1,590,080 fragments
+/// (listed) on `cylinder`, 1,358,240 on `overlap` and 745,616 on `bunny`; with the blocks
+/// 404,128, 189,632 and 334,832, with mae_lit within 2.3e-4 of what it was on the built-in
+/// scenes (BENCHMARKS.md). The errors' own margins are the tests above.
+#[test]
+fn occluder_blocks_shade_fewer_micro_quad_fragments() {
+    let gpu = Gpu::new();
+    for (scene, before, bound) in [
+        ("cylinder", 1_590_080, 450_000),
+        ("overlap", 1_358_240, 220_000),
+        ("bunny", 745_616, 380_000),
+    ] {
+        let (_, frags) = micro_quad_work(&gpu, scene, false);
+        println!("{scene}: {frags} fragments, {before} with one quad per texel");
+        assert!(
+            frags < bound,
+            "{scene}: {frags} micro-quad fragments (one quad per texel: {before})"
         );
     }
 }

@@ -11,4 +11,10 @@
 #define SSMB_CONNECT_TEXELS frame.technique2.z  // one surface: depths closer than this many texels of slope
 #define SSMB_LUT_ANGLES frame.technique2.w      // rows of the edge table (line directions)
 
+// Occluder blocks (occluder_blocks.comp): a block of micro-quads is one quad only where each
+// micro-quad corner's 1/depth (a sun's: depth) lies within this fraction of the block quad's
+const float SSMB_MERGE_FLATNESS = 0.003;
+// and where the block quad's corners span at most this many self-occlusion guards of depth.
+const float SSMB_MERGE_GUARDS = 4.0;
+
 #endif

@@ -12,6 +12,11 @@
 // r = the casters' linear depth: the RG32F MIN-blended shared shadow map (front surfaces).
 layout(set = 0, binding = 1) uniform sampler2D occluder_map;
 layout(set = 0, binding = 4, std430) readonly buffer Bound { uint zmax_bits; uint step; } bound;
+// Per texel, the side of the quad it begins (occluder_blocks.comp): 1 its own micro-quad, s > 1
+// the s x s block it is the first texel of, 0 a texel of another's block.
+layout(set = 0, binding = 9, std430) readonly buffer Blocks { uint side[]; } blocks;
+// At a block's first texel, the block quad's corner depths.
+layout(set = 0, binding = 10, std430) readonly buffer BlockCorners { vec4 depth[]; } block_corners;
 
 // One micro-quad: what the fragment shader reads (flat) and the texels it covers.
 struct MicroQuad {
@@ -106,8 +111,21 @@ MicroQuad block_quad(int k, int n, int step, float zmax) {
     return q;
 }
 
-// The micro-quad of instance k: texel k of the occluder map, or block k when the micro-patch
-// step is above 1 (glsl/ssm/patch_step.comp).
+// The quad of the s x s occluder block whose first texel is `first` (occluder_blocks.comp:
+// every texel of it interior, so each corner of the block is the mean of its four texels, as
+// each micro-quad's corner there; the block quad is their union). Its guard depth is its
+// farthest corner's.
+MicroQuad merged_quad(ivec2 first, int s, vec4 corner_depth, float zmax, int n) {
+    float znear = min(min(corner_depth.x, corner_depth.y), min(corner_depth.z, corner_depth.w));
+    float zfar = max(max(corner_depth.x, corner_depth.y), max(corner_depth.z, corner_depth.w));
+    MicroQuad q = MicroQuad(vec3(vec2(first), zfar), corner_depth, 0.0, vec2(float(s)), NOT_DRAWN);
+    extent(q, vec2(first), q.size, znear, zmax, n);
+    return q;
+}
+
+// The micro-quad of instance k: texel k of the occluder map (or the block it begins, or none
+// when it lies in another texel's block: occluder_blocks.comp), or block k when the micro-
+// patch step is above 1 (glsl/ssm/patch_step.comp).
 MicroQuad micro_quad(int k) {
     int n = int(SSM_RES);
     float zmax = uintBitsToFloat(bound.zmax_bits);
@@ -117,6 +135,9 @@ MicroQuad micro_quad(int k) {
     float zo = texelFetch(occluder_map, texel, 0).r;
     MicroQuad q = MicroQuad(vec3(vec2(texel), zo), vec4(zo), 0.0, vec2(1.0), NOT_DRAWN);
     if (zo >= EMPTY || !(zo < zmax)) return q;
+    uint side = blocks.side[k];
+    if (side == 0u) return q;
+    if (side > 1u) return merged_quad(texel, int(side), block_corners.depth[k], zmax, n);
     // 1/z (a sun: z) of the 3x3 neighbourhood where it is one surface with the texel, else 0.
     // The test is symmetric in the two depths, so two neighbours agree on whether they
     // connect. A sun's map is orthographic: its texels have one world size (the slope is

@@ -15,6 +15,7 @@
 #include "common/frame.glsl"
 #include "ssm/ssm.glsl"
 #include "ssm_bitmask/bitmask.glsl"
+#include "ssm_bitmask/guard.glsl"
 
 layout(set = 0, binding = 2) uniform sampler2D receiver_front;   // R32F nearest receiver
 layout(set = 0, binding = 3) uniform sampler2D receiver_pure;    // R32F nearest pure receiver
@@ -107,15 +108,6 @@ uvec4 hidden_directions(vec3 p, float zcap) {
         c[k] = dq.xy / (max(-dq.z, 1e-6 * p.z) * SSMB_RADIUS);
     }
     return quad_mask(c);
-}
-
-// The self-occlusion guard as ssm's: a quad whose texel is less than the guard in front of
-// the receiver at depth zr is the receiver's own surface (a sun's texel has one world size).
-float guard_depth(float zr) {
-    float texel = 2.0 * frame.light_frustum.x * SSM_INV_RES;
-    return light_is_sun()
-        ? zr * frame.light_frustum.w + SSM_SELF_GUARD_TEXELS * ssm_sun_texel()
-        : zr * (frame.light_frustum.w + SSM_SELF_GUARD_TEXELS * texel);
 }
 
 // Whether the quad can hide a sample from the receiver at depth zr at texel r: beyond the

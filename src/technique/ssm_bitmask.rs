@@ -1,9 +1,10 @@
 //! # ssm-bitmask — soft shadow maps with exact occlusion
 //! Port sheet: docs/port/ssm-bitmask.md
 //! Speed layer: speed::ssm (the micro-patch step, pass 4, kept under --plain; the receiver
-//! tiles and the quad list, pass 5, off under --plain).
-//! Over 400 lines because the header (about 130 lines) carries both lights' projections onto
-//! the light samples, which a porter reads here and not in the shaders alone.
+//! tiles and the quad list, pass 6, off under --plain).
+//! Over 400 lines because the header (about 150 lines) carries both lights' projections onto
+//! the light samples and the occluder blocks' rules, which a porter reads here and not in
+//! the shaders alone.
 //!
 //! Atty et al. 2006 (`ssm`, src/technique/ssm.rs, whose header this one builds on) back-
 //! project one micro-patch per occluder-map texel onto the light and ADD the hidden areas:
@@ -63,6 +64,24 @@
 //! dilation constant is 0: the shared corners and the table's complementary halves close
 //! the gaps.
 //!
+//! ## Occluder blocks (a hierarchical occluder map)
+//! Each micro-quad's penumbra extent grows by the same h texels whatever its size, so the
+//! pass shades about (1 + 2h)^2 fragments a texel, where a block of s x s texels drawn as
+//! one quad shades (s + 2h)^2 for all of them. Where the micro-quads of a block form one
+//! flat quad, that quad is their union and hides the same samples: `occluder_blocks.comp`
+//! finds, per aligned block of 2, 4, 8 or 16 texels (within the 16x16 tiles), whether every
+//! texel of it is drawn and interior (its eight neighbours one surface with it, so every
+//! corner is the mean of its four texels), every micro-quad corner lies within
+//! `SSMB_MERGE_FLATNESS` (0.3 %) of 1/depth (a sun's: depth) of the block quad's two
+//! triangles, and the block quad's corners span at most `SSMB_MERGE_GUARDS` (4) self-
+//! occlusion guards of depth (the block quad takes its farthest corner's guard, so a
+//! receiver between its nearest and farthest corners loses what the nearer texels alone
+//! would hide: a band of receivers a few guards deep behind the block). The largest such
+//! block holding a texel is drawn as one quad by its first texel; the others draw none.
+//! Silhouettes, depth steps and curved patches keep one micro-quad a texel. The image moves
+//! by at most 2.3e-4 of mae_lit on the built-in scenes, the micro-quad fragments fall by
+//! 18-86 % (`fence`, all thin blockers, keeps every micro-quad): BENCHMARKS.md.
+//!
 //! ## Passes, in order
 //! 1-3. As ssm's (src/technique/ssm_common.rs): `ssm-bitmask/occluder_map` (nearest caster
 //!    depth), `ssm-bitmask/receiver_map` (two R32_SFLOAT layers: nearest receiver,
@@ -70,20 +89,27 @@
 //! 4. `ssm-bitmask/micro_patch_step` — as ssm's (speed::ssm) with this form's extents: the
 //!    side s of the texel blocks drawn as one micro-quad, 1 unless the quads would shade
 //!    more than N^4 / 64 fragments (then a `warning:` line names the bound); and the
-//!    receiver tiles, per 16x16 texels the deepest receiver a pass-6 fragment there stands at.
-//! 5. `ssm-bitmask/micro_quads` (speed layer, `speed::ssm::QuadList`; not run under
+//!    receiver tiles, per 16x16 texels the deepest receiver a pass-7 fragment there stands at.
+//! 5. `ssm-bitmask/occluder_blocks` — compute `glsl/ssm_bitmask/occluder_blocks.comp`, a
+//!    16x16 workgroup per tile of the occluder map (its depths and a ring of one texel in
+//!    shared memory; three barriers): the occluder blocks above. Writes two storage buffers,
+//!    per texel the side of the quad it begins (u32: s, 0 inside another's block, 1 its own
+//!    micro-quad) and at a block's first texel the block quad's corner depths (vec4).
+//! 6. `ssm-bitmask/micro_quads` (speed layer, `speed::ssm::QuadList`; not run under
 //!    `--plain`) — compute `glsl/ssm_bitmask/micro_quads.comp`, one invocation per instance
-//!    of pass 6: the instance's quad (`micro_quad`, `glsl/ssm_bitmask/micro_quad.glsl`, the
+//!    of pass 7: the instance's quad (`micro_quad`, `glsl/ssm_bitmask/micro_quad.glsl`, the
 //!    function the plain vertex shader runs) once, appended to a list with an atomic counter
-//!    that is the instance count of pass 6's indirect draw, when it reaches a receiver. The
+//!    that is the instance count of pass 7's indirect draw, when it reaches a receiver. The
 //!    quads stop at the deepest receiver under their extents: the receiver tiles of pass 4
 //!    (`glsl/ssm/tiles.glsl`), which hold the frame's z_max under `--plain`.
-//! 6. `ssm-bitmask/soft_shadow` — one instanced draw of N^2 instances x 4 vertices
+//! 7. `ssm-bitmask/soft_shadow` — one instanced draw of N^2 instances x 4 vertices
 //!    (triangle strip), no vertex buffer (the speed layer: one indirect draw of the listed
 //!    quads, `glsl/ssm_bitmask/soft_shadow_list.vert`; the same quads, the same image). Two
 //!    colour attachments R32G32B32A32_UINT (layer 0, layer 1), clear 0, **logic op OR**
 //!    (the `logicOp` device feature; blending off). `glsl/ssm_bitmask/soft_shadow.vert`
-//!    (`micro_quad`) reads the occluder map's 3x3 neighbourhood and writes the texel, its
+//!    (`micro_quad`) reads the texel's side from pass 5 (none drawn at 0; at s > 1 the
+//!    block quad, its corner depths from pass 5, its guard depth the farthest corner's),
+//!    else the occluder map's 3x3 neighbourhood, and writes the quad's first texel, its
 //!    four corner depths and its reach (flat), drawing the penumbra extent grown by h = R'
 //!    N / (2 tan(fov/2)) (1/z_near - 1/z_max) texels. R' = `EXTENT_MARGIN` R / cos(alpha):
 //!    a disc facing the receiver is R wide across the line to the light's centre and R /
@@ -93,10 +119,11 @@
 //!    its texel, the bound and the edge table; per layer it skips quads within the self-
 //!    occlusion guard (as ssm: 1.5 texels of slope) and receivers beyond the reach at their
 //!    own depth, projects the four corners onto the disc facing the receiver and writes the
-//!    mask of the samples inside the two triangles. With s > 1 instance k draws block k of
+//!    mask of the samples inside the two triangles. With a micro-patch step s > 1 (pass 4;
+//!    the occluder blocks are then not read) instance k draws block k of
 //!    s x s texels: the bounding rectangle of its occupied texels, each corner at the depth
 //!    of the occupied texel nearest it, its guard depth the block's farthest.
-//! 7. `ssm-bitmask/final` — `FinalPass` with `glsl/ssm_bitmask/final.frag`: as
+//! 8. `ssm-bitmask/final` — `FinalPass` with `glsl/ssm_bitmask/final.frag`: as
 //!    ssm's (2x2 footprint of the receiver map and the masks, layer 0 for the texel's own
 //!    receiver, layer 1 behind it, bilinear weights) but read at the point itself, **not at
 //!    a normal-offset point**: a mask holds the visibility at its texel's centre (ssm's
@@ -109,10 +136,10 @@
 //! glsl/ssm_bitmask/constants.glsl, the shaders' only source of `SAMPLES` and `EXTENT_MARGIN`.
 //!
 //! ## Cost
-//! As ssm's: N^2 quads times their extents in `soft_shadow`, each fragment up to ten table
-//! reads (five edges per receiver layer, one when both layers are the same surface).
-//! Accuracy is limited by the occluder
-//! map's resolution (`--occluder-res`, shared with ssm): at 512 mae_lit falls by 30-60 %
+//! As ssm's: up to N^2 quads times their extents in `soft_shadow` (fewer where the occluder
+//! blocks draw one quad for many texels), each fragment up to ten table reads (five edges
+//! per receiver layer, one when both layers are the same surface). Accuracy is limited by
+//! the occluder map's resolution (`--occluder-res`, shared with ssm): at 512 mae_lit falls by 30-60 %
 //! on cylinder, bunny, primitives and fence (tests/ssm_bitmask.rs), but the micro-quad pass
 //! grows as N^4, which pass 4 bounds. Measured figures: BENCHMARKS.md.
 //!
@@ -136,7 +163,7 @@ use super::hard::{self, Names as HardNames};
 use super::speed::ssm::{PatchStepReport, QuadBuffers, QuadList};
 use super::ssm_bitmask_table::TABLE_ANGLES;
 pub use super::ssm_bitmask_table::{edge_table, light_samples, SAMPLES};
-use super::ssm_common::{ssm_uniforms, LightInputs, MAP_USAGE, SELF_GUARD_TEXELS};
+use super::ssm_common::{ssm_uniforms, LightInputs, BOUND_GROUP, MAP_USAGE, SELF_GUARD_TEXELS};
 use super::{
     shadow_map_buffer, FrameInput, LightBuffer, Packing, Technique, TechniqueInfo, TechniqueInit,
 };
@@ -144,7 +171,8 @@ use crate::gpu::passes::{FinalPass, FinalShader};
 use crate::shaders::{self, constants as k};
 use crate::vk::{
     Blend, Buffer, BufferUsageFlags, Clear, Context, CullModeFlags, DescriptorSet, Filter, Format,
-    GraphicsPipelineDesc, Image, Pipeline, PrimitiveTopology, Recorder, Resource, Sampler,
+    GraphicsPipelineDesc, Image, MemoryLocation, Pipeline, PrimitiveTopology, Recorder, Resource,
+    Sampler,
 };
 use anyhow::{bail, Context as _, Result};
 
@@ -205,6 +233,75 @@ fn create_either(init: &TechniqueInit<'_>) -> Result<Box<dyn Technique>> {
     Ok(Box::new(SsmBitmask::create(init)?))
 }
 
+/// The buffers of `OccluderBlocks`, made before the micro-quad set that binds them.
+struct BlockBuffers {
+    /// Per occluder texel (u32) the side of the quad it begins.
+    side: Buffer,
+    /// Per occluder texel (vec4) the corner depths of the block quad it begins.
+    corners: Buffer,
+}
+
+impl BlockBuffers {
+    fn new(ctx: &Context, res: u32, name: &str) -> Result<Self> {
+        let texels = u64::from(res) * u64::from(res);
+        let buffer = |bytes: u64, what: &str| {
+            Buffer::new(
+                ctx,
+                bytes * texels,
+                BufferUsageFlags::STORAGE_BUFFER,
+                MemoryLocation::GpuOnly,
+                &format!("{name} {what}"),
+            )
+        };
+        Ok(Self {
+            side: buffer(4, "sides")?,
+            corners: buffer(16, "corners")?,
+        })
+    }
+
+    /// The bindings the micro-quad set takes last: `blocks`, `block_corners`.
+    fn bindings(&self) -> [(&'static str, Resource<'_>); 2] {
+        [
+            ("blocks", Resource::Storage(&self.side)),
+            ("block_corners", Resource::Storage(&self.corners)),
+        ]
+    }
+}
+
+/// Pass 5, `ssm-bitmask/occluder_blocks` (module header, "Occluder blocks"):
+/// `glsl/ssm_bitmask/occluder_blocks.comp` over the micro-quad set.
+struct OccluderBlocks {
+    _buffers: BlockBuffers,
+    pipeline: Pipeline,
+    name: String,
+    res: u32,
+}
+
+impl OccluderBlocks {
+    fn new(ctx: &Context, buffers: BlockBuffers, set: &DescriptorSet, res: u32) -> Result<Self> {
+        let name = format!("{}/occluder_blocks", INFO.name);
+        let spirv = shaders::SSM_BITMASK_OCCLUDER_BLOCKS_COMP;
+        let pipeline = Pipeline::compute(ctx, &name, spirv, &[set], 0)?;
+        Ok(Self {
+            _buffers: buffers,
+            pipeline,
+            name,
+            res,
+        })
+    }
+
+    /// One workgroup per `BOUND_GROUP`² texels of the occluder map.
+    fn record(&self, rec: &mut Recorder<'_>, set: &DescriptorSet) -> Result<()> {
+        rec.pass(&self.name, |rec| {
+            rec.bind_pipeline(&self.pipeline);
+            rec.bind_sets(&self.pipeline, &[set]);
+            let groups = self.res.div_ceil(BOUND_GROUP);
+            rec.dispatch(groups, groups, 1);
+            Ok(())
+        })
+    }
+}
+
 /// One occluder map's micro-quads into the two mask layers.
 struct QuadPass {
     set: DescriptorSet,
@@ -218,6 +315,7 @@ pub struct SsmBitmask {
     /// Layer 0 (nearest receiver) and layer 1 (pure receiver): the hidden light samples.
     masks: [Image; 2],
     _table: Buffer,
+    blocks: OccluderBlocks,
     front: QuadPass,
     /// The paper's draw: N^2 instances, each vertex deriving its quad.
     plain_pipeline: Pipeline,
@@ -251,7 +349,7 @@ impl SsmBitmask {
             ..
         } = &inputs;
 
-        // Pass 6: the micro-quads of the occluder map into one pair of masks.
+        // Pass 7: the micro-quads of the occluder map into one pair of masks.
         let mask = |what: &str| {
             Image::new_2d(
                 ctx,
@@ -274,14 +372,19 @@ impl SsmBitmask {
         let list_name = format!("{name}/micro_quads");
         let list_buffers =
             QuadBuffers::new(ctx, res, &list_name).context("ssm-bitmask quad list")?;
+        let block_buffers = BlockBuffers::new(ctx, res, &format!("{name}/occluder_blocks"))
+            .context("ssm-bitmask occluder blocks")?;
         let quads = |map: &Image, pass: &str| -> Result<QuadPass> {
             let name = format!("{name}/{pass}");
             let mut extra = vec![("table", Resource::Storage(&table))];
             extra.extend(list_buffers.bindings());
+            extra.extend(block_buffers.bindings());
             let set = inputs.patch_set(init, map, &nearest, extra, &name)?;
             Ok(QuadPass { set, name })
         };
         let front = quads(&occluder.depth, "soft_shadow").context("ssm-bitmask micro-quads")?;
+        let blocks = OccluderBlocks::new(ctx, block_buffers, &front.set, res)
+            .context("ssm-bitmask occluder blocks pipeline")?;
         // The plain draw's vertex shader derives each quad; the speed layer's list draw reads
         // the quads `list` computed. The same quads, the same fragment shader.
         let quad_pipeline = |vertex: &[u8]| {
@@ -309,7 +412,7 @@ impl SsmBitmask {
         let list = QuadList::new(ctx, list_buffers, &front.set, res, &list_name)
             .context("ssm-bitmask quad list pipeline")?;
 
-        // Pass 7.
+        // Pass 8.
         let final_name = format!("{name}/final");
         let final_set = DescriptorSet::new(
             ctx,
@@ -341,6 +444,7 @@ impl SsmBitmask {
             inputs,
             masks,
             _table: table,
+            blocks,
             front,
             plain_pipeline,
             list,
@@ -416,6 +520,7 @@ impl Technique for SsmBitmask {
             );
         }
         self.inputs.record(rec, frame, reach)?;
+        self.blocks.record(rec, &self.front.set)?;
         let listed = frame.settings.light_areas;
         let list_name = format!("{}/micro_quads", self.name);
         if listed {
@@ -440,6 +545,7 @@ impl Technique for SsmBitmask {
 
     fn light_passes(&self) -> Vec<String> {
         let mut names = self.inputs.pass_names();
+        names.push(self.blocks.name.clone());
         names.push(format!("{}/micro_quads", self.name));
         names.push(self.front.name.clone());
         names

@@ -1,0 +1,195 @@
+#version 450
+#extension GL_GOOGLE_include_directive : require
+#include "common/count.glsl"  // by name: build.rs also builds it counted (-DCOUNT_LIGHT)
+// ssm-bitmask/occluder_blocks: which micro-quads are drawn as one (the hierarchical occluder
+// map, src/technique/ssm_bitmask.rs "Occluder blocks"). One invocation per occluder texel,
+// a workgroup per SSM_TILE x SSM_TILE tile. An aligned s x s block of texels (s = 2, 4, 8,
+// 16, within the tile) is one quad when
+//   - every texel in it is drawn (a caster nearer than z_max) and interior: its eight
+//     neighbours are casters, one surface with it (soft_shadow.vert's connect test), so
+//     every corner of every micro-quad in the block is the harmonic mean of its four
+//     texels and neighbouring quads share their corners;
+//   - those (s + 1)^2 corners lie on the block quad's two triangles (corners 0-1-3 and
+//     0-3-2, as each micro-quad splits) within SSMB_MERGE_FLATNESS of their 1/depth: the
+//     micro-quads' union is then the block quad, which back-projects to the same samples;
+//   - its corners span at most SSMB_MERGE_GUARDS self-occlusion guards of depth: the block
+//     quad takes the guard of its farthest corner, so a receiver between its nearest and
+//     farthest corners loses what its nearer texels alone would hide; the bound keeps that
+//     to a band of receivers as thin as the guard itself.
+// The largest such block holding a texel is its quad. Writes per texel the side of the quad
+// it begins (s at a block's first texel, 0 at its other texels, 1 where the texel is its own
+// micro-quad) and, at a block's first texel, the block quad's corner depths.
+//
+// Three barriers: a CPU driver runs a workgroup's invocations as coroutines that switch at
+// each one. Every texel tests its own four corners against its block at every level at once,
+// and the blocks are found flat by texels that each can only clear a block's flag.
+#define FRAME_NO_DRAW_PUSH
+#include "common/frame.glsl"
+#include "ssm/ssm.glsl"
+#include "ssm_bitmask/constants.glsl"
+#include "ssm_bitmask/guard.glsl"
+
+layout(local_size_x = SSM_TILE, local_size_y = SSM_TILE) in;
+
+// r = the casters' linear depth: the RG32F MIN-blended shared shadow map (front surfaces).
+layout(set = 0, binding = 1) uniform sampler2D occluder_map;
+layout(set = 0, binding = 4, std430) readonly buffer Bound { uint zmax_bits; } bound;
+layout(set = 0, binding = 9, std430) writeonly buffer Blocks { uint side[]; } blocks;
+layout(set = 0, binding = 10, std430) writeonly buffer BlockCorners { vec4 depth[]; } block_corners;
+
+// The tile and a ring of one texel: depth (FAR_DEPTH where empty or outside the map).
+const int HALO = SSM_TILE + 2;
+shared float halo_depth[HALO * HALO];
+// Corner (x, y) of the tile, x and y in 0 ... SSM_TILE: 1/depth (a sun: depth) summed over
+// its four texels in the order micro_quad.glsl sums them, 0 where one of them is empty.
+const int CORNERS = SSM_TILE + 1;
+shared float corner_value[CORNERS * CORNERS];
+// Per block side 2, 4, 8, 16: whether every texel of each aligned block of the tile is interior
+// and every corner lies on its block quad (offsets 0, 64, 80, 84).
+shared bool flat_block[85];
+// Whether the tile holds a texel that is drawn.
+shared bool tile_drawn;
+
+// Block sides 2^1 ... 2^LEVELS: up to the tile's.
+const int LEVELS = 4;
+
+int level_offset(int level) {
+    return level == 1 ? 0 : level == 2 ? 64 : level == 3 ? 80 : 84;
+}
+
+float depth_at(ivec2 h) {
+    return halo_depth[h.y * HALO + h.x];
+}
+
+// The depth of a corner whose four texels sum to `sum` in 1/depth (a sun's: depth): their
+// harmonic (arithmetic) mean, as micro_quad.glsl computes it.
+float corner_depth(float sum) {
+    return light_is_sun() ? sum / 4.0 : 4.0 / sum;
+}
+
+// The block quad through its corner values c = (c00, c10, c01, c11) at (x, y), in units of its
+// side: corners 0-1-3 (x >= y) and 0-3-2 (the rest) span its two triangles, as each
+// micro-quad's.
+float block_plane(vec4 c, vec2 xy) {
+    return xy.x >= xy.y ? c.x + (c.y - c.x) * xy.x + (c.w - c.y) * xy.y
+                        : c.x + (c.z - c.x) * xy.y + (c.w - c.z) * xy.x;
+}
+
+// The corner values of the block of side s at tile texel lo.
+vec4 block_corner_values(ivec2 lo, int s) {
+    return vec4(corner_value[lo.y * CORNERS + lo.x], corner_value[lo.y * CORNERS + lo.x + s],
+                corner_value[(lo.y + s) * CORNERS + lo.x], corner_value[(lo.y + s) * CORNERS + lo.x + s]);
+}
+
+// Whether the block quad of side s at tile corner `lo`, flat to within the flatness, spans at
+// most SSMB_MERGE_GUARDS guards of depth: its four corners bound its depths then.
+bool block_is_thin(vec4 c) {
+    float near_c = max(max(c.x, c.y), max(c.z, c.w));
+    float far_c = min(min(c.x, c.y), min(c.z, c.w));
+    // 1/depth is largest at the nearest corner (a sun's depth smallest).
+    bool sun = light_is_sun();
+    float z_near = corner_depth(sun ? far_c : near_c);
+    float z_far = corner_depth(sun ? near_c : far_c);
+    return z_far - z_near <= SSMB_MERGE_GUARDS * guard_depth(z_far);
+}
+
+// The flag of the block of side 2^level holding tile texel `local`.
+int block_flag(ivec2 local, int level) {
+    return level_offset(level) + (local.y >> level) * (SSM_TILE >> level) + (local.x >> level);
+}
+
+void main() {
+    int n = int(SSM_RES);
+    ivec2 tile = ivec2(gl_WorkGroupID.xy) * SSM_TILE;
+    int li = int(gl_LocalInvocationIndex);
+    float zmax = uintBitsToFloat(bound.zmax_bits);
+    for (int i = li; i < HALO * HALO; i += SSM_TILE * SSM_TILE) {
+        ivec2 p = tile + ivec2(i % HALO, i / HALO) - 1;
+        float z = FAR_DEPTH;
+        if (all(greaterThanEqual(p, ivec2(0))) && all(lessThan(p, ivec2(n)))) {
+            z = texelFetch(occluder_map, p, 0).r;
+        }
+        halo_depth[i] = z < EMPTY ? z : FAR_DEPTH;
+    }
+    if (li < 85) flat_block[li] = true;
+    if (li == 0) tile_drawn = false;
+    barrier();
+    // Every texel that is drawn writes the same true.
+    float zo = depth_at(ivec2(gl_LocalInvocationID.xy) + 1);
+    if (zo < zmax) tile_drawn = true;
+    barrier();
+    // No micro-quad reads this tile's texels (micro_quad.glsl reads the side of drawn texels
+    // only): the whole workgroup ends here, where most of the map is empty.
+    if (!tile_drawn) return;
+
+    ivec2 local = ivec2(gl_LocalInvocationID.xy);
+    bool sun = light_is_sun();
+    for (int i = li; i < CORNERS * CORNERS; i += SSM_TILE * SSM_TILE) {
+        // Corner (x, y) touches halo texels (x .. x + 1, y .. y + 1).
+        ivec2 c = ivec2(i % CORNERS, i / CORNERS);
+        float sum = 0.0;
+        bool all_four = true;
+        for (int t = 0; t < 4; ++t) {
+            float z = depth_at(c + ivec2(t & 1, t >> 1));
+            all_four = all_four && z < EMPTY;
+            sum += sun ? z : 1.0 / z;
+        }
+        corner_value[i] = all_four ? sum : 0.0;
+    }
+    // Drawn and interior: its eight neighbours one surface with it (micro_quad.glsl's test).
+    ivec2 h = local + 1;
+    float slope = SSMB_CONNECT_TEXELS * 2.0 * frame.light_frustum.x * SSM_INV_RES;
+    float sun_slope = SSMB_CONNECT_TEXELS * ssm_sun_texel();
+    bool interior = zo < EMPTY && zo < zmax;
+    for (int i = 0; i < 9; ++i) {
+        float z = depth_at(h + ivec2(i % 3 - 1, i / 3 - 1));
+        interior = interior && z < EMPTY && abs(z - zo) <= (sun ? sun_slope : slope * min(z, zo));
+    }
+    barrier();
+
+    // Each texel clears the flag of its block at every level where it is not interior or one of
+    // its four corners lies off the block quad (each corner of a block is some texel's); every
+    // writer writes the same false.
+    float own[4];
+    for (int c = 0; c < 4; ++c) {
+        ivec2 corner = local + ivec2(c & 1, c >> 1);
+        own[c] = corner_value[corner.y * CORNERS + corner.x];
+    }
+    for (int level = 1; level <= LEVELS; ++level) {
+        int s = 1 << level;
+        ivec2 lo = local & ~(s - 1);
+        vec4 quad = block_corner_values(lo, s);
+        float inv_side = 1.0 / float(s);
+        bool flat_here = interior;
+        for (int c = 0; c < 4; ++c) {
+            vec2 xy = vec2(local - lo + ivec2(c & 1, c >> 1)) * inv_side;
+            flat_here = flat_here && abs(own[c] - block_plane(quad, xy)) <= SSMB_MERGE_FLATNESS * abs(own[c]);
+        }
+        if (!flat_here) flat_block[block_flag(local, level)] = false;
+    }
+    barrier();
+
+    ivec2 g = tile + local;
+    if (any(greaterThanEqual(g, ivec2(n)))) return;
+    // The largest block holding this texel that is one quad: every texel of a block finds the
+    // same.
+    uint side = 1u;
+    for (int level = LEVELS; level >= 1; --level) {
+        int s = 1 << level;
+        ivec2 lo = local & ~(s - 1);
+        if (flat_block[block_flag(local, level)] && block_is_thin(block_corner_values(lo, s))) {
+            side = all(equal(local, lo)) ? uint(s) : 0u;
+            break;
+        }
+    }
+    blocks.side[g.y * n + g.x] = side;
+    if (side > 1u) {
+        // The block quad's corner depths, as each micro-quad computes its own (micro_quad.glsl).
+        vec4 depth;
+        for (int c = 0; c < 4; ++c) {
+            ivec2 corner = local + ivec2(c & 1, c >> 1) * int(side);
+            depth[c] = corner_depth(corner_value[corner.y * CORNERS + corner.x]);
+        }
+        block_corners.depth[g.y * n + g.x] = depth;
+    }
+}

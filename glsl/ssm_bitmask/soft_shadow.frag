@@ -20,9 +20,10 @@
 layout(set = 0, binding = 2) uniform sampler2D receiver_front;   // R32F nearest receiver
 layout(set = 0, binding = 3) uniform sampler2D receiver_pure;    // R32F nearest pure receiver
 layout(set = 0, binding = 4, std430) readonly buffer Bound { uint zmax_bits; } bound;
-// The edge table: row a (line direction (a + 1/2) pi / SSMB_LUT_ANGLES), column d (signed
-// distance of the line from the disc centre, (d + 1/2) 2 / columns - 1): the mask of the
-// samples left of the directed line (src/technique/ssm_bitmask_table.rs, `edge_table`).
+// The edge table: row a (line direction of pseudo-angle (a + 1/2) 2 / SSMB_LUT_ANGLES, in
+// `line_mask`), column d (signed distance of the line from the disc centre, (d + 1/2) 2 /
+// columns - 1): the mask of the samples left of the directed line
+// (src/technique/ssm_bitmask_table.rs, `edge_table`).
 layout(set = 0, binding = 6, std430) readonly buffer Table { uvec4 masks[]; } table;
 
 layout(location = 0) flat in vec3 v_patch;    // the quad's first texel, its guard depth
@@ -49,8 +50,10 @@ uvec4 line_mask(vec2 a, vec2 b, out bool flipped) {
     if (d >= 1.0) return NO_SAMPLES;
     int angles = int(SSMB_LUT_ANGLES);
     int columns = table.masks.length() / angles;
-    float phi = atan(e.y, e.x);   // [0, pi]
-    int row = min(int(phi * (float(angles) / PI)), angles - 1);
+    // The direction's pseudo-angle in [0, 2] (e.y >= 0), monotonic in its angle: the rows'
+    // index, without an arctangent per edge.
+    float pseudo = 1.0 - e.x / (abs(e.x) + e.y);
+    int row = min(int(pseudo * (0.5 * float(angles))), angles - 1);
     int col = min(int((d + 1.0) * 0.5 * float(columns)), columns - 1);
     return table.masks[row * columns + col];
 }

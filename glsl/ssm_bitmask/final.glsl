@@ -11,13 +11,8 @@
 #include "ssm/footprint.glsl"
 
 layout(set = 0, binding = 1) uniform sampler2D receiver_front;   // R32F nearest receiver depth
-layout(set = 0, binding = 2) uniform usampler2D mask_front;      // RGBA32UI hidden samples, layer 0
-layout(set = 0, binding = 3) uniform usampler2D mask_pure;       // RGBA32UI hidden samples, layer 1
-
-float hidden_fraction(uvec4 m) {
-    ivec4 c = bitCount(m);
-    return float(c.x + c.y + c.z + c.w) * SSMB_INV_SAMPLES;
-}
+// R32F, ssm-bitmask/resolve: the light samples each layer's mask hides, 256 * front + pure.
+layout(set = 0, binding = 2) uniform sampler2D hidden_samples;
 
 float visibility(vec3 p, vec3 n) {
     float res = SSM_RES;
@@ -40,17 +35,12 @@ float visibility(vec3 p, vec3 n) {
     bvec4 behind;
     vec4 known;
     ssm_layers(depth, z1, texel, behind, known);
-    // The texels textureGather read, in its order (i0,j1), (i1,j1), (i1,j0), (i0,j0).
-    ivec2 i0 = ivec2(floor(uv * res - 0.5));
-    ivec2 last = ivec2(int(res) - 1);
-    const ivec2 offsets[4] = ivec2[4](ivec2(0, 1), ivec2(1, 1), ivec2(1, 0), ivec2(0, 0));
-    vec4 occl, front;
-    for (int k = 0; k < 4; ++k) {
-        COUNT_LOOP(COUNT_FILTER);
-        ivec2 t = clamp(i0 + offsets[k], ivec2(0), last);
-        front[k] = hidden_fraction(texelFetch(mask_front, t, 0));
-        occl[k] = behind[k] ? hidden_fraction(texelFetch(mask_pure, t, 0)) : front[k];
-    }
+    // The same four texels, in the same order: each one's hidden samples of both layers.
+    vec4 hidden = textureGather(hidden_samples, uv, 0);
+    vec4 front_count = floor(hidden * (1.0 / 256.0));
+    vec4 front = front_count * SSMB_INV_SAMPLES;
+    vec4 pure = (hidden - 256.0 * front_count) * SSMB_INV_SAMPLES;
+    vec4 occl = mix(front, pure, vec4(behind));
     float o = ssm_footprint(uv, res, known, occl, front);
     return 1.0 - clamp(o, 0.0, 1.0);
 }

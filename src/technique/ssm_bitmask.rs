@@ -123,12 +123,18 @@
 //!    the occluder blocks are then not read) instance k draws block k of
 //!    s x s texels: the bounding rectangle of its occupied texels, each corner at the depth
 //!    of the occupied texel nearest it, its guard depth the block's farthest.
-//! 8. `ssm-bitmask/final` — `FinalPass` with `glsl/ssm_bitmask/final.frag`: as
-//!    ssm's (2x2 footprint of the receiver map and the masks, layer 0 for the texel's own
-//!    receiver, layer 1 behind it, bilinear weights) but read at the point itself, **not at
-//!    a normal-offset point**: a mask holds the visibility at its texel's centre (ssm's
-//!    offset shifts every penumbra: most of its error on `fence`). Only the depth that picks
-//!    the layer is the offset point's. Occlusion = popcount / 128, visibility = 1 - it.
+//! 8. `ssm-bitmask/resolve` — one triangle over the map, `glsl/ssm_bitmask/resolve.vert` and
+//!    `.frag`: per texel the samples each layer's mask hides, popcount(front) * 256 +
+//!    popcount(pure) (integers below 2^16, exact in a float), into `hidden samples` =
+//!    R32_SFLOAT, clear 0 (every texel is then written), no blend. The final pass gathers
+//!    this one channel where it would fetch two 128-bit masks per texel of its footprint.
+//! 9. `ssm-bitmask/final` — `FinalPass` with `glsl/ssm_bitmask/final.frag`: as
+//!    ssm's (2x2 footprint of the receiver map and the hidden samples, layer 0 for the
+//!    texel's own receiver, layer 1 behind it, bilinear weights) but read at the point
+//!    itself, **not at a normal-offset point**: a mask holds the visibility at its texel's
+//!    centre (ssm's offset shifts every penumbra: most of its error on `fence`). Only the
+//!    depth that picks the layer is the offset point's. Occlusion = the layer's hidden
+//!    samples / 128, visibility = 1 - it.
 //!
 //! ## Frame constants
 //! `frame.technique` as ssm's but its first slot holds 1 / `SAMPLES`; `frame.technique2` =
@@ -302,6 +308,71 @@ impl OccluderBlocks {
     }
 }
 
+/// Pass 8, `ssm-bitmask/resolve`: per soft-shadow-map texel the samples each layer's mask
+/// hides, 256 * front + pure in one R32F texel, which the final pass gathers.
+struct Resolve {
+    hidden: Image,
+    set: DescriptorSet,
+    pipeline: Pipeline,
+    name: String,
+}
+
+impl Resolve {
+    fn new(ctx: &Context, masks: &[Image; 2], nearest: &Sampler, res: u32) -> Result<Self> {
+        let name = format!("{}/resolve", INFO.name);
+        let hidden = Image::new_2d(
+            ctx,
+            res,
+            res,
+            Format::R32_SFLOAT,
+            MAP_USAGE,
+            &format!("{} hidden samples", INFO.name),
+        )?;
+        let set = DescriptorSet::new(
+            ctx,
+            &[
+                ("mask_front", Resource::Sampled(&masks[0], nearest)),
+                ("mask_pure", Resource::Sampled(&masks[1], nearest)),
+            ],
+            &name,
+        )?;
+        let pipeline = Pipeline::graphics(
+            ctx,
+            &GraphicsPipelineDesc {
+                name: &name,
+                vertex: shaders::SSM_BITMASK_RESOLVE_VERT,
+                fragment: Some(shaders::SSM_BITMASK_RESOLVE_FRAG),
+                vertex_stride: 0,
+                attributes: &[],
+                topology: PrimitiveTopology::TRIANGLE_LIST,
+                cull: CullModeFlags::NONE,
+                // Every texel is written once: one triangle over the map.
+                colors: &[(Format::R32_SFLOAT, Blend::None)],
+                depth: None,
+                push_constant_bytes: 0,
+                sets: &[&set],
+            },
+        )?;
+        Ok(Self {
+            hidden,
+            set,
+            pipeline,
+            name,
+        })
+    }
+
+    fn record(&self, rec: &mut Recorder<'_>) -> Result<()> {
+        rec.pass(&self.name, |rec| {
+            rec.begin_rendering(&[(&self.hidden, Clear::Float([0.0; 4]))], None);
+            rec.bind_pipeline(&self.pipeline);
+            rec.bind_sets(&self.pipeline, &[&self.set]);
+            rec.draw(3, 1);
+            rec.end_rendering();
+            Ok(())
+        })
+    }
+}
+
 /// One occluder map's micro-quads into the two mask layers.
 struct QuadPass {
     set: DescriptorSet,
@@ -323,6 +394,7 @@ pub struct SsmBitmask {
     list: QuadList,
     list_pipeline: Pipeline,
     final_pass: FinalPass,
+    resolve: Resolve,
     final_set: DescriptorSet,
     _nearest: Sampler,
 }
@@ -412,7 +484,8 @@ impl SsmBitmask {
         let list = QuadList::new(ctx, list_buffers, &front.set, res, &list_name)
             .context("ssm-bitmask quad list pipeline")?;
 
-        // Pass 8.
+        // Passes 8 and 9.
+        let resolve = Resolve::new(ctx, &masks, &nearest, res).context("ssm-bitmask resolve")?;
         let final_name = format!("{name}/final");
         let final_set = DescriptorSet::new(
             ctx,
@@ -422,8 +495,10 @@ impl SsmBitmask {
                     "receiver_front",
                     Resource::Sampled(&receivers.layers[0], &nearest),
                 ),
-                ("mask_front", Resource::Sampled(&masks[0], &nearest)),
-                ("mask_pure", Resource::Sampled(&masks[1], &nearest)),
+                (
+                    "hidden_samples",
+                    Resource::Sampled(&resolve.hidden, &nearest),
+                ),
             ],
             &final_name,
         )?;
@@ -450,6 +525,7 @@ impl SsmBitmask {
             list,
             list_pipeline,
             final_pass,
+            resolve,
             final_set,
             _nearest: nearest,
         })
@@ -532,7 +608,8 @@ impl Technique for SsmBitmask {
         rec.pass(&self.front.name, |rec| {
             self.record_quads(rec, &self.front, listed);
             Ok(())
-        })
+        })?;
+        self.resolve.record(rec)
     }
 
     fn frame_warning(&mut self) -> Result<Option<String>> {
@@ -548,6 +625,7 @@ impl Technique for SsmBitmask {
         names.push(self.blocks.name.clone());
         names.push(format!("{}/micro_quads", self.name));
         names.push(self.front.name.clone());
+        names.push(self.resolve.name.clone());
         names
     }
 

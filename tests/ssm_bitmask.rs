@@ -608,6 +608,60 @@ fn occluder_blocks_shade_fewer_micro_quad_fragments() {
     }
 }
 
+/// The speed layer runs the per-tile passes that only work where a micro-quad is drawn
+/// (`ssm-bitmask/occluder_blocks`, `ssm-bitmask/micro_quads`) on the tiles that hold a drawn
+/// texel (`PatchStep::drawn`, an indirect dispatch): 256 invocations a tile, the tiles
+/// counted here from the occluder map itself (a caster texel; none lies behind every
+/// receiver on these scenes). Before, both ran on all 256 tiles, 65,536 invocations each;
+/// `cylinder` has 28 such tiles, `overlap` 31. `--plain` runs the blocks pass on every tile.
+#[test]
+fn per_tile_passes_run_on_the_tiles_with_a_drawn_texel() {
+    let gpu = Gpu::new();
+    for scene_name in ["cylinder", "overlap"] {
+        for plain in [false, true] {
+            let settings = Settings {
+                width: 64,
+                height: 64,
+                plain,
+                ..Settings::default()
+            };
+            let scene = Scene::load(scene_name).unwrap();
+            let mut r = softshadow::render::Renderer::new(&gpu.ctx, scene, "ssm-bitmask", settings)
+                .unwrap();
+            let timings = r.render().unwrap();
+            let invocations = |pass: &str| {
+                timings
+                    .passes
+                    .iter()
+                    .find(|p| p.name == pass)
+                    .and_then(|p| p.stats)
+                    .unwrap_or_else(|| panic!("{scene_name}: {pass} has statistics on lavapipe"))
+                    .compute_invocations
+            };
+            let map = r.read_technique_buffer("occluder_map").unwrap();
+            let n = map.width as usize;
+            assert_eq!(n, 256, "{scene_name}: the default occluder map");
+            let caster = &map.channels[0];
+            let tiles = (0..n / 16)
+                .flat_map(|ty| (0..n / 16).map(move |tx| (tx, ty)))
+                .filter(|&(tx, ty)| {
+                    (0..16).any(|y| (0..16).any(|x| caster[(ty * 16 + y) * n + tx * 16 + x] < 1e29))
+                })
+                .count() as u64;
+            let blocks = invocations("ssm-bitmask/occluder_blocks");
+            if plain {
+                assert_eq!(blocks, 65_536, "{scene_name}: plain runs every tile");
+                continue;
+            }
+            println!("{scene_name}: {tiles} tiles hold a caster texel");
+            assert!(tiles > 0 && tiles < 64, "{scene_name}: {tiles} tiles");
+            assert_eq!(blocks, 256 * tiles, "{scene_name}: occluder_blocks");
+            let list = invocations("ssm-bitmask/micro_quads");
+            assert_eq!(list, 256 * tiles, "{scene_name}: micro_quads");
+        }
+    }
+}
+
 /// The quad list lists blocks as the plain draw draws them when the micro-patch step is
 /// above 1 (a 1 and a 2 degree cone: blocks of several texels), and under a sun: the
 /// visibilities of the listed and the plain draws are equal.

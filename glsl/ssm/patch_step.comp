@@ -14,7 +14,8 @@
 // paper's remedy for large penumbrae (Sec. 6.1: "a low resolution shadow map would give the
 // same visual results"), applied only when the penumbrae are that large.
 //
-// The first dispatch also writes the receiver tiles: per workgroup (SSM_TILE x SSM_TILE
+// The first dispatch also lists the tiles that hold a drawn texel (ssm/drawn_tiles.glsl; the
+// second writes their indirect dispatch), and writes the receiver tiles: per workgroup (SSM_TILE x SSM_TILE
 // texels) the deepest receiver a micro-patch pass fragment there can stand at, both layers,
 // with the frame's z_max where a texel has no pure receiver (the pass puts it there). A
 // micro-patch is drawn only as far as the deepest receiver under its extent
@@ -40,6 +41,10 @@ layout(set = 0, binding = 2, std430) buffer Bound {
     uint work[];      // per block side 2^l: low word, high word of the estimated fragments
 } bound;
 
+#define DRAWN_TILES_BINDING 6
+#define DRAWN_TILES_ACCESS
+#include "ssm/drawn_tiles.glsl"
+
 layout(push_constant) uniform Push {
     float reach;   // texels of extent per unit of (1/z_O - 1/z_max) (a sun's: of z_max - z_O), the technique's
     uint choose;
@@ -50,6 +55,7 @@ layout(push_constant) uniform Push {
 const int SIDES = 32;
 shared uint group_work[SIDES];
 shared uint group_deepest;
+shared bool group_drawn;
 
 void choose_step() {
     float n = SSM_RES;
@@ -64,6 +70,11 @@ void choose_step() {
         }
     }
     bound.step = step;
+    // The indirect dispatch of the per-tile passes: the listed tiles, or every tile.
+    uint row = (uint(n) + uint(SSM_TILE) - 1u) / uint(SSM_TILE);
+    drawn_tiles.x = step > 1u ? row * row : drawn_tiles.count;
+    drawn_tiles.y = 1u;
+    drawn_tiles.z = 1u;
 }
 
 void main() {
@@ -73,7 +84,10 @@ void main() {
     }
     uint li = gl_LocalInvocationIndex;
     if (li < SIDES) group_work[li] = 0u;
-    if (li == 0u) group_deepest = 0u;
+    if (li == 0u) {
+        group_deepest = 0u;
+        group_drawn = false;
+    }
     barrier();
     int n = int(SSM_RES);
     ivec2 t = ivec2(gl_GlobalInvocationID.xy);
@@ -89,6 +103,8 @@ void main() {
         atomicMax(group_deepest, floatBitsToUint(deepest));
         float zo = texelFetch(occluder_map, t, 0).r;
         if (zo < EMPTY && zo < zmax) {
+            // Every drawn texel writes the same true.
+            group_drawn = true;
             float h = light_is_sun()
                 ? max(pc.reach * (zmax - zo), 0.0)
                 : max(pc.reach * (1.0 / zo - 1.0 / zmax), 0.0);
@@ -101,7 +117,9 @@ void main() {
         }
     }
     barrier();
-    if (li == 0u) tiles.zmax[gl_WorkGroupID.y * gl_NumWorkGroups.x + gl_WorkGroupID.x] = uintBitsToFloat(group_deepest);
+    uint group = gl_WorkGroupID.y * gl_NumWorkGroups.x + gl_WorkGroupID.x;
+    if (li == 0u) tiles.zmax[group] = uintBitsToFloat(group_deepest);
+    if (li == 0u && group_drawn) drawn_tiles.tile[atomicAdd(drawn_tiles.count, 1u)] = group;
     if (li < SIDES && group_work[li] > 0u) {
         uint add = group_work[li];
         uint old = atomicAdd(bound.work[2 * li], add);

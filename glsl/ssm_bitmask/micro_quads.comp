@@ -5,7 +5,7 @@
 // instance (`micro_quad`, micro_quad.glsl) computed once instead of once per vertex, and
 // listed only when it reaches a receiver; the quads' draw (soft_shadow_list.vert) is an
 // indirect draw of the listed quads. One invocation per instance of the plain draw, a
-// workgroup per tile of the occluder map.
+// workgroup per tile of the occluder map that holds a drawn texel (an indirect dispatch).
 #define FRAME_NO_DRAW_PUSH
 #include "ssm_bitmask/micro_quad.glsl"
 
@@ -20,14 +20,21 @@ layout(set = 0, binding = 7, std430) buffer Command {
 } command;
 // Per listed quad 3 vec4: (first, reach), corner depths, (size, grow, 0).
 layout(set = 0, binding = 8, std430) writeonly buffer Quads { vec4 quads[]; } list;
+#define DRAWN_TILES_BINDING 11
+#define DRAWN_TILES_ACCESS readonly
+#include "ssm/drawn_tiles.glsl"
 
 void main() {
     int n = int(SSM_RES);
+    // One workgroup per tile that holds a drawn texel (every tile, in order, when the
+    // micro-patch step is above 1): the other tiles' texels draw no quad.
+    ivec2 texel = workgroup_tile(true, bound.step, n) + ivec2(gl_LocalInvocationID.xy);
+    // No workgroup at all where no texel is drawn: then no quad and no vertices either.
+    if (gl_WorkGroupID.x == 0u && gl_LocalInvocationIndex == 0u) command.vertex_count = 4u;
     // Instance k = y n + x of the plain draw: texel (x, y), or block k of the micro-patch
     // step (`micro_quad` draws none past the last block).
-    if (any(greaterThanEqual(gl_GlobalInvocationID.xy, uvec2(n)))) return;
-    int k = int(gl_GlobalInvocationID.y) * n + int(gl_GlobalInvocationID.x);
-    if (k == 0) command.vertex_count = 4u;
+    if (any(greaterThanEqual(texel, ivec2(n)))) return;
+    int k = texel.y * n + texel.x;
     MicroQuad q = micro_quad(k);
     if (q.grow < 0.0) return;
     uint at = 3u * atomicAdd(command.instance_count, 1u);

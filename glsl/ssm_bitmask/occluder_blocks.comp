@@ -33,9 +33,18 @@ layout(local_size_x = SSM_TILE, local_size_y = SSM_TILE) in;
 
 // r = the casters' linear depth: the RG32F MIN-blended shared shadow map (front surfaces).
 layout(set = 0, binding = 1) uniform sampler2D occluder_map;
-layout(set = 0, binding = 4, std430) readonly buffer Bound { uint zmax_bits; } bound;
+layout(set = 0, binding = 4, std430) readonly buffer Bound { uint zmax_bits; uint step; } bound;
 layout(set = 0, binding = 9, std430) writeonly buffer Blocks { uint side[]; } blocks;
 layout(set = 0, binding = 10, std430) writeonly buffer BlockCorners { vec4 depth[]; } block_corners;
+#define DRAWN_TILES_BINDING 11
+#define DRAWN_TILES_ACCESS readonly
+#include "ssm/drawn_tiles.glsl"
+
+layout(push_constant) uniform Push {
+    // 1: one workgroup per listed tile (the speed layer: tiles without a drawn texel hold no
+    // quad, and no micro-quad reads their sides); 0: one per tile of the map.
+    uint listed;
+} pc;
 
 // The tile and a ring of one texel: depth (FAR_DEPTH where empty or outside the map).
 const int HALO = SSM_TILE + 2;
@@ -100,7 +109,7 @@ int block_flag(ivec2 local, int level) {
 
 void main() {
     int n = int(SSM_RES);
-    ivec2 tile = ivec2(gl_WorkGroupID.xy) * SSM_TILE;
+    ivec2 tile = workgroup_tile(pc.listed != 0u, bound.step, n);
     int li = int(gl_LocalInvocationIndex);
     float zmax = uintBitsToFloat(bound.zmax_bits);
     for (int i = li; i < HALO * HALO; i += SSM_TILE * SSM_TILE) {

@@ -546,6 +546,16 @@ impl Sheet {
                     self.draws(&mut draws);
                     self.para(&format!("Dispatch {x}x{y}x{z} workgroups{push}."));
                 }
+                Event::DispatchIndirect(b) => {
+                    let push = match draws.push.take() {
+                        Some(n) => format!(", {n} bytes of push constants"),
+                        None => String::new(),
+                    };
+                    self.draws(&mut draws);
+                    self.para(&format!(
+                        "Dispatch indirect: workgroups from buffer '{b}'{push}."
+                    ));
+                }
                 Event::Fill(b) => {
                     self.para(&format!("Fill buffer '{b}'."));
                 }
@@ -781,7 +791,7 @@ impl Overview {
                     add_once(&mut o.reads, &format!("'{src}' (copy)"));
                     add_once(&mut o.writes, &format!("'{dst}' (copy)"));
                 }
-                Event::DrawIndirect(b) => {
+                Event::DrawIndirect(b) | Event::DispatchIndirect(b) => {
                     add_once(&mut o.reads, &format!("buffer '{b}' (indirect arguments)"))
                 }
                 _ => {}

@@ -92,12 +92,14 @@
 //!    receiver tiles, per 16x16 texels the deepest receiver a pass-7 fragment there stands at.
 //! 5. `ssm-bitmask/occluder_blocks` — compute `glsl/ssm_bitmask/occluder_blocks.comp`, a
 //!    16x16 workgroup per tile of the occluder map (its depths and a ring of one texel in
-//!    shared memory; three barriers): the occluder blocks above. Writes two storage buffers,
+//!    shared memory; three barriers; the speed layer runs only the tiles that hold a drawn
+//!    texel, `PatchStep::drawn`): the occluder blocks above. Writes two storage buffers,
 //!    per texel the side of the quad it begins (u32: s, 0 inside another's block, 1 its own
 //!    micro-quad) and at a block's first texel the block quad's corner depths (vec4).
 //! 6. `ssm-bitmask/micro_quads` (speed layer, `speed::ssm::QuadList`; not run under
 //!    `--plain`) — compute `glsl/ssm_bitmask/micro_quads.comp`, one invocation per instance
-//!    of pass 7: the instance's quad (`micro_quad`, `glsl/ssm_bitmask/micro_quad.glsl`, the
+//!    of pass 7 on the tiles that hold a drawn texel (an indirect dispatch over
+//!    `PatchStep::drawn`): the instance's quad (`micro_quad`, `glsl/ssm_bitmask/micro_quad.glsl`, the
 //!    function the plain vertex shader runs) once, appended to a list with an atomic counter
 //!    that is the instance count of pass 7's indirect draw, when it reaches a receiver. The
 //!    quads stop at the deepest receiver under their extents: the receiver tiles of pass 4
@@ -287,7 +289,7 @@ impl OccluderBlocks {
     fn new(ctx: &Context, buffers: BlockBuffers, set: &DescriptorSet, res: u32) -> Result<Self> {
         let name = format!("{}/occluder_blocks", INFO.name);
         let spirv = shaders::SSM_BITMASK_OCCLUDER_BLOCKS_COMP;
-        let pipeline = Pipeline::compute(ctx, &name, spirv, &[set], 0)?;
+        let pipeline = Pipeline::compute(ctx, &name, spirv, &[set], 4)?;
         Ok(Self {
             _buffers: buffers,
             pipeline,
@@ -296,13 +298,24 @@ impl OccluderBlocks {
         })
     }
 
-    /// One workgroup per `BOUND_GROUP`² texels of the occluder map.
-    fn record(&self, rec: &mut Recorder<'_>, set: &DescriptorSet) -> Result<()> {
+    /// One workgroup per `BOUND_GROUP`² texels of the occluder map; with `drawn` (the speed
+    /// layer, `PatchStep::drawn`) only per tile that holds a drawn texel, whose sides alone
+    /// a micro-quad reads.
+    fn record(
+        &self,
+        rec: &mut Recorder<'_>,
+        set: &DescriptorSet,
+        drawn: Option<&Buffer>,
+    ) -> Result<()> {
         rec.pass(&self.name, |rec| {
             rec.bind_pipeline(&self.pipeline);
             rec.bind_sets(&self.pipeline, &[set]);
+            rec.push_constants(&self.pipeline, &u32::from(drawn.is_some()).to_ne_bytes());
             let groups = self.res.div_ceil(BOUND_GROUP);
-            rec.dispatch(groups, groups, 1);
+            match drawn {
+                Some(args) => rec.dispatch_indirect(args, 0, [groups * groups, 1, 1]),
+                None => rec.dispatch(groups, groups, 1),
+            }
             Ok(())
         })
     }
@@ -451,6 +464,7 @@ impl SsmBitmask {
             let mut extra = vec![("table", Resource::Storage(&table))];
             extra.extend(list_buffers.bindings());
             extra.extend(block_buffers.bindings());
+            extra.push(("drawn_tiles", Resource::Storage(&inputs.step.drawn)));
             let set = inputs.patch_set(init, map, &nearest, extra, &name)?;
             Ok(QuadPass { set, name })
         };
@@ -596,12 +610,14 @@ impl Technique for SsmBitmask {
             );
         }
         self.inputs.record(rec, frame, reach)?;
-        self.blocks.record(rec, &self.front.set)?;
         let listed = frame.settings.light_areas;
+        let drawn = listed.then_some(&self.inputs.step.drawn);
+        self.blocks.record(rec, &self.front.set, drawn)?;
         let list_name = format!("{}/micro_quads", self.name);
         if listed {
             rec.pass(&list_name, |rec| {
-                self.list.record(rec, &self.front.set);
+                self.list
+                    .record(rec, &self.front.set, &self.inputs.step.drawn);
                 Ok(())
             })?;
         }

@@ -1424,6 +1424,32 @@ impl Recorder<'_> {
         unsafe { self.device().cmd_dispatch(self.cmd, x, y, z) };
     }
 
+    /// One indirect dispatch whose `VkDispatchIndirectCommand` sits at `offset` in `args`;
+    /// `at_most` bounds its workgroups, which the counting frame sizes its counts by.
+    pub fn dispatch_indirect(&mut self, args: &Buffer, offset: u64, at_most: [u32; 3]) {
+        if !self.outside_rendering("dispatch_indirect") {
+            return;
+        }
+        if self.compute.counted {
+            self.count_dispatch(at_most[0], at_most[1], at_most[2]);
+        }
+        let mut uses = Vec::new();
+        Self::shader_uses(&self.compute, &mut uses);
+        uses.push(Use::buffer(
+            args.target(),
+            vk::PipelineStageFlags2::DRAW_INDIRECT,
+            vk::AccessFlags2::INDIRECT_COMMAND_READ,
+        ));
+        self.barriers(&uses);
+        self.log(|| Event::DispatchIndirect(args.name.clone()));
+        // SAFETY: recording outside rendering with a bound compute pipeline; `args` has
+        // INDIRECT_BUFFER usage and holds a VkDispatchIndirectCommand at `offset`.
+        unsafe {
+            self.device()
+                .cmd_dispatch_indirect(self.cmd, args.raw, offset)
+        };
+    }
+
     /// In the counting frame, before a dispatch of a counting build: a count buffer of its
     /// own at set 1, a cell for each 32 invocations of each of its `x * y * z` groups (of at
     /// most 1024), so that no two dispatches' warps share a cell.

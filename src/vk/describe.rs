@@ -169,6 +169,8 @@ pub enum Event {
     /// An indirect draw whose arguments are in this buffer.
     DrawIndirect(String),
     Dispatch([u32; 3]),
+    /// An indirect dispatch whose arguments are in this buffer.
+    DispatchIndirect(String),
     Fill(String),
     Copy(String, String),
     HostRead(String),

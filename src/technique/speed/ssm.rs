@@ -9,7 +9,7 @@
 //! for minutes a frame on a CPU driver. A GPU port may drop the pass and draw s = 1
 //! (the vertex shaders read s from the bound buffer's second word: write 1 there).
 //!
-//! Two tricks of `ssm-bitmask` that leave its image as it is, off under `--plain`:
+//! Three tricks of `ssm-bitmask` that leave its image as it is, off under `--plain`:
 //! - **Receiver tiles** (`PatchStep::tiles`, written by the step's first dispatch): per
 //!   16x16 texels the deepest receiver a micro-quad fragment there stands at. A quad's
 //!   extent for the frame's z_max covers every receiver it can reach; within it no
@@ -24,6 +24,12 @@
 //!   reach a receiver, and the draw is one indirect draw of those. On lavapipe (vertices
 //!   shaded on one thread) the plain draw's vertex stage takes most of the pass where the
 //!   penumbrae are small.
+//! - **Drawn tiles** (`PatchStep::drawn`, written by the step's dispatches): the 16x16 tiles
+//!   that hold a drawn caster texel, listed with an atomic counter, and an indirect
+//!   dispatch over them. `ssm-bitmask/occluder_blocks` and `ssm-bitmask/micro_quads` run one
+//!   workgroup per listed tile where they ran one per tile of the map: no other tile holds
+//!   a quad (every tile in order when the step is above 1, whose blocks take the first
+//!   invocations). On a CPU driver a workgroup costs its whole shader whatever it finds.
 
 use super::super::ssm_common::{ReceiverBound, BOUND_GROUP};
 use crate::shaders;
@@ -44,6 +50,10 @@ pub(crate) struct PatchStep {
     /// (f32; the frame's z_max under `--plain`), read where ssm-bitmask derives its
     /// micro-quads (`glsl/ssm/tiles.glsl`).
     pub tiles: Buffer,
+    /// The tiles holding a drawn texel (`glsl/ssm/drawn_tiles.glsl`): a
+    /// `VkDispatchIndirectCommand` over them, their count, their indices; the per-tile passes
+    /// of ssm-bitmask that only work where a micro-quad is drawn dispatch it.
+    pub drawn: Buffer,
     set: DescriptorSet,
     pipeline: Pipeline,
     readback: Buffer,
@@ -88,6 +98,15 @@ impl PatchStep {
             MemoryLocation::GpuOnly,
             &format!("{name} receiver tiles"),
         )?;
+        let drawn = Buffer::new(
+            ctx,
+            16 + 4 * groups * groups,
+            BufferUsageFlags::STORAGE_BUFFER
+                | BufferUsageFlags::INDIRECT_BUFFER
+                | BufferUsageFlags::TRANSFER_DST,
+            MemoryLocation::GpuOnly,
+            &format!("{name} drawn tiles"),
+        )?;
         let set = DescriptorSet::new(
             ctx,
             &[
@@ -97,6 +116,7 @@ impl PatchStep {
                 ("receiver_front", Resource::Sampled(&receivers[0], nearest)),
                 ("receiver_pure", Resource::Sampled(&receivers[1], nearest)),
                 ("tiles", Resource::Storage(&tiles)),
+                ("drawn_tiles", Resource::Storage(&drawn)),
             ],
             &name,
         )?;
@@ -110,6 +130,7 @@ impl PatchStep {
         )?;
         Ok(Self {
             tiles,
+            drawn,
             set,
             pipeline,
             readback,
@@ -134,6 +155,7 @@ impl PatchStep {
             bytes.extend_from_slice(&u32::from(local).to_ne_bytes());
             bytes
         };
+        rec.fill_buffer(&self.drawn, 0);
         rec.bind_pipeline(&self.pipeline);
         rec.bind_sets(&self.pipeline, &[&self.set]);
         rec.push_constants(&self.pipeline, &push(0));
@@ -243,13 +265,14 @@ impl QuadList {
     }
 
     /// Clears the command and lists the quads: one invocation per instance of the plain
-    /// draw, `BOUND_GROUP`² texels of the occluder map per group (blocks of the micro-patch
-    /// step take the first invocations).
-    pub(crate) fn record(&self, rec: &mut Recorder<'_>, set: &DescriptorSet) {
+    /// draw, a group per tile of `BOUND_GROUP`² occluder texels that holds a drawn texel
+    /// (`drawn`, `PatchStep::drawn`'s indirect dispatch; every tile in order when blocks of
+    /// the micro-patch step take the first invocations).
+    pub(crate) fn record(&self, rec: &mut Recorder<'_>, set: &DescriptorSet, drawn: &Buffer) {
         rec.fill_buffer(&self.buffers.command, 0);
         rec.bind_pipeline(&self.pipeline);
         rec.bind_sets(&self.pipeline, &[set]);
         let groups = self.res.div_ceil(BOUND_GROUP);
-        rec.dispatch(groups, groups, 1);
+        rec.dispatch_indirect(drawn, 0, [groups * groups, 1, 1]);
     }
 }

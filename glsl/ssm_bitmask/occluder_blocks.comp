@@ -56,8 +56,6 @@ shared float corner_value[CORNERS * CORNERS];
 // Per block side 2, 4, 8, 16: whether every texel of each aligned block of the tile is interior
 // and every corner lies on its block quad (offsets 0, 64, 80, 84).
 shared bool flat_block[85];
-// Whether the tile holds a texel that is drawn.
-shared bool tile_drawn;
 
 // Block sides 2^1 ... 2^LEVELS: up to the tile's.
 const int LEVELS = 4;
@@ -90,8 +88,8 @@ vec4 block_corner_values(ivec2 lo, int s) {
                 corner_value[(lo.y + s) * CORNERS + lo.x], corner_value[(lo.y + s) * CORNERS + lo.x + s]);
 }
 
-// Whether the block quad of side s at tile corner `lo`, flat to within the flatness, spans at
-// most SSMB_MERGE_GUARDS guards of depth: its four corners bound its depths then.
+// Whether a block quad with corner values c spans at most SSMB_MERGE_GUARDS guards of depth:
+// flat to within the flatness, it lies between its corners' depths.
 bool block_is_thin(vec4 c) {
     float near_c = max(max(c.x, c.y), max(c.z, c.w));
     float far_c = min(min(c.x, c.y), min(c.z, c.w));
@@ -121,17 +119,10 @@ void main() {
         halo_depth[i] = z < EMPTY ? z : FAR_DEPTH;
     }
     if (li < 85) flat_block[li] = true;
-    if (li == 0) tile_drawn = false;
     barrier();
-    // Every texel that is drawn writes the same true.
-    float zo = depth_at(ivec2(gl_LocalInvocationID.xy) + 1);
-    if (zo < zmax) tile_drawn = true;
-    barrier();
-    // No micro-quad reads this tile's texels (micro_quad.glsl reads the side of drawn texels
-    // only): the whole workgroup ends here, where most of the map is empty.
-    if (!tile_drawn) return;
 
     ivec2 local = ivec2(gl_LocalInvocationID.xy);
+    float zo = depth_at(local + 1);
     bool sun = light_is_sun();
     for (int i = li; i < CORNERS * CORNERS; i += SSM_TILE * SSM_TILE) {
         // Corner (x, y) touches halo texels (x .. x + 1, y .. y + 1).

@@ -20,13 +20,13 @@
 //! table's rounding: no sample falls between two micro-quads, none is counted twice
 //! (counting twice would be harmless in a union, but it is not needed).
 //!
-//! The rows are indexed by the direction (x, y)'s pseudo-angle p = 1 - x / (|x| + y) in
-//! [0, 2], which grows with the angle as atan2(y, x) does, row (p + 1/2) ... : row r holds
-//! the direction of p = (r + 1/2) 2 / 512. The fragment shader pays a division for it where
-//! an arctangent per edge cost about 15 % of its time. dp/dphi falls from 1 (axis-aligned
-//! lines) to 1/2 (diagonal ones), so a row spans up to 1/128 radian: table rounding moves
-//! each edge by at most 1/256 radian (pi/1024 with rows even in angle) and 1/256 disc
-//! radius; unbiased.
+//! The rows are even in the pseudo-angle p = 1 - x / (|x| + y) of the line's canonical
+//! direction (x, y): p runs over [0, 2] and grows with the angle as atan2(y, x) does, and
+//! row r holds the direction of p = (r + 1/2) 2 / 512. The fragment shader pays one
+//! division per edge for its row, where the angle itself would cost an arctangent. dp/dphi
+//! falls from 1 (axis-aligned lines) to 1/2 (diagonal ones), so a row spans up to 1/128
+//! radian: table rounding moves each edge by at most 1/256 radian (pi/1024 with rows even
+//! in angle) and 1/256 disc radius; unbiased.
 
 use glam::Vec2;
 use std::sync::OnceLock;

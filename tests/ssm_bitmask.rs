@@ -662,6 +662,36 @@ fn per_tile_passes_run_on_the_tiles_with_a_drawn_texel() {
     }
 }
 
+/// The largest occluder map the CLI allows, 2048^2: one listed quad per texel (48 bytes) is
+/// 192 MiB, above lavapipe's maxStorageBufferRange (128 MiB), where binding the list was a
+/// validation error. Such a device draws the micro-quads as `--plain` does; the technique is
+/// made without a validation message (the harness fails the test on any).
+#[test]
+fn the_largest_occluder_map_binds_within_the_devices_storage_range() {
+    let gpu = Gpu::new();
+    let limit = u64::from(gpu.ctx.limits.max_storage_buffer_range);
+    for res in [1024, 2048] {
+        let settings = Settings {
+            width: 32,
+            height: 32,
+            occluder_res: res,
+            ..Settings::default()
+        };
+        let scene = Scene::load("bunny").unwrap();
+        softshadow::render::Renderer::new(&gpu.ctx, scene, "ssm-bitmask", settings)
+            .unwrap_or_else(|e| panic!("occluder-res {res}: {e:#}"));
+        let fits = 48 * u64::from(res) * u64::from(res) <= limit;
+        println!(
+            "occluder-res {res}: list of {} MiB, fits: {fits}",
+            48 * u64::from(res) * u64::from(res) >> 20
+        );
+    }
+    assert!(
+        48 * 2048 * 2048 > limit,
+        "lavapipe's range holds the 2048^2 list: the case is not tested"
+    );
+}
+
 /// The quad list lists blocks as the plain draw draws them when the micro-patch step is
 /// above 1 (a 1 and a 2 degree cone: blocks of several texels), and under a sun: the
 /// visibilities of the listed and the plain draws are equal.

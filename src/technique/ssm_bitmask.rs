@@ -610,7 +610,7 @@ impl Technique for SsmBitmask {
             );
         }
         self.inputs.record(rec, frame, reach)?;
-        let listed = frame.settings.light_areas;
+        let listed = frame.settings.light_areas && self.list.buffers.fits;
         let drawn = listed.then_some(&self.inputs.step.drawn);
         self.blocks.record(rec, &self.front.set, drawn)?;
         let list_name = format!("{}/micro_quads", self.name);

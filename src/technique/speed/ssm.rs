@@ -23,7 +23,8 @@
 //!   texel. The list computes each quad once in a compute pass, appends the quads that
 //!   reach a receiver, and the draw is one indirect draw of those. On lavapipe (vertices
 //!   shaded on one thread) the plain draw's vertex stage takes most of the pass where the
-//!   penumbrae are small.
+//!   penumbrae are small. A device that cannot bind room for a quad per texel (48 bytes
+//!   each, `maxStorageBufferRange`) draws as plain does.
 //! - **Drawn tiles** (`PatchStep::drawn`, written by the step's dispatches): the 16x16 tiles
 //!   that hold a drawn caster texel, listed with an atomic counter, and an indirect
 //!   dispatch over them. `ssm-bitmask/occluder_blocks` and `ssm-bitmask/micro_quads` run one
@@ -198,6 +199,10 @@ pub(crate) struct QuadBuffers {
     pub command: Buffer,
     /// Three vec4 per listed quad, room for one per texel.
     quads: Buffer,
+    /// Whether the device can bind room for one quad per texel (`maxStorageBufferRange`;
+    /// lavapipe's 128 MiB holds up to 1672^2 texels). Where it cannot, the micro-quads are
+    /// drawn as under `--plain` (the same image) and `quads` holds one.
+    pub fits: bool,
 }
 
 impl QuadBuffers {
@@ -214,14 +219,20 @@ impl QuadBuffers {
             MemoryLocation::GpuOnly,
             &format!("{name} draw command"),
         )?;
+        let bytes = Self::QUAD_BYTES * u64::from(res) * u64::from(res);
+        let fits = bytes <= u64::from(ctx.limits.max_storage_buffer_range);
         let quads = Buffer::new(
             ctx,
-            Self::QUAD_BYTES * u64::from(res) * u64::from(res),
+            if fits { bytes } else { Self::QUAD_BYTES },
             BufferUsageFlags::STORAGE_BUFFER,
             MemoryLocation::GpuOnly,
             &format!("{name} quads"),
         )?;
-        Ok(Self { command, quads })
+        Ok(Self {
+            command,
+            quads,
+            fits,
+        })
     }
 
     /// The bindings the micro-quad set takes after its own: `command`, `list`.

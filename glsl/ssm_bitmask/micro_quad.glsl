@@ -112,9 +112,8 @@ MicroQuad block_quad(int k, int n, int step, float zmax) {
 }
 
 // The quad of the s x s occluder block whose first texel is `first` (occluder_blocks.comp:
-// every texel of it interior, so each corner of the block is the mean of its four texels, as
-// each micro-quad's corner there; the block quad is their union). Its guard depth is its
-// farthest corner's.
+// every corner of its micro-quads on it, its corners those of the micro-quads at the block's
+// corners; the block quad is their union). Its guard depth is its farthest corner's.
 MicroQuad merged_quad(ivec2 first, int s, vec4 corner_depth, float zmax, int n) {
     float znear = min(min(corner_depth.x, corner_depth.y), min(corner_depth.z, corner_depth.w));
     float zfar = max(max(corner_depth.x, corner_depth.y), max(corner_depth.z, corner_depth.w));

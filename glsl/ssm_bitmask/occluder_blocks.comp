@@ -5,13 +5,15 @@
 // map, src/technique/ssm_bitmask.rs "Occluder blocks"). One invocation per occluder texel,
 // a workgroup per SSM_TILE x SSM_TILE tile. An aligned s x s block of texels (s = 2, 4, 8,
 // 16, within the tile) is one quad when
-//   - every texel in it is drawn (a caster nearer than z_max) and interior: its eight
-//     neighbours are casters, one surface with it (soft_shadow.vert's connect test), so
-//     every corner of every micro-quad in the block is the harmonic mean of its four
-//     texels and neighbouring quads share their corners;
-//   - those (s + 1)^2 corners lie on the block quad's two triangles (corners 0-1-3 and
-//     0-3-2, as each micro-quad splits) within SSMB_MERGE_FLATNESS of their 1/depth: the
-//     micro-quads' union is then the block quad, which back-projects to the same samples;
+//   - every texel in it is drawn (a caster nearer than z_max);
+//   - the corners of each of its micro-quads, as that micro-quad takes them (the harmonic
+//     mean of the texels around the corner that are one surface with its own texel:
+//     soft_shadow.vert), lie on the block quad's two triangles (corners 0-1-3 and 0-3-2, as
+//     each micro-quad splits) within SSMB_MERGE_FLATNESS of their 1/depth; the block quad's
+//     own corners are those of the micro-quads at the block's corners. The micro-quads'
+//     union is then the block quad, which back-projects to the same samples. Inside a
+//     surface neighbouring micro-quads share their corners; at its silhouette a corner keeps
+//     its texel's depth on either side, and the block ends there as its micro-quads do;
 //   - its corners span at most SSMB_MERGE_GUARDS self-occlusion guards of depth: the block
 //     quad takes the guard of its farthest corner, so a receiver between its nearest and
 //     farthest corners loses what its nearer texels alone would hide; the bound keeps that
@@ -49,12 +51,11 @@ layout(push_constant) uniform Push {
 // The tile and a ring of one texel: depth (FAR_DEPTH where empty or outside the map).
 const int HALO = SSM_TILE + 2;
 shared float halo_depth[HALO * HALO];
-// Corner (x, y) of the tile, x and y in 0 ... SSM_TILE: 1/depth (a sun: depth) summed over
-// its four texels in the order micro_quad.glsl sums them, 0 where one of them is empty.
-const int CORNERS = SSM_TILE + 1;
-shared float corner_value[CORNERS * CORNERS];
-// Per block side 2, 4, 8, 16: whether every texel of each aligned block of the tile is interior
-// and every corner lies on its block quad (offsets 0, 64, 80, 84).
+// Per texel of the tile, its micro-quad's four corners (1/depth; a sun's: depth), in the
+// order (i, j), (i + 1, j), (i, j + 1), (i + 1, j + 1).
+shared vec4 own_corners[SSM_TILE * SSM_TILE];
+// Per block side 2, 4, 8, 16: whether every texel of each aligned block of the tile is drawn
+// and every corner of its micro-quads lies on the block quad (offsets 0, 64, 80, 84).
 shared bool flat_block[85];
 
 // Block sides 2^1 ... 2^LEVELS: up to the tile's.
@@ -68,10 +69,9 @@ float depth_at(ivec2 h) {
     return halo_depth[h.y * HALO + h.x];
 }
 
-// The depth of a corner whose four texels sum to `sum` in 1/depth (a sun's: depth): their
-// harmonic (arithmetic) mean, as micro_quad.glsl computes it.
-float corner_depth(float sum) {
-    return light_is_sun() ? sum / 4.0 : 4.0 / sum;
+// The depth of a corner value c (1/depth; a sun's: depth).
+float corner_depth(float c) {
+    return light_is_sun() ? c : 1.0 / c;
 }
 
 // The block quad through its corner values c = (c00, c10, c01, c11) at (x, y), in units of its
@@ -82,10 +82,14 @@ float block_plane(vec4 c, vec2 xy) {
                         : c.x + (c.z - c.x) * xy.y + (c.w - c.z) * xy.x;
 }
 
-// The corner values of the block of side s at tile texel lo.
+// The corner values of the block of side s at tile texel lo: the outer corners of the
+// micro-quads at its corners.
 vec4 block_corner_values(ivec2 lo, int s) {
-    return vec4(corner_value[lo.y * CORNERS + lo.x], corner_value[lo.y * CORNERS + lo.x + s],
-                corner_value[(lo.y + s) * CORNERS + lo.x], corner_value[(lo.y + s) * CORNERS + lo.x + s]);
+    int last = s - 1;
+    return vec4(own_corners[lo.y * SSM_TILE + lo.x].x,
+                own_corners[lo.y * SSM_TILE + lo.x + last].y,
+                own_corners[(lo.y + last) * SSM_TILE + lo.x].z,
+                own_corners[(lo.y + last) * SSM_TILE + lo.x + last].w);
 }
 
 // Whether a block quad with corner values c spans at most SSMB_MERGE_GUARDS guards of depth:
@@ -122,45 +126,37 @@ void main() {
     barrier();
 
     ivec2 local = ivec2(gl_LocalInvocationID.xy);
-    float zo = depth_at(local + 1);
-    bool sun = light_is_sun();
-    for (int i = li; i < CORNERS * CORNERS; i += SSM_TILE * SSM_TILE) {
-        // Corner (x, y) touches halo texels (x .. x + 1, y .. y + 1).
-        ivec2 c = ivec2(i % CORNERS, i / CORNERS);
-        float sum = 0.0;
-        bool all_four = true;
-        for (int t = 0; t < 4; ++t) {
-            float z = depth_at(c + ivec2(t & 1, t >> 1));
-            all_four = all_four && z < EMPTY;
-            sum += sun ? z : 1.0 / z;
-        }
-        corner_value[i] = all_four ? sum : 0.0;
-    }
-    // Drawn and interior: its eight neighbours one surface with it (micro_quad.glsl's test).
     ivec2 h = local + 1;
+    float zo = depth_at(h);
+    bool sun = light_is_sun();
+    bool drawn = zo < EMPTY && zo < zmax;
+    // This texel's micro-quad corners, as micro_quad.glsl takes them: per corner the mean
+    // (1/depth; a sun's depth) of the texels around it that are one surface with this one.
     float slope = SSMB_CONNECT_TEXELS * 2.0 * frame.light_frustum.x * SSM_INV_RES;
     float sun_slope = SSMB_CONNECT_TEXELS * ssm_sun_texel();
-    bool interior = zo < EMPTY && zo < zmax;
-    for (int i = 0; i < 9; ++i) {
-        float z = depth_at(h + ivec2(i % 3 - 1, i / 3 - 1));
-        interior = interior && z < EMPTY && abs(z - zo) <= (sun ? sun_slope : slope * min(z, zo));
+    vec4 own = vec4(0.0);
+    for (int c = 0; c < 4; ++c) {
+        ivec2 first = h + ivec2(c & 1, c >> 1) - 1;
+        float sum = 0.0, count = 0.0;
+        for (int t = 0; t < 4; ++t) {
+            float z = depth_at(first + ivec2(t & 1, t >> 1));
+            bool one = z < EMPTY && abs(z - zo) <= (sun ? sun_slope : slope * min(z, zo));
+            sum += one ? (sun ? z : 1.0 / z) : 0.0;
+            count += one ? 1.0 : 0.0;
+        }
+        own[c] = drawn ? sum / count : 0.0;
     }
+    own_corners[li] = own;
     barrier();
 
-    // Each texel clears the flag of its block at every level where it is not interior or one of
-    // its four corners lies off the block quad (each corner of a block is some texel's); every
-    // writer writes the same false.
-    float own[4];
-    for (int c = 0; c < 4; ++c) {
-        ivec2 corner = local + ivec2(c & 1, c >> 1);
-        own[c] = corner_value[corner.y * CORNERS + corner.x];
-    }
+    // Each texel clears the flag of its block at every level where it is not drawn or one of
+    // its four corners lies off the block quad; every writer writes the same false.
     for (int level = 1; level <= LEVELS; ++level) {
         int s = 1 << level;
         ivec2 lo = local & ~(s - 1);
         vec4 quad = block_corner_values(lo, s);
         float inv_side = 1.0 / float(s);
-        bool flat_here = interior;
+        bool flat_here = drawn;
         for (int c = 0; c < 4; ++c) {
             vec2 xy = vec2(local - lo + ivec2(c & 1, c >> 1)) * inv_side;
             flat_here = flat_here && abs(own[c] - block_plane(quad, xy)) <= SSMB_MERGE_FLATNESS * abs(own[c]);
@@ -184,12 +180,7 @@ void main() {
     }
     blocks.side[g.y * n + g.x] = side;
     if (side > 1u) {
-        // The block quad's corner depths, as each micro-quad computes its own (micro_quad.glsl).
-        vec4 depth;
-        for (int c = 0; c < 4; ++c) {
-            ivec2 corner = local + ivec2(c & 1, c >> 1) * int(side);
-            depth[c] = corner_depth(corner_value[corner.y * CORNERS + corner.x]);
-        }
-        block_corners.depth[g.y * n + g.x] = depth;
+        vec4 c = block_corner_values(local, int(side));
+        block_corners.depth[g.y * n + g.x] = vec4(corner_depth(c.x), corner_depth(c.y), corner_depth(c.z), corner_depth(c.w));
     }
 }

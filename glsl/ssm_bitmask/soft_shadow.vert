@@ -24,7 +24,7 @@
 // list (micro_quads.comp and soft_shadow_list.vert, src/technique/speed/ssm.rs) runs it once
 // per quad and draws only the quads that reach a receiver, with the same result.
 //
-// Where ssm-bitmask/occluder_blocks found a flat block of interior texels, its first texel's
+// Where ssm-bitmask/occluder_blocks found a flat block of drawn texels, its first texel's
 // instance draws the block quad (its corner depths from that pass, its guard depth the
 // farthest corner's) and the block's other instances draw nothing: the micro-quads' union.
 //

@@ -70,17 +70,17 @@
 //! one quad shades (s + 2h)^2 for all of them. Where the micro-quads of a block form one
 //! flat quad, that quad is their union and hides the same samples: `occluder_blocks.comp`
 //! finds, per aligned block of 2, 4, 8 or 16 texels (within the 16x16 tiles), whether every
-//! texel of it is drawn and interior (its eight neighbours one surface with it, so every
-//! corner is the mean of its four texels), every micro-quad corner lies within
-//! `SSMB_MERGE_FLATNESS` (0.3 %) of 1/depth (a sun's: depth) of the block quad's two
-//! triangles, and the block quad's corners span at most `SSMB_MERGE_GUARDS` (4) self-
+//! texel of it is drawn, every corner of its micro-quads (each as its micro-quad takes it,
+//! from the texels one surface with its own) lies within `SSMB_MERGE_FLATNESS` (0.3 %) of
+//! 1/depth (a sun's: depth) of the block quad's two triangles, whose corners are the
+//! corner micro-quads' outer ones, and those span at most `SSMB_MERGE_GUARDS` (4) self-
 //! occlusion guards of depth (the block quad takes its farthest corner's guard, so a
 //! receiver between its nearest and farthest corners loses what the nearer texels alone
 //! would hide: a band of receivers a few guards deep behind the block). The largest such
-//! block holding a texel is drawn as one quad by its first texel; the others draw none.
-//! Silhouettes, depth steps and curved patches keep one micro-quad a texel. The image moves
-//! by at most 2.3e-4 of mae_lit on the built-in scenes, the micro-quad fragments fall by
-//! 18-86 % (`fence`, all thin blockers, keeps every micro-quad): BENCHMARKS.md.
+//! block holding a texel is drawn as one quad by its first texel; the others draw none. A
+//! block may end at a silhouette, where its micro-quads end too; depth steps and curved
+//! patches keep one micro-quad a texel. The image moves by at most 1.5e-4 of mae_lit on
+//! the built-in scenes, the micro-quad fragments fall by 26-92 %: BENCHMARKS.md.
 //!
 //! ## Passes, in order
 //! 1-3. As ssm's (src/technique/ssm_common.rs): `ssm-bitmask/occluder_map` (nearest caster
@@ -91,8 +91,8 @@
 //!    more than N^4 / 64 fragments (then a `warning:` line names the bound); and the
 //!    receiver tiles, per 16x16 texels the deepest receiver a pass-7 fragment there stands at.
 //! 5. `ssm-bitmask/occluder_blocks` — compute `glsl/ssm_bitmask/occluder_blocks.comp`, a
-//!    16x16 workgroup per tile of the occluder map (its depths and a ring of one texel in
-//!    shared memory; three barriers; the speed layer runs only the tiles that hold a drawn
+//!    16x16 workgroup per tile of the occluder map (its depths and a ring of one texel, then
+//!    each texel's micro-quad corners, in shared memory; three barriers; the speed layer runs only the tiles that hold a drawn
 //!    texel, `PatchStep::drawn`): the occluder blocks above. Writes two storage buffers,
 //!    per texel the side of the quad it begins (u32: s, 0 inside another's block, 1 its own
 //!    micro-quad) and at a block's first texel the block quad's corner depths (vec4).

@@ -1,6 +1,6 @@
-//! Soft shadow maps with exact occlusion (issue 22 item 3), `ssm-bitmask`,
-//! against the paper's additive forms, `hard`, `pcss` and the ray-cast reference, on lavapipe
-//! with validation:
+//! Soft shadow maps with exact occlusion (issue 22 item 3), `ssm-bitmask`, against the
+//! paper's additive forms, `hard`, `pcss` and the ray-cast reference, on lavapipe with
+//! validation:
 //! - mae_lit below ssm's (and hard's) on `cylinder`, `bunny`, `primitives` and `fence`, by
 //!   measured margins;
 //! - fewer light leaks where the reference is in full umbra (the fence's slats);
@@ -97,8 +97,9 @@ fn mae_lit_below_the_additive_forms() {
                     of(paper)
                 ));
             }
-            // On `cylinder` the exact occlusion beats pcss (measured 0.0087 and 0.0073 against
-            // 0.0139); elsewhere the occluder map's 256^2 texels limit it (docs/TECHNIQUES.md).
+            // On `cylinder` the exact occlusion beats pcss (measured 0.0087 and 0.0073
+            // against 0.0139); elsewhere the occluder map's 256^2 texels limit it
+            // (docs/TECHNIQUES.md).
             if *name == "cylinder" && of(t) > of("pcss") {
                 bad.push(format!(
                     "{name}/{t}: mae_lit {:.4} above pcss's {:.4}",
@@ -133,8 +134,8 @@ fn leaks(scene: &Scene, img: &FrameImages, v_ref: &[f32]) -> (usize, usize) {
 /// The fence's rails are two occluder texels tall at the default 256^2: most pixels that
 /// leak light are on the umbra's edge, where the map's texels and the reference disagree
 /// (measured at 256^2: ssm 176 of 398 umbra pixels, ssm-bitmask 85; at 512^2: ssm 72,
-/// ssm-bitmask 22). ssm's offset lookup and the gaps between its micro-patches add the rest;
-/// the bitmask form leaks at most 55 % as often.
+/// ssm-bitmask 22). ssm's offset lookup and the gaps between its micro-patches add the
+/// rest; the bitmask form leaks at most 55 % as often.
 #[test]
 fn light_leaks_under_fence_slats_are_halved() {
     let gpu = Gpu::new();
@@ -186,8 +187,9 @@ fn darkening(scene: &Scene, img: &FrameImages, v_ref: &[f32]) -> f64 {
 /// Mean darkening over the penumbra at most, per scene (measured x 1.2). Measured
 /// (ssm-bitmask; ssm): cylinder 0.0090; 0.0102; overlap 0.0310; 0.0258; bunny 0.0278;
 /// 0.0146. The union never counts the light twice, yet the bitmask form is a little darker
-/// than the additive one here: ssm's normal offset shifts its penumbrae outward (too bright overall, mae_lit
-/// 2-3x higher), and the micro-quads reach down to the receiver at contacts.
+/// than the additive one here: ssm's normal offset shifts its penumbrae outward (too bright
+/// overall, mae_lit 2-3x higher), and the micro-quads reach down to the receiver at
+/// contacts.
 const DARKENING: &[(&str, f64)] = &[("cylinder", 0.011), ("overlap", 0.037), ("bunny", 0.033)];
 
 #[test]
@@ -250,9 +252,9 @@ fn zero_radius_equals_hard() {
     }
 }
 
-/// At 512^2 occluder texels (`--occluder-res 512`) the bitmask form's error shrinks from its
-/// default's, to bounds measured per scene of `SCENES`. Measured mae_lit at 512^2 (at the
-/// default 256^2): cylinder 0.0055 (0.0086), bunny 0.0274 (0.0363), primitives 0.0215
+/// At 512^2 occluder texels (`--occluder-res 512`) the bitmask form's error shrinks from
+/// its default's, to bounds measured per scene of `SCENES`. Measured mae_lit at 512^2 (at
+/// the default 256^2): cylinder 0.0055 (0.0086), bunny 0.0274 (0.0363), primitives 0.0215
 /// (0.0452), fence 0.0321 (0.0777). pcss, through the shared lookup's receiver offset
 /// (common/shadow.glsl), which this form does not use (it reads its masks at the point
 /// itself), is below it on bunny, primitives and fence (0.0264, 0.0142, 0.0182): the bound
@@ -288,8 +290,8 @@ fn at_512_occluder_texels_mae_lit_shrinks_to_its_measured_bounds() {
 }
 
 /// The light samples fill the disc evenly, and the edge table is what its header says:
-/// every sample left of a line far right of the disc, none far left, monotone between, about
-/// half through the centre, in every direction.
+/// every sample left of a line far right of the disc, none far left, monotone between,
+/// about half through the centre, in every direction.
 #[test]
 fn samples_and_edge_table() {
     use softshadow::technique::ssm_bitmask::{edge_table, light_samples, SAMPLES};
@@ -342,10 +344,10 @@ fn narrow_cone_light(fov_deg: f32) -> String {
 }
 
 /// The fragments one micro-patch per occupied occluder texel draws, worked out on the CPU
-/// from the occluder and receiver maps read back: texel (i, j) at depth z_O draws its square
-/// grown by h = reach (1/z_O - 1/z_max) texels on each side, clipped to the N x N map (whole
-/// fragments inside it: a lower bound on what the rasteriser shades). Also the number of
-/// occupied texels.
+/// from the occluder and receiver maps read back: texel (i, j) at depth z_O draws its
+/// square grown by h = reach (1/z_O - 1/z_max) texels on each side, clipped to the N x N
+/// map (whole fragments inside it: a lower bound on what the rasteriser shades). Also the
+/// number of occupied texels.
 fn one_patch_per_texel_work(r: &mut softshadow::render::Renderer, reach: f64) -> (f64, usize) {
     let occ = r.read_technique_buffer("occluder_map").unwrap();
     let n = occ.width as usize;
@@ -390,8 +392,8 @@ fn narrow_cone_micro_patch_work_is_bounded() {
         let light = softshadow::frustum::fit_light(&scene);
         let t = (light.fov_deg.to_radians() as f64 * 0.5).tan();
         let radius = scene.light.radius as f64;
-        // The vertex shaders' growth per unit of (1/z_O - 1/z_max): ssm's square of side
-        // R sqrt(pi), L N / (4 tan); the bitmask's disc, at least R N / (2 tan) (its extents
+        // The vertex shaders' growth per unit of (1/z_O - 1/z_max): ssm's square of side R
+        // sqrt(pi), L N / (4 tan); the bitmask's disc, at least R N / (2 tan) (its extents
         // are R / cos(alpha) with a margin, never less than R).
         let reach = match technique {
             "ssm" => radius * std::f64::consts::PI.sqrt() * n / (4.0 * t),
@@ -434,12 +436,12 @@ fn narrow_cone_micro_patch_work_is_bounded() {
 }
 
 /// 1, 2 and 10 degree cones render (micro-patches in blocks at 1 and 2), and the shadow is
-/// where the reference has it: at 2 and 10 degrees mae_lit against the reference stays below
-/// half hard's (measured, 2 degrees: ssm 0.029, ssm-bitmask 0.026, one patch per texel
-/// 0.029 and 0.025, hard 0.125; 10 degrees, one patch per texel: 0.010, 0.004, hard 0.138),
-/// and the reference's umbra is dark. At 1 degree the light's cone sees only part of the
-/// box (what lies outside it is unknown to every shadow map; ssm with one patch per texel
-/// measures the same 0.199): most of the umbra dark (measured 1346 and 1407 of 2146).
+/// where the reference has it: at 2 and 10 degrees mae_lit against the reference stays
+/// below half hard's (measured, 2 degrees: ssm 0.029, ssm-bitmask 0.026, one patch per
+/// texel 0.029 and 0.025, hard 0.125; 10 degrees, one patch per texel: 0.010, 0.004, hard
+/// 0.138), and the reference's umbra is dark. At 1 degree the light's cone sees only part
+/// of the box (what lies outside it is unknown to every shadow map; ssm with one patch per
+/// texel measures the same 0.199): most of the umbra dark (measured 1346 and 1407 of 2146).
 #[test]
 fn narrow_cone_shadow_is_sane() {
     let gpu = Gpu::new();
@@ -558,10 +560,10 @@ fn micro_quad_work(gpu: &Gpu, scene: &str, plain: bool) -> (u64, u64) {
 
 /// The speed layer's micro-quad list (speed::ssm::QuadList: each quad derived once and
 /// listed only when it reaches a receiver) and receiver tiles (each quad drawn only as far
-/// as the deepest receiver under its extent, not the frame's). Under `--plain` the pass runs
-/// 4 vertices for each of the 256^2 texels and shades 551,856 fragments on `cylinder` and
-/// 407,392 on `bunny`; the listed quads run 3,324 and 4,220 vertices and shade 334,208 and
-/// 254,128 (1.65x and 1.60x fewer). The images are equal (tests/plain.rs).
+/// as the deepest receiver under its extent, not the frame's). Under `--plain` the pass
+/// runs 4 vertices for each of the 256^2 texels and shades 551,856 fragments on `cylinder`
+/// and 407,392 on `bunny`; the listed quads run 3,324 and 4,220 vertices and shade 334,208
+/// and 254,128 (1.65x and 1.60x fewer). The images are equal (tests/plain.rs).
 #[test]
 fn listed_micro_quads_stop_at_the_deepest_receiver_under_them() {
     let gpu = Gpu::new();
@@ -585,8 +587,8 @@ fn listed_micro_quads_stop_at_the_deepest_receiver_under_them() {
     }
 }
 
-/// The occluder blocks (module header of src/technique/ssm_bitmask.rs): the texels of a flat
-/// patch draw one quad per block, whose penumbra extent is shaded once where each
+/// The occluder blocks (module header of src/technique/ssm_bitmask.rs): the texels of a
+/// flat patch draw one quad per block, whose penumbra extent is shaded once where each
 /// micro-quad's was shaded again. One micro-quad per drawn texel shaded 1,590,080 fragments
 /// (listed) on `cylinder`, 1,358,240 on `overlap` and 745,616 on `bunny`; with blocks of
 /// interior texels only, 404,128, 189,632 and 334,832; with the silhouettes' texels too,
@@ -610,11 +612,12 @@ fn occluder_blocks_shade_fewer_micro_quad_fragments() {
 }
 
 /// The speed layer runs the per-tile passes that only work where a micro-quad is drawn
-/// (`ssm-bitmask/occluder_blocks`, `ssm-bitmask/micro_quads`) on the tiles that hold a drawn
-/// texel (`PatchStep::drawn`, an indirect dispatch): 256 invocations a tile, the tiles
-/// counted here from the occluder map itself (a caster texel; none lies behind every
+/// (`ssm-bitmask/occluder_blocks`, `ssm-bitmask/micro_quads`) on the tiles that hold a
+/// drawn texel (`PatchStep::drawn`, an indirect dispatch): 256 invocations a tile, the
+/// tiles counted here from the occluder map itself (a caster texel; none lies behind every
 /// receiver on these scenes). Before, both ran on all 256 tiles, 65,536 invocations each;
-/// `cylinder` has 28 such tiles, `overlap` 31. `--plain` runs the blocks pass on every tile.
+/// `cylinder` has 28 such tiles, `overlap` 31. `--plain` runs the blocks pass on every
+/// tile.
 #[test]
 fn per_tile_passes_run_on_the_tiles_with_a_drawn_texel() {
     let gpu = Gpu::new();
@@ -665,8 +668,8 @@ fn per_tile_passes_run_on_the_tiles_with_a_drawn_texel() {
 
 /// The largest occluder map the CLI allows, 2048^2: one listed quad per texel (48 bytes) is
 /// 192 MiB, above lavapipe's maxStorageBufferRange (128 MiB), where binding the list was a
-/// validation error. Such a device draws the micro-quads as `--plain` does; the technique is
-/// made without a validation message (the harness fails the test on any).
+/// validation error. Such a device draws the micro-quads as `--plain` does; the technique
+/// is made without a validation message (the harness fails the test on any).
 #[test]
 fn the_largest_occluder_map_binds_within_the_devices_storage_range() {
     let gpu = Gpu::new();
@@ -681,10 +684,11 @@ fn the_largest_occluder_map_binds_within_the_devices_storage_range() {
         let scene = Scene::load("bunny").unwrap();
         softshadow::render::Renderer::new(&gpu.ctx, scene, "ssm-bitmask", settings)
             .unwrap_or_else(|e| panic!("occluder-res {res}: {e:#}"));
-        let fits = 48 * u64::from(res) * u64::from(res) <= limit;
+        let bytes = 48 * u64::from(res) * u64::from(res);
         println!(
-            "occluder-res {res}: list of {} MiB, fits: {fits}",
-            48 * u64::from(res) * u64::from(res) >> 20
+            "occluder-res {res}: list of {} MiB, fits: {}",
+            bytes >> 20,
+            bytes <= limit
         );
     }
     assert!(

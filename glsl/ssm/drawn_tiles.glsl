@@ -1,7 +1,7 @@
 // The tiles of the occluder map that hold a drawn caster (speed layer, src/technique/speed/
 // ssm.rs `PatchStep::drawn`): written by ssm/patch_step.comp, read by the per-tile passes
-// that only work where a micro-patch is drawn, as the arguments and the tiles of an indirect
-// dispatch. The includer #defines DRAWN_TILES_BINDING (its set's binding) and
+// that only work where a micro-patch is drawn, as the arguments and the tiles of an
+// indirect dispatch. The includer #defines DRAWN_TILES_BINDING (its set's binding) and
 // DRAWN_TILES_ACCESS (readonly, or empty where it is written).
 #ifndef SSM_DRAWN_TILES_GLSL
 #define SSM_DRAWN_TILES_GLSL

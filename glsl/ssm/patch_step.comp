@@ -1,27 +1,27 @@
 #version 450
 #extension GL_GOOGLE_include_directive : require
 #include "common/count.glsl"  // by name: build.rs also builds it counted (-DCOUNT_LIGHT)
-// ssm/micro_patch_step: the side of the texel blocks the micro-patch pass draws as one patch,
-// from the work the patches would cost (Sec. 6.1: occluder texels times the texels of each
-// penumbra extent). Two dispatches of this shader:
-// - `choose == 0`, one invocation per occluder texel: the texel's extent h = reach
-//   (1/z_O - 1/z_max) texels beyond its square (z_max from ssm/receiver_bound), and per block
-//   side s = 1, 2, 4, ... the texels one s x s block quad covers, min(s + 2h + 2, N)^2, shared
-//   by the s^2 texels of a full block; summed over the map into 64-bit counters;
-// - `choose == 1`, one invocation: the smallest s whose sum stays within the budget, N^4 / 64
-//   fragments (every texel's patch over 1/64 of the map), else N.
+// ssm/micro_patch_step: the side of the texel blocks the micro-patch pass draws as one
+// patch, from the work the patches would cost (Sec. 6.1: occluder texels times the texels
+// of each penumbra extent). Two dispatches of this shader:
+// - `choose == 0`, one invocation per occluder texel: the texel's extent h = reach (1/z_O -
+//   1/z_max) texels beyond its square (z_max from ssm/receiver_bound), and per block side s
+//   = 1, 2, 4, ... the texels one s x s block quad covers, min(s + 2h + 2, N)^2, shared by
+//   the s^2 texels of a full block; summed over the map into 64-bit counters;
+// - `choose == 1`, one invocation: the smallest s whose sum stays within the budget, N^4 /
+//   64 fragments (every texel's patch over 1/64 of the map), else N.
 // s = 1 is the paper's one micro-patch per texel, the image unchanged. A larger s is the
 // paper's remedy for large penumbrae (Sec. 6.1: "a low resolution shadow map would give the
 // same visual results"), applied only when the penumbrae are that large.
 //
-// The first dispatch also lists the tiles that hold a drawn texel (ssm/drawn_tiles.glsl; the
-// second writes their indirect dispatch), and writes the receiver tiles: per workgroup (SSM_TILE x SSM_TILE
-// texels) the deepest receiver a micro-patch pass fragment there can stand at, both layers,
-// with the frame's z_max where a texel has no pure receiver (the pass puts it there). A
-// micro-patch is drawn only as far as the deepest receiver under its extent
-// (`deepest_receiver`, glsl/ssm/tiles.glsl): the extent for z_max covers every receiver a
-// patch can reach, and within it none is deeper than those tiles. Without `local` (--plain,
-// and the forms that do not read them) every tile holds z_max.
+// The first dispatch also lists the tiles that hold a drawn texel (ssm/drawn_tiles.glsl;
+// the second writes their indirect dispatch), and writes the receiver tiles: per workgroup
+// (SSM_TILE x SSM_TILE texels) the deepest receiver a micro-patch pass fragment there can
+// stand at, both layers, with the frame's z_max where a texel has no pure receiver (the
+// pass puts it there). A micro-patch is drawn only as far as the deepest receiver under its
+// extent (`deepest_receiver`, glsl/ssm/tiles.glsl): the extent for z_max covers every
+// receiver a patch can reach, and within it none is deeper than those tiles. Without
+// `local` (--plain, and the forms that do not read them) every tile holds z_max.
 #define FRAME_NO_DRAW_PUSH
 #include "common/frame.glsl"
 #include "ssm/ssm.glsl"

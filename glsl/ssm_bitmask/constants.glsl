@@ -4,15 +4,17 @@
 #define SSM_BITMASK_CONSTANTS_GLSL
 #include "ssm/constants.glsl"
 
-// ssm's L (SSM_LIGHT_SIDE, the square light) has no use here: its slot holds 1 / the sample count.
+// ssm's L (SSM_LIGHT_SIDE, the square light) has no use here: its slot holds 1 / the sample
+// count.
 #define SSMB_INV_SAMPLES frame.technique.x      // 1 / the light samples, one bit each of a uvec4 mask (SAMPLES)
 #define SSMB_RADIUS frame.technique2.x          // R > 0: radius of the disc light (R = 0 renders hard)
 #define SSMB_EXTENT_RADIUS frame.technique2.y   // EXTENT_MARGIN R sqrt(1 + 2 tan^2(fov/2)): the disc's reach at the frustum's corner
 #define SSMB_CONNECT_TEXELS frame.technique2.z  // one surface: depths closer than this many texels of slope
 #define SSMB_LUT_ANGLES frame.technique2.w      // rows of the edge table (line directions)
 
-// Occluder blocks (occluder_blocks.comp): a block of micro-quads is one quad only where each
-// micro-quad corner's 1/depth (a sun's: depth) lies within this fraction of the block quad's
+// Occluder blocks (occluder_blocks.comp): a block of micro-quads is one quad only where
+// each micro-quad corner's 1/depth (a sun's: depth) lies within this fraction of the
+// block's,
 const float SSMB_MERGE_FLATNESS = 0.003;
 // and where the block quad's corners span at most this many self-occlusion guards of depth.
 const float SSMB_MERGE_GUARDS = 4.0;

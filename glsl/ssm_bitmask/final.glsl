@@ -1,9 +1,9 @@
-// Final pass of ssm-bitmask. As ssm's (glsl/ssm/final.glsl) in its 2x2
-// footprint of the receiver map: layer 0 where the point is its texel's nearest receiver,
-// layer 1 behind it, no data where the texel's receiver is behind the point. Unlike ssm's,
-// the footprint is read at the point itself, not at the normal-offset point: only the depth
-// that picks each texel's layer is the offset point's (see `visibility`). Each texel's
-// occlusion = popcount(mask) / SAMPLES (SSMB_INV_SAMPLES), the fraction of the light samples that some
+// Final pass of ssm-bitmask. As ssm's (glsl/ssm/final.glsl) in its 2x2 footprint of the
+// receiver map: layer 0 where the point is its texel's nearest receiver, layer 1 behind it,
+// no data where the texel's receiver is behind the point. Unlike ssm's, the footprint is
+// read at the point itself, not at the normal-offset point: only the depth that picks each
+// texel's layer is the offset point's (see `visibility`). Each texel's occlusion =
+// popcount(mask) / SAMPLES (SSMB_INV_SAMPLES), the fraction of the light samples that some
 // micro-quad hides (a union: never above 1, no clamp needed); visibility = 1 - occlusion.
 #include "common/frame.glsl"
 #include "ssm/ssm.glsl"
@@ -21,8 +21,8 @@ float visibility(vec3 p, vec3 n) {
     // The masks hold the visibility of the receiver at each texel's centre: the point is
     // looked up where it is (ssm looks up a normal-offset point, which reads the receivers
     // beside it and shifts every penumbra by a fraction of a texel). Only the depth that
-    // picks the layer is the offset point's (ssm's offset, in occluder-map texels), so that a
-    // caster's own steep surface is not taken for something behind its texel's receiver.
+    // picks the layer is the offset point's (ssm's offset, in occluder-map texels), so that
+    // a caster's own steep surface is not taken for something behind its texel's receiver.
     vec3 po = ssm_offset_point(p, n, texel);
     vec4 c = frame.light_view_proj * vec4(p, 1.0);
     // A sun's clip w is 1: in front of its near plane is clip z >= 0.

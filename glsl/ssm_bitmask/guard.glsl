@@ -5,8 +5,8 @@
 #include "common/frame.glsl"
 #include "ssm/constants.glsl"
 
-// As ssm's: a quad whose texel is less than this in front of the receiver at depth zr is the
-// receiver's own surface (a sun's texel has one world size).
+// As ssm's: a quad whose texel is less than this in front of the receiver at depth zr is
+// the receiver's own surface (a sun's texel has one world size).
 float guard_depth(float zr) {
     float texel = 2.0 * frame.light_frustum.x * SSM_INV_RES;
     return light_is_sun()

@@ -12,8 +12,8 @@
 // r = the casters' linear depth: the RG32F MIN-blended shared shadow map (front surfaces).
 layout(set = 0, binding = 1) uniform sampler2D occluder_map;
 layout(set = 0, binding = 4, std430) readonly buffer Bound { uint zmax_bits; uint step; } bound;
-// Per texel, the side of the quad it begins (occluder_blocks.comp): 1 its own micro-quad, s > 1
-// the s x s block it is the first texel of, 0 a texel of another's block.
+// Per texel, the side of the quad it begins (occluder_blocks.comp): 1 its own micro-quad,
+// s > 1 the s x s block it is the first texel of, 0 a texel of another's block.
 layout(set = 0, binding = 9, std430) readonly buffer Blocks { uint side[]; } blocks;
 // At a block's first texel, the block quad's corner depths.
 layout(set = 0, binding = 10, std430) readonly buffer BlockCorners { vec4 depth[]; } block_corners;
@@ -39,8 +39,8 @@ void extent(inout MicroQuad q, vec2 lo, vec2 size, float znear, float zmax, int 
     float h;
     if (light_is_sun()) {
         // A sun's disc of directions is tan(theta) wide in every direction from every
-        // receiver (no stretch): the quad grows by EXTENT_MARGIN tan(theta) (z_max - z_near)
-        // world units, the penumbra's half-width linear in the distance.
+        // receiver (no stretch): the quad grows by EXTENT_MARGIN tan(theta) (z_max -
+        // z_near) world units, the penumbra's half-width linear in the distance.
         q.reach = SSMB_EXTENT_RADIUS / ssm_sun_texel();
         h = q.reach * (zmax - znear);
     } else {
@@ -78,7 +78,8 @@ MicroQuad block_quad(int k, int n, int step, float zmax) {
     ivec2 b1 = min(b0 + step, ivec2(n));
     ivec2 lo = ivec2(n), hi = ivec2(-1);
     float znear = FAR_DEPTH, zfar = 0.0;
-    // Per block corner, the depth of the occupied texel nearest to it (city-block distance).
+    // Per block corner, the depth of the occupied texel nearest to it (city-block
+    // distance).
     vec4 zc = vec4(FAR_DEPTH);
     ivec4 dc = ivec4(4 * n);
     for (int j = b0.y; j < b1.y; ++j) {
@@ -112,8 +113,9 @@ MicroQuad block_quad(int k, int n, int step, float zmax) {
 }
 
 // The quad of the s x s occluder block whose first texel is `first` (occluder_blocks.comp:
-// every corner of its micro-quads on it, its corners those of the micro-quads at the block's
-// corners; the block quad is their union). Its guard depth is its farthest corner's.
+// every corner of its micro-quads on it, its corners those of the micro-quads at the
+// block's corners; the block quad is their union). Its guard depth is its farthest
+// corner's.
 MicroQuad merged_quad(ivec2 first, int s, vec4 corner_depth, float zmax, int n) {
     float znear = min(min(corner_depth.x, corner_depth.y), min(corner_depth.z, corner_depth.w));
     float zfar = max(max(corner_depth.x, corner_depth.y), max(corner_depth.z, corner_depth.w));
@@ -122,9 +124,9 @@ MicroQuad merged_quad(ivec2 first, int s, vec4 corner_depth, float zmax, int n) 
     return q;
 }
 
-// The micro-quad of instance k: texel k of the occluder map (or the block it begins, or none
-// when it lies in another texel's block: occluder_blocks.comp), or block k when the micro-
-// patch step is above 1 (glsl/ssm/patch_step.comp).
+// The micro-quad of instance k: texel k of the occluder map (or the block it begins, or
+// none when it lies in another texel's block: occluder_blocks.comp), or block k when the
+// micro-patch step is above 1 (glsl/ssm/patch_step.comp).
 MicroQuad micro_quad(int k) {
     int n = int(SSM_RES);
     float zmax = uintBitsToFloat(bound.zmax_bits);
@@ -137,8 +139,8 @@ MicroQuad micro_quad(int k) {
     uint side = blocks.side[k];
     if (side == 0u) return q;
     if (side > 1u) return merged_quad(texel, int(side), block_corners.depth[k], zmax, n);
-    // 1/z (a sun: z) of the 3x3 neighbourhood where it is one surface with the texel, else 0.
-    // The test is symmetric in the two depths, so two neighbours agree on whether they
+    // 1/z (a sun: z) of the 3x3 neighbourhood where it is one surface with the texel, else
+    // 0. The test is symmetric in the two depths, so two neighbours agree on whether they
     // connect. A sun's map is orthographic: its texels have one world size (the slope is
     // absolute, not relative), and depth is affine across a plane's texels, so its corners
     // take the arithmetic mean.

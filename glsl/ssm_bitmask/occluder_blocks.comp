@@ -1,10 +1,10 @@
 #version 450
 #extension GL_GOOGLE_include_directive : require
 #include "common/count.glsl"  // by name: build.rs also builds it counted (-DCOUNT_LIGHT)
-// ssm-bitmask/occluder_blocks: which micro-quads are drawn as one (the hierarchical occluder
-// map, src/technique/ssm_bitmask.rs "Occluder blocks"). One invocation per occluder texel,
-// a workgroup per SSM_TILE x SSM_TILE tile. An aligned s x s block of texels (s = 2, 4, 8,
-// 16, within the tile) is one quad when
+// ssm-bitmask/occluder_blocks: which micro-quads are drawn as one (the hierarchical
+// occluder map, src/technique/ssm_bitmask.rs "Occluder blocks"). One invocation per
+// occluder texel, a workgroup per SSM_TILE x SSM_TILE tile. An aligned s x s block of
+// texels (s = 2, 4, 8, 16, within the tile) is one quad when
 //   - every texel in it is drawn (a caster nearer than z_max);
 //   - the corners of each of its micro-quads, as that micro-quad takes them (the harmonic
 //     mean of the texels around the corner that are one surface with its own texel:
@@ -12,19 +12,20 @@
 //     each micro-quad splits) within SSMB_MERGE_FLATNESS of their 1/depth; the block quad's
 //     own corners are those of the micro-quads at the block's corners. The micro-quads'
 //     union is then the block quad, which back-projects to the same samples. Inside a
-//     surface neighbouring micro-quads share their corners; at its silhouette a corner keeps
-//     its texel's depth on either side, and the block ends there as its micro-quads do;
+//     surface neighbouring micro-quads share their corners; at its silhouette a corner
+//     keeps its texel's depth on either side, and the block ends there as its micro-quads
+//     do;
 //   - its corners span at most SSMB_MERGE_GUARDS self-occlusion guards of depth: the block
 //     quad takes the guard of its farthest corner, so a receiver between its nearest and
 //     farthest corners loses what its nearer texels alone would hide; the bound keeps that
 //     to a band of receivers as thin as the guard itself.
 // The largest such block holding a texel is its quad. Writes per texel the side of the quad
-// it begins (s at a block's first texel, 0 at its other texels, 1 where the texel is its own
-// micro-quad) and, at a block's first texel, the block quad's corner depths.
+// it begins (s at a block's first texel, 0 at its other texels, 1 where the texel is its
+// own micro-quad) and, at a block's first texel, the block quad's corner depths.
 //
 // Three barriers: a CPU driver runs a workgroup's invocations as coroutines that switch at
-// each one. Every texel tests its own four corners against its block at every level at once,
-// and the blocks are found flat by texels that each can only clear a block's flag.
+// each one. Every texel tests its own four corners against its block at every level at
+// once, and the blocks are found flat by texels that each can only clear a block's flag.
 #define FRAME_NO_DRAW_PUSH
 #include "common/frame.glsl"
 #include "ssm/ssm.glsl"
@@ -43,8 +44,8 @@ layout(set = 0, binding = 10, std430) writeonly buffer BlockCorners { vec4 depth
 #include "ssm/drawn_tiles.glsl"
 
 layout(push_constant) uniform Push {
-    // 1: one workgroup per listed tile (the speed layer: tiles without a drawn texel hold no
-    // quad, and no micro-quad reads their sides); 0: one per tile of the map.
+    // 1: one workgroup per listed tile (the speed layer: tiles without a drawn texel hold
+    // no quad, and no micro-quad reads their sides); 0: one per tile of the map.
     uint listed;
 } pc;
 
@@ -54,8 +55,8 @@ shared float halo_depth[HALO * HALO];
 // Per texel of the tile, its micro-quad's four corners (1/depth; a sun's: depth), in the
 // order (i, j), (i + 1, j), (i, j + 1), (i + 1, j + 1).
 shared vec4 own_corners[SSM_TILE * SSM_TILE];
-// Per block side 2, 4, 8, 16: whether every texel of each aligned block of the tile is drawn
-// and every corner of its micro-quads lies on the block quad (offsets 0, 64, 80, 84).
+// Per block side 2, 4, 8, 16: whether every texel of each aligned block of the tile is
+// drawn and every corner of its micro-quads lies on the block quad (offsets 0, 64, 80, 84).
 shared bool flat_block[85];
 
 // Block sides 2^1 ... 2^LEVELS: up to the tile's.
@@ -74,8 +75,8 @@ float corner_depth(float c) {
     return light_is_sun() ? c : 1.0 / c;
 }
 
-// The block quad through its corner values c = (c00, c10, c01, c11) at (x, y), in units of its
-// side: corners 0-1-3 (x >= y) and 0-3-2 (the rest) span its two triangles, as each
+// The block quad through its corner values c = (c00, c10, c01, c11) at (x, y), in units of
+// its side: corners 0-1-3 (x >= y) and 0-3-2 (the rest) span its two triangles, as each
 // micro-quad's.
 float block_plane(vec4 c, vec2 xy) {
     return xy.x >= xy.y ? c.x + (c.y - c.x) * xy.x + (c.w - c.y) * xy.y
@@ -92,8 +93,8 @@ vec4 block_corner_values(ivec2 lo, int s) {
                 own_corners[(lo.y + last) * SSM_TILE + lo.x + last].w);
 }
 
-// Whether a block quad with corner values c spans at most SSMB_MERGE_GUARDS guards of depth:
-// flat to within the flatness, it lies between its corners' depths.
+// Whether a block quad with corner values c spans at most SSMB_MERGE_GUARDS guards of
+// depth: flat to within the flatness, it lies between its corners' depths.
 bool block_is_thin(vec4 c) {
     float near_c = max(max(c.x, c.y), max(c.z, c.w));
     float far_c = min(min(c.x, c.y), min(c.z, c.w));
@@ -149,8 +150,8 @@ void main() {
     own_corners[li] = own;
     barrier();
 
-    // Each texel clears the flag of its block at every level where it is not drawn or one of
-    // its four corners lies off the block quad; every writer writes the same false.
+    // Each texel clears the flag of its block at every level where it is not drawn or one
+    // of its four corners lies off the block quad; every writer writes the same false.
     for (int level = 1; level <= LEVELS; ++level) {
         int s = 1 << level;
         ivec2 lo = local & ~(s - 1);
@@ -167,8 +168,8 @@ void main() {
 
     ivec2 g = tile + local;
     if (any(greaterThanEqual(g, ivec2(n)))) return;
-    // The largest block holding this texel that is one quad: every texel of a block finds the
-    // same.
+    // The largest block holding this texel that is one quad: every texel of a block finds
+    // the same.
     uint side = 1u;
     for (int level = LEVELS; level >= 1; --level) {
         int s = 1 << level;

@@ -2,13 +2,15 @@
 #extension GL_GOOGLE_include_directive : require
 #include "common/count.glsl"  // by name: build.rs also builds it counted (-DCOUNT_LIGHT)
 // ssm-bitmask/resolve: per soft-shadow-map texel, how many light samples each layer's mask
-// hides, as one float 256 * front + pure (both 0 ... 128, so the sum is an integer below 2^16,
-// exact in a float). The final pass then reads the four texels of its footprint in one
-// gather of this R32F map, where it fetched both 128-bit masks of each texel (eight reads)
-// and counted their bits at every pixel.
+// hides, as one float 256 * front + pure (both 0 ... 128, so the sum is an integer below
+// 2^16, exact in a float). The final pass then reads the four texels of its footprint in
+// one gather of this R32F map, where it would otherwise fetch both 128-bit masks of each
+// texel (eight reads) and count their bits at every pixel.
 
-layout(set = 0, binding = 0) uniform usampler2D mask_front;   // RGBA32UI hidden samples, layer 0
-layout(set = 0, binding = 1) uniform usampler2D mask_pure;    // RGBA32UI hidden samples, layer 1
+// RGBA32UI: the samples hidden from layer 0 (the nearest receiver) and from layer 1 (the
+// pure receiver behind it).
+layout(set = 0, binding = 0) uniform usampler2D mask_front;
+layout(set = 0, binding = 1) uniform usampler2D mask_pure;
 
 layout(location = 0) out float o_hidden;
 

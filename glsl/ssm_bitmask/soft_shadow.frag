@@ -34,8 +34,8 @@ layout(location = 3) flat in vec2 v_size;     // the quad's side in texels (1: o
 layout(location = 0) out uvec4 o_front;   // samples hidden from the nearest receiver
 layout(location = 1) out uvec4 o_pure;    // samples hidden from the pure receiver behind it
 
-// The samples left of the line through a and b, taken in its canonical direction (+y, or
-// +x when horizontal); `flipped` says that direction is b -> a. Both triangles that share an
+// The samples left of the line through a and b, taken in its canonical direction (+y, or +x
+// when horizontal); `flipped` says that direction is b -> a. Both triangles that share an
 // edge compute the same line from the same two points, so between them they take every
 // sample exactly once: no sample falls in a gap between two micro-quads.
 uvec4 line_mask(vec2 a, vec2 b, out bool flipped) {
@@ -68,8 +68,8 @@ float cross2(vec2 a, vec2 b) {
     return a.x * b.y - a.y * b.x;
 }
 
-// The samples inside the quad whose corners, projected from the receiver, are c (in units of
-// the light's radius: the disc is the unit disc).
+// The samples inside the quad whose corners, projected from the receiver, are c (in units
+// of the light's radius: the disc is the unit disc).
 uvec4 quad_mask(vec2 c[4]) {
     vec2 lo = min(min(c[0], c[1]), min(c[2], c[3]));
     vec2 hi = max(max(c[0], c[1]), max(c[2], c[3]));
@@ -101,8 +101,8 @@ uvec4 quad_mask(vec2 c[4]) {
 // frame, towards the light): a corner q seen from the receiver p lies in the direction of
 // tangent (q - p).xy / (z_R - z_q) off the axis, and the disc is tan(theta) (SSMB_RADIUS)
 // in tangent units. The projection from p onto the plane one unit towards the light keeps
-// lines lines, as the spotlight's. `zcap`: corners deeper than the guard are pulled in front
-// of it, as the spotlight's.
+// lines lines, as the spotlight's. `zcap`: corners deeper than the guard are pulled in
+// front of it, as the spotlight's.
 uvec4 hidden_directions(vec3 p, float zcap) {
     vec2 c[4];
     for (int k = 0; k < 4; ++k) {
@@ -157,11 +157,13 @@ void main() {
     if (z1 >= EMPTY) discard;   // no receiver here: nothing to shadow
     float z2 = texelFetch(receiver_pure, texel, 0).r;
     float zmax = uintBitsToFloat(bound.zmax_bits);
-    // No pure receiver behind: stand in the farthest receiver plane, which the extents cover.
+    // No pure receiver behind: stand in the farthest receiver plane, which the extents
+    // cover.
     z2 = min(z2, zmax);
-    // The layers the quad reaches, shaded in turn (the pure receiver only where it is another
-    // surface): a loop rather than two calls, so that a SIMD group none of whose fragments
-    // has a second layer stops after one trip, where two calls would each run for all.
+    // The layers the quad reaches, shaded in turn (the pure receiver only where it is
+    // another surface): a loop rather than two calls, so that a SIMD group none of whose
+    // fragments has a second layer stops after one trip, where two calls would each run for
+    // all.
     vec2 r = gl_FragCoord.xy;
     bool front = reaches(z1, r);
     bool pure = z2 != z1 && reaches(z2, r);

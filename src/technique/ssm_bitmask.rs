@@ -2,9 +2,9 @@
 //! Port sheet: docs/port/ssm-bitmask.md
 //! Speed layer: speed::ssm (the micro-patch step, pass 4, kept under --plain; the receiver
 //! tiles and the quad list, pass 6, off under --plain).
-//! Over 400 lines because the header (about 150 lines) carries both lights' projections onto
-//! the light samples and the occluder blocks' rules, which a porter reads here and not in
-//! the shaders alone.
+//! Over 400 lines because the header (about 150 lines) carries both lights' projections
+//! onto the light samples and the occluder blocks' rules, which a porter reads here and not
+//! in the shaders alone.
 //!
 //! Atty et al. 2006 (`ssm`, src/technique/ssm.rs, whose header this one builds on) back-
 //! project one micro-patch per occluder-map texel onto the light and ADD the hidden areas:
@@ -15,7 +15,8 @@
 //! *Bitmask Soft Shadows*, CGF 26(3) 2007): per soft-shadow-map texel one bit per light
 //! sample, set when some micro-patch hides that sample, OR-combined; micro-quads that join
 //! neighbouring texels close the gaps. Same occluder, receiver and bound passes as `ssm`
-//! (shared code: `ssm_common::LightInputs`, its passes 1-5 but the back occluder map of the two-sided `ssm2`).
+//! (shared code: `ssm_common::LightInputs`, its passes 1-5 but the back occluder map of the
+//! two-sided `ssm2`).
 //!
 //! ## Light samples and the edge table (src/technique/ssm_bitmask_table.rs)
 //! 128 samples on the disc light, one bit each in a `uvec4` (R32G32B32A32_UINT): visibility
@@ -54,15 +55,15 @@
 //! (tests/ssm_bitmask.rs).
 //!
 //! ## Micro-quads (the gap closing), and the dilation constant
-//! The micro-quad of texel (i, j) spans the texel's square of the map, as the paper's micro-
-//! patch, but each corner has its own depth: the harmonic mean of the up to four texels
-//! around the corner that are one surface with (i, j), i.e. whose depths differ by at most
-//! `CONNECT_TEXELS` = 4 texels of depth slope (surfaces up to ~76 degrees from the map's
-//! image plane). Neighbouring quads of one surface share corners, so their back-projections
-//! meet exactly; at a silhouette or a larger depth step the corner keeps the texel's depth,
-//! so the quad ends at the texel's edge (the occluder is not eroded by half a texel). The
-//! dilation constant is 0: the shared corners and the table's complementary halves close
-//! the gaps.
+//! The micro-quad of texel (i, j) spans the texel's square of the map, as the paper's
+//! micro-patch, but each corner has its own depth: the harmonic mean of the up to four
+//! texels around the corner that are one surface with (i, j), i.e. whose depths differ by
+//! at most `CONNECT_TEXELS` = 4 texels of depth slope (surfaces up to ~76 degrees from the
+//! map's image plane). Neighbouring quads of one surface share corners, so their
+//! back-projections meet exactly; at a silhouette or a larger depth step the corner keeps
+//! the texel's depth, so the quad ends at the texel's edge (the occluder is not eroded by
+//! half a texel). The dilation constant is 0: the shared corners and the table's
+//! complementary halves close the gaps.
 //!
 //! ## Occluder blocks (a hierarchical occluder map)
 //! Each micro-quad's penumbra extent grows by the same h texels whatever its size, so the
@@ -86,24 +87,27 @@
 //! 1-3. As ssm's (src/technique/ssm_common.rs): `ssm-bitmask/occluder_map` (nearest caster
 //!    depth), `ssm-bitmask/receiver_map` (two R32_SFLOAT layers: nearest receiver,
 //!    nearest pure receiver) and `ssm-bitmask/receiver_bound` (z_max).
-//! 4. `ssm-bitmask/micro_patch_step` — as ssm's (speed::ssm) with this form's extents: the
-//!    side s of the texel blocks drawn as one micro-quad, 1 unless the quads would shade
-//!    more than N^4 / 64 fragments (then a `warning:` line names the bound); and the
-//!    receiver tiles, per 16x16 texels the deepest receiver a pass-7 fragment there stands at.
+//! 4. `ssm-bitmask/micro_patch_step` — as ssm's (speed::ssm) with this form's extents:
+//!    the side s of the texel blocks drawn as one micro-quad, 1 unless the quads would
+//!    shade more than N^4 / 64 fragments (then a `warning:` line names the bound); and the
+//!    receiver tiles, per 16x16 texels the deepest receiver a pass-7 fragment there stands
+//!    at.
 //! 5. `ssm-bitmask/occluder_blocks` — compute `glsl/ssm_bitmask/occluder_blocks.comp`, a
-//!    16x16 workgroup per tile of the occluder map (its depths and a ring of one texel, then
-//!    each texel's micro-quad corners, in shared memory; three barriers; the speed layer runs only the tiles that hold a drawn
-//!    texel, `PatchStep::drawn`): the occluder blocks above. Writes two storage buffers,
-//!    per texel the side of the quad it begins (u32: s, 0 inside another's block, 1 its own
-//!    micro-quad) and at a block's first texel the block quad's corner depths (vec4).
+//!    16x16 workgroup per tile of the occluder map (its depths and a ring of one texel,
+//!    then each texel's micro-quad corners, in shared memory; three barriers; the speed
+//!    layer runs only the tiles that hold a drawn texel, `PatchStep::drawn`): the occluder
+//!    blocks above. Writes two storage buffers, per texel the side of the quad it begins
+//!    (u32: s, 0 inside another's block, 1 its own micro-quad) and at a block's first texel
+//!    the block quad's corner depths (vec4).
 //! 6. `ssm-bitmask/micro_quads` (speed layer, `speed::ssm::QuadList`; not run under
 //!    `--plain`) — compute `glsl/ssm_bitmask/micro_quads.comp`, one invocation per instance
 //!    of pass 7 on the tiles that hold a drawn texel (an indirect dispatch over
-//!    `PatchStep::drawn`): the instance's quad (`micro_quad`, `glsl/ssm_bitmask/micro_quad.glsl`, the
-//!    function the plain vertex shader runs) once, appended to a list with an atomic counter
-//!    that is the instance count of pass 7's indirect draw, when it reaches a receiver. The
-//!    quads stop at the deepest receiver under their extents: the receiver tiles of pass 4
-//!    (`glsl/ssm/tiles.glsl`), which hold the frame's z_max under `--plain`.
+//!    `PatchStep::drawn`): the instance's quad (`micro_quad`,
+//!    `glsl/ssm_bitmask/micro_quad.glsl`, the function the plain vertex shader runs) once,
+//!    appended to a list with an atomic counter that is the instance count of pass 7's
+//!    indirect draw, when it reaches a receiver. The quads stop at the deepest receiver
+//!    under their extents: the receiver tiles of pass 4 (`glsl/ssm/tiles.glsl`), which hold
+//!    the frame's z_max under `--plain`.
 //! 7. `ssm-bitmask/soft_shadow` — one instanced draw of N^2 instances x 4 vertices
 //!    (triangle strip), no vertex buffer (the speed layer: one indirect draw of the listed
 //!    quads, `glsl/ssm_bitmask/soft_shadow_list.vert`; the same quads, the same image). Two
@@ -125,8 +129,8 @@
 //!    the occluder blocks are then not read) instance k draws block k of
 //!    s x s texels: the bounding rectangle of its occupied texels, each corner at the depth
 //!    of the occupied texel nearest it, its guard depth the block's farthest.
-//! 8. `ssm-bitmask/resolve` — one triangle over the map, `glsl/ssm_bitmask/resolve.vert` and
-//!    `.frag`: per texel the samples each layer's mask hides, popcount(front) * 256 +
+//! 8. `ssm-bitmask/resolve` — one triangle over the map, `glsl/ssm_bitmask/resolve.vert`
+//!    and `.frag`: per texel the samples each layer's mask hides, popcount(front) * 256 +
 //!    popcount(pure) (integers below 2^16, exact in a float), into `hidden samples` =
 //!    R32_SFLOAT, clear 0 (every texel is then written), no blend. The final pass gathers
 //!    this one channel where it would fetch two 128-bit masks per texel of its footprint.
@@ -141,15 +145,16 @@
 //! ## Frame constants
 //! `frame.technique` as ssm's but its first slot holds 1 / `SAMPLES`; `frame.technique2` =
 //! (R, R' = `EXTENT_MARGIN` R sqrt(1 + 2 tan^2(fov/2)), connect texels, edge-table rows):
-//! glsl/ssm_bitmask/constants.glsl, the shaders' only source of `SAMPLES` and `EXTENT_MARGIN`.
+//! glsl/ssm_bitmask/constants.glsl, the shaders' only source of `SAMPLES` and
+//! `EXTENT_MARGIN`.
 //!
 //! ## Cost
 //! As ssm's: up to N^2 quads times their extents in `soft_shadow` (fewer where the occluder
 //! blocks draw one quad for many texels), each fragment up to ten table reads (five edges
 //! per receiver layer, one when both layers are the same surface). Accuracy is limited by
-//! the occluder map's resolution (`--occluder-res`, shared with ssm): at 512 mae_lit falls by 30-60 %
-//! on cylinder, bunny, primitives and fence (tests/ssm_bitmask.rs), but the micro-quad pass
-//! grows as N^4, which pass 4 bounds. Measured figures: BENCHMARKS.md.
+//! the occluder map's resolution (`--occluder-res`, shared with ssm): at 512 mae_lit falls
+//! by 30-60 % on cylinder, bunny, primitives and fence (tests/ssm_bitmask.rs), but the
+//! micro-quad pass grows as N^4, which pass 4 bounds. Measured figures: BENCHMARKS.md.
 //!
 //! ## Known artefacts
 //! - Only what the light's centre sees of the occluders is discretised (ssm's Sec. 5.1.1):
@@ -159,8 +164,8 @@
 //!   it and was removed for its cost (README).
 //! - A depth step smaller than `CONNECT_TEXELS` is bridged by a "skirt" between the two
 //!   surfaces: a little too much occlusion behind small steps.
-//! - 128 samples: visibility in steps of 1/128, the same pattern everywhere (no noise, faint
-//!   1/128 contours in wide penumbrae).
+//! - 128 samples: visibility in steps of 1/128, the same pattern everywhere (no noise,
+//!   faint 1/128 contours in wide penumbrae).
 //! - Occluder-map aliasing at small R, the receiver layers and the guard: as ssm.
 //! - The disc faces each receiver texel's centre, not the camera pixel's point.
 //! - At small R > 0, on a caster's own surface near its terminator (n.l < 0.2), the point
@@ -198,10 +203,10 @@ const CONNECT_TEXELS: f32 = 4.0;
 /// shaders read it only through `SSMB_EXTENT_RADIUS`.
 const EXTENT_MARGIN: f32 = 1.05;
 
-/// The disc's reach on the map's image plane at the frustum's corner (`SSMB_EXTENT_RADIUS`):
-/// R / cos(alpha) there, with a margin.
-/// A sun's disc of directions is tan(theta) wide from every receiver: its reach is
-/// tan(theta) with the margin, no stretch.
+/// The disc's reach on the map's image plane at the frustum's corner
+/// (`SSMB_EXTENT_RADIUS`): R / cos(alpha) there, with a margin. A sun's disc of directions
+/// is tan(theta) wide from every receiver: its reach is tan(theta) with the margin, no
+/// stretch.
 fn extent_radius(frame: &FrameInput<'_>) -> f32 {
     if let Some(sun) = frame.light.sun {
         return EXTENT_MARGIN * sun.tan_angle;
@@ -471,8 +476,8 @@ impl SsmBitmask {
         let front = quads(&occluder.depth, "soft_shadow").context("ssm-bitmask micro-quads")?;
         let blocks = OccluderBlocks::new(ctx, block_buffers, &front.set, res)
             .context("ssm-bitmask occluder blocks pipeline")?;
-        // The plain draw's vertex shader derives each quad; the speed layer's list draw reads
-        // the quads `list` computed. The same quads, the same fragment shader.
+        // The plain draw's vertex shader derives each quad; the speed layer's list draw
+        // reads the quads `list` computed. The same quads, the same fragment shader.
         let quad_pipeline = |vertex: &[u8]| {
             Pipeline::graphics(
                 ctx,

@@ -5,11 +5,11 @@
 //!
 //! ## Light samples and bits
 //! 128 samples on the disc light, one bit each in a `uvec4` (R32G32B32A32_UINT attachment):
-//! sample k is bit k % 32 of word k / 32. Visibility = 1 - popcount(mask) / 128, so it moves
-//! in steps of 1/128 (the reference averages at least 256 rays). Positions: a golden-angle
-//! (Vogel) spiral, radius sqrt((k + 1/2) / 128), angle k * 137.5 degrees — equal area per
-//! sample, no rows or columns for an edge to line up with, the same for every pixel (no noise;
-//! its banding is 1/128 steps, half an 8-bit display step).
+//! sample k is bit k % 32 of word k / 32. Visibility = 1 - popcount(mask) / 128, so it
+//! moves in steps of 1/128 (the reference averages at least 256 rays). Positions: a
+//! golden-angle (Vogel) spiral, radius sqrt((k + 1/2) / 128), angle k * 137.5 degrees —
+//! equal area per sample, no rows or columns for an edge to line up with, the same for
+//! every pixel (no noise; its banding is 1/128 steps, half an 8-bit display step).
 //!
 //! ## The edge table (a storage buffer, built once on the CPU, `edge_table`)
 //! 512 rows (line directions, canonical only: +y, or +x when horizontal) x 256 columns
@@ -31,7 +31,8 @@
 use glam::Vec2;
 use std::sync::OnceLock;
 
-/// Light samples, one bit each in a `uvec4` (the shaders read 1 / SAMPLES, `SSMB_INV_SAMPLES`).
+/// Light samples, one bit each in a `uvec4` (the shaders read 1 / SAMPLES,
+/// `SSMB_INV_SAMPLES`).
 pub const SAMPLES: usize = 128;
 const _: () = assert!(SAMPLES == 4 * 32, "one bit per sample of a uvec4 mask");
 
@@ -60,9 +61,9 @@ fn row_direction(row: usize) -> Vec2 {
     Vec2::new(q, 1.0 - q.abs()).normalize()
 }
 
-/// The edge table (row-major, `TABLE_ANGLES` x `TABLE_DISTANCES`): for the line of direction
-/// u = `row_direction(row)` at signed distance d from the centre (its left normal n = (-u.y,
-/// u.x), the line = {x : n.x = d}), the samples with n.s > d, bit k of the mask.
+/// The edge table (row-major, `TABLE_ANGLES` x `TABLE_DISTANCES`): for the line of
+/// direction u = `row_direction(row)` at signed distance d from the centre (its left normal
+/// n = (-u.y, u.x), the line = {x : n.x = d}), the samples with n.s > d, bit k of the mask.
 pub fn edge_table() -> &'static [[u32; 4]] {
     static TABLE: OnceLock<Vec<[u32; 4]>> = OnceLock::new();
     TABLE.get_or_init(|| {

@@ -25,12 +25,13 @@
 //!   shaded on one thread) the plain draw's vertex stage takes most of the pass where the
 //!   penumbrae are small. A device that cannot bind room for a quad per texel (48 bytes
 //!   each, `maxStorageBufferRange`) draws as plain does.
-//! - **Drawn tiles** (`PatchStep::drawn`, written by the step's dispatches): the 16x16 tiles
-//!   that hold a drawn caster texel, listed with an atomic counter, and an indirect
-//!   dispatch over them. `ssm-bitmask/occluder_blocks` and `ssm-bitmask/micro_quads` run one
-//!   workgroup per listed tile where they ran one per tile of the map: no other tile holds
-//!   a quad (every tile in order when the step is above 1, whose blocks take the first
-//!   invocations). On a CPU driver a workgroup costs its whole shader whatever it finds.
+//! - **Drawn tiles** (`PatchStep::drawn`, written by the step's dispatches): the 16x16
+//!   tiles that hold a drawn caster texel, listed with an atomic counter, and an indirect
+//!   dispatch over them. `ssm-bitmask/occluder_blocks` and `ssm-bitmask/micro_quads` run
+//!   one workgroup per listed tile where they ran one per tile of the map: no other tile
+//!   holds a quad (every tile in order when the step is above 1, whose blocks take the
+//!   first invocations). On a CPU driver a workgroup costs its whole shader whatever it
+//!   finds.
 
 use super::super::ssm_common::{ReceiverBound, BOUND_GROUP};
 use crate::shaders;
@@ -47,13 +48,13 @@ use anyhow::Result;
 /// resolution). Written after z_max into the bound buffer, where the micro-patch vertex
 /// shaders read it, and copied to the host for the warning line.
 pub(crate) struct PatchStep {
-    /// Per `BOUND_GROUP`² texels the deepest receiver a micro-patch fragment there stands at
-    /// (f32; the frame's z_max under `--plain`), read where ssm-bitmask derives its
+    /// Per `BOUND_GROUP`² texels the deepest receiver a micro-patch fragment there stands
+    /// at (f32; the frame's z_max under `--plain`), read where ssm-bitmask derives its
     /// micro-quads (`glsl/ssm/tiles.glsl`).
     pub tiles: Buffer,
     /// The tiles holding a drawn texel (`glsl/ssm/drawn_tiles.glsl`): a
-    /// `VkDispatchIndirectCommand` over them, their count, their indices; the per-tile passes
-    /// of ssm-bitmask that only work where a micro-quad is drawn dispatch it.
+    /// `VkDispatchIndirectCommand` over them, their count, their indices; the per-tile
+    /// passes of ssm-bitmask that only work where a micro-quad is drawn dispatch it.
     pub drawn: Buffer,
     set: DescriptorSet,
     pipeline: Pipeline,

@@ -1,7 +1,0 @@
-#version 450
-// ssm-bitmask/resolve: one triangle over the whole soft shadow map.
-
-void main() {
-    vec2 p = vec2((gl_VertexIndex << 1) & 2, gl_VertexIndex & 2);
-    gl_Position = vec4(p * 2.0 - 1.0, 0.0, 1.0);
-}

@@ -114,7 +114,7 @@ fn a_light_pass_counts_its_tiles_as_worked_out() {
         &gpu.ctx,
         &GraphicsPipelineDesc {
             name: "t/light",
-            vertex: shaders::TESTS_FULLSCREEN_VERT,
+            vertex: shaders::COMMON_FULLSCREEN_VERT,
             fragment: Some(shaders::TESTS_COUNT_LIGHT_FRAG),
             vertex_stride: 0,
             attributes: &[],
@@ -320,7 +320,7 @@ fn a_full_screen_triangle_shades_whole_blocks_over_the_target() {
             &gpu.ctx,
             &GraphicsPipelineDesc {
                 name: "t/final",
-                vertex: shaders::TESTS_FULLSCREEN_VERT,
+                vertex: shaders::COMMON_FULLSCREEN_VERT,
                 fragment: Some(shaders::TESTS_WHITE_FRAG),
                 vertex_stride: 0,
                 attributes: &[],

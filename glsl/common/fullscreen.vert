@@ -1,6 +1,7 @@
 #version 450
-// One triangle covering the whole target (tests/work_counts.rs: a full-screen pass at W x H
-// shades W x H fragments).
+// One triangle covering the whole target: a pass that shades every texel once
+// (ssm-bitmask/resolve; tests/work_counts.rs: a full-screen pass at W x H shades W x H
+// fragments).
 
 void main() {
     vec2 p = vec2((gl_VertexIndex << 1) & 2, gl_VertexIndex & 2);

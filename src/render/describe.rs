@@ -539,22 +539,13 @@ impl Sheet {
                     add_once(&mut draws.args, b);
                 }
                 Event::Dispatch([x, y, z]) => {
-                    let push = match draws.push.take() {
-                        Some(n) => format!(", {n} bytes of push constants"),
-                        None => String::new(),
-                    };
-                    self.draws(&mut draws);
-                    self.para(&format!("Dispatch {x}x{y}x{z} workgroups{push}."));
+                    self.dispatch(&mut draws, &format!("{x}x{y}x{z} workgroups"));
                 }
                 Event::DispatchIndirect(b) => {
-                    let push = match draws.push.take() {
-                        Some(n) => format!(", {n} bytes of push constants"),
-                        None => String::new(),
-                    };
-                    self.draws(&mut draws);
-                    self.para(&format!(
-                        "Dispatch indirect: workgroups from buffer '{b}'{push}."
-                    ));
+                    self.dispatch(
+                        &mut draws,
+                        &format!("indirect: workgroups from buffer '{b}'"),
+                    );
                 }
                 Event::Fill(b) => {
                     self.para(&format!("Fill buffer '{b}'."));
@@ -597,6 +588,16 @@ impl Sheet {
             self.pipeline(p, sets);
         }
         shown.push((p.clone(), sets.to_vec()));
+    }
+
+    /// A dispatch's line: its workgroups (`groups`) and the push constants set before it.
+    fn dispatch(&mut self, draws: &mut Draws, groups: &str) {
+        let push = match draws.push.take() {
+            Some(n) => format!(", {n} bytes of push constants"),
+            None => String::new(),
+        };
+        self.draws(draws);
+        self.para(&format!("Dispatch {groups}{push}."));
     }
 
     fn draws(&mut self, d: &mut Draws) {

@@ -129,11 +129,12 @@
 //!    the occluder blocks are then not read) instance k draws block k of
 //!    s x s texels: the bounding rectangle of its occupied texels, each corner at the depth
 //!    of the occupied texel nearest it, its guard depth the block's farthest.
-//! 8. `ssm-bitmask/resolve` — one triangle over the map, `glsl/ssm_bitmask/resolve.vert`
-//!    and `.frag`: per texel the samples each layer's mask hides, popcount(front) * 256 +
-//!    popcount(pure) (integers below 2^16, exact in a float), into `hidden samples` =
-//!    R32_SFLOAT, clear 0 (every texel is then written), no blend. The final pass gathers
-//!    this one channel where it would fetch two 128-bit masks per texel of its footprint.
+//! 8. `ssm-bitmask/resolve` — one triangle over the map (`glsl/common/fullscreen.vert`,
+//!    `glsl/ssm_bitmask/resolve.frag`): per texel the samples each layer's mask hides,
+//!    popcount(front) * 256 + popcount(pure) (integers below 2^16, exact in a float), into
+//!    `hidden samples` = R32_SFLOAT, clear 0 (every texel is then written), no blend. The
+//!    final pass gathers this one channel where it would fetch two 128-bit masks per texel
+//!    of its footprint.
 //! 9. `ssm-bitmask/final` — `FinalPass` with `glsl/ssm_bitmask/final.frag`: as
 //!    ssm's (2x2 footprint of the receiver map and the hidden samples, layer 0 for the
 //!    texel's own receiver, layer 1 behind it, bilinear weights) but read at the point
@@ -358,7 +359,7 @@ impl Resolve {
             ctx,
             &GraphicsPipelineDesc {
                 name: &name,
-                vertex: shaders::SSM_BITMASK_RESOLVE_VERT,
+                vertex: shaders::COMMON_FULLSCREEN_VERT,
                 fragment: Some(shaders::SSM_BITMASK_RESOLVE_FRAG),
                 vertex_stride: 0,
                 attributes: &[],

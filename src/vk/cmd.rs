@@ -1410,15 +1410,9 @@ impl Recorder<'_> {
     }
 
     pub fn dispatch(&mut self, x: u32, y: u32, z: u32) {
-        if !self.outside_rendering("dispatch") {
+        if !self.before_dispatch("dispatch", [x, y, z], None) {
             return;
         }
-        if self.compute.counted {
-            self.count_dispatch(x, y, z);
-        }
-        let mut uses = Vec::new();
-        Self::shader_uses(&self.compute, &mut uses);
-        self.barriers(&uses);
         self.log(|| Event::Dispatch([x, y, z]));
         // SAFETY: recording outside rendering with a bound compute pipeline.
         unsafe { self.device().cmd_dispatch(self.cmd, x, y, z) };
@@ -1427,20 +1421,14 @@ impl Recorder<'_> {
     /// One indirect dispatch whose `VkDispatchIndirectCommand` sits at `offset` in `args`;
     /// `at_most` bounds its workgroups, which the counting frame sizes its counts by.
     pub fn dispatch_indirect(&mut self, args: &Buffer, offset: u64, at_most: [u32; 3]) {
-        if !self.outside_rendering("dispatch_indirect") {
-            return;
-        }
-        if self.compute.counted {
-            self.count_dispatch(at_most[0], at_most[1], at_most[2]);
-        }
-        let mut uses = Vec::new();
-        Self::shader_uses(&self.compute, &mut uses);
-        uses.push(Use::buffer(
+        let read = Use::buffer(
             args.target(),
             vk::PipelineStageFlags2::DRAW_INDIRECT,
             vk::AccessFlags2::INDIRECT_COMMAND_READ,
-        ));
-        self.barriers(&uses);
+        );
+        if !self.before_dispatch("dispatch_indirect", at_most, Some(read)) {
+            return;
+        }
         self.log(|| Event::DispatchIndirect(args.name.clone()));
         // SAFETY: recording outside rendering with a bound compute pipeline; `args` has
         // INDIRECT_BUFFER usage and holds a VkDispatchIndirectCommand at `offset`.
@@ -1448,6 +1436,23 @@ impl Recorder<'_> {
             self.device()
                 .cmd_dispatch_indirect(self.cmd, args.raw, offset)
         };
+    }
+
+    /// What every dispatch records first: the counting frame's count buffer for `groups`
+    /// workgroups (at most), and the barriers for the bound compute shader's resources and
+    /// `extra`. False (nothing recorded) inside a rendering scope.
+    fn before_dispatch(&mut self, what: &str, groups: [u32; 3], extra: Option<Use>) -> bool {
+        if !self.outside_rendering(what) {
+            return false;
+        }
+        if self.compute.counted {
+            self.count_dispatch(groups[0], groups[1], groups[2]);
+        }
+        let mut uses = Vec::new();
+        Self::shader_uses(&self.compute, &mut uses);
+        uses.extend(extra);
+        self.barriers(&uses);
+        true
     }
 
     /// In the counting frame, before a dispatch of a counting build: a count buffer of its

@@ -13,9 +13,8 @@
 #define SSMB_LUT_ANGLES frame.technique2.w      // rows of the edge table (line directions)
 
 // Occluder blocks (occluder_blocks.comp): a block of micro-quads is one quad only where
-// each micro-quad corner's 1/depth (a sun's: depth) lies within this fraction of the
-// block's,
-const float SSMB_MERGE_FLATNESS = 0.003;
+// each micro-quad corner lies within this many self-occlusion guards of the block quad,
+const float SSMB_MERGE_FLATNESS = 1.0;
 // and where the block quad's corners span at most this many self-occlusion guards of depth.
 const float SSMB_MERGE_GUARDS = 4.0;
 

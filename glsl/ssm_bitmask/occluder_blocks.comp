@@ -9,9 +9,10 @@
 //   - the corners of each of its micro-quads, as that micro-quad takes them (the harmonic
 //     mean of the texels around the corner that are one surface with its own texel:
 //     soft_shadow.vert), lie on the block quad's two triangles (corners 0-1-3 and 0-3-2, as
-//     each micro-quad splits) within SSMB_MERGE_FLATNESS of their 1/depth; the block quad's
-//     own corners are those of the micro-quads at the block's corners. The micro-quads'
-//     union is then the block quad, which back-projects to the same samples. Inside a
+//     each micro-quad splits) within SSMB_MERGE_FLATNESS self-occlusion guards of depth
+//     (`flat_tolerance`); the block quad's own corners are those of the micro-quads at the
+//     block's corners. The micro-quads' union is then the block quad, which back-projects
+//     to the same samples, but for receivers within the guard behind it. Inside a
 //     surface neighbouring micro-quads share their corners; at its silhouette a corner
 //     keeps its texel's depth on either side, and the block ends there as its micro-quads
 //     do;
@@ -105,6 +106,15 @@ bool block_is_thin(vec4 c) {
     return z_far - z_near <= SSMB_MERGE_GUARDS * guard_depth(z_far);
 }
 
+// How far (in corner values) a micro-quad corner with value c may lie off its block quad:
+// SSMB_MERGE_FLATNESS self-occlusion guards at its depth. A corner that close to the block
+// quad is within the guard that a receiver behind it is tested with anyway. A spotlight's
+// guard grows with depth, guard_depth(z) = z guard_depth(1), so in 1/depth it is the same
+// fraction of c at every depth.
+float flat_tolerance(float c) {
+    return SSMB_MERGE_FLATNESS * (light_is_sun() ? guard_depth(c) : abs(c) * guard_depth(1.0));
+}
+
 // The flag of the block of side 2^level holding tile texel `local`.
 int block_flag(ivec2 local, int level) {
     return level_offset(level) + (local.y >> level) * (SSM_TILE >> level) + (local.x >> level);
@@ -160,7 +170,7 @@ void main() {
         bool flat_here = drawn;
         for (int c = 0; c < 4; ++c) {
             vec2 xy = vec2(local - lo + ivec2(c & 1, c >> 1)) * inv_side;
-            flat_here = flat_here && abs(own[c] - block_plane(quad, xy)) <= SSMB_MERGE_FLATNESS * abs(own[c]);
+            flat_here = flat_here && abs(own[c] - block_plane(quad, xy)) <= flat_tolerance(own[c]);
         }
         if (!flat_here) flat_block[block_flag(local, level)] = false;
     }

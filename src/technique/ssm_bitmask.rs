@@ -72,16 +72,17 @@
 //! flat quad, that quad is their union and hides the same samples: `occluder_blocks.comp`
 //! finds, per aligned block of 2, 4, 8 or 16 texels (within the 16x16 tiles), whether every
 //! texel of it is drawn, every corner of its micro-quads (each as its micro-quad takes it,
-//! from the texels one surface with its own) lies within `SSMB_MERGE_FLATNESS` (0.3 %) of
-//! 1/depth (a sun's: depth) of the block quad's two triangles, whose corners are the
-//! corner micro-quads' outer ones, and those span at most `SSMB_MERGE_GUARDS` (4) self-
-//! occlusion guards of depth (the block quad takes its farthest corner's guard, so a
-//! receiver between its nearest and farthest corners loses what the nearer texels alone
-//! would hide: a band of receivers a few guards deep behind the block). The largest such
+//! from the texels one surface with its own) lies within `SSMB_MERGE_FLATNESS` (1)
+//! self-occlusion guard of depth of the block quad's two triangles (a receiver that close
+//! behind it is its own surface anyway), whose corners are the corner micro-quads' outer
+//! ones, and those span at most `SSMB_MERGE_GUARDS` (4) self-occlusion guards of depth
+//! (the block quad takes its farthest corner's guard, so a receiver between its nearest
+//! and farthest corners loses what the nearer texels alone would hide: a band of
+//! receivers a few guards deep behind the block). The largest such
 //! block holding a texel is drawn as one quad by its first texel; the others draw none. A
 //! block may end at a silhouette, where its micro-quads end too; depth steps and curved
-//! patches keep one micro-quad a texel. The image moves by at most 1.5e-4 of mae_lit on
-//! the built-in scenes, the micro-quad fragments fall by 26-92 %: BENCHMARKS.md.
+//! patches keep one micro-quad a texel. The image moves by at most 3e-4 of mae_lit on the
+//! built-in scenes, the micro-quad fragments fall by 41-92 %: BENCHMARKS.md.
 //!
 //! ## Passes, in order
 //! 1-3. As ssm's (src/technique/ssm_common.rs): `ssm-bitmask/occluder_map` (nearest caster

@@ -561,9 +561,10 @@ fn micro_quad_work(gpu: &Gpu, scene: &str, plain: bool) -> (u64, u64) {
 /// The speed layer's micro-quad list (speed::ssm::QuadList: each quad derived once and
 /// listed only when it reaches a receiver) and receiver tiles (each quad drawn only as far
 /// as the deepest receiver under its extent, not the frame's). Under `--plain` the pass
-/// runs 4 vertices for each of the 256^2 texels and shades 529,616 fragments on `cylinder`
-/// and 308,224 on `bunny`; the listed quads run 3,168 and 3,236 vertices and shade 322,032
-/// and 193,040 (1.64x and 1.60x fewer). The images are equal (tests/plain.rs).
+/// runs 5 vertices for each of the 256^2 texels (a point, a strip) and shades 438,560
+/// fragments on `cylinder` and 241,424 on `bunny`; the listed quads run 3,960 and 4,045
+/// vertices and shade 254,592 and 144,192 (1.72x and 1.67x fewer). The images are equal
+/// (tests/plain.rs).
 #[test]
 fn listed_micro_quads_stop_at_the_deepest_receiver_under_them() {
     let gpu = Gpu::new();
@@ -571,7 +572,9 @@ fn listed_micro_quads_stop_at_the_deepest_receiver_under_them() {
         let (plain_vertices, plain_frags) = micro_quad_work(&gpu, scene, true);
         let (vertices, frags) = micro_quad_work(&gpu, scene, false);
         println!("{scene}: plain {plain_vertices} vertices, {plain_frags} fragments; listed {vertices}, {frags}");
-        assert_eq!(plain_vertices, 4 * 256 * 256, "{scene}: one quad per texel");
+        // Each instance: one point, then a strip of four vertices (one of them outside
+        // clip space).
+        assert_eq!(plain_vertices, 5 * 256 * 256, "{scene}: one quad per texel");
         assert!(
             vertices < 10_000,
             "{scene}: listed quads' vertices {vertices}"
@@ -587,13 +590,72 @@ fn listed_micro_quads_stop_at_the_deepest_receiver_under_them() {
     }
 }
 
+/// The micro-quads drawn as point sprites (glsl/ssm_bitmask/quad_vertex.glsl): one square
+/// primitive where a triangle strip's two triangles each shade the pixel blocks along their
+/// shared diagonal. Here against the same device with `largePoints` off, where every quad
+/// is a strip: the same visibility bit for bit, and fewer fragments (lavapipe shades 4x4
+/// blocks). As strips the pass shades 322,032 fragments on `cylinder`, 193,056 on `bunny`
+/// and 103,120 on `fence`; as points 254,592, 144,192 and 70,336.
+#[test]
+fn micro_quads_drawn_as_points_shade_fewer_fragments_than_as_strips() {
+    let mut gpu = Gpu::new();
+    assert!(gpu.ctx.large_points, "lavapipe offers largePoints");
+    for (scene_name, strips_before, bound) in [
+        ("cylinder", 322_032, 280_000),
+        ("bunny", 193_040, 165_000),
+        ("fence", 103_120, 80_000),
+    ] {
+        let mut run = |large_points: bool| {
+            gpu.ctx.large_points = large_points;
+            let settings = Settings {
+                width: 96,
+                height: 96,
+                ..Settings::default()
+            };
+            let scene = Scene::load(scene_name).unwrap();
+            let mut r = softshadow::render::Renderer::new(&gpu.ctx, scene, "ssm-bitmask", settings)
+                .unwrap();
+            let timings = r.render().unwrap();
+            let frags = timings
+                .passes
+                .iter()
+                .find(|p| p.name == "ssm-bitmask/soft_shadow")
+                .and_then(|p| p.stats)
+                .expect("statistics on lavapipe")
+                .fragment_invocations;
+            (r.read_back().unwrap().visibility, frags)
+        };
+        let (strip_vis, strip_frags) = run(false);
+        let (point_vis, point_frags) = run(true);
+        println!("{scene_name}: {strip_frags} fragments as strips, {point_frags} as points");
+        assert!(
+            strip_frags > bound,
+            "{scene_name}: {strip_frags} fragments as strips (before points: {strips_before})"
+        );
+        assert!(
+            point_frags < bound,
+            "{scene_name}: {point_frags} fragments as points (strips: {strip_frags})"
+        );
+        let differ = strip_vis
+            .iter()
+            .zip(&point_vis)
+            .filter(|(a, b)| a.to_bits() != b.to_bits())
+            .count();
+        assert_eq!(
+            differ, 0,
+            "{scene_name}: visibilities differ in {differ} pixels"
+        );
+    }
+}
+
 /// The occluder blocks (module header of src/technique/ssm_bitmask.rs): the texels of a
 /// flat patch draw one quad per block, whose penumbra extent is shaded once where each
 /// micro-quad's was shaded again. One micro-quad per drawn texel shaded 1,590,080 fragments
 /// (listed) on `cylinder`, 1,358,240 on `overlap` and 745,616 on `bunny`; with blocks of
 /// interior texels only, 404,128, 189,632 and 334,832; with the silhouettes' texels too and
 /// corners within 0.3 % of 1/depth of the block quad, 334,208, 107,920 and 254,128; within
-/// one self-occlusion guard, 322,032, 107,920 and 193,040 (`fence` 130,816 -> 103,120).
+/// one self-occlusion guard, 322,032, 107,920 and 193,040 (`fence` 130,816 -> 103,120);
+/// drawn as points, 254,592, 82,768 and 144,192 (`fence` 70,336).
 /// mae_lit stays within 3e-4 of one micro-quad per texel's on the built-in scenes
 /// (BENCHMARKS.md); the errors' own margins are the tests above.
 #[test]

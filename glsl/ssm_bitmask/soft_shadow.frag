@@ -12,6 +12,8 @@
 // (X.u, X.v) / R = ((q - p).u, (q - p).v) |p| / ((q - p).w R). Projection from a point maps
 // lines to lines: the quad's two triangles (corners 0-1-3 and 0-3-2) stay triangles, and
 // the samples inside one are the AND of three half-planes, each read from the edge table.
+// The vertex stage's push constants only (ssm_bitmask/quad_vertex.glsl).
+#define FRAME_NO_DRAW_PUSH
 #include "common/frame.glsl"
 #include "ssm/ssm.glsl"
 #include "ssm_bitmask/bitmask.glsl"

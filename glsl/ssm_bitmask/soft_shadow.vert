@@ -1,8 +1,9 @@
 #version 450
 #extension GL_GOOGLE_include_directive : require
 #include "common/count.glsl"  // by name: build.rs also builds it counted (-DCOUNT_LIGHT)
-// ssm-bitmask/soft_shadow: one instance per occluder-map texel, 4 vertices (triangle
-// strip). The micro-quad of texel (i, j) spans its pixel square [i, i+1] x [j, j+1]; each
+// ssm-bitmask/soft_shadow: one instance per occluder-map texel, drawn twice: as a point,
+// then as a triangle strip of 4 vertices (quad_vertex.glsl: each quad is one of them). The
+// micro-quad of texel (i, j) spans its pixel square [i, i+1] x [j, j+1]; each
 // corner's depth is the harmonic mean (exact for a plane: 1/z is affine across the map) of
 // the up to four texels around that corner that are one surface with (i, j): a depth within
 // SSMB_CONNECT_TEXELS texels of slope. Neighbouring quads of one surface thus share their
@@ -35,6 +36,7 @@
 // farthest. The block is then a small part of the penumbra it casts (the paper's lower
 // occluder resolution for large penumbrae, Sec. 6.1), and the pass draws step^2 times fewer
 // quads of the same extents.
+#define FRAME_NO_DRAW_PUSH
 #include "ssm_bitmask/micro_quad.glsl"
 #include "ssm_bitmask/quad_vertex.glsl"
 

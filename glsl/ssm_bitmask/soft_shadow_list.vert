@@ -3,6 +3,7 @@
 #include "common/count.glsl"  // by name: build.rs also builds it counted (-DCOUNT_LIGHT)
 // ssm-bitmask/soft_shadow, the quad list's draw (speed layer, src/technique/speed/ssm.rs):
 // instance k draws the k-th quad micro_quads.comp listed, as soft_shadow.vert draws it.
+#define FRAME_NO_DRAW_PUSH
 #include "ssm_bitmask/quad_vertex.glsl"
 
 // Per quad 3 vec4, as micro_quads.comp writes them.

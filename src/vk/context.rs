@@ -105,6 +105,9 @@ pub struct Context {
     /// Whether the `logicOp` feature is enabled (enabled wherever the device offers it):
     /// `Blend::Or` pipelines need it.
     pub logic_op: bool,
+    /// Whether the `largePoints` feature is enabled (wherever offered): without it a point
+    /// is one pixel, and `ssm-bitmask` draws every micro-quad as triangles.
+    pub large_points: bool,
     /// Whether the `pipelineStatisticsQuery` feature is enabled (wherever the device offers
     /// it): the per-pass work counts of `--timings` and the bench need it, and are left
     /// empty without it.
@@ -283,6 +286,7 @@ impl Context {
         // Optional: the per-pass counters beside the timestamps; without it they are empty.
         let pipeline_statistics = offered.pipeline_statistics_query == vk::TRUE;
         let independent_blend = offered.independent_blend == vk::TRUE;
+        let large_points = offered.large_points == vk::TRUE;
         // Optional: the counting builds of light passes add to a storage buffer from the
         // vertex, fragment and compute stages; without them those passes are not counted.
         let light_counting = offered.fragment_stores_and_atomics == vk::TRUE
@@ -290,6 +294,7 @@ impl Context {
         let features = vk::PhysicalDeviceFeatures::default()
             .logic_op(logic_op)
             .independent_blend(independent_blend)
+            .large_points(large_points)
             .pipeline_statistics_query(pipeline_statistics)
             .fragment_stores_and_atomics(light_counting)
             .vertex_pipeline_stores_and_atomics(light_counting);
@@ -340,6 +345,7 @@ impl Context {
             driver_info,
             validation: opts.validation,
             logic_op,
+            large_points,
             pipeline_statistics,
             independent_blend,
             light_counting,

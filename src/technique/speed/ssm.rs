@@ -196,7 +196,8 @@ impl PatchStep {
 
 /// The buffers of `QuadList`, made before the micro-quad set that binds them.
 pub(crate) struct QuadBuffers {
-    /// The indirect draw's `VkDrawIndirectCommand` (cleared, then counted by the dispatch).
+    /// The two indirect draws' `VkDrawIndirectCommand`s, the listed quads as points then as
+    /// triangle strips (cleared, then counted by the dispatch).
     pub command: Buffer,
     /// Three vec4 per listed quad, room for one per texel.
     quads: Buffer,
@@ -209,11 +210,13 @@ pub(crate) struct QuadBuffers {
 impl QuadBuffers {
     /// Bytes of one listed quad.
     const QUAD_BYTES: u64 = 48;
+    /// Bytes of one `VkDrawIndirectCommand`: the strips' command follows the points'.
+    pub const COMMAND_BYTES: u64 = 16;
 
     pub(crate) fn new(ctx: &Context, res: u32, name: &str) -> Result<Self> {
         let command = Buffer::new(
             ctx,
-            16,
+            2 * Self::COMMAND_BYTES,
             BufferUsageFlags::STORAGE_BUFFER
                 | BufferUsageFlags::INDIRECT_BUFFER
                 | BufferUsageFlags::TRANSFER_DST,
@@ -246,12 +249,13 @@ impl QuadBuffers {
 }
 
 /// `ssm-bitmask/micro_quads`: the micro-quads computed once each and listed
-/// (`glsl/ssm_bitmask/micro_quads.comp`), drawn by one indirect draw
-/// (`glsl/ssm_bitmask/soft_shadow_list.vert`) instead of N^2 instances whose vertex shader
-/// derives every quad four times (once per vertex) and draws a degenerate quad for every
-/// empty texel. Same quads, same image; off under `--plain`. The atomic counter lists the
-/// quads in an order that varies between frames; the masks do not, OR being free of order
-/// (the ADD-blended `ssm` and `ssm2` would need an ordered list to keep their sums exact).
+/// (`glsl/ssm_bitmask/micro_quads.comp`), drawn by indirect draws
+/// (`glsl/ssm_bitmask/soft_shadow_list.vert`, points and strips as the plain draw) instead
+/// of N^2 instances whose vertex shader derives every quad once per vertex and draws a
+/// degenerate quad for every empty texel. Same quads, same image; off under `--plain`.
+/// The atomic counter lists the quads in an order that varies between frames; the masks do
+/// not, OR being free of order (the ADD-blended `ssm` and `ssm2` would need an ordered list
+/// to keep their sums exact).
 pub(crate) struct QuadList {
     pub buffers: QuadBuffers,
     pipeline: Pipeline,

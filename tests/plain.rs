@@ -15,7 +15,7 @@ use softshadow::vk::FrameTimings;
 
 /// The techniques whose optimised final pass runs their shader only where a shadow can
 /// fall (`FinalPass::split`).
-const SPLIT: [&str; 8] = [
+const SPLIT: [&str; 9] = [
     "pcf",
     "pcss",
     "smoothies",
@@ -24,6 +24,7 @@ const SPLIT: [&str; 8] = [
     "penumbra-map-centred",
     "plateaus",
     "plateaus-centred",
+    "ssm-bitmask",
 ];
 
 /// Three frames: the first, one after the light moved (light passes rebuilt, the optimised

@@ -803,3 +803,44 @@ fn listed_blocks_and_sun_quads_equal_the_plain_draw() {
     }
     gpu.assert_clean();
 }
+
+/// The speed layer's split final pass (speed/regions.rs): the final shader runs only within
+/// a micro-quad's reach of a caster, where a mask can hold a hidden sample; elsewhere every
+/// mask is clear and the visibility exactly 1 (tests/avoided_work.rs holds the colour to
+/// the whole pass's). The final pass's texel reads, warp-summed, at 128^2 (256^2 occluder
+/// map): whole (--plain, and every frame before the split) 90,880 on `cylinder`, 89,600 on
+/// `bunny` and 124,672 on `overlap`; split 54,016, 51,456 and 75,776.
+#[test]
+fn the_split_final_pass_reads_only_within_reach_of_a_caster() {
+    let gpu = Gpu::new();
+    for (scene, whole_before, bound) in [
+        ("cylinder", 90_880, 70_000),
+        ("bunny", 89_600, 70_000),
+        ("overlap", 124_672, 100_000),
+    ] {
+        let reads = |plain: bool| {
+            let settings = Settings {
+                width: 128,
+                height: 128,
+                plain,
+                ..Settings::default()
+            };
+            let mut r = softshadow::render::Renderer::new(
+                &gpu.ctx,
+                Scene::load(scene).unwrap(),
+                "ssm-bitmask",
+                settings,
+            )
+            .unwrap();
+            r.render().unwrap();
+            r.count_lookups().unwrap().warp_sum(0)
+        };
+        let (whole, split) = (reads(true), reads(false));
+        println!("{scene}: final pass warp texels {whole} whole, {split} split");
+        assert!(
+            whole > bound,
+            "{scene}: {whole} whole (before the split: {whole_before})"
+        );
+        assert!(split < bound, "{scene}: {split} split (whole: {whole})");
+    }
+}

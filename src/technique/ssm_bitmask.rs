@@ -1,7 +1,8 @@
 //! # ssm-bitmask — soft shadow maps with exact occlusion
 //! Port sheet: docs/port/ssm-bitmask.md
 //! Speed layer: speed::ssm (the micro-patch step, pass 4, kept under --plain; the receiver
-//! tiles and the quad list, pass 6, off under --plain).
+//! tiles and the quad list, pass 6, off under --plain), speed::regions (the split final
+//! pass, off under --plain).
 //! Over 400 lines because the header (about 150 lines) carries both lights' projections
 //! onto the light samples and the occluder blocks' rules, which a porter reads here and not
 //! in the shaders alone.
@@ -148,7 +149,9 @@
 //!    itself, **not at a normal-offset point**: a mask holds the visibility at its texel's
 //!    centre (ssm's offset shifts every penumbra: most of its error on `fence`). Only the
 //!    depth that picks the layer is the offset point's. Occlusion = the layer's hidden
-//!    samples / 128, visibility = 1 - it.
+//!    samples / 128, visibility = 1 - it. The speed layer runs it only within a micro-
+//!    quad's reach of a caster's texels (`FinalPass::split`, `regions::AroundCasters`,
+//!    `quad_reach_texels`): elsewhere every mask is clear and the visibility exactly 1.
 //!
 //! ## Frame constants
 //! `frame.technique` as ssm's but its first slot holds 1 / `SAMPLES`; `frame.technique2` =
@@ -181,6 +184,7 @@
 //!   where `hard`'s offset point is lit (docs/DESIGN.md's mae_lit leaves these pixels out).
 
 use super::hard::{self, Names as HardNames};
+use super::regions;
 use super::speed::ssm::{PatchStepReport, QuadBuffers, QuadList};
 use super::ssm_bitmask_table::TABLE_ANGLES;
 pub use super::ssm_bitmask_table::{edge_table, light_samples, SAMPLES};
@@ -188,7 +192,7 @@ use super::ssm_common::{ssm_uniforms, LightInputs, BOUND_GROUP, MAP_USAGE, SELF_
 use super::{
     shadow_map_buffer, FrameInput, LightBuffer, Packing, Technique, TechniqueInfo, TechniqueInit,
 };
-use crate::gpu::passes::{FinalPass, FinalShader};
+use crate::gpu::passes::{FinalPass, FinalShader, Shadowed};
 use crate::shaders::{self, constants as k};
 use crate::vk::{
     Blend, Buffer, BufferUsageFlags, Clear, Context, CullModeFlags, DescriptorSet, Filter, Format,
@@ -229,6 +233,30 @@ fn spread(frame: &FrameInput<'_>) -> f32 {
         Some(sun) => sun.tan_angle,
         None => frame.light_radius,
     }
+}
+
+/// How far beyond its casters' texels a micro-quad can hide a sample, in occluder texels,
+/// for the split final pass (speed layer): `reach` (texels per unit of 1/z_near - 1/z_max,
+/// as `record_light` passes it) over the nearest caster's box corner (at least the light's
+/// near plane) and the far plane, plus the fragment test's texel of slack. `None` under a
+/// sun (`regions::shadowed` runs the shader everywhere there) or without a caster in the
+/// light.
+fn quad_reach_texels(frame: &FrameInput<'_>, reach: f32) -> Option<f32> {
+    if frame.light.sun.is_some() {
+        return None;
+    }
+    let m = frame.light.view_proj;
+    let nearest = frame
+        .gpu
+        .objects
+        .iter()
+        .filter(|o| o.in_light && o.role.casts())
+        .flat_map(|o| o.world_corners())
+        .map(|c| (m * c.extend(1.0)).w)
+        .fold(f32::INFINITY, f32::min);
+    let near = nearest.max(frame.light.near);
+    near.is_finite()
+        .then(|| reach * (1.0 / near - 1.0 / frame.light.far).max(0.0) + 1.0)
 }
 
 /// The mask format: 128 bits.
@@ -478,6 +506,10 @@ pub struct SsmBitmask {
     list: QuadList,
     list_pipelines: QuadPipelines,
     final_pass: FinalPass,
+    /// Where the masks can hold a hidden sample (the speed layer's split final pass).
+    shadowed: Shadowed,
+    /// The casters' outlines `shadowed` is built from.
+    around: regions::AroundCasters,
     resolve: Resolve,
     final_set: DescriptorSet,
     _nearest: Sampler,
@@ -569,7 +601,9 @@ impl SsmBitmask {
             ],
             &final_name,
         )?;
-        let final_pass = FinalPass::new(
+        // Split: the shader runs only within a micro-quad's reach of a caster
+        // (speed/regions.rs): elsewhere every mask is clear and the visibility exactly 1.
+        let final_pass = FinalPass::split(
             ctx,
             &final_name,
             FinalShader {
@@ -592,6 +626,8 @@ impl SsmBitmask {
             list,
             list_pipelines,
             final_pass,
+            shadowed: Shadowed::Everywhere,
+            around: regions::AroundCasters::default(),
             resolve,
             final_set,
             _nearest: nearest,
@@ -673,6 +709,10 @@ impl Technique for SsmBitmask {
             );
         }
         self.inputs.record(rec, frame, reach)?;
+        self.shadowed = match quad_reach_texels(frame, reach) {
+            Some(texels) => self.around.shadowed(frame, self.res, texels),
+            None => Shadowed::Everywhere,
+        };
         let listed = frame.settings.light_areas && self.list.buffers.fits;
         let drawn = listed.then_some(&self.inputs.step.drawn);
         self.blocks.record(rec, &self.front.set, drawn)?;
@@ -714,7 +754,12 @@ impl Technique for SsmBitmask {
         rec: &mut Recorder<'_>,
         frame: &FrameInput<'_>,
     ) -> Result<()> {
-        self.final_pass.pass(rec, frame, &self.final_set)
+        self.final_pass
+            .pass_in(rec, frame, &self.final_set, &self.shadowed)
+    }
+
+    fn shadowed(&self) -> Option<&Shadowed> {
+        Some(&self.shadowed)
     }
 
     fn light_buffers(&self) -> Vec<LightBuffer<'_>> {

@@ -4,7 +4,7 @@
 // ssm/micro_patch_step: the side of the texel blocks the micro-patch pass draws as one
 // patch, from the work the patches would cost (Sec. 6.1: occluder texels times the texels
 // of each penumbra extent). Two dispatches of this shader:
-// - `choose == 0`, one invocation per occluder texel: the texel's extent h = reach (1/z_O -
+// - `choose == 0`, over every occluder texel (an invocation per 2x2): the texel's extent h = reach (1/z_O -
 //   1/z_max) texels beyond its square (z_max from ssm/receiver_bound), and per block side s
 //   = 1, 2, 4, ... the texels one s x s block quad covers, min(s + 2h + 2, N)^2, shared by
 //   the s^2 texels of a full block; summed over the map into 64-bit counters;
@@ -27,7 +27,10 @@
 #include "ssm/ssm.glsl"
 #include "ssm/constants.glsl"
 
-layout(local_size_x = SSM_TILE, local_size_y = SSM_TILE) in;
+// A workgroup per tile of SSM_TILE x SSM_TILE texels, each invocation 2x2 of them: a CPU
+// driver switches between a workgroup's invocations at each barrier and serialises their
+// shared atomics, so fewer invocations, each adding its texels' sums once, cost less.
+layout(local_size_x = SSM_TILE / 2, local_size_y = SSM_TILE / 2) in;
 
 layout(set = 0, binding = 1) uniform sampler2D occluder_map;
 layout(set = 0, binding = 3) uniform sampler2D receiver_front;   // R32F nearest receiver
@@ -90,30 +93,42 @@ void main() {
     }
     barrier();
     int n = int(SSM_RES);
-    ivec2 t = ivec2(gl_GlobalInvocationID.xy);
     float zmax = uintBitsToFloat(bound.zmax_bits);
-    if (all(lessThan(t, ivec2(n)))) {
-        float deepest = zmax;
+    float deepest = 0.0;
+    // Per texel of the four: its extent h, or -1 where nothing is drawn.
+    float h[4];
+    for (int k = 0; k < 4; ++k) {
+        h[k] = -1.0;
+        ivec2 t = 2 * ivec2(gl_GlobalInvocationID.xy) + ivec2(k & 1, k >> 1);
+        if (any(greaterThanEqual(t, ivec2(n)))) continue;
+        float d = zmax;
         if (pc.local != 0u) {
             float z1 = texelFetch(receiver_front, t, 0).r;
             float z2 = texelFetch(receiver_pure, t, 0).r;
-            deepest = z1 < EMPTY ? max(z1, min(z2, zmax)) : 0.0;
+            d = z1 < EMPTY ? max(z1, min(z2, zmax)) : 0.0;
         }
-        // Non-negative floats order like their bit patterns, so integer max is float max.
-        atomicMax(group_deepest, floatBitsToUint(deepest));
+        deepest = max(deepest, d);
         float zo = texelFetch(occluder_map, t, 0).r;
         if (zo < EMPTY && zo < zmax) {
-            // Every drawn texel writes the same true.
-            group_drawn = true;
-            float h = light_is_sun()
+            h[k] = light_is_sun()
                 ? max(pc.reach * (zmax - zo), 0.0)
                 : max(pc.reach * (1.0 / zo - 1.0 / zmax), 0.0);
-            for (int l = 0; (1 << l) <= n; ++l) {
-                float s = float(1 << l);
-                float side = min(s + 2.0 * h + 2.0, float(n));
-                // At most N^2 <= 2^22 per texel, 2^30 per group of 256: no overflow.
-                atomicAdd(group_work[l], uint(ceil(side * side / (s * s))));
+        }
+    }
+    // Non-negative floats order like their bit patterns, so integer max is float max.
+    atomicMax(group_deepest, floatBitsToUint(deepest));
+    if (max(max(h[0], h[1]), max(h[2], h[3])) >= 0.0) {
+        // Every drawn texel's invocation writes the same true.
+        group_drawn = true;
+        for (int l = 0; (1 << l) <= n; ++l) {
+            float s = float(1 << l);
+            uint work = 0u;
+            for (int k = 0; k < 4; ++k) {
+                float side = min(s + 2.0 * h[k] + 2.0, float(n));
+                work += h[k] >= 0.0 ? uint(ceil(side * side / (s * s))) : 0u;
             }
+            // At most N^2 <= 2^22 per texel, 2^30 per group of 256: no overflow.
+            atomicAdd(group_work[l], work);
         }
     }
     barrier();

@@ -14,8 +14,9 @@
 //!    `common/shadow_depth.vert`; fragment `glsl/ssm/receiver_both.frag` (role both:
 //!    writes (depth, FAR)) or `glsl/ssm/receiver_only.frag` (role receiver: (depth, depth)).
 //! 4. `NAME/receiver_bound` (`ReceiverBound`) — compute `glsl/ssm/receiver_bound.comp`:
-//!    the farthest receiver depth z_max over both layers (16x16 groups, shared max, one
-//!    atomicMax per group into a storage buffer, cleared with vkCmdFillBuffer 0 first):
+//!    the farthest receiver depth z_max over both layers (16x16 texels a group, 2x2 an
+//!    invocation, shared max, one atomicMax per group into a storage buffer, cleared with
+//!    vkCmdFillBuffer 0 first):
 //!    the conservative z_R of the penumbra extents (Sec. 3.3: the extent grows with z_R).
 
 use super::speed::ssm::{PatchStep, PatchStepReport};

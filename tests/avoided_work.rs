@@ -456,10 +456,11 @@ fn culling_changes_no_pixel() {
 /// lookups can reach in what the light passes drew) and a shader without lookups
 /// elsewhere. Its colour must equal the AOV pass's, which runs the shader on every pixel,
 /// bit for bit: for both smoothies forms, the three pcss searches, both penumbra-map
-/// forms, pcf, both plateaus forms and ssm-bitmask, on every built-in scene but the million-triangle
-/// one, from the scene's camera, from one orbited round the scene and from one low over
-/// the ground (which reaches behind it: the near plane cuts the boxes), at light radius 0,
-/// and with a caster that receives nothing (never split).
+/// forms, pcf, both plateaus forms and ssm-bitmask, on every built-in scene but the
+/// million-triangle one, from the scene's camera, from one orbited round the scene and from
+/// one low over the ground (which reaches behind it: the near plane cuts the boxes), at
+/// light radius 0 (not ssm-bitmask, which is `hard` there), and with a caster that
+/// receives nothing (never split).
 /// And the split must happen: on most of these frames well under all of the area drawn
 /// runs the shader.
 #[test]
@@ -570,9 +571,9 @@ fn shaded_outside_regions(r: &Renderer, img: &softshadow::output::FrameImages) -
 
 /// The regions are rebuilt from per-caster outlines kept between frames (smoothies'
 /// records, penumbra maps' cones and sheets, `regions::AroundCasters` for the pcss family,
-/// pcf and ssm-bitmask, plateaus' discs and outlines): when the bunny slides and turns, and then the
-/// light moves, every point shaded below 1 still lies inside a region and the timed colour
-/// equals the AOV pass's, frame after frame.
+/// pcf and ssm-bitmask, plateaus' discs and outlines): when the bunny slides and turns, and
+/// then the light moves, every point shaded below 1 still lies inside a region and the
+/// timed colour equals the AOV pass's, frame after frame.
 #[test]
 fn regions_follow_a_moving_caster_and_light() {
     let gpu = Gpu::new();

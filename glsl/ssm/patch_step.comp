@@ -4,10 +4,11 @@
 // ssm/micro_patch_step: the side of the texel blocks the micro-patch pass draws as one
 // patch, from the work the patches would cost (Sec. 6.1: occluder texels times the texels
 // of each penumbra extent). Two dispatches of this shader:
-// - `choose == 0`, over every occluder texel (an invocation per 2x2): the texel's extent h = reach (1/z_O -
-//   1/z_max) texels beyond its square (z_max from ssm/receiver_bound), and per block side s
-//   = 1, 2, 4, ... the texels one s x s block quad covers, min(s + 2h + 2, N)^2, shared by
-//   the s^2 texels of a full block; summed over the map into 64-bit counters;
+// - `choose == 0`, over every occluder texel (an invocation per 2x2): the texel's extent
+//   h = reach (1/z_O - 1/z_max) texels beyond its square (z_max from ssm/receiver_bound),
+//   and per block side s = 1, 2, 4, ... the texels one s x s block quad covers,
+//   min(s + 2h + 2, N)^2, shared by the s^2 texels of a full block; summed over the map
+//   into 64-bit counters;
 // - `choose == 1`, one invocation: the smallest s whose sum stays within the budget, N^4 /
 //   64 fragments (every texel's patch over 1/64 of the map), else N.
 // s = 1 is the paper's one micro-patch per texel, the image unchanged. A larger s is the

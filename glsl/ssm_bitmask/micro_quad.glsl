@@ -8,6 +8,7 @@
 #include "ssm/ssm.glsl"
 #include "ssm/tiles.glsl"
 #include "ssm_bitmask/constants.glsl"
+#include "ssm_bitmask/corners.glsl"
 
 // r = the casters' linear depth: the RG32F MIN-blended shared shadow map (front surfaces).
 layout(set = 0, binding = 1) uniform sampler2D occluder_map;
@@ -139,41 +140,20 @@ MicroQuad micro_quad(int k) {
     uint side = blocks.side[k];
     if (side == 0u) return q;
     if (side > 1u) return merged_quad(texel, int(side), block_corners.depth[k], zmax, n);
-    // 1/z (a sun: z) of the 3x3 neighbourhood where it is one surface with the texel, else
-    // 0. The test is symmetric in the two depths, so two neighbours agree on whether they
-    // connect. A sun's map is orthographic: its texels have one world size (the slope is
-    // absolute, not relative), and depth is affine across a plane's texels, so its corners
-    // take the arithmetic mean.
-    bool sun = light_is_sun();
-    float slope = SSMB_CONNECT_TEXELS * 2.0 * frame.light_frustum.x * SSM_INV_RES;
-    float sun_slope = SSMB_CONNECT_TEXELS * ssm_sun_texel();
-    float inv[9];
+    float z[9];
     for (int i = 0; i < 9; ++i) {
         ivec2 p = texel + ivec2(i % 3 - 1, i / 3 - 1);
-        float z = FAR_DEPTH;
+        z[i] = FAR_DEPTH;
         if (all(greaterThanEqual(p, ivec2(0))) && all(lessThan(p, ivec2(n)))) {
-            z = texelFetch(occluder_map, p, 0).r;
+            z[i] = texelFetch(occluder_map, p, 0).r;
         }
-        bool one = z < EMPTY && abs(z - zo) <= (sun ? sun_slope : slope * min(z, zo));
-        inv[i] = one ? (sun ? z : 1.0 / z) : 0.0;
     }
-    float znear = zo;
-    for (int c = 0; c < 4; ++c) {
-        // Corner (i + cx, j + cy) touches the texels at offsets cx-1..cx, cy-1..cy: indices
-        // below in a fixed order of the map, so a corner's sum is the same in every quad.
-        int cx = c & 1, cy = c >> 1;
-        int i0 = cy * 3 + cx;   // offset (cx - 1, cy - 1)
-        float s = 0.0, m = 0.0;
-        for (int t = 0; t < 4; ++t) {
-            float v = inv[i0 + (t & 1) + 3 * (t >> 1)];
-            s += v;
-            m += v > 0.0 ? 1.0 : 0.0;
-        }
-        // s > 0: the texel itself is always one of the four.
-        float zc = sun ? s / m : m / s;
-        q.corner_depth[c] = zc;
-        znear = min(znear, zc);
-    }
+    vec4 s, m;
+    micro_quad_corner_sums(z, zo, s, m);
+    // s > 0: the texel itself is always one of the four.
+    q.corner_depth = light_is_sun() ? s / m : m / s;
+    float znear = min(zo, min(min(q.corner_depth.x, q.corner_depth.y),
+                              min(q.corner_depth.z, q.corner_depth.w)));
     extent(q, vec2(texel), vec2(1.0), znear, zmax, n);
     return q;
 }

@@ -32,6 +32,7 @@
 #include "ssm/ssm.glsl"
 #include "ssm_bitmask/constants.glsl"
 #include "ssm_bitmask/guard.glsl"
+#include "ssm_bitmask/corners.glsl"
 
 layout(local_size_x = SSM_TILE, local_size_y = SSM_TILE) in;
 
@@ -139,24 +140,14 @@ void main() {
     ivec2 local = ivec2(gl_LocalInvocationID.xy);
     ivec2 h = local + 1;
     float zo = depth_at(h);
-    bool sun = light_is_sun();
     bool drawn = zo < EMPTY && zo < zmax;
     // This texel's micro-quad corners, as micro_quad.glsl takes them: per corner the mean
     // (1/depth; a sun's depth) of the texels around it that are one surface with this one.
-    float slope = SSMB_CONNECT_TEXELS * 2.0 * frame.light_frustum.x * SSM_INV_RES;
-    float sun_slope = SSMB_CONNECT_TEXELS * ssm_sun_texel();
-    vec4 own = vec4(0.0);
-    for (int c = 0; c < 4; ++c) {
-        ivec2 first = h + ivec2(c & 1, c >> 1) - 1;
-        float sum = 0.0, count = 0.0;
-        for (int t = 0; t < 4; ++t) {
-            float z = depth_at(first + ivec2(t & 1, t >> 1));
-            bool one = z < EMPTY && abs(z - zo) <= (sun ? sun_slope : slope * min(z, zo));
-            sum += one ? (sun ? z : 1.0 / z) : 0.0;
-            count += one ? 1.0 : 0.0;
-        }
-        own[c] = drawn ? sum / count : 0.0;
-    }
+    float z[9];
+    for (int i = 0; i < 9; ++i) z[i] = depth_at(h + ivec2(i % 3 - 1, i / 3 - 1));
+    vec4 sums, counts;
+    micro_quad_corner_sums(z, zo, sums, counts);
+    vec4 own = drawn ? sums / counts : vec4(0.0);
     own_corners[li] = own;
     barrier();
 

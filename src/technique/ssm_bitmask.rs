@@ -245,14 +245,13 @@ fn quad_reach_texels(frame: &FrameInput<'_>, reach: f32) -> Option<f32> {
     if frame.light.sun.is_some() {
         return None;
     }
-    let m = frame.light.view_proj;
     let nearest = frame
         .gpu
         .objects
         .iter()
         .filter(|o| o.in_light && o.role.casts())
         .flat_map(|o| o.world_corners())
-        .map(|c| (m * c.extend(1.0)).w)
+        .map(|c| frame.light.linear_depth(c))
         .fold(f32::INFINITY, f32::min);
     let near = nearest.max(frame.light.near);
     near.is_finite()

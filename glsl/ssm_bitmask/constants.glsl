@@ -10,7 +10,12 @@
 #define SSMB_RADIUS frame.technique2.x          // R > 0: radius of the disc light (R = 0 renders hard)
 #define SSMB_EXTENT_RADIUS frame.technique2.y   // EXTENT_MARGIN R sqrt(1 + 2 tan^2(fov/2)): the disc's reach at the frustum's corner
 #define SSMB_CONNECT_TEXELS frame.technique2.z  // one surface: depths closer than this many texels of slope
-#define SSMB_LUT_ANGLES frame.technique2.w      // rows of the edge table (line directions)
+
+// The edge table's rows (line directions) and columns (distances from the disc centre),
+// as src/technique/ssm_bitmask_table.rs builds it: constants, so that the row and column
+// of a line take no division by a value read at run time.
+const float SSMB_LUT_ROWS = 512.0;
+const float SSMB_LUT_COLUMNS = 256.0;
 
 // Occluder blocks (occluder_blocks.comp): a block of micro-quads is one quad only where
 // each micro-quad corner lies within this many self-occlusion guards of the block quad,

@@ -22,7 +22,7 @@
 layout(set = 0, binding = 2) uniform sampler2D receiver_front;   // R32F nearest receiver
 layout(set = 0, binding = 3) uniform sampler2D receiver_pure;    // R32F nearest pure receiver
 layout(set = 0, binding = 4, std430) readonly buffer Bound { uint zmax_bits; } bound;
-// The edge table: row a (line direction of pseudo-angle (a + 1/2) 2 / SSMB_LUT_ANGLES, in
+// The edge table: row a (line direction of pseudo-angle (a + 1/2) 2 / SSMB_LUT_ROWS, in
 // `line_mask`), column d (signed distance of the line from the disc centre, (d + 1/2) 2 /
 // columns - 1): the mask of the samples left of the directed line
 // (src/technique/ssm_bitmask_table.rs, `edge_table`).
@@ -50,13 +50,14 @@ uvec4 line_mask(vec2 a, vec2 b, out bool flipped) {
     float d = dot(nrm, o);
     if (d <= -1.0) return ALL_SAMPLES;
     if (d >= 1.0) return NO_SAMPLES;
-    int angles = int(SSMB_LUT_ANGLES);
-    int columns = table.masks.length() / angles;
+    const int angles = int(SSMB_LUT_ROWS);
+    const int columns = int(SSMB_LUT_COLUMNS);
     // The direction's pseudo-angle in [0, 2] (e.y >= 0), monotonic in its angle: the rows'
     // index, without an arctangent per edge.
     float pseudo = 1.0 - e.x / (abs(e.x) + e.y);
     int row = min(int(pseudo * (0.5 * float(angles))), angles - 1);
     int col = min(int((d + 1.0) * 0.5 * float(columns)), columns - 1);
+    COUNT_READ();
     return table.masks[row * columns + col];
 }
 
@@ -118,15 +119,19 @@ uvec4 hidden_directions(vec3 p, float zcap) {
 // Whether the quad can hide a sample from the receiver at depth zr at texel r: beyond the
 // guard, and within the reach at the receiver's own depth (the quad was drawn for the
 // deepest receiver under it; a nearer one is reached by less). The receiver's texel centre
-// lies half a texel inside its square: one texel of slack.
+// lies half a texel inside its square: one texel of slack. The reach is a distance, not a
+// square: seen through one point of the quad, the light covers a region of the map within
+// the reach of it (a sun's disc; a spotlight's ellipse, R / cos(alpha) <= R' across), so
+// the drawn square's corners beyond h of the quad hide nothing and stop here, before the
+// projection.
 bool reaches(float zr, vec2 r) {
     float zo = v_patch.z;
     if (zr - zo <= guard_depth(zr)) return false;
     vec4 zc = v_corner_depth;
     float znear = min(zo, min(min(zc.x, zc.y), min(zc.z, zc.w)));
     float h = reach_texels(v_reach, znear, zr) + 1.0;
-    vec2 outside = max(v_patch.xy - r, r - (v_patch.xy + v_size));
-    return all(lessThanEqual(outside, vec2(h)));
+    vec2 outside = max(max(v_patch.xy - r, r - (v_patch.xy + v_size)), vec2(0.0));
+    return dot(outside, outside) <= h * h;
 }
 
 // The samples the quad hides from the receiver at depth zr at texel r, which it reaches.
@@ -162,18 +167,17 @@ void main() {
     // No pure receiver behind: stand in the farthest receiver plane, which the extents
     // cover.
     z2 = min(z2, zmax);
-    // The layers the quad reaches, shaded in turn (the pure receiver only where it is
-    // another surface): a loop rather than two calls, so that a SIMD group none of whose
-    // fragments has a second layer stops after one trip, where two calls would each run for
-    // all.
+    // The layers the quad reaches (the pure receiver only where it is another surface).
+    // Two named masks, not an array indexed by the layer: a per-fragment index into a local
+    // array is a scatter through memory on a SIMD CPU driver.
     vec2 r = gl_FragCoord.xy;
     bool front = reaches(z1, r);
     bool pure = z2 != z1 && reaches(z2, r);
-    uvec4 mask[2] = uvec4[2](NO_SAMPLES, NO_SAMPLES);
-    for (int l = front ? 0 : (pure ? 1 : 2); l < 2; l = l == 0 && pure ? 1 : 2) {
-        mask[l] = hidden(l == 0 ? z1 : z2, r);
-    }
-    o_front = mask[0];
-    o_pure = z2 == z1 ? mask[0] : mask[1];
+    uvec4 front_mask = NO_SAMPLES;
+    uvec4 pure_mask = NO_SAMPLES;
+    if (front) front_mask = hidden(z1, r);
+    if (pure) pure_mask = hidden(z2, r);
+    o_front = front_mask;
+    o_pure = z2 == z1 ? front_mask : pure_mask;
     if (all(equal(o_front | o_pure, NO_SAMPLES))) discard;
 }

@@ -155,9 +155,10 @@
 //!
 //! ## Frame constants
 //! `frame.technique` as ssm's but its first slot holds 1 / `SAMPLES`; `frame.technique2` =
-//! (R, R' = `EXTENT_MARGIN` R sqrt(1 + 2 tan^2(fov/2)), connect texels, edge-table rows):
+//! (R, R' = `EXTENT_MARGIN` R sqrt(1 + 2 tan^2(fov/2)), connect texels, unused):
 //! glsl/ssm_bitmask/constants.glsl, the shaders' only source of `SAMPLES` and
-//! `EXTENT_MARGIN`.
+//! `EXTENT_MARGIN`. The edge table's rows and columns are shader constants there
+//! (`SSMB_LUT_ROWS`, `SSMB_LUT_COLUMNS`), which ssm_bitmask_table.rs builds it with.
 //!
 //! ## Cost
 //! As ssm's: up to N^2 quads times their extents in `soft_shadow` (fewer where the occluder
@@ -186,7 +187,6 @@
 use super::hard::{self, Names as HardNames};
 use super::regions;
 use super::speed::ssm::{PatchStepReport, QuadBuffers, QuadList};
-use super::ssm_bitmask_table::TABLE_ANGLES;
 pub use super::ssm_bitmask_table::{edge_table, light_samples, SAMPLES};
 use super::ssm_common::{ssm_uniforms, LightInputs, BOUND_GROUP, MAP_USAGE, SELF_GUARD_TEXELS};
 use super::{
@@ -676,7 +676,6 @@ impl Technique for SsmBitmask {
         second[k::SSMB_RADIUS - 4] = spread(frame);
         second[k::SSMB_EXTENT_RADIUS - 4] = extent_radius(frame);
         second[k::SSMB_CONNECT_TEXELS - 4] = CONNECT_TEXELS;
-        second[k::SSMB_LUT_ANGLES - 4] = TABLE_ANGLES as f32;
         [first, second]
     }
 

@@ -28,6 +28,7 @@
 //! radian: table rounding moves each edge by at most 1/256 radian (pi/1024 with rows even
 //! in angle) and 1/256 disc radius; unbiased.
 
+use crate::shaders::constants as k;
 use glam::Vec2;
 use std::sync::OnceLock;
 
@@ -36,11 +37,13 @@ use std::sync::OnceLock;
 pub const SAMPLES: usize = 128;
 const _: () = assert!(SAMPLES == 4 * 32, "one bit per sample of a uvec4 mask");
 
-/// Rows of the edge table: line directions over [0, pi).
-pub(crate) const TABLE_ANGLES: usize = 512;
+/// Rows of the edge table: line directions over [0, pi) (`SSMB_LUT_ROWS`, a constant the
+/// fragment shader shares).
+pub(crate) const TABLE_ANGLES: usize = k::SSMB_LUT_ROWS as usize;
 
-/// Columns of the edge table: signed distances from the disc centre over [-1, 1] radii.
-const TABLE_DISTANCES: usize = 256;
+/// Columns of the edge table: signed distances from the disc centre over [-1, 1] radii
+/// (`SSMB_LUT_COLUMNS`).
+const TABLE_DISTANCES: usize = k::SSMB_LUT_COLUMNS as usize;
 
 /// The light samples on the unit disc: a golden-angle spiral, equal area per sample.
 pub fn light_samples() -> Vec<Vec2> {

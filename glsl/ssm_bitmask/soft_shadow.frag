@@ -119,19 +119,15 @@ uvec4 hidden_directions(vec3 p, float zcap) {
 // Whether the quad can hide a sample from the receiver at depth zr at texel r: beyond the
 // guard, and within the reach at the receiver's own depth (the quad was drawn for the
 // deepest receiver under it; a nearer one is reached by less). The receiver's texel centre
-// lies half a texel inside its square: one texel of slack. The reach is a distance, not a
-// square: seen through one point of the quad, the light covers a region of the map within
-// the reach of it (a sun's disc; a spotlight's ellipse, R / cos(alpha) <= R' across), so
-// the drawn square's corners beyond h of the quad hide nothing and stop here, before the
-// projection.
+// lies half a texel inside its square: one texel of slack.
 bool reaches(float zr, vec2 r) {
     float zo = v_patch.z;
     if (zr - zo <= guard_depth(zr)) return false;
     vec4 zc = v_corner_depth;
     float znear = min(zo, min(min(zc.x, zc.y), min(zc.z, zc.w)));
     float h = reach_texels(v_reach, znear, zr) + 1.0;
-    vec2 outside = max(max(v_patch.xy - r, r - (v_patch.xy + v_size)), vec2(0.0));
-    return dot(outside, outside) <= h * h;
+    vec2 outside = max(v_patch.xy - r, r - (v_patch.xy + v_size));
+    return all(lessThanEqual(outside, vec2(h)));
 }
 
 // The samples the quad hides from the receiver at depth zr at texel r, which it reaches.

@@ -39,7 +39,7 @@ const _: () = assert!(SAMPLES == 4 * 32, "one bit per sample of a uvec4 mask");
 
 /// Rows of the edge table: line directions over [0, pi) (`SSMB_LUT_ROWS`, a constant the
 /// fragment shader shares).
-pub(crate) const TABLE_ANGLES: usize = k::SSMB_LUT_ROWS as usize;
+const TABLE_ANGLES: usize = k::SSMB_LUT_ROWS as usize;
 
 /// Columns of the edge table: signed distances from the disc centre over [-1, 1] radii
 /// (`SSMB_LUT_COLUMNS`).

@@ -1,11 +1,14 @@
 #version 450
-// ssm/receiver_map, objects that only receive (the paper's receivers, e.g. the ground):
-// both layers. Both attachments R32F, MIN-blended, clear FAR_DEPTH.
+// ssm/maps, objects that only receive (the paper's receivers, e.g. the ground): both
+// layers, and a surface but no caster in the occluder map. Every attachment MIN-blended,
+// clear FAR_DEPTH.
 layout(location = 0) in float v_depth;
 layout(location = 0) out float o_front;
 layout(location = 1) out float o_pure;
+layout(location = 2) out vec2 o_occluder;   // r: nearest caster, g: nearest surface
 
 void main() {
+    o_occluder = vec2(1.0e30, v_depth);
     o_front = v_depth;
     o_pure = v_depth;
 }

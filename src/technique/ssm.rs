@@ -1,7 +1,7 @@
 //! # ssm / ssm2 — Atty, Holzschuch, Lapierre, Hasenfratz, Hansen, Sillion 2006,
 //! *Soft Shadow Maps: Efficient Sampling of Light Source Visibility*
 //! Port sheets: docs/port/ssm.md, docs/port/ssm2.md
-//! Speed layer: speed::ssm (the micro-patch step, pass 5; kept under --plain, see there).
+//! Speed layer: speed::ssm (the micro-patch step, pass 4; kept under --plain, see there).
 //! Over 400 lines because the header (about 130 lines) carries both lights' equations, the
 //! spotlight's square light and the sun's square of directions, for a porter in one place.
 //!
@@ -32,7 +32,7 @@
 //!   occluded fraction the same product of overlaps with [-1/2, 1/2];
 //! * (Hs) the extent grows by h = (L_s / 2) (z_max - z_O) / (E / N) texels: the half-side's
 //!   penumbra grows linearly with the blocker-to-receiver distance (under a spotlight as
-//!   (1/z_O - 1/z_max)); the micro-patch step (pass 5) takes the same h;
+//!   (1/z_O - 1/z_max)); the micro-patch step (pass 4) takes the same h;
 //! * the final lookup's normal offset and depth tolerances take the world texel E / N,
 //!   its depth the orthographic clip z (`clip_linear_depth`).
 //!
@@ -61,16 +61,16 @@
 //! below), so a caster does not shadow its own lit surface.
 //!
 //! ## Passes, in order (`ssm2` names its passes `ssm2/...`)
-//! 1-4. `ssm/occluder_map` (R32G32_SFLOAT, MIN: r = nearest caster depth),
-//!    `ssm2/back_occluder_map` (ssm2 only: the farthest caster surfaces, GREATER),
-//!    `ssm/receiver_map` (two R32_SFLOAT layers, MIN: nearest receiver, nearest pure
-//!    receiver) and `ssm/receiver_bound` (compute: z_max, the conservative z_R of the
-//!    penumbra extents, Sec. 3.3): src/technique/ssm_common.rs, which lists their
-//!    attachments and shaders; the bitmask forms share them.
-//! 5. `ssm/micro_patch_step` — compute `glsl/ssm/patch_step.comp` (speed::ssm): the side s
-//!    of the texel blocks pass 6 draws as one patch; s = 1 (one patch per texel, the paper)
+//! 1-3. `ssm/maps` (one draw of every object into the occluder map, R32G32_SFLOAT, MIN:
+//!    r = nearest caster depth, and the receiver map, two R32_SFLOAT layers, MIN: nearest
+//!    receiver, nearest pure receiver), `ssm2/back_occluder_map` (ssm2 only: the farthest
+//!    caster surfaces, GREATER) and `ssm/receiver_bound` (compute: z_max, the
+//!    conservative z_R of the penumbra extents, Sec. 3.3): src/technique/ssm_common.rs,
+//!    which lists their attachments and shaders; the bitmask forms share them.
+//! 4. `ssm/micro_patch_step` — compute `glsl/ssm/patch_step.comp` (speed::ssm): the side s
+//!    of the texel blocks pass 5 draws as one patch; s = 1 (one patch per texel, the paper)
 //!    unless the patches would shade more than N^4 / 64 fragments.
-//! 6. `ssm/soft_shadow` — one instanced draw, N^2 instances (one per occluder texel) of a
+//! 5. `ssm/soft_shadow` — one instanced draw, N^2 instances (one per occluder texel) of a
 //!    4-vertex triangle strip, no vertex buffer. `glsl/ssm/soft_shadow.vert` texelFetches
 //!    the occluder map and emits the penumbra extent (Sec. 3.3, Fig. 7-8) grown from the
 //!    texel square by h = L N / (4 tan(fov/2)) (1/z_O - 1/z_max) texels, or a degenerate quad
@@ -84,15 +84,15 @@
 //!    overlaps with [-1/2, 1/2] (Sec. 4.2). Two attachments of `accum_format` (layer 0,
 //!    layer 1), clear 0, blend **ADD**. The GPU generates the quads (the paper read the
 //!    occluder map back to the CPU, Sec. 4.1; its Sec. 4.3 suggests this GPU path).
-//! 7. `ssm2/soft_shadow_back` (ssm2 only) — pass 6 again with the back occluder map into
+//! 6. `ssm2/soft_shadow_back` (ssm2 only) — pass 5 again with the back occluder map into
 //!    two more attachments, with the block side of the front map.
-//! 8. `ssm/final` — camera pass (`FinalPass`), `glsl/ssm/final.frag` (`glsl/ssm2/final.frag`
-//!    defines TWO_SIDED; both include `glsl/ssm/final.glsl`): normal-offset point (in
-//!    occluder texels), 2x2 footprint of the receiver map and the SSMs; per texel layer 0 if
-//!    the point is within 3 texels of depth slope of the front receiver, layer 1 if behind,
-//!    no data if the front receiver is behind the point (weights renormalised); ssm2 takes
-//!    max(front SSM, back SSM) per layer; occlusion clamped to \[0,1\] per texel, bilinear
-//!    weights; visibility = 1 - occlusion.
+//! 7. `ssm/final` — camera pass (`FinalPass`), `glsl/ssm/final.frag`
+//!    (`glsl/ssm2/final.frag` defines TWO_SIDED; both include `glsl/ssm/final.glsl`):
+//!    normal-offset point (in occluder texels), 2x2 footprint of the receiver map and the
+//!    SSMs; per texel layer 0 if the point is within 3 texels of depth slope of the front
+//!    receiver, layer 1 if behind, no data if the front receiver is behind the point
+//!    (weights renormalised); ssm2 takes max(front SSM, back SSM) per layer; occlusion
+//!    clamped to \[0,1\] per texel, bilinear weights; visibility = 1 - occlusion.
 //!
 //! ## Equations: what a porter ports
 //! - The penumbra extent (Sec. 3.3, Fig. 7-8): `main` of glsl/ssm/soft_shadow.vert.
@@ -126,12 +126,10 @@
 //! - Speckles near the terminator of curved casters (bunny): staircase steps of the
 //!   caster's own surface deeper than the guard count as occluders of itself.
 //! - Cost grows with the penumbra extents: N^2 patches times (2h+1)^2 texels each (Sec. 6),
-//!   up to N^4 / 64 fragments; beyond, blocks of texels make coarser penumbrae (pass 5).
+//!   up to N^4 / 64 fragments; beyond, blocks of texels make coarser penumbrae (pass 4).
 
 use super::ssm_common::{ssm_uniforms, LightInputs, ReceiverMap, MAP_USAGE};
-use super::{
-    shadow_map_buffer, FrameInput, LightBuffer, Packing, Technique, TechniqueInfo, TechniqueInit,
-};
+use super::{FrameInput, LightBuffer, Packing, Technique, TechniqueInfo, TechniqueInit};
 use crate::gpu::passes::{FinalPass, FinalShader};
 use crate::settings::AccumFormat;
 use crate::shaders;
@@ -213,7 +211,7 @@ impl Ssm {
         ctx.require_blend(accum, Blend::Add, "the soft shadow map (--accum-format)")?;
         let nearest = Sampler::new(ctx, Filter::Nearest).context("ssm sampler")?;
 
-        // Passes 1-5: occluder maps, receiver map, receiver bound, micro-patch step.
+        // Passes 1-4: occluder and receiver maps, receiver bound, micro-patch step.
         let inputs = LightInputs::new(init, name, two_sided, false, &nearest)?;
         let LightInputs {
             occluder,
@@ -222,7 +220,7 @@ impl Ssm {
             ..
         } = &inputs;
 
-        // Passes 6-7: the micro-patches of each occluder map.
+        // Passes 5-6: the micro-patches of each occluder map.
         let soft =
             |map: &Image, pass: &'static str| SoftShadow::new(init, &inputs, map, &nearest, pass);
         let front = soft(
@@ -260,7 +258,7 @@ impl Ssm {
         )
         .context("ssm soft shadow pipeline")?;
 
-        // Pass 8.
+        // Pass 7.
         let (final_pass, final_set) =
             final_pass(init, name, receivers, &front, back_soft.as_ref(), &nearest)
                 .context("ssm final pass")?;
@@ -406,7 +404,7 @@ impl Technique for Ssm {
             channels,
             packing: Packing::Plain,
         };
-        let mut out = vec![shadow_map_buffer("occluder_map", &self.inputs.occluder)];
+        let mut out = vec![self.inputs.occluder.buffer()];
         out.extend(self.inputs.receivers.buffers());
         // Summed micro-patch occlusion of the light, per receiver layer (>= 0, unclamped).
         out.push(buffer("soft_shadow", &self.front.layers[0], &["occlusion"]));

@@ -16,7 +16,7 @@
 //! *Bitmask Soft Shadows*, CGF 26(3) 2007): per soft-shadow-map texel one bit per light
 //! sample, set when some micro-patch hides that sample, OR-combined; micro-quads that join
 //! neighbouring texels close the gaps. Same occluder, receiver and bound passes as `ssm`
-//! (shared code: `ssm_common::LightInputs`, its passes 1-5 but the back occluder map of the
+//! (shared code: `ssm_common::LightInputs`, its passes 1-4 but the back occluder map of the
 //! two-sided `ssm2`).
 //!
 //! ## Light samples and the edge table (src/technique/ssm_bitmask_table.rs)
@@ -86,9 +86,10 @@
 //! built-in scenes, the micro-quad fragments fall by 41-92 %: BENCHMARKS.md.
 //!
 //! ## Passes, in order
-//! 1-3. As ssm's (src/technique/ssm_common.rs): `ssm-bitmask/occluder_map` (nearest caster
-//!    depth), `ssm-bitmask/receiver_map` (two R32_SFLOAT layers: nearest receiver,
-//!    nearest pure receiver) and `ssm-bitmask/receiver_bound` (z_max).
+//! 1-3. As ssm's (src/technique/ssm_common.rs; one-sided, so no pass 2):
+//!    `ssm-bitmask/maps` (one draw of every object into the occluder map, nearest caster
+//!    depth, and the receiver map, two R32_SFLOAT layers: nearest receiver, nearest pure
+//!    receiver) and `ssm-bitmask/receiver_bound` (z_max).
 //! 4. `ssm-bitmask/micro_patch_step` — as ssm's (speed::ssm) with this form's extents:
 //!    the side s of the texel blocks drawn as one micro-quad, 1 unless the quads would
 //!    shade more than N^4 / 64 fragments (then a `warning:` line names the bound); and the
@@ -189,9 +190,7 @@ use super::regions;
 use super::speed::ssm::{PatchStepReport, QuadBuffers, QuadList};
 pub use super::ssm_bitmask_table::{edge_table, light_samples, SAMPLES};
 use super::ssm_common::{ssm_uniforms, LightInputs, BOUND_GROUP, MAP_USAGE, SELF_GUARD_TEXELS};
-use super::{
-    shadow_map_buffer, FrameInput, LightBuffer, Packing, Technique, TechniqueInfo, TechniqueInit,
-};
+use super::{FrameInput, LightBuffer, Packing, Technique, TechniqueInfo, TechniqueInit};
 use crate::gpu::passes::{FinalPass, FinalShader, Shadowed};
 use crate::shaders::{self, constants as k};
 use crate::vk::{
@@ -761,7 +760,7 @@ impl Technique for SsmBitmask {
     }
 
     fn light_buffers(&self) -> Vec<LightBuffer<'_>> {
-        let mut out = vec![shadow_map_buffer("occluder_map", &self.inputs.occluder)];
+        let mut out = vec![self.inputs.occluder.buffer()];
         out.extend(self.inputs.receivers.buffers());
         // The masks, read back as the fraction of the 128 samples hidden
         // (`Renderer::read_technique_buffer` decodes an RGBA32UI mask so).

@@ -1,19 +1,24 @@
-//! Passes 1-4 of every soft shadow map form (`ssm`, `ssm2`, src/technique/ssm.rs, and
+//! Passes 1-3 of every soft shadow map form (`ssm`, `ssm2`, src/technique/ssm.rs, and
 //! `ssm-bitmask`, src/technique/ssm_bitmask.rs), which they share, with
-//! pass 5 of the speed layer (speed::ssm): `LightInputs` records them in order.
+//! pass 4 of the speed layer (speed::ssm): `LightInputs` records them in order.
 //!
-//! 1. `NAME/occluder_map` — casters from the light, front (nearest) surfaces
-//!    (`gpu::passes::ShadowMap`): R32G32_SFLOAT, clear FAR_DEPTH (1e30), blend MIN; the
-//!    r channel (nearest caster) is the occluder map. Shaders `glsl/common/shadow_depth.*`.
-//! 2. `NAME/back_occluder_map` (two-sided forms only, `BackOccluderMap`) — the same,
-//!    farthest surfaces: R32_SFLOAT clear FAR_DEPTH, no blend, + D32_SFLOAT clear **0.0**,
-//!    compare **GREATER**, no culling.
-//! 3. `NAME/receiver_map` (`ReceiverMap`) — receiving objects from the light, two
-//!    R32_SFLOAT attachments (layer 0: the nearest receiving surface; layer 1: the nearest
-//!    receive-only surface), clear FAR_DEPTH, blend **MIN** (no z-buffer). Vertex
-//!    `common/shadow_depth.vert`; fragment `glsl/ssm/receiver_both.frag` (role both:
-//!    writes (depth, FAR)) or `glsl/ssm/receiver_only.frag` (role receiver: (depth, depth)).
-//! 4. `NAME/receiver_bound` (`ReceiverBound`) — compute `glsl/ssm/receiver_bound.comp`:
+//! 1. `NAME/maps` (`ReceiverMap`) — every object from the light, once, into three
+//!    attachments, each clear FAR_DEPTH (1e30), blend **MIN** (no z-buffer):
+//!    - the occluder map (`OccluderMap`), R32G32_SFLOAT: r the nearest caster (the
+//!      occluder map proper), g the nearest surface of any role (as
+//!      `gpu::passes::ShadowMap`);
+//!    - the receiver map, two R32_SFLOAT layers: layer 0 the nearest receiving surface,
+//!      layer 1 the nearest receive-only surface.
+//!
+//!    Vertex `common/shadow_depth.vert`; one fragment shader a role, writing (layer 0,
+//!    layer 1, occluder): `glsl/ssm/receiver_both.frag` (both: (depth, FAR, (depth,
+//!    depth))), `glsl/ssm/receiver_only.frag` (receiver: (depth, depth, (FAR, depth))),
+//!    `glsl/ssm/caster_only.frag` (caster: (FAR, FAR, (depth, depth))). One pass where the
+//!    occluder and receiver maps were two draws of the scene: the vertex work once.
+//! 2. `NAME/back_occluder_map` (two-sided forms only, `BackOccluderMap`) — the occluder map
+//!    of the farthest surfaces: R32_SFLOAT clear FAR_DEPTH, no blend, + D32_SFLOAT clear
+//!    **0.0**, compare **GREATER**, no culling.
+//! 3. `NAME/receiver_bound` (`ReceiverBound`) — compute `glsl/ssm/receiver_bound.comp`:
 //!    the farthest receiver depth z_max over both layers (16x16 texels a group, 2x2 an
 //!    invocation, shared max, one atomicMax per group into a storage buffer, cleared with
 //!    vkCmdFillBuffer 0 first):
@@ -21,7 +26,7 @@
 
 use super::speed::ssm::{PatchStep, PatchStepReport};
 use super::{technique_constants, FrameInput, LightBuffer, Packing, TechniqueInit};
-use crate::gpu::passes::{depth_only_pipeline, DepthOnly, ShadowMap, FAR_DEPTH};
+use crate::gpu::passes::{depth_only_pipeline, DepthOnly, FAR_DEPTH};
 use crate::gpu::GpuScene;
 use crate::scene::Role;
 use crate::shaders::{self, constants as k};
@@ -51,13 +56,48 @@ pub fn light_square_side(r: f32) -> f32 {
     r * std::f32::consts::PI.sqrt()
 }
 
-/// Pass 3: the two receiver layers (R32F, MIN-blended) and the pipelines that draw them.
+/// Pass 1's occluder map: r = the nearest caster's linear depth, g = the nearest surface's
+/// (of any role), as the shared `gpu::passes::ShadowMap`; drawn by `ReceiverMap::record`.
+pub(crate) struct OccluderMap {
+    pub depth: Image,
+}
+
+impl OccluderMap {
+    const FORMAT: Format = Format::R32G32_SFLOAT;
+
+    fn new(ctx: &Context, res: u32, technique: &str) -> Result<Self> {
+        ctx.require_blend(Self::FORMAT, Blend::Min, "the occluder map")?;
+        let depth = Image::new_2d(
+            ctx,
+            res,
+            res,
+            Self::FORMAT,
+            MAP_USAGE,
+            &format!("{technique} occluder map"),
+        )?;
+        Ok(Self { depth })
+    }
+
+    /// The map as a light buffer (`--buffers`).
+    pub fn buffer(&self) -> LightBuffer<'_> {
+        LightBuffer {
+            name: "occluder_map",
+            image: &self.depth,
+            channels: &["caster_depth", "surface_depth"],
+            packing: Packing::Plain,
+        }
+    }
+}
+
+/// Pass 1: the two receiver layers (R32F, MIN-blended) and, in the same pass, the occluder
+/// map; the pipelines that draw them, one a role.
 pub(crate) struct ReceiverMap {
     /// Layer 0: the nearest receiving surface; layer 1: the nearest pure receiver.
     pub layers: [Image; 2],
     set: DescriptorSet,
     both: Pipeline,
     only: Pipeline,
+    casters: Pipeline,
 }
 
 impl ReceiverMap {
@@ -74,7 +114,7 @@ impl ReceiverMap {
             )
         };
         let layers = [layer("front")?, layer("pure")?];
-        let name = format!("{technique}/receiver_map");
+        let name = format!("{technique}/maps");
         let set = DescriptorSet::new(ctx, &[("frame", Resource::Uniform(ubo))], &name)?;
         let pipeline = |fragment: &[u8], role: &str| {
             Pipeline::graphics(
@@ -86,6 +126,7 @@ impl ReceiverMap {
                     colors: &[
                         (Format::R32_SFLOAT, Blend::Min),
                         (Format::R32_SFLOAT, Blend::Min),
+                        (OccluderMap::FORMAT, Blend::Min),
                     ],
                     depth: None,
                     sets: &[&set],
@@ -94,28 +135,35 @@ impl ReceiverMap {
         };
         let both = pipeline(shaders::SSM_RECEIVER_BOTH_FRAG, "both")?;
         let only = pipeline(shaders::SSM_RECEIVER_ONLY_FRAG, "receivers")?;
+        let casters = pipeline(shaders::SSM_CASTER_ONLY_FRAG, "casters")?;
         Ok(Self {
             layers,
             set,
             both,
             only,
+            casters,
         })
     }
 
-    pub fn record(&self, rec: &mut Recorder<'_>, gpu: &GpuScene) {
+    /// Every object once, by role, into the two layers and `occluder`.
+    pub fn record(&self, rec: &mut Recorder<'_>, gpu: &GpuScene, occluder: &OccluderMap) {
         rec.begin_rendering(
             &[
                 (&self.layers[0], Clear::Float([FAR_DEPTH; 4])),
                 (&self.layers[1], Clear::Float([FAR_DEPTH; 4])),
+                (&occluder.depth, Clear::Float([FAR_DEPTH; 4])),
             ],
             None,
         );
-        rec.bind_pipeline(&self.both);
-        rec.bind_sets(&self.both, &[&self.set]);
-        gpu.draw(rec, &self.both, |o| o.role == Role::Both);
-        rec.bind_pipeline(&self.only);
-        rec.bind_sets(&self.only, &[&self.set]);
-        gpu.draw(rec, &self.only, |o| o.role == Role::Receiver);
+        for (pipeline, role) in [
+            (&self.both, Role::Both),
+            (&self.only, Role::Receiver),
+            (&self.casters, Role::Caster),
+        ] {
+            rec.bind_pipeline(pipeline);
+            rec.bind_sets(pipeline, &[&self.set]);
+            gpu.draw(rec, pipeline, |o| o.role == role);
+        }
         rec.end_rendering();
     }
 
@@ -209,12 +257,12 @@ pub(crate) struct BackOccluderMap {
     pub name: String,
 }
 
-/// Passes 1–5 of every soft shadow map form (`ssm`, `ssm2` and the bitmask forms,
-/// src/technique/ssm_bitmask.rs): the occluder map, the back occluder map when two-sided,
-/// the receiver map and the receiver bound, named `NAME/occluder_map`, ...
+/// Passes 1–4 of every soft shadow map form (`ssm`, `ssm2` and the bitmask forms,
+/// src/technique/ssm_bitmask.rs): the occluder and receiver maps, the back occluder map
+/// when two-sided, the receiver bound and the micro-patch step, named `NAME/maps`, ...
 pub(crate) struct LightInputs {
     name: &'static str,
-    pub occluder: ShadowMap,
+    pub occluder: OccluderMap,
     pub back: Option<BackOccluderMap>,
     pub receivers: ReceiverMap,
     pub bound: ReceiverBound,
@@ -233,8 +281,8 @@ impl LightInputs {
         nearest: &Sampler,
     ) -> Result<Self> {
         let (ctx, res) = (init.ctx, init.settings.occluder_res);
-        let occluder = ShadowMap::new(ctx, init.ubo, res, &format!("{name}/occluder_map"))
-            .with_context(|| format!("{name} occluder map"))?;
+        let occluder =
+            OccluderMap::new(ctx, res, name).with_context(|| format!("{name} occluder map"))?;
         let back = match two_sided {
             true => Some(
                 BackOccluderMap::new(ctx, init.ubo, res, name)
@@ -271,10 +319,10 @@ impl LightInputs {
         format!("{}/{pass}", self.name)
     }
 
-    /// Passes 1–5, each timed; `reach` as `PatchStep::record`.
+    /// Passes 1–4, each timed; `reach` as `PatchStep::record`.
     pub fn record(&self, rec: &mut Recorder<'_>, frame: &FrameInput<'_>, reach: f32) -> Result<()> {
-        rec.pass(&self.pass_name("occluder_map"), |rec| {
-            self.occluder.record(rec, frame.gpu);
+        rec.pass(&self.pass_name("maps"), |rec| {
+            self.receivers.record(rec, frame.gpu, &self.occluder);
             Ok(())
         })?;
         if let Some(back) = &self.back {
@@ -283,10 +331,6 @@ impl LightInputs {
                 Ok(())
             })?;
         }
-        rec.pass(&self.pass_name("receiver_map"), |rec| {
-            self.receivers.record(rec, frame.gpu);
-            Ok(())
-        })?;
         rec.pass(&self.pass_name("receiver_bound"), |rec| {
             self.bound.record(rec);
             Ok(())
@@ -338,11 +382,10 @@ impl LightInputs {
 
     /// The names of the passes `record` records, in order.
     pub fn pass_names(&self) -> Vec<String> {
-        let mut names = vec![self.pass_name("occluder_map")];
+        let mut names = vec![self.pass_name("maps")];
         if let Some(b) = &self.back {
             names.push(b.name.clone());
         }
-        names.push(self.pass_name("receiver_map"));
         names.push(self.pass_name("receiver_bound"));
         names.push(self.pass_name("micro_patch_step"));
         names

@@ -1,5 +1,5 @@
 //! The speed layer of the soft shadow maps (`ssm`, `ssm2`, `ssm-bitmask`):
-//! the micro-patch step, pass 5 of every form (`NAME/micro_patch_step`). One patch per
+//! the micro-patch step, pass 4 of every form (`NAME/micro_patch_step`). One patch per
 //! occluder texel (the paper) costs N^2 patches times their penumbra extents, up to N^4
 //! fragments; the step draws blocks of s x s texels as one patch once the estimate passes
 //! N^4 / 64 (Sec. 6.1: a large penumbra needs a lower occluder resolution). s = 1 on every
@@ -41,7 +41,7 @@ use crate::vk::{
 };
 use anyhow::Result;
 
-/// Pass 5: the side of the texel blocks the micro-patch pass draws as one patch
+/// Pass 4: the side of the texel blocks the micro-patch pass draws as one patch
 /// (`glsl/ssm/patch_step.comp`): 1, one patch per texel as the paper, unless the patches'
 /// penumbrae would cost more fragments than N^4 / 64; then the smallest power of two that
 /// keeps the estimate within it (Sec. 6.1: large penumbrae need a lower occluder

@@ -19,6 +19,10 @@ use rayon::prelude::*;
 /// so that ratios like b / r stay finite.
 pub const FAR_DEPTH: f32 = 1.0e30;
 
+/// What the r and g channels of a shadow map of every object hold (`ShadowMap::new`, and the
+/// soft shadow maps' occluder map), for `--buffers`.
+pub const SURFACE_MAP_CHANNELS: &[&str] = &["caster_depth", "surface_depth"];
+
 /// Linear light-space depths from the light, MIN-blended (Volokh 3.2), in one of two
 /// layouts (`ShadowMap::new`, `ShadowMap::casters`):
 ///
@@ -73,7 +77,7 @@ impl ShadowMap {
             (
                 Format::R32G32_SFLOAT,
                 shaders::COMMON_SHADOW_DEPTH_FRAG,
-                &["caster_depth", "surface_depth"],
+                SURFACE_MAP_CHANNELS,
             )
         };
         let depth = Image::new_2d(

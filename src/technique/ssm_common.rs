@@ -26,7 +26,7 @@
 
 use super::speed::ssm::{PatchStep, PatchStepReport};
 use super::{technique_constants, FrameInput, LightBuffer, Packing, TechniqueInit};
-use crate::gpu::passes::{depth_only_pipeline, DepthOnly, FAR_DEPTH};
+use crate::gpu::passes::{depth_only_pipeline, DepthOnly, FAR_DEPTH, SURFACE_MAP_CHANNELS};
 use crate::gpu::GpuScene;
 use crate::scene::Role;
 use crate::shaders::{self, constants as k};
@@ -83,7 +83,7 @@ impl OccluderMap {
         LightBuffer {
             name: "occluder_map",
             image: &self.depth,
-            channels: &["caster_depth", "surface_depth"],
+            channels: SURFACE_MAP_CHANNELS,
             packing: Packing::Plain,
         }
     }

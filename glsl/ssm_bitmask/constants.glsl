@@ -17,6 +17,10 @@
 const float SSMB_LUT_ROWS = 512.0;
 const float SSMB_LUT_COLUMNS = 256.0;
 
+// The resolve pass's edge offsets: each layer's in [-1, 1] quantised to 0 ..= this, two in
+// one float (4096 front + pure, below 2^24: exact).
+const float SSMB_OFFSET_LEVELS = 4095.0;
+
 // Occluder blocks (occluder_blocks.comp): a block of micro-quads is one quad only where
 // each micro-quad corner lies within this many self-occlusion guards of the block quad,
 const float SSMB_MERGE_FLATNESS = 1.0;

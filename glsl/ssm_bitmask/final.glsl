@@ -2,17 +2,26 @@
 // receiver map: layer 0 where the point is its texel's nearest receiver, layer 1 behind it,
 // no data where the texel's receiver is behind the point. Unlike ssm's, the footprint is
 // read at the point itself, not at the normal-offset point: only the depth that picks each
-// texel's layer is the offset point's (see `visibility`). Each texel's occlusion =
-// popcount(mask) / SAMPLES (SSMB_INV_SAMPLES), the fraction of the light samples that some
-// micro-quad hides (a union: never above 1, no clamp needed); visibility = 1 - occlusion.
+// texel's layer is the offset point's (see `visibility`). Each texel holds, per layer, the
+// offset d of the straight edge whose disc segment hides the share of the light samples
+// that some micro-quad hides (ssm_bitmask/resolve.frag); the footprint interpolates d, and
+// the occlusion is that edge's share, disc_chord(d) (common/penumbra.glsl). Behind a
+// straight edge d is linear across the receiver where the share bends at both ends of the
+// penumbra: interpolated as shares, a penumbra would start a texel early and end a texel
+// late; visibility = 1 - occlusion.
 #include "common/frame.glsl"
+#include "common/penumbra.glsl"
 #include "ssm/ssm.glsl"
 #include "ssm_bitmask/constants.glsl"
 #include "ssm/footprint.glsl"
 
 layout(set = 0, binding = 1) uniform sampler2D receiver_front;   // R32F nearest receiver depth
-// R32F, ssm-bitmask/resolve: the light samples each layer's mask hides, 256 * front + pure.
-layout(set = 0, binding = 2) uniform sampler2D hidden_samples;
+// R32F, ssm-bitmask/resolve: both layers' edge offsets, 4096 * front + pure (0 ..= 4095
+// each over [-1, 1]).
+layout(set = 0, binding = 2) uniform sampler2D edge_offsets;
+
+// An interpolated offset this close to an end is that end: the share there is below 1e-7.
+const float OFFSET_EPS = 1e-5;
 
 float visibility(vec3 p, vec3 n) {
     float res = SSM_RES;
@@ -35,12 +44,18 @@ float visibility(vec3 p, vec3 n) {
     bvec4 behind;
     vec4 known;
     ssm_layers(depth, z1, texel, behind, known);
-    // The same four texels, in the same order: each one's hidden samples of both layers.
-    vec4 hidden = textureGather(hidden_samples, uv, 0);
-    vec4 front_count = floor(hidden * (1.0 / 256.0));
-    vec4 front = front_count * SSMB_INV_SAMPLES;
-    vec4 pure = (hidden - 256.0 * front_count) * SSMB_INV_SAMPLES;
-    vec4 occl = mix(front, pure, vec4(behind));
-    float o = ssm_footprint(uv, res, known, occl, front);
-    return 1.0 - clamp(o, 0.0, 1.0);
+    // The same four texels, in the same order: each one's edge offsets of both layers.
+    vec4 packed = textureGather(edge_offsets, uv, 0);
+    vec4 front_q = floor(packed * (1.0 / (SSMB_OFFSET_LEVELS + 1.0)));
+    vec4 pure_q = packed - (SSMB_OFFSET_LEVELS + 1.0) * front_q;
+    // 0 and 4095 decode to -1 and 1 exactly: an umbra texel is 0 and a lit one 1.
+    vec4 front = front_q * (1.0 / (0.5 * SSMB_OFFSET_LEVELS)) - 1.0;
+    vec4 pure = pure_q * (1.0 / (0.5 * SSMB_OFFSET_LEVELS)) - 1.0;
+    vec4 offset = mix(front, pure, vec4(behind));
+    float d = ssm_footprint(uv, res, known, offset, front);
+    // Within rounding of either end (the weights' sum is not exactly 1) the edge clears or
+    // covers the disc: lit is exactly 1 and a full umbra exactly 0, as the shares gave.
+    if (d >= 1.0 - OFFSET_EPS) return 1.0;
+    if (d <= OFFSET_EPS - 1.0) return 0.0;
+    return 1.0 - clamp(disc_chord(d), 0.0, 1.0);
 }

@@ -139,18 +139,24 @@
 //!    s x s texels: the bounding rectangle of its occupied texels, each corner at the depth
 //!    of the occupied texel nearest it, its guard depth the block's farthest.
 //! 8. `ssm-bitmask/resolve` — one triangle over the map (`glsl/common/fullscreen.vert`,
-//!    `glsl/ssm_bitmask/resolve.frag`): per texel the samples each layer's mask hides,
-//!    popcount(front) * 256 + popcount(pure) (integers below 2^16, exact in a float), into
-//!    `hidden samples` = R32_SFLOAT, clear 0 (every texel is then written), no blend. The
-//!    final pass gathers this one channel where it would fetch two 128-bit masks per texel
-//!    of its footprint.
+//!    `glsl/ssm_bitmask/resolve.frag`): per texel and layer the count c of samples its mask
+//!    hides, turned into the **edge offset** d in [-1, 1]: the signed distance (disc radii)
+//!    of the straight edge whose segment hides c / 128 of the disc (a 129-entry storage
+//!    buffer, `edge_offsets` in ssm_bitmask_table.rs), quantised to 12 bits; 4096 front +
+//!    pure (an integer below 2^24, exact in a float) into `edge offsets` = R32_SFLOAT,
+//!    clear 0 (every texel is then written), no blend. The final pass gathers this one
+//!    channel where it would fetch two 128-bit masks per texel of its footprint.
 //! 9. `ssm-bitmask/final` — `FinalPass` with `glsl/ssm_bitmask/final.frag`: as
-//!    ssm's (2x2 footprint of the receiver map and the hidden samples, layer 0 for the
+//!    ssm's (2x2 footprint of the receiver map and the edge offsets, layer 0 for the
 //!    texel's own receiver, layer 1 behind it, bilinear weights) but read at the point
 //!    itself, **not at a normal-offset point**: a mask holds the visibility at its texel's
 //!    centre (ssm's offset shifts every penumbra: most of its error on `fence`). Only the
-//!    depth that picks the layer is the offset point's. Occlusion = the layer's hidden
-//!    samples / 128, visibility = 1 - it. The speed layer runs it only within a micro-
+//!    depth that picks the layer is the offset point's. The weights interpolate the edge
+//!    offset d, and occlusion = disc_chord(d) (glsl/common/penumbra.glsl), visibility = 1 -
+//!    it: behind a straight edge d is linear across a receiver where the hidden share bends
+//!    at both ends of the penumbra, so interpolated shares would start a penumbra up to a
+//!    texel early and end it a texel late (a higher mae_lit on every built-in scene, and
+//!    more false edges). The speed layer runs it only within a micro-
 //!    quad's reach of a caster's texels (`FinalPass::split`, `regions::AroundCasters`,
 //!    `quad_reach_texels`): elsewhere every mask is clear and the visibility exactly 1.
 //!
@@ -181,10 +187,11 @@
 //!   torus's hole before a wall) and breaks occluder blocks at every outline.
 //! - A depth step smaller than `CONNECT_TEXELS` is bridged by a "skirt" between the two
 //!   surfaces: a little too much occlusion behind small steps.
-//! - A mask is exact at its texel's centre and the final pass interpolates the masks
-//!   bilinearly, so each penumbra starts and ends up to one texel of the occluder map early
-//!   and late where its profile bends: on the built-in scenes most of the error against the
-//!   reference, narrower at a finer `--occluder-res` ("Cost" above).
+//! - A mask is exact at its texel's centre. The occluder map's texels step a blocker's
+//!   outline (a thin rail's shadow beads), and between texel centres the edge offset is
+//!   exact only behind one straight edge: each penumbra starts and ends up to a texel of
+//!   the occluder map early and late. On the built-in scenes this is most of the error
+//!   against the reference, less at a finer `--occluder-res` ("Cost" above).
 //! - 128 samples: visibility in steps of 1/128, the same pattern everywhere (no noise,
 //!   faint 1/128 contours in wide penumbrae).
 //! - Occluder-map aliasing at small R, the receiver layers and the guard: as ssm.
@@ -196,7 +203,7 @@
 use super::hard::{self, Names as HardNames};
 use super::regions;
 use super::speed::ssm::{PatchStepReport, QuadBuffers, QuadList};
-pub use super::ssm_bitmask_table::{edge_table, light_samples, SAMPLES};
+pub use super::ssm_bitmask_table::{edge_offsets, edge_table, light_samples, SAMPLES};
 use super::ssm_common::{ssm_uniforms, LightInputs, BOUND_GROUP, MAP_USAGE, SELF_GUARD_TEXELS};
 use super::{FrameInput, LightBuffer, Packing, Technique, TechniqueInfo, TechniqueInit};
 use crate::gpu::passes::{FinalPass, FinalShader, Shadowed};
@@ -368,10 +375,12 @@ impl OccluderBlocks {
     }
 }
 
-/// Pass 8, `ssm-bitmask/resolve`: per soft-shadow-map texel the samples each layer's mask
-/// hides, 256 * front + pure in one R32F texel, which the final pass gathers.
+/// Pass 8, `ssm-bitmask/resolve`: per soft-shadow-map texel each layer's edge offset (the
+/// straight edge that hides as many samples as its mask), 4096 * front + pure quantised in
+/// one R32F texel, which the final pass gathers.
 struct Resolve {
-    hidden: Image,
+    offsets: Image,
+    _table: Buffer,
     set: DescriptorSet,
     pipeline: Pipeline,
     name: String,
@@ -380,19 +389,26 @@ struct Resolve {
 impl Resolve {
     fn new(ctx: &Context, masks: &[Image; 2], nearest: &Sampler, res: u32) -> Result<Self> {
         let name = format!("{}/resolve", INFO.name);
-        let hidden = Image::new_2d(
+        let offsets = Image::new_2d(
             ctx,
             res,
             res,
             Format::R32_SFLOAT,
             MAP_USAGE,
-            &format!("{} hidden samples", INFO.name),
+            &format!("{} edge offsets", INFO.name),
+        )?;
+        let table = Buffer::with_data(
+            ctx,
+            bytemuck::cast_slice(&edge_offsets()),
+            BufferUsageFlags::STORAGE_BUFFER,
+            &format!("{} edge-offset table", INFO.name),
         )?;
         let set = DescriptorSet::new(
             ctx,
             &[
                 ("mask_front", Resource::Sampled(&masks[0], nearest)),
                 ("mask_pure", Resource::Sampled(&masks[1], nearest)),
+                ("offsets", Resource::Storage(&table)),
             ],
             &name,
         )?;
@@ -414,7 +430,8 @@ impl Resolve {
             },
         )?;
         Ok(Self {
-            hidden,
+            offsets,
+            _table: table,
             set,
             pipeline,
             name,
@@ -423,7 +440,7 @@ impl Resolve {
 
     fn record(&self, rec: &mut Recorder<'_>) -> Result<()> {
         rec.pass(&self.name, |rec| {
-            rec.begin_rendering(&[(&self.hidden, Clear::Float([0.0; 4]))], None);
+            rec.begin_rendering(&[(&self.offsets, Clear::Float([0.0; 4]))], None);
             rec.bind_pipeline(&self.pipeline);
             rec.bind_sets(&self.pipeline, &[&self.set]);
             rec.draw(3, 1);
@@ -601,8 +618,8 @@ impl SsmBitmask {
                     Resource::Sampled(&receivers.layers[0], &nearest),
                 ),
                 (
-                    "hidden_samples",
-                    Resource::Sampled(&resolve.hidden, &nearest),
+                    "edge_offsets",
+                    Resource::Sampled(&resolve.offsets, &nearest),
                 ),
             ],
             &final_name,

@@ -28,6 +28,15 @@
 //! radian: table rounding moves each edge by at most 1/256 radian (pi/1024 with rows even
 //! in angle) and 1/256 disc radius; unbiased.
 
+//!
+//! ## Edge offsets (`edge_offsets`, read by glsl/ssm_bitmask/resolve.frag)
+//! Per count c of hidden samples (0 ..= 128), the offset d in [-1, 1] (disc radii) of the
+//! straight edge whose segment hides the share c / 128 of the disc:
+//! (acos d - d sqrt(1 - d^2)) / pi = c / 128 (glsl/common/penumbra.glsl, `disc_chord`).
+//! Behind a straight blocker edge d moves linearly across a planar receiver where the share
+//! follows the disc's S-shaped profile, so the final pass interpolates d between texels and
+//! takes the share of the result.
+
 use crate::shaders::constants as k;
 use glam::Vec2;
 use std::sync::OnceLock;
@@ -44,6 +53,34 @@ const TABLE_ANGLES: usize = k::SSMB_LUT_ROWS as usize;
 /// Columns of the edge table: signed distances from the disc centre over [-1, 1] radii
 /// (`SSMB_LUT_COLUMNS`).
 const TABLE_DISTANCES: usize = k::SSMB_LUT_COLUMNS as usize;
+
+/// The share of the unit disc beyond the chord at signed distance `d` from its centre
+/// (`disc_chord` in glsl/common/penumbra.glsl): 1 at d = -1, 0 at d = 1.
+fn segment_share(d: f64) -> f64 {
+    let d = d.clamp(-1.0, 1.0);
+    (d.acos() - d * (1.0 - d * d).max(0.0).sqrt()) / std::f64::consts::PI
+}
+
+/// Per count c of hidden samples (0 ..= `SAMPLES`), the offset of the straight edge whose
+/// segment hides c / SAMPLES of the disc (module header, "Edge offsets"): 1 at c = 0, -1 at
+/// c = SAMPLES, decreasing. The share falls monotonically in d, so bisection converges.
+pub fn edge_offsets() -> Vec<f32> {
+    (0..=SAMPLES)
+        .map(|c| {
+            let share = c as f64 / SAMPLES as f64;
+            let (mut lo, mut hi) = (-1.0f64, 1.0f64);
+            for _ in 0..60 {
+                let mid = 0.5 * (lo + hi);
+                if segment_share(mid) > share {
+                    lo = mid;
+                } else {
+                    hi = mid;
+                }
+            }
+            (0.5 * (lo + hi)) as f32
+        })
+        .collect()
+}
 
 /// The light samples on the unit disc: a golden-angle spiral, equal area per sample.
 pub fn light_samples() -> Vec<Vec2> {

@@ -6,7 +6,9 @@
 //! - fewer light leaks where the reference is in full umbra (the fence's slats);
 //! - at `--occluder-res 512`, mae_lit below the default's and within measured bounds on
 //!   every one of those scenes;
-//! - penumbrae no darker than the reference than measured (a union, not a sum).
+//! - penumbrae no darker than the reference than measured (a union, not a sum);
+//! - the edge offsets the final pass interpolates invert the disc segment, and keep mae_lit
+//!   and false edges below the interpolated shares' by measured bounds;
 //! - R = 0 is `hard` exactly.
 
 mod common;

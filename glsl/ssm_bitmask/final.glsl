@@ -48,7 +48,8 @@ float visibility(vec3 p, vec3 n) {
     vec4 packed = textureGather(edge_offsets, uv, 0);
     vec4 front_q = floor(packed * (1.0 / (SSMB_OFFSET_LEVELS + 1.0)));
     vec4 pure_q = packed - (SSMB_OFFSET_LEVELS + 1.0) * front_q;
-    // 0 and 4095 decode to -1 and 1 exactly: an umbra texel is 0 and a lit one 1.
+    // 0 ..= 4095 back to [-1, 1]: a full umbra texel at -1, a lit one at 1 (within the
+    // rounding the ends below take up).
     vec4 front = front_q * (1.0 / (0.5 * SSMB_OFFSET_LEVELS)) - 1.0;
     vec4 pure = pure_q * (1.0 / (0.5 * SSMB_OFFSET_LEVELS)) - 1.0;
     vec4 offset = mix(front, pure, vec4(behind));

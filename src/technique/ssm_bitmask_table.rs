@@ -27,7 +27,6 @@
 //! falls from 1 (axis-aligned lines) to 1/2 (diagonal ones), so a row spans up to 1/128
 //! radian: table rounding moves each edge by at most 1/256 radian (pi/1024 with rows even
 //! in angle) and 1/256 disc radius; unbiased.
-
 //!
 //! ## Edge offsets (`edge_offsets`, read by glsl/ssm_bitmask/resolve.frag)
 //! Per count c of hidden samples (0 ..= 128), the offset d in [-1, 1] (disc radii) of the

@@ -146,20 +146,20 @@ fn light_passes_clear_what_their_last_frame_drew() {
         .unwrap();
         r.render().unwrap();
         // The smoothie depth: the "depth" channel of `smoothie_buffer` (paper) or
-        // `smoothie_outer`, clear 1e30; the penumbra map's outer intensity (channel 0),
-        // clear 1.
+        // `smoothie_outer`, clear 1e30; the centred penumbra map's "surface_depth", clear
+        // 1e30; the paper penumbra map's outer intensity (its one channel), clear 1.
         let depth = r
             .technique_buffer_names()
             .into_iter()
             .find(|b| b.starts_with("smoothie") || *b == "penumbra_map")
             .expect("a smoothie buffer or a penumbra map");
-        let clear = if depth == "penumbra_map" { 1.0 } else { 1e29 };
+        let clear = if name == "penumbra-map" { 1.0 } else { 1e29 };
         let drawn = |r: &mut Renderer| {
             let mut b = r.read_technique_buffer(depth).unwrap();
             let c = b
                 .channel_names
                 .iter()
-                .position(|&c| c == "depth")
+                .position(|&c| c.ends_with("depth"))
                 .unwrap_or(0);
             b.channels.swap_remove(c)
         };

@@ -50,12 +50,22 @@ fn check_channel(what: &str, name: &str, values: &[f32]) {
         assert!(min >= 0.0 && max <= 1.0, "{what}: values in {min}..{max}");
         assert!(max > 0.0, "{what}: no occlusion at all");
     } else if name.ends_with("visibility") {
-        // A visibility (penumbra-map-centred's outer map), 1 = lit: darker somewhere.
+        // A visibility, 1 = lit (plateaus-centred's coverage, and its inner values as the
+        // profile's linear stand-in (1 - s) / 2): darker somewhere.
         assert!(min >= 0.0 && max <= 1.0, "{what}: values in {min}..{max}");
         assert!(min < 1.0, "{what}: no shadow at all");
+    } else if name == "outer_share" {
+        // A centred form's outer share (glsl/common/penumbra.glsl), -1 lit, 0 the hard
+        // edge: somewhere inside a penumbra.
+        assert!(min >= -1.0 && max <= 0.0, "{what}: values in {min}..{max}");
+        assert!(max > -1.0, "{what}: no penumbra at all");
+    } else if name == "inner_share" {
+        // A centred form's inner share, 1 umbra (and where none was drawn), below 0 where a
+        // thin blocker's far side lets light through: somewhere inside a penumbra.
+        assert!(min >= -1.0 && max <= 1.0, "{what}: values in {min}..{max}");
+        assert!(min < 1.0, "{what}: no penumbra at all");
     } else if name.ends_with("occlusion") {
-        // Summed micro-patch occlusion, or a centred form's inner occlusion (1 = umbra):
-        // non-negative, not clamped, and somewhere positive.
+        // Summed micro-patch occlusion: non-negative, not clamped, and somewhere positive.
         assert!(min >= 0.0, "{what}: negative occlusion {min}");
         assert!(max > 0.0, "{what}: no occlusion at all");
     } else if name.ends_with("nearness") {

@@ -500,7 +500,12 @@ fn gpu_path_light_areas_keep_the_image() {
             };
             let ((areas, t_areas), (whole, t_whole)) = (run(false), run(true));
             let diff = max_visibility_diff(&areas, &whole);
-            let bound = if technique == "smoothies" { 1e-4 } else { 2e-4 };
+            // The centred form: a share moved to its neighbouring key step (tests/plain.rs).
+            let bound = if technique == "smoothies" {
+                1e-4
+            } else {
+                1.3e-3
+            };
             assert!(
                 diff <= bound,
                 "{name}, {technique}: the areas change the image by {diff}"

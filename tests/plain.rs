@@ -115,17 +115,18 @@ fn plain_against_optimised(
     // centred form's inner ones) and cut cones and sheets interpolate alpha, t and
     // 1/b, or Zv, over triangles other than the full ones, so a few visibilities move
     // by that rounding (as in tests/avoided_work.rs `light_areas_change_no_pixel`):
-    // measured up to 4.9e-5 on up to 155 of 4096 pixels for the paper form, 3.2e-4 on one
-    // pixel for penumbra-map-centred (a key's step). Everything else is bit for bit.
+    // measured up to 4.9e-5 on up to 155 of 4096 pixels for the paper form, a fraction of
+    // a key's step for the centred forms. Everything else is bit for bit.
     let vis_bound = match name {
         "smoothies" => 1e-4,
         // Cut cones and sheets interpolate over shorter triangles: a value in the 16-bit
         // penumbra map can round to its neighbouring step (2^-11 in [0.5, 1)).
         "penumbra-map" => 5e-4,
-        // The centred forms' keys (technique::packed) round each value to its step:
-        // such a move can cross one, 1/1022 of an outer visibility or 1/1023 of an
-        // inner occlusion, and a footprint's bilinear weights sum to 1.
-        "smoothies-centred" | "penumbra-map-centred" => 1e-3,
+        // The centred forms' keys (technique::packed) round each share to its step:
+        // such a move can cross one, 1/511 of an outer share or 2/1023 of an inner one,
+        // which moves the visibility by at most 2/pi of it (the profile's steepest
+        // slope, at the hard edge), and a footprint's bilinear weights sum to 1.
+        "smoothies-centred" | "penumbra-map-centred" => 1.3e-3,
         _ => 0.0,
     };
     // A visibility moved by that rounding can still cross the boundary of a colour level.

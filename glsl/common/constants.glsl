@@ -25,8 +25,8 @@ const float PLANE_LIMIT = 0.05;
 // The centred forms' packed light values (common/packed.glsl): an R32F key holds a value
 // in its high part, as one of STEPS + 1 levels, and a depth code in its low part, as one of
 // LEVELS. (STEPS + 1) x LEVELS = 2^24, the integers a float holds exactly. The outer key:
-// the outer visibility in [0.5, 1] over 512 levels, the smoothie's (or foremost surface's)
-// depth over 32768 codes; the inner key: the inner occlusion in [0, 1] over 1024 levels,
+// the outer share in [-1, 0] over 512 levels, the smoothie's (or foremost surface's)
+// depth over 32768 codes; the inner key: the inner share in [-1, 1] over 1024 levels,
 // its receiver's depth over 16384 codes.
 const float OUTER_KEY_STEPS = 511.0;
 const float OUTER_KEY_LEVELS = 32768.0;

@@ -25,6 +25,11 @@ bool light_is_sun() {
     return frame.sun.x > 0.5;
 }
 
+// The light's spread: a spotlight's radius R, a sun's tan(theta); 0 for a point light.
+float light_spread() {
+    return light_is_sun() ? frame.sun.y : frame.light_pos_radius.w;
+}
+
 // The linear light depth (distance along the light's axis) of light clip coordinates c.
 float clip_linear_depth(vec4 c) {
     return light_is_sun() ? frame.light_params.x + c.z * (frame.light_params.y - frame.light_params.x) : c.w;

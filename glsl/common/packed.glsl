@@ -5,17 +5,20 @@
 // way for `--buffers`.
 //
 // A key is an integer below 2^24, which a float holds exactly: the high part is the value
-// MIN blending must pick (a visibility, darkest first, or an occlusion, lightest first) as
-// one of STEPS + 1 levels, the low part a linear light depth as one of LEVELS codes. A MIN
-// over keys is a MIN over the high parts, and among equal high parts over the low ones: the
-// depth that travels with the value is that of the value kept, not the nearest or farthest
-// of all. An outer visibility is at least 0.5 (the hard edge's), so the outer key spends
-// its levels on [0.5, 1]: a step of 1/1022, the inner key's 1/1023. The depth code is
-// logarithmic over the light's range, so that its relative step is the same at every
-// depth: ln(far / near) / LEVELS, which frustum.rs's far <= 1e5 near bounds by 3.5e-4 for
-// the outer keys' 32768 codes (rounded to the nearest: within 1.8e-4, below the relative
-// depth bias of the tests against them) and by 7e-4 for the inner keys' 16384 (far below
-// their 5 % window).
+// MIN blending must pick as one of STEPS + 1 levels, the low part a linear light depth as one
+// of LEVELS codes. A MIN over keys is a MIN over the high parts, and among equal high parts
+// over the low ones: the depth that travels with the value is that of the value kept, not
+// the nearest or farthest of all. The value is a penumbra share s (common/penumbra.glsl:
+// -1 lit, 1 umbra), which the final passes interpolate before they take the profile. The
+// profile falls as s grows, so the darkest outer value is the largest s and the lightest
+// inner value the smallest: the outer key's high part is -s (an outer share lies in [-1, 0],
+// the hard edge's 0 or lighter: a step of 1/511), the inner key's (1 + s) / 2 (an inner
+// share lies in [-1, 1], lighter than the hard edge where a thin blocker lets light
+// through: a step of 2/1023). The depth code is logarithmic over the light's range, so that
+// its relative step is the same at every depth: ln(far / near) / LEVELS, which frustum.rs's
+// far <= 1e5 near bounds by 3.5e-4 for the outer keys' 32768 codes (rounded to the nearest:
+// within 1.8e-4, below the relative depth bias of the tests against them) and by 7e-4 for
+// the inner keys' 16384 (far below their 5 % window).
 #ifndef COMMON_PACKED_GLSL
 #define COMMON_PACKED_GLSL
 #include "common/frame.glsl"
@@ -47,26 +50,26 @@ void unpack_keys(vec4 keys, float steps, float levels, out vec4 high, out vec4 l
     low = (keys - q * levels) / (levels - 1.0);
 }
 
-// Outer key: the outer visibility v in [0.5, 1] (darkest first) with the depth `depth` of
-// what made it (smoothies-centred: the smoothie's b; penumbra-map-centred: the texel's
-// foremost surface). Cleared to 2^24 - 1: lit, with the far plane's code.
-float outer_key(float v, float depth) {
-    return pack_key(2.0 * v - 1.0, OUTER_KEY_STEPS, depth_code(depth), OUTER_KEY_LEVELS);
+// Outer key: the outer share s in [-1, 0] (darkest, largest s, first) with the depth
+// `depth` of what made it (smoothies-centred: the smoothie's b; penumbra-map-centred: the
+// texel's foremost surface). Cleared to 2^24 - 1: lit (s = -1), with the far plane's code.
+float outer_key(float s, float depth) {
+    return pack_key(-s, OUTER_KEY_STEPS, depth_code(depth), OUTER_KEY_LEVELS);
 }
 
-// Inner key: the inner occlusion (1 - v, lightest first) with the depth of the receiver it
-// was made for (of equal occlusions the farthest first, so the code is 1 - depth_code).
-// Cleared to 2^24 - 1: umbra, with the near plane's code.
-float inner_key(float occlusion, float receiver) {
-    return pack_key(occlusion, INNER_KEY_STEPS, 1.0 - depth_code(receiver), INNER_KEY_LEVELS);
+// Inner key: the inner share s in [-1, 1] (lightest, smallest s, first) with the depth of
+// the receiver it was made for (of equal shares the farthest first, so the code is
+// 1 - depth_code). Cleared to 2^24 - 1: umbra (s = 1), with the near plane's code.
+float inner_key(float s, float receiver) {
+    return pack_key(0.5 + 0.5 * s, INNER_KEY_STEPS, 1.0 - depth_code(receiver), INNER_KEY_LEVELS);
 }
 
-// Four gathered outer keys: their visibilities and depth codes (compare the codes with a
-// point's depth_code; code_depth gives the depths).
-void unpack_outer(vec4 keys, out vec4 v, out vec4 depth_codes) {
+// Four gathered outer keys: their shares and depth codes (compare the codes with a point's
+// depth_code; code_depth gives the depths).
+void unpack_outer(vec4 keys, out vec4 s, out vec4 depth_codes) {
     vec4 high;
     unpack_keys(keys, OUTER_KEY_STEPS, OUTER_KEY_LEVELS, high, depth_codes);
-    v = 0.5 + 0.5 * high;
+    s = -high;
 }
 
 // 1 where a point at linear depth `depth` is in front of (or on) the depths of `codes`,
@@ -76,10 +79,12 @@ vec4 in_front_of_codes(vec4 codes, float depth) {
     return step(depth_code(depth / (1.0 + frame.light_frustum.w)), codes);
 }
 
-// Four gathered inner keys: their occlusions and their receivers' codes (receiver_depths
-// gives the depths).
-void unpack_inner(vec4 keys, out vec4 occlusion, out vec4 receiver_codes) {
-    unpack_keys(keys, INNER_KEY_STEPS, INNER_KEY_LEVELS, occlusion, receiver_codes);
+// Four gathered inner keys: their shares and their receivers' codes (receiver_depths gives
+// the depths).
+void unpack_inner(vec4 keys, out vec4 s, out vec4 receiver_codes) {
+    vec4 high;
+    unpack_keys(keys, INNER_KEY_STEPS, INNER_KEY_LEVELS, high, receiver_codes);
+    s = 2.0 * high - 1.0;
 }
 
 // The receiver depths of unpack_inner's codes.

@@ -20,17 +20,36 @@ float disc_chord(float s) {
     return (acos(s) - s * sqrt(max(1.0 - s * s, 0.0))) * 0.31830988618379067;
 }
 
-// The share s of the profile above at x_tex texels from the hard edge (>= 0, on either
-// side) of a penumbra of half-width w_tex texels, as the centred forms draw it into their
-// light-space buffers. Their final passes interpolate those texels bilinearly, a tent one
-// texel wide that adds its variance (1/6 texel^2) to the profile's: a penumbra narrower than
-// a texel came out about a texel wide, lit up to a texel into the umbra (on `dense`, whose
-// blobs stand close to the ground). Drawn with the half-width sqrt(w^2 - 1/6), a half-width
-// of 4 texels narrows by 0.5 %, and one under 0.41 texel is drawn as the hard step. A third
-// of a texel^2 sharpened too far (`bunny`'s p99_lit rose above pcss's).
-float drawn_share(float x_tex, float w_tex) {
-    float w = sqrt(max(w_tex * w_tex - 1.0 / 6.0, 0.0));
-    return w > 0.0 ? x_tex / w : sign(x_tex);
+// The share s whose profile lets v through: disc_chord's inverse, for v in [0, 1]. On the
+// side v <= 0.5 (the other by symmetry, s -> -s), 1 - s is a polynomial in q = (2 v)^(1/3)
+// from q^2 (near the umbra's end v grows as (1 - s)^(3/2)) to q^6, fitted for the least
+// largest error and summing to 1 at q = 1 (the hard edge's 0 exactly): within 1.3e-4 of s,
+// far below a key's level (common/packed.glsl). The light passes store shares, not
+// visibilities, and where a thin blocker adds a second edge's segment only the sum's share
+// is known. One power and a polynomial, not an iterative solve: a CPU driver runs it at
+// every light fragment, whether or not a thin blocker needs it.
+float chord_share(float v) {
+    float q = pow(2.0 * clamp(min(v, 1.0 - v), 0.0, 0.5), 1.0 / 3.0);
+    float p = 0.90457444 + q * (-0.14805148 + q * (0.49247132 + q * (-0.50800223 + q * 0.25900795)));
+    float s = 1.0 - q * q * p;
+    return v <= 0.5 ? s : -s;
+}
+
+// An interpolated share this close to an end is that end: the profile there is within 1e-7
+// of it.
+const float SHARE_EPS = 1e-5;
+
+// The visibility of a share that a final pass interpolated between texels: the profile,
+// exactly 1 and 0 within SHARE_EPS of the ends (bilinear weights sum to 1 only up to
+// rounding, and a lit footprint must give what the lookup-free parts of a split final pass
+// give). The light passes store shares, not visibilities: across a straight edge's penumbra
+// the share is linear, so interpolating it keeps the penumbra to its width, where
+// interpolating the S-shaped profile, flat at both ends, starts it up to a texel early and
+// ends it a texel late (a tent one texel wide added to the profile).
+float share_visibility(float s) {
+    if (s <= SHARE_EPS - 1.0) return 1.0;
+    if (s >= 1.0 - SHARE_EPS) return 0.0;
+    return clamp(disc_chord(s), 0.0, 1.0);
 }
 
 #endif

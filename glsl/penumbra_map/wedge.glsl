@@ -60,7 +60,7 @@ bool eq1_depths(float zp, float zf, vec2 zv_h, out Eq1 e) {
 // seen from P: a strip of the disc of radius tan theta, a fraction <= 4 r / (pi tan theta).
 float blocker_floor(float reach, float zv, float zp, float denom) {
     bool sun = light_is_sun();
-    float lr = sun ? frame.sun.y : frame.light_pos_radius.w;
+    float lr = light_spread();
     float r = sun ? reach / denom : reach * zv * (zp / denom);
     float hidden = lr > 0.0 ? min(4.0 * r / (3.14159265 * lr), 1.0) : 1.0;
     return 1.0 - hidden;

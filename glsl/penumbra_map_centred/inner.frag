@@ -22,9 +22,10 @@
 //     narrower blocker than its penumbra is never a full umbra). Exact for a parallel strip
 //     and a single straight edge; at a corner it counts the segment beyond the other edge in
 //     full (too light inside sharp corners of thin blockers).
-// Written to the inner map with MIN blending as a key of the inner occlusion 1 - v, so the
-// lightest estimate wins, and the receiver depth it was made for (of equal occlusions the
-// farthest), which the final pass checks its own depth against.
+// Written to the inner map with MIN blending as a key of v's share (s at an edge alone),
+// which the final pass interpolates, so the lightest estimate wins, and the receiver depth it
+// was made for (of equal shares the farthest), which the final pass checks its own depth
+// against.
 #include "common/frame.glsl"
 #include "common/penumbra.glsl"
 #include "penumbra_map/wedge.glsl"
@@ -34,7 +35,7 @@ layout(set = 0, binding = 1) uniform sampler2D shadow_map;   // RG32F: r nearest
 layout(location = 0) in float v_depth;
 layout(location = 1) in vec2 v_zv_h;
 layout(location = 2) flat in float v_reach;
-// `penumbra_inner` (R32F, MIN): the inner key (common/packed.glsl) of (1 - v, Z_R).
+// `penumbra_inner` (R32F, MIN): the inner key (common/packed.glsl) of (v's share, Z_R).
 layout(location = 0) out float o_inner;
 
 #include "common/packed.glsl"
@@ -57,12 +58,13 @@ void main() {
     if (!clear_of_contact(zr, denom)) discard;
     if (!blocked_at(here, zr)) discard;
     float w = wedge_offset(zv, zr);
-    // Drawn narrower by the final pass's bilinear spread (common/penumbra.glsl).
-    float s = drawn_share(u / per_texel, w / per_texel);
+    float s = u / w;
     if (!(s < 1.0)) discard;
-    float v = disc_chord(s);
+    float edge = disc_chord(s);
     float far_edge = far_edge_texels(here, dir, w / per_texel, zr);
-    if (far_edge > 0.0) v += disc_chord(far_edge * per_texel / w);
-    float v_in = clamp(max(v, blocker_floor(v_reach, zv, zr, denom)), 0.0, 1.0);
-    o_inner = inner_key(1.0 - v_in, zr);
+    float v = edge + (far_edge > 0.0 ? disc_chord(far_edge * per_texel / w) : 0.0);
+    v = clamp(max(v, blocker_floor(v_reach, zv, zr, denom)), 0.0, 1.0);
+    // The share the final pass interpolates: s at the edge alone; raised by a thin
+    // blocker's far segment or the blocker-size bound, the profile's inverse of v.
+    o_inner = inner_key(v > edge ? chord_share(v) : s, zr);
 }

@@ -13,8 +13,9 @@
 // at the outer rim, plus the disc's segment beyond the far edge of a blocker narrower than
 // its penumbra (`outer_far_share`, common/inner_march.glsl, marched along the gradient of
 // Z_F, which points away from the edge: the inner side adds the same segment, so the two
-// meet at the hard edge without a step). Written to the penumbra map with MIN
-// blending (darkest wins, as in the paper).
+// meet at the hard edge without a step). Written to the penumbra map as v's share (-s at
+// an edge alone), which the final pass interpolates, with MIN blending (darkest wins, as in
+// the paper).
 #include "common/frame.glsl"
 #include "common/penumbra.glsl"
 #include "penumbra_map/wedge.glsl"
@@ -24,8 +25,8 @@ layout(set = 0, binding = 1) uniform sampler2D shadow_map;   // RG32F: r nearest
 layout(location = 0) in float v_depth;
 layout(location = 1) in vec2 v_zv_h;
 layout(location = 2) flat in float v_reach;
-// `penumbra_map` (R32F, MIN): the outer key (common/packed.glsl) of the outer visibility
-// and the texel's foremost surface depth, which the final pass's own-surface test reads.
+// `penumbra_map` (R32F, MIN): the outer key (common/packed.glsl) of the outer share and
+// the texel's foremost surface depth, which the final pass's own-surface test reads.
 layout(location = 0) out float o_outer;
 
 #include "common/packed.glsl"
@@ -43,15 +44,16 @@ void main() {
     }
     // Rasterised F can fall a rounding error in front of the tip.
     float s = clamp(outer_share((e.zf - e.zv) / e.denom, e.zp, e.zf), 0.0, 1.0);
+    if (!(s < 1.0)) discard;
     float w_tex = wedge_offset(e.zv, e.zp) / wedge_unit_per_texel();
-    // Drawn narrower by the final pass's bilinear spread (common/penumbra.glsl); lit from
-    // there on.
-    float s_drawn = drawn_share(s * w_tex, w_tex);
-    if (!(s_drawn < 1.0)) discard;
-    float v = disc_chord(-s_drawn);
+    float edge = disc_chord(-s);
     float g = length(grad);
-    if (g > 0.0 && !isinf(g)) {
-        v += outer_far_share(gl_FragCoord.xy, grad / g, s * w_tex, w_tex, e.zp);
-    }
-    o_outer = outer_key(max(min(v, 1.0), blocker_floor(v_reach, e.zv, e.zp, e.denom)), surface);
+    float far = g > 0.0 && !isinf(g)
+        ? outer_far_share(gl_FragCoord.xy, grad / g, s * w_tex, w_tex, e.zp)
+        : 0.0;
+    float v = max(min(edge + far, 1.0), blocker_floor(v_reach, e.zv, e.zp, e.denom));
+    // The share the final pass interpolates: -s at the edge alone; raised by a thin
+    // blocker's far segment or the blocker-size bound, the profile's inverse of v.
+    float share = v > edge ? chord_share(v) : -s;
+    o_outer = outer_key(share, surface);
 }

@@ -5,9 +5,7 @@
 // `PlateauBuilder` with `Side::Inner`: (P3) with p -> -p, opening into the drop shadow), in
 // the texture's clip space with depth t = 0 at the hard edge and 1 at the inner rim. The
 // receiver is the plane itself, so t is s, the fragment's share of the penumbra half-width
-// inside the hard edge, and the edge alone lets v = disc_chord(t) of the light through,
-// drawn as disc_chord(s') with s' the share narrowed by the final pass's bilinear spread
-// (`drawn_share`, common/penumbra.glsl).
+// inside the hard edge, and the edge alone lets v = disc_chord(t) of the light through.
 //   - nothing outside the drop shadow, or when the edge is hidden: the plane 1.5 texels
 //     outside the edge is under a drop shadow too. A caster nearer the light there covers
 //     the edge's outside (no light through it); a farther one blocks the light this edge
@@ -19,7 +17,9 @@
 //     the blocker's far edge, d beyond this texel, and adds disc_chord(d / w)
 //     (through a strip between parallel edges a point sees the disc's segment beyond each
 //     edge).
-// Written with MAX blending into the R16F inner image (clear 0): the lightest estimate wins.
+// Written as (1 - s) / 2 of v's share s (t at an edge alone), which the final pass
+// interpolates, with MAX blending into the R16F inner image (clear 0: the umbra's s = 1):
+// the lightest estimate, the smallest share, wins.
 #include "common/penumbra.glsl"
 
 layout(set = 0, binding = 0) uniform sampler2D coverage;   // R16F: 0 under a drop shadow, 1 elsewhere
@@ -54,8 +54,11 @@ void main() {
     vec2 out_dir = reach > 1e-3 ? from_edge / reach : dir;
     vec2 outside = here - from_edge - out_dir * OUT_TEXELS;
     if (inside_map(outside) && blocked_at(outside, 0.0)) discard;
-    float v = disc_chord(drawn_share(t * w_tex, w_tex));
+    // Thin blocker: the far edge within w of this texel adds its segment; the share the
+    // final pass interpolates is then the sum's (the profile's inverse).
     float far_edge = far_edge_texels(here, dir, w_tex, 0.0);
-    if (far_edge > 0.0) v += disc_chord(far_edge / w_tex);
-    o_inner = clamp(v, 0.0, 1.0);
+    float share = far_edge > 0.0
+        ? chord_share(min(disc_chord(t) + disc_chord(far_edge / w_tex), 1.0))
+        : t;
+    o_inner = 0.5 - 0.5 * share;
 }

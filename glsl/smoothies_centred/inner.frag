@@ -19,11 +19,12 @@
 //     the half-width (bisections, where the blocker no longer covers the texel one
 //     half-width in), the far edge d beyond this texel adds disc_chord(d / w)
 //     (exact for a parallel strip: through it a point sees the disc's segment beyond each
-//     edge).
+//     edge);
+//   - written as v's share (s at an edge alone), which the final pass interpolates.
 #include "smoothies_centred/smoothie.glsl"
 
-// `smoothie_inner` (R32F, MIN): the inner key (common/packed.glsl) of the occlusion 1 - v
-// and Z_R, so that MIN keeps the lightest inner estimate with its receiver.
+// `smoothie_inner` (R32F, MIN): the inner key (common/packed.glsl) of v's share and Z_R,
+// so that MIN keeps the lightest inner estimate with its receiver.
 layout(location = 0) out float o_inner;
 
 #include "common/packed.glsl"
@@ -46,12 +47,13 @@ void main() {
     if (!blocked_at(here, zr)) discard;
     float w = t * denom;   // penumbra half-width at Z_R, uv
     float w_tex = w / texel;
-    // Drawn narrower by the final pass's bilinear spread (common/penumbra.glsl).
-    float s = drawn_share(x_tex, w_tex);
+    float s = x_tex / w_tex;
     if (!(s < 1.0)) discard;
-    float v = disc_chord(s);
-    // Thin blocker: the far edge within w of this texel.
+    // Thin blocker: the far edge within w of this texel adds its segment; the share the
+    // final pass interpolates is then the sum's (the profile's inverse).
     float far_edge = far_edge_texels(here, dir, w_tex, zr);
-    if (far_edge > 0.0) v += disc_chord(far_edge / w_tex);
-    o_inner = inner_key(1.0 - clamp(v, 0.0, 1.0), zr);
+    float share = far_edge > 0.0
+        ? chord_share(min(disc_chord(s) + disc_chord(far_edge / w_tex), 1.0))
+        : s;
+    o_inner = inner_key(share, zr);
 }

@@ -11,8 +11,8 @@
 // visibility is disc_chord(-s): 0.5 on the hard edge, 1 at the outer rim, plus the disc's
 // segment beyond the far edge of a blocker narrower than its penumbra (`outer_far_share`,
 // common/inner_march.glsl: the inner side adds it too, so the two meet at the hard edge
-// without a step). Writes (b, v) to `smoothie_outer` (RG32F, MIN: the nearest smoothie's
-// depth, the darkest outer value, the paper's rule).
+// without a step). Writes the visibility's share (-s at an edge alone) and b to
+// `smoothie_outer` (MIN: the darkest outer value, the paper's rule).
 //
 // Discarded, as in the paper form: no surface at the texel, b/r > 1, 1 - b/r < REMAP_EPS,
 // and s >= 1 (fully lit, v = 1). A lit fragment darkens nothing, but its b would still
@@ -22,7 +22,7 @@
 // caster's smoothie; tests/centred_penumbra.rs, `outer_smoothies_write_only_what_darkens`).
 #include "smoothies_centred/smoothie.glsl"
 
-// `smoothie_outer` (R32F, MIN): the outer key (common/packed.glsl) of v and b.
+// `smoothie_outer` (R32F, MIN): the outer key (common/packed.glsl) of the share and b.
 layout(location = 0) out float o_outer;
 
 #include "common/packed.glsl"
@@ -40,11 +40,9 @@ void main() {
     float s;
     if (!smoothie_alpha(b, r, x, t, remap_span(), s)) discard;
     float w_tex = t * remap_denom(b, r, remap_span()) / texel;
-    float x_tex = s * w_tex;
-    // Drawn narrower by the final pass's bilinear spread; lit from there on (discarded as
-    // above: its b must not blend).
-    float s_drawn = drawn_share(x_tex, w_tex);
-    if (!(s_drawn < 1.0)) discard;
-    float v = disc_chord(-s_drawn) + outer_far_share(gl_FragCoord.xy, dir, x_tex, w_tex, r);
-    o_outer = outer_key(min(v, 1.0), b);
+    float far = outer_far_share(gl_FragCoord.xy, dir, s * w_tex, w_tex, r);
+    // The share the final pass interpolates: -s at the edge alone; with a thin blocker's
+    // far segment only the sum is known, and its share is the profile's inverse.
+    float share = far > 0.0 ? chord_share(min(disc_chord(-s) + far, 1.0)) : -s;
+    o_outer = outer_key(share, b);
 }

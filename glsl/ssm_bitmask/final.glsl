@@ -20,9 +20,6 @@ layout(set = 0, binding = 1) uniform sampler2D receiver_front;   // R32F nearest
 // each over [-1, 1]).
 layout(set = 0, binding = 2) uniform sampler2D edge_offsets;
 
-// An interpolated offset this close to an end is that end: the share there is below 1e-7.
-const float OFFSET_EPS = 1e-5;
-
 float visibility(vec3 p, vec3 n) {
     float res = SSM_RES;
     // World texel size per unit depth; a sun's world texel (ssm/footprint.glsl).
@@ -54,9 +51,7 @@ float visibility(vec3 p, vec3 n) {
     vec4 pure = pure_q * (1.0 / (0.5 * SSMB_OFFSET_LEVELS)) - 1.0;
     vec4 offset = mix(front, pure, vec4(behind));
     float d = ssm_footprint(uv, res, known, offset, front);
-    // Within rounding of either end (the weights' sum is not exactly 1) the edge clears or
-    // covers the disc: lit is exactly 1 and a full umbra exactly 0, as the shares gave.
-    if (d >= 1.0 - OFFSET_EPS) return 1.0;
-    if (d <= OFFSET_EPS - 1.0) return 0.0;
-    return 1.0 - clamp(disc_chord(d), 0.0, 1.0);
+    // The offset d hides disc_chord(d): it lets through the share -d's profile, exactly 1
+    // and 0 at the ends, as the hidden shares gave.
+    return share_visibility(-d);
 }

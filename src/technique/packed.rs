@@ -18,17 +18,18 @@ pub const KEY_CLEAR: f32 = 16_777_215.0;
 pub enum Packing {
     /// One value per channel.
     Plain,
-    /// An outer key: the outer visibility in [0.5, 1], darkest first, with the depth of
-    /// what made it; read back as (visibility, depth), depth 1e30 where nothing was drawn.
+    /// An outer key: the outer share in [-1, 0] (glsl/common/penumbra.glsl: -1 lit, 0 the
+    /// hard edge), darkest (largest) first, with the depth of what made it; read back as
+    /// (share, depth), depth 1e30 where nothing was drawn.
     Outer,
-    /// An inner key: the inner occlusion, lightest first, with its receiver's depth; read
-    /// back as (occlusion, receiver depth).
+    /// An inner key: the inner share in [-1, 1] (1 umbra), lightest (smallest) first, with
+    /// its receiver's depth; read back as (share, receiver depth).
     Inner,
 }
 
-/// A light pass's R32F target of outer keys, cleared to "lit": the darkest outer visibility
-/// (1 = lit) with the depth that travels with it, MIN over the keys; `channels` names the
-/// two for `--buffers` (the visibility first).
+/// A light pass's R32F target of outer keys, cleared to "lit": the darkest outer share
+/// (-1 = lit) with the depth that travels with it, MIN over the keys; `channels` names the
+/// two for `--buffers` (the share first).
 pub(crate) const fn outer_target(
     name: &'static str,
     channels: &'static [&'static str; 2],
@@ -42,15 +43,15 @@ pub(crate) const fn outer_target(
     }
 }
 
-/// A light pass's R32F target of inner keys, cleared to "umbra": the least inner occlusion
-/// (1 = umbra) with the depth of the receiver it was made for (of equal occlusions the
+/// A light pass's R32F target of inner keys, cleared to "umbra": the lightest inner share
+/// (1 = umbra) with the depth of the receiver it was made for (of equal shares the
 /// farthest), MIN over the keys.
 pub(crate) const fn inner_target(name: &'static str) -> LightTarget {
     LightTarget {
         name,
         format: Format::R32_SFLOAT,
         clear: [KEY_CLEAR; 4],
-        channels: &["inner_occlusion", "inner_receiver_depth"],
+        channels: &["inner_share", "inner_receiver_depth"],
         packing: Packing::Inner,
     }
 }
@@ -71,17 +72,17 @@ pub fn unpack(packing: Packing, key: f32, near: f32, far: f32) -> [f32; 2] {
         Packing::Plain => [key, 0.0],
         Packing::Outer => {
             let (high, code) = split(OUTER_KEY_STEPS, OUTER_KEY_LEVELS);
-            let v = 0.5 + 0.5 * high;
+            let share = -high;
             let depth = if code >= 1.0 {
                 crate::gpu::passes::FAR_DEPTH
             } else {
                 code_depth(code, near, far)
             };
-            [v, depth]
+            [share, depth]
         }
         Packing::Inner => {
-            let (occlusion, nearness) = split(INNER_KEY_STEPS, INNER_KEY_LEVELS);
-            [occlusion, code_depth(1.0 - nearness, near, far)]
+            let (high, nearness) = split(INNER_KEY_STEPS, INNER_KEY_LEVELS);
+            [2.0 * high - 1.0, code_depth(1.0 - nearness, near, far)]
         }
     }
 }
@@ -109,10 +110,10 @@ mod tests {
         let (near, far) = (0.5, 40.0);
         assert_eq!(
             unpack(Packing::Outer, KEY_CLEAR, near, far),
-            [1.0, crate::gpu::passes::FAR_DEPTH]
+            [-1.0, crate::gpu::passes::FAR_DEPTH]
         );
-        let [occlusion, receiver] = unpack(Packing::Inner, KEY_CLEAR, near, far);
-        assert_eq!(occlusion, 1.0);
+        let [share, receiver] = unpack(Packing::Inner, KEY_CLEAR, near, far);
+        assert_eq!(share, 1.0);
         assert!((receiver - near).abs() <= 1e-6 * near, "{receiver}");
     }
 
@@ -124,23 +125,21 @@ mod tests {
         let code = |d: f32| ((d / near).ln() / (far / near).ln()).clamp(0.0, 1.0);
         let step = (far / near).ln();
         for &d in &[0.011_f32, 0.5, 3.7, 99.0, 999.0] {
-            // v = 0.8 is 2 v - 1 = 0.6 of the outer key's range [0.5, 1].
+            // The outer share -0.6 is the high part 0.6.
             let outer = (0.6_f32 * OUTER_KEY_STEPS).round() * OUTER_KEY_LEVELS
                 + (code(d) * (OUTER_KEY_LEVELS - 1.0)).round();
-            let [v, depth] = unpack(Packing::Outer, outer, near, far);
-            assert!((v - 0.8).abs() <= 0.25 / OUTER_KEY_STEPS, "{v}");
+            let [share, depth] = unpack(Packing::Outer, outer, near, far);
+            assert!((share + 0.6).abs() <= 0.5 / OUTER_KEY_STEPS, "{share}");
             let rel = (depth / d - 1.0).abs();
             assert!(
                 rel <= 0.6 * step / OUTER_KEY_LEVELS,
                 "outer {d}: {depth} ({rel})"
             );
+            // The inner share 0.4 is the high part (1 + 0.4) / 2 = 0.7.
             let inner = (0.7_f32 * INNER_KEY_STEPS).round() * INNER_KEY_LEVELS
                 + ((1.0 - code(d)) * (INNER_KEY_LEVELS - 1.0)).round();
-            let [occlusion, receiver] = unpack(Packing::Inner, inner, near, far);
-            assert!(
-                (occlusion - 0.7).abs() <= 0.5 / INNER_KEY_STEPS,
-                "{occlusion}"
-            );
+            let [share, receiver] = unpack(Packing::Inner, inner, near, far);
+            assert!((share - 0.4).abs() <= 1.0 / INNER_KEY_STEPS, "{share}");
             let rel = (receiver / d - 1.0).abs();
             assert!(
                 rel <= 0.6 * step / INNER_KEY_LEVELS,

@@ -51,12 +51,15 @@
 //! 2. `penumbra-map-centred/penumbra` — one timed pass, two rendering scopes (outer, then
 //!    inner), each with one colour attachment of its own, no depth attachment, culling off:
 //!    `penumbra_map` = R32_SFLOAT, clear 2^24 - 1, blend MIN: the outer key
-//!    (glsl/common/packed.glsl, `packed`) of the outer visibility (darkest wins, the
-//!    paper's rule: the paper form's map) and the depth of the texel's foremost surface
-//!    (the shadow map's g there, which the final pass's own-surface test reads);
+//!    (glsl/common/packed.glsl, `packed`) of the outer visibility's share (the profile's
+//!    argument, -1 lit; the darkest value, the largest share, wins: the paper's rule and
+//!    the paper form's map) and the depth of the texel's foremost surface (the shadow
+//!    map's g there, which the final pass's own-surface test reads);
 //!    `penumbra_inner` = R32_SFLOAT, clear 2^24 - 1, blend MIN: the inner key of the inner
-//!    OCCLUSION 1 - v (so that MIN keeps the lightest inner estimate) and the depth of the
-//!    receiver it was made for (of equal occlusions, the farthest). A key holds the value
+//!    visibility's share (1 umbra; MIN keeps the lightest inner estimate) and the depth of
+//!    the receiver it was made for (of equal shares, the farthest). Shares, not
+//!    visibilities, for the final pass to interpolate (smoothies_centred.rs, pass 2, says
+//!    why). A key holds the value
 //!    MIN must pick in its high bits and a log-scale depth code in its low bits
 //!    (smoothies_centred.rs, pass 2, gives the levels and steps), so that the final pass
 //!    reads both with one gather; the surface depth in the outer key spares it the shadow
@@ -67,13 +70,14 @@
 //!      fragment program (shared in glsl/penumbra_map/wedge.glsl: Z_P = the shadow map's g at
 //!      the fragment's texel, the same discards, the same blocker-size bound) with the exact
 //!      outer fraction s = (1/Zv - 1/Z_F) / (1/Zv - 1/Z_P) = I Z_P / Z_F (I = Eq. 1) and
-//!      v = disc_chord(-s') in [0.5, 1] (s' the drawn share, below; discarded at
-//!      s' >= 1, fully lit), plus, for a blocker narrower than its penumbra,
+//!      v = disc_chord(-s) in [0.5, 1] (discarded at s >= 1, fully lit), plus, for a
+//!      blocker narrower than its penumbra,
 //!      the disc's segment beyond its far edge (`outer_far_share`: the shadow map's r
 //!      marched inward from 1 texel inside the edge, along the gradient of Z_F, for what
 //!      is left of the half-width; "Combining edges"), raised to the paper's blocker-size
-//!      bound as the paper form's intensity is; writes the key of (max(v, bound), g) to
-//!      `penumbra_map`.
+//!      bound as the paper form's intensity is; writes the key of (the share, g) to
+//!      `penumbra_map`: -s, or `chord_share(max(v, bound))` (disc_chord's inverse,
+//!      glsl/common/penumbra.glsl) where the far segment or the bound adds light.
 //!    - inner cones and sheets, `glsl/penumbra_map_centred/inner.frag`: u = w(Z_F), the
 //!      inward direction = the gradient of u over the map (dFdx/dFdy). The receiver behind
 //!      the texel is hidden from the light, so its depth Z_R is estimated from the shadow
@@ -84,37 +88,36 @@
 //!      says why). Discarded when a caster more than 1 % in front of the edge covers the
 //!      outside at 1.5 texels too (the edge is hidden by another caster: no inner penumbra
 //!      through it), when the fragment's own texel is not behind a caster 1 % nearer than
-//!      Z_R, or when the drawn share s' of s = u / w(Z_R) is at least 1 (umbra). Else v =
-//!      disc_chord(s') in [0, 0.5], plus the thin-blocker term below, raised to the
-//!      blocker-size bound; writes the key of (1 - v, Z_R) to `penumbra_inner`.
+//!      Z_R, or when s = u / w(Z_R) is at least 1 (umbra). Else v = disc_chord(s) in
+//!      [0, 0.5], plus the thin-blocker term below, raised to the blocker-size bound;
+//!      writes the key of (v's share, Z_R) to `penumbra_inner`: s, or `chord_share(v)`
+//!      where the term or the bound adds light.
 //! 3. `penumbra-map-centred/final` — `FinalPass` with
 //!    `glsl/penumbra_map_centred/final.frag`: per texel of the 2x2 footprint (textureGather
 //!    of the shadow map's r and of the keys of both maps at the lookup point, three
-//!    gathers), in front of the nearest caster: the outer visibility if the texel's
+//!    gathers), as shares: in front of the nearest caster, the outer share if the texel's
 //!    foremost surface (the outer key's depth) is the point's own (the paper form's
-//!    window, glsl/penumbra_map/surface.glsl), else 1; behind it: 1 - the inner occlusion
-//!    if the point is at most 5 % beyond the receiver depth that inner value was made for,
-//!    else 0 (a point behind a second caster, e.g. the ground under two stacked boxes,
-//!    stays in the umbra), narrowed where the point is more than 5 % nearer than that
-//!    receiver (its own, narrower penumbra: `inner_at_depth`,
-//!    glsl/common/nearer_receiver.glsl), and never more than the outer visibility.
-//!    Bilinear weights as `hard`. R = 0 draws no cones or sheets: both maps stay at 1, and
-//!    the result is `hard`'s exactly. Where the penumbra map holds its clear value and no
-//!    caster is in front, v is exactly 1 (`bilinear_lit`). The shader gathers in that order
-//!    of need: the shadow map's r and the outer keys first (all four lit and at 1: v = 1;
-//!    all four in front of every caster: the outer values alone), the inner keys
-//!    only where a footprint texel lies behind a caster, gathered right after the casters
-//!    there (behind at all four, none holding an inner value, the umbra's inside: v = 0
-//!    from two gathers, as the min with the inner 0 gives); the same v, fewer lookups.
+//!    window, glsl/penumbra_map/surface.glsl), else -1; behind it: the inner share if the
+//!    point is at most 5 % beyond the receiver depth that inner value was made for, else
+//!    1 (a point behind a second caster, e.g. the ground under two stacked boxes, stays in
+//!    the umbra), over k where the point is more than 5 % nearer than that receiver (its
+//!    own penumbra, k times as wide: `inner_at_depth`, glsl/common/nearer_receiver.glsl),
+//!    and never lighter than the outer share (the larger of the two). The shares are
+//!    interpolated with `hard`'s bilinear weights and the visibility is disc_chord of the
+//!    result (`share_visibility`, exactly 1 and 0 at the ends). R = 0 draws no cones or
+//!    sheets, and the pass returns `hard`'s bilinear value: `hard`'s image exactly. The
+//!    shader gathers in that order of need: the shadow map's r and the outer keys first
+//!    (all four lit and at -1: v = 1; all four in front of every caster: the outer shares
+//!    alone), the inner keys only where a footprint texel lies behind a caster, gathered
+//!    right after the casters there (behind at all four, none holding an inner value, the
+//!    umbra's inside: v = 0 from two gathers, as the max with the inner umbra gives); the
+//!    same v, fewer lookups.
 //!
 //! ## Equations: what a porter ports
 //! - The geometry, both sides: `build_penumbra_sides` (src/silhouette/penumbra.rs).
-//! - The disc-chord profile v(s): `disc_chord` (glsl/common/penumbra.glsl).
-//! - The drawn share s' = x / sqrt(w^2 - 1/6) (x and the half-width w in texels): both
-//!   sides draw the profile narrowed by the final pass's bilinear spread, a tent one texel
-//!   wide (variance 1/6 texel^2), so that a penumbra about a texel wide does not come out
-//!   a texel wider (`drawn_share`, glsl/common/penumbra.glsl). Wide penumbrae keep their
-//!   width (0.5 % narrower at w = 4 texels); one under 0.41 texel is drawn as the step.
+//! - The disc-chord profile v(s), its inverse and the final pass's visibility of an
+//!   interpolated share: `disc_chord`, `chord_share`, `share_visibility`
+//!   (glsl/common/penumbra.glsl).
 //! - The outer fraction s = I Z_P / Z_F: `main` of glsl/penumbra_map_centred/outer.frag,
 //!   over the paper form's `eq1_depths` and `blocker_floor` (glsl/penumbra_map/wedge.glsl),
 //!   with the thin blocker's far side `outer_far_share` (glsl/common/inner_march.glsl).
@@ -137,7 +140,7 @@
 //!   two blockers' overlapping outer penumbrae are never lighter than either alone (the
 //!   union of two blockers hides at least what each hides), but darker-than-both (the sum of
 //!   their occlusions) is not modelled.
-//! - Several inner wedges at a texel: the lightest (MIN of the occlusion). For a convex
+//! - Several inner wedges at a texel: the lightest (MIN of the share). For a convex
 //!   blocker the light that reaches a point is at least what the nearest edge alone lets
 //!   through, so MAX of the per-edge values is a lower bound there; neighbouring edges of
 //!   a curved silhouette (nearly parallel, same side) give nearly equal values and are not
@@ -149,7 +152,8 @@
 //!   for the blocker's far edge, d beyond the texel. Through a strip between parallel edges
 //!   a and b a point sees the disc's segment beyond each edge: the blocked share is
 //!   1 - disc_chord(s_a) - disc_chord(s_b), per-edge occlusions combine (they do not take
-//!   the minimum); the inner fragment writes disc_chord(s_a) + disc_chord(d / w), so inner
+//!   the minimum); the inner fragment writes the share of disc_chord(s_a) +
+//!   disc_chord(d / w) (`chord_share`), so inner
 //!   extents meeting from both sides give partial light, exactly for a parallel strip. At a
 //!   sharp corner of a thin blocker the search can leave through the other edge and count
 //!   its segment fully: too light there. Each outer fragment, x outside its edge, searches
@@ -161,7 +165,8 @@
 //!   narrower than its penumbra (the bunny's ears at 3x its radius) kept its hard outline
 //!   inside a penumbra lighter than the ring around it. Beyond a thin blocker's tip the
 //!   search runs along it and finds no far edge: too dark there.
-//! - Hidden receivers under another caster's outer penumbra take min(inner, outer), where
+//! - Hidden receivers under another caster's outer penumbra take the darker of the inner
+//!   and the outer value (the larger share), where
 //!   the outer value was evaluated at the foremost (nearer) surface: not darker than the
 //!   outer penumbra at the receiver's own depth would be.
 //! - Overlapping casters: an edge whose outside is covered by a caster in front of it draws
@@ -174,8 +179,7 @@
 //! One receiver per texel for the inner side: Z_R is the plane of the surface just outside
 //! the edge; a hidden point more than 5 % beyond it gets the umbra (right behind a second
 //! caster, too dark behind a receiver that curves away); one nearer (a rail right behind a
-//! post) gets that penumbra narrowed to its own depth, from a linear stand-in for the
-//! profile (exact at the hard edge and the umbra's end). Surfaces facing away from the
+//! post) gets that penumbra narrowed to its own depth. Surfaces facing away from the
 //! light inside the inner band get the inner penumbra too (the shading's n.l hides it). The
 //! search and the edge test are quantised to the shadow map's texels (the far edge to an
 //! eighth of a texel after bisection, 1/64 of w where w is wider than 8 texels).
@@ -207,9 +211,9 @@ pub const INFO: TechniqueInfo = TechniqueInfo {
 /// fragment blends only the values its side makes. Each holds its two values packed in one
 /// R32F key (`packed`), so that the final pass reads both with one gather.
 pub(super) const TARGETS: [LightTarget; 2] = [
-    // The outer visibility (the paper form's map) with the depth of the texel's foremost
-    // surface it was made for.
-    outer_target("penumbra_map", &["outer_visibility", "surface_depth"]),
+    // The outer share (the paper form's map, as a share) with the depth of the texel's
+    // foremost surface it was made for.
+    outer_target("penumbra_map", &["outer_share", "surface_depth"]),
     inner_target("penumbra_inner"),
 ];
 

@@ -53,7 +53,8 @@
 //!    D32_SFLOAT (clear 1.0, LESS, write): glsl/plateaus/plateau.vert/.frag, the paper's
 //!    darkest-wins by depth; f = the smallest outer fraction at each texel.
 //! 3. `plateaus-centred/inner` — always runs: the cones and inner sheets into `inner`
-//!    R16_SFLOAT, clear 0.0, blend MAX (the lightest inner estimate wins), no depth
+//!    R16_SFLOAT, clear 0.0, blend MAX (the lightest inner estimate wins: (1 - s) / 2 of
+//!    the inner visibility's share s, glsl/common/penumbra.glsl, 0 umbra), no depth
 //!    attachment; `glsl/plateaus_centred/inner.vert` (plateau.vert with `from_edge`
 //!    interpolated), then `glsl/plateaus_centred/inner.frag` (reads `coverage` at set 0
 //!    binding 0): t = the fragment's depth; discarded outside the drop shadow, and where
@@ -64,19 +65,22 @@
 //!    light there covers the edge's outside; a farther one blocks what the edge lets
 //!    through, and one MAX image cannot take the minimum over casters: the union's outline
 //!    draws the inner penumbra instead). Else
-//!    v = disc_chord(s') plus the thin-blocker term below, s' the drawn share of t (the
-//!    half-width narrowed by the final pass's bilinear spread, as smoothies-centred's;
-//!    the outer plateaus keep the paper's depth, which the depth test compares).
+//!    v = disc_chord(t) plus the thin-blocker term below, written as its share: t, or
+//!    `chord_share(v)` (disc_chord's inverse) where the term adds light. Shares, not
+//!    visibilities, for the final pass to interpolate (smoothies_centred.rs, pass 2, says
+//!    why); the outer plateaus' fraction f is a share already (-f).
 //! 4. `plateaus-centred/shadow_map` — the casters-only `ShadowMap` (for receivers other
 //!    than the plane), as the paper form's: its final pass reads r alone.
 //! 5. `plateaus-centred/final` — `FinalPass` with `glsl/plateaus_centred/final.frag`: a
 //!    point on the plane (the paper form's test) takes, at each of the 4 nearest texels,
-//!    outer = disc_chord(-f) (1 where no plateau: lit); outside every drop shadow: outer;
-//!    under one: min(inner, outer) (a second caster's outer plateau over this umbra is
-//!    never lightened); the inner values are gathered only where a footprint texel lies
-//!    under a drop shadow, first there (under one at all four, none holding an inner value,
-//!    the umbra's inside: 0 from two gathers, as the min with the inner 0 gives). Bilinear
-//!    weights, no falloff texture (the profile is in the values). Every other point, and
+//!    the outer share -f (-1 where no plateau: lit); outside every drop shadow: outer;
+//!    under one: the larger of the inner share and the outer one (a second caster's outer
+//!    plateau over this umbra is never lightened); the inner values are gathered only
+//!    where a footprint texel lies under a drop shadow, first there (under one at all
+//!    four, none holding an inner value, the umbra's inside: 0 from two gathers, as the
+//!    max with the inner umbra gives). The shares are interpolated with bilinear weights
+//!    and the visibility is disc_chord of the result (`share_visibility`); no falloff
+//!    texture. Every other point, and
 //!    every point at R = 0, gets the shadow map's 2x2 bilinear comparison: R = 0 is
 //!    `hard`'s image exactly (unlike the paper form, whose drop shadow only matches hard up
 //!    to the texel grids' aliasing). The speed layer's split final pass holds the inner
@@ -86,8 +90,9 @@
 //! - (P1)-(P3) and (P2e), both sides: the paper form's functions
 //!   (src/technique/plateaus.rs), the inner sheets by the same builder with `Side::Inner`,
 //!   the ellipses by `Disc` (src/technique/plateaus_common.rs).
-//! - The disc-chord profile v(s): `disc_chord` (glsl/common/penumbra.glsl); the inner
-//!   side's drawn share s' = x / sqrt(w^2 - 1/6) (texels): `drawn_share`, there.
+//! - The disc-chord profile v(s), its inverse and the final pass's visibility of an
+//!   interpolated share: `disc_chord`, `chord_share`, `share_visibility`
+//!   (glsl/common/penumbra.glsl).
 //! - The inner side: `main` of glsl/plateaus_centred/inner.frag, with `far_edge_texels`
 //!   (glsl/common/inner_march.glsl).
 //! - The final combination: `visibility` (glsl/plateaus_centred/final.frag).
@@ -177,7 +182,7 @@ pub struct PlateausCentred {
     common: PlateauCommon,
     /// R16F, clear 1: 0 where a caster's drop shadow falls.
     coverage: Image,
-    /// R16F, clear 0, MAX: the lightest inner visibility.
+    /// R16F, clear 0, MAX: (1 - s) / 2 of the lightest inner share s.
     inner: Image,
     drop_pipeline: Pipeline,
     plateau_pipeline: Pipeline,
@@ -369,12 +374,13 @@ impl Technique for PlateausCentred {
                 channels: &["drop_shadow_visibility"],
                 packing: Packing::Plain,
             },
-            // The lightest inner visibility in [0, 1]: disc_chord(s) in [0, 0.5] plus, for a
-            // thin blocker, the share beyond its far edge (0: umbra, and where none was drawn).
+            // (1 - s) / 2 of the lightest inner share s (glsl/common/penumbra.glsl), the
+            // profile's linear stand-in: 0.5 at the hard edge, 0 umbra (and where none was
+            // drawn), above 0.5 where a thin blocker's far side lets light through.
             LightBuffer {
                 name: "inner",
                 image: &self.inner,
-                channels: &["inner_visibility"],
+                channels: &["inner_linear_visibility"],
                 packing: Packing::Plain,
             },
         ]

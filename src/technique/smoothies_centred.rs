@@ -68,14 +68,18 @@
 //! 2. `smoothies-centred/smoothie` — one timed pass, two rendering scopes (outer, then
 //!    inner), each with one colour attachment of its own, no depth attachment, culling off:
 //!    `smoothie_outer` = R32_SFLOAT, clear 2^24 - 1, blend MIN: the outer key
-//!    (glsl/common/packed.glsl, `packed`) of the outer visibility v (darkest wins, the
-//!    paper's rule) and the linear depth b of the smoothie that made it: the paper form's
-//!    buffer, with v in place of alpha, in one channel;
+//!    (glsl/common/packed.glsl, `packed`) of the outer visibility's share s (the profile's
+//!    argument, glsl/common/penumbra.glsl: -1 lit, 0 the hard edge; the darkest value, the
+//!    largest s, wins: the paper's rule) and the linear depth b of the smoothie that made
+//!    it: the paper form's buffer, with the share in place of alpha, in one channel;
 //!    `smoothie_inner` = R32_SFLOAT, clear 2^24 - 1, blend MIN: the inner key of the inner
-//!    OCCLUSION 1 - v (so that MIN keeps the lightest inner estimate) and the depth of the
-//!    receiver it was made for (of equal occlusions, the farthest).
-//!    A key holds the value MIN must pick in its high bits (v, at least 0.5 outside the
-//!    hard edge, over 512 levels of [0.5, 1]; the occlusion over 1024) and a depth code in
+//!    visibility's share (1 umbra; MIN keeps the lightest inner estimate) and the depth of
+//!    the receiver it was made for (of equal shares, the farthest). Shares, not
+//!    visibilities: across a straight edge's penumbra the share is linear in the distance,
+//!    so the final pass's bilinear interpolation reproduces it exactly, where the S-shaped
+//!    profile, flat at both ends, would spread each penumbra by a tent one texel wide.
+//!    A key holds the value MIN must pick in its high bits (-s, outside the hard edge,
+//!    over 512 levels of [0, 1]; the inner (1 + s) / 2 over 1024) and a depth code in
 //!    its low bits (b over 32768, the receiver over 16384, on a log scale of the light's
 //!    range: rounded within 1.8e-4 and 3.5e-4 of the depth, below the depth bias and the
 //!    5 % receiver window they are tested with), so that the final pass reads both values
@@ -96,11 +100,12 @@
 //!    (the reflection, "Geometry" above):
 //!    - outer smoothies, `glsl/smoothies_centred/outer.frag`: the paper form's fragment
 //!      program and decision (`smoothie_alpha`, glsl/smoothies/alpha.glsl: receiver r =
-//!      the shadow map's g at its texel), s = alpha' in [0, 1), v = disc_chord(-s') in
-//!      [0.5, 1) (s' the drawn share, below), plus, for a blocker narrower than its
-//!      penumbra, the disc's segment beyond its far edge (`outer_far_share`, below);
-//!      writes the key of (v, b) only where the smoothie darkens a surface, as the paper
-//!      form: discarded where g holds no surface, b/r > 1, 1 - b/r < 1e-4 and s' >= 1
+//!      the shadow map's g at its texel), s = alpha' in [0, 1), v = disc_chord(-s) in
+//!      [0.5, 1), plus, for a blocker narrower than its penumbra, the disc's segment
+//!      beyond its far edge (`outer_far_share`, below); writes the key of (v's share, b):
+//!      -s, or where the far segment adds light, `chord_share(v)` (disc_chord's inverse,
+//!      glsl/common/penumbra.glsl), only where the smoothie darkens a surface, as the
+//!      paper form: discarded where g holds no surface, b/r > 1, 1 - b/r < 1e-4 and s >= 1
 //!      (fully lit). A lit fragment's key would lose every MIN to a darker one; where it
 //!      won, its b would put the points between its depth and the surface's behind a
 //!      smoothie that does not darken them (tests/centred_penumbra.rs,
@@ -120,40 +125,40 @@
 //!      only borders the edge does not hide it. Discarded when a caster more than 1 % in
 //!      front of b covers 1.5 texels too (the edge is hidden by another caster: no inner
 //!      penumbra through it), when this texel is not behind a caster 1 % nearer than Z_R,
-//!      or when the drawn share s' of s = x / (t (1 - b/Z_R)) (a sun's t (Z_R - b) / D) is
-//!      at least 1 (umbra). Else v = disc_chord(s') in [0, 0.5], plus the thin-blocker term
-//!      below; writes the key of (1 - v, Z_R). Z_R is at most
+//!      or when s = x / (t (1 - b/Z_R)) (a sun's t (Z_R - b) / D) is at least 1 (umbra).
+//!      Else v = disc_chord(s) in [0, 0.5], plus the thin-blocker term below; writes the
+//!      key of (v's share, Z_R): s, or `chord_share(v)` where the term adds light. Z_R is
+//!      at most
 //!      Z, 1.05 times the deepest surface where it reads g (a depth the map holds,
 //!      extrapolated by at most 5 %), so nothing is written beyond t (1 - b/Z) from the
 //!      edge (what the speed layer's shortened inner smoothies rely on).
 //! 3. `smoothies-centred/final` — `FinalPass` with `glsl/smoothies_centred/final.frag`: per
 //!    texel of the 2x2 footprint (textureGather of the shadow map's r and of the keys of
-//!    `smoothie_outer` and `smoothie_inner` at the lookup point, three gathers): outer =
-//!    the outer visibility if the point is behind its smoothie (its key's depth code
-//!    against the point's, `in_front_of_codes`), else 1; in front of the nearest caster:
-//!    outer; behind it: min(outer, 1 - the inner occlusion) if the point is at most 5 %
-//!    beyond the receiver depth that inner value was made for, else 0 (a
+//!    `smoothie_outer` and `smoothie_inner` at the lookup point, three gathers), as
+//!    shares: outer = the outer share if the point is behind its smoothie (its key's depth
+//!    code against the point's, `in_front_of_codes`), else -1; in front of the nearest
+//!    caster: outer; behind it: max(outer, the inner share) if the point is at most 5 %
+//!    beyond the receiver depth that inner value was made for, else 1 (a
 //!    point behind a second caster, e.g. the ground under two stacked boxes, stays in the
-//!    umbra), narrowed where the point is more than 5 % nearer than that receiver (its own,
-//!    narrower penumbra: `inner_at_depth`, glsl/common/nearer_receiver.glsl). Bilinear
-//!    weights as `hard`; no falloff texture (the profile is in the values). R = 0 draws no
+//!    umbra), the inner share s over k where the point is more than 5 % nearer than that
+//!    receiver (its own penumbra, k times as wide: `inner_at_depth`,
+//!    glsl/common/nearer_receiver.glsl). The shares are interpolated with `hard`'s
+//!    bilinear weights and the visibility is disc_chord of the result (`share_visibility`,
+//!    exactly 1 and 0 at the ends); no falloff texture. R = 0 draws no
 //!    smoothie and returns `hard`'s bilinear value: `hard`'s image exactly. Outside the
 //!    casters' projections and their smoothies every lookup reads "far" and the shader
 //!    returns 1; where every footprint texel is in front of every caster it returns the
-//!    outer values' bilinear result without gathering the inner ones. Where a texel is
+//!    outer shares' result without gathering the inner ones. Where a texel is
 //!    behind a caster the inner keys are gathered right after the casters: behind at
 //!    all four, none holding an inner value (the umbra's inside), it returns 0 from those
-//!    two gathers, as the whole combination would (its min takes the inner 0).
+//!    two gathers, as the whole combination would (its max takes the inner umbra).
 //!
 //! ## Equations: what a porter ports
 //! - The geometry, both sides: `build_smoothies_side` (src/silhouette/smoothie.rs); the
 //!   width t: `Width::at`.
-//! - The disc-chord profile v(s): `disc_chord` (glsl/common/penumbra.glsl).
-//! - The drawn share s' = x / sqrt(w^2 - 1/6) (x and the half-width w in texels): both
-//!   sides draw the profile narrowed by the final pass's bilinear spread, a tent one texel
-//!   wide (variance 1/6 texel^2), so that a penumbra about a texel wide does not come out
-//!   a texel wider (`drawn_share`, glsl/common/penumbra.glsl). Wide penumbrae keep their
-//!   width (0.5 % narrower at w = 4 texels); one under 0.41 texel is drawn as the step.
+//! - The disc-chord profile v(s), its inverse and the final pass's visibility of an
+//!   interpolated share: `disc_chord`, `chord_share`, `share_visibility`
+//!   (glsl/common/penumbra.glsl).
 //! - The outer side (s = Eq. 1's alpha', and which fragments are written): `smoothie_alpha`
 //!   (glsl/smoothies/alpha.glsl), called by glsl/smoothies_centred/outer.frag, with the
 //!   thin blocker's far side `outer_far_share` (glsl/common/inner_march.glsl).
@@ -176,7 +181,7 @@
 //! - Several outer smoothies at a texel: the darkest (MIN), as the paper. Exact for one
 //!   edge; two blockers' overlapping outer penumbrae are never lighter than either alone,
 //!   but the darkening of their sum is not modelled.
-//! - Several inner smoothies at a texel: the lightest (MIN of the occlusion). For a convex
+//! - Several inner smoothies at a texel: the lightest (MIN of the share). For a convex
 //!   blocker the light reaching a point is at least what the nearest edge alone lets
 //!   through; inner quads overlap at convex corners, and the lighter (nearer edge's) wins.
 //! - Thin blockers: each inner fragment searches the shadow map inward along `dir` (up to
@@ -184,8 +189,8 @@
 //!   still covers that texel, and two blockers inside w give either far edge) for the
 //!   blocker's far edge, d beyond the texel, and adds disc_chord(d / w): through a strip
 //!   between parallel edges a point sees the disc's segment beyond each edge, so per-edge
-//!   shares add. Inner extents meeting from both sides of a blocker narrower than its
-//!   penumbra give partial light, never 0. Each outer fragment, x outside its edge, does
+//!   shares add (the key holds the sum's share, `chord_share`). Inner extents meeting
+//!   from both sides of a blocker narrower than its penumbra give partial light, never 0. Each outer fragment, x outside its edge, does
 //!   the same from IN_TEXELS (1) inside the edge for what is left of w (`outer_far_share`;
 //!   not at all where the blocker still covers the end of that reach, so a gap between two
 //!   blockers inside it is not looked for): a blocker W wide adds disc_chord((x + W) / w),
@@ -200,14 +205,13 @@
 //!   inner smoothie, so one caster's inner penumbra never lightens another's umbra; a
 //!   caster behind the blocker but in front of the receiver ends the march, and a receiver
 //!   behind that second caster gets 0 (the receiver-depth check). A hidden receiver under
-//!   another caster's outer smoothie takes min(inner, outer).
+//!   another caster's outer smoothie takes the darker of the two (the larger share).
 //!
 //! ## Known artefacts
 //! One receiver per texel on the inner side: Z_R is the plane of the surface just outside
 //! the edge; a hidden point more than 5 % beyond it gets the umbra (right behind a second
 //! caster, too dark behind a receiver that curves away); one nearer (a rail right behind a
-//! post) gets that penumbra narrowed to its own depth, from a linear stand-in for the
-//! profile (exact at the hard edge and the umbra's end). The march and the edge test are
+//! post) gets that penumbra narrowed to its own depth. The march and the edge test are
 //! quantised to shadow-map texels. Both halves are evaluated for a straight edge, so curved
 //! silhouettes get a slightly too dark inner penumbra. The paper's known artefacts remain:
 //! silhouettes from the light centre (they pop under light motion; thick smoothies snap on
@@ -238,9 +242,9 @@ pub const INFO: TechniqueInfo = TechniqueInfo {
 /// fragment blends only the values its side makes. Each holds its two values packed in one
 /// R32F key (`packed`), so that the final pass reads both with one gather.
 pub(super) const TARGETS: [LightTarget; 2] = [
-    // The outer visibility with the depth b of the smoothie that made it (1e30: none): the
-    // paper form's buffer, with v for alpha.
-    outer_target("smoothie_outer", &["outer_visibility", "depth"]),
+    // The outer share with the depth b of the smoothie that made it (1e30: none): the
+    // paper form's buffer, with the share for alpha.
+    outer_target("smoothie_outer", &["outer_share", "depth"]),
     inner_target("smoothie_inner"),
 ];
 

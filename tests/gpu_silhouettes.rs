@@ -500,7 +500,8 @@ fn gpu_path_light_areas_keep_the_image() {
             };
             let ((areas, t_areas), (whole, t_whole)) = (run(false), run(true));
             let diff = max_visibility_diff(&areas, &whole);
-            // The centred form: a share moved to its neighbouring key step (tests/plain.rs).
+            // The centred form: a share moved to its neighbouring key step
+            // (tests/plain.rs).
             let bound = if technique == "smoothies" {
                 1e-4
             } else {

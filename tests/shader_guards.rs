@@ -378,8 +378,8 @@ fn chord_share_inverts_the_profile_and_ends_are_exact() {
     // The segment's share of the disc behind a straight edge at s (penumbra.glsl's header).
     let profile = |s: f64| (s.acos() - s * (1.0 - s * s).sqrt()) / std::f64::consts::PI;
     let grid = |i: usize| i as f32 / N as f32;
-    // v on a grid from umbra to lit, with s on a grid over [-1, 1]; then the closed form's v
-    // at shares strictly inside (-1, 1), the share kept in the third lane.
+    // v on a grid from umbra to lit, with s on a grid over [-1, 1]; then the closed form's
+    // v at shares strictly inside (-1, 1), the share kept in the third lane.
     let mut inputs: Vec<[f32; 4]> = (0..=N)
         .map(|i| [grid(i), 2.0 * grid(i) - 1.0, 0.0, 0.0])
         .collect();
@@ -444,8 +444,8 @@ fn chord_share_inverts_the_profile_and_ends_are_exact() {
             assert!((v - profile).abs() <= 1e-7, "{x:?}: {v} against {profile}");
         }
     }
-    // From umbra (v = 0) to lit (v = 1) the share falls, and the visibility of a rising share
-    // never rises.
+    // From umbra (v = 0) to lit (v = 1) the share falls, and the visibility of a rising
+    // share never rises.
     for w in out[..inside].windows(2) {
         assert!(w[1][0] <= w[0][0], "chord_share rises: {w:?}");
         assert!(w[1][2] <= w[0][2], "share_visibility rises: {w:?}");

@@ -5,20 +5,20 @@
 // way for `--buffers`.
 //
 // A key is an integer below 2^24, which a float holds exactly: the high part is the value
-// MIN blending must pick as one of STEPS + 1 levels, the low part a linear light depth as one
-// of LEVELS codes. A MIN over keys is a MIN over the high parts, and among equal high parts
-// over the low ones: the depth that travels with the value is that of the value kept, not
-// the nearest or farthest of all. The value is a penumbra share s (common/penumbra.glsl:
-// -1 lit, 1 umbra), which the final passes interpolate before they take the profile. The
-// profile falls as s grows, so the darkest outer value is the largest s and the lightest
-// inner value the smallest: the outer key's high part is -s (an outer share lies in [-1, 0],
-// the hard edge's 0 or lighter: a step of 1/511), the inner key's (1 + s) / 2 (an inner
-// share lies in [-1, 1], lighter than the hard edge where a thin blocker lets light
-// through: a step of 2/1023). The depth code is logarithmic over the light's range, so that
-// its relative step is the same at every depth: ln(far / near) / LEVELS, which frustum.rs's
-// far <= 1e5 near bounds by 3.5e-4 for the outer keys' 32768 codes (rounded to the nearest:
-// within 1.8e-4, below the relative depth bias of the tests against them) and by 7e-4 for
-// the inner keys' 16384 (far below their 5 % window).
+// MIN blending must pick as one of STEPS + 1 levels, the low part a linear light depth as
+// one of LEVELS codes. A MIN over keys is a MIN over the high parts, and among equal high
+// parts over the low ones: the depth that travels with the value is that of the value kept,
+// not the nearest or farthest of all. The value is a penumbra share s
+// (common/penumbra.glsl: -1 lit, 1 umbra), which the final passes interpolate before they
+// take the profile. The profile falls as s grows, so the darkest outer value is the largest
+// s and the lightest inner value the smallest: the outer key's high part is -s (an outer
+// share lies in [-1, 0], the hard edge's 0 or lighter: a step of 1/511), the inner key's
+// (1 + s) / 2 (an inner share lies in [-1, 1], lighter than the hard edge where a thin
+// blocker lets light through: a step of 2/1023). The depth code is logarithmic over the
+// light's range, so that its relative step is the same at every depth: ln(far / near) /
+// LEVELS, which frustum.rs's far <= 1e5 near bounds by 3.5e-4 for the outer keys' 32768
+// codes (rounded to the nearest: within 1.8e-4, below the relative depth bias of the tests
+// against them) and by 7e-4 for the inner keys' 16384 (far below their 5 % window).
 #ifndef COMMON_PACKED_GLSL
 #define COMMON_PACKED_GLSL
 #include "common/frame.glsl"

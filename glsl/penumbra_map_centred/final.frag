@@ -5,10 +5,10 @@
 // caster -> the outer share if the texel's foremost surface is this point's surface, else
 // -1 (lit, as the paper form); behind it -> the inner share (1 where no inner cone or sheet
 // reached: the umbra) if this point is not beyond the receiver that inner value was made
-// for (a point behind a second caster, e.g. the ground under two stacked boxes, stays in the
-// umbra), never lighter than the outer share there (a second caster's outer penumbra over
-// this one's shadow). The shares are interpolated with `hard`'s bilinear weights and the
-// visibility is their profile, disc_chord (common/penumbra.glsl: `share_visibility`).
+// for (a point behind a second caster, e.g. the ground under two stacked boxes, stays in
+// the umbra), never lighter than the outer share there (a second caster's outer penumbra
+// over this one's shadow). The shares are interpolated with `hard`'s bilinear weights and
+// the visibility is their profile, disc_chord (common/penumbra.glsl: `share_visibility`).
 #include "common/shadow.glsl"
 #include "common/nearer_receiver.glsl"
 #include "common/penumbra.glsl"
@@ -16,8 +16,8 @@
 #include "common/packed.glsl"
 
 layout(set = 0, binding = 1) uniform sampler2D shadow_map;   // RG32F: r caster depth, g foremost surface
-// R32F, MIN: the outer key (common/packed.glsl): the outer share (-1 = lit), the paper form's
-// penumbra map as a share, with the depth of the texel's foremost surface.
+// R32F, MIN: the outer key (common/packed.glsl): the outer share (-1 = lit), the paper
+// form's penumbra map as a share, with the depth of the texel's foremost surface.
 layout(set = 0, binding = 2) uniform sampler2D penumbra_map;
 // R32F, MIN: the inner key: the lightest inner share (1 = umbra) with the depth of the
 // receiver it was made for.

@@ -23,9 +23,9 @@
 //     and a single straight edge; at a corner it counts the segment beyond the other edge in
 //     full (too light inside sharp corners of thin blockers).
 // Written to the inner map with MIN blending as a key of v's share (s at an edge alone),
-// which the final pass interpolates, so the lightest estimate wins, and the receiver depth it
-// was made for (of equal shares the farthest), which the final pass checks its own depth
-// against.
+// which the final pass interpolates, so the lightest estimate wins, and the receiver depth
+// it was made for (of equal shares the farthest), which the final pass checks its own
+// depth against.
 #include "common/frame.glsl"
 #include "common/penumbra.glsl"
 #include "penumbra_map/wedge.glsl"

@@ -2,8 +2,8 @@
 #extension GL_GOOGLE_include_directive : require
 // smoothies-centred/final: at each texel of the 2x2 footprint, in front of the shadow map's
 // nearest caster -> the outer share if the point is behind the smoothie that made it, else
-// -1 (lit; the paper's step 5 with the centred outer value); behind it -> the inner share (1
-// where no inner smoothie reached: the umbra) if the point is at most 5 % beyond the
+// -1 (lit; the paper's step 5 with the centred outer value); behind it -> the inner share
+// (1 where no inner smoothie reached: the umbra) if the point is at most 5 % beyond the
 // receiver that inner value was made for (a point behind a second caster stays in the
 // umbra), never lighter than the outer share there (a second caster's outer smoothie over
 // this one's shadow). The shares are interpolated with `hard`'s bilinear weights and the
@@ -16,8 +16,8 @@
 #include "common/packed.glsl"
 
 layout(set = 0, binding = 1) uniform sampler2D shadow_map;          // RG32F: r = nearest caster depth
-// R32F, MIN: the outer key (common/packed.glsl): the darkest outer share (-1 = lit) with the
-// depth of the smoothie that made it.
+// R32F, MIN: the outer key (common/packed.glsl): the darkest outer share (-1 = lit) with
+// the depth of the smoothie that made it.
 layout(set = 0, binding = 2) uniform sampler2D smoothie_outer;
 // R32F, MIN: the inner key: the lightest inner share (1 = umbra) with the depth of the
 // receiver it was made for.

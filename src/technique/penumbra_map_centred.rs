@@ -152,23 +152,22 @@
 //!   for the blocker's far edge, d beyond the texel. Through a strip between parallel edges
 //!   a and b a point sees the disc's segment beyond each edge: the blocked share is
 //!   1 - disc_chord(s_a) - disc_chord(s_b), per-edge occlusions combine (they do not take
-//!   the minimum); the inner fragment writes the share of disc_chord(s_a) +
-//!   disc_chord(d / w) (`chord_share`), so inner
-//!   extents meeting from both sides give partial light, exactly for a parallel strip. At a
-//!   sharp corner of a thin blocker the search can leave through the other edge and count
-//!   its segment fully: too light there. Each outer fragment, x outside its edge, searches
-//!   the same way from IN_TEXELS (1) inside the edge for what is left of w
-//!   (`outer_far_share`; not at all where the blocker still covers the end of that reach)
-//!   and adds disc_chord((x + W) / w) for a blocker W wide, so both sides give
-//!   0.5 + disc_chord(W / w) at the hard edge. Without it the outer side kept the
-//!   half-plane's 0.5 there while the inner side let the far segment through: a blocker
-//!   narrower than its penumbra (the bunny's ears at 3x its radius) kept its hard outline
-//!   inside a penumbra lighter than the ring around it. Beyond a thin blocker's tip the
-//!   search runs along it and finds no far edge: too dark there.
+//!   the minimum); the inner fragment writes the share (`chord_share`) of
+//!   disc_chord(s_a) + disc_chord(d / w), so inner extents meeting from both sides give
+//!   partial light, exactly for a parallel strip. At a sharp corner of a thin blocker the
+//!   search can leave through the other edge and count its segment fully: too light there.
+//!   Each outer fragment, x outside its edge, searches the same way from IN_TEXELS (1)
+//!   inside the edge for what is left of w (`outer_far_share`; not at all where the blocker
+//!   still covers the end of that reach) and adds disc_chord((x + W) / w) for a blocker W
+//!   wide, so both sides give 0.5 + disc_chord(W / w) at the hard edge. Without it the
+//!   outer side kept the half-plane's 0.5 there while the inner side let the far segment
+//!   through: a blocker narrower than its penumbra (the bunny's ears at 3x its radius) kept
+//!   its hard outline inside a penumbra lighter than the ring around it. Beyond a thin
+//!   blocker's tip the search runs along it and finds no far edge: too dark there.
 //! - Hidden receivers under another caster's outer penumbra take the darker of the inner
-//!   and the outer value (the larger share), where
-//!   the outer value was evaluated at the foremost (nearer) surface: not darker than the
-//!   outer penumbra at the receiver's own depth would be.
+//!   and the outer value (the larger share), where the outer value was evaluated at the
+//!   foremost (nearer) surface: not darker than the outer penumbra at the receiver's own
+//!   depth would be.
 //! - Overlapping casters: an edge whose outside is covered by a caster in front of it draws
 //!   no inner penumbra, so one caster's inner penumbra never lightens another's umbra
 //!   (union semantics at the hard-shadow outline). A caster BEHIND the edge but in front of

@@ -184,19 +184,20 @@
 //! - Several inner smoothies at a texel: the lightest (MIN of the share). For a convex
 //!   blocker the light reaching a point is at least what the nearest edge alone lets
 //!   through; inner quads overlap at convex corners, and the lighter (nearer edge's) wins.
-//! - Thin blockers: each inner fragment searches the shadow map inward along `dir` (up to
-//!   6 bisections between its own texel and the texel w in; not at all where the blocker
+//! - Thin blockers: each inner fragment searches the shadow map inward along `dir` (up to 6
+//!   bisections between its own texel and the texel w in; not at all where the blocker
 //!   still covers that texel, and two blockers inside w give either far edge) for the
 //!   blocker's far edge, d beyond the texel, and adds disc_chord(d / w): through a strip
 //!   between parallel edges a point sees the disc's segment beyond each edge, so per-edge
-//!   shares add (the key holds the sum's share, `chord_share`). Inner extents meeting
-//!   from both sides of a blocker narrower than its penumbra give partial light, never 0. Each outer fragment, x outside its edge, does
-//!   the same from IN_TEXELS (1) inside the edge for what is left of w (`outer_far_share`;
-//!   not at all where the blocker still covers the end of that reach, so a gap between two
-//!   blockers inside it is not looked for): a blocker W wide adds disc_chord((x + W) / w),
-//!   so both sides give 0.5 + disc_chord(W / w) at the hard edge. Without it the outer side
-//!   kept the half-plane's 0.5 there while the inner side let the far segment through, and
-//!   a blocker narrower than its penumbra (the bunny's ears at 3x its radius) kept its hard
+//!   shares add (the key holds the sum's share, `chord_share`). Inner extents meeting from
+//!   both sides of a blocker narrower than its penumbra give partial light, never 0. Each
+//!   outer fragment, x outside its edge, does the same from IN_TEXELS (1) inside the edge
+//!   for what is left of w (`outer_far_share`; not at all where the blocker still covers
+//!   the end of that reach, so a gap between two blockers inside it is not looked for): a
+//!   blocker W wide adds disc_chord((x + W) / w), so both sides give
+//!   0.5 + disc_chord(W / w) at the hard edge. Without it the outer side kept the
+//!   half-plane's 0.5 there while the inner side let the far segment through, and a
+//!   blocker narrower than its penumbra (the bunny's ears at 3x its radius) kept its hard
 //!   outline inside a penumbra lighter than the ring around it. At a sharp corner of a thin
 //!   blocker the march can leave through the other edge and count its segment fully: too
 //!   light there; beyond a thin blocker's tip the march runs along it and finds no far

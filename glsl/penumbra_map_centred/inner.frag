@@ -60,11 +60,10 @@ void main() {
     float w = wedge_offset(zv, zr);
     float s = u / w;
     if (!(s < 1.0)) discard;
-    float edge = disc_chord(s);
     float far_edge = far_edge_texels(here, dir, w / per_texel, zr);
-    float v = edge + (far_edge > 0.0 ? disc_chord(far_edge * per_texel / w) : 0.0);
-    v = clamp(max(v, blocker_floor(v_reach, zv, zr, denom)), 0.0, 1.0);
-    // The share the final pass interpolates: s at the edge alone; raised by a thin
-    // blocker's far segment or the blocker-size bound, the profile's inverse of v.
-    o_inner = inner_key(v > edge ? chord_share(v) : s, zr);
+    float far = far_edge > 0.0 ? disc_chord(far_edge * per_texel / w) : 0.0;
+    // The share the final pass interpolates: s at the edge alone, raised by a thin
+    // blocker's far segment or to the blocker-size bound, whichever lets more through.
+    float to_floor = blocker_floor(v_reach, zv, zr, denom) - disc_chord(s);
+    o_inner = inner_key(summed_share(s, max(far, to_floor)), zr);
 }

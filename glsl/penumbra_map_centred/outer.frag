@@ -46,14 +46,12 @@ void main() {
     float s = clamp(outer_share((e.zf - e.zv) / e.denom, e.zp, e.zf), 0.0, 1.0);
     if (!(s < 1.0)) discard;
     float w_tex = wedge_offset(e.zv, e.zp) / wedge_unit_per_texel();
-    float edge = disc_chord(-s);
     float g = length(grad);
     float far = g > 0.0 && !isinf(g)
         ? outer_far_share(gl_FragCoord.xy, grad / g, s * w_tex, w_tex, e.zp)
         : 0.0;
-    float v = max(min(edge + far, 1.0), blocker_floor(v_reach, e.zv, e.zp, e.denom));
-    // The share the final pass interpolates: -s at the edge alone; raised by a thin
-    // blocker's far segment or the blocker-size bound, the profile's inverse of v.
-    float share = v > edge ? chord_share(v) : -s;
-    o_outer = outer_key(share, surface);
+    // The share the final pass interpolates: -s at the edge alone, raised by a thin
+    // blocker's far segment or to the blocker-size bound, whichever lets more through.
+    float to_floor = blocker_floor(v_reach, e.zv, e.zp, e.denom) - disc_chord(-s);
+    o_outer = outer_key(summed_share(-s, max(far, to_floor)), surface);
 }

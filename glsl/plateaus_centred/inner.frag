@@ -55,10 +55,8 @@ void main() {
     vec2 outside = here - from_edge - out_dir * OUT_TEXELS;
     if (inside_map(outside) && blocked_at(outside, 0.0)) discard;
     // Thin blocker: the far edge within w of this texel adds its segment; the share the
-    // final pass interpolates is then the sum's (the profile's inverse).
+    // final pass interpolates is then the sum's.
     float far_edge = far_edge_texels(here, dir, w_tex, 0.0);
-    float share = far_edge > 0.0
-        ? chord_share(min(disc_chord(t) + disc_chord(far_edge / w_tex), 1.0))
-        : t;
-    o_inner = 0.5 - 0.5 * share;
+    float far = far_edge > 0.0 ? disc_chord(far_edge / w_tex) : 0.0;
+    o_inner = 0.5 - 0.5 * summed_share(t, far);
 }

@@ -50,10 +50,8 @@ void main() {
     float s = x_tex / w_tex;
     if (!(s < 1.0)) discard;
     // Thin blocker: the far edge within w of this texel adds its segment; the share the
-    // final pass interpolates is then the sum's (the profile's inverse).
+    // final pass interpolates is then the sum's.
     float far_edge = far_edge_texels(here, dir, w_tex, zr);
-    float share = far_edge > 0.0
-        ? chord_share(min(disc_chord(s) + disc_chord(far_edge / w_tex), 1.0))
-        : s;
-    o_inner = inner_key(share, zr);
+    float far = far_edge > 0.0 ? disc_chord(far_edge / w_tex) : 0.0;
+    o_inner = inner_key(summed_share(s, far), zr);
 }

@@ -40,9 +40,8 @@ void main() {
     float s;
     if (!smoothie_alpha(b, r, x, t, remap_span(), s)) discard;
     float w_tex = t * remap_denom(b, r, remap_span()) / texel;
+    // The share the final pass interpolates: -s at the edge alone, with a thin blocker's
+    // far segment the sum's.
     float far = outer_far_share(gl_FragCoord.xy, dir, s * w_tex, w_tex, r);
-    // The share the final pass interpolates: -s at the edge alone; with a thin blocker's
-    // far segment only the sum is known, and its share is the profile's inverse.
-    float share = far > 0.0 ? chord_share(min(disc_chord(-s) + far, 1.0)) : -s;
-    o_outer = outer_key(share, b);
+    o_outer = outer_key(summed_share(-s, far), b);
 }

@@ -115,9 +115,9 @@
 //!
 //! ## Equations: what a porter ports
 //! - The geometry, both sides: `build_penumbra_sides` (src/silhouette/penumbra.rs).
-//! - The disc-chord profile v(s), its inverse and the final pass's visibility of an
-//!   interpolated share: `disc_chord`, `chord_share`, `share_visibility`
-//!   (glsl/common/penumbra.glsl).
+//! - The disc-chord profile v(s), its inverse, the share of an edge plus added light and
+//!   the final pass's visibility of an interpolated share: `disc_chord`, `chord_share`,
+//!   `summed_share`, `share_visibility` (glsl/common/penumbra.glsl).
 //! - The outer fraction s = I Z_P / Z_F: `main` of glsl/penumbra_map_centred/outer.frag,
 //!   over the paper form's `eq1_depths` and `blocker_floor` (glsl/penumbra_map/wedge.glsl),
 //!   with the thin blocker's far side `outer_far_share` (glsl/common/inner_march.glsl).

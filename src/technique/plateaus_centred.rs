@@ -90,9 +90,9 @@
 //! - (P1)-(P3) and (P2e), both sides: the paper form's functions
 //!   (src/technique/plateaus.rs), the inner sheets by the same builder with `Side::Inner`,
 //!   the ellipses by `Disc` (src/technique/plateaus_common.rs).
-//! - The disc-chord profile v(s), its inverse and the final pass's visibility of an
-//!   interpolated share: `disc_chord`, `chord_share`, `share_visibility`
-//!   (glsl/common/penumbra.glsl).
+//! - The disc-chord profile v(s), its inverse, the share of an edge plus added light and
+//!   the final pass's visibility of an interpolated share: `disc_chord`, `chord_share`,
+//!   `summed_share`, `share_visibility` (glsl/common/penumbra.glsl).
 //! - The inner side: `main` of glsl/plateaus_centred/inner.frag, with `far_edge_texels`
 //!   (glsl/common/inner_march.glsl).
 //! - The final combination: `visibility` (glsl/plateaus_centred/final.frag).

@@ -156,9 +156,9 @@
 //! ## Equations: what a porter ports
 //! - The geometry, both sides: `build_smoothies_side` (src/silhouette/smoothie.rs); the
 //!   width t: `Width::at`.
-//! - The disc-chord profile v(s), its inverse and the final pass's visibility of an
-//!   interpolated share: `disc_chord`, `chord_share`, `share_visibility`
-//!   (glsl/common/penumbra.glsl).
+//! - The disc-chord profile v(s), its inverse, the share of an edge plus added light and
+//!   the final pass's visibility of an interpolated share: `disc_chord`, `chord_share`,
+//!   `summed_share`, `share_visibility` (glsl/common/penumbra.glsl).
 //! - The outer side (s = Eq. 1's alpha', and which fragments are written): `smoothie_alpha`
 //!   (glsl/smoothies/alpha.glsl), called by glsl/smoothies_centred/outer.frag, with the
 //!   thin blocker's far side `outer_far_share` (glsl/common/inner_march.glsl).

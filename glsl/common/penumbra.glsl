@@ -35,9 +35,9 @@ float chord_share(float v) {
     return v <= 0.5 ? s : -s;
 }
 
-// The share of the light an edge at share s lets through plus `extra` more (a thin blocker's
-// segment beyond its far edge, or what the blocker-size bound keeps lit): s itself when
-// nothing is added, else the sum's share (capped at lit). The centred light passes store
+// The share of the light an edge at share s lets through plus `extra` more (a thin
+// blocker's segment beyond its far edge, or what the blocker-size bound keeps lit): s itself
+// when nothing is added, else the sum's share (capped at lit). The centred light passes store
 // this, so that their final passes interpolate one share per texel.
 float summed_share(float s, float extra) {
     return extra > 0.0 ? chord_share(min(disc_chord(s) + extra, 1.0)) : s;
